@@ -1,0 +1,158 @@
+//! The error type of the crate, and the checks that produce it.
+
+use crate::real::Real;
+use nalgebra::{SMatrix, SVector};
+
+/// Why raw numbers do not describe a point of a manifold.
+///
+/// Every message says what is wrong and by how much, and what to do about it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ManifoldError {
+    /// A component is NaN or infinite.
+    #[error("{what} has a non-finite component ({value}): every component must be a finite number")]
+    NonFinite {
+        /// What was being constructed.
+        what: &'static str,
+        /// The offending component.
+        value: f64,
+    },
+    /// A vector that must have unit norm does not.
+    #[error(
+        "{what} must have unit norm, but its norm is {norm} (|norm - 1| = {deviation:e} exceeds the \
+         tolerance {tolerance:e}); normalise it first or use {hint}"
+    )]
+    NotUnit {
+        /// What was being constructed.
+        what: &'static str,
+        /// The norm found.
+        norm: f64,
+        /// `abs(norm - 1)`.
+        deviation: f64,
+        /// The accepted deviation.
+        tolerance: f64,
+        /// The constructor that normalises.
+        hint: &'static str,
+    },
+    /// A vector is too short to define a direction.
+    #[error(
+        "{what} has norm {norm:e}, below {minimum:e}: it is too close to zero to define a direction"
+    )]
+    ZeroVector {
+        /// What was being constructed.
+        what: &'static str,
+        /// The norm found.
+        norm: f64,
+        /// The smallest accepted norm.
+        minimum: f64,
+    },
+    /// A matrix that must be orthonormal is not.
+    #[error(
+        "the rotation matrix is not orthonormal: the largest entry of |R^T R - I| is {deviation:e}, \
+         above the tolerance {tolerance:e}; use from_matrix_orthonormalized to project it onto the \
+         nearest rotation"
+    )]
+    NotOrthonormal {
+        /// The largest absolute entry of `R^T R - I`.
+        deviation: f64,
+        /// The accepted deviation.
+        tolerance: f64,
+    },
+    /// A matrix is orthonormal but a reflection, or (when orthonormalising) rank-deficient.
+    #[error(
+        "the matrix has determinant {det}, not +1: it is a reflection or degenerate, not a rotation"
+    )]
+    NotProperRotation {
+        /// The determinant found.
+        det: f64,
+    },
+    /// A slice had the wrong number of components.
+    #[error("{what} needs {expected} components, got {got}")]
+    WrongLength {
+        /// What was being constructed.
+        what: &'static str,
+        /// The number of components needed.
+        expected: usize,
+        /// The number given.
+        got: usize,
+    },
+}
+
+/// Checks that every value is finite.
+pub(crate) fn check_finite<'a, T: Real>(
+    what: &'static str,
+    values: impl IntoIterator<Item = &'a T>,
+) -> Result<(), ManifoldError> {
+    match values.into_iter().find(|v| !v.is_finite()) {
+        Some(v) => Err(ManifoldError::NonFinite {
+            what,
+            value: v.to_f64(),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Checks that a finite vector has unit norm within [`Thresholds::UNIT_NORM_TOLERANCE`](crate::constants::Thresholds).
+pub(crate) fn check_unit<T: Real, const N: usize>(
+    what: &'static str,
+    v: &SVector<T, N>,
+    hint: &'static str,
+) -> Result<(), ManifoldError> {
+    check_finite(what, v.iter())?;
+    let norm = v.norm();
+    let deviation = (norm - T::one()).abs();
+    if deviation > T::UNIT_NORM_TOLERANCE {
+        return Err(ManifoldError::NotUnit {
+            what,
+            norm: norm.to_f64(),
+            deviation: deviation.to_f64(),
+            tolerance: T::UNIT_NORM_TOLERANCE.to_f64(),
+            hint,
+        });
+    }
+    Ok(())
+}
+
+/// Returns `v / |v|` for a finite vector at least [`Thresholds::MIN_DIRECTION_NORM`](crate::constants::Thresholds) long.
+pub(crate) fn normalized<T: Real, const N: usize>(
+    what: &'static str,
+    v: &SVector<T, N>,
+) -> Result<SVector<T, N>, ManifoldError> {
+    check_finite(what, v.iter())?;
+    // Scale first so that neither tiny nor huge components under- or overflow in the norm.
+    let scale = v.amax();
+    let too_short = |norm: T| ManifoldError::ZeroVector {
+        what,
+        norm: norm.to_f64(),
+        minimum: T::MIN_DIRECTION_NORM.to_f64(),
+    };
+    if scale == T::zero() {
+        return Err(too_short(T::zero()));
+    }
+    let scaled = v / scale;
+    let scaled_norm = scaled.norm();
+    let norm = scale * scaled_norm;
+    if norm < T::MIN_DIRECTION_NORM {
+        return Err(too_short(norm));
+    }
+    Ok(scaled / scaled_norm)
+}
+
+/// Checks that a square matrix is a rotation: finite, orthonormal and with determinant `det` = +1.
+pub(crate) fn check_rotation_matrix<T: Real, const N: usize>(
+    m: &SMatrix<T, N, N>,
+    det: T,
+) -> Result<(), ManifoldError> {
+    check_finite("rotation matrix", m.iter())?;
+    let deviation = (m.transpose() * m - SMatrix::<T, N, N>::identity()).amax();
+    if deviation > T::ORTHONORMAL_TOLERANCE {
+        return Err(ManifoldError::NotOrthonormal {
+            deviation: deviation.to_f64(),
+            tolerance: T::ORTHONORMAL_TOLERANCE.to_f64(),
+        });
+    }
+    if (det - T::one()).abs() > T::ORTHONORMAL_TOLERANCE {
+        return Err(ManifoldError::NotProperRotation { det: det.to_f64() });
+    }
+    Ok(())
+}

@@ -1,0 +1,75 @@
+//! # liebayes-manifolds
+//!
+//! The spaces of liebayes: the Lie groups [`So2`], [`So3`], [`Su2`] (unit quaternions, the double cover
+//! of SO(3)) and [`Rn`], and the sphere [`S2`] (a manifold, not a group), behind two traits:
+//! [`Manifold`] (`retract`, `local`) and [`LieGroup`] (group operations, `exp`/`log`, `hat`/`vee`,
+//! adjoint, Jacobians), plus [`GroupAction`] for the action on points. Everything is generic over the
+//! scalar ([`Real`]: `f64` or `f32`) and built on nalgebra's types, with conversions to and from them
+//! at no cost.
+//!
+//! ## The convention
+//!
+//! **Perturbations live in the tangent space on the right, and all Jacobians are right Jacobians.**
+//!
+//! * `x ⊞ v = x · exp(v)` ([`Manifold::retract`]), `y ⊟ x = log(x⁻¹ · y)` ([`Manifold::local`]).
+//! * A Jacobian named `J_out_in` (methods `j_<out>_<in>`) is the matrix with
+//!   `out(in ⊞ δ) = out(in) ⊞ (J_out_in δ + O(|δ|²))`, where ⊞ is plain addition for outputs and
+//!   inputs that are tangent vectors or points.
+//! * `Jr(v)` with `exp(v + δ) = exp(v) exp(Jr(v) δ)`; `Jl(v) = Jr(−v)`; `Ad(g)` with
+//!   `g exp(v) g⁻¹ = exp(Ad(g) v)`.
+//! * Quaternions are Hamilton, scalar first in all I/O (`w, x, y, z`), rotating actively:
+//!   `R(q) v = q v q*`. Angles are radians.
+//!
+//! ## Validation
+//!
+//! Constructors from raw numbers check finiteness, unit norm, orthonormality and determinant against
+//! the tolerances of [`constants`] and return [`ManifoldError`]; `*_unchecked` constructors skip the
+//! checks for hot paths, and `*_normalizing` / `renormalized` / `from_matrix_orthonormalized` repair
+//! inputs explicitly. No function panics or returns NaN for finite input.
+//!
+//! ## Example
+//! ```
+//! use liebayes_manifolds::{GroupAction, LieGroup, Manifold, So3};
+//! use nalgebra::Vector3;
+//!
+//! let x = So3::<f64>::from_axis_angle(&Vector3::z(), 0.3)?;
+//! let delta = Vector3::new(1e-3, 0.0, 0.0);
+//! let y = x.retract(&delta);                 // x · exp(δ)
+//! assert!((x.local(&y) - delta).norm() < 1e-15);
+//! let p = Vector3::new(1.0, 2.0, 3.0);
+//! let j = x.j_act_self(&p);                  // ∂(x · p)/∂x, right perturbation
+//! assert!((y.act(&p) - (x.act(&p) + j * delta)).norm() < 1e-5);
+//! # Ok::<(), liebayes_manifolds::ManifoldError>(())
+//! ```
+//!
+//! With the `proptest` feature, [`testing`] exports the strategies (uniform and curated edge elements
+//! for every space) and the generic law suite this crate tests itself with.
+
+pub mod constants;
+mod error;
+mod lie_group;
+mod manifold;
+mod real;
+mod rn;
+mod rotation_vector;
+mod s2;
+mod so2;
+mod so3;
+mod su2;
+#[cfg(feature = "proptest")]
+pub mod testing;
+
+pub use error::ManifoldError;
+pub use lie_group::{GroupAction, LieGroup};
+pub use manifold::{Jacobian, Manifold, Tangent};
+pub use real::Real;
+pub use rn::Rn;
+pub use s2::S2;
+pub use so2::So2;
+pub use so3::So3;
+pub use su2::Su2;
+
+/// The traits and types most code needs: `use liebayes_manifolds::prelude::*;`.
+pub mod prelude {
+    pub use crate::{GroupAction, LieGroup, Manifold, ManifoldError, Real, Rn, S2, So2, So3, Su2};
+}

@@ -1,0 +1,147 @@
+//! The [`LieGroup`] and [`GroupAction`] traits, with the Jacobians every group derives from its
+//! adjoint and its right Jacobian.
+//!
+//! Convention (see the crate docs): perturbations live in the tangent space on the right,
+//! `x ⊞ δ = x · exp(δ)`, and a Jacobian `J_out_in` is defined by
+//! `out(in ⊞ δ) = out(in) ⊞ (J_out_in δ + O(|δ|²))`; for tangent-valued or point-valued outputs ⊞ is
+//! plain addition.
+
+use crate::manifold::{Jacobian, Manifold, Tangent};
+use nalgebra::SVector;
+use std::fmt::Debug;
+
+/// A Lie group of dimension `D`.
+///
+/// Implementors provide the group operations, `exp`/`log`, `hat`/`vee`, the adjoint and the right
+/// Jacobian (with its inverse); the Jacobians of compose, inverse, exp, log, retract and local follow
+/// from those and are provided. All Jacobians are right Jacobians.
+pub trait LieGroup<const D: usize>: Manifold<D> {
+    /// The Lie algebra in the group's own representation (a skew matrix for SO(2)/SO(3), a pure
+    /// quaternion for SU(2), a vector for Rⁿ).
+    type Algebra: Clone + Debug;
+
+    /// The identity element.
+    fn identity() -> Self;
+
+    /// The group product `self · other`.
+    #[must_use]
+    fn compose(&self, other: &Self) -> Self;
+
+    /// The inverse element.
+    #[must_use]
+    fn inverse(&self) -> Self;
+
+    /// The exponential map from tangent coordinates.
+    fn exp(v: &Tangent<Self::Scalar, D>) -> Self;
+
+    /// The logarithm on the principal branch (the inverse of `exp` inside the injectivity radius).
+    fn log(&self) -> Tangent<Self::Scalar, D>;
+
+    /// Tangent coordinates to a Lie-algebra element.
+    fn hat(v: &Tangent<Self::Scalar, D>) -> Self::Algebra;
+
+    /// Lie-algebra element to tangent coordinates (the inverse of [`hat`](Self::hat)).
+    fn vee(a: &Self::Algebra) -> Tangent<Self::Scalar, D>;
+
+    /// `g a g⁻¹` computed in the group's representation (matrix or quaternion products), independently
+    /// of [`adjoint`](Self::adjoint): the law `adjoint() v == vee(conjugate_algebra(hat(v)))` checks one
+    /// against the other.
+    fn conjugate_algebra(&self, a: &Self::Algebra) -> Self::Algebra;
+
+    /// The adjoint matrix `Ad(g)`, with `g · exp(v) · g⁻¹ = exp(Ad(g) v)`.
+    fn adjoint(&self) -> Jacobian<Self::Scalar, D, D>;
+
+    /// Right Jacobian `Jr(v)`: `exp(v + δ) = exp(v) · exp(Jr(v) δ + O(|δ|²))`.
+    fn right_jacobian(v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D>;
+
+    /// Inverse of the right Jacobian: `log(exp(v) · exp(δ)) = v + Jr⁻¹(v) δ + O(|δ|²)` inside the
+    /// injectivity radius.
+    fn right_jacobian_inverse(v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D>;
+
+    /// Left Jacobian `Jl(v) = Jr(-v)`: `exp(v + δ) = exp(Jl(v) δ + O(|δ|²)) · exp(v)`.
+    fn left_jacobian(v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
+        Self::right_jacobian(&-v)
+    }
+
+    /// Inverse of the left Jacobian, `Jl⁻¹(v) = Jr⁻¹(-v)`.
+    fn left_jacobian_inverse(v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
+        Self::right_jacobian_inverse(&-v)
+    }
+
+    /// `J_compose_self`: right Jacobian of `self · other` with respect to `self`, `Ad(other⁻¹)`.
+    fn j_compose_self(&self, other: &Self) -> Jacobian<Self::Scalar, D, D> {
+        other.inverse().adjoint()
+    }
+
+    /// `J_compose_other`: right Jacobian of `self · other` with respect to `other`, the identity.
+    fn j_compose_other(&self, _other: &Self) -> Jacobian<Self::Scalar, D, D> {
+        Jacobian::identity()
+    }
+
+    /// `J_inverse_self`: right Jacobian of `self⁻¹` with respect to `self`, `-Ad(self)`.
+    fn j_inverse_self(&self) -> Jacobian<Self::Scalar, D, D> {
+        -self.adjoint()
+    }
+
+    /// `J_exp_tangent`: right Jacobian of `exp(v)` with respect to `v`, `Jr(v)`.
+    fn j_exp_tangent(v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
+        Self::right_jacobian(v)
+    }
+
+    /// `J_log_self`: Jacobian of `log(self)` with respect to `self`, `Jr⁻¹(log(self))`.
+    fn j_log_self(&self) -> Jacobian<Self::Scalar, D, D> {
+        Self::right_jacobian_inverse(&self.log())
+    }
+
+    /// `J_retract_self`: right Jacobian of `self ⊞ v` with respect to `self`, `Ad(exp(v))⁻¹ = Ad(exp(-v))`.
+    fn j_retract_self(&self, v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
+        Self::exp(&-v).adjoint()
+    }
+
+    /// `J_retract_tangent`: right Jacobian of `self ⊞ v` with respect to `v`, `Jr(v)`.
+    fn j_retract_tangent(&self, v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
+        Self::right_jacobian(v)
+    }
+
+    /// `J_local_self`: Jacobian of `other ⊟ self` with respect to `self`, `-Jl⁻¹(other ⊟ self)`.
+    fn j_local_self(&self, other: &Self) -> Jacobian<Self::Scalar, D, D> {
+        -Self::left_jacobian_inverse(&self.local(other))
+    }
+
+    /// `J_local_other`: Jacobian of `other ⊟ self` with respect to `other`, `Jr⁻¹(other ⊟ self)`.
+    fn j_local_other(&self, other: &Self) -> Jacobian<Self::Scalar, D, D> {
+        Self::right_jacobian_inverse(&self.local(other))
+    }
+}
+
+/// The action of a group of dimension `D` on points of `R^P` (rotation of vectors, translation).
+pub trait GroupAction<const D: usize, const P: usize>: LieGroup<D> {
+    /// The transformed point `g · p`.
+    fn act(&self, p: &SVector<Self::Scalar, P>) -> SVector<Self::Scalar, P>;
+
+    /// `J_act_self`: right Jacobian of `g · p` with respect to `g`.
+    fn j_act_self(&self, p: &SVector<Self::Scalar, P>) -> Jacobian<Self::Scalar, P, D>;
+
+    /// `J_act_point`: Jacobian of `g · p` with respect to `p`.
+    fn j_act_point(&self, p: &SVector<Self::Scalar, P>) -> Jacobian<Self::Scalar, P, P>;
+}
+
+/// Implements [`Manifold`] for a group through `retract = compose(exp)` and `local = log(inverse · other)`.
+macro_rules! impl_manifold_for_group {
+    ($ty:ident, $dim:literal) => {
+        impl<T: $crate::real::Real> $crate::manifold::Manifold<$dim> for $ty<T> {
+            type Scalar = T;
+
+            #[inline]
+            fn retract(&self, v: &$crate::manifold::Tangent<T, $dim>) -> Self {
+                self.compose(&<Self as $crate::lie_group::LieGroup<$dim>>::exp(v))
+            }
+
+            #[inline]
+            fn local(&self, other: &Self) -> $crate::manifold::Tangent<T, $dim> {
+                self.inverse().compose(other).log()
+            }
+        }
+    };
+}
+pub(crate) use impl_manifold_for_group;

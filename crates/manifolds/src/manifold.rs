@@ -1,0 +1,40 @@
+//! The [`Manifold`] trait: points, tangent vectors, and the two maps between them.
+
+use crate::real::Real;
+use nalgebra::{SMatrix, SVector};
+use std::fmt::Debug;
+
+/// A tangent vector of a `D`-dimensional manifold, in the coordinates of the space's tangent basis.
+pub type Tangent<T, const D: usize> = SVector<T, D>;
+
+/// A Jacobian with `R` output and `C` input coordinates (`J_out_in`).
+pub type Jacobian<T, const R: usize, const C: usize> = SMatrix<T, R, C>;
+
+/// A smooth manifold of dimension `D` with a retraction and its local inverse.
+///
+/// * `retract(x, v)` is x ⊞ v: the point reached from `x` along the tangent vector `v`.
+/// * `local(x, y)` is y ⊟ x: the tangent vector at `x` that leads to `y`.
+///
+/// Law: `x.local(&x.retract(&v)) == v` whenever `|v|` is below the space's injectivity radius
+/// (π for SO(2), SO(3) and S², 2π for SU(2), unbounded for Rⁿ), and `x.retract(&x.local(&y)) == y`
+/// wherever `local` is defined. On a Lie group, `retract(x, v) = x · exp(v)`: perturbations act on the
+/// right, in the tangent space at `x`.
+pub trait Manifold<const D: usize>: Clone + Debug + Sized {
+    /// The scalar type of coordinates.
+    type Scalar: Real;
+
+    /// The dimension of the manifold (the length of a tangent vector).
+    const DIM: usize = D;
+
+    /// x ⊞ v: the point reached from `self` along the tangent vector `v`.
+    #[must_use]
+    fn retract(&self, v: &Tangent<Self::Scalar, D>) -> Self;
+
+    /// y ⊟ x: the tangent vector at `self` that leads to `other`.
+    fn local(&self, other: &Self) -> Tangent<Self::Scalar, D>;
+
+    /// Geodesic distance: the norm of `self.local(other)`.
+    fn distance(&self, other: &Self) -> Self::Scalar {
+        self.local(other).norm()
+    }
+}

@@ -1,0 +1,48 @@
+//! The scalar types the crate is generic over.
+
+use crate::constants::Thresholds;
+use nalgebra::RealField;
+
+/// A real scalar: `f64` or `f32`.
+///
+/// Everything in the crate is generic over `T: Real`. The trait adds to nalgebra's [`RealField`]
+/// the crate's [`Thresholds`] and exact conversions from and to `f64` for constants and messages.
+pub trait Real: RealField + Copy + Default + Thresholds {
+    /// The scalar nearest to `x` (a constant written in f64).
+    fn lit(x: f64) -> Self;
+    /// The value as an `f64` (for error messages and reports).
+    fn to_f64(self) -> f64;
+    /// The largest finite value.
+    fn max_finite() -> Self;
+}
+
+impl Real for f64 {
+    #[inline]
+    fn lit(x: f64) -> Self {
+        x
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self
+    }
+    #[inline]
+    fn max_finite() -> Self {
+        f64::MAX
+    }
+}
+
+impl Real for f32 {
+    #[inline]
+    #[allow(clippy::cast_possible_truncation)]
+    fn lit(x: f64) -> Self {
+        x as f32
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+    #[inline]
+    fn max_finite() -> Self {
+        f32::MAX
+    }
+}

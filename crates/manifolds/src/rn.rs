@@ -1,0 +1,174 @@
+//! [`Rn`]: the vector space Rⁿ as a manifold and an additive Lie group.
+
+use crate::error::{ManifoldError, check_finite};
+use crate::lie_group::{GroupAction, LieGroup};
+use crate::manifold::{Jacobian, Manifold, Tangent};
+use crate::real::Real;
+use approx::{AbsDiffEq, RelativeEq};
+use nalgebra::SVector;
+
+/// A point of Rⁿ, the additive group: compose is `+`, exp and log are the identity map, and every
+/// Jacobian is `±I`. It acts on Rⁿ by translation. Having it behind the same traits lets generic
+/// filters treat positions, velocities and biases like any other state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rn<T: Real, const N: usize> {
+    v: SVector<T, N>,
+}
+
+impl<T: Real, const N: usize> Rn<T, N> {
+    /// The point with coordinates `v`, checked for finiteness.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`].
+    pub fn new(v: SVector<T, N>) -> Result<Self, ManifoldError> {
+        check_finite("vector", v.iter())?;
+        Ok(Self { v })
+    }
+
+    /// The point from a slice of exactly `N` finite numbers.
+    ///
+    /// # Errors
+    /// [`ManifoldError::WrongLength`] or [`ManifoldError::NonFinite`].
+    pub fn from_slice(values: &[T]) -> Result<Self, ManifoldError> {
+        if values.len() != N {
+            return Err(ManifoldError::WrongLength {
+                what: "vector",
+                expected: N,
+                got: values.len(),
+            });
+        }
+        Self::new(SVector::from_column_slice(values))
+    }
+
+    /// The point with coordinates `v`, unchecked (hot paths).
+    #[inline]
+    pub const fn new_unchecked(v: SVector<T, N>) -> Self {
+        Self { v }
+    }
+
+    /// The coordinates.
+    #[inline]
+    pub const fn coords(&self) -> &SVector<T, N> {
+        &self.v
+    }
+}
+
+impl<T: Real, const N: usize> Manifold<N> for Rn<T, N> {
+    type Scalar = T;
+
+    /// `x + v`.
+    #[inline]
+    fn retract(&self, v: &Tangent<T, N>) -> Self {
+        Self::new_unchecked(self.v + v)
+    }
+
+    /// `y − x`.
+    #[inline]
+    fn local(&self, other: &Self) -> Tangent<T, N> {
+        other.v - self.v
+    }
+}
+
+impl<T: Real, const N: usize> LieGroup<N> for Rn<T, N> {
+    /// The algebra of Rⁿ is Rⁿ itself.
+    type Algebra = SVector<T, N>;
+
+    #[inline]
+    fn identity() -> Self {
+        Self::new_unchecked(SVector::zeros())
+    }
+
+    #[inline]
+    fn compose(&self, other: &Self) -> Self {
+        Self::new_unchecked(self.v + other.v)
+    }
+
+    #[inline]
+    fn inverse(&self) -> Self {
+        Self::new_unchecked(-self.v)
+    }
+
+    #[inline]
+    fn exp(v: &Tangent<T, N>) -> Self {
+        Self::new_unchecked(*v)
+    }
+
+    #[inline]
+    fn log(&self) -> Tangent<T, N> {
+        self.v
+    }
+
+    #[inline]
+    fn hat(v: &Tangent<T, N>) -> SVector<T, N> {
+        *v
+    }
+
+    #[inline]
+    fn vee(a: &SVector<T, N>) -> Tangent<T, N> {
+        *a
+    }
+
+    /// Abelian: `g a g⁻¹ = a`.
+    fn conjugate_algebra(&self, a: &SVector<T, N>) -> SVector<T, N> {
+        *a
+    }
+
+    #[inline]
+    fn adjoint(&self) -> Jacobian<T, N, N> {
+        Jacobian::identity()
+    }
+
+    #[inline]
+    fn right_jacobian(_v: &Tangent<T, N>) -> Jacobian<T, N, N> {
+        Jacobian::identity()
+    }
+
+    #[inline]
+    fn right_jacobian_inverse(_v: &Tangent<T, N>) -> Jacobian<T, N, N> {
+        Jacobian::identity()
+    }
+}
+
+impl<T: Real, const N: usize> GroupAction<N, N> for Rn<T, N> {
+    /// Translation `p + x`.
+    #[inline]
+    fn act(&self, p: &SVector<T, N>) -> SVector<T, N> {
+        p + self.v
+    }
+
+    #[inline]
+    fn j_act_self(&self, _p: &SVector<T, N>) -> Jacobian<T, N, N> {
+        Jacobian::identity()
+    }
+
+    #[inline]
+    fn j_act_point(&self, _p: &SVector<T, N>) -> Jacobian<T, N, N> {
+        Jacobian::identity()
+    }
+}
+
+impl<T: Real, const N: usize> AbsDiffEq for Rn<T, N> {
+    type Epsilon = T;
+    fn default_epsilon() -> T {
+        T::default_epsilon()
+    }
+    fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
+        self.v.abs_diff_eq(&other.v, epsilon)
+    }
+}
+
+impl<T: Real, const N: usize> RelativeEq for Rn<T, N> {
+    fn default_max_relative() -> T {
+        T::default_max_relative()
+    }
+    fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
+        self.v.relative_eq(&other.v, epsilon, max_relative)
+    }
+}
+
+impl<T: Real, const N: usize> From<Rn<T, N>> for SVector<T, N> {
+    #[inline]
+    fn from(x: Rn<T, N>) -> Self {
+        x.v
+    }
+}

@@ -1,0 +1,301 @@
+//! Functions of a rotation vector (the tangent coordinates of SO(3) and SU(2)), shared by
+//! [`So3`](crate::So3) and [`Su2`](crate::Su2).
+//!
+//! With θ = |v|, U = hat(v / θ) and hat the cross-product matrix:
+//!
+//! * exp(v) = (cos(θ/2), sin(θ/2) v/θ) as a unit quaternion (Hamilton, scalar first);
+//! * Jr(v) = I − ((1 − cos θ)/θ) U + ((θ − sin θ)/θ) U²;
+//! * Jr⁻¹(v) = I + (θ/2) U + (1 − (θ/2) cot(θ/2)) U².
+//!
+//! Writing the coefficients against the unit-axis matrix U keeps them bounded for any finite v
+//! (no 0 · ∞ for huge tangents). Below [`Thresholds::SERIES_ANGLE`](crate::constants::Thresholds)
+//! the Taylor series of the coefficients of hat(v) and hat(v)² are used instead.
+
+use crate::real::Real;
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+
+/// The cross-product matrix: `hat(v) w = v × w`.
+#[inline]
+pub(crate) fn hat<T: Real>(v: &Vector3<T>) -> Matrix3<T> {
+    let z = T::zero();
+    Matrix3::new(z, -v.z, v.y, v.z, z, -v.x, -v.y, v.x, z)
+}
+
+/// The vector of the antisymmetric part of `m` (the inverse of [`hat`] on skew matrices).
+#[inline]
+pub(crate) fn vee<T: Real>(m: &Matrix3<T>) -> Vector3<T> {
+    let half = T::lit(0.5);
+    Vector3::new(
+        (m.m32 - m.m23) * half,
+        (m.m13 - m.m31) * half,
+        (m.m21 - m.m12) * half,
+    )
+}
+
+/// Euclidean norm that neither underflows for tiny nor overflows for huge components.
+#[inline]
+pub(crate) fn norm<T: Real>(v: &Vector3<T>) -> T {
+    let n2 = v.norm_squared();
+    if n2.is_finite() && n2 > T::MIN_DIRECTION_NORM * T::MIN_DIRECTION_NORM {
+        n2.sqrt()
+    } else {
+        let scale = v.amax();
+        if scale == T::zero() {
+            T::zero()
+        } else {
+            (v / scale).norm() * scale
+        }
+    }
+}
+
+/// The unit quaternion of a rotation vector, valid for every finite `v` (period 4π in θ).
+#[inline]
+pub(crate) fn exp<T: Real>(v: &Vector3<T>) -> UnitQuaternion<T> {
+    let theta = norm(v);
+    let (s, c) = (theta * T::lit(0.5)).sin_cos();
+    // k = sin(θ/2) / θ = (1/2) (1 − θ²/24 + θ⁴/1920 − …)
+    let k = if theta < T::SERIES_ANGLE {
+        let t2 = theta * theta;
+        T::lit(0.5) * (T::one() - t2 / T::lit(24.0) + t2 * t2 / T::lit(1920.0))
+    } else {
+        s / theta
+    };
+    UnitQuaternion::new_unchecked(Quaternion::new(c, v.x * k, v.y * k, v.z * k))
+}
+
+/// The rotation vector of a quaternion on the SU(2) principal branch: θ = 2 atan2(|xyz|, w) in [0, 2π].
+///
+/// At q = −1 exactly every axis is a logarithm; the x axis is returned.
+/// The quaternion need not be exactly unit: atan2 is insensitive to the scale.
+#[inline]
+pub(crate) fn log<T: Real>(q: &Quaternion<T>) -> Vector3<T> {
+    let xyz = q.imag();
+    let n = norm(&xyz);
+    if n > T::zero() {
+        // atan2(n, w) / n is accurate to a few ulp for every n > 0 (no cancellation), so no series
+        // branch is needed near the identity.
+        xyz * (T::lit(2.0) * n.atan2(q.w) / n)
+    } else if q.w >= T::zero() {
+        Vector3::zeros()
+    } else {
+        Vector3::new(T::two_pi(), T::zero(), T::zero())
+    }
+}
+
+/// Computes `I + p·U + r·U²` with U = hat(v/θ) and `(p, r) = closed_form(θ)`, or, below the series
+/// threshold, `I + p·hat(v) + r·hat(v)²` with `(p, r) = series(θ²)`.
+#[inline]
+fn axis_polynomial<T: Real>(
+    v: &Vector3<T>,
+    closed_form: impl Fn(T) -> (T, T),
+    series: impl Fn(T) -> (T, T),
+) -> Matrix3<T> {
+    let theta = norm(v);
+    if theta < T::SERIES_ANGLE {
+        let w = hat(v);
+        let (p, r) = series(theta * theta);
+        Matrix3::identity() + w * p + w * w * r
+    } else {
+        let u = hat(&(v / theta));
+        let (p, r) = closed_form(theta);
+        Matrix3::identity() + u * p + u * u * r
+    }
+}
+
+/// Coefficients of U and U² in Jr: `(−(1 − cos θ)/θ, (θ − sin θ)/θ)`; 1 − cos θ = 2 sin²(θ/2) avoids
+/// cancellation.
+#[inline]
+fn right_jacobian_closed<T: Real>(theta: T) -> (T, T) {
+    let half_sin = (theta * T::lit(0.5)).sin();
+    (
+        -(T::lit(2.0) * half_sin * half_sin) / theta,
+        (theta - theta.sin()) / theta,
+    )
+}
+
+/// Coefficients of hat(v) and hat(v)² in Jr as series in t2 = θ²:
+/// `−(1/2 − θ²/24 + θ⁴/720)` and `1/6 − θ²/120 + θ⁴/5040`.
+#[inline]
+fn right_jacobian_series<T: Real>(t2: T) -> (T, T) {
+    (
+        -(T::lit(0.5) - t2 / T::lit(24.0) + t2 * t2 / T::lit(720.0)),
+        T::one() / T::lit(6.0) - t2 / T::lit(120.0) + t2 * t2 / T::lit(5040.0),
+    )
+}
+
+/// Coefficients of U and U² in Jr⁻¹: `(θ/2, 1 − (θ/2) cot(θ/2))`. For huge θ the second can exceed
+/// the scalar's range; it saturates at the largest finite value so that the matrix stays NaN-free.
+#[inline]
+fn right_jacobian_inverse_closed<T: Real>(theta: T) -> (T, T) {
+    let half = theta * T::lit(0.5);
+    let (s, c) = half.sin_cos();
+    let r = T::one() - half * c / s;
+    let max = T::max_finite();
+    (half, r.clamp(-max, max))
+}
+
+/// Coefficients of hat(v) and hat(v)² in Jr⁻¹ as series in t2 = θ²:
+/// `1/2` and `1/12 + θ²/720 + θ⁴/30240`.
+#[inline]
+fn right_jacobian_inverse_series<T: Real>(t2: T) -> (T, T) {
+    (
+        T::lit(0.5),
+        T::one() / T::lit(12.0) + t2 / T::lit(720.0) + t2 * t2 / T::lit(30240.0),
+    )
+}
+
+/// Right Jacobian of SO(3)/SU(2): `Jr(v) = I − ((1 − cos θ)/θ) U + ((θ − sin θ)/θ) U²`.
+#[inline]
+pub(crate) fn right_jacobian<T: Real>(v: &Vector3<T>) -> Matrix3<T> {
+    axis_polynomial(v, right_jacobian_closed, right_jacobian_series)
+}
+
+/// Inverse right Jacobian of SO(3)/SU(2): `Jr⁻¹(v) = I + (θ/2) U + (1 − (θ/2) cot(θ/2)) U²`.
+///
+/// Singular at θ = 2π k (k ≥ 1), where exp is not a local diffeomorphism; finite at θ = π.
+#[inline]
+pub(crate) fn right_jacobian_inverse<T: Real>(v: &Vector3<T>) -> Matrix3<T> {
+    axis_polynomial(
+        v,
+        right_jacobian_inverse_closed,
+        right_jacobian_inverse_series,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    //! The coefficient functions against their Taylor series summed to convergence (an independent
+    //! evaluation: general terms, not the truncated forms above), on both sides of the series
+    //! threshold.
+    use super::*;
+
+    /// `(1 − cos θ)/θ² = Σ (−1)^k θ^(2k) / (2k+2)!`
+    fn a_reference(theta: f64) -> f64 {
+        taylor(theta, |k| 1.0 / factorial(2 * k + 2))
+    }
+
+    /// `(θ − sin θ)/θ³ = Σ (−1)^k θ^(2k) / (2k+3)!`
+    fn b_reference(theta: f64) -> f64 {
+        taylor(theta, |k| 1.0 / factorial(2 * k + 3))
+    }
+
+    /// `(1 − (θ/2) cot(θ/2))/θ² = Σ_(n≥1) |B_2n| θ^(2n−2) / (2n)!` (from x cot x = Σ (−4)^n B_2n x^(2n)/(2n)!),
+    /// valid for θ < 2π.
+    fn c_reference(theta: f64) -> f64 {
+        // |B_2n| for n = 1..=15
+        const B: [f64; 15] = [
+            1.0 / 6.0,
+            1.0 / 30.0,
+            1.0 / 42.0,
+            1.0 / 30.0,
+            5.0 / 66.0,
+            691.0 / 2730.0,
+            7.0 / 6.0,
+            3617.0 / 510.0,
+            43867.0 / 798.0,
+            174_611.0 / 330.0,
+            854_513.0 / 138.0,
+            236_364_091.0 / 2730.0,
+            8_553_103.0 / 6.0,
+            23_749_461_029.0 / 870.0,
+            8_615_841_276_005.0 / 14322.0,
+        ];
+        B.iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let n = i32::try_from(i).unwrap() + 1;
+                b * theta.powi(2 * n - 2) / factorial(usize::try_from(2 * n).unwrap())
+            })
+            .sum()
+    }
+
+    fn factorial(n: usize) -> f64 {
+        (1..=n).map(|k| k as f64).product()
+    }
+
+    fn taylor(theta: f64, coefficient: impl Fn(usize) -> f64) -> f64 {
+        (0..40)
+            .map(|k| {
+                let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+                sign * coefficient(k) * theta.powi(i32::try_from(2 * k).unwrap())
+            })
+            .sum()
+    }
+
+    fn assert_rel(got: f64, expected: f64, tol: f64, what: &str) {
+        let err = ((got - expected) / expected).abs();
+        assert!(
+            err <= tol,
+            "{what}: got {got:e}, expected {expected:e}, relative error {err:e} > {tol:e}"
+        );
+    }
+
+    #[test]
+    fn series_match_the_converged_taylor_sums_below_the_threshold() {
+        for theta in [0.0, 1e-8, 1e-4, 1e-3, 5e-3, 0.0099] {
+            let t2 = theta * theta;
+            let (p, r) = right_jacobian_series(t2);
+            assert_rel(
+                -p,
+                a_reference(theta),
+                4.0 * f64::EPSILON,
+                "Jr hat coefficient",
+            );
+            assert_rel(
+                r,
+                b_reference(theta),
+                4.0 * f64::EPSILON,
+                "Jr hat^2 coefficient",
+            );
+            let (p, r) = right_jacobian_inverse_series(t2);
+            assert_rel(p, 0.5, 0.0, "Jr^-1 hat coefficient");
+            assert_rel(
+                r,
+                c_reference(theta),
+                4.0 * f64::EPSILON,
+                "Jr^-1 hat^2 coefficient",
+            );
+        }
+    }
+
+    #[test]
+    fn closed_forms_match_the_converged_taylor_sums_above_the_threshold() {
+        // The closed forms of b and c cancel like eps/θ² just above the threshold (see constants).
+        for theta in [0.01, 0.05, 0.3, 1.0, 2.0, 3.0, std::f64::consts::PI, 4.5] {
+            let cancellation = 8.0 * f64::EPSILON / (theta * theta).min(1.0);
+            let (p, r) = right_jacobian_closed(theta);
+            assert_rel(
+                -p / theta,
+                a_reference(theta),
+                8.0 * f64::EPSILON,
+                "Jr U coefficient",
+            );
+            assert_rel(
+                r / (theta * theta),
+                b_reference(theta),
+                cancellation,
+                "Jr U^2 coefficient",
+            );
+            let (p, r) = right_jacobian_inverse_closed(theta);
+            assert_rel(p, theta / 2.0, 0.0, "Jr^-1 U coefficient");
+            // The Bernoulli series converges like (θ/2π)^(2n): 15 terms reach 1e-24 for θ <= 1. Above,
+            // the law Jr(v) Jr^-1(v) = I (tests/laws.rs) checks this coefficient at every angle.
+            if theta <= 1.0 {
+                assert_rel(
+                    r / (theta * theta),
+                    c_reference(theta),
+                    cancellation,
+                    "Jr^-1 U^2 coefficient",
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn exp_series_matches_the_closed_form_at_the_threshold() {
+        let theta = 0.0099_f64;
+        let q = exp(&Vector3::new(theta, 0.0, 0.0));
+        assert_rel(q.i, (theta / 2.0).sin(), 2.0 * f64::EPSILON, "exp series");
+        assert_rel(q.w, (theta / 2.0).cos(), f64::EPSILON, "exp scalar part");
+    }
+}

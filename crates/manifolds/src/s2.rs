@@ -1,0 +1,179 @@
+//! [`S2`]: the unit sphere in R³ (directions), a manifold but not a group.
+
+use crate::error::{ManifoldError, check_unit, normalized};
+use crate::manifold::{Manifold, Tangent};
+use crate::real::Real;
+use crate::rotation_vector;
+use approx::{AbsDiffEq, RelativeEq};
+use nalgebra::{Matrix3x2, Unit, Vector3};
+
+/// A unit vector of R³, a point of the sphere S².
+///
+/// Tangent vectors at `x` have two coordinates in the orthonormal [`tangent_basis`](Self::tangent_basis)
+/// `B(x) = [b1 b2]` (right-handed: `b1 × b2 = x`), so that
+/// `retract(x, u) = exp_x(B(x) u)` and `local(x, y) = B(x)ᵀ log_x(y)`, with the sphere's
+/// exponential `exp_x(w) = cos|w| x + sin|w| w/|w|` ([`exp_at`](Self::exp_at)) and its inverse
+/// [`log_at`](Self::log_at). The injectivity radius is π; at the antipode of `x` every direction is a
+/// logarithm and `b1 π` is returned.
+///
+/// The basis is the branch-free construction of Duff et al. (2017), continuous everywhere except across
+/// the plane z = 0, where it switches between the charts of the two poles. `DIM` = 2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct S2<T: Real> {
+    n: Unit<Vector3<T>>,
+}
+
+/// Construction.
+impl<T: Real> S2<T> {
+    /// The point `v`, checked for finiteness and unit norm.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
+    pub fn new(v: Vector3<T>) -> Result<Self, ManifoldError> {
+        check_unit("unit vector", &v, "S2::from_vector_normalizing")?;
+        Ok(Self::new_unchecked(v))
+    }
+
+    /// The direction of `v` (any non-zero finite length): the renormalisation helper.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`] or [`ManifoldError::ZeroVector`].
+    pub fn from_vector_normalizing(v: &Vector3<T>) -> Result<Self, ManifoldError> {
+        normalized("direction vector", v).map(Self::new_unchecked)
+    }
+
+    /// The point `v`, unchecked: the caller guarantees unit norm (hot paths).
+    #[inline]
+    pub fn new_unchecked(v: Vector3<T>) -> Self {
+        Self {
+            n: Unit::new_unchecked(v),
+        }
+    }
+
+    /// Wraps a nalgebra unit vector (no cost).
+    #[inline]
+    pub const fn from_unit_vector(n: Unit<Vector3<T>>) -> Self {
+        Self { n }
+    }
+}
+
+/// Geometry.
+impl<T: Real> S2<T> {
+    /// The unit vector.
+    #[inline]
+    pub fn as_vector(&self) -> &Vector3<T> {
+        self.n.as_ref()
+    }
+
+    /// The orthonormal tangent basis `[b1 b2]` at this point, with `b1 × b2 = x`.
+    #[inline]
+    pub fn tangent_basis(&self) -> Matrix3x2<T> {
+        let (x, y, z) = (self.n.x, self.n.y, self.n.z);
+        let sign = if z >= T::zero() { T::one() } else { -T::one() };
+        let a = -T::one() / (sign + z);
+        let b = x * y * a;
+        Matrix3x2::new(
+            T::one() + sign * x * x * a,
+            b,
+            sign * b,
+            sign + y * y * a,
+            -sign * x,
+            -y,
+        )
+    }
+
+    /// The sphere's exponential at this point: `cos|w| x + sin|w| w/|w|` for an ambient tangent vector
+    /// `w` (its component along `x` is ignored), renormalised.
+    #[must_use]
+    pub fn exp_at(&self, w: &Vector3<T>) -> Self {
+        let x = self.as_vector();
+        let w = w - x * x.dot(w);
+        let theta = rotation_vector::norm(&w);
+        let (s, c) = theta.sin_cos();
+        // sin θ / θ = 1 − θ²/6 + θ⁴/120 − …
+        let sinc = if theta < T::SERIES_ANGLE {
+            let t2 = theta * theta;
+            T::one() - t2 / T::lit(6.0) + t2 * t2 / T::lit(120.0)
+        } else {
+            s / theta
+        };
+        Self::new_unchecked((x * c + w * sinc).normalize())
+    }
+
+    /// The sphere's logarithm at this point: the ambient tangent vector of length
+    /// `atan2(|x × y|, x · y)` along the great circle from `x` to `y`. At the antipode, `π b1`.
+    pub fn log_at(&self, other: &Self) -> Vector3<T> {
+        let x = self.as_vector();
+        let y = other.as_vector();
+        let cross = x.cross(y);
+        let theta = rotation_vector::norm(&cross).atan2(x.dot(y));
+        let direction = cross.cross(x);
+        let n = rotation_vector::norm(&direction);
+        if n > T::zero() {
+            direction * (theta / n)
+        } else if x.dot(y) >= T::zero() {
+            Vector3::zeros()
+        } else {
+            self.tangent_basis().column(0) * T::pi()
+        }
+    }
+
+    /// The great-circle angle `atan2(|x × y|, x · y)` in [0, π].
+    pub fn angle_to(&self, other: &Self) -> T {
+        let x = self.as_vector();
+        let y = other.as_vector();
+        rotation_vector::norm(&x.cross(y)).atan2(x.dot(y))
+    }
+}
+
+impl<T: Real> Manifold<2> for S2<T> {
+    type Scalar = T;
+
+    /// `exp_x(B(x) u)`.
+    fn retract(&self, u: &Tangent<T, 2>) -> Self {
+        self.exp_at(&(self.tangent_basis() * u))
+    }
+
+    /// `B(x)ᵀ log_x(y)`.
+    fn local(&self, other: &Self) -> Tangent<T, 2> {
+        self.tangent_basis().transpose() * self.log_at(other)
+    }
+
+    /// The great-circle angle.
+    fn distance(&self, other: &Self) -> T {
+        self.angle_to(other)
+    }
+}
+
+impl<T: Real> AbsDiffEq for S2<T> {
+    type Epsilon = T;
+    fn default_epsilon() -> T {
+        T::default_epsilon()
+    }
+    fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
+        self.n.abs_diff_eq(&other.n, epsilon)
+    }
+}
+
+impl<T: Real> RelativeEq for S2<T> {
+    fn default_max_relative() -> T {
+        T::default_max_relative()
+    }
+    fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
+        self.n.relative_eq(&other.n, epsilon, max_relative)
+    }
+}
+
+impl<T: Real> From<Unit<Vector3<T>>> for S2<T> {
+    #[inline]
+    fn from(n: Unit<Vector3<T>>) -> Self {
+        Self::from_unit_vector(n)
+    }
+}
+
+impl<T: Real> From<S2<T>> for Unit<Vector3<T>> {
+    #[inline]
+    fn from(x: S2<T>) -> Self {
+        x.n
+    }
+}

@@ -1,0 +1,269 @@
+//! [`So2`]: rotations of the plane.
+
+use crate::error::{ManifoldError, check_finite, check_rotation_matrix, check_unit, normalized};
+use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
+use crate::manifold::{Jacobian, Tangent};
+use crate::real::Real;
+use approx::{AbsDiffEq, RelativeEq};
+use nalgebra::{Complex, Matrix1, Matrix2, Rotation2, UnitComplex, Vector1, Vector2};
+
+/// A rotation of the plane, an element of SO(2), stored as a unit complex number `cos θ + i sin θ`.
+///
+/// Counter-clockwise for positive angles: `R(θ) = [[cos θ, −sin θ], [sin θ, cos θ]]`. The tangent is
+/// the angle (a 1-vector); `log` returns it in (−π, π]. `DIM` = 1; acts on points of R² by rotation.
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{LieGroup, Manifold, So2};
+/// let a = So2::from_angle(3.0_f64).unwrap();
+/// let b = So2::from_angle(-3.0_f64).unwrap();
+/// // The difference wraps across ±π: 2π − 6, not −6.
+/// assert!((a.local(&b)[0] - (2.0 * std::f64::consts::PI - 6.0)).abs() < 1e-15);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct So2<T: Real> {
+    z: UnitComplex<T>,
+}
+
+/// Construction.
+impl<T: Real> So2<T> {
+    /// The rotation by `angle` radians, checked for finiteness.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`].
+    pub fn from_angle(angle: T) -> Result<Self, ManifoldError> {
+        check_finite("angle", [angle].iter())?;
+        Ok(Self::from_angle_unchecked(angle))
+    }
+
+    /// The rotation by `angle` radians without the finiteness check (hot paths).
+    #[inline]
+    pub fn from_angle_unchecked(angle: T) -> Self {
+        Self::from_unit_complex(UnitComplex::new(angle))
+    }
+
+    /// The rotation with the given cosine and sine, checked for finiteness and `cos² + sin² = 1`.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
+    pub fn from_cos_sin(cos: T, sin: T) -> Result<Self, ManifoldError> {
+        check_unit(
+            "(cos, sin) pair",
+            &Vector2::new(cos, sin),
+            "So2::from_vector_normalizing",
+        )?;
+        Ok(Self::from_cos_sin_unchecked(cos, sin))
+    }
+
+    /// The rotation with the given cosine and sine, unchecked (hot paths).
+    #[inline]
+    pub fn from_cos_sin_unchecked(cos: T, sin: T) -> Self {
+        Self::from_unit_complex(UnitComplex::new_unchecked(Complex::new(cos, sin)))
+    }
+
+    /// The rotation taking the x axis to the direction of `v` (any non-zero length): the
+    /// renormalisation helper.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`] or [`ManifoldError::ZeroVector`].
+    pub fn from_vector_normalizing(v: &Vector2<T>) -> Result<Self, ManifoldError> {
+        let u = normalized("direction vector", v)?;
+        Ok(Self::from_cos_sin_unchecked(u.x, u.y))
+    }
+
+    /// The rotation of a 2×2 matrix, checked for finiteness, orthonormality and determinant +1.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`], [`ManifoldError::NotOrthonormal`] or
+    /// [`ManifoldError::NotProperRotation`].
+    pub fn from_matrix(m: &Matrix2<T>) -> Result<Self, ManifoldError> {
+        check_rotation_matrix(m, m.determinant())?;
+        Ok(Self::from_cos_sin_unchecked(m.m11, m.m21))
+    }
+
+    /// Wraps a nalgebra unit complex number (no cost).
+    #[inline]
+    pub const fn from_unit_complex(z: UnitComplex<T>) -> Self {
+        Self { z }
+    }
+
+    /// The same rotation with `cos² + sin² = 1` restored.
+    #[must_use]
+    pub fn renormalized(&self) -> Self {
+        Self::from_unit_complex(UnitComplex::new_normalize(self.z.into_inner()))
+    }
+}
+
+/// Conversion and access.
+impl<T: Real> So2<T> {
+    /// The angle in (−π, π].
+    #[inline]
+    pub fn angle(&self) -> T {
+        self.z.im.atan2(self.z.re)
+    }
+
+    /// `cos θ`.
+    #[inline]
+    pub fn cos(&self) -> T {
+        self.z.re
+    }
+
+    /// `sin θ`.
+    #[inline]
+    pub fn sin(&self) -> T {
+        self.z.im
+    }
+
+    /// The stored unit complex number.
+    #[inline]
+    pub const fn as_unit_complex(&self) -> &UnitComplex<T> {
+        &self.z
+    }
+
+    /// The rotation matrix `[[cos θ, −sin θ], [sin θ, cos θ]]`.
+    #[inline]
+    pub fn to_matrix(&self) -> Matrix2<T> {
+        self.z.to_rotation_matrix().into_inner()
+    }
+}
+
+impl<T: Real> LieGroup<1> for So2<T> {
+    /// Skew 2×2 matrices `[[0, −θ], [θ, 0]]`.
+    type Algebra = Matrix2<T>;
+
+    #[inline]
+    fn identity() -> Self {
+        Self::from_unit_complex(UnitComplex::identity())
+    }
+
+    #[inline]
+    fn compose(&self, other: &Self) -> Self {
+        Self::from_unit_complex(self.z * other.z)
+    }
+
+    #[inline]
+    fn inverse(&self) -> Self {
+        Self::from_unit_complex(self.z.inverse())
+    }
+
+    /// `exp(θ) = cos θ + i sin θ`.
+    #[inline]
+    fn exp(v: &Tangent<T, 1>) -> Self {
+        Self::from_angle_unchecked(v[0])
+    }
+
+    /// `atan2(sin θ, cos θ)` in (−π, π].
+    #[inline]
+    fn log(&self) -> Tangent<T, 1> {
+        Vector1::new(self.angle())
+    }
+
+    #[inline]
+    fn hat(v: &Tangent<T, 1>) -> Matrix2<T> {
+        Matrix2::new(T::zero(), -v[0], v[0], T::zero())
+    }
+
+    #[inline]
+    fn vee(a: &Matrix2<T>) -> Tangent<T, 1> {
+        Vector1::new((a.m21 - a.m12) * T::lit(0.5))
+    }
+
+    /// `R a Rᵀ`.
+    fn conjugate_algebra(&self, a: &Matrix2<T>) -> Matrix2<T> {
+        let r = self.to_matrix();
+        r * a * r.transpose()
+    }
+
+    /// SO(2) is abelian: `Ad = 1`.
+    #[inline]
+    fn adjoint(&self) -> Jacobian<T, 1, 1> {
+        Matrix1::identity()
+    }
+
+    /// `Jr = 1`.
+    #[inline]
+    fn right_jacobian(_v: &Tangent<T, 1>) -> Jacobian<T, 1, 1> {
+        Matrix1::identity()
+    }
+
+    /// `Jr⁻¹ = 1`.
+    #[inline]
+    fn right_jacobian_inverse(_v: &Tangent<T, 1>) -> Jacobian<T, 1, 1> {
+        Matrix1::identity()
+    }
+}
+
+impl_manifold_for_group!(So2, 1);
+
+impl<T: Real> GroupAction<1, 2> for So2<T> {
+    #[inline]
+    fn act(&self, p: &Vector2<T>) -> Vector2<T> {
+        self.z * p
+    }
+
+    /// `R [−p_y, p_x]ᵀ`.
+    #[inline]
+    fn j_act_self(&self, p: &Vector2<T>) -> Jacobian<T, 2, 1> {
+        self.z * Vector2::new(-p.y, p.x)
+    }
+
+    /// `R`.
+    #[inline]
+    fn j_act_point(&self, _p: &Vector2<T>) -> Jacobian<T, 2, 2> {
+        self.to_matrix()
+    }
+}
+
+impl<T: Real> PartialEq for So2<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.z == other.z
+    }
+}
+
+impl<T: Real> AbsDiffEq for So2<T> {
+    type Epsilon = T;
+    fn default_epsilon() -> T {
+        T::default_epsilon()
+    }
+    /// Compares (cos, sin).
+    fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
+        self.z.abs_diff_eq(&other.z, epsilon)
+    }
+}
+
+impl<T: Real> RelativeEq for So2<T> {
+    fn default_max_relative() -> T {
+        T::default_max_relative()
+    }
+    fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
+        self.z.relative_eq(&other.z, epsilon, max_relative)
+    }
+}
+
+impl<T: Real> From<UnitComplex<T>> for So2<T> {
+    #[inline]
+    fn from(z: UnitComplex<T>) -> Self {
+        Self::from_unit_complex(z)
+    }
+}
+
+impl<T: Real> From<So2<T>> for UnitComplex<T> {
+    #[inline]
+    fn from(r: So2<T>) -> Self {
+        r.z
+    }
+}
+
+impl<T: Real> From<Rotation2<T>> for So2<T> {
+    #[inline]
+    fn from(r: Rotation2<T>) -> Self {
+        Self::from_unit_complex(UnitComplex::from_rotation_matrix(&r))
+    }
+}
+
+impl<T: Real> From<So2<T>> for Rotation2<T> {
+    #[inline]
+    fn from(r: So2<T>) -> Self {
+        r.z.to_rotation_matrix()
+    }
+}

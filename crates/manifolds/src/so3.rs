@@ -1,0 +1,356 @@
+//! [`So3`]: rotations of space.
+
+use crate::error::{ManifoldError, check_finite, check_rotation_matrix, normalized};
+use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
+use crate::manifold::{Jacobian, Tangent};
+use crate::real::Real;
+use crate::rotation_vector;
+use crate::su2::Su2;
+use approx::{AbsDiffEq, RelativeEq};
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+
+/// A rotation of space, an element of SO(3).
+///
+/// Stored as a unit quaternion (Hamilton, scalar first in all I/O, active: `R(q) v = q v q*`), which
+/// keeps composition cheap and the logarithm accurate at and near π. The quaternions q and −q are the
+/// same rotation: `==`, the `approx` comparisons and [`distance`](crate::Manifold::distance) treat them
+/// as equal. Use [`Su2`] where the sign matters.
+///
+/// Invariant: the quaternion has unit norm within
+/// [`UNIT_NORM_TOLERANCE`](crate::constants::Thresholds::UNIT_NORM_TOLERANCE).
+///
+/// Tangent coordinates are rotation vectors (axis times angle, radians); `log` returns angles in
+/// [0, π]. `DIM` = 3; acts on points of R³ by rotation.
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{LieGroup, Manifold, So3};
+/// use nalgebra::Vector3;
+/// let r = So3::<f64>::exp(&Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2));
+/// let v = r.rotate(&Vector3::x());
+/// assert!((v - Vector3::y()).norm() < 1e-15);
+/// assert!((r.log() - Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2)).norm() < 1e-15);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct So3<T: Real> {
+    q: UnitQuaternion<T>,
+}
+
+/// Construction.
+impl<T: Real> So3<T> {
+    /// The rotation of a unit quaternion given scalar first, checked for finiteness and unit norm.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
+    pub fn from_quaternion_wxyz(w: T, x: T, y: T, z: T) -> Result<Self, ManifoldError> {
+        Self::from_quaternion(Quaternion::new(w, x, y, z))
+    }
+
+    /// The rotation of a unit quaternion, checked for finiteness and unit norm.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
+    pub fn from_quaternion(q: Quaternion<T>) -> Result<Self, ManifoldError> {
+        Su2::from_quaternion(q).map(|q| q.to_so3())
+    }
+
+    /// The rotation of `q / |q|`: the renormalisation helper for quaternions read from files or
+    /// accumulated by integration.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`] or [`ManifoldError::ZeroVector`].
+    pub fn from_quaternion_normalizing(q: Quaternion<T>) -> Result<Self, ManifoldError> {
+        Su2::from_quaternion_normalizing(q).map(|q| q.to_so3())
+    }
+
+    /// Wraps a quaternion without any check: the caller guarantees unit norm (hot paths).
+    #[inline]
+    pub fn from_quaternion_unchecked(q: Quaternion<T>) -> Self {
+        Self::from_unit_quaternion(UnitQuaternion::new_unchecked(q))
+    }
+
+    /// Wraps a nalgebra unit quaternion (no cost).
+    #[inline]
+    pub const fn from_unit_quaternion(q: UnitQuaternion<T>) -> Self {
+        Self { q }
+    }
+
+    /// The rotation of a matrix, checked for finiteness, orthonormality and determinant +1.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`], [`ManifoldError::NotOrthonormal`] or
+    /// [`ManifoldError::NotProperRotation`].
+    pub fn from_matrix(m: &Matrix3<T>) -> Result<Self, ManifoldError> {
+        check_rotation_matrix(m, m.determinant())?;
+        Ok(Self::from_matrix_unchecked(m))
+    }
+
+    /// The rotation of a matrix the caller guarantees to be a rotation (hot paths).
+    #[inline]
+    pub fn from_matrix_unchecked(m: &Matrix3<T>) -> Self {
+        Self::from_unit_quaternion(UnitQuaternion::from_rotation_matrix(
+            &Rotation3::from_matrix_unchecked(*m),
+        ))
+    }
+
+    /// The rotation nearest to `m` in the Frobenius norm (`U Vᵀ` from the SVD `m = U S Vᵀ`): the
+    /// renormalisation helper for matrices that drifted from orthonormality.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`], or [`ManifoldError::NotProperRotation`] when `det m <= 0` (a
+    /// reflection or a degenerate matrix has no nearest rotation worth the name).
+    pub fn from_matrix_orthonormalized(m: &Matrix3<T>) -> Result<Self, ManifoldError> {
+        check_finite("matrix", m.iter())?;
+        // The polar factor is invariant under positive scaling; scaling first keeps the SVD and the
+        // determinant free of overflow and underflow.
+        let scale = m.amax();
+        let m = if scale > T::zero() { m / scale } else { *m };
+        let det = m.determinant();
+        if det <= T::zero() {
+            return Err(ManifoldError::NotProperRotation { det: det.to_f64() });
+        }
+        let svd = m.svd(true, true);
+        match (svd.u, svd.v_t) {
+            (Some(u), Some(v_t)) => Ok(Self::from_matrix_unchecked(&(u * v_t))),
+            _ => Err(ManifoldError::NotProperRotation { det: det.to_f64() }),
+        }
+    }
+
+    /// The rotation of a rotation vector (axis times angle), checked for finiteness.
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`].
+    pub fn from_rotation_vector(v: &Vector3<T>) -> Result<Self, ManifoldError> {
+        Su2::from_rotation_vector(v).map(|q| q.to_so3())
+    }
+
+    /// The rotation by `angle` about `axis` (any non-zero length; it is normalised).
+    ///
+    /// # Errors
+    /// [`ManifoldError::NonFinite`] or [`ManifoldError::ZeroVector`].
+    pub fn from_axis_angle(axis: &Vector3<T>, angle: T) -> Result<Self, ManifoldError> {
+        check_finite("angle", [angle].iter())?;
+        let axis = normalized("rotation axis", axis)?;
+        Ok(Self::exp(&(axis * angle)))
+    }
+
+    /// The same rotation with its quaternion renormalised (after long chains of products).
+    #[must_use]
+    pub fn renormalized(&self) -> Self {
+        Self::from_quaternion_unchecked(self.q.into_inner().normalize())
+    }
+}
+
+/// Conversion and access.
+impl<T: Real> So3<T> {
+    /// The stored unit quaternion (one of the two representing this rotation).
+    #[inline]
+    pub const fn as_unit_quaternion(&self) -> &UnitQuaternion<T> {
+        &self.q
+    }
+
+    /// The quaternion coefficients, scalar first: `[w, x, y, z]`.
+    #[inline]
+    pub fn to_quaternion_wxyz(&self) -> [T; 4] {
+        [self.q.w, self.q.i, self.q.j, self.q.k]
+    }
+
+    /// The rotation matrix.
+    #[inline]
+    pub fn to_matrix(&self) -> Matrix3<T> {
+        self.q.to_rotation_matrix().into_inner()
+    }
+
+    /// The lift to SU(2) with non-negative scalar part (the other lift is its negative).
+    #[inline]
+    pub fn to_su2(&self) -> Su2<T> {
+        let q = self.q.into_inner();
+        Su2::from_unit_quaternion(UnitQuaternion::new_unchecked(if q.w < T::zero() {
+            -q
+        } else {
+            q
+        }))
+    }
+
+    /// The rotation angle in [0, π].
+    #[inline]
+    pub fn angle(&self) -> T {
+        T::lit(2.0) * rotation_vector::norm(&self.q.imag()).atan2(self.q.w.abs())
+    }
+
+    /// Rotates a vector: `R v = q v q*`.
+    #[inline]
+    pub fn rotate(&self, v: &Vector3<T>) -> Vector3<T> {
+        self.q * v
+    }
+}
+
+impl<T: Real> LieGroup<3> for So3<T> {
+    type Algebra = Matrix3<T>;
+
+    #[inline]
+    fn identity() -> Self {
+        Self::from_unit_quaternion(UnitQuaternion::identity())
+    }
+
+    #[inline]
+    fn compose(&self, other: &Self) -> Self {
+        Self::from_unit_quaternion(self.q * other.q)
+    }
+
+    #[inline]
+    fn inverse(&self) -> Self {
+        Self::from_unit_quaternion(self.q.inverse())
+    }
+
+    /// `exp(v) = (cos(θ/2), sin(θ/2) v/θ)`, θ = |v|, with the Taylor series below the series angle.
+    #[inline]
+    fn exp(v: &Tangent<T, 3>) -> Self {
+        Self::from_unit_quaternion(rotation_vector::exp(v))
+    }
+
+    /// The rotation vector with angle in [0, π]: the quaternion is first taken with `w >= 0`, then
+    /// `θ = 2 atan2(|xyz|, w)`. At angle π both ±axis are logarithms; the sign of the stored axis is
+    /// kept.
+    #[inline]
+    fn log(&self) -> Tangent<T, 3> {
+        let q = self.q.into_inner();
+        if q.w < T::zero() {
+            rotation_vector::log(&-q)
+        } else {
+            rotation_vector::log(&q)
+        }
+    }
+
+    /// The skew-symmetric matrix `hat(v) w = v × w`.
+    #[inline]
+    fn hat(v: &Tangent<T, 3>) -> Matrix3<T> {
+        rotation_vector::hat(v)
+    }
+
+    #[inline]
+    fn vee(a: &Matrix3<T>) -> Tangent<T, 3> {
+        rotation_vector::vee(a)
+    }
+
+    /// `R a Rᵀ`.
+    fn conjugate_algebra(&self, a: &Matrix3<T>) -> Matrix3<T> {
+        let r = self.to_matrix();
+        r * a * r.transpose()
+    }
+
+    /// `Ad(R) = R`.
+    #[inline]
+    fn adjoint(&self) -> Jacobian<T, 3, 3> {
+        self.to_matrix()
+    }
+
+    /// `Jr(v) = I − ((1 − cos θ)/θ²) hat(v) + ((θ − sin θ)/θ³) hat(v)²`.
+    #[inline]
+    fn right_jacobian(v: &Tangent<T, 3>) -> Jacobian<T, 3, 3> {
+        rotation_vector::right_jacobian(v)
+    }
+
+    /// `Jr⁻¹(v) = I + hat(v)/2 + (1/θ² − cot(θ/2)/(2θ)) hat(v)²`; finite for θ < 2π.
+    #[inline]
+    fn right_jacobian_inverse(v: &Tangent<T, 3>) -> Jacobian<T, 3, 3> {
+        rotation_vector::right_jacobian_inverse(v)
+    }
+
+    /// `Ad(other⁻¹) = R_otherᵀ`.
+    #[inline]
+    fn j_compose_self(&self, other: &Self) -> Jacobian<T, 3, 3> {
+        other.to_matrix().transpose()
+    }
+}
+
+impl_manifold_for_group!(So3, 3);
+
+impl<T: Real> GroupAction<3, 3> for So3<T> {
+    #[inline]
+    fn act(&self, p: &Vector3<T>) -> Vector3<T> {
+        self.q * p
+    }
+
+    /// `−R hat(p)`.
+    #[inline]
+    fn j_act_self(&self, p: &Vector3<T>) -> Jacobian<T, 3, 3> {
+        -(self.to_matrix() * rotation_vector::hat(p))
+    }
+
+    /// `R`.
+    #[inline]
+    fn j_act_point(&self, _p: &Vector3<T>) -> Jacobian<T, 3, 3> {
+        self.to_matrix()
+    }
+}
+
+/// Equal when the quaternions are equal up to sign (q and −q are one rotation).
+impl<T: Real> PartialEq for So3<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.q.coords == other.q.coords || self.q.coords == -other.q.coords
+    }
+}
+
+impl<T: Real> AbsDiffEq for So3<T> {
+    type Epsilon = T;
+    fn default_epsilon() -> T {
+        T::default_epsilon()
+    }
+    /// Compares quaternion coefficients up to sign.
+    fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
+        self.q.coords.abs_diff_eq(&other.q.coords, epsilon)
+            || self.q.coords.abs_diff_eq(&-other.q.coords, epsilon)
+    }
+}
+
+impl<T: Real> RelativeEq for So3<T> {
+    fn default_max_relative() -> T {
+        T::default_max_relative()
+    }
+    /// Compares quaternion coefficients up to sign.
+    fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
+        self.q
+            .coords
+            .relative_eq(&other.q.coords, epsilon, max_relative)
+            || self
+                .q
+                .coords
+                .relative_eq(&-other.q.coords, epsilon, max_relative)
+    }
+}
+
+impl<T: Real> From<UnitQuaternion<T>> for So3<T> {
+    #[inline]
+    fn from(q: UnitQuaternion<T>) -> Self {
+        Self::from_unit_quaternion(q)
+    }
+}
+
+impl<T: Real> From<So3<T>> for UnitQuaternion<T> {
+    #[inline]
+    fn from(r: So3<T>) -> Self {
+        r.q
+    }
+}
+
+impl<T: Real> From<Rotation3<T>> for So3<T> {
+    #[inline]
+    fn from(r: Rotation3<T>) -> Self {
+        Self::from_unit_quaternion(UnitQuaternion::from_rotation_matrix(&r))
+    }
+}
+
+impl<T: Real> From<So3<T>> for Rotation3<T> {
+    #[inline]
+    fn from(r: So3<T>) -> Self {
+        r.q.to_rotation_matrix()
+    }
+}
+
+impl<T: Real> From<Su2<T>> for So3<T> {
+    #[inline]
+    fn from(q: Su2<T>) -> Self {
+        q.to_so3()
+    }
+}

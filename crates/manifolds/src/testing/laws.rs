@@ -1,0 +1,459 @@
+//! The generic law suite: algebraic laws and finite-difference checks of every Jacobian, for any
+//! [`Manifold`], [`LieGroup`] and [`GroupAction`].
+//!
+//! Each function returns `Err(TestCaseError)` with a message naming the law, the values and the
+//! tolerance, so it can be called inside `proptest!` blocks. Tolerances come from [`Tolerance`], which
+//! derives them from the scalar's machine epsilon; they are never tuned per test.
+
+use crate::{GroupAction, Jacobian, LieGroup, Manifold, Real, Rn, S2, So2, So3, Su2, Tangent};
+use nalgebra::{ComplexField, RealField, SMatrix, SVector};
+use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
+
+/// Tolerances fitting a scalar type, derived from its machine epsilon `eps`.
+#[derive(Clone, Copy, Debug)]
+pub struct Tolerance<T> {
+    /// Algebraic identities (a few dozen rounded operations, condition numbers up to about 30 for
+    /// tangents of norm 30): `1000 eps`, relative to `1 + |value|`.
+    pub identity: T,
+    /// Finite-difference step `h = eps^(1/3)`, which balances the O(h²) truncation of a central
+    /// difference against its O(eps/h) rounding.
+    pub fd_step: T,
+    /// Finite-difference agreement: `100 (h² + eps/h)`, relative to `1 + max |J|` (the factor 100 covers
+    /// third derivatives and evaluation errors of order ten).
+    pub fd: T,
+}
+
+impl<T: Real> Tolerance<T> {
+    /// The tolerances for `T`.
+    pub fn for_scalar() -> Self {
+        let eps = T::default_epsilon();
+        let h = eps.cbrt();
+        Self {
+            identity: T::lit(1000.0) * eps,
+            fd_step: h,
+            fd: T::lit(100.0) * (h * h + eps / h),
+        }
+    }
+}
+
+/// What the law suite needs to know about a space beyond its traits: where its exp stops being
+/// injective and which tangent vectors reach the same point.
+pub trait LawSubject<const D: usize>: Manifold<D> {
+    /// The radius below which `local(x, retract(x, v)) == v` (π for SO(2), SO(3), S²; 2π for SU(2)).
+    fn injectivity_radius() -> Self::Scalar;
+
+    /// The tangent vector reaching the same point as `v` from any base (`retract(x, result) ==
+    /// retract(x, v)`) that is closest to `reference`.
+    fn equivalent_tangent_near(
+        v: &Tangent<Self::Scalar, D>,
+        reference: &Tangent<Self::Scalar, D>,
+    ) -> Tangent<Self::Scalar, D>;
+
+    /// Whether the Jacobians of exp (and their inverses) are regular enough at `v` for a finite
+    /// difference to be meaningful: false within 0.5 of a singular norm (2π k for the rotation groups).
+    fn jacobian_is_regular(v: &Tangent<Self::Scalar, D>) -> bool;
+
+    /// How much `local(x, retract(x, v))` amplifies the rounding of the retracted point: 1 where the
+    /// logarithm is well conditioned (the quaternion logs, also at π), `θ / |sin θ|` on S², whose
+    /// logarithm loses its direction at the antipode (the cut locus, where every direction is a log).
+    fn log_condition(v: &Tangent<Self::Scalar, D>) -> Self::Scalar;
+
+    /// The size of the coordinates, which rounding errors scale with: 1 for the compact spaces,
+    /// `1 + max |x_i|` for Rⁿ.
+    fn coordinate_scale(&self) -> Self::Scalar;
+}
+
+/// The equivalent of `v = θ u` along the same axis, `(θ + k·period) u`, closest to `reference`.
+fn periodic_near<T: Real, const D: usize>(
+    v: &SVector<T, D>,
+    reference: &SVector<T, D>,
+    period: T,
+) -> SVector<T, D> {
+    let theta = v.norm();
+    if theta == T::zero() {
+        return *v;
+    }
+    let u = v / theta;
+    let k = ((reference.dot(&u) - theta) / period).round();
+    u * (theta + k * period)
+}
+
+/// Whether `|v|` is at least 0.5 away from every positive multiple of `period`.
+fn away_from_multiples<T: Real, const D: usize>(v: &SVector<T, D>, period: T) -> bool {
+    let theta = v.norm();
+    let k = (theta / period).round();
+    k == T::zero() || (theta - k * period).abs() > T::lit(0.5)
+}
+
+macro_rules! rotation_law_subject {
+    ($ty:ident, $dim:literal, $radius:expr, $period:expr, $singular:expr, $condition:expr) => {
+        impl<T: Real> LawSubject<$dim> for $ty<T> {
+            fn injectivity_radius() -> T {
+                $radius
+            }
+            fn equivalent_tangent_near(
+                v: &Tangent<T, $dim>,
+                r: &Tangent<T, $dim>,
+            ) -> Tangent<T, $dim> {
+                periodic_near(v, r, $period)
+            }
+            fn jacobian_is_regular(v: &Tangent<T, $dim>) -> bool {
+                $singular.map_or(true, |period| away_from_multiples(v, period))
+            }
+            fn log_condition(v: &Tangent<T, $dim>) -> T {
+                $condition(v.norm())
+            }
+            fn coordinate_scale(&self) -> T {
+                T::one()
+            }
+        }
+    };
+}
+
+/// The quaternion and complex logarithms are well conditioned everywhere.
+fn well_conditioned<T: Real>(_theta: T) -> T {
+    T::one()
+}
+
+/// The sphere's logarithm at distance θ: the direction is determined to rounding / sin θ.
+fn sphere_log_condition<T: Real>(theta: T) -> T {
+    if theta < T::one() {
+        T::one()
+    } else {
+        theta / theta.sin().abs().max(T::default_epsilon())
+    }
+}
+
+rotation_law_subject!(So2, 1, T::pi(), T::two_pi(), None::<T>, well_conditioned);
+rotation_law_subject!(
+    So3,
+    3,
+    T::pi(),
+    T::two_pi(),
+    Some(T::two_pi()),
+    well_conditioned
+);
+rotation_law_subject!(
+    Su2,
+    3,
+    T::two_pi(),
+    T::lit(2.0) * T::two_pi(),
+    Some(T::two_pi()),
+    well_conditioned
+);
+rotation_law_subject!(S2, 2, T::pi(), T::two_pi(), None::<T>, sphere_log_condition);
+
+impl<T: Real, const N: usize> LawSubject<N> for Rn<T, N> {
+    fn injectivity_radius() -> T {
+        T::max_value().unwrap_or_else(|| T::lit(f64::MAX))
+    }
+    fn equivalent_tangent_near(v: &Tangent<T, N>, _reference: &Tangent<T, N>) -> Tangent<T, N> {
+        *v
+    }
+    fn jacobian_is_regular(_v: &Tangent<T, N>) -> bool {
+        true
+    }
+    fn log_condition(_v: &Tangent<T, N>) -> T {
+        T::one()
+    }
+    fn coordinate_scale(&self) -> T {
+        T::one() + self.coords().amax()
+    }
+}
+
+fn close<T: Real, const R: usize, const C: usize>(
+    law: &str,
+    got: &SMatrix<T, R, C>,
+    expected: &SMatrix<T, R, C>,
+    tolerance: T,
+) -> Result<(), TestCaseError> {
+    let error = (got - expected).amax();
+    let scale = T::one() + expected.amax();
+    prop_assert!(
+        error <= tolerance * scale,
+        "{law}: error {error:?} exceeds {:?}\n got {got:?}\n expected {expected:?}",
+        tolerance * scale
+    );
+    Ok(())
+}
+
+fn same_point<M: Manifold<D>, const D: usize>(
+    law: &str,
+    got: &M,
+    expected: &M,
+    tol: M::Scalar,
+) -> Result<(), TestCaseError> {
+    let d = got.distance(expected);
+    prop_assert!(
+        d <= tol,
+        "{law}: distance {d:?} exceeds {tol:?}\n got {got:?}\n expected {expected:?}"
+    );
+    Ok(())
+}
+
+fn one<T: Real>() -> T {
+    T::one()
+}
+
+/// A function of a tangent perturbation, as the finite differences take it.
+type Perturbed<'a, T, const D: usize, Out> = &'a dyn Fn(&Tangent<T, D>) -> Out;
+
+/// Central finite difference: column i is `(f(h e_i) − f(−h e_i)) / 2h`.
+fn finite_difference<T: Real, const R: usize, const C: usize>(
+    h: T,
+    f: impl Fn(&SVector<T, C>) -> SVector<T, R>,
+) -> SMatrix<T, R, C> {
+    SMatrix::from_fn(|r, c| {
+        let e = SVector::<T, C>::from_fn(|i, _| if i == c { h } else { T::zero() });
+        (f(&e)[r] - f(&-e)[r]) / (h + h)
+    })
+}
+
+/// Manifold laws at `x`: `x ⊞ 0 = x`, `x ⊟ x = 0`, `x ⊞ (y ⊟ x) = y`, `(x ⊞ v) ⊟ x ≡ v` (the
+/// equivalent tangent nearest the result, inside the injectivity radius), and `distance = |y ⊟ x|`.
+///
+/// # Errors
+/// The first law that fails, with its numbers.
+pub fn check_manifold<M: LawSubject<D>, const D: usize>(
+    x: &M,
+    y: &M,
+    v: &Tangent<M::Scalar, D>,
+    tol: &Tolerance<M::Scalar>,
+) -> Result<(), TestCaseError> {
+    let t = tol.identity * x.coordinate_scale().max(y.coordinate_scale());
+    let one = one::<M::Scalar>();
+    same_point("retract(x, 0) == x", &x.retract(&Tangent::zeros()), x, t)?;
+    close("local(x, x) == 0", &x.local(x), &Tangent::zeros(), t)?;
+    let back = x.local(&x.retract(v));
+    let expected = M::equivalent_tangent_near(v, &back);
+    let t_v = t * (one + v.norm());
+    prop_assert!(
+        (back.norm() - expected.norm()).abs() <= t_v,
+        "|local(x, retract(x, v))| = {:?} but |v| = {:?} (mod the period)",
+        back.norm(),
+        expected.norm()
+    );
+    close(
+        "local(x, retract(x, v)) == v",
+        &back,
+        &expected,
+        t_v * M::log_condition(v),
+    )?;
+    prop_assert!(
+        back.norm() <= M::injectivity_radius() * (one + t),
+        "local(x, retract(x, v)) = {back:?} lies outside the injectivity radius"
+    );
+    let yx = x.local(y);
+    same_point("retract(x, local(x, y)) == y", &x.retract(&yx), y, t)?;
+    let d = x.distance(y);
+    prop_assert!(
+        (d - yx.norm()).abs() <= t * (one + d),
+        "distance(x, y) = {d:?} but |local(x, y)| = {:?}",
+        yx.norm()
+    );
+    Ok(())
+}
+
+/// Group laws: associativity, identity, inverse, `exp(log a) = a`, `log(exp v) ≡ v` (the equivalent
+/// tangent nearest the result, inside the injectivity radius), `vee(hat v) = v`, the adjoint identity
+/// `Ad(a) v = vee(a hat(v) a⁻¹)` and its group form `a exp(v) a⁻¹ = exp(Ad(a) v)`, and
+/// `Jr(v) Jr⁻¹(v) = I` where Jr is regular.
+///
+/// # Errors
+/// The first law that fails, with its numbers.
+pub fn check_group<G: LieGroup<D> + LawSubject<D>, const D: usize>(
+    a: &G,
+    b: &G,
+    c: &G,
+    v: &Tangent<G::Scalar, D>,
+    tol: &Tolerance<G::Scalar>,
+) -> Result<(), TestCaseError> {
+    let scale = a
+        .coordinate_scale()
+        .max(b.coordinate_scale())
+        .max(c.coordinate_scale());
+    let t = tol.identity * scale;
+    let one = one::<G::Scalar>();
+    let e = G::identity();
+    same_point(
+        "(a b) c == a (b c)",
+        &a.compose(b).compose(c),
+        &a.compose(&b.compose(c)),
+        t,
+    )?;
+    same_point("e a == a", &e.compose(a), a, t)?;
+    same_point("a e == a", &a.compose(&e), a, t)?;
+    same_point("a a^-1 == e", &a.compose(&a.inverse()), &e, t)?;
+    same_point("a^-1 a == e", &a.inverse().compose(a), &e, t)?;
+    same_point("exp(log(a)) == a", &G::exp(&a.log()), a, t)?;
+    let back = G::exp(v).log();
+    let expected = G::equivalent_tangent_near(v, &back);
+    close("log(exp(v)) == v", &back, &expected, t * (one + v.norm()))?;
+    prop_assert!(
+        back.norm() <= G::injectivity_radius() * (one + t),
+        "log(exp(v)) = {back:?} lies outside the injectivity radius"
+    );
+    close("vee(hat(v)) == v", &G::vee(&G::hat(v)), v, t)?;
+    close(
+        "Ad(a) v == vee(a hat(v) a^-1)",
+        &(a.adjoint() * v),
+        &G::vee(&a.conjugate_algebra(&G::hat(v))),
+        t * (one + v.norm()),
+    )?;
+    same_point(
+        "a exp(v) a^-1 == exp(Ad(a) v)",
+        &a.compose(&G::exp(v)).compose(&a.inverse()),
+        &G::exp(&(a.adjoint() * v)),
+        t * (one + v.norm()),
+    )?;
+    if G::jacobian_is_regular(v) {
+        close(
+            "Jr(v) Jr^-1(v) == I",
+            &(G::right_jacobian(v) * G::right_jacobian_inverse(v)),
+            &Jacobian::identity(),
+            t * (one + v.norm()),
+        )?;
+        close(
+            "Jl(v) Jl^-1(v) == I",
+            &(G::left_jacobian(v) * G::left_jacobian_inverse(v)),
+            &Jacobian::identity(),
+            t * (one + v.norm()),
+        )?;
+    }
+    Ok(())
+}
+
+/// Every Jacobian of [`LieGroup`] against a central finite difference at `a`, `b` (for the binary
+/// operations) and `v` (for exp and retract): `Jr`, `Jl`, `J_exp_tangent`, `J_log_self`,
+/// `J_compose_self`, `J_compose_other`, `J_inverse_self`, `J_retract_self`, `J_retract_tangent`,
+/// `J_local_self`, `J_local_other`. Group-valued outputs are differenced through `local` at the
+/// unperturbed output; tangent-valued outputs are unwrapped to the equivalent tangent nearest the
+/// unperturbed one, so the check also holds on the branch cut (angle exactly π). Checks whose
+/// linearisation point is within 0.5 of a singularity of exp are skipped (there is no finite Jacobian
+/// to compare with).
+///
+/// # Errors
+/// The first Jacobian that disagrees, with both matrices.
+pub fn check_jacobians<G: LieGroup<D> + LawSubject<D>, const D: usize>(
+    a: &G,
+    b: &G,
+    v: &Tangent<G::Scalar, D>,
+    tol: &Tolerance<G::Scalar>,
+) -> Result<(), TestCaseError> {
+    let h = tol.fd_step;
+    let t = tol.fd * a.coordinate_scale().max(b.coordinate_scale());
+    // Group-valued function, differenced in the tangent space of its unperturbed value.
+    let group_fd = |f: Perturbed<G::Scalar, D, G>| {
+        let f0 = f(&Tangent::zeros());
+        finite_difference(h, |d| f0.local(&f(d)))
+    };
+    // Tangent-valued function, unwrapped around its unperturbed value.
+    let tangent_fd = |f: Perturbed<G::Scalar, D, Tangent<G::Scalar, D>>| {
+        let f0 = f(&Tangent::zeros());
+        finite_difference(h, |d| G::equivalent_tangent_near(&f(d), &f0))
+    };
+
+    let ev = G::exp(v);
+    close(
+        "Jr(v) = J_exp_tangent",
+        &G::j_exp_tangent(v),
+        &group_fd(&|d| G::exp(&(v + d))),
+        t,
+    )?;
+    close(
+        "Jl(v)",
+        &G::left_jacobian(v),
+        &finite_difference(h, |d| G::exp(&(v + d)).compose(&ev.inverse()).log()),
+        t,
+    )?;
+    close(
+        "J_compose_self",
+        &a.j_compose_self(b),
+        &group_fd(&|d| a.retract(d).compose(b)),
+        t,
+    )?;
+    close(
+        "J_compose_other",
+        &a.j_compose_other(b),
+        &group_fd(&|d| a.compose(&b.retract(d))),
+        t,
+    )?;
+    close(
+        "J_inverse_self",
+        &a.j_inverse_self(),
+        &group_fd(&|d| a.retract(d).inverse()),
+        t,
+    )?;
+    close(
+        "J_retract_self",
+        &a.j_retract_self(v),
+        &group_fd(&|d| a.retract(d).retract(v)),
+        t,
+    )?;
+    close(
+        "J_retract_tangent",
+        &a.j_retract_tangent(v),
+        &group_fd(&|d| a.retract(&(v + d))),
+        t,
+    )?;
+    if G::jacobian_is_regular(&a.log()) {
+        close(
+            "J_log_self",
+            &a.j_log_self(),
+            &tangent_fd(&|d| a.retract(d).log()),
+            t,
+        )?;
+    }
+    if G::jacobian_is_regular(&a.local(b)) {
+        close(
+            "J_local_self",
+            &a.j_local_self(b),
+            &tangent_fd(&|d| a.retract(d).local(b)),
+            t,
+        )?;
+        close(
+            "J_local_other",
+            &a.j_local_other(b),
+            &tangent_fd(&|d| a.local(&b.retract(d))),
+            t,
+        )?;
+    }
+    Ok(())
+}
+
+/// Action laws at `p`: `e · p = p`, `(a b) · p = a · (b · p)`, and `J_act_self`, `J_act_point` against
+/// central finite differences.
+///
+/// # Errors
+/// The first law that fails, with its numbers.
+pub fn check_action<G: GroupAction<D, P> + LawSubject<D>, const D: usize, const P: usize>(
+    a: &G,
+    b: &G,
+    p: &SVector<G::Scalar, P>,
+    tol: &Tolerance<G::Scalar>,
+) -> Result<(), TestCaseError> {
+    let scale = a.coordinate_scale().max(b.coordinate_scale()) + p.norm();
+    let t = tol.identity * scale;
+    close("e . p == p", &G::identity().act(p), p, t)?;
+    close(
+        "(a b) . p == a . (b . p)",
+        &a.compose(b).act(p),
+        &a.act(&b.act(p)),
+        t,
+    )?;
+    let h = tol.fd_step;
+    close(
+        "J_act_self",
+        &a.j_act_self(p),
+        &finite_difference(h, |d| a.retract(d).act(p)),
+        tol.fd * scale,
+    )?;
+    close(
+        "J_act_point",
+        &a.j_act_point(p),
+        &finite_difference(h, |d| a.act(&(p + d))),
+        tol.fd * scale,
+    )?;
+    Ok(())
+}

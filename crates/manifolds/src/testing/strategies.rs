@@ -1,0 +1,152 @@
+//! proptest strategies for every space of the crate, generic over the scalar.
+//!
+//! Each strategy mixes uniformly distributed elements with the curated edge cases where Lie-group code
+//! breaks: the identity, elements within 1e-8 of it, rotation angles within 1e-12 of π and exactly π,
+//! tangents of norm 20 and 30, and (for SU(2)) `w = −1` and `w < 0`. Values are drawn in `f64` and
+//! rounded to the scalar type.
+
+use crate::{LieGroup, Real, Rn, S2, So2, So3, Su2};
+use nalgebra::{Quaternion, SVector, Vector1, Vector2, Vector3};
+use proptest::prelude::*;
+use std::f64::consts::{PI, TAU};
+
+/// A unit vector of R³, uniform on the sphere (z uniform in [−1, 1], longitude uniform).
+fn unit_vector_f64() -> impl Strategy<Value = [f64; 3]> {
+    (-1.0..=1.0_f64, 0.0..TAU).prop_map(|(z, phi)| {
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        [r * phi.cos(), r * phi.sin(), z]
+    })
+}
+
+/// Rotation angles / tangent norms: typical values in [0, 2π) and the curated edge cases.
+pub fn angle_magnitude() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        6 => 0.0..TAU,
+        1 => Just(0.0),
+        1 => 1e-10..=1e-8_f64,
+        1 => (0.0..=1e-12_f64).prop_map(|d| PI - d),
+        1 => Just(PI),
+        1 => Just(20.0),
+        1 => Just(30.0),
+    ]
+}
+
+fn to_vector<T: Real>(u: [f64; 3], scale: f64) -> Vector3<T> {
+    Vector3::new(
+        T::lit(u[0] * scale),
+        T::lit(u[1] * scale),
+        T::lit(u[2] * scale),
+    )
+}
+
+/// Rotation vectors (tangents of SO(3) and SU(2)): uniform direction, norm from [`angle_magnitude`].
+pub fn rotation_vector<T: Real>() -> impl Strategy<Value = Vector3<T>> {
+    (unit_vector_f64(), angle_magnitude()).prop_map(|(u, n)| to_vector(u, n))
+}
+
+/// Tangents of SO(2): a signed angle from [`angle_magnitude`].
+pub fn so2_tangent<T: Real>() -> impl Strategy<Value = Vector1<T>> {
+    (angle_magnitude(), any::<bool>())
+        .prop_map(|(a, negative)| Vector1::new(T::lit(if negative { -a } else { a })))
+}
+
+/// Tangents of S² (two coordinates in the tangent basis): uniform direction in the plane, norm from
+/// [`angle_magnitude`].
+pub fn s2_tangent<T: Real>() -> impl Strategy<Value = Vector2<T>> {
+    (0.0..TAU, angle_magnitude())
+        .prop_map(|(phi, n)| Vector2::new(T::lit(n * phi.cos()), T::lit(n * phi.sin())))
+}
+
+/// Tangents of Rⁿ: components in [−1e3, 1e3], and the zero vector.
+pub fn rn_tangent<T: Real, const N: usize>() -> impl Strategy<Value = SVector<T, N>> {
+    prop_oneof![
+        6 => proptest::array::uniform::<_, N>(-1e3..1e3_f64)
+            .prop_map(|a| SVector::from_fn(|i, _| T::lit(a[i]))),
+        1 => Just(SVector::zeros()),
+    ]
+}
+
+/// Points of R³ for group actions: components in [−10, 10], and the origin.
+pub fn point3<T: Real>() -> impl Strategy<Value = Vector3<T>> {
+    rn_tangent::<T, 3>().prop_map(|v| v / T::lit(100.0))
+}
+
+/// Points of R² for group actions: components in [−10, 10], and the origin.
+pub fn point2<T: Real>() -> impl Strategy<Value = Vector2<T>> {
+    rn_tangent::<T, 2>().prop_map(|v| v / T::lit(100.0))
+}
+
+/// Uniform unit quaternion (Shoemake's method), scalar first.
+fn uniform_quaternion<T: Real>() -> impl Strategy<Value = Quaternion<T>> {
+    (0.0..=1.0_f64, 0.0..TAU, 0.0..TAU).prop_map(|(u, a, b)| {
+        let (r1, r2) = ((1.0 - u).sqrt(), u.sqrt());
+        Quaternion::new(
+            T::lit(r2 * b.cos()),
+            T::lit(r1 * a.sin()),
+            T::lit(r1 * a.cos()),
+            T::lit(r2 * b.sin()),
+        )
+    })
+}
+
+/// A quaternion `(w, xyz)` with the given scalar part and a uniformly drawn axis, normalised.
+fn quaternion_with_w<T: Real>(w: f64) -> impl Strategy<Value = Quaternion<T>> {
+    unit_vector_f64().prop_map(move |u| {
+        let s = (1.0 - w * w).max(0.0).sqrt();
+        Quaternion::new(
+            T::lit(w),
+            T::lit(u[0] * s),
+            T::lit(u[1] * s),
+            T::lit(u[2] * s),
+        )
+    })
+}
+
+/// Elements of SU(2): uniform, exp of [`rotation_vector`], exactly π (`w = 0`), `w = −1`, and the
+/// identity.
+pub fn su2<T: Real>() -> impl Strategy<Value = Su2<T>> {
+    // The drawn quaternions are unit in f64; renormalise after rounding to T.
+    let normalized = |q: Quaternion<T>| Su2::from_quaternion_unchecked(q.normalize());
+    prop_oneof![
+        4 => uniform_quaternion::<T>().prop_map(normalized),
+        4 => rotation_vector::<T>().prop_map(|v| Su2::exp(&v)),
+        1 => quaternion_with_w::<T>(0.0).prop_map(normalized),
+        1 => quaternion_with_w::<T>(-1.0).prop_map(normalized),
+        1 => Just(Su2::identity()),
+    ]
+}
+
+/// Elements of SO(3): the images of [`su2`] (uniform, near the identity, near and exactly at π, large
+/// tangents).
+pub fn so3<T: Real>() -> impl Strategy<Value = So3<T>> {
+    su2::<T>().prop_map(|q| q.to_so3())
+}
+
+/// Elements of SO(2): exp of [`so2_tangent`] (including ±π exactly), uniform angles, and the identity.
+pub fn so2<T: Real>() -> impl Strategy<Value = So2<T>> {
+    prop_oneof![
+        4 => so2_tangent::<T>().prop_map(|v| So2::exp(&v)),
+        2 => (-PI..PI).prop_map(|a| So2::from_angle_unchecked(T::lit(a))),
+        1 => Just(So2::from_cos_sin_unchecked(-T::one(), T::zero())),
+        1 => Just(So2::identity()),
+    ]
+}
+
+/// Points of S²: uniform, the poles exactly, and points within 1e-12 of the equator (where the tangent
+/// basis switches charts).
+pub fn s2<T: Real>() -> impl Strategy<Value = S2<T>> {
+    // The drawn vectors are unit in f64; renormalise after rounding to T.
+    let from = |u: [f64; 3]| S2::new_unchecked(to_vector::<T>(u, 1.0).normalize());
+    prop_oneof![
+        6 => unit_vector_f64().prop_map(from),
+        1 => Just(from([0.0, 0.0, 1.0])),
+        1 => Just(from([0.0, 0.0, -1.0])),
+        1 => (0.0..TAU, -1e-12..=1e-12_f64)
+            .prop_map(move |(phi, z)| from([phi.cos(), phi.sin(), z])),
+    ]
+}
+
+/// Points of Rⁿ: components in [−1e3, 1e3], and the origin.
+pub fn rn<T: Real, const N: usize>() -> impl Strategy<Value = Rn<T, N>> {
+    rn_tangent::<T, N>().prop_map(Rn::new_unchecked)
+}

@@ -1,0 +1,150 @@
+//! The generic law suite (crate `testing` module) run on every space, in f64 and in f32, with uniform
+//! and curated edge elements (identity, 1e-8 from it, within 1e-12 of π, exactly π, w = −1, tangents of
+//! norm 20 and 30).
+
+use liebayes_manifolds::testing::laws::{
+    check_action, check_group, check_jacobians, check_manifold,
+};
+use liebayes_manifolds::testing::{Tolerance, strategies as st};
+
+use proptest::prelude::*;
+
+/// Cases per property: enough to hit every curated class many times (each has weight >= 1/16).
+const CASES: u32 = 512;
+
+macro_rules! group_laws {
+    ($name:ident, $t:ty, $elem:expr, $tangent:expr, $point:expr) => {
+        mod $name {
+            use super::*;
+
+            proptest! {
+                #![proptest_config(ProptestConfig::with_cases(CASES))]
+
+                #[test]
+                fn manifold(x in $elem, y in $elem, v in $tangent) {
+                    check_manifold(&x, &y, &v, &Tolerance::<$t>::for_scalar())?;
+                }
+
+                #[test]
+                fn group(a in $elem, b in $elem, c in $elem, v in $tangent) {
+                    check_group(&a, &b, &c, &v, &Tolerance::<$t>::for_scalar())?;
+                }
+
+                #[test]
+                fn jacobians(a in $elem, b in $elem, v in $tangent) {
+                    check_jacobians(&a, &b, &v, &Tolerance::<$t>::for_scalar())?;
+                }
+
+                #[test]
+                fn action(a in $elem, b in $elem, p in $point) {
+                    check_action(&a, &b, &p, &Tolerance::<$t>::for_scalar())?;
+                }
+            }
+        }
+    };
+}
+
+group_laws!(
+    so2_f64,
+    f64,
+    st::so2::<f64>(),
+    st::so2_tangent::<f64>(),
+    st::point2::<f64>()
+);
+group_laws!(
+    so2_f32,
+    f32,
+    st::so2::<f32>(),
+    st::so2_tangent::<f32>(),
+    st::point2::<f32>()
+);
+group_laws!(
+    so3_f64,
+    f64,
+    st::so3::<f64>(),
+    st::rotation_vector::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    so3_f32,
+    f32,
+    st::so3::<f32>(),
+    st::rotation_vector::<f32>(),
+    st::point3::<f32>()
+);
+group_laws!(
+    su2_f64,
+    f64,
+    st::su2::<f64>(),
+    st::rotation_vector::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    su2_f32,
+    f32,
+    st::su2::<f32>(),
+    st::rotation_vector::<f32>(),
+    st::point3::<f32>()
+);
+group_laws!(
+    r3_f64,
+    f64,
+    st::rn::<f64, 3>(),
+    st::rn_tangent::<f64, 3>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    r3_f32,
+    f32,
+    st::rn::<f32, 3>(),
+    st::rn_tangent::<f32, 3>(),
+    st::point3::<f32>()
+);
+
+mod s2_laws {
+    use super::*;
+    use liebayes_manifolds::{Manifold, S2};
+    use nalgebra::Vector3;
+
+    fn basis_laws<T: liebayes_manifolds::Real>(
+        x: &S2<T>,
+        v: &nalgebra::Vector2<T>,
+    ) -> Result<(), TestCaseError> {
+        let tol = Tolerance::<T>::for_scalar().identity;
+        let b = x.tangent_basis();
+        let n = x.as_vector();
+        let gram = b.transpose() * b - nalgebra::Matrix2::identity();
+        prop_assert!(
+            gram.amax() <= tol,
+            "tangent basis not orthonormal: {gram:?}"
+        );
+        prop_assert!(
+            (b.transpose() * n).amax() <= tol,
+            "tangent basis not orthogonal to x"
+        );
+        let handed: Vector3<T> = b.column(0).cross(&b.column(1)) - n;
+        prop_assert!(handed.amax() <= tol, "b1 x b2 != x");
+        let y = x.retract(v);
+        prop_assert!(
+            (y.as_vector().norm() - T::one()).abs() <= tol,
+            "retract left the sphere"
+        );
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(CASES))]
+
+        #[test]
+        fn manifold_f64(x in st::s2::<f64>(), y in st::s2::<f64>(), v in st::s2_tangent::<f64>()) {
+            check_manifold(&x, &y, &v, &Tolerance::<f64>::for_scalar())?;
+            basis_laws(&x, &v)?;
+        }
+
+        #[test]
+        fn manifold_f32(x in st::s2::<f32>(), y in st::s2::<f32>(), v in st::s2_tangent::<f32>()) {
+            check_manifold(&x, &y, &v, &Tolerance::<f32>::for_scalar())?;
+            basis_laws(&x, &v)?;
+        }
+    }
+}
