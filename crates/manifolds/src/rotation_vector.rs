@@ -84,6 +84,9 @@ pub(crate) fn log<T: Real>(q: &Quaternion<T>) -> Vector3<T> {
 
 /// Computes `I + p·U + r·U²` with U = hat(v/θ) and `(p, r) = closed_form(θ)`, or, below the series
 /// threshold, `I + p·hat(v) + r·hat(v)²` with `(p, r) = series(θ²)`.
+///
+/// Both are `(1 − r n²) I + r a aᵀ + p hat(a)` with `a` the unit axis (n = 1) or `v` itself (n = θ),
+/// since `hat(a)² = a aᵀ − |a|² I`; writing the entries out avoids two 3×3 products.
 #[inline]
 fn axis_polynomial<T: Real>(
     v: &Vector3<T>,
@@ -91,26 +94,35 @@ fn axis_polynomial<T: Real>(
     series: impl Fn(T) -> (T, T),
 ) -> Matrix3<T> {
     let theta = norm(v);
-    if theta < T::SERIES_ANGLE {
-        let w = hat(v);
-        let (p, r) = series(theta * theta);
-        Matrix3::identity() + w * p + w * w * r
+    let (a, n2, (p, r)) = if theta < T::SERIES_ANGLE {
+        let t2 = theta * theta;
+        (*v, t2, series(t2))
     } else {
-        let u = hat(&(v / theta));
-        let (p, r) = closed_form(theta);
-        Matrix3::identity() + u * p + u * u * r
-    }
+        (v / theta, T::one(), closed_form(theta))
+    };
+    let d = T::one() - r * n2;
+    let (rx, ry, rz) = (r * a.x, r * a.y, r * a.z);
+    let (px, py, pz) = (p * a.x, p * a.y, p * a.z);
+    Matrix3::new(
+        d + rx * a.x,
+        rx * a.y - pz,
+        rx * a.z + py,
+        rx * a.y + pz,
+        d + ry * a.y,
+        ry * a.z - px,
+        rx * a.z - py,
+        ry * a.z + px,
+        d + rz * a.z,
+    )
 }
 
-/// Coefficients of U and U² in Jr: `(−(1 − cos θ)/θ, (θ − sin θ)/θ)`; 1 − cos θ = 2 sin²(θ/2) avoids
-/// cancellation.
+/// Coefficients of U and U² in Jr: `(−(1 − cos θ)/θ, (θ − sin θ)/θ)`, from one `sin_cos(θ/2)`:
+/// 1 − cos θ = 2 sin²(θ/2) (no cancellation) and sin θ = 2 sin(θ/2) cos(θ/2).
 #[inline]
 fn right_jacobian_closed<T: Real>(theta: T) -> (T, T) {
-    let half_sin = (theta * T::lit(0.5)).sin();
-    (
-        -(T::lit(2.0) * half_sin * half_sin) / theta,
-        (theta - theta.sin()) / theta,
-    )
+    let (s, c) = (theta * T::lit(0.5)).sin_cos();
+    let two_s = s + s;
+    (-(two_s * s) / theta, (theta - two_s * c) / theta)
 }
 
 /// Coefficients of hat(v) and hat(v)² in Jr as series in t2 = θ²:

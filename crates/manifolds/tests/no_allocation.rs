@@ -1,0 +1,85 @@
+//! Every operation of the manifold layer runs without touching the heap: a counting global allocator
+//! sees zero allocations across exp, log, compose, inverse, act, retract, local and every Jacobian.
+#![allow(unsafe_code)] // implementing GlobalAlloc is unsafe by definition; this wrapper only counts.
+
+use liebayes_manifolds::{GroupAction, LieGroup, Manifold, Rn, S2, So2, So3, Su2};
+use nalgebra::{Vector1, Vector2, Vector3};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::hint::black_box;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn group_ops<G: GroupAction<D, P>, const D: usize, const P: usize>(
+    a: &G,
+    b: &G,
+    v: &nalgebra::SVector<G::Scalar, D>,
+    p: &nalgebra::SVector<G::Scalar, P>,
+) {
+    black_box(G::exp(v));
+    black_box(a.log());
+    black_box(a.compose(b));
+    black_box(a.inverse());
+    black_box(a.act(p));
+    black_box(a.retract(v));
+    black_box(a.local(b));
+    black_box(a.adjoint());
+    black_box(G::right_jacobian(v));
+    black_box(G::right_jacobian_inverse(v));
+    black_box(G::left_jacobian(v));
+    black_box(G::left_jacobian_inverse(v));
+    black_box(a.j_compose_self(b));
+    black_box(a.j_compose_other(b));
+    black_box(a.j_inverse_self());
+    black_box(a.j_log_self());
+    black_box(a.j_retract_self(v));
+    black_box(a.j_retract_tangent(v));
+    black_box(a.j_local_self(b));
+    black_box(a.j_local_other(b));
+    black_box(a.j_act_self(p));
+    black_box(a.j_act_point(p));
+}
+
+#[test]
+fn no_heap_allocation_in_any_operation() {
+    let v = Vector3::new(0.3, -1.1, 0.7);
+    let w = Vector3::new(-0.4, 0.2, 2.1);
+    let p = Vector3::new(1.0, -2.0, 0.5);
+    let s2 = S2::new(Vector3::z()).unwrap();
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    group_ops(&So3::exp(&v), &So3::exp(&w), &v, &p);
+    group_ops(&Su2::exp(&v), &Su2::exp(&w), &v, &p);
+    group_ops(
+        &So2::exp(&Vector1::new(0.3)),
+        &So2::exp(&Vector1::new(-2.0)),
+        &Vector1::new(1.0),
+        &Vector2::new(1.0, 2.0),
+    );
+    group_ops(&Rn::new_unchecked(v), &Rn::new_unchecked(w), &v, &p);
+    let t = black_box(s2.retract(&Vector2::new(0.3, 0.2)));
+    black_box(s2.local(&t));
+    black_box(s2.tangent_basis());
+    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    assert_eq!(
+        after - before,
+        0,
+        "the manifold layer allocated on the heap"
+    );
+}
