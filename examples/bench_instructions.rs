@@ -1,13 +1,12 @@
-//! Instruction counts of the manifold layer beside nalgebra, for a measurement that does not depend on
-//! the load of a shared machine: run it under callgrind, once with `none` (the setup alone) and once per
-//! operation, and divide the difference by the number of calls (10⁶).
+//! Instruction counts of the manifold layer beside nalgebra, a measurement that does not depend on the
+//! load of a shared machine. Each operation sits in its own never-inlined function, called 10⁶ times on
+//! varied inputs; callgrind's inclusive count of that function divided by the number of calls is the
+//! cost of one call, free of the codegen of the surrounding loop.
 //!
 //! ```sh
 //! cargo build --release --example bench_instructions
-//! for op in none exp_ours exp_nalgebra log_ours log_nalgebra compose_ours compose_nalgebra act_ours act_nalgebra; do
-//!   valgrind --tool=callgrind --callgrind-out-file=/dev/null \
-//!     target/release/examples/bench_instructions $op 2>&1 | grep Collected
-//! done
+//! valgrind --tool=callgrind --callgrind-out-file=callgrind.out target/release/examples/bench_instructions
+//! callgrind_annotate --inclusive=yes callgrind.out | grep 'bench_instructions::op_'
 //! ```
 
 use liebayes::manifolds::{GroupAction, LieGroup, So3};
@@ -16,6 +15,46 @@ use std::hint::black_box;
 
 const INPUTS: u32 = 100_000;
 const REPEATS: usize = 10;
+
+#[inline(never)]
+fn op_exp_ours(v: &Vector3<f64>) -> So3<f64> {
+    So3::exp(v)
+}
+
+#[inline(never)]
+fn op_exp_nalgebra(v: &Vector3<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_scaled_axis(*v)
+}
+
+#[inline(never)]
+fn op_log_ours(r: &So3<f64>) -> Vector3<f64> {
+    r.log()
+}
+
+#[inline(never)]
+fn op_log_nalgebra(q: &UnitQuaternion<f64>) -> Vector3<f64> {
+    q.scaled_axis()
+}
+
+#[inline(never)]
+fn op_compose_ours(a: &So3<f64>, b: &So3<f64>) -> So3<f64> {
+    a.compose(b)
+}
+
+#[inline(never)]
+fn op_compose_nalgebra(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    a * b
+}
+
+#[inline(never)]
+fn op_act_ours(r: &So3<f64>, p: &Vector3<f64>) -> Vector3<f64> {
+    r.act(p)
+}
+
+#[inline(never)]
+fn op_act_nalgebra(q: &UnitQuaternion<f64>, p: &Vector3<f64>) -> Vector3<f64> {
+    q * p
+}
 
 fn main() {
     let v: Vec<_> = (0..INPUTS)
@@ -30,42 +69,21 @@ fn main() {
         .iter()
         .map(|x| UnitQuaternion::from_scaled_axis(*x))
         .collect();
-    let op = std::env::args().nth(1).unwrap_or_else(|| "none".into());
-    let mut sum = 0.0;
     for _ in 0..REPEATS {
-        match op.as_str() {
-            "none" => {}
-            "exp_ours" => v
-                .iter()
-                .for_each(|x| sum += So3::exp(black_box(x)).to_quaternion_wxyz()[0]),
-            "exp_nalgebra" => v
-                .iter()
-                .for_each(|x| sum += UnitQuaternion::from_scaled_axis(*black_box(x)).w),
-            "log_ours" => ours.iter().for_each(|r| sum += black_box(r).log().x),
-            "log_nalgebra" => theirs
-                .iter()
-                .for_each(|q| sum += black_box(q).scaled_axis().x),
-            "compose_ours" => ours.windows(2).for_each(|w| {
-                sum += black_box(&w[0])
-                    .compose(black_box(&w[1]))
-                    .to_quaternion_wxyz()[0];
-            }),
-            "compose_nalgebra" => theirs
-                .windows(2)
-                .for_each(|w| sum += (black_box(&w[0]) * black_box(&w[1])).w),
-            "act_ours" => ours
-                .iter()
-                .zip(&v)
-                .for_each(|(r, p)| sum += black_box(r).act(black_box(p)).x),
-            "act_nalgebra" => theirs
-                .iter()
-                .zip(&v)
-                .for_each(|(q, p)| sum += (black_box(q) * black_box(p)).x),
-            other => {
-                eprintln!("unknown operation {other}");
-                std::process::exit(2);
-            }
+        for i in 0..v.len() {
+            let j = (i + 1) % v.len();
+            black_box(op_exp_ours(black_box(&v[i])));
+            black_box(op_exp_nalgebra(black_box(&v[i])));
+            black_box(op_log_ours(black_box(&ours[i])));
+            black_box(op_log_nalgebra(black_box(&theirs[i])));
+            black_box(op_compose_ours(black_box(&ours[i]), black_box(&ours[j])));
+            black_box(op_compose_nalgebra(
+                black_box(&theirs[i]),
+                black_box(&theirs[j]),
+            ));
+            black_box(op_act_ours(black_box(&ours[i]), black_box(&v[j])));
+            black_box(op_act_nalgebra(black_box(&theirs[i]), black_box(&v[j])));
         }
     }
-    println!("{op}: checksum {sum}");
+    println!("{} calls of each operation", v.len() * REPEATS);
 }

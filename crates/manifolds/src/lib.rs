@@ -45,6 +45,7 @@
 //! With the `proptest` feature, [`testing`] exports the strategies (uniform and curated edge elements
 //! for every space) and the generic law suite this crate tests itself with.
 
+mod approx_impls;
 pub mod constants;
 mod error;
 mod lie_group;

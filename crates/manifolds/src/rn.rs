@@ -4,7 +4,6 @@ use crate::error::{ManifoldError, check_finite};
 use crate::lie_group::{GroupAction, LieGroup};
 use crate::manifold::{Jacobian, Manifold, Tangent};
 use crate::real::Real;
-use approx::{AbsDiffEq, RelativeEq};
 use nalgebra::SVector;
 
 /// A point of Rⁿ, the additive group: compose is `+`, exp and log are the identity map, and every
@@ -147,24 +146,7 @@ impl<T: Real, const N: usize> GroupAction<N, N> for Rn<T, N> {
     }
 }
 
-impl<T: Real, const N: usize> AbsDiffEq for Rn<T, N> {
-    type Epsilon = T;
-    fn default_epsilon() -> T {
-        T::default_epsilon()
-    }
-    fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
-        self.v.abs_diff_eq(&other.v, epsilon)
-    }
-}
-
-impl<T: Real, const N: usize> RelativeEq for Rn<T, N> {
-    fn default_max_relative() -> T {
-        T::default_max_relative()
-    }
-    fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
-        self.v.relative_eq(&other.v, epsilon, max_relative)
-    }
-}
+crate::approx_impls::impl_approx_by_field!(Rn<T, N>, [T: Real, const N: usize], v);
 
 impl<T: Real, const N: usize> From<Rn<T, N>> for SVector<T, N> {
     #[inline]

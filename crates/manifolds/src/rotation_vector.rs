@@ -53,12 +53,16 @@ pub(crate) fn norm<T: Real>(v: &Vector3<T>) -> T {
 pub(crate) fn exp<T: Real>(v: &Vector3<T>) -> UnitQuaternion<T> {
     let theta = norm(v);
     let (s, c) = (theta * T::lit(0.5)).sin_cos();
-    // k = sin(θ/2) / θ = (1/2) (1 − θ²/24 + θ⁴/1920 − …)
+    // k = sin(θ/2) / θ = (1/2) (1 − θ²/24 + θ⁴/1920 − …). Both candidates are computed and one is
+    // selected: with sin and cos in one basic block the compiler fuses them into a single `sincos`
+    // call (the discarded quotient may be 0/0 at θ = 0; it is never used).
+    let t2 = theta * theta;
+    let series = T::lit(0.5) * (T::one() - t2 / T::lit(24.0) + t2 * t2 / T::lit(1920.0));
+    let direct = s / theta;
     let k = if theta < T::SERIES_ANGLE {
-        let t2 = theta * theta;
-        T::lit(0.5) * (T::one() - t2 / T::lit(24.0) + t2 * t2 / T::lit(1920.0))
+        series
     } else {
-        s / theta
+        direct
     };
     UnitQuaternion::new_unchecked(Quaternion::new(c, v.x * k, v.y * k, v.z * k))
 }
@@ -173,6 +177,105 @@ pub(crate) fn right_jacobian_inverse<T: Real>(v: &Vector3<T>) -> Matrix3<T> {
         right_jacobian_inverse_series,
     )
 }
+
+/// `q v q*` for any finite `v`. nalgebra's formula doubles intermediate products, which overflow to NaN for
+/// coordinates near the largest finite value; then the point is scaled down by its largest coordinate
+/// first (one extra check on the fast path).
+#[inline]
+pub(crate) fn rotate<T: Real>(q: &UnitQuaternion<T>, v: &Vector3<T>) -> Vector3<T> {
+    let r = q * v;
+    if (r.x + r.y + r.z).is_finite() {
+        r
+    } else {
+        rotate_huge(q, v)
+    }
+}
+
+/// [`rotate`] for points whose coordinates overflow the direct formula.
+#[cold]
+#[inline(never)]
+fn rotate_huge<T: Real>(q: &UnitQuaternion<T>, v: &Vector3<T>) -> Vector3<T> {
+    let scale = v.amax();
+    (q * (v / scale)) * scale
+}
+
+/// The [`LieGroup`](crate::LieGroup) methods that SO(3) and SU(2) share: both store a unit quaternion
+/// in a field `q` and use rotation vectors as tangent coordinates.
+macro_rules! quaternion_group_methods {
+    () => {
+        #[inline]
+        fn identity() -> Self {
+            Self::from_unit_quaternion(nalgebra::UnitQuaternion::identity())
+        }
+
+        #[inline]
+        fn compose(&self, other: &Self) -> Self {
+            Self::from_unit_quaternion(self.q * other.q)
+        }
+
+        #[inline]
+        fn inverse(&self) -> Self {
+            Self::from_unit_quaternion(self.q.inverse())
+        }
+
+        /// `exp(v) = (cos(θ/2), sin(θ/2) v/θ)`, θ = |v|, with the Taylor series below the series angle.
+        #[inline]
+        fn exp(v: &$crate::Tangent<T, 3>) -> Self {
+            Self::from_unit_quaternion($crate::rotation_vector::exp(v))
+        }
+
+        /// `Ad = R`, the rotation matrix.
+        #[inline]
+        fn adjoint(&self) -> $crate::Jacobian<T, 3, 3> {
+            self.q.to_rotation_matrix().into_inner()
+        }
+
+        /// `Jr(v) = I − ((1 − cos θ)/θ²) hat(v) + ((θ − sin θ)/θ³) hat(v)²`.
+        #[inline]
+        fn right_jacobian(v: &$crate::Tangent<T, 3>) -> $crate::Jacobian<T, 3, 3> {
+            $crate::rotation_vector::right_jacobian(v)
+        }
+
+        /// `Jr⁻¹(v) = I + hat(v)/2 + (1/θ² − cot(θ/2)/(2θ)) hat(v)²`; singular at θ = 2π k (k ≥ 1).
+        #[inline]
+        fn right_jacobian_inverse(v: &$crate::Tangent<T, 3>) -> $crate::Jacobian<T, 3, 3> {
+            $crate::rotation_vector::right_jacobian_inverse(v)
+        }
+
+        /// `Ad(other⁻¹) = R(other)ᵀ`.
+        #[inline]
+        fn j_compose_self(&self, other: &Self) -> $crate::Jacobian<T, 3, 3> {
+            other.q.to_rotation_matrix().into_inner().transpose()
+        }
+    };
+}
+pub(crate) use quaternion_group_methods;
+
+/// The action of SO(3) or SU(2) on R³, `v ↦ q v q*`, with its Jacobians.
+macro_rules! impl_rotation_action {
+    ($ty:ident) => {
+        impl<T: $crate::Real> $crate::GroupAction<3, 3> for $ty<T> {
+            /// `q v q*`, valid for every finite point.
+            #[inline]
+            fn act(&self, p: &nalgebra::Vector3<T>) -> nalgebra::Vector3<T> {
+                $crate::rotation_vector::rotate(&self.q, p)
+            }
+
+            /// `−R hat(p)`.
+            #[inline]
+            fn j_act_self(&self, p: &nalgebra::Vector3<T>) -> $crate::Jacobian<T, 3, 3> {
+                -(self.q.to_rotation_matrix().into_inner() * $crate::rotation_vector::hat(p))
+            }
+
+            /// `R`.
+            #[inline]
+            fn j_act_point(&self, _p: &nalgebra::Vector3<T>) -> $crate::Jacobian<T, 3, 3> {
+                self.q.to_rotation_matrix().into_inner()
+            }
+        }
+    };
+}
+pub(crate) use impl_rotation_action;
 
 #[cfg(test)]
 mod tests {

@@ -4,7 +4,6 @@ use crate::error::{ManifoldError, check_unit, normalized};
 use crate::manifold::{Manifold, Tangent};
 use crate::real::Real;
 use crate::rotation_vector;
-use approx::{AbsDiffEq, RelativeEq};
 use nalgebra::{Matrix3x2, Unit, Vector3};
 
 /// A unit vector of R³, a point of the sphere S².
@@ -90,12 +89,15 @@ impl<T: Real> S2<T> {
         let w = w - x * x.dot(w);
         let theta = rotation_vector::norm(&w);
         let (s, c) = theta.sin_cos();
-        // sin θ / θ = 1 − θ²/6 + θ⁴/120 − …
+        // sin θ / θ = 1 − θ²/6 + θ⁴/120 − …; both candidates computed, one selected (see
+        // `rotation_vector::exp`: keeps sin and cos fused into one call).
+        let t2 = theta * theta;
+        let series = T::one() - t2 / T::lit(6.0) + t2 * t2 / T::lit(120.0);
+        let direct = s / theta;
         let sinc = if theta < T::SERIES_ANGLE {
-            let t2 = theta * theta;
-            T::one() - t2 / T::lit(6.0) + t2 * t2 / T::lit(120.0)
+            series
         } else {
-            s / theta
+            direct
         };
         Self::new_unchecked((x * c + w * sinc).normalize())
     }
@@ -145,24 +147,7 @@ impl<T: Real> Manifold<2> for S2<T> {
     }
 }
 
-impl<T: Real> AbsDiffEq for S2<T> {
-    type Epsilon = T;
-    fn default_epsilon() -> T {
-        T::default_epsilon()
-    }
-    fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
-        self.n.abs_diff_eq(&other.n, epsilon)
-    }
-}
-
-impl<T: Real> RelativeEq for S2<T> {
-    fn default_max_relative() -> T {
-        T::default_max_relative()
-    }
-    fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
-        self.n.relative_eq(&other.n, epsilon, max_relative)
-    }
-}
+crate::approx_impls::impl_approx_by_field!(S2<T>, [T: Real], n);
 
 impl<T: Real> From<Unit<Vector3<T>>> for S2<T> {
     #[inline]

@@ -4,7 +4,6 @@ use crate::error::{ManifoldError, check_finite, check_rotation_matrix, check_uni
 use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
 use crate::manifold::{Jacobian, Tangent};
 use crate::real::Real;
-use approx::{AbsDiffEq, RelativeEq};
 use nalgebra::{Complex, Matrix1, Matrix2, Rotation2, UnitComplex, Vector1, Vector2};
 
 /// A rotation of the plane, an element of SO(2), stored as a unit complex number `cos θ + i sin θ`.
@@ -220,25 +219,7 @@ impl<T: Real> PartialEq for So2<T> {
     }
 }
 
-impl<T: Real> AbsDiffEq for So2<T> {
-    type Epsilon = T;
-    fn default_epsilon() -> T {
-        T::default_epsilon()
-    }
-    /// Compares (cos, sin).
-    fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
-        self.z.abs_diff_eq(&other.z, epsilon)
-    }
-}
-
-impl<T: Real> RelativeEq for So2<T> {
-    fn default_max_relative() -> T {
-        T::default_max_relative()
-    }
-    fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
-        self.z.relative_eq(&other.z, epsilon, max_relative)
-    }
-}
+crate::approx_impls::impl_approx_by_field!(So2<T>, [T: Real], z);
 
 impl<T: Real> From<UnitComplex<T>> for So2<T> {
     #[inline]

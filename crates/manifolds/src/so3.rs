@@ -1,8 +1,8 @@
 //! [`So3`]: rotations of space.
 
 use crate::error::{ManifoldError, check_finite, check_rotation_matrix, normalized};
-use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
-use crate::manifold::{Jacobian, Tangent};
+use crate::lie_group::{LieGroup, impl_manifold_for_group};
+use crate::manifold::Tangent;
 use crate::real::Real;
 use crate::rotation_vector;
 use crate::su2::Su2;
@@ -181,33 +181,14 @@ impl<T: Real> So3<T> {
     /// Rotates a vector: `R v = q v q*`.
     #[inline]
     pub fn rotate(&self, v: &Vector3<T>) -> Vector3<T> {
-        self.q * v
+        rotation_vector::rotate(&self.q, v)
     }
 }
 
 impl<T: Real> LieGroup<3> for So3<T> {
     type Algebra = Matrix3<T>;
 
-    #[inline]
-    fn identity() -> Self {
-        Self::from_unit_quaternion(UnitQuaternion::identity())
-    }
-
-    #[inline]
-    fn compose(&self, other: &Self) -> Self {
-        Self::from_unit_quaternion(self.q * other.q)
-    }
-
-    #[inline]
-    fn inverse(&self) -> Self {
-        Self::from_unit_quaternion(self.q.inverse())
-    }
-
-    /// `exp(v) = (cos(θ/2), sin(θ/2) v/θ)`, θ = |v|, with the Taylor series below the series angle.
-    #[inline]
-    fn exp(v: &Tangent<T, 3>) -> Self {
-        Self::from_unit_quaternion(rotation_vector::exp(v))
-    }
+    rotation_vector::quaternion_group_methods!();
 
     /// The rotation vector with angle in [0, π]: the quaternion is first taken with `w >= 0`, then
     /// `θ = 2 atan2(|xyz|, w)`. At angle π both ±axis are logarithms; the sign of the stored axis is
@@ -238,52 +219,11 @@ impl<T: Real> LieGroup<3> for So3<T> {
         let r = self.to_matrix();
         r * a * r.transpose()
     }
-
-    /// `Ad(R) = R`.
-    #[inline]
-    fn adjoint(&self) -> Jacobian<T, 3, 3> {
-        self.to_matrix()
-    }
-
-    /// `Jr(v) = I − ((1 − cos θ)/θ²) hat(v) + ((θ − sin θ)/θ³) hat(v)²`.
-    #[inline]
-    fn right_jacobian(v: &Tangent<T, 3>) -> Jacobian<T, 3, 3> {
-        rotation_vector::right_jacobian(v)
-    }
-
-    /// `Jr⁻¹(v) = I + hat(v)/2 + (1/θ² − cot(θ/2)/(2θ)) hat(v)²`; finite for θ < 2π.
-    #[inline]
-    fn right_jacobian_inverse(v: &Tangent<T, 3>) -> Jacobian<T, 3, 3> {
-        rotation_vector::right_jacobian_inverse(v)
-    }
-
-    /// `Ad(other⁻¹) = R_otherᵀ`.
-    #[inline]
-    fn j_compose_self(&self, other: &Self) -> Jacobian<T, 3, 3> {
-        other.to_matrix().transpose()
-    }
 }
 
 impl_manifold_for_group!(So3, 3);
 
-impl<T: Real> GroupAction<3, 3> for So3<T> {
-    #[inline]
-    fn act(&self, p: &Vector3<T>) -> Vector3<T> {
-        self.q * p
-    }
-
-    /// `−R hat(p)`.
-    #[inline]
-    fn j_act_self(&self, p: &Vector3<T>) -> Jacobian<T, 3, 3> {
-        -(self.to_matrix() * rotation_vector::hat(p))
-    }
-
-    /// `R`.
-    #[inline]
-    fn j_act_point(&self, _p: &Vector3<T>) -> Jacobian<T, 3, 3> {
-        self.to_matrix()
-    }
-}
+rotation_vector::impl_rotation_action!(So3);
 
 /// Equal when the quaternions are equal up to sign (q and −q are one rotation).
 impl<T: Real> PartialEq for So3<T> {

@@ -1,12 +1,11 @@
 //! [`Su2`]: unit quaternions, the double cover of SO(3).
 
 use crate::error::{ManifoldError, check_finite, check_unit, normalized};
-use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
-use crate::manifold::{Jacobian, Tangent};
+use crate::lie_group::{LieGroup, impl_manifold_for_group};
+use crate::manifold::Tangent;
 use crate::real::Real;
 use crate::rotation_vector;
 use crate::so3::So3;
-use approx::{AbsDiffEq, RelativeEq};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 /// A unit quaternion, an element of SU(2) ≅ S³, the double cover of SO(3).
@@ -118,26 +117,7 @@ impl<T: Real> LieGroup<3> for Su2<T> {
     /// Pure quaternions: `hat(v) = (0, v/2)`, so that the quaternion exponential of `hat(v)` is `exp(v)`.
     type Algebra = Quaternion<T>;
 
-    #[inline]
-    fn identity() -> Self {
-        Self::from_unit_quaternion(UnitQuaternion::identity())
-    }
-
-    #[inline]
-    fn compose(&self, other: &Self) -> Self {
-        Self::from_unit_quaternion(self.q * other.q)
-    }
-
-    #[inline]
-    fn inverse(&self) -> Self {
-        Self::from_unit_quaternion(self.q.inverse())
-    }
-
-    /// `exp(v) = (cos(θ/2), sin(θ/2) v/θ)`, θ = |v|, with the Taylor series below the series angle.
-    #[inline]
-    fn exp(v: &Tangent<T, 3>) -> Self {
-        Self::from_unit_quaternion(rotation_vector::exp(v))
-    }
+    rotation_vector::quaternion_group_methods!();
 
     /// `v = 2 atan2(|xyz|, w) xyz/|xyz|`, |v| in [0, 2π]; at q = −1 exactly, `(2π, 0, 0)`.
     #[inline]
@@ -160,53 +140,11 @@ impl<T: Real> LieGroup<3> for Su2<T> {
     fn conjugate_algebra(&self, a: &Quaternion<T>) -> Quaternion<T> {
         self.q.quaternion() * a * self.q.conjugate().quaternion()
     }
-
-    /// `Ad(q) = R(q)`, the rotation matrix.
-    #[inline]
-    fn adjoint(&self) -> Jacobian<T, 3, 3> {
-        self.to_rotation_matrix()
-    }
-
-    /// Same as SO(3): `Jr(v) = I − ((1 − cos θ)/θ²) hat(v) + ((θ − sin θ)/θ³) hat(v)²`.
-    #[inline]
-    fn right_jacobian(v: &Tangent<T, 3>) -> Jacobian<T, 3, 3> {
-        rotation_vector::right_jacobian(v)
-    }
-
-    /// Same as SO(3); singular at θ = 2π, where SU(2)'s exp folds onto −1.
-    #[inline]
-    fn right_jacobian_inverse(v: &Tangent<T, 3>) -> Jacobian<T, 3, 3> {
-        rotation_vector::right_jacobian_inverse(v)
-    }
-
-    /// `Ad(other⁻¹) = R(other)ᵀ`.
-    #[inline]
-    fn j_compose_self(&self, other: &Self) -> Jacobian<T, 3, 3> {
-        other.to_rotation_matrix().transpose()
-    }
 }
 
 impl_manifold_for_group!(Su2, 3);
 
-impl<T: Real> GroupAction<3, 3> for Su2<T> {
-    /// `q v q*`.
-    #[inline]
-    fn act(&self, p: &Vector3<T>) -> Vector3<T> {
-        self.q * p
-    }
-
-    /// `−R hat(p)`.
-    #[inline]
-    fn j_act_self(&self, p: &Vector3<T>) -> Jacobian<T, 3, 3> {
-        -(self.to_rotation_matrix() * rotation_vector::hat(p))
-    }
-
-    /// `R`.
-    #[inline]
-    fn j_act_point(&self, _p: &Vector3<T>) -> Jacobian<T, 3, 3> {
-        self.to_rotation_matrix()
-    }
-}
+rotation_vector::impl_rotation_action!(Su2);
 
 /// Equal when the coefficients are equal: q and −q differ on SU(2).
 impl<T: Real> PartialEq for Su2<T> {
@@ -215,26 +153,7 @@ impl<T: Real> PartialEq for Su2<T> {
     }
 }
 
-impl<T: Real> AbsDiffEq for Su2<T> {
-    type Epsilon = T;
-    fn default_epsilon() -> T {
-        T::default_epsilon()
-    }
-    fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
-        self.q.coords.abs_diff_eq(&other.q.coords, epsilon)
-    }
-}
-
-impl<T: Real> RelativeEq for Su2<T> {
-    fn default_max_relative() -> T {
-        T::default_max_relative()
-    }
-    fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
-        self.q
-            .coords
-            .relative_eq(&other.q.coords, epsilon, max_relative)
-    }
-}
+crate::approx_impls::impl_approx_by_field!(Su2<T>, [T: Real], q.coords);
 
 impl<T: Real> From<UnitQuaternion<T>> for Su2<T> {
     #[inline]

@@ -10,7 +10,7 @@ use liebayes_manifolds::testing::{Tolerance, strategies as st};
 use proptest::prelude::*;
 
 /// Cases per property: enough to hit every curated class many times (each has weight >= 1/16).
-const CASES: u32 = 512;
+const CASES: u32 = 2048;
 
 macro_rules! group_laws {
     ($name:ident, $t:ty, $elem:expr, $tangent:expr, $point:expr) => {
