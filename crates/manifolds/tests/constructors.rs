@@ -42,6 +42,7 @@ proptest! {
             Ok(e) => { prop_assert!(unit); prop_assert!(finite_slice(&e.to_quaternion_wxyz())); }
             Err(err) => { prop_assert!(!unit); prop_assert!(!err.to_string().is_empty()); }
         }
+        prop_assert_eq!(Su2::from_quaternion_wxyz(w, x, y, z).is_ok(), unit);
         prop_assert_eq!(So3::from_quaternion(q).is_ok(), unit);
         prop_assert_eq!(So3::from_quaternion_wxyz(w, x, y, z).is_ok(), unit);
         match So3::from_quaternion_normalizing(q) {
