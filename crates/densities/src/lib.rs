@@ -2,13 +2,24 @@
 //!
 //! Probability densities on the spaces of [`liebayes_manifolds`], and the special functions they need.
 //!
-//! This crate will own (see `docs/architecture.md`): `Gaussian<N>` on Rⁿ and `TangentGaussian<G>` on any
-//! Lie group; `VonMises` and `GenVonMises2` on SO(2); `VonMisesFisher` on S²; `Bingham` on SU(2);
-//! `HeatKernelSo3` (isotropic diffusion on SO(3)); the traits of their algebra (`log_pdf`,
-//! `log_normalizer`, `sample`, `mode`, moments, `product`, `convolve`) and the module `special`
-//! (log I0, Bessel ratios, the Bingham normaliser). It depends only on `liebayes-manifolds`.
+//! * [`special`]: log I₀, log I₁, Bessel ratios Iₙ/I₀, the inverse of A(κ) = I₁/I₀, the von
+//!   Mises-Fisher mean resultant length and log normaliser, all stable for κ from 0 to 1e6.
 //!
-//! It is empty until the densities issue lands; the facade already re-exports it so that user code can
-//! name it.
+//! The densities of the seeds (von Mises and its second-harmonic generalisation on SO(2), von
+//! Mises-Fisher on S², Bingham on SU(2), the heat kernel on SO(3), Gaussians on Rⁿ and on the tangent
+//! spaces of Lie groups) and the traits of their algebra are being built on top of this module.
+//! The numbers are f64: the manifolds are generic over the scalar, the densities are not (yet).
 
+mod error;
+pub mod special;
+#[cfg(feature = "proptest")]
+pub mod testing;
+mod traits;
+mod von_mises;
+mod von_mises_fisher;
+
+pub use error::DensityError;
 pub use liebayes_manifolds as manifolds;
+pub use traits::{Density, Entropy, KlDivergence, Product};
+pub use von_mises::VonMises;
+pub use von_mises_fisher::VonMisesFisher;

@@ -1,0 +1,52 @@
+//! The error type of the densities crate.
+
+use liebayes_manifolds::ManifoldError;
+
+/// Why parameters or arguments do not define a density or a value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum DensityError {
+    /// A parameter is NaN or infinite.
+    #[error("{what} is {value}: it must be a finite number")]
+    NonFinite {
+        /// The parameter.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A parameter lies outside the range where the density or function is defined.
+    #[error("{what} is {value}, outside its range {range}")]
+    OutOfRange {
+        /// The parameter.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+        /// The valid range, in words.
+        range: &'static str,
+    },
+    /// A point or parameter on a manifold was invalid.
+    #[error(transparent)]
+    Manifold(#[from] ManifoldError),
+}
+
+/// Checks that `value` is finite.
+pub(crate) fn finite(what: &'static str, value: f64) -> Result<f64, DensityError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(DensityError::NonFinite { what, value })
+    }
+}
+
+/// Checks that `value` is finite and non-negative.
+pub(crate) fn non_negative(what: &'static str, value: f64) -> Result<f64, DensityError> {
+    finite(what, value)?;
+    if value < 0.0 {
+        return Err(DensityError::OutOfRange {
+            what,
+            value,
+            range: "[0, infinity)",
+        });
+    }
+    Ok(value)
+}
