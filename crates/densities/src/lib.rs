@@ -11,6 +11,8 @@
 //! The numbers are f64: the manifolds are generic over the scalar, the densities are not (yet).
 
 mod error;
+mod heat_kernel;
+mod quadrature;
 pub mod special;
 #[cfg(feature = "proptest")]
 pub mod testing;
@@ -19,6 +21,7 @@ mod von_mises;
 mod von_mises_fisher;
 
 pub use error::DensityError;
+pub use heat_kernel::HeatKernelSo3;
 pub use liebayes_manifolds as manifolds;
 pub use traits::{Density, Entropy, KlDivergence, Product};
 pub use von_mises::VonMises;

@@ -1,0 +1,275 @@
+//! [`HeatKernelSo3`]: the isotropic diffusion ("heat kernel") distribution on SO(3).
+
+use crate::error::{DensityError, finite};
+use crate::quadrature;
+use crate::traits::{Density, Entropy};
+use liebayes_manifolds::{LieGroup, So3};
+use nalgebra::{Matrix3, Vector3};
+use rand::Rng;
+use std::f64::consts::PI;
+
+/// Below this variance the density uses the Poisson-summed (small-time) form, above it the character
+/// series (both are exact; each converges fast on its side: ERRATA.md measured 8e-14 with this switch).
+const POISSON_LIMIT: f64 = 1.0;
+
+/// Below this variance the angle CDF integrates the angle density numerically; above it, it sums the
+/// closed-form series (which needs about √(80/s) terms).
+const CDF_SERIES_LIMIT: f64 = 0.05;
+
+/// The isotropic heat kernel on SO(3), `LD(c, s I)` in seed 002's notation: the distribution of
+/// `c · exp(ω)` for Brownian motion run for "time" s in the tangent space, that is per-axis tangent
+/// variance `s = σ²` (rad²). Its density with respect to the **normalised Haar measure** depends only on
+/// the rotation angle t of `c⁻¹ R`:
+///
+/// `f(t) = Σ_(l≥0) (2l+1) e^(−l(l+1)s/2) sin((l+½)t) / sin(t/2)`
+///
+/// (the degree-l Fourier coefficient is `e^(−l(l+1)s/2)`), and the angle itself has density
+/// `f(t) (1 − cos t)/π` on [0, π]. For s < 1 the density is evaluated by its Poisson-summed form
+///
+/// `f(t) = √(2π) s^(−3/2) e^(s/8) / sin(t/2) · Σ_m (−1)^m (t + 2πm) e^(−(t + 2πm)²/(2s))`,
+///
+/// entirely in logarithms, so `log_pdf` stays finite where the density underflows (s = 1e-4 at t = π:
+/// ln f ≈ −49 000). Range: s from 1e-6 to 10 and beyond, all angles including 0 and π.
+/// Convolution is closed: `LD(c₁, s₁) * LD(c₂, s₂) = LD(c₁ c₂, s₁ + s₂)`.
+/// See `docs/densities/heat_kernel_so3.md`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeatKernelSo3 {
+    center: So3<f64>,
+    s: f64,
+}
+
+impl HeatKernelSo3 {
+    /// The heat kernel centred at `center` with per-axis variance `s = σ² > 0` (rad²).
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `s > 0`.
+    pub fn new(center: So3<f64>, s: f64) -> Result<Self, DensityError> {
+        finite("variance s", s)?;
+        if s <= 0.0 {
+            return Err(DensityError::OutOfRange {
+                what: "variance s",
+                value: s,
+                range: "(0, infinity)",
+            });
+        }
+        Ok(Self { center, s })
+    }
+
+    /// The centre (the mode and the mean rotation).
+    pub fn center(&self) -> &So3<f64> {
+        &self.center
+    }
+
+    /// The per-axis tangent variance s = σ².
+    pub fn variance(&self) -> f64 {
+        self.s
+    }
+
+    /// The degree-l Fourier coefficient (normalised character expectation) `E[χ_l(c⁻¹R)]/(2l+1) =
+    /// e^(−l(l+1)s/2)`.
+    pub fn fourier_coefficient(&self, l: u32) -> f64 {
+        let l = f64::from(l);
+        (-l * (l + 1.0) * self.s / 2.0).exp()
+    }
+
+    /// `E[R] = e^(−s) C`, with C the centre's matrix (E[tr R] = 3 e^(−s) about the centre).
+    pub fn mean_matrix(&self) -> Matrix3<f64> {
+        self.center.to_matrix() * (-self.s).exp()
+    }
+
+    /// `ln f(t)` for the rotation angle t ∈ [0, π] of `c⁻¹ R`.
+    pub fn log_density_of_angle(&self, t: f64) -> f64 {
+        let t = t.abs().min(PI);
+        if self.s < POISSON_LIMIT {
+            log_density_poisson(self.s, t)
+        } else {
+            density_series(self.s, t).ln()
+        }
+    }
+
+    /// The density of the rotation angle, `f(t) (1 − cos t)/π` on [0, π].
+    pub fn angle_pdf(&self, t: f64) -> f64 {
+        let half = (t / 2.0).sin();
+        (self.log_density_of_angle(t) + (2.0 * half * half / PI).ln()).exp()
+    }
+
+    /// The CDF of the rotation angle, `∫_0^t f(u)(1 − cos u)/π du`, for t ∈ [0, π].
+    pub fn angle_cdf(&self, t: f64) -> f64 {
+        let t = t.clamp(0.0, PI);
+        if self.s >= CDF_SERIES_LIMIT {
+            return cdf_series(self.s, t).clamp(0.0, 1.0);
+        }
+        // The angle density is negligible (below e^(−70)) past 12 √s: integrate up to there only,
+        // on panels of width √s/2.
+        let end = t.min(12.0 * self.s.sqrt());
+        let panels = (2.0 * end / self.s.sqrt()).ceil().max(1.0);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let panels = panels as usize;
+        quadrature::integrate(|u| self.angle_pdf(u), 0.0, end, panels).clamp(0.0, 1.0)
+    }
+
+    /// **Approximation-free** convolution: `LD(c₁ c₂, s₁ + s₂)`.
+    #[must_use]
+    pub fn convolve(&self, other: &Self) -> Self {
+        Self {
+            center: self.center.compose(&other.center),
+            s: self.s + other.s,
+        }
+    }
+}
+
+/// `Σ_l (2l+1) e^(−l(l+1)s/2) U_(2l)(cos(t/2))` with the Chebyshev recurrence
+/// `U_(n+1) = 2c U_n − U_(n−1)` (so `sin((l+½)t)/sin(t/2)` is exact at t = 0 and t = π), until the
+/// weights fall below 1e-18 of the sum.
+fn density_series(s: f64, t: f64) -> f64 {
+    let c2 = 2.0 * (t / 2.0).cos();
+    let (mut u_prev, mut u) = (0.0, 1.0); // U_(−1), U_0
+    let mut sum = 1.0;
+    for l in 1.. {
+        let lf = f64::from(l);
+        // advance two steps: U_(2l−1), U_(2l)
+        for _ in 0..2 {
+            let next = c2 * u - u_prev;
+            u_prev = u;
+            u = next;
+        }
+        let weight = (2.0 * lf + 1.0) * (-lf * (lf + 1.0) * s / 2.0).exp();
+        sum += weight * u;
+        if weight * (2.0 * lf + 1.0) < 1e-18 * sum.abs() {
+            break;
+        }
+    }
+    sum
+}
+
+/// `sinh(x)/x`, with its Taylor series below 1e-3.
+fn sinhc(x: f64) -> f64 {
+    if x.abs() < 1e-3 {
+        let x2 = x * x;
+        1.0 + x2 / 6.0 * (1.0 + x2 / 20.0)
+    } else {
+        x.sinh() / x
+    }
+}
+
+/// `ln f(t)` by the Poisson-summed form, written so that nothing cancels at t = 0 or overflows at
+/// t = π:
+///
+/// `ln f = ½ ln 2π − (3/2) ln s + s/8 + ln(t / sin(t/2)) − t²/(2s) + ln(S(t)/t)`,
+///
+/// `S(t)/t = 1 + Σ_(m=1..3) (−1)^m [E₊ + E₋ − (a/t)(E₊ − E₋)]`, `a = 2πm`,
+/// `E± = e^(±a t/s − a²/(2s))`, with `(a/t)(E₊ − E₋) = (2a²/s) e^(−a²/2s) sinhc(a t/s)` for small
+/// a t/s. Images beyond |m| = 3 weigh less than e^(−18π²/s) ≈ 1e-77 at s = 1.
+fn log_density_poisson(s: f64, t: f64) -> f64 {
+    let mut ratio = 1.0; // S(t)/t
+    for m in 1..=3 {
+        let a = 2.0 * PI * f64::from(m);
+        let x = a * t / s;
+        let c = a * a / (2.0 * s);
+        let e_plus = (x - c).exp();
+        let e_minus = (-x - c).exp();
+        let sinh_part = if x < 1.0 {
+            2.0 * a * a / s * (-c).exp() * sinhc(x)
+        } else {
+            a / t * (e_plus - e_minus)
+        };
+        let sign = if m % 2 == 0 { 1.0 } else { -1.0 };
+        ratio += sign * (e_plus + e_minus - sinh_part);
+    }
+    // t / sin(t/2): 2 (1 + t²/24 + 7t⁴/5760) near 0.
+    let t_over_sin = if t < 1e-4 {
+        let t2 = t * t;
+        2.0 * (1.0 + t2 / 24.0 + 7.0 * t2 * t2 / 5760.0)
+    } else {
+        t / (t / 2.0).sin()
+    };
+    0.5 * (2.0 * PI).ln() - 1.5 * s.ln() + s / 8.0 + t_over_sin.ln() - t * t / (2.0 * s)
+        + ratio.ln()
+}
+
+/// The angle CDF by its series: `(1/π)[(t − sin t) + Σ_(l≥1) (2l+1) e^(−l(l+1)s/2)
+/// (sin(lt)/l − sin((l+1)t)/(l+1))]`, from `(1 − cos u) sin((l+½)u)/sin(u/2) = cos(lu) − cos((l+1)u)`.
+fn cdf_series(s: f64, t: f64) -> f64 {
+    let mut sum = t - t.sin();
+    for l in 1.. {
+        let lf = f64::from(l);
+        let weight = (2.0 * lf + 1.0) * (-lf * (lf + 1.0) * s / 2.0).exp();
+        sum += weight * ((lf * t).sin() / lf - ((lf + 1.0) * t).sin() / (lf + 1.0));
+        if weight < 1e-18 {
+            break;
+        }
+    }
+    sum / PI
+}
+
+impl Density for HeatKernelSo3 {
+    type Point = So3<f64>;
+
+    /// `ln f(angle(c⁻¹ R))`, with respect to the normalised Haar measure.
+    fn log_pdf(&self, x: &So3<f64>) -> f64 {
+        self.log_density_of_angle(self.center.inverse().compose(x).angle())
+    }
+
+    /// 0: the series and its Poisson form are normalised (the degree-0 coefficient is 1).
+    fn log_normalizer(&self) -> f64 {
+        0.0
+    }
+
+    /// The angle by inverting its CDF (Newton's method safeguarded by bisection), the axis uniform on
+    /// S², then `c · exp(t · axis)`.
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So3<f64> {
+        let u: f64 = rng.random();
+        let (mut lo, mut hi) = (0.0, PI);
+        let mut t = (3.0 * self.s).sqrt().min(PI / 2.0);
+        for _ in 0..100 {
+            let residual = self.angle_cdf(t) - u;
+            if residual > 0.0 {
+                hi = t;
+            } else {
+                lo = t;
+            }
+            let pdf = self.angle_pdf(t);
+            let newton = t - residual / pdf;
+            let next = if pdf > 0.0 && newton > lo && newton < hi {
+                newton
+            } else {
+                0.5 * (lo + hi)
+            };
+            if (next - t).abs() <= 1e-14 * (1.0 + t) {
+                t = next;
+                break;
+            }
+            t = next;
+        }
+        let z: f64 = rng.random_range(-1.0..=1.0);
+        let phi: f64 = rng.random_range(0.0..2.0 * PI);
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let axis = Vector3::new(r * phi.cos(), r * phi.sin(), z);
+        self.center.compose(&So3::exp(&(axis * t)))
+    }
+
+    /// The centre.
+    fn mode(&self) -> Option<So3<f64>> {
+        Some(self.center)
+    }
+}
+
+impl Entropy for HeatKernelSo3 {
+    /// `−∫ f ln f dHaar = −∫_0^π f(t) ln f(t) (1 − cos t)/π dt`, by Gauss-Legendre quadrature on panels
+    /// of width √s/2 (no closed form exists).
+    fn entropy(&self) -> f64 {
+        let end = (12.0 * self.s.sqrt()).min(PI);
+        let panels = (2.0 * end / self.s.sqrt()).ceil().clamp(4.0, 400.0);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let panels = panels as usize;
+        -quadrature::integrate(
+            |t| {
+                let l = self.log_density_of_angle(t);
+                self.angle_pdf(t) * l
+            },
+            0.0,
+            end,
+            panels,
+        )
+    }
+}
