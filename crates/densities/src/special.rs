@@ -14,8 +14,9 @@
 //!   `I_ν(κ) = e^κ / √(2πκ) · Σ_k c_k(ν) κ^(−k)`, `c_k/c_(k−1) = ((2k−1)² − 4ν²) / (8k)`, summed until
 //!   the terms fall below machine precision (they do long before the series starts to diverge, near
 //!   k ≈ 2κ). Ratios I_n/I₀ are ratios of these sums, so e^κ cancels exactly.
-//! * `In/I₀` for orders with n² > κ/2 (where the asymptotic expansion is slow) uses the power series with
-//!   periodic rescaling (the ratio is all that is needed), valid for every κ.
+//! * `In/I₀` for κ > 30 and orders with 2n² > κ (where the asymptotic expansion is slow): Miller's
+//!   backward recurrence, normalised by the asymptotic ratio at the highest order it handles (forward
+//!   recurrence would amplify errors by e^(n²/κ)).
 
 use crate::error::DensityError;
 use std::f64::consts::PI;
@@ -117,8 +118,14 @@ pub fn bessel_ratio(n: u32, kappa: f64) -> f64 {
         return 0.0;
     }
     let nf = f64::from(n);
-    if kappa > SERIES_LIMIT && kappa > 2.0 * nf * nf {
-        return asymptotic_sum(n, kappa) / asymptotic_sum(0, kappa);
+    if kappa > SERIES_LIMIT {
+        // Largest order the asymptotic expansion handles fast and exactly: 2n² ≤ κ.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let top = (kappa / 2.0).sqrt().floor().min(f64::from(u32::MAX - 1)) as u32;
+        if n <= top {
+            return asymptotic_sum(n, kappa) / asymptotic_sum(0, kappa);
+        }
+        return backward_recurrence_ratio(n, top, kappa);
     }
     // (κ/2)^n / n! · (1 + tail_n) / (1 + tail_0), in logarithms: each factor can over- or underflow
     // where the ratio does not.
@@ -135,6 +142,33 @@ pub fn bessel_ratio(n: u32, kappa: f64) -> f64 {
         }
     };
     (log_prefactor + log_series(tail_n, rescalings_n) - log_series(tail_0, rescalings_0)).exp()
+}
+
+/// `Aₙ` for κ > 30 and n above `top` (the highest order with 2·top² ≤ κ), by Miller's backward
+/// recurrence `v_(k−1) = v_(k+1) + (2k/κ) v_k` from `v_(N+1) = 0, v_N = 1`, normalised by the asymptotic
+/// `A_top`. The recurrence is stable downwards (I_k is its minimal solution); the error of the arbitrary
+/// start decays like e^(−(N² − n²)/κ), so N = √(n² + 40κ) + 10 leaves less than e^(−40).
+fn backward_recurrence_ratio(n: u32, top: u32, kappa: f64) -> f64 {
+    let nf = f64::from(n);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let start = ((nf * nf + 40.0 * kappa).sqrt().ceil() + 10.0) as u32;
+    let (mut above, mut current) = (0.0_f64, 1.0_f64); // v_(k+1), v_k with k = start
+    let mut at_n = if start == n { 1.0 } else { 0.0 };
+    for k in (top + 1..=start).rev() {
+        let below = above + 2.0 * f64::from(k) / kappa * current;
+        above = current;
+        current = below;
+        if k - 1 == n {
+            at_n = current;
+        }
+        if current > 1e250 {
+            above *= 1e-250;
+            current *= 1e-250;
+            at_n *= 1e-250;
+        }
+    }
+    // `current` is now v_top.
+    at_n / current * (asymptotic_sum(top, kappa) / asymptotic_sum(0, kappa))
 }
 
 /// `dA/dκ = 1 − A/κ − A²` (½ at κ = 0).
@@ -263,14 +297,50 @@ mod tests {
 
     #[test]
     fn recurrence_holds_across_orders() {
-        // I_(n−1) − I_(n+1) = (2n/κ) I_n, divided by I_0.
-        for kappa in [0.3, 5.0, 29.0, 31.0, 80.0, 700.0, 1e4] {
-            for n in 1..12 {
-                let lhs = bessel_ratio(n - 1, kappa) - bessel_ratio(n + 1, kappa);
+        // I_(n−1) − I_(n+1) = (2n/κ) I_n, divided by I_0, across every method's range and hand-overs.
+        // Rounding is relative to the subtracted terms, and the log-space prefactor of the series adds
+        // about n (|ln(κ/2)| + ln n) eps.
+        for kappa in [0.3, 5.0, 29.0, 31.0, 80.0, 700.0, 1e4, 1e5] {
+            for n in 1..3000 {
+                let (below, above) = (bessel_ratio(n - 1, kappa), bessel_ratio(n + 1, kappa));
                 let rhs = 2.0 * f64::from(n) / kappa * bessel_ratio(n, kappa);
+                if rhs < 1e-250 {
+                    break;
+                }
+                let nf = f64::from(n);
+                let logs = nf * ((kappa / 2.0).ln().abs() + nf.ln()) + 1.0;
+                let error = (below - above - rhs).abs();
+                let tolerance = 8.0 * f64::EPSILON * logs * (below + above);
                 assert!(
-                    (lhs - rhs).abs() <= 1e-12 * rhs.abs().max(1e-300),
-                    "n {n}, kappa {kappa}: {lhs} vs {rhs}"
+                    error <= tolerance,
+                    "n {n}, κ {kappa}: error {error:e} > {tolerance:e}"
+                );
+            }
+        }
+    }
+
+    /// Values that satisfy the recurrence can still be wrong (any solution of it does): compare the
+    /// backward recurrence with the power series, an independent method, where both apply.
+    #[test]
+    fn backward_recurrence_matches_the_power_series() {
+        for kappa in [31.0, 100.0, 400.0] {
+            for n in 1..400 {
+                let (tail_n, r_n) = power_series_tail(n, kappa);
+                let (tail_0, r_0) = power_series_tail(0, kappa);
+                assert_eq!((r_n, r_0), (0, 0), "no rescaling below κ = 700");
+                let log_factorial: f64 = (2..=n).map(|k| f64::from(k).ln()).sum();
+                let series = (f64::from(n) * (kappa / 2.0).ln() - log_factorial + tail_n.ln_1p()
+                    - tail_0.ln_1p())
+                .exp();
+                if series < 1e-250 {
+                    break;
+                }
+                let got = bessel_ratio(n, kappa);
+                let relative = ((got - series) / series).abs();
+                let logs = f64::from(n) * ((kappa / 2.0).ln() + f64::from(n).ln()) + kappa;
+                assert!(
+                    relative <= 8.0 * f64::EPSILON * logs,
+                    "n {n}, κ {kappa}: {got:e} vs {series:e} ({relative:e})"
                 );
             }
         }
