@@ -11,9 +11,11 @@
 //! The numbers are f64: the manifolds are generic over the scalar, the densities are not (yet).
 
 mod error;
+mod gaussian;
 mod heat_kernel;
 mod quadrature;
 pub mod special;
+mod tangent_gaussian;
 #[cfg(feature = "proptest")]
 pub mod testing;
 mod traits;
@@ -21,8 +23,10 @@ mod von_mises;
 mod von_mises_fisher;
 
 pub use error::DensityError;
+pub use gaussian::Gaussian;
 pub use heat_kernel::HeatKernelSo3;
 pub use liebayes_manifolds as manifolds;
+pub use tangent_gaussian::TangentGaussian;
 pub use traits::{Density, Entropy, KlDivergence, Product};
 pub use von_mises::VonMises;
 pub use von_mises_fisher::VonMisesFisher;

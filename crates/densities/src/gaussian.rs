@@ -1,0 +1,204 @@
+//! [`Gaussian`]: the multivariate normal distribution on Rⁿ.
+
+use crate::error::{DensityError, finite};
+use crate::traits::{Density, Entropy, KlDivergence, Product};
+use nalgebra::{Cholesky, SMatrix, SVector};
+use rand::Rng;
+use rand_distr::StandardNormal;
+use std::f64::consts::PI;
+
+/// Relative asymmetry accepted in a covariance or information matrix: `|A − Aᵀ| ≤ 1e-12 max|A|`.
+const SYMMETRY_TOLERANCE: f64 = 1e-12;
+
+/// The normal distribution `N(μ, Σ)` on Rⁿ, with respect to the Lebesgue measure:
+///
+/// `p(x) = (2π)^(−n/2) det(Σ)^(−1/2) exp(−½ (x − μ)ᵀ Σ⁻¹ (x − μ))`.
+///
+/// Stored in moment form with the Cholesky factor `Σ = L Lᵀ` (computed once at construction, so
+/// `log_pdf` and `sample` solve triangular systems and never invert). Any symmetric positive definite Σ
+/// is accepted, however ill-conditioned, as long as its Cholesky factorisation exists in f64;
+/// near-singular covariances are refused with an error, never repaired silently.
+#[derive(Clone, Debug)]
+pub struct Gaussian<const N: usize> {
+    mean: SVector<f64, N>,
+    covariance: SMatrix<f64, N, N>,
+    cholesky: SMatrix<f64, N, N>,
+    log_det: f64,
+}
+
+/// Checks that a matrix is finite, symmetric (to [`SYMMETRY_TOLERANCE`]) and positive definite, and
+/// returns its lower Cholesky factor.
+fn spd_cholesky<const N: usize>(
+    what: &'static str,
+    m: &SMatrix<f64, N, N>,
+) -> Result<SMatrix<f64, N, N>, DensityError> {
+    for &v in m.iter() {
+        finite(what, v)?;
+    }
+    let scale = m.amax();
+    let asymmetry = (m - m.transpose()).amax();
+    if asymmetry > SYMMETRY_TOLERANCE * scale {
+        return Err(DensityError::OutOfRange {
+            what,
+            value: asymmetry,
+            range: "symmetric matrices (|A - A^T| <= 1e-12 max|A|); symmetrise it with (A + A^T)/2",
+        });
+    }
+    let symmetric = (m + m.transpose()) * 0.5;
+    Cholesky::new(symmetric)
+        .map(|c| c.l())
+        .ok_or_else(|| DensityError::OutOfRange {
+            what,
+            // The smallest eigenvalue for the message (a dynamic copy: this is the error path only).
+            value: nalgebra::DMatrix::from_column_slice(N, N, symmetric.as_slice())
+                .symmetric_eigenvalues()
+                .min(),
+            range: "positive definite matrices (the value shown is the smallest eigenvalue)",
+        })
+}
+
+impl<const N: usize> Gaussian<N> {
+    /// `N(mean, covariance)`.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] for NaN or infinite entries, [`DensityError::OutOfRange`] for a
+    /// covariance that is not symmetric or not positive definite (with its smallest eigenvalue).
+    pub fn new(
+        mean: SVector<f64, N>,
+        covariance: SMatrix<f64, N, N>,
+    ) -> Result<Self, DensityError> {
+        for &v in mean.iter() {
+            finite("mean", v)?;
+        }
+        let cholesky = spd_cholesky("covariance", &covariance)?;
+        let log_det = 2.0 * cholesky.diagonal().iter().map(|d| d.ln()).sum::<f64>();
+        Ok(Self {
+            mean,
+            covariance: (covariance + covariance.transpose()) * 0.5,
+            cholesky,
+            log_det,
+        })
+    }
+
+    /// The Gaussian with information matrix `Λ = Σ⁻¹` and information vector `h = Σ⁻¹ μ`.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new), for Λ.
+    pub fn from_information(
+        information_vector: &SVector<f64, N>,
+        information_matrix: &SMatrix<f64, N, N>,
+    ) -> Result<Self, DensityError> {
+        let l = spd_cholesky("information matrix", information_matrix)?;
+        let chol = Cholesky::pack_dirty(l);
+        let covariance = chol.inverse();
+        let mean = chol.solve(information_vector);
+        Self::new(mean, (covariance + covariance.transpose()) * 0.5)
+    }
+
+    /// The mean μ.
+    pub fn mean(&self) -> &SVector<f64, N> {
+        &self.mean
+    }
+
+    /// The covariance Σ.
+    pub fn covariance(&self) -> &SMatrix<f64, N, N> {
+        &self.covariance
+    }
+
+    /// The lower Cholesky factor L with Σ = L Lᵀ.
+    pub fn cholesky_factor(&self) -> &SMatrix<f64, N, N> {
+        &self.cholesky
+    }
+
+    /// The information matrix Σ⁻¹ (by the Cholesky factor).
+    pub fn information_matrix(&self) -> SMatrix<f64, N, N> {
+        Cholesky::pack_dirty(self.cholesky).inverse()
+    }
+
+    /// The squared Mahalanobis distance `(x − μ)ᵀ Σ⁻¹ (x − μ)`, by one triangular solve.
+    ///
+    /// # Panics
+    /// Never: the Cholesky factor of a positive definite matrix has a positive diagonal.
+    pub fn mahalanobis_squared(&self, x: &SVector<f64, N>) -> f64 {
+        let z = self
+            .cholesky
+            .solve_lower_triangular(&(x - self.mean))
+            .expect("the Cholesky factor has a positive diagonal");
+        z.norm_squared()
+    }
+
+    /// `ln det Σ`.
+    pub fn log_determinant(&self) -> f64 {
+        self.log_det
+    }
+
+    /// The exact convolution (the distribution of x + y for independent x, y): means and covariances add.
+    ///
+    /// # Errors
+    /// Never for valid inputs (a sum of positive definite matrices is positive definite); the `Result`
+    /// reports an overflow to infinity.
+    pub fn convolve(&self, other: &Self) -> Result<Self, DensityError> {
+        Self::new(self.mean + other.mean, self.covariance + other.covariance)
+    }
+}
+
+impl<const N: usize> Density for Gaussian<N> {
+    type Point = SVector<f64, N>;
+
+    /// `−½ (n ln 2π + ln det Σ + (x − μ)ᵀ Σ⁻¹ (x − μ))`.
+    fn log_pdf(&self, x: &SVector<f64, N>) -> f64 {
+        -0.5 * self.mahalanobis_squared(x) - self.log_normalizer()
+    }
+
+    /// `½ (n ln 2π + ln det Σ)`.
+    fn log_normalizer(&self) -> f64 {
+        0.5 * (N as f64 * (2.0 * PI).ln() + self.log_det)
+    }
+
+    /// `μ + L z`, z standard normal.
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> SVector<f64, N> {
+        let z = SVector::<f64, N>::from_fn(|_, _| rng.sample(StandardNormal));
+        self.mean + self.cholesky * z
+    }
+
+    /// The mean.
+    fn mode(&self) -> Option<SVector<f64, N>> {
+        Some(self.mean)
+    }
+}
+
+impl<const N: usize> Product for Gaussian<N> {
+    /// Information forms add: `Λ = Λ₁ + Λ₂`, `h = h₁ + h₂`.
+    fn product(&self, other: &Self) -> Result<Self, DensityError> {
+        let (l1, l2) = (self.information_matrix(), other.information_matrix());
+        Self::from_information(&(l1 * self.mean + l2 * other.mean), &(l1 + l2))
+    }
+
+    /// `ln ∫ p₁ p₂ = ln N(μ₁; μ₂, Σ₁ + Σ₂)`.
+    fn log_product_integral(&self, other: &Self) -> f64 {
+        match Self::new(other.mean, self.covariance + other.covariance) {
+            Ok(joint) => joint.log_pdf(&self.mean),
+            Err(_) => f64::NEG_INFINITY,
+        }
+    }
+}
+
+impl<const N: usize> Entropy for Gaussian<N> {
+    /// `½ (n (1 + ln 2π) + ln det Σ)`.
+    fn entropy(&self) -> f64 {
+        0.5 * (N as f64 * (1.0 + (2.0 * PI).ln()) + self.log_det)
+    }
+}
+
+impl<const N: usize> KlDivergence for Gaussian<N> {
+    /// `½ (tr(Σ_q⁻¹ Σ_p) + (μ_q − μ_p)ᵀ Σ_q⁻¹ (μ_q − μ_p) − n + ln det Σ_q − ln det Σ_p)`.
+    fn kl_divergence(&self, other: &Self) -> f64 {
+        let solved = other
+            .cholesky
+            .solve_lower_triangular(&self.cholesky)
+            .expect("the Cholesky factor has a positive diagonal");
+        let trace = solved.norm_squared(); // tr(Σ_q⁻¹ Σ_p) = ‖L_q⁻¹ L_p‖_F²
+        0.5 * (trace + other.mahalanobis_squared(&self.mean) - N as f64 + other.log_det
+            - self.log_det)
+    }
+}
