@@ -10,6 +10,8 @@
 //! spaces of Lie groups) and the traits of their algebra are being built on top of this module.
 //! The numbers are f64: the manifolds are generic over the scalar, the densities are not (yet).
 
+mod bingham;
+mod bingham_normalizer;
 mod error;
 mod gaussian;
 mod heat_kernel;
@@ -22,6 +24,7 @@ mod traits;
 mod von_mises;
 mod von_mises_fisher;
 
+pub use bingham::Bingham;
 pub use error::DensityError;
 pub use gaussian::Gaussian;
 pub use heat_kernel::HeatKernelSo3;
