@@ -4,9 +4,9 @@
 //! Run: `cargo bench --bench densities` (figures in docs/benchmarks.md).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use liebayes::densities::{Density, HeatKernelSo3, VonMises, VonMisesFisher, special};
+use liebayes::densities::{Bingham, Density, HeatKernelSo3, VonMises, VonMisesFisher, special};
 use liebayes::manifolds::{LieGroup, S2, So2, So3};
-use nalgebra::Vector3;
+use nalgebra::{Matrix4, Vector3, Vector4};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
@@ -72,6 +72,24 @@ fn heat_kernel(c: &mut Criterion) {
     g.finish();
 }
 
+fn bingham(c: &mut Criterion) {
+    let mut g = c.benchmark_group("Bingham normaliser + gradient");
+    for z in [
+        [0.0, -0.5, -1.0, -2.0],
+        [0.0, -20.0, -300.0, -1000.0],
+        [0.0, -2000.0, -5000.0, -1e4],
+    ] {
+        let m = Matrix4::from_diagonal(&Vector4::from(z));
+        g.bench_function(
+            format!("construct (eigen + normaliser + moments), z {z:?}"),
+            |b| {
+                b.iter(|| Bingham::new(black_box(&m)));
+            },
+        );
+    }
+    g.finish();
+}
+
 fn sampling(c: &mut Criterion) {
     let mut g = c.benchmark_group("sampling");
     let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -99,6 +117,6 @@ criterion_group! {
     config = Criterion::default()
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(1));
-    targets = von_mises_moments, von_mises_fisher_log_pdf, heat_kernel, sampling
+    targets = von_mises_moments, von_mises_fisher_log_pdf, heat_kernel, bingham, sampling
 }
 criterion_main!(benches);
