@@ -217,3 +217,33 @@ fn sampler_is_exact_at_moderate_concentration() {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(12))]
+
+    /// The maximum-likelihood fit of a Bingham's own second-moment matrix returns that Bingham.
+    #[test]
+    fn fit_inverts_the_second_moments(b in bingham(3e3)) {
+        let fitted = Bingham::fit(&b.second_moment_matrix()).unwrap();
+        let shift = b.eigenvalues()[0];
+        for k in 1..4 {
+            let (got, expected) = (fitted.eigenvalues()[k], b.eigenvalues()[k] - shift);
+            prop_assert!((got - expected).abs() <= 1e-6 * (1.0 + expected.abs()), "z_{k}: {got} vs {expected}");
+        }
+        prop_assert!((fitted.second_moment_matrix() - b.second_moment_matrix()).amax() <= 1e-9);
+    }
+}
+
+#[test]
+fn fit_refuses_degenerate_scatter() {
+    let mut s = Matrix4::from_diagonal(&Vector4::new(0.5, 0.3, 0.2, 0.0));
+    assert!(
+        Bingham::fit(&s)
+            .unwrap_err()
+            .to_string()
+            .contains("infinite concentration")
+    );
+    s[(0, 0)] = f64::NAN;
+    assert!(Bingham::fit(&s).is_err());
+    assert!(Bingham::fit(&Matrix4::zeros()).is_err());
+}
