@@ -1,0 +1,223 @@
+//! [`GenVonMises2`]: the generalised von Mises distribution with first and second harmonics.
+
+use crate::error::{DensityError, finite};
+use crate::special;
+use crate::traits::{Density, Product};
+use liebayes_manifolds::So2;
+use nalgebra::Vector2;
+use rand::Rng;
+use std::f64::consts::PI;
+
+/// The generalised von Mises distribution of order 2 on the circle:
+///
+/// `p(θ) = exp(η₁ · u(θ) + η₂ · u(2θ)) / Z`, `u(θ) = (cos θ, sin θ)`,
+///
+/// with respect to dθ (total mass 2π). κ₁ = |η₁|, κ₂ = |η₂|. It contains the von Mises (η₂ = 0) and is
+/// the family in which seed 000 asserts that the azimuth posterior stays von Mises: that claim is checked
+/// by measuring η₂, not assumed.
+///
+/// **Normaliser**: the periodic trapezoid rule in log-sum-exp form on `N = 32 + 12 √(κ₁ + 4κ₂)` points,
+/// exponentially accurate for this analytic periodic integrand. Checked in the tests against the
+/// Jacobi-Anger series `Z = 2π Σ_k I₂ₖ(κ₁) I_k(κ₂) cos(2k(μ₁ − μ₂))`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GenVonMises2 {
+    eta1: Vector2<f64>,
+    eta2: Vector2<f64>,
+    log_normalizer: f64,
+}
+
+impl GenVonMises2 {
+    /// The distribution with first- and second-harmonic natural parameters η₁, η₂.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] for NaN or infinite components.
+    pub fn new(eta1: Vector2<f64>, eta2: Vector2<f64>) -> Result<Self, DensityError> {
+        for &v in eta1.iter().chain(eta2.iter()) {
+            finite("harmonic parameter", v)?;
+        }
+        let log_normalizer = log_normalizer(&eta1, &eta2);
+        Ok(Self {
+            eta1,
+            eta2,
+            log_normalizer,
+        })
+    }
+
+    /// The first-harmonic parameter η₁.
+    pub fn eta1(&self) -> &Vector2<f64> {
+        &self.eta1
+    }
+
+    /// The second-harmonic parameter η₂.
+    pub fn eta2(&self) -> &Vector2<f64> {
+        &self.eta2
+    }
+
+    fn exponent(&self, angle: f64) -> f64 {
+        let (s, c) = angle.sin_cos();
+        let (s2, c2) = (2.0 * angle).sin_cos();
+        self.eta1.x * c + self.eta1.y * s + self.eta2.x * c2 + self.eta2.y * s2
+    }
+}
+
+/// Trapezoid points for the normaliser: the integrand's Fourier coefficients decay like those of a von
+/// Mises of concentration at most κ₁ + 4κ₂, whose aliasing error 2 A_N is below 1e-16 for N ≥ 9√κ.
+fn points(eta1: &Vector2<f64>, eta2: &Vector2<f64>) -> usize {
+    let kappa = eta1.norm() + 4.0 * eta2.norm();
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let extra = (12.0 * kappa.sqrt()).ceil().min(1e8) as usize;
+    32 + extra
+}
+
+fn log_normalizer(eta1: &Vector2<f64>, eta2: &Vector2<f64>) -> f64 {
+    let n = points(eta1, eta2);
+    let h = 2.0 * PI / n as f64;
+    let exponent = |t: f64| {
+        let (s, c) = t.sin_cos();
+        let (s2, c2) = (2.0 * t).sin_cos();
+        eta1.x * c + eta1.y * s + eta2.x * c2 + eta2.y * s2
+    };
+    let max = (0..n)
+        .map(|i| exponent(h * i as f64))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let sum: f64 = (0..n).map(|i| (exponent(h * i as f64) - max).exp()).sum();
+    max + (sum * h).ln()
+}
+
+impl Density for GenVonMises2 {
+    type Point = So2<f64>;
+
+    /// `η₁ · u(θ) + η₂ · u(2θ) − ln Z`.
+    fn log_pdf(&self, x: &So2<f64>) -> f64 {
+        self.exponent(x.angle()) - self.log_normalizer
+    }
+
+    /// `ln Z` by the trapezoid rule (see the type docs).
+    fn log_normalizer(&self) -> f64 {
+        self.log_normalizer
+    }
+
+    /// Exact rejection sampling from the better of two envelopes: the von Mises of η₁ (accepting with
+    /// `exp(η₂ · u(2θ) − κ₂)`) or the bimodal von Mises of η₂ on the doubled angle (accepting with
+    /// `exp(η₁ · u(θ) − κ₁)`), whose acceptance rates are `Z / (2π I₀(κ₁) e^κ₂)` and
+    /// `Z / (2π I₀(κ₂) e^κ₁)`. When both fall below 1 % (strong harmonics whose modes disagree), a
+    /// piecewise-constant envelope on a grid fine enough that the exponent varies by at most π/8 per cell
+    /// (`|f′| ≤ κ₁ + 2κ₂`), still exact, costing one pass over the grid per draw.
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
+        let (k1, k2) = (self.eta1.norm(), self.eta2.norm());
+        let first = self.log_normalizer - (2.0 * PI).ln() - special::log_i0(k1) - k2;
+        let second = self.log_normalizer - (2.0 * PI).ln() - special::log_i0(k2) - k1;
+        if first.max(second) < 0.01_f64.ln() {
+            return So2::from_angle_unchecked(self.sample_on_grid(rng, k1 + 2.0 * k2));
+        }
+        loop {
+            let (angle, log_accept) = if first >= second {
+                let a = von_mises_angle(&self.eta1, rng);
+                let (s2, c2) = (2.0 * a).sin_cos();
+                (a, self.eta2.x * c2 + self.eta2.y * s2 - k2)
+            } else {
+                let half = von_mises_angle(&self.eta2, rng) / 2.0;
+                let a = if rng.random::<bool>() {
+                    half
+                } else {
+                    half + PI
+                };
+                let (s, c) = a.sin_cos();
+                (a, self.eta1.x * c + self.eta1.y * s - k1)
+            };
+            if rng.random::<f64>().ln() < log_accept {
+                return So2::from_angle_unchecked(angle);
+            }
+        }
+    }
+
+    /// The global maximum of the exponent: every local maximum of a grid (an order-2 trigonometric
+    /// polynomial has at most two) refined by Newton's method, the best kept; `None` for the uniform
+    /// distribution.
+    fn mode(&self) -> Option<So2<f64>> {
+        if self.eta1.norm() + self.eta2.norm() == 0.0 {
+            return None;
+        }
+        let n = points(&self.eta1, &self.eta2);
+        let h = 2.0 * PI / n as f64;
+        let value = |i: usize| self.exponent(h * (i % n) as f64);
+        (0..n)
+            .filter(|&i| value(i) >= value(i + n - 1) && value(i) >= value(i + 1))
+            .map(|i| self.refine_maximum(h * i as f64))
+            .max_by(|a, b| self.exponent(*a).total_cmp(&self.exponent(*b)))
+            .map(So2::from_angle_unchecked)
+    }
+}
+
+/// One angle from the von Mises with natural parameter η.
+fn von_mises_angle<R: Rng + ?Sized>(eta: &Vector2<f64>, rng: &mut R) -> f64 {
+    crate::VonMises::new(*eta).map_or(0.0, |p| p.sample(rng).angle())
+}
+
+impl GenVonMises2 {
+    /// Newton's method on the exponent's derivative from `start`, stopping where the curvature is not
+    /// negative.
+    fn refine_maximum(&self, start: f64) -> f64 {
+        let mut best = start;
+        for _ in 0..50 {
+            let (s, c) = best.sin_cos();
+            let (s2, c2) = (2.0 * best).sin_cos();
+            let d1 = -self.eta1.x * s + self.eta1.y * c - 2.0 * self.eta2.x * s2
+                + 2.0 * self.eta2.y * c2;
+            let d2 = -self.eta1.x * c
+                - self.eta1.y * s
+                - 4.0 * self.eta2.x * c2
+                - 4.0 * self.eta2.y * s2;
+            if d2 >= 0.0 {
+                break;
+            }
+            let step = d1 / d2;
+            best -= step;
+            if step.abs() < 1e-15 {
+                break;
+            }
+        }
+        best
+    }
+
+    /// Rejection from a piecewise-constant envelope: cell i of width h carries `exp(f(cᵢ) + L h/2)`,
+    /// an upper bound of `exp(f)` on the cell for `L ≥ max |f′|`; the grid has `8L + 64` cells (at most
+    /// 2¹⁶), so the envelope exceeds the density by at most e^(π/8) where it is not capped.
+    fn sample_on_grid<R: Rng + ?Sized>(&self, rng: &mut R, lipschitz: f64) -> f64 {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let cells = ((8.0 * lipschitz).ceil().min(65_472.0) as usize) + 64;
+        let h = 2.0 * PI / cells as f64;
+        let bound = lipschitz * h / 2.0;
+        let centre = |i: usize| (i as f64 + 0.5) * h;
+        let exponents: Vec<f64> = (0..cells).map(|i| self.exponent(centre(i))).collect();
+        let max = exponents.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mut cumulative = Vec::with_capacity(cells);
+        let mut total = 0.0;
+        for e in &exponents {
+            total += (e - max).exp();
+            cumulative.push(total);
+        }
+        loop {
+            let target = rng.random::<f64>() * total;
+            let i = cumulative.partition_point(|&c| c < target).min(cells - 1);
+            let angle = (i as f64 + rng.random::<f64>()) * h;
+            if rng.random::<f64>().ln() < self.exponent(angle) - exponents[i] - bound {
+                return angle;
+            }
+        }
+    }
+}
+
+impl Product for GenVonMises2 {
+    /// Natural parameters add (exact).
+    fn product(&self, other: &Self) -> Result<Self, DensityError> {
+        Self::new(self.eta1 + other.eta1, self.eta2 + other.eta2)
+    }
+
+    /// `ln Z(η₁ + η₁′, η₂ + η₂′) − ln Z − ln Z′`.
+    fn log_product_integral(&self, other: &Self) -> f64 {
+        log_normalizer(&(self.eta1 + other.eta1), &(self.eta2 + other.eta2))
+            - self.log_normalizer
+            - other.log_normalizer
+    }
+}
