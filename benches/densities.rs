@@ -109,6 +109,12 @@ fn sampling(c: &mut Criterion) {
             b.iter(|| h.sample(&mut rng));
         });
     }
+    for z in [[0.0, -1.0, -2.0, -3.0], [0.0, -100.0, -100.0, -1e4]] {
+        let bingham = Bingham::new(&Matrix4::from_diagonal(&Vector4::from(z))).unwrap();
+        g.bench_function(format!("Bingham (ACG rejection), z {z:?}"), |b| {
+            b.iter(|| bingham.sample(&mut rng));
+        });
+    }
     g.finish();
 }
 

@@ -31,6 +31,44 @@ pub struct Bingham {
     eigenvalues: Vector4<f64>,
     log_normalizer: f64,
     moments: Vector4<f64>,
+    envelope: Envelope,
+}
+
+/// The angular central Gaussian envelope of the sampler, fixed by the eigenvalues.
+#[derive(Clone, Debug)]
+struct Envelope {
+    /// `aₖ = z₀ − zₖ ≥ 0`.
+    a: Vector4<f64>,
+    /// `ωₖ = 1 + 2aₖ/b`.
+    omega: Vector4<f64>,
+    /// `ln M = −(4 − b)/2 + 2 ln(4/b)`, the log of the bound of density over envelope.
+    log_bound: f64,
+}
+
+impl Envelope {
+    /// b solves `Σ 1/(b + 2aₖ) = 1`: the left side decreases in b, is 4/b at a = 0, and passes 1 in
+    /// (0, 4]; bisection to full precision.
+    fn new(eigenvalues: &Vector4<f64>) -> Self {
+        let a = eigenvalues.map(|z| eigenvalues[0] - z);
+        let (mut lo, mut hi) = (1e-300, 4.0);
+        for _ in 0..200 {
+            let b = 0.5 * (lo + hi);
+            if a.iter().map(|ak| 1.0 / (b + 2.0 * ak)).sum::<f64>() > 1.0 {
+                lo = b;
+            } else {
+                hi = b;
+            }
+            if hi - lo <= 1e-15 * hi {
+                break;
+            }
+        }
+        let b = 0.5 * (lo + hi);
+        Self {
+            a,
+            omega: a.map(|ak| 1.0 + 2.0 * ak / b),
+            log_bound: -(4.0 - b) / 2.0 + 2.0 * (4.0 / b).ln(),
+        }
+    }
 }
 
 impl Bingham {
@@ -164,6 +202,7 @@ impl Bingham {
             eigenvalues,
             log_normalizer,
             moments: Vector4::from(moments),
+            envelope: Envelope::new(&eigenvalues),
         }
     }
 
@@ -234,21 +273,11 @@ impl Density for Bingham {
     /// `yₖ ~ N(0, 1/ωₖ)`, `u = y/|y|`, and accept when
     /// `ln U < −Σ aₖuₖ² + 2 ln(Σ ωₖuₖ²) + (4 − b)/2 − 2 ln(4/b)`.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> Su2<f64> {
-        let a = self.eigenvalues.map(|z| self.eigenvalues[0] - z);
-        // Σ 1/(b + 2aₖ) is decreasing in b, equals 4/b at a = 0, and is 1 somewhere in (0, 4].
-        let (mut lo, mut hi) = (1e-300, 4.0);
-        for _ in 0..200 {
-            let b = 0.5 * (lo + hi);
-            if a.iter().map(|ak| 1.0 / (b + 2.0 * ak)).sum::<f64>() > 1.0 {
-                lo = b;
-            } else {
-                hi = b;
-            }
-        }
-        let b = 0.5 * (lo + hi);
-        let omega = a.map(|ak| 1.0 + 2.0 * ak / b);
-        // ln of the envelope bound M = e^(−(4−b)/2) (4/b)²: f/(M g) ≤ 1 everywhere.
-        let log_bound = -(4.0 - b) / 2.0 + 2.0 * (4.0 / b).ln();
+        let Envelope {
+            a,
+            omega,
+            log_bound,
+        } = &self.envelope;
         loop {
             let y = Vector4::from_fn(|k, _| rng.sample::<f64, _>(StandardNormal) / omega[k].sqrt());
             let u = y / y.norm();
