@@ -16,6 +16,7 @@ mod error;
 mod gaussian;
 mod gen_von_mises;
 mod heat_kernel;
+mod moment_matching;
 mod quadrature;
 pub mod special;
 mod tangent_gaussian;
