@@ -50,3 +50,24 @@ pub(crate) fn integrate(f: impl Fn(f64) -> f64, a: f64, b: f64, panels: usize) -
         })
         .sum()
 }
+
+/// Number of Gauss-Hermite nodes per axis.
+pub(crate) const HERMITE_NODES: usize = 16;
+
+/// The Gauss-Hermite rule for the standard normal, `E[f(u)] ≈ Σ wᵢ f(uᵢ)` with Σ wᵢ = 1, exact for
+/// polynomials of degree 31: nodes and weights by the Golub-Welsch eigenproblem of the Jacobi matrix
+/// (off-diagonal √k), computed once.
+pub(crate) fn gauss_hermite() -> &'static [(f64, f64); HERMITE_NODES] {
+    static RULE: OnceLock<[(f64, f64); HERMITE_NODES]> = OnceLock::new();
+    RULE.get_or_init(|| {
+        let jacobi = nalgebra::DMatrix::<f64>::from_fn(HERMITE_NODES, HERMITE_NODES, |i, j| {
+            if i + 1 == j || j + 1 == i {
+                (i.max(j) as f64).sqrt()
+            } else {
+                0.0
+            }
+        });
+        let eigen = nalgebra::SymmetricEigen::new(jacobi);
+        std::array::from_fn(|k| (eigen.eigenvalues[k], eigen.eigenvectors[(0, k)].powi(2)))
+    })
+}

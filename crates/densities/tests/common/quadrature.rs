@@ -63,3 +63,18 @@ pub fn log_integrate_circle(log_f: impl Fn(f64) -> f64, n: usize) -> f64 {
     let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     max + (values.iter().map(|v| (v - max).exp()).sum::<f64>() * h).ln()
 }
+
+/// Gauss-Hermite rule for the standard normal (weights sum to 1), by the Golub-Welsch eigenproblem.
+pub fn gauss_hermite(n: usize) -> Vec<(f64, f64)> {
+    let jacobi = nalgebra::DMatrix::<f64>::from_fn(n, n, |i, j| {
+        if i + 1 == j || j + 1 == i {
+            (i.max(j) as f64).sqrt()
+        } else {
+            0.0
+        }
+    });
+    let eigen = nalgebra::SymmetricEigen::new(jacobi);
+    (0..n)
+        .map(|k| (eigen.eigenvalues[k], eigen.eigenvectors[(0, k)].powi(2)))
+        .collect()
+}
