@@ -32,7 +32,7 @@ fn main() {
 
 /// Bayes on the circle, and diffusion on SO(3), with exact densities.
 fn densities_demo() {
-    use liebayes::densities::{Density, HeatKernelSo3, Product, VonMises};
+    use liebayes::densities::{Convolve, Density, HeatKernelSo3, Product, VonMises};
     use liebayes::manifolds::So2;
     let prior =
         VonMises::from_mean_concentration(So2::from_angle_unchecked(0.5), 4.0).expect("valid");
@@ -49,7 +49,9 @@ fn densities_demo() {
         prior.log_product_integral(&likelihood)
     );
     let gyro_noise = HeatKernelSo3::new(So3::identity(), 1e-4).expect("valid");
-    let after_1000_steps = (1..1000).fold(gyro_noise, |acc, _| acc.convolve(&gyro_noise));
+    let after_1000_steps = (1..1000).fold(gyro_noise, |acc, _| {
+        acc.convolve(&gyro_noise).expect("variances stay finite")
+    });
     println!(
         "7. SO(3) heat kernel: 1000 gyro steps of sigma^2 = 1e-4 convolve exactly to sigma^2 = {:.4}; \
          density at the centre {:.3e}",

@@ -1,7 +1,7 @@
 //! [`Gaussian`]: the multivariate normal distribution on Rⁿ.
 
 use crate::error::{DensityError, finite};
-use crate::traits::{Density, Entropy, KlDivergence, Product};
+use crate::traits::{Convolve, Density, Entropy, KlDivergence, Product};
 use nalgebra::{Cholesky, SMatrix, SVector};
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -131,15 +131,6 @@ impl<const N: usize> Gaussian<N> {
     pub fn log_determinant(&self) -> f64 {
         self.log_det
     }
-
-    /// The exact convolution (the distribution of x + y for independent x, y): means and covariances add.
-    ///
-    /// # Errors
-    /// Never for valid inputs (a sum of positive definite matrices is positive definite); the `Result`
-    /// reports an overflow to infinity.
-    pub fn convolve(&self, other: &Self) -> Result<Self, DensityError> {
-        Self::new(self.mean + other.mean, self.covariance + other.covariance)
-    }
 }
 
 impl<const N: usize> Density for Gaussian<N> {
@@ -164,6 +155,13 @@ impl<const N: usize> Density for Gaussian<N> {
     /// The mean.
     fn mode(&self) -> Option<SVector<f64, N>> {
         Some(self.mean)
+    }
+}
+
+impl<const N: usize> Convolve for Gaussian<N> {
+    /// The distribution of x + y: means and covariances add (exact).
+    fn convolve(&self, other: &Self) -> Result<Self, DensityError> {
+        Self::new(self.mean + other.mean, self.covariance + other.covariance)
     }
 }
 

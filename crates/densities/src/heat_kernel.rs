@@ -2,7 +2,7 @@
 
 use crate::error::{DensityError, finite};
 use crate::quadrature;
-use crate::traits::{Density, Entropy};
+use crate::traits::{Convolve, Density, Entropy};
 use liebayes_manifolds::{LieGroup, So3};
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
@@ -107,14 +107,12 @@ impl HeatKernelSo3 {
         let panels = panels as usize;
         quadrature::integrate(|u| self.angle_pdf(u), 0.0, end, panels).clamp(0.0, 1.0)
     }
+}
 
-    /// **Approximation-free** convolution: `LD(c₁ c₂, s₁ + s₂)`.
-    #[must_use]
-    pub fn convolve(&self, other: &Self) -> Self {
-        Self {
-            center: self.center.compose(&other.center),
-            s: self.s + other.s,
-        }
+impl Convolve for HeatKernelSo3 {
+    /// `LD(c₁, s₁) * LD(c₂, s₂) = LD(c₁ c₂, s₁ + s₂)`: exact, the kernel being bi-invariant.
+    fn convolve(&self, other: &Self) -> Result<Self, DensityError> {
+        Self::new(self.center.compose(&other.center), self.s + other.s)
     }
 }
 

@@ -33,6 +33,6 @@ pub use gen_von_mises::GenVonMises2;
 pub use heat_kernel::HeatKernelSo3;
 pub use liebayes_manifolds as manifolds;
 pub use tangent_gaussian::TangentGaussian;
-pub use traits::{Density, Entropy, KlDivergence, Product};
+pub use traits::{Convolve, Density, Entropy, KlDivergence, Product};
 pub use von_mises::VonMises;
 pub use von_mises_fisher::VonMisesFisher;

@@ -49,3 +49,15 @@ pub trait KlDivergence: Density {
     /// `KL(self ‖ other) = ∫ p ln(p/q) ≥ 0`, zero only for equal densities.
     fn kl_divergence(&self, other: &Self) -> f64;
 }
+
+/// Propagation where the family is closed under it: the distribution of `x ∘ y` for independent
+/// `x ~ self`, `y ~ other` (sum on Rⁿ, composition on a group), in the same family, exactly.
+/// Families that are not closed offer named approximations instead (for example
+/// `VonMises::convolve_moment_matched`).
+pub trait Convolve: Density + Sized {
+    /// The exact convolution.
+    ///
+    /// # Errors
+    /// Where the result overflows the representable range.
+    fn convolve(&self, other: &Self) -> Result<Self, DensityError>;
+}

@@ -6,7 +6,9 @@
 mod common;
 
 use common::quadrature::gauss_legendre;
-use liebayes_densities::{Density, Entropy, Gaussian, KlDivergence, Product, TangentGaussian};
+use liebayes_densities::{
+    Convolve, Density, Entropy, Gaussian, KlDivergence, Product, TangentGaussian,
+};
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, Rn, So3};
 use nalgebra::{Matrix2, Matrix3, SymmetricEigen, Vector1, Vector2};

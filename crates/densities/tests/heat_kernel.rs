@@ -5,7 +5,7 @@
 mod common;
 
 use common::quadrature::integrate_peaked;
-use liebayes_densities::{Density, HeatKernelSo3};
+use liebayes_densities::{Convolve, Density, HeatKernelSo3};
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{LieGroup, Manifold, So3};
 use nalgebra::Vector3;
@@ -124,7 +124,7 @@ proptest! {
         a in st::so3::<f64>(), b in st::so3::<f64>(), s1 in 1e-4..3.0_f64, s2 in 1e-4..3.0_f64, l in 0u32..6,
     ) {
         let (p, q) = (HeatKernelSo3::new(a, s1).unwrap(), HeatKernelSo3::new(b, s2).unwrap());
-        let pq = p.convolve(&q);
+        let pq = p.convolve(&q).unwrap();
         prop_assert!((pq.variance() - (s1 + s2)).abs() <= 1e-15 * (s1 + s2));
         prop_assert!(pq.center().distance(&a.compose(&b)) < 1e-14);
         let product = p.fourier_coefficient(l) * q.fourier_coefficient(l);
