@@ -4,9 +4,11 @@
 //! Run: `cargo bench --bench densities` (figures in docs/benchmarks.md).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use liebayes::densities::{Bingham, Density, HeatKernelSo3, VonMises, VonMisesFisher, special};
+use liebayes::densities::{
+    Bingham, Density, Gaussian, GenVonMises2, HeatKernelSo3, VonMises, VonMisesFisher, special,
+};
 use liebayes::manifolds::{LieGroup, S2, So2, So3};
-use nalgebra::{Matrix4, Vector3, Vector4};
+use nalgebra::{Matrix3, Matrix4, Vector2, Vector3, Vector4};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
@@ -114,6 +116,24 @@ fn sampling(c: &mut Criterion) {
         g.bench_function(format!("Bingham (ACG rejection), z {z:?}"), |b| {
             b.iter(|| bingham.sample(&mut rng));
         });
+    }
+    let gaussian = Gaussian::new(
+        Vector3::new(1.0, -2.0, 0.5),
+        Matrix3::new(2.0, 0.3, 0.0, 0.3, 1.0, 0.1, 0.0, 0.1, 0.5),
+    )
+    .unwrap();
+    g.bench_function("Gaussian<3> (mu + L z)", |b| {
+        b.iter(|| gaussian.sample(&mut rng));
+    });
+    for (name, eta2) in [
+        ("aligned", Vector2::new(3.0, 0.0)),
+        ("opposed (grid envelope)", Vector2::new(-60.0, 0.0)),
+    ] {
+        let p = GenVonMises2::new(Vector2::new(40.0, 0.0), eta2).unwrap();
+        g.bench_function(
+            format!("GenVonMises2, kappa1 40, second harmonic {name}"),
+            |b| b.iter(|| p.sample(&mut rng)),
+        );
     }
     g.finish();
 }

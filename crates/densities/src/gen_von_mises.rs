@@ -2,7 +2,7 @@
 
 use crate::error::{DensityError, finite};
 use crate::special;
-use crate::traits::{Density, Product};
+use crate::traits::{Density, Entropy, KlDivergence, Product};
 use liebayes_manifolds::So2;
 use nalgebra::Vector2;
 use rand::Rng;
@@ -219,5 +219,34 @@ impl Product for GenVonMises2 {
         log_normalizer(&(self.eta1 + other.eta1), &(self.eta2 + other.eta2))
             - self.log_normalizer
             - other.log_normalizer
+    }
+}
+
+/// `∫ f(θ) dθ` over the circle by the trapezoid rule on `n` points.
+fn trapezoid(n: usize, f: impl Fn(f64) -> f64) -> f64 {
+    let h = 2.0 * PI / n as f64;
+    (0..n).map(|i| f(h * i as f64)).sum::<f64>() * h
+}
+
+impl Entropy for GenVonMises2 {
+    /// `−∫ p ln p dθ` by the trapezoid rule on the normaliser's grid (no closed form).
+    fn entropy(&self) -> f64 {
+        let n = points(&self.eta1, &self.eta2);
+        -trapezoid(n, |t| {
+            let l = self.exponent(t) - self.log_normalizer;
+            l.exp() * l
+        })
+    }
+}
+
+impl KlDivergence for GenVonMises2 {
+    /// `∫ p ln(p/q) dθ` by the trapezoid rule on the finer of the two normalisers' grids.
+    fn kl_divergence(&self, other: &Self) -> f64 {
+        let n = points(&self.eta1, &self.eta2).max(points(&other.eta1, &other.eta2));
+        trapezoid(n, |t| {
+            let lp = self.exponent(t) - self.log_normalizer;
+            let lq = other.exponent(t) - other.log_normalizer;
+            lp.exp() * (lp - lq)
+        })
     }
 }

@@ -3,7 +3,9 @@
 
 mod common;
 
-use liebayes_densities::{Density, GenVonMises2, Product, VonMises, special};
+use liebayes_densities::{
+    Density, Entropy, GenVonMises2, KlDivergence, Product, VonMises, special,
+};
 use liebayes_manifolds::So2;
 use liebayes_manifolds::testing::strategies as st;
 use nalgebra::Vector2;
@@ -139,4 +141,29 @@ fn grid_fallback_sampler_is_exact() {
         "E[cos 2θ] {} vs {c2}",
         s2 / f64::from(n)
     );
+}
+
+/// Entropy and KL by quadrature equal the von Mises closed forms when the second harmonics vanish, and
+/// KL(p‖p) = 0, KL ≥ 0 otherwise.
+#[test]
+fn entropy_and_kl_reduce_to_the_von_mises_closed_forms() {
+    for (k1, k2) in [(0.0, 0.0), (0.3, 2.0), (5.0, 0.7), (200.0, 30.0)] {
+        let (a, b) = (Vector2::new(k1, 0.4 * k1), Vector2::new(-0.5 * k2, k2));
+        let (p, q) = (VonMises::new(a).unwrap(), VonMises::new(b).unwrap());
+        let (gp, gq) = (
+            GenVonMises2::new(a, Vector2::zeros()).unwrap(),
+            GenVonMises2::new(b, Vector2::zeros()).unwrap(),
+        );
+        assert!(
+            (gp.entropy() - p.entropy()).abs() <= 1e-12 * (1.0 + k1),
+            "entropy at {k1}"
+        );
+        assert!(
+            (gp.kl_divergence(&gq) - p.kl_divergence(&q)).abs() <= 1e-11 * (1.0 + k1 + k2),
+            "KL at {k1}, {k2}"
+        );
+        let g = GenVonMises2::new(a, b).unwrap();
+        assert!(g.kl_divergence(&g).abs() <= 1e-14);
+        assert!(g.kl_divergence(&gp) >= 0.0);
+    }
 }
