@@ -2,7 +2,7 @@
 
 use crate::error::{DensityError, finite};
 use crate::quadrature;
-use crate::traits::{Convolve, Density, Entropy};
+use crate::traits::{Convolve, Density, Entropy, KlDivergence};
 use liebayes_manifolds::{LieGroup, So3};
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
@@ -264,6 +264,43 @@ impl Entropy for HeatKernelSo3 {
             |t| {
                 let l = self.log_density_of_angle(t);
                 self.angle_pdf(t) * l
+            },
+            0.0,
+            end,
+            panels,
+        )
+    }
+}
+
+impl KlDivergence for HeatKernelSo3 {
+    /// `∫ f₁ ln(f₁/f₂) dHaar` by quadrature (no closed form). Writing `R = c₁ g`, g with angle t and
+    /// uniform axis n, the angle of `c₂⁻¹ R = d g` (`d = c₂⁻¹ c₁ = exp(δ m)`) has
+    /// `cos(t′/2) = |cos(δ/2) cos(t/2) − sin(δ/2) sin(t/2) (m · n)|`, so the integral is two-dimensional:
+    /// `∫₀^π angle_pdf₁(t) ∫₋₁¹ ½ [ln f₁(t) − ln f₂(t′(t, c))] dc dt`, by 20-point Gauss-Legendre on panels
+    /// of width √s₁/2 in t (up to 12√s₁) and 4 panels in c = m · n.
+    fn kl_divergence(&self, other: &Self) -> f64 {
+        let d = other.center.inverse().compose(&self.center);
+        let delta = d.angle();
+        let (sd, cd) = (delta / 2.0).sin_cos();
+        let end = (12.0 * self.s.sqrt()).min(PI);
+        let panels = (2.0 * end / self.s.sqrt()).ceil().clamp(4.0, 400.0);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let panels = panels as usize;
+        quadrature::integrate(
+            |t| {
+                let (st, ct) = (t / 2.0).sin_cos();
+                let log_p = self.log_density_of_angle(t);
+                let inner = quadrature::integrate(
+                    |c| {
+                        let w = (cd * ct - sd * st * c).abs().min(1.0);
+                        let t_other = 2.0 * w.acos();
+                        0.5 * (log_p - other.log_density_of_angle(t_other))
+                    },
+                    -1.0,
+                    1.0,
+                    4,
+                );
+                self.angle_pdf(t) * inner
             },
             0.0,
             end,

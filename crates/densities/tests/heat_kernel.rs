@@ -5,7 +5,7 @@
 mod common;
 
 use common::quadrature::integrate_peaked;
-use liebayes_densities::{Convolve, Density, HeatKernelSo3};
+use liebayes_densities::{Convolve, Density, Entropy, HeatKernelSo3, KlDivergence};
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{LieGroup, Manifold, So3};
 use nalgebra::Vector3;
@@ -170,5 +170,51 @@ proptest! {
         prop_assert!((sum / f64::from(n) - mean).abs() <= tolerance, "{} vs {} ± {}", sum / f64::from(n), mean, tolerance);
         // The axis is uniform: the mean rotation vector vanishes (|log| ≤ π, so 5 π/√n bounds it).
         prop_assert!((axis_sum / f64::from(n)).amax() <= 5.0 * PI / f64::from(n).sqrt());
+    }
+}
+
+/// KL by quadrature against Monte Carlo over samples of the first argument (an independent path), and
+/// KL(p‖p) = 0; entropy likewise against −E[ln f].
+#[test]
+fn kl_and_entropy_match_monte_carlo() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let cases = [
+        (0.05, 0.08, 0.3),
+        (0.5, 0.2, 1.0),
+        (2.0, 1.0, 2.5),
+        (0.01, 0.01, 0.05),
+    ];
+    for (s1, s2, delta) in cases {
+        let c1 = So3::exp(&Vector3::new(0.2, -0.4, 0.9));
+        let c2 = c1.compose(&So3::exp(&(Vector3::new(1.0, 2.0, -2.0) / 3.0 * delta)));
+        let p = HeatKernelSo3::new(c1, s1).unwrap();
+        let q = HeatKernelSo3::new(c2, s2).unwrap();
+        assert!(p.kl_divergence(&p).abs() <= 1e-12);
+        let n = 20_000;
+        let (mut sum, mut sum2, mut ent, mut ent2) = (0.0, 0.0, 0.0, 0.0);
+        for _ in 0..n {
+            let r = p.sample(&mut rng);
+            let v = p.log_pdf(&r) - q.log_pdf(&r);
+            sum += v;
+            sum2 += v * v;
+            ent -= p.log_pdf(&r);
+            ent2 += p.log_pdf(&r).powi(2);
+        }
+        let mean = sum / f64::from(n);
+        let standard_error = ((sum2 / f64::from(n) - mean * mean).max(0.0) / f64::from(n)).sqrt();
+        let kl = p.kl_divergence(&q);
+        assert!(kl >= 0.0);
+        assert!(
+            (kl - mean).abs() <= 5.0 * standard_error + 1e-9,
+            "s1 {s1}, s2 {s2}, δ {delta}: {kl} vs MC {mean} ± {standard_error}"
+        );
+        let entropy_mc = ent / f64::from(n);
+        let entropy_se =
+            ((ent2 / f64::from(n) - entropy_mc * entropy_mc).max(0.0) / f64::from(n)).sqrt();
+        assert!(
+            (p.entropy() - entropy_mc).abs() <= 5.0 * entropy_se + 1e-9,
+            "entropy {} vs MC {entropy_mc} ± {entropy_se}",
+            p.entropy()
+        );
     }
 }
