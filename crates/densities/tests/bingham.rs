@@ -71,28 +71,10 @@ fn matches_the_reference_vectors() {
     eprintln!("Bingham: worst ln K error {worst_log:.1e}, worst moment error {worst_moment:.1e}");
 }
 
-/// Parameter matrices: a random orientation and eigenvalues spread from 0 to −30 (Monte Carlo over the
-/// uniform distribution needs bounded weights) or to −1e4 (for the laws that do not integrate).
-fn bingham(spread: f64) -> impl Strategy<Value = Bingham> {
-    (
-        st::su2::<f64>(),
-        st::su2::<f64>(),
-        proptest::array::uniform3(0.0..1.0_f64),
-    )
-        .prop_map(move |(a, b, u)| {
-            let [w1, x1, y1, z1] = a.to_quaternion_wxyz();
-            let [w2, x2, y2, z2] = b.to_quaternion_wxyz();
-            // Left and right quaternion multiplications generate SO(4): an arbitrary orientation.
-            let left = Matrix4::new(
-                w1, -x1, -y1, -z1, x1, w1, -z1, y1, y1, z1, w1, -x1, z1, -y1, x1, w1,
-            );
-            let right = Matrix4::new(
-                w2, -x2, -y2, -z2, x2, w2, z2, -y2, y2, -z2, w2, x2, z2, y2, -x2, w2,
-            );
-            let z = Vector4::new(0.0, -spread * u[0], -spread * u[1], -spread * u[2]);
-            Bingham::from_orientation(&(left * right), &z).unwrap()
-        })
-}
+/// Parameter matrices from the exported strategy: any orientation in SO(4), eigenvalues spread from 0 to
+/// −30 (Monte Carlo over the uniform distribution needs bounded weights) or to −1e4 (for the laws that
+/// do not integrate).
+use liebayes_densities::testing::bingham;
 
 fn uniform_quaternion(rng: &mut ChaCha8Rng) -> Su2<f64> {
     let v = Vector4::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal));

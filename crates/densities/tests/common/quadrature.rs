@@ -1,4 +1,6 @@
-//! Quadrature rules for checking densities independently of their closed forms.
+//! Quadrature rules for checking densities independently of their closed forms. They are deliberately
+//! the tests' own (not the library's `quadrature` module), so that a bug in the library's rules cannot
+//! hide itself in the checks.
 
 use std::f64::consts::PI;
 
