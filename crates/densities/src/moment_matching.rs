@@ -13,7 +13,7 @@ use nalgebra::{Matrix4, Vector4};
 
 impl HeatKernelSo3 {
     /// **Approximation**: the Bingham distribution with the same second moments `E[q qᵀ]` (so the same
-    /// E[R], the same centre and the same E[tr R] = 3e^(−s)). About the centre the heat kernel's quaternion
+    /// `E[R]`, the same centre and the same `E[tr R]` = 3e^(−s)). About the centre the heat kernel's quaternion
     /// has `E[w²] = E[(1 + cos t)/2] = (1 + 3e^(−s))/4` and `E[x²] = E[y²] = E[z²] = (1 − e^(−s))/4`
     /// exactly; [`Bingham::fit`] matches them. The Bingham's eigenvalue is about −2/s − 3/2 for small s
     /// (ERRATA.md), so s should stay above about 2e-4 for it to lie in the range the Bingham normaliser is
