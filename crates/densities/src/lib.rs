@@ -1,14 +1,26 @@
 //! # liebayes-densities
 //!
-//! Probability densities on the spaces of [`liebayes_manifolds`], and the special functions they need.
+//! Probability densities on the spaces of [`liebayes_manifolds`], the special functions they need, and
+//! their algebra. All numbers are f64; each family documents its base measure and its range.
 //!
-//! * [`special`]: log I₀, log I₁, Bessel ratios Iₙ/I₀, the inverse of A(κ) = I₁/I₀, the von
-//!   Mises-Fisher mean resultant length and log normaliser, all stable for κ from 0 to 1e6.
+//! | family | space | base measure |
+//! |---|---|---|
+//! | [`VonMises`], [`GenVonMises2`] | SO(2) | dθ (total 2π) |
+//! | [`VonMisesFisher`] | S² | surface measure (total 4π) |
+//! | [`Bingham`] | SU(2) = S³ (and SO(3)) | uniform probability measure |
+//! | [`HeatKernelSo3`] | SO(3) | normalised Haar measure |
+//! | [`Gaussian`] | Rⁿ | Lebesgue |
+//! | [`TangentGaussian`] | any Lie group | Lebesgue in exponential coordinates at the mean |
 //!
-//! The densities of the seeds (von Mises and its second-harmonic generalisation on SO(2), von
-//! Mises-Fisher on S², Bingham on SU(2), the heat kernel on SO(3), Gaussians on Rⁿ and on the tangent
-//! spaces of Lie groups) and the traits of their algebra are being built on top of this module.
-//! The numbers are f64: the manifolds are generic over the scalar, the densities are not (yet).
+//! * The algebra is shared through traits: [`Density`] (`log_pdf`, `log_normalizer`, `sample`, `mode`),
+//!   [`Product`] (Bayes with a conjugate likelihood, with the log evidence), [`Convolve`] (propagation
+//!   where the family is closed), [`Entropy`], [`KlDivergence`].
+//! * Moments are methods of each type.
+//! * Named approximations (moment matching between families) carry their measured errors in
+//!   `docs/densities/`.
+//! * [`special`]: ln I₀, ln I₁, Bessel ratios Iₙ/I₀, A⁻¹ and the von Mises-Fisher functions, accurate to
+//!   a few ulp from κ = 0 to 1e6.
+//! * With the `proptest` feature, [`testing`] exports strategies for every family.
 
 mod bingham;
 mod bingham_normalizer;
