@@ -6,6 +6,7 @@ use crate::traits::{Convolve, Density, Entropy, KlDivergence};
 use liebayes_manifolds::{LieGroup, So3};
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
+use rand_distr::StandardNormal;
 use std::f64::consts::PI;
 
 /// Below this variance the density uses the Poisson-summed (small-time) form, above it the character
@@ -213,10 +214,55 @@ impl Density for HeatKernelSo3 {
         0.0
     }
 
-    /// The angle by inverting its CDF (Newton's method safeguarded by bisection), the axis uniform on
-    /// S², then `c · exp(t · axis)`.
+    /// For s < 1, rejection from the Brownian increment itself: propose `c · exp(ξ)`, ξ ~ N(0, s I),
+    /// whose angle |ξ| has the Maxwell density m(t) = √(2/π) t² e^(−t²/2s) s^(−3/2). By the Poisson form
+    /// the angle density over m is `e^(s/8) (S(t)/t) (2 sin(t/2)/t)`, at most 1.39 e^(s/8) for s < 1 (the tests
+    /// measure it on a fine grid), bounded here by `1.5 e^(s/8)`,
+    /// so a draw is accepted with probability `h(t) / (1.5 e^(s/8) m(t))` (about 67 %). The bound is
+    /// checked at every draw; were it ever exceeded, that draw falls back to inversion, so the sampler
+    /// stays exact either way. For s ≥ 1, and as that fallback, the angle comes from inverting its CDF
+    /// (Newton safeguarded by bisection) with a uniform axis.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So3<f64> {
-        let u: f64 = rng.random();
+        if self.s < POISSON_LIMIT {
+            let log_bound = self.s / 8.0 + 1.5_f64.ln();
+            let log_maxwell_constant = 0.5 * (2.0 / PI).ln() - 1.5 * self.s.ln();
+            loop {
+                let xi =
+                    Vector3::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal)) * self.s.sqrt();
+                let t = xi.norm();
+                if t == 0.0 || t > PI {
+                    continue; // the proposal is the Maxwell law truncated to (0, π]
+                }
+                let half = (t / 2.0).sin();
+                let log_angle_density =
+                    self.log_density_of_angle(t) + (2.0 * half * half / PI).ln();
+                let log_maxwell = log_maxwell_constant + 2.0 * t.ln() - t * t / (2.0 * self.s);
+                let log_ratio = log_angle_density - log_maxwell - log_bound;
+                if log_ratio > 0.0 {
+                    break; // bound violated: never observed, but exactness first
+                }
+                if rng.random::<f64>().ln() < log_ratio {
+                    return self.center.compose(&So3::exp(&xi));
+                }
+            }
+        }
+        let t = self.invert_angle_cdf(rng.random());
+        let z: f64 = rng.random_range(-1.0..=1.0);
+        let phi: f64 = rng.random_range(0.0..2.0 * PI);
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let axis = Vector3::new(r * phi.cos(), r * phi.sin(), z);
+        self.center.compose(&So3::exp(&(axis * t)))
+    }
+
+    /// The centre.
+    fn mode(&self) -> Option<So3<f64>> {
+        Some(self.center)
+    }
+}
+
+impl HeatKernelSo3 {
+    /// The angle t with `angle_cdf(t) = u`: Newton's method safeguarded by bisection on [0, π].
+    fn invert_angle_cdf(&self, u: f64) -> f64 {
         let (mut lo, mut hi) = (0.0, PI);
         let mut t = (3.0 * self.s).sqrt().min(PI / 2.0);
         for _ in 0..100 {
@@ -234,21 +280,11 @@ impl Density for HeatKernelSo3 {
                 0.5 * (lo + hi)
             };
             if (next - t).abs() <= 1e-14 * (1.0 + t) {
-                t = next;
-                break;
+                return next;
             }
             t = next;
         }
-        let z: f64 = rng.random_range(-1.0..=1.0);
-        let phi: f64 = rng.random_range(0.0..2.0 * PI);
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let axis = Vector3::new(r * phi.cos(), r * phi.sin(), z);
-        self.center.compose(&So3::exp(&(axis * t)))
-    }
-
-    /// The centre.
-    fn mode(&self) -> Option<So3<f64>> {
-        Some(self.center)
+        t
     }
 }
 

@@ -218,3 +218,24 @@ fn kl_and_entropy_match_monte_carlo() {
         );
     }
 }
+
+/// The rejection sampler for s < 1 relies on angle_pdf(t) ≤ 1.5 e^(s/8) m(t), m the Maxwell density of
+/// |ξ| for ξ ~ N(0, s I): check the ratio on a fine grid of t over (0, π] for s across (0, 1).
+#[test]
+fn rejection_bound_of_the_small_variance_sampler_holds() {
+    let mut worst: f64 = 0.0;
+    for s in [1e-6, 1e-4, 1e-2, 0.1, 0.3, 0.6, 0.9, 0.999] {
+        let h = at_identity(s);
+        for i in 1..=20_000 {
+            let t = PI * f64::from(i) / 20_000.0;
+            let log_maxwell =
+                0.5 * (2.0 / PI).ln() - 1.5 * f64::ln(s) + 2.0 * t.ln() - t * t / (2.0 * s);
+            let log_ratio = h.angle_pdf(t).ln() - log_maxwell - s / 8.0;
+            if log_ratio.is_finite() {
+                worst = worst.max(log_ratio.exp());
+            }
+        }
+    }
+    eprintln!("largest angle-density / Maxwell ratio: {worst:.4} (bound 1.5)");
+    assert!(worst <= 1.5, "the sampler's bound fails: {worst}");
+}
