@@ -100,13 +100,8 @@ impl HeatKernelSo3 {
         if self.s >= CDF_SERIES_LIMIT {
             return cdf_series(self.s, t).clamp(0.0, 1.0);
         }
-        // The angle density is negligible (below e^(−70)) past 12 √s: integrate up to there only,
-        // on panels of width √s/2.
-        let end = t.min(12.0 * self.s.sqrt());
-        let panels = (2.0 * end / self.s.sqrt()).ceil().max(1.0);
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let panels = panels as usize;
-        quadrature::integrate(|u| self.angle_pdf(u), 0.0, end, panels).clamp(0.0, 1.0)
+        self.integrate_over_angle(t, |u| self.angle_pdf(u))
+            .clamp(0.0, 1.0)
     }
 }
 
@@ -261,6 +256,18 @@ impl Density for HeatKernelSo3 {
 }
 
 impl HeatKernelSo3 {
+    /// `∫₀^min(upto, 12√s, π) f(t) dt` for integrands carrying the angle density: 20-point
+    /// Gauss-Legendre on panels of width √s/2 (at least 4). The angle density is below e^(−70) past
+    /// 12√s, so the rest is negligible.
+    fn integrate_over_angle(&self, upto: f64, f: impl Fn(f64) -> f64) -> f64 {
+        let root = self.s.sqrt();
+        let end = upto.min(12.0 * root).min(PI);
+        // end ≤ 12 √s, so at most 24 panels.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let panels = (2.0 * end / root).ceil().max(4.0) as usize;
+        quadrature::integrate(f, 0.0, end, panels)
+    }
+
     /// The angle t with `angle_cdf(t) = u`: Newton's method safeguarded by bisection on [0, π].
     fn invert_angle_cdf(&self, u: f64) -> f64 {
         let (mut lo, mut hi) = (0.0, PI);
@@ -292,19 +299,7 @@ impl Entropy for HeatKernelSo3 {
     /// `−∫ f ln f dHaar = −∫_0^π f(t) ln f(t) (1 − cos t)/π dt`, by Gauss-Legendre quadrature on panels
     /// of width √s/2 (no closed form exists).
     fn entropy(&self) -> f64 {
-        let end = (12.0 * self.s.sqrt()).min(PI);
-        let panels = (2.0 * end / self.s.sqrt()).ceil().clamp(4.0, 400.0);
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let panels = panels as usize;
-        -quadrature::integrate(
-            |t| {
-                let l = self.log_density_of_angle(t);
-                self.angle_pdf(t) * l
-            },
-            0.0,
-            end,
-            panels,
-        )
+        -self.integrate_over_angle(PI, |t| self.angle_pdf(t) * self.log_density_of_angle(t))
     }
 }
 
@@ -318,29 +313,20 @@ impl KlDivergence for HeatKernelSo3 {
         let d = other.center.inverse().compose(&self.center);
         let delta = d.angle();
         let (sd, cd) = (delta / 2.0).sin_cos();
-        let end = (12.0 * self.s.sqrt()).min(PI);
-        let panels = (2.0 * end / self.s.sqrt()).ceil().clamp(4.0, 400.0);
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let panels = panels as usize;
-        quadrature::integrate(
-            |t| {
-                let (st, ct) = (t / 2.0).sin_cos();
-                let log_p = self.log_density_of_angle(t);
-                let inner = quadrature::integrate(
-                    |c| {
-                        let w = (cd * ct - sd * st * c).abs().min(1.0);
-                        let t_other = 2.0 * w.acos();
-                        0.5 * (log_p - other.log_density_of_angle(t_other))
-                    },
-                    -1.0,
-                    1.0,
-                    4,
-                );
-                self.angle_pdf(t) * inner
-            },
-            0.0,
-            end,
-            panels,
-        )
+        self.integrate_over_angle(PI, |t| {
+            let (st, ct) = (t / 2.0).sin_cos();
+            let log_p = self.log_density_of_angle(t);
+            let inner = quadrature::integrate(
+                |c| {
+                    let w = (cd * ct - sd * st * c).abs().min(1.0);
+                    let t_other = 2.0 * w.acos();
+                    0.5 * (log_p - other.log_density_of_angle(t_other))
+                },
+                -1.0,
+                1.0,
+                4,
+            );
+            self.angle_pdf(t) * inner
+        })
     }
 }
