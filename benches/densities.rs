@@ -29,6 +29,18 @@ fn von_mises_moments(c: &mut Criterion) {
         g.bench_function(format!("log I0, kappa {kappa:e}"), |b| {
             b.iter(|| special::log_i0(black_box(kappa)));
         });
+        g.bench_function(format!("scaled (I0, I1) pair, kappa {kappa:e}"), |b| {
+            b.iter(|| special::scaled_i0_i1(black_box(kappa)));
+        });
+        g.bench_function(
+            format!("scaled pair the obvious way (exp(log I0 - k), A1), kappa {kappa:e}"),
+            |b| {
+                b.iter(|| {
+                    let k = black_box(kappa);
+                    ((special::log_i0(k) - k).exp(), special::a1(k))
+                });
+            },
+        );
     }
     g.bench_function("A^-1(0.9)", |b| {
         b.iter(|| special::a1_inverse(black_box(0.9)));
@@ -81,6 +93,9 @@ fn bingham(c: &mut Criterion) {
         [0.0, -20.0, -300.0, -1000.0],
         [0.0, -2000.0, -5000.0, -1e4],
     ] {
+        g.bench_function(format!("normaliser + gradient alone, z {z:?}"), |b| {
+            b.iter(|| special::bingham_log_normalizer_and_moments(black_box(&z)));
+        });
         let m = Matrix4::from_diagonal(&Vector4::from(z));
         g.bench_function(
             format!("construct (eigen + normaliser + moments), z {z:?}"),

@@ -30,6 +30,8 @@ mod gen_von_mises;
 mod heat_kernel;
 mod moment_matching;
 mod quadrature;
+mod scaled_bessel;
+mod scaled_bessel_coefficients;
 pub mod special;
 mod tangent_gaussian;
 #[cfg(feature = "proptest")]
