@@ -146,8 +146,13 @@ fn sampling(c: &mut Criterion) {
     ] {
         let p = GenVonMises2::new(Vector2::new(40.0, 0.0), eta2).unwrap();
         g.bench_function(
-            format!("GenVonMises2, kappa1 40, second harmonic {name}"),
+            format!("GenVonMises2, kappa1 40, second harmonic {name}, one-off"),
             |b| b.iter(|| p.sample(&mut rng)),
+        );
+        let sampler = p.sampler();
+        g.bench_function(
+            format!("GenVonMises2, kappa1 40, second harmonic {name}, kept sampler"),
+            |b| b.iter(|| rand::distr::Distribution::sample(&sampler, &mut rng)),
         );
     }
     g.finish();

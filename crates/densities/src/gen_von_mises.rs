@@ -97,38 +97,11 @@ impl Density for GenVonMises2 {
         self.log_normalizer
     }
 
-    /// Exact rejection sampling from the better of two envelopes: the von Mises of η₁ (accepting with
-    /// `exp(η₂ · u(2θ) − κ₂)`) or the bimodal von Mises of η₂ on the doubled angle (accepting with
-    /// `exp(η₁ · u(θ) − κ₁)`), whose acceptance rates are `Z / (2π I₀(κ₁) e^κ₂)` and
-    /// `Z / (2π I₀(κ₂) e^κ₁)`. When both fall below 1 % (strong harmonics whose modes disagree), a
-    /// piecewise-constant envelope on a grid fine enough that the exponent varies by at most π/8 per cell
-    /// (`|f′| ≤ κ₁ + 2κ₂`), still exact, costing one pass over the grid per draw.
+    /// One exact draw; see [`GenVonMises2Sampler`], which this builds and uses once. For many draws
+    /// from one distribution, build the sampler with [`GenVonMises2::sampler`] and keep it: where the
+    /// grid envelope is needed that is the difference between a grid pass per draw and a binary search.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
-        let (k1, k2) = (self.eta1.norm(), self.eta2.norm());
-        let first = self.log_normalizer - (2.0 * PI).ln() - special::log_i0(k1) - k2;
-        let second = self.log_normalizer - (2.0 * PI).ln() - special::log_i0(k2) - k1;
-        if first.max(second) < 0.01_f64.ln() {
-            return So2::from_angle_unchecked(self.sample_on_grid(rng, k1 + 2.0 * k2));
-        }
-        loop {
-            let (angle, log_accept) = if first >= second {
-                let a = von_mises_angle(&self.eta1, rng);
-                let (s2, c2) = (2.0 * a).sin_cos();
-                (a, self.eta2.x * c2 + self.eta2.y * s2 - k2)
-            } else {
-                let half = von_mises_angle(&self.eta2, rng) / 2.0;
-                let a = if rng.random::<bool>() {
-                    half
-                } else {
-                    half + PI
-                };
-                let (s, c) = a.sin_cos();
-                (a, self.eta1.x * c + self.eta1.y * s - k1)
-            };
-            if rng.random::<f64>().ln() < log_accept {
-                return So2::from_angle_unchecked(angle);
-            }
-        }
+        rand::distr::Distribution::sample(&self.sampler(), rng)
     }
 
     /// The global maximum of the exponent: every local maximum of a grid (an order-2 trigonometric
@@ -146,6 +119,133 @@ impl Density for GenVonMises2 {
             .map(|i| self.refine_maximum(h * i as f64))
             .max_by(|a, b| self.exponent(*a).total_cmp(&self.exponent(*b)))
             .map(So2::from_angle_unchecked)
+    }
+}
+
+impl GenVonMises2 {
+    /// The exact sampler with its envelope chosen and built (see [`GenVonMises2Sampler`]).
+    pub fn sampler(&self) -> GenVonMises2Sampler {
+        let (k1, k2) = (self.eta1.norm(), self.eta2.norm());
+        let first = self.log_normalizer - (2.0 * PI).ln() - special::log_i0(k1) - k2;
+        let second = self.log_normalizer - (2.0 * PI).ln() - special::log_i0(k2) - k1;
+        let envelope = if first.max(second) < 0.01_f64.ln() {
+            Envelope::Grid(GridEnvelope::new(self, k1 + 2.0 * k2))
+        } else if first >= second {
+            Envelope::FirstHarmonic
+        } else {
+            Envelope::SecondHarmonic
+        };
+        GenVonMises2Sampler {
+            density: self.clone(),
+            envelope,
+        }
+    }
+}
+
+/// Exact rejection sampling of a [`GenVonMises2`] from the better of three envelopes, chosen once:
+///
+/// * the von Mises of η₁, accepting with `exp(η₂ · u(2θ) − κ₂)`, acceptance rate
+///   `Z / (2π I₀(κ₁) e^κ₂)`;
+/// * the bimodal von Mises of η₂ on the doubled angle, accepting with `exp(η₁ · u(θ) − κ₁)`, rate
+///   `Z / (2π I₀(κ₂) e^κ₁)`;
+/// * when both rates fall below 1 % (strong harmonics whose modes disagree): a piecewise-constant
+///   envelope on `8L + 64` cells (at most 2¹⁶) for `L = κ₁ + 2κ₂ ≥ max |f′|`, cell i carrying
+///   `exp(f(cᵢ) + L h/2)`, an upper bound of `exp(f)` on the cell, so the envelope exceeds the density
+///   by at most e^(π/8) where it is not capped. A draw picks a cell by binary search in the cumulative
+///   masses.
+///
+/// Implements [`rand::distr::Distribution`].
+#[derive(Clone, Debug)]
+pub struct GenVonMises2Sampler {
+    density: GenVonMises2,
+    envelope: Envelope,
+}
+
+#[derive(Clone, Debug)]
+enum Envelope {
+    FirstHarmonic,
+    SecondHarmonic,
+    Grid(GridEnvelope),
+}
+
+/// The piecewise-constant envelope: cell width, the bound `L h/2`, the exponent at every cell centre and
+/// the cumulative masses `Σ exp(f(cⱼ) − max f)`.
+#[derive(Clone, Debug)]
+struct GridEnvelope {
+    h: f64,
+    bound: f64,
+    exponents: Vec<f64>,
+    cumulative: Vec<f64>,
+}
+
+impl GridEnvelope {
+    fn new(p: &GenVonMises2, lipschitz: f64) -> Self {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let cells = ((8.0 * lipschitz).ceil().min(65_472.0) as usize) + 64;
+        let h = 2.0 * PI / cells as f64;
+        let exponents: Vec<f64> = (0..cells)
+            .map(|i| p.exponent((i as f64 + 0.5) * h))
+            .collect();
+        let max = exponents.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let cumulative = exponents
+            .iter()
+            .scan(0.0, |total, e| {
+                *total += (e - max).exp();
+                Some(*total)
+            })
+            .collect();
+        Self {
+            h,
+            bound: lipschitz * h / 2.0,
+            exponents,
+            cumulative,
+        }
+    }
+
+    fn draw<R: Rng + ?Sized>(&self, p: &GenVonMises2, rng: &mut R) -> f64 {
+        let cells = self.cumulative.len();
+        let total = self.cumulative[cells - 1];
+        loop {
+            let target = rng.random::<f64>() * total;
+            let i = self
+                .cumulative
+                .partition_point(|&c| c < target)
+                .min(cells - 1);
+            let angle = (i as f64 + rng.random::<f64>()) * self.h;
+            if rng.random::<f64>().ln() < p.exponent(angle) - self.exponents[i] - self.bound {
+                return angle;
+            }
+        }
+    }
+}
+
+impl rand::distr::Distribution<So2<f64>> for GenVonMises2Sampler {
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
+        let p = &self.density;
+        let (k1, k2) = (p.eta1.norm(), p.eta2.norm());
+        let angle = match &self.envelope {
+            Envelope::Grid(grid) => grid.draw(p, rng),
+            Envelope::FirstHarmonic => loop {
+                let a = von_mises_angle(&p.eta1, rng);
+                let (s2, c2) = (2.0 * a).sin_cos();
+                if rng.random::<f64>().ln() < p.eta2.x * c2 + p.eta2.y * s2 - k2 {
+                    break a;
+                }
+            },
+            Envelope::SecondHarmonic => loop {
+                let half = von_mises_angle(&p.eta2, rng) / 2.0;
+                let a = if rng.random::<bool>() {
+                    half
+                } else {
+                    half + PI
+                };
+                let (s, c) = a.sin_cos();
+                if rng.random::<f64>().ln() < p.eta1.x * c + p.eta1.y * s - k1 {
+                    break a;
+                }
+            },
+        };
+        So2::from_angle_unchecked(angle)
     }
 }
 
@@ -178,33 +278,6 @@ impl GenVonMises2 {
             }
         }
         best
-    }
-
-    /// Rejection from a piecewise-constant envelope: cell i of width h carries `exp(f(cᵢ) + L h/2)`,
-    /// an upper bound of `exp(f)` on the cell for `L ≥ max |f′|`; the grid has `8L + 64` cells (at most
-    /// 2¹⁶), so the envelope exceeds the density by at most e^(π/8) where it is not capped.
-    fn sample_on_grid<R: Rng + ?Sized>(&self, rng: &mut R, lipschitz: f64) -> f64 {
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let cells = ((8.0 * lipschitz).ceil().min(65_472.0) as usize) + 64;
-        let h = 2.0 * PI / cells as f64;
-        let bound = lipschitz * h / 2.0;
-        let centre = |i: usize| (i as f64 + 0.5) * h;
-        let exponents: Vec<f64> = (0..cells).map(|i| self.exponent(centre(i))).collect();
-        let max = exponents.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let mut cumulative = Vec::with_capacity(cells);
-        let mut total = 0.0;
-        for e in &exponents {
-            total += (e - max).exp();
-            cumulative.push(total);
-        }
-        loop {
-            let target = rng.random::<f64>() * total;
-            let i = cumulative.partition_point(|&c| c < target).min(cells - 1);
-            let angle = (i as f64 + rng.random::<f64>()) * h;
-            if rng.random::<f64>().ln() < self.exponent(angle) - exponents[i] - bound {
-                return angle;
-            }
-        }
     }
 }
 

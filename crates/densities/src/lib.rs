@@ -43,7 +43,7 @@ mod von_mises_fisher;
 pub use bingham::Bingham;
 pub use error::DensityError;
 pub use gaussian::Gaussian;
-pub use gen_von_mises::GenVonMises2;
+pub use gen_von_mises::{GenVonMises2, GenVonMises2Sampler};
 pub use heat_kernel::HeatKernelSo3;
 pub use liebayes_manifolds as manifolds;
 pub use tangent_gaussian::TangentGaussian;
