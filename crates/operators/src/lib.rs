@@ -1,12 +1,22 @@
 //! # liebayes-operators
 //!
-//! The Bayesian operators, generic over the state space and the density: `Propagate` (Chapman-Kolmogorov
-//! through a process model) and `Condition` (Bayes with a measurement model, returning the posterior and
-//! the log evidence); the linear Kalman filter, EKF and UKF on any `Manifold` (error state through
-//! `retract`/`local`), the particle filter, the grid filter on the circle, Rao-Blackwellized composites
-//! and the marginalized particle filter; and the evaluation tools (Monte Carlo runner, NEES/NIS).
+//! The two Bayesian operations as traits, generic over the density and the model:
 //!
-//! It depends on `liebayes-densities` and `liebayes-manifolds` only. It is empty until the operators
-//! issue lands.
+//! * [`Propagate`]: Chapman-Kolmogorov, `p(x′) = ∫ p(x′ | x, u) p(x) dx`, through a process model with
+//!   an input u;
+//! * [`Condition`]: Bayes, `p(x | z) = p(z | x) p(x) / p(z)`, with a measurement model, returning the
+//!   posterior together with the log evidence `ln p(z)` (the log marginal likelihood), so that filters
+//!   can be compared and models selected on the same data.
+//!
+//! Implemented so far: the linear Kalman filter on [`Gaussian<N>`](liebayes_densities::Gaussian)
+//! ([`kalman`]), exact, with the Joseph-form covariance update. The filters crate composes these into
+//! applications (the azimuth filter's grid reference is a bank of these Kalman filters).
+
+mod error;
+pub mod kalman;
+mod traits;
+
+pub use error::OperatorError;
+pub use traits::{Condition, Conditioned, Propagate};
 
 pub use liebayes_densities as densities;

@@ -1,0 +1,167 @@
+//! The linear Kalman filter: [`Gaussian<N>`] propagated through `x′ = F x + u + w`, `w ~ N(0, Q)`, and
+//! conditioned on `z = H x + n`, `n ~ N(0, R)`. Both steps are exact.
+//!
+//! Conditioning, with innovation `ν = z − H μ` and its covariance `S = H Σ Hᵀ + R` (factored by
+//! Cholesky, never inverted):
+//!
+//! * gain `K = Σ Hᵀ S⁻¹`, mean `μ + K ν`;
+//! * covariance in Joseph form `(I − K H) Σ (I − K H)ᵀ + K R Kᵀ`, symmetric and positive semi-definite
+//!   by construction whatever the rounding in K, unlike the short form `(I − K H) Σ`;
+//! * log evidence `ln N(z; H μ, S) = −½ (νᵀ S⁻¹ ν + ln det S + m ln 2π)`.
+
+use crate::error::all_finite;
+use crate::{Condition, Conditioned, OperatorError, Propagate};
+use liebayes_densities::Gaussian;
+use nalgebra::{Cholesky, SMatrix, SVector};
+use std::f64::consts::PI;
+
+/// The linear process `x′ = F x + u + w`, `w ~ N(0, Q)`; the input is u.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearProcess<const N: usize> {
+    transition: SMatrix<f64, N, N>,
+    noise: SMatrix<f64, N, N>,
+}
+
+impl<const N: usize> LinearProcess<N> {
+    /// The process with transition matrix F and noise covariance Q (symmetric positive semi-definite;
+    /// a zero Q is a deterministic process).
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for NaN or infinite entries, [`OperatorError::OutOfRange`] for a Q
+    /// that is not symmetric or has a negative diagonal entry.
+    pub fn new(
+        transition: SMatrix<f64, N, N>,
+        noise: SMatrix<f64, N, N>,
+    ) -> Result<Self, OperatorError> {
+        all_finite("process transition matrix F", transition.iter())?;
+        all_finite("process noise covariance Q", noise.iter())?;
+        check_covariance("process noise covariance Q", &noise)?;
+        Ok(Self { transition, noise })
+    }
+
+    /// F.
+    pub fn transition(&self) -> &SMatrix<f64, N, N> {
+        &self.transition
+    }
+
+    /// Q.
+    pub fn noise(&self) -> &SMatrix<f64, N, N> {
+        &self.noise
+    }
+}
+
+/// The linear measurement `z = H x + n`, `n ~ N(0, R)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearMeasurement<const N: usize, const M: usize> {
+    matrix: SMatrix<f64, M, N>,
+    noise: SMatrix<f64, M, M>,
+}
+
+impl<const N: usize, const M: usize> LinearMeasurement<N, M> {
+    /// The measurement with matrix H and noise covariance R (symmetric positive semi-definite; the
+    /// innovation covariance H Σ Hᵀ + R must then be positive definite at every update).
+    ///
+    /// # Errors
+    /// As [`LinearProcess::new`], for H and R.
+    pub fn new(
+        matrix: SMatrix<f64, M, N>,
+        noise: SMatrix<f64, M, M>,
+    ) -> Result<Self, OperatorError> {
+        all_finite("measurement matrix H", matrix.iter())?;
+        all_finite("measurement noise covariance R", noise.iter())?;
+        check_covariance("measurement noise covariance R", &noise)?;
+        Ok(Self { matrix, noise })
+    }
+
+    /// H.
+    pub fn matrix(&self) -> &SMatrix<f64, M, N> {
+        &self.matrix
+    }
+
+    /// R.
+    pub fn noise(&self) -> &SMatrix<f64, M, M> {
+        &self.noise
+    }
+}
+
+/// Symmetric to 1e-12 relative, with a non-negative diagonal (the cheap necessary conditions of
+/// positive semi-definiteness; the Cholesky factorisations downstream catch the rest).
+fn check_covariance<const K: usize>(
+    what: &'static str,
+    m: &SMatrix<f64, K, K>,
+) -> Result<(), OperatorError> {
+    let asymmetry = (m - m.transpose()).amax();
+    if asymmetry > 1e-12 * m.amax() {
+        return Err(OperatorError::OutOfRange {
+            what,
+            value: asymmetry,
+            range: "symmetric matrices (the value shown is max |A - A^T|)",
+        });
+    }
+    if let Some(&d) = m.diagonal().iter().find(|&&d| d < 0.0) {
+        return Err(OperatorError::OutOfRange {
+            what,
+            value: d,
+            range: "positive semi-definite matrices (the value shown is a negative diagonal entry)",
+        });
+    }
+    Ok(())
+}
+
+impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
+    type Input = SVector<f64, N>;
+
+    /// `N(F μ + u, F Σ Fᵀ + Q)`.
+    fn propagate(
+        &self,
+        model: &LinearProcess<N>,
+        input: &SVector<f64, N>,
+    ) -> Result<Self, OperatorError> {
+        all_finite("process input u", input.iter())?;
+        let f = &model.transition;
+        let covariance = f * self.covariance() * f.transpose() + model.noise;
+        Ok(Gaussian::new(
+            f * self.mean() + input,
+            (covariance + covariance.transpose()) * 0.5,
+        )?)
+    }
+}
+
+impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaussian<N> {
+    type Measurement = SVector<f64, M>;
+
+    /// The Kalman update in Joseph form, with `ln N(z; H μ, S)` (see the module docs).
+    fn condition(
+        &self,
+        model: &LinearMeasurement<N, M>,
+        z: &SVector<f64, M>,
+    ) -> Result<Conditioned<Self>, OperatorError> {
+        all_finite("measurement z", z.iter())?;
+        let h = &model.matrix;
+        let sigma = self.covariance();
+        let innovation = z - h * self.mean();
+        let s = h * sigma * h.transpose() + model.noise;
+        let s_factor = Cholesky::new((s + s.transpose()) * 0.5).ok_or(OperatorError::OutOfRange {
+            what: "innovation covariance H P H^T + R",
+            value: s.diagonal().min(),
+            range: "positive definite matrices (the value shown is its smallest diagonal entry); make R \
+                    positive definite",
+        })?;
+        // K = Σ Hᵀ S⁻¹, from S Kᵀ = H Σ.
+        let gain = s_factor.solve(&(h * sigma)).transpose();
+        let i_minus_kh = SMatrix::<f64, N, N>::identity() - gain * h;
+        let covariance =
+            i_minus_kh * sigma * i_minus_kh.transpose() + gain * model.noise * gain.transpose();
+        let log_det_s = 2.0 * s_factor.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+        let mahalanobis = innovation.dot(&s_factor.solve(&innovation));
+        let log_evidence = -0.5 * (mahalanobis + log_det_s + M as f64 * (2.0 * PI).ln());
+        let posterior = Gaussian::new(
+            self.mean() + gain * innovation,
+            (covariance + covariance.transpose()) * 0.5,
+        )?;
+        Ok(Conditioned {
+            posterior,
+            log_evidence,
+        })
+    }
+}
