@@ -75,7 +75,7 @@ impl VonMises {
 
     /// The concentration κ = |η|.
     pub fn concentration(&self) -> f64 {
-        self.eta.norm()
+        self.eta.x.hypot(self.eta.y)
     }
 
     /// The mean direction μ = arg η, or `None` for the uniform distribution (κ = 0).

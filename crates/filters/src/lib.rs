@@ -1,10 +1,13 @@
 //! # liebayes-filters
 //!
-//! The applications, each a composition of the operators: `azimuth` (the exact von Mises × Gaussian
-//! filter for frame alignment), `attitude` (IMU attitude on SO(3) with Bingham and heat-kernel
-//! densities) and `aoa` (angle-of-arrival positioning with von Mises-Fisher noise), each with its
-//! scenario simulators and baselines.
+//! The applications, each a composition of the operators:
 //!
-//! It is empty until the application issues land.
+//! * [`azimuth`]: the exact von Mises × Gaussian filter for aligning two frames rotated by an unknown
+//!   azimuth (seed 000), with its brute-force reference (a grid of Kalman filters) and its scenarios.
+//!
+//! The IMU attitude filter (Bingham and heat kernel on SO(3)) and angle-of-arrival positioning (von
+//! Mises-Fisher) follow in their own issues.
+
+pub mod azimuth;
 
 pub use liebayes_operators as operators;

@@ -1,0 +1,20 @@
+//! Azimuth alignment (seed 000): a platform moves in the plane; its velocity is known in its own axes,
+//! its position is measured in world axes, and the two frames differ by an unknown constant azimuth A:
+//!
+//! `ṙ = v + w` (r in platform axes, `w` white with PSD `q² I`), `z = R(A) r + n`, `n ~ N(0, σ_m² I)`,
+//! `R(A) = [[cos A, −sin A], [sin A, cos A]]`.
+//!
+//! The joint posterior is exactly `p(r, A) = p(A) p(r | A)` with p(A) von Mises and
+//! `p(r | A) = N(a + c cos A − c^× sin A, σ² I)`, `u^× = (−u_y, u_x)`: seven numbers (η, a, c, σ²),
+//! [`AzimuthDensity`]. It is checked against [`GridReference`], a bank of exact Kalman filters over a
+//! grid of azimuths built from the operators crate, and against `../shared/reference/azimuth_vectors.json`.
+//! [`scenario`] simulates the seed's three scenarios. The math is in `docs/filters/azimuth.md`.
+
+mod density;
+mod grid;
+mod model;
+pub mod scenario;
+
+pub use density::{AzimuthDensity, AzimuthEstimates};
+pub use grid::GridReference;
+pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
