@@ -20,7 +20,7 @@ use std::f64::consts::PI;
 ///   `ln p(z) = −ln(2πS) − (|z − c|² + |a|²)/(2S) + ln I₀(|η⁺|) − ln I₀(|η|)`;
 /// * **propagation** over dt with velocity v: `a += v dt`, `σ² += q² dt`; η and c unchanged.
 ///
-/// Both steps cost a few tens of nanoseconds and allocate nothing. `a × b = a_x b_y − a_y b_x`.
+/// Both steps cost a few nanoseconds and allocate nothing; the log evidence adds two ln I₀. `a × b = a_x b_y − a_y b_x`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AzimuthDensity {
     eta: Vector2<f64>,
@@ -43,6 +43,17 @@ pub struct AzimuthEstimates {
     pub mean_r: Vector2<f64>,
     /// `Cov r`.
     pub cov_r: Matrix2<f64>,
+}
+
+/// Refuses a non-finite measurement.
+fn check_measurement(z: &Vector2<f64>) -> Result<(), OperatorError> {
+    match z.iter().find(|v| !v.is_finite()) {
+        Some(&value) => Err(OperatorError::NonFinite {
+            what: "position measurement z",
+            value,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// `u^× = (−u_y, u_x)`, u turned by +90°.
@@ -131,7 +142,9 @@ impl AzimuthDensity {
         self.a + self.c * c - perp(&self.c) * s
     }
 
-    /// Conditions on a position measurement in place and returns the log evidence `ln p(z)`.
+    /// Conditions on a position measurement in place (the seven-number recursion, no special
+    /// functions: this is the per-step hot path). [`Condition::condition`] also returns the log
+    /// evidence; [`log_evidence`](Self::log_evidence) gives it alone.
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] for a non-finite z (the density is left unchanged).
@@ -139,26 +152,39 @@ impl AzimuthDensity {
         &mut self,
         model: &PositionMeasurement,
         z: &Vector2<f64>,
-    ) -> Result<f64, OperatorError> {
-        if let Some(&value) = z.iter().find(|v| !v.is_finite()) {
-            return Err(OperatorError::NonFinite {
-                what: "position measurement z",
-                value,
-            });
-        }
+    ) -> Result<(), OperatorError> {
+        check_measurement(z)?;
         let s = self.sigma2 + model.variance();
         let k = self.sigma2 / s;
         let w = z - self.c;
-        let eta = self.eta + Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s;
-        let log_evidence = -(2.0 * PI * s).ln()
-            - (w.norm_squared() + self.a.norm_squared()) / (2.0 * s)
-            + special::log_i0(eta.x.hypot(eta.y))
-            - special::log_i0(self.eta.x.hypot(self.eta.y));
-        self.eta = eta;
+        self.eta += Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s;
         self.a *= 1.0 - k;
         self.c = self.c * (1.0 - k) + z * k;
         self.sigma2 *= 1.0 - k;
-        Ok(log_evidence)
+        Ok(())
+    }
+
+    /// The log evidence of a measurement under this density (before conditioning on it):
+    /// `ln p(z) = −ln(2πS) − (|z − c|² + |a|²)/(2S) + ln I₀(|η⁺|) − ln I₀(|η|)`, S = σ² + σ_m², from
+    /// `p(z | A) = N(z; R(A) a + c, S I)` integrated against the von Mises.
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for a non-finite z.
+    pub fn log_evidence(
+        &self,
+        model: &PositionMeasurement,
+        z: &Vector2<f64>,
+    ) -> Result<f64, OperatorError> {
+        check_measurement(z)?;
+        let s = self.sigma2 + model.variance();
+        let w = z - self.c;
+        let eta = self.eta + Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s;
+        // hypot, not norm: |η| near 1e-300 must not underflow.
+        Ok(
+            -(2.0 * PI * s).ln() - (w.norm_squared() + self.a.norm_squared()) / (2.0 * s)
+                + special::log_i0(eta.x.hypot(eta.y))
+                - special::log_i0(self.eta.x.hypot(self.eta.y)),
+        )
     }
 
     /// Propagates in place over one step of the velocity process.
@@ -242,8 +268,9 @@ impl Condition<PositionMeasurement> for AzimuthDensity {
         model: &PositionMeasurement,
         z: &Vector2<f64>,
     ) -> Result<Conditioned<Self>, OperatorError> {
+        let log_evidence = self.log_evidence(model, z)?;
         let mut posterior = *self;
-        let log_evidence = posterior.update(model, z)?;
+        posterior.update(model, z)?;
         Ok(Conditioned {
             posterior,
             log_evidence,
