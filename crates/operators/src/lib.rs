@@ -9,10 +9,12 @@
 //!   can be compared and models selected on the same data.
 //!
 //! Implemented so far: the linear Kalman filter on [`Gaussian<N>`](liebayes_densities::Gaussian)
-//! ([`kalman`]), exact, with the Joseph-form covariance update. The filters crate composes these into
+//! ([`kalman`]), exact, with the Joseph-form covariance update; and the consistency metrics of
+//! [`evaluation`] (NEES and its band, angle errors). The filters crate composes these into
 //! applications (the azimuth filter's grid reference is a bank of these Kalman filters).
 
 mod error;
+pub mod evaluation;
 pub mod kalman;
 mod traits;
 

@@ -8,13 +8,15 @@
 //! `p(r | A) = N(a + c cos A − c^× sin A, σ² I)`, `u^× = (−u_y, u_x)`: seven numbers (η, a, c, σ²),
 //! [`AzimuthDensity`]. It is checked against [`GridReference`], a bank of exact Kalman filters over a
 //! grid of azimuths built from the operators crate, and against `../shared/reference/azimuth_vectors.json`.
-//! [`scenario`] simulates the seed's three scenarios. The math is in `docs/filters/azimuth.md`.
+//! [`scenario`] simulates the seed's three scenarios and [`study`] runs the Monte Carlo summary. The math is in `docs/filters/azimuth.md`.
 
 mod density;
 mod grid;
 mod model;
 pub mod scenario;
+mod study;
 
 pub use density::{AzimuthDensity, AzimuthEstimates};
 pub use grid::GridReference;
 pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
+pub use study::{Summary, study};
