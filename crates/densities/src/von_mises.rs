@@ -78,9 +78,11 @@ impl VonMises {
         self.eta.x.hypot(self.eta.y)
     }
 
-    /// The mean direction μ = arg η, or `None` for the uniform distribution (κ = 0).
+    /// The mean direction μ = arg η, or `None` for the uniform distribution (κ = 0). Defined for every
+    /// κ > 0, including κ = 1e-300 (by atan2, which needs no normalisation).
     pub fn mean_direction(&self) -> Option<So2<f64>> {
-        So2::from_vector_normalizing(&self.eta).ok()
+        (self.concentration() > 0.0)
+            .then(|| So2::from_angle_unchecked(self.eta.y.atan2(self.eta.x)))
     }
 
     /// The n-th trigonometric moment `E[(cos nθ, sin nθ)] = Aₙ(κ) (cos nμ, sin nμ)`, with

@@ -242,3 +242,15 @@ fn extreme_concentrations_give_finite_numbers() {
     assert!(VonMisesFisher::new(S2::new(Vector3::z()).unwrap(), f64::INFINITY).is_err());
     assert!(VonMisesFisher::from_natural(&Vector3::new(0.0, f64::NAN, 1.0)).is_err());
 }
+
+/// |η| = 1e-300: the concentration does not underflow to 0 (hypot, not a squared norm), and the mode,
+/// the mean direction and the moments agree that the distribution is (barely) not uniform.
+#[test]
+fn von_mises_with_the_tiniest_concentration_is_consistent() {
+    let p = liebayes_densities::VonMises::new(nalgebra::Vector2::new(1e-300, 0.0)).unwrap();
+    assert_eq!(p.concentration(), 1e-300);
+    assert_eq!(p.mode().map(|m| m.angle()), Some(0.0));
+    assert_eq!(p.mean_direction().map(|m| m.angle()), Some(0.0));
+    let m = p.trigonometric_moment(1);
+    assert!(m.iter().all(|v| v.is_finite()) && m.x > 0.0);
+}
