@@ -10,12 +10,14 @@
 //!
 //! Implemented so far: the linear Kalman filter on [`Gaussian<N>`](liebayes_densities::Gaussian)
 //! ([`kalman`]), exact, with the Joseph-form covariance update; and the consistency metrics of
-//! [`evaluation`] (NEES and its band, angle errors). The filters crate composes these into
+//! [`evaluation`] (NEES and its band, angle errors); the particle filter over any state type with four
+//! resampling schemes ([`particle`]). The filters crate composes these into
 //! applications (the azimuth filter's grid reference is a bank of these Kalman filters).
 
 mod error;
 pub mod evaluation;
 pub mod kalman;
+pub mod particle;
 mod traits;
 
 pub use error::OperatorError;

@@ -1,0 +1,235 @@
+//! The particle filter, generic over the state space: weighted samples with log weights, Bayes by
+//! reweighting (with the log evidence), propagation by sampling, and four resampling schemes.
+
+use crate::OperatorError;
+use rand::Rng;
+
+/// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
+/// expected number of copies is N wᵢ); they differ in variance and cost:
+///
+/// * `Multinomial`: N independent draws; the highest variance.
+/// * `Stratified`: one uniform draw in each of the N strata [k/N, (k+1)/N).
+/// * `Systematic`: one uniform offset u, points (k + u)/N; each particle gets ⌊N wᵢ⌋ or ⌈N wᵢ⌉ copies.
+/// * `Residual`: ⌊N wᵢ⌋ copies each, then the remainder multinomially from the residual weights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Resampling {
+    /// Independent draws.
+    Multinomial,
+    /// One draw per stratum.
+    Stratified,
+    /// One offset for all strata.
+    Systematic,
+    /// Deterministic floors, then multinomial on the residuals.
+    Residual,
+}
+
+/// Weighted particles `Σ wᵢ δ(x − xᵢ)`, weights kept as logarithms so that no likelihood underflows.
+#[derive(Clone, Debug)]
+pub struct ParticleSet<X> {
+    particles: Vec<X>,
+    log_weights: Vec<f64>,
+}
+
+impl<X: Clone> ParticleSet<X> {
+    /// Equally weighted particles (samples of the prior).
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for an empty set.
+    pub fn from_samples(particles: Vec<X>) -> Result<Self, OperatorError> {
+        if particles.is_empty() {
+            return Err(OperatorError::OutOfRange {
+                what: "number of particles",
+                value: 0.0,
+                range: "at least 1",
+            });
+        }
+        let log_weights = vec![-(particles.len() as f64).ln(); particles.len()];
+        Ok(Self {
+            particles,
+            log_weights,
+        })
+    }
+
+    /// The particles.
+    pub fn particles(&self) -> &[X] {
+        &self.particles
+    }
+
+    /// The normalised weights (allocates; for reporting, not per step).
+    pub fn weights(&self) -> Vec<f64> {
+        let max = self.max_log_weight();
+        let w: Vec<f64> = self.log_weights.iter().map(|l| (l - max).exp()).collect();
+        let total: f64 = w.iter().sum();
+        w.into_iter().map(|x| x / total).collect()
+    }
+
+    fn max_log_weight(&self) -> f64 {
+        self.log_weights
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// The effective sample size `1 / Σ wᵢ²` of the normalised weights, in [1, N].
+    pub fn effective_sample_size(&self) -> f64 {
+        let max = self.max_log_weight();
+        let (sum, sum_sq) = self.log_weights.iter().fold((0.0, 0.0), |(s, q), l| {
+            let w = (l - max).exp();
+            (s + w, q + w * w)
+        });
+        sum * sum / sum_sq
+    }
+
+    /// Chapman-Kolmogorov by sampling: each particle moves to a draw of `transition(x, rng)`.
+    pub fn propagate<R: Rng + ?Sized>(
+        &mut self,
+        rng: &mut R,
+        mut transition: impl FnMut(&X, &mut R) -> X,
+    ) {
+        for x in &mut self.particles {
+            *x = transition(x, rng);
+        }
+    }
+
+    /// Bayes by reweighting: `ln wᵢ += ln p(z | xᵢ)`, then normalisation. Returns the log evidence
+    /// estimate `ln Σ wᵢ p(z | xᵢ)` (wᵢ normalised before the update), unbiased for p(z) in the linear
+    /// domain.
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] when a log-likelihood is NaN or +∞, or when every particle has
+    /// likelihood zero (the measurement is impossible under the particles: resample from a wider prior).
+    pub fn condition(&mut self, log_likelihood: impl Fn(&X) -> f64) -> Result<f64, OperatorError> {
+        let mut updated = self.log_weights.clone();
+        for (l, x) in updated.iter_mut().zip(&self.particles) {
+            let ll = log_likelihood(x);
+            if ll.is_nan() || ll == f64::INFINITY {
+                return Err(OperatorError::NonFinite {
+                    what: "particle log-likelihood",
+                    value: ll,
+                });
+            }
+            *l += ll;
+        }
+        let max = updated.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if max == f64::NEG_INFINITY {
+            return Err(OperatorError::NonFinite {
+                what: "largest particle log-likelihood (every particle has likelihood zero)",
+                value: max,
+            });
+        }
+        let log_total = max + updated.iter().map(|l| (l - max).exp()).sum::<f64>().ln();
+        let old_max = self.max_log_weight();
+        let old_total = old_max
+            + self
+                .log_weights
+                .iter()
+                .map(|l| (l - old_max).exp())
+                .sum::<f64>()
+                .ln();
+        for l in &mut updated {
+            *l -= log_total;
+        }
+        self.log_weights = updated;
+        Ok(log_total - old_total)
+    }
+
+    /// Resamples to N equally weighted particles with `scheme`.
+    pub fn resample<R: Rng + ?Sized>(&mut self, scheme: Resampling, rng: &mut R) {
+        let weights = self.weights();
+        let n = weights.len();
+        let indices = resample_indices(&weights, n, scheme, rng);
+        self.particles = indices.iter().map(|&i| self.particles[i].clone()).collect();
+        self.log_weights = vec![-(n as f64).ln(); n];
+    }
+
+    /// Resamples when the effective sample size falls below `fraction · N` (0.5 is the usual choice);
+    /// returns whether it did.
+    pub fn resample_if_degenerate<R: Rng + ?Sized>(
+        &mut self,
+        fraction: f64,
+        scheme: Resampling,
+        rng: &mut R,
+    ) -> bool {
+        let degenerate = self.effective_sample_size() < fraction * self.particles.len() as f64;
+        if degenerate {
+            self.resample(scheme, rng);
+        }
+        degenerate
+    }
+
+    /// `Σ wᵢ f(xᵢ)`.
+    pub fn expectation(&self, f: impl Fn(&X) -> f64) -> f64 {
+        self.weights()
+            .iter()
+            .zip(&self.particles)
+            .map(|(w, x)| w * f(x))
+            .sum()
+    }
+}
+
+/// The indices of n draws from normalised `weights` by `scheme`, in increasing order.
+pub fn resample_indices<R: Rng + ?Sized>(
+    weights: &[f64],
+    n: usize,
+    scheme: Resampling,
+    rng: &mut R,
+) -> Vec<usize> {
+    let nf = n as f64;
+    match scheme {
+        Resampling::Multinomial => {
+            let mut points: Vec<f64> = (0..n).map(|_| rng.random::<f64>()).collect();
+            points.sort_by(f64::total_cmp);
+            select(weights, &points)
+        }
+        Resampling::Stratified => {
+            let points: Vec<f64> = (0..n)
+                .map(|k| (k as f64 + rng.random::<f64>()) / nf)
+                .collect();
+            select(weights, &points)
+        }
+        Resampling::Systematic => {
+            let u = rng.random::<f64>();
+            let points: Vec<f64> = (0..n).map(|k| (k as f64 + u) / nf).collect();
+            select(weights, &points)
+        }
+        Resampling::Residual => {
+            let mut indices = Vec::with_capacity(n);
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            for (i, w) in weights.iter().enumerate() {
+                let copies = (nf * w).floor() as usize;
+                indices.extend(std::iter::repeat_n(i, copies));
+            }
+            let rest = n - indices.len().min(n);
+            if rest > 0 {
+                let residual: Vec<f64> =
+                    weights.iter().map(|w| nf * w - (nf * w).floor()).collect();
+                let total: f64 = residual.iter().sum();
+                let residual: Vec<f64> = residual.iter().map(|r| r / total).collect();
+                indices.extend(resample_indices(
+                    &residual,
+                    rest,
+                    Resampling::Multinomial,
+                    rng,
+                ));
+                indices.sort_unstable();
+            }
+            indices.truncate(n);
+            indices
+        }
+    }
+}
+
+/// For sorted points in [0, 1), the index whose cumulative-weight interval holds each point.
+fn select(weights: &[f64], sorted_points: &[f64]) -> Vec<usize> {
+    let mut indices = Vec::with_capacity(sorted_points.len());
+    let mut cumulative = weights[0];
+    let mut i = 0;
+    for &p in sorted_points {
+        while p >= cumulative && i + 1 < weights.len() {
+            i += 1;
+            cumulative += weights[i];
+        }
+        indices.push(i);
+    }
+    indices
+}
