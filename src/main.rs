@@ -41,8 +41,9 @@ const USAGE: &str =
 /// default, 500 runs each, the seed's settings).
 fn azimuth(args: &[String]) -> ExitCode {
     use liebayes::filters::azimuth::scenario::{Config, Scenario};
-    use liebayes::filters::azimuth::study;
+    use liebayes::filters::azimuth::{particle_study, study};
     let (mut scenarios, mut runs, mut seed) = (Scenario::ALL.to_vec(), 500_usize, 1_u64);
+    let (mut particles, mut particle_runs) = (1000_usize, 20_usize);
     let mut it = args.iter();
     while let Some(flag) = it.next() {
         let value = it.next().map(String::as_str);
@@ -53,6 +54,8 @@ fn azimuth(args: &[String]) -> ExitCode {
                 .map(|s| scenarios = vec![s]),
             ("--runs", Some(n)) => n.parse().ok().filter(|&n| n > 0).map(|n| runs = n),
             ("--seed", Some(s)) => s.parse().ok().map(|s| seed = s),
+            ("--particles", Some(n)) => n.parse().ok().filter(|&n| n > 0).map(|n| particles = n),
+            ("--particle-runs", Some(n)) => n.parse().ok().map(|n| particle_runs = n),
             _ => None,
         };
         if parsed.is_none() {
@@ -91,6 +94,23 @@ fn azimuth(args: &[String]) -> ExitCode {
                 eprintln!("{}: {e}", scenario.name());
                 return ExitCode::FAILURE;
             }
+        }
+        if particle_runs == 0 || scenario == Scenario::Static {
+            continue;
+        }
+        match particle_study(scenario, &config, particle_runs, seed, particles) {
+            Ok(s) => println!(
+                "{:<8} {:>16.4} {:>14} {:>12} {:>18} {:>12} {:>10.1}   <- particle filter, {particles} particles, {} runs",
+                "",
+                s.azimuth_rmse.to_degrees(),
+                "-",
+                "-",
+                "-",
+                format!("{:.1}%", 100.0 * s.divergence_rate),
+                s.ns_per_step,
+                s.runs
+            ),
+            Err(e) => println!("{:<8} particle filter failed: {e}", ""),
         }
     }
     ExitCode::SUCCESS

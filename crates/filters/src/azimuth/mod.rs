@@ -13,10 +13,12 @@
 mod density;
 mod grid;
 mod model;
+mod particle_baseline;
 pub mod scenario;
 mod study;
 
 pub use density::{AzimuthDensity, AzimuthEstimates};
 pub use grid::GridReference;
 pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
-pub use study::{Summary, study};
+pub use particle_baseline::ParticleBaseline;
+pub use study::{BaselineSummary, Summary, particle_study, study};

@@ -87,7 +87,8 @@ pub struct Simulation {
     pub measurements: Vec<Option<Vector2<f64>>>,
 }
 
-fn normal2<R: Rng + ?Sized>(rng: &mut R) -> Vector2<f64> {
+/// A draw of `N(0, I₂)`.
+pub(crate) fn normal2<R: Rng + ?Sized>(rng: &mut R) -> Vector2<f64> {
     Vector2::new(StandardNormal.sample(rng), StandardNormal.sample(rng))
 }
 
