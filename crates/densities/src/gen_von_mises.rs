@@ -53,6 +53,21 @@ impl GenVonMises2 {
         &self.eta2
     }
 
+    /// The first and second trigonometric moments `(E u(θ), E u(2θ))`, `u(θ) = (cos θ, sin θ)`, by
+    /// the periodic trapezoid rule on the normaliser's points (exponentially accurate, as the
+    /// normaliser).
+    pub fn trigonometric_moments(&self) -> (Vector2<f64>, Vector2<f64>) {
+        let n = points(&self.eta1, &self.eta2);
+        let h = 2.0 * PI / n as f64;
+        (0..n).fold((Vector2::zeros(), Vector2::zeros()), |(m1, m2), i| {
+            let t = h * i as f64;
+            let w = (self.exponent(t) - self.log_normalizer).exp() * h;
+            let (s, c) = t.sin_cos();
+            let (s2, c2) = (2.0 * t).sin_cos();
+            (m1 + Vector2::new(c, s) * w, m2 + Vector2::new(c2, s2) * w)
+        })
+    }
+
     fn exponent(&self, angle: f64) -> f64 {
         let (s, c) = angle.sin_cos();
         let (s2, c2) = (2.0 * angle).sin_cos();

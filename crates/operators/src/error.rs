@@ -24,6 +24,20 @@ pub enum OperatorError {
         /// The valid range, in words.
         range: &'static str,
     },
+    /// A covariance is not symmetric positive definite (given so, or after an update that lost it).
+    #[error("{what} is not symmetric positive definite")]
+    NotPositiveDefinite {
+        /// The matrix, and what to check.
+        what: &'static str,
+    },
+    /// An exact closed-form step was asked of a model under which the family is not closed.
+    #[error("not closed: {what} (measure of the violation: {value})")]
+    NotClosed {
+        /// Why, and what to use instead.
+        what: &'static str,
+        /// How far the model is from the closed case (relative).
+        value: f64,
+    },
     /// The resulting density is not valid (for example a covariance that lost positive definiteness).
     #[error("the resulting density is invalid: {0}")]
     Density(#[from] DensityError),

@@ -14,13 +14,22 @@
 //! resampling schemes ([`particle`]). The filters crate composes these into
 //! applications (the azimuth filter's grid reference is a bank of these Kalman filters).
 
+pub mod ekf;
 mod error;
 pub mod evaluation;
+pub mod grid;
 pub mod kalman;
+mod manifold_gaussian;
+mod numerics;
 pub mod particle;
+pub mod rao_blackwell;
 mod traits;
+pub mod ukf;
 
+pub use ekf::Ekf;
 pub use error::OperatorError;
+pub use manifold_gaussian::{ManifoldGaussian, MeasurementModel, ProcessModel};
 pub use traits::{Condition, Conditioned, Propagate};
+pub use ukf::Ukf;
 
 pub use liebayes_densities as densities;

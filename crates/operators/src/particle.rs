@@ -2,6 +2,7 @@
 //! reweighting (with the log evidence), propagation by sampling, and four resampling schemes.
 
 use crate::OperatorError;
+use crate::numerics::log_sum_exp;
 use rand::Rng;
 
 /// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
@@ -28,6 +29,8 @@ pub enum Resampling {
 pub struct ParticleSet<X> {
     particles: Vec<X>,
     log_weights: Vec<f64>,
+    /// Per-step workspace for the log-likelihoods, kept so that conditioning does not allocate.
+    scratch: Vec<f64>,
 }
 
 impl<X: Clone> ParticleSet<X> {
@@ -45,6 +48,7 @@ impl<X: Clone> ParticleSet<X> {
         }
         let log_weights = vec![-(particles.len() as f64).ln(); particles.len()];
         Ok(Self {
+            scratch: Vec::with_capacity(particles.len()),
             particles,
             log_weights,
         })
@@ -98,38 +102,81 @@ impl<X: Clone> ParticleSet<X> {
     /// # Errors
     /// [`OperatorError::NonFinite`] when a log-likelihood is NaN or +∞, or when every particle has
     /// likelihood zero (the measurement is impossible under the particles: resample from a wider prior).
+    /// The weights are then left unchanged.
     pub fn condition(&mut self, log_likelihood: impl Fn(&X) -> f64) -> Result<f64, OperatorError> {
-        let mut updated = self.log_weights.clone();
-        for (l, x) in updated.iter_mut().zip(&self.particles) {
-            let ll = log_likelihood(x);
-            if ll.is_nan() || ll == f64::INFINITY {
-                return Err(OperatorError::NonFinite {
-                    what: "particle log-likelihood",
-                    value: ll,
-                });
-            }
-            *l += ll;
+        self.scratch.clear();
+        self.scratch
+            .extend(self.particles.iter().map(log_likelihood));
+        self.reweight()
+    }
+
+    /// Bayes for particles that carry a density of their own (the marginalized particle filter): `step`
+    /// conditions each particle's payload in place and returns its log-likelihood, typically the log
+    /// evidence of an exact conditioning (see [`crate::rao_blackwell::condition_marginalized`]).
+    ///
+    /// # Errors
+    /// The first error of `step` (payloads already stepped stay so; weights are unchanged), or as
+    /// [`condition`](Self::condition).
+    pub fn condition_with(
+        &mut self,
+        mut step: impl FnMut(&mut X) -> Result<f64, OperatorError>,
+    ) -> Result<f64, OperatorError> {
+        self.scratch.clear();
+        for x in &mut self.particles {
+            let ll = step(x)?;
+            self.scratch.push(ll);
         }
-        let max = updated.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if max == f64::NEG_INFINITY {
+        self.reweight()
+    }
+
+    /// [`condition`](Self::condition) with the likelihoods evaluated in parallel by rayon (feature
+    /// `rayon`); worth it from a few thousand particles or for costly likelihoods.
+    ///
+    /// # Errors
+    /// As [`condition`](Self::condition).
+    #[cfg(feature = "rayon")]
+    pub fn condition_parallel(
+        &mut self,
+        log_likelihood: impl Fn(&X) -> f64 + Sync + Send,
+    ) -> Result<f64, OperatorError>
+    where
+        X: Sync,
+    {
+        use rayon::prelude::*;
+        self.particles
+            .par_iter()
+            .map(log_likelihood)
+            .collect_into_vec(&mut self.scratch);
+        self.reweight()
+    }
+
+    /// Adds the log-likelihoods in `scratch` to the log weights and renormalises; returns the log
+    /// evidence. Leaves the weights unchanged on error.
+    fn reweight(&mut self) -> Result<f64, OperatorError> {
+        if let Some(&value) = self
+            .scratch
+            .iter()
+            .find(|ll| ll.is_nan() || **ll == f64::INFINITY)
+        {
             return Err(OperatorError::NonFinite {
-                what: "largest particle log-likelihood (every particle has likelihood zero)",
-                value: max,
+                what: "particle log-likelihood",
+                value,
             });
         }
-        let log_total = max + updated.iter().map(|l| (l - max).exp()).sum::<f64>().ln();
-        let old_max = self.max_log_weight();
-        let old_total = old_max
-            + self
-                .log_weights
-                .iter()
-                .map(|l| (l - old_max).exp())
-                .sum::<f64>()
-                .ln();
-        for l in &mut updated {
-            *l -= log_total;
+        let old_total = log_sum_exp(self.log_weights.iter().copied());
+        for (ll, l) in self.scratch.iter_mut().zip(&self.log_weights) {
+            *ll += l;
         }
-        self.log_weights = updated;
+        let log_total = log_sum_exp(self.scratch.iter().copied());
+        if log_total == f64::NEG_INFINITY {
+            return Err(OperatorError::NonFinite {
+                what: "largest particle log-likelihood (every particle has likelihood zero)",
+                value: log_total,
+            });
+        }
+        for (l, updated) in self.log_weights.iter_mut().zip(&self.scratch) {
+            *l = updated - log_total;
+        }
         Ok(log_total - old_total)
     }
 

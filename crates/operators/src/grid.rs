@@ -1,0 +1,241 @@
+//! The grid filter on the circle: a density over an angle held at n equally spaced cells, optionally
+//! with a conditional density of other states in each cell (a bank of filters, Rao-Blackwellized over
+//! the angle).
+//!
+//! Cell j sits at `θⱼ = 2πj/n` and holds a log weight `ln wⱼ` (the posterior mass of the cell,
+//! normalised so that `Σ wⱼ = 1`) and a payload `Xⱼ`, the density of the other states given `θ = θⱼ`:
+//!
+//! * **condition** on z: each payload is conditioned with the model of its angle, returning
+//!   `p(z | θⱼ, past)`; `ln wⱼ += ln p(z | θⱼ, past)`; the log evidence is
+//!   `ln p(z | past) = ln Σⱼ wⱼ p(z | θⱼ, past)` (the trapezoid rule over the circle, exponentially
+//!   accurate for smooth periodic integrands while the grid resolves the posterior, and a point-mass
+//!   approximation once the posterior is narrower than the spacing 2π/n);
+//! * **propagate**: each payload through its angle's process (the angle itself constant), or, for a
+//!   payload-free grid, the angle diffused by a circular convolution with a kernel.
+//!
+//! Costs n payload steps per step. The reference for anything angular: with enough cells it is exact
+//! wherever the payload steps are.
+
+use crate::numerics::log_sum_exp;
+use crate::{Condition, OperatorError, Propagate};
+use nalgebra::Vector2;
+use std::f64::consts::PI;
+
+/// A density over an angle at n equally spaced cells, with a payload per cell.
+#[derive(Clone, Debug)]
+pub struct CircularGrid<X> {
+    log_weights: Vec<f64>,
+    cells: Vec<X>,
+}
+
+/// `θⱼ = 2πj/n`.
+fn cell_angle(j: usize, n: usize) -> f64 {
+    2.0 * PI * j as f64 / n as f64
+}
+
+impl<X: Clone> CircularGrid<X> {
+    /// n cells with the uniform angle prior and the same payload in each.
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for n = 0.
+    pub fn uniform(n: usize, payload: X) -> Result<Self, OperatorError> {
+        Self::from_log_density(n, |_| 0.0, |_| payload.clone())
+    }
+}
+
+impl<X> CircularGrid<X> {
+    /// n cells weighted by an (unnormalised) log density of the angle, cell j carrying `payload(θⱼ)`.
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for n = 0, [`OperatorError::NonFinite`] when the log density is
+    /// NaN or +∞ somewhere, or −∞ everywhere.
+    pub fn from_log_density(
+        n: usize,
+        log_density: impl Fn(f64) -> f64,
+        payload: impl Fn(f64) -> X,
+    ) -> Result<Self, OperatorError> {
+        if n == 0 {
+            return Err(OperatorError::OutOfRange {
+                what: "number of grid cells",
+                value: 0.0,
+                range: "at least 1",
+            });
+        }
+        let mut grid = Self {
+            log_weights: (0..n).map(|j| log_density(cell_angle(j, n))).collect(),
+            cells: (0..n).map(|j| payload(cell_angle(j, n))).collect(),
+        };
+        grid.normalise()?;
+        Ok(grid)
+    }
+
+    /// The number of cells n.
+    pub fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// Always false: a grid has at least one cell.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// The angle of cell j, `2πj/n`.
+    pub fn angle(&self, j: usize) -> f64 {
+        cell_angle(j, self.len())
+    }
+
+    /// The normalised log weights `ln wⱼ` (posterior cell masses).
+    pub fn log_weights(&self) -> &[f64] {
+        &self.log_weights
+    }
+
+    /// The payloads, `p(x | θⱼ)`.
+    pub fn cells(&self) -> &[X] {
+        &self.cells
+    }
+
+    /// `Σⱼ wⱼ f(θⱼ, Xⱼ)`.
+    pub fn expectation<T>(&self, f: impl Fn(f64, &X) -> T) -> T
+    where
+        T: std::ops::Mul<f64, Output = T> + std::iter::Sum,
+    {
+        let n = self.len();
+        self.log_weights
+            .iter()
+            .zip(&self.cells)
+            .enumerate()
+            .map(|(j, (l, x))| f(cell_angle(j, n), x) * l.exp())
+            .sum()
+    }
+
+    /// The first trigonometric moment `E (cos θ, sin θ)`: its direction is the circular mean, its
+    /// length the mean resultant length ρ.
+    pub fn first_moment(&self) -> Vector2<f64> {
+        self.expectation(|t, _| {
+            let (s, c) = t.sin_cos();
+            Vector2::new(c, s)
+        })
+    }
+
+    /// Renormalises the log weights to `Σ wⱼ = 1` and returns the log of the old total.
+    fn normalise(&mut self) -> Result<f64, OperatorError> {
+        if let Some(&value) = self
+            .log_weights
+            .iter()
+            .find(|l| l.is_nan() || **l == f64::INFINITY)
+        {
+            return Err(OperatorError::NonFinite {
+                what: "grid cell log weight",
+                value,
+            });
+        }
+        let total = log_sum_exp(self.log_weights.iter().copied());
+        if total == f64::NEG_INFINITY {
+            return Err(OperatorError::NonFinite {
+                what: "grid total weight (every cell has likelihood zero)",
+                value: total,
+            });
+        }
+        for l in &mut self.log_weights {
+            *l -= total;
+        }
+        Ok(total)
+    }
+
+    /// Bayes with a per-cell step: `step(θⱼ, Xⱼ)` replaces the payload and returns
+    /// `ln p(z | θⱼ, past)`; returns `ln p(z | past)`. On error the grid is unchanged only if `step`
+    /// leaves payloads unchanged when it fails; the weights are renormalised either way.
+    ///
+    /// # Errors
+    /// The step's error, or [`OperatorError::NonFinite`] when every cell has likelihood zero.
+    pub fn condition_with(
+        &mut self,
+        mut step: impl FnMut(f64, &mut X) -> Result<f64, OperatorError>,
+    ) -> Result<f64, OperatorError> {
+        let n = self.len();
+        let mut failure = None;
+        for (j, (l, x)) in self.log_weights.iter_mut().zip(&mut self.cells).enumerate() {
+            match step(cell_angle(j, n), x) {
+                Ok(ll) => *l += ll,
+                Err(e) => failure = failure.or(Some(e)),
+            }
+        }
+        let total = self.normalise()?;
+        failure.map_or(Ok(total), Err)
+    }
+
+    /// Bayes for payload densities with an exact conditioning operator: each cell conditions its payload
+    /// with `model_at(θⱼ)` and is reweighted by the payload's log evidence (the Rao-Blackwellized grid).
+    ///
+    /// # Errors
+    /// As [`condition_with`](Self::condition_with).
+    pub fn condition_cells<M>(
+        &mut self,
+        model_at: impl Fn(f64) -> M,
+        z: &X::Measurement,
+    ) -> Result<f64, OperatorError>
+    where
+        X: Condition<M>,
+    {
+        self.condition_with(|theta, x| {
+            let step = x.condition(&model_at(theta), z)?;
+            *x = step.posterior;
+            Ok(step.log_evidence)
+        })
+    }
+
+    /// Propagates each payload through `model_at(θⱼ)` (the angle itself is constant).
+    ///
+    /// # Errors
+    /// The first payload step's error (earlier cells are then already propagated).
+    pub fn propagate_cells<M>(
+        &mut self,
+        model_at: impl Fn(f64) -> M,
+        input: &X::Input,
+    ) -> Result<(), OperatorError>
+    where
+        X: Propagate<M>,
+    {
+        let n = self.len();
+        for (j, x) in self.cells.iter_mut().enumerate() {
+            *x = x.propagate(&model_at(cell_angle(j, n)), input)?;
+        }
+        Ok(())
+    }
+}
+
+impl CircularGrid<()> {
+    /// Bayes with a log-likelihood of the angle; returns the log evidence.
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, or when every cell has
+    /// likelihood zero.
+    pub fn condition(&mut self, log_likelihood: impl Fn(f64) -> f64) -> Result<f64, OperatorError> {
+        self.condition_with(|theta, ()| Ok(log_likelihood(theta)))
+    }
+
+    /// Chapman-Kolmogorov for `θ′ = θ + w`: the circular convolution
+    /// `w′ᵢ = Σⱼ wⱼ k(θᵢ − θⱼ) / Σⱼ k(θⱼ)` with a kernel density k (von Mises, wrapped normal, …,
+    /// evaluated by the caller). O(n²); the kernel's weights are computed once per call.
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] when the kernel is negative, NaN or infinite somewhere, or zero
+    /// everywhere.
+    pub fn diffuse(&mut self, kernel: impl Fn(f64) -> f64) -> Result<(), OperatorError> {
+        let n = self.len();
+        let k: Vec<f64> = (0..n).map(|j| kernel(cell_angle(j, n))).collect();
+        let total: f64 = k.iter().sum();
+        if !(total.is_finite() && total > 0.0) || k.iter().any(|v| *v < 0.0 || !v.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: "diffusion kernel (it must be finite, non-negative and not zero everywhere)",
+                value: total,
+            });
+        }
+        let w: Vec<f64> = self.log_weights.iter().map(|l| l.exp()).collect();
+        for (i, l) in self.log_weights.iter_mut().enumerate() {
+            let mass: f64 = (0..n).map(|j| w[j] * k[(i + n - j) % n]).sum::<f64>() / total;
+            *l = mass.ln();
+        }
+        self.normalise().map(|_| ())
+    }
+}

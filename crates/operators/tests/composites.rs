@@ -1,0 +1,247 @@
+//! The grid filter on the circle and the Rao-Blackwellized composites against brute force.
+//!
+//! `HarmonicGaussian` is checked against a bank of exact Kalman filters on a grid of angles, cell by
+//! cell: each cell's Kalman log evidence must equal the composite's harmonics at that angle, and each
+//! cell's posterior must equal the composite's conditional at that angle. The priors have random
+//! feature matrices B, so the second harmonics are excited (unlike seed 000's special case).
+
+use liebayes_densities::special;
+use liebayes_densities::{Density, Gaussian, GenVonMises2, VonMises};
+use liebayes_manifolds::So2;
+use liebayes_operators::grid::CircularGrid;
+use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
+use liebayes_operators::particle::ParticleSet;
+use liebayes_operators::rao_blackwell::{
+    HarmonicGaussian, RotatedMeasurement, condition_marginalized, features,
+};
+use liebayes_operators::{Condition, OperatorError, Propagate};
+use nalgebra::{Matrix2, Matrix2x3, SMatrix, Vector2};
+use proptest::prelude::*;
+
+const CELLS: usize = 512;
+
+fn rotation(y: f64) -> Matrix2<f64> {
+    let (s, c) = y.sin_cos();
+    Matrix2::new(c, -s, s, c)
+}
+
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()))
+}
+
+/// The grid of per-angle Kalman filters for a composite: weights p(y) at the cells, payload p(x | y).
+fn grid_of(prior: &HarmonicGaussian<2>) -> CircularGrid<Gaussian<2>> {
+    CircularGrid::from_log_density(
+        CELLS,
+        |y| prior.angle().log_pdf(&So2::from_angle_unchecked(y)),
+        |y| Gaussian::new(prior.conditional_mean(y), *prior.covariance()).unwrap(),
+    )
+    .unwrap()
+}
+
+/// Checks a conditioned composite against the conditioned grid, cell by cell and in total.
+fn agree(
+    posterior: &HarmonicGaussian<2>,
+    evidence: f64,
+    grid: &CircularGrid<Gaussian<2>>,
+    grid_evidence: f64,
+) -> Result<(), TestCaseError> {
+    for (j, cell) in grid.cells().iter().enumerate() {
+        let y = grid.angle(j);
+        let mean = posterior.conditional_mean(y);
+        prop_assert!((cell.mean() - mean).amax() < 1e-9 * (1.0 + mean.amax()));
+        prop_assert!((cell.covariance() - posterior.covariance()).amax() < 1e-9);
+    }
+    prop_assert!(
+        close(evidence, grid_evidence, 1e-9),
+        "{evidence} vs {grid_evidence}"
+    );
+    let (mean, cov) = posterior.marginal_moments();
+    let grid_mean = grid.expectation(|_, g| *g.mean());
+    let grid_cov = grid.expectation(|_, g| {
+        g.covariance() + (g.mean() - grid_mean) * (g.mean() - grid_mean).transpose()
+    });
+    prop_assert!((mean - grid_mean).amax() < 1e-8 * (1.0 + mean.amax()));
+    prop_assert!((cov - grid_cov).amax() < 1e-8 * (1.0 + cov.amax()));
+    Ok(())
+}
+
+fn composite() -> impl Strategy<Value = HarmonicGaussian<2>> {
+    (
+        proptest::array::uniform4(-1.5..1.5f64),
+        proptest::array::uniform6(-3.0..3.0f64),
+        proptest::array::uniform3(-1.0..1.0f64),
+    )
+        .prop_map(|(eta, b, l)| {
+            let angle =
+                GenVonMises2::new(Vector2::new(eta[0], eta[1]), Vector2::new(eta[2], eta[3]))
+                    .unwrap();
+            let lower = Matrix2::new(1.0 + l[0].abs(), 0.0, l[1], 0.8 + l[2].abs());
+            HarmonicGaussian::new(
+                angle,
+                Matrix2x3::from_row_slice(&b),
+                lower * lower.transpose(),
+            )
+            .unwrap()
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    #[test]
+    fn linear_measurements_match_the_grid_of_kalman_filters(
+        prior in composite(),
+        h in proptest::array::uniform4(-1.5..1.5f64),
+        z in proptest::array::uniform2(-4.0..4.0f64),
+    ) {
+        let model = LinearMeasurement::new(Matrix2::new(h[0], h[1], h[2], h[3]), Matrix2::new(0.5, 0.1, 0.1, 0.4)).unwrap();
+        let z = Vector2::from(z);
+        let step = prior.condition(&model, &z).unwrap();
+        let harmonics = prior.linear_harmonics(&model, &z).unwrap();
+        let mut grid = grid_of(&prior);
+        let mut worst = 0.0_f64;
+        let grid_evidence = grid
+            .condition_with(|y, x| {
+                let k = x.condition(&model, &z)?;
+                *x = k.posterior;
+                worst = worst.max((k.log_evidence - harmonics.at(y)).abs() / (1.0 + k.log_evidence.abs()));
+                Ok(k.log_evidence)
+            })
+            .unwrap();
+        prop_assert!(worst < 1e-9, "per-angle log evidence off by {worst:e}");
+        agree(&step.posterior, step.log_evidence, &grid, grid_evidence)?;
+    }
+
+    #[test]
+    fn rotated_measurements_match_the_grid_of_kalman_filters(
+        prior in composite(),
+        sigma2 in 0.3..3.0f64,
+        z in proptest::array::uniform2(-4.0..4.0f64),
+    ) {
+        let prior = HarmonicGaussian::new(prior.angle().clone(), *prior.features(), Matrix2::identity() * sigma2).unwrap();
+        let model = RotatedMeasurement::new(Matrix2::identity(), 0.8).unwrap();
+        let z = Vector2::from(z);
+        let step = prior.condition(&model, &z).unwrap();
+        let harmonics = prior.rotated_harmonics(&model, &z).unwrap();
+        let mut grid = grid_of(&prior);
+        let noise = Matrix2::identity() * model.variance();
+        let mut worst = 0.0_f64;
+        let grid_evidence = grid
+            .condition_with(|y, x| {
+                let k = x.condition(&LinearMeasurement::new(rotation(y), noise)?, &z)?;
+                *x = k.posterior;
+                worst = worst.max((k.log_evidence - harmonics.at(y)).abs() / (1.0 + k.log_evidence.abs()));
+                Ok(k.log_evidence)
+            })
+            .unwrap();
+        prop_assert!(worst < 1e-9, "per-angle log evidence off by {worst:e}");
+        agree(&step.posterior, step.log_evidence, &grid, grid_evidence)?;
+    }
+}
+
+#[test]
+fn propagation_is_the_per_angle_kalman_propagation() {
+    let angle = GenVonMises2::new(Vector2::new(1.0, 0.5), Vector2::new(-0.3, 0.2)).unwrap();
+    let prior = HarmonicGaussian::new(
+        angle,
+        Matrix2x3::new(1.0, 2.0, -1.0, 0.5, 0.0, 3.0),
+        Matrix2::new(1.0, 0.2, 0.2, 0.5),
+    )
+    .unwrap();
+    let process =
+        LinearProcess::new(Matrix2::new(1.0, 0.1, 0.0, 0.9), Matrix2::identity() * 0.01).unwrap();
+    let u = Vector2::new(0.3, -0.2);
+    let next = prior.propagate(&process, &u).unwrap();
+    for y in [0.0, 1.0, 2.5, -3.0] {
+        let per_angle = Gaussian::new(prior.conditional_mean(y), *prior.covariance())
+            .unwrap()
+            .propagate(&process, &u)
+            .unwrap();
+        assert!((per_angle.mean() - next.conditional_mean(y)).amax() < 1e-14);
+        assert!((per_angle.covariance() - next.covariance()).amax() < 1e-14);
+    }
+    assert_eq!(next.angle(), prior.angle());
+}
+
+#[test]
+fn anisotropic_rotated_measurements_are_refused() {
+    let prior = HarmonicGaussian::independent(
+        GenVonMises2::new(Vector2::zeros(), Vector2::zeros()).unwrap(),
+        &Gaussian::new(Vector2::zeros(), Matrix2::new(1.0, 0.0, 0.0, 2.0)).unwrap(),
+    )
+    .unwrap();
+    let model = RotatedMeasurement::new(Matrix2::identity(), 1.0).unwrap();
+    assert!(matches!(
+        prior.condition(&model, &Vector2::new(1.0, 0.0)),
+        Err(OperatorError::NotClosed { .. })
+    ));
+    assert!(RotatedMeasurement::new(Matrix2::identity(), 0.0).is_err());
+    assert!(matches!(
+        HarmonicGaussian::new(prior.angle().clone(), Matrix2x3::zeros(), Matrix2::zeros()),
+        Err(OperatorError::NotPositiveDefinite { .. })
+    ));
+}
+
+#[test]
+fn marginalized_particles_on_the_grid_points_equal_the_grid() {
+    // Equally weighted particles at the cell angles carry the same numbers as a uniform grid.
+    let prior = Gaussian::new(Vector2::new(1.0, -2.0), Matrix2::identity() * 2.0).unwrap();
+    let mut grid = CircularGrid::uniform(64, prior.clone()).unwrap();
+    let mut particles =
+        ParticleSet::from_samples((0..64).map(|j| (grid.angle(j), prior.clone())).collect())
+            .unwrap();
+    let z = Vector2::new(0.5, 2.0);
+    let model_at = |y: f64| LinearMeasurement::new(rotation(y), Matrix2::identity()).unwrap();
+    let from_grid = grid.condition_cells(model_at, &z).unwrap();
+    let from_particles =
+        condition_marginalized(&mut particles, |y: &f64| model_at(*y), &z).unwrap();
+    assert!(
+        (from_grid - from_particles).abs() < 1e-13,
+        "{from_grid} vs {from_particles}"
+    );
+    for (w, l) in particles.weights().iter().zip(grid.log_weights()) {
+        assert!((w.ln() - l).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn grid_bayes_and_diffusion_match_the_von_mises_algebra() {
+    // Prior VM(0.5, 3) times likelihood VM(2.0, 5): the product's first moment and evidence are known.
+    let prior = VonMises::from_mean_concentration(So2::from_angle_unchecked(0.5), 3.0).unwrap();
+    let likelihood =
+        VonMises::from_mean_concentration(So2::from_angle_unchecked(2.0), 5.0).unwrap();
+    let mut grid = CircularGrid::from_log_density(
+        256,
+        |t| prior.log_pdf(&So2::from_angle_unchecked(t)),
+        |_| (),
+    )
+    .unwrap();
+    let evidence = grid
+        .condition(|t| likelihood.log_pdf(&So2::from_angle_unchecked(t)))
+        .unwrap();
+    let eta = prior.eta() + likelihood.eta();
+    let kappa = eta.norm();
+    let exact_evidence = special::log_i0(kappa)
+        - special::log_i0(3.0)
+        - special::log_i0(5.0)
+        - (2.0 * std::f64::consts::PI).ln();
+    assert!(
+        (evidence - exact_evidence).abs() < 1e-12,
+        "{evidence} vs {exact_evidence}"
+    );
+    let exact_moment = eta / kappa * special::a1(kappa);
+    assert!((grid.first_moment() - exact_moment).amax() < 1e-12);
+
+    // Diffusion by a von Mises kernel of concentration 4 multiplies the first moment by A₁(4).
+    let kernel = VonMises::from_mean_concentration(So2::from_angle_unchecked(0.0), 4.0).unwrap();
+    grid.diffuse(|t| kernel.log_pdf(&So2::from_angle_unchecked(t)).exp())
+        .unwrap();
+    assert!((grid.first_moment() - exact_moment * special::a1(4.0)).amax() < 1e-12);
+
+    assert!(CircularGrid::uniform(0, ()).is_err());
+    assert!(grid.condition(|_| f64::NAN).is_err());
+    assert!(grid.diffuse(|_| -1.0).is_err());
+    let _ = features(0.0);
+    let _: SMatrix<f64, 1, 1> = SMatrix::zeros();
+}
