@@ -1,119 +1,326 @@
 //! The `liebayes` command-line program.
 //!
-//! With no arguments: the azimuth filter's Monte Carlo summary on all three scenarios (500 runs each),
-//! then short demonstrations of the manifolds and densities. `liebayes azimuth [--scenario …]
-//! [--runs N] [--seed S]` runs the azimuth study alone.
+//! With no arguments: the azimuth study on all three scenarios (every filter, the seed's settings), its
+//! CSV and SVG files in `out/azimuth/`, then short demonstrations of the manifolds and densities.
+//! `liebayes azimuth --help` lists the study's options; `liebayes particles` finds the particle count at
+//! which the bootstrap particle filter matches the exact filter's azimuth RMSE.
 
+mod report;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use liebayes::filters::azimuth::scenario::{Config, Scenario};
+use liebayes::filters::azimuth::{Method, Summary, study};
 use liebayes::manifolds::{GroupAction, LieGroup, Manifold, S2, So3, Su2};
 use nalgebra::Vector3;
 use std::f64::consts::PI;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// Bayesian state estimation on Lie groups: exact filters and their baselines.
+#[derive(Parser, Debug)]
+#[command(name = "liebayes", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Azimuth alignment (seed 000): the exact filter and its baselines, Monte Carlo over runs.
+    Azimuth(AzimuthArgs),
+    /// The bootstrap particle filter's particle count that reaches the exact filter's azimuth RMSE.
+    Particles(ParticleArgs),
+    /// Short demonstrations of the manifolds and densities.
+    Demo,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ScenarioArg {
+    Static,
+    Circle,
+    Line,
+    All,
+}
+
+impl ScenarioArg {
+    fn scenarios(self) -> Vec<Scenario> {
+        match self {
+            ScenarioArg::Static => vec![Scenario::Static],
+            ScenarioArg::Circle => vec![Scenario::Circle],
+            ScenarioArg::Line => vec![Scenario::Line],
+            ScenarioArg::All => Scenario::ALL.to_vec(),
+        }
+    }
+}
+
+/// The simulation settings (the seed's by default).
+#[derive(clap::Args, Debug, Clone)]
+struct Simulation {
+    /// Simulated time (s).
+    #[arg(long, default_value_t = 500.0)]
+    duration: f64,
+    /// Position measurement noise sigma_m (m).
+    #[arg(long, default_value_t = 1.0)]
+    sigma_m: f64,
+    /// Initial position standard deviation sigma_0 (m).
+    #[arg(long, default_value_t = 1.0)]
+    sigma0: f64,
+    /// Velocity noise density q (m/sqrt(s)).
+    #[arg(long, default_value_t = 0.1)]
+    q: f64,
+    /// Propagation step (s).
+    #[arg(long, default_value_t = 0.1)]
+    dt: f64,
+    /// A position measurement every this many steps.
+    #[arg(long, default_value_t = 10)]
+    measure_every: usize,
+}
+
+impl Simulation {
+    fn config(&self) -> Result<Config, String> {
+        if !(self.duration.is_finite()
+            && self.duration > 0.0
+            && self.dt.is_finite()
+            && self.dt > 0.0)
+        {
+            return Err(format!(
+                "duration {} s and dt {} s must be positive",
+                self.duration, self.dt
+            ));
+        }
+        if self.measure_every == 0 {
+            return Err("--measure-every must be at least 1".into());
+        }
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let steps = (self.duration / self.dt).round() as usize;
+        Ok(Config {
+            sigma0: self.sigma0,
+            sigma_m: self.sigma_m,
+            q: self.q,
+            dt: self.dt,
+            measure_every: self.measure_every,
+            steps,
+        })
+    }
+}
+
+#[derive(clap::Args, Debug, Clone)]
+struct AzimuthArgs {
+    /// Which scenario.
+    #[arg(long, value_enum, default_value_t = ScenarioArg::All)]
+    scenario: ScenarioArg,
+    /// Monte Carlo runs of the exact filter, the EKF and the UKF.
+    #[arg(long, default_value_t = 500)]
+    runs: usize,
+    /// Runs of the particle, grid and marginalized particle filters (their cost is 1000 times more).
+    #[arg(long, default_value_t = 100)]
+    baseline_runs: usize,
+    /// Seed of run 0 (run i uses seed + i).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Where to write the CSV tables and SVG plots (none written when absent).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Particles of the bootstrap particle filter.
+    #[arg(long, default_value_t = 1000)]
+    particles: usize,
+    /// Azimuths of the grid filter.
+    #[arg(long, default_value_t = 360)]
+    cells: usize,
+    /// Azimuth particles of the marginalized particle filter.
+    #[arg(long, default_value_t = 360)]
+    mpf_particles: usize,
+    #[command(flatten)]
+    simulation: Simulation,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+struct ParticleArgs {
+    /// Which scenario.
+    #[arg(long, value_enum, default_value_t = ScenarioArg::Circle)]
+    scenario: ScenarioArg,
+    /// Runs per particle count.
+    #[arg(long, default_value_t = 100)]
+    runs: usize,
+    /// Seed of run 0.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// The particle counts to try, in increasing order; the search stops at the first that matches.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1000,2000,5000,10000,20000,50000"
+    )]
+    counts: Vec<usize>,
+    #[command(flatten)]
+    simulation: Simulation,
+}
+
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match args.first().map(String::as_str) {
+    let cli = Cli::parse();
+    let result = match cli.command {
         None => {
             println!(
                 "liebayes {}: Bayesian state estimation on Lie groups\n",
                 env!("CARGO_PKG_VERSION")
             );
-            let result = azimuth(&[]);
-            println!("\nThe library at work (manifolds and densities):");
-            integrate_a_gyro();
-            log_near_pi();
-            jacobian_against_finite_difference();
-            double_cover_and_sphere();
-            densities_demo();
+            let result =
+                match Cli::parse_from(["liebayes", "azimuth", "--out", "out/azimuth"]).command {
+                    Some(Command::Azimuth(args)) => azimuth(&args),
+                    _ => Err("internal: the default command did not parse".into()),
+                };
+            demos();
             result
         }
-        Some("azimuth") => azimuth(&args[1..]),
-        Some(other) => {
-            eprintln!("unknown command {other:?}\n{USAGE}");
+        Some(Command::Azimuth(args)) => azimuth(&args),
+        Some(Command::Particles(args)) => particles(&args),
+        Some(Command::Demo) => {
+            demos();
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("liebayes: {message}");
             ExitCode::FAILURE
         }
     }
 }
 
-const USAGE: &str =
-    "usage: liebayes [azimuth [--scenario static|circle|line] [--runs N] [--seed S]]";
+fn demos() {
+    println!("\nThe library at work (manifolds and densities):");
+    integrate_a_gyro();
+    log_near_pi();
+    jacobian_against_finite_difference();
+    double_cover_and_sphere();
+    densities_demo();
+}
 
-/// `liebayes azimuth`: the exact azimuth filter's Monte Carlo summary per scenario (all three by
-/// default, 500 runs each, the seed's settings).
-fn azimuth(args: &[String]) -> ExitCode {
-    use liebayes::filters::azimuth::scenario::{Config, Scenario};
-    use liebayes::filters::azimuth::{particle_study, study};
-    let (mut scenarios, mut runs, mut seed) = (Scenario::ALL.to_vec(), 500_usize, 1_u64);
-    let (mut particles, mut particle_runs) = (1000_usize, 20_usize);
-    let mut it = args.iter();
-    while let Some(flag) = it.next() {
-        let value = it.next().map(String::as_str);
-        let parsed = match (flag.as_str(), value) {
-            ("--scenario", Some(name)) => Scenario::ALL
-                .into_iter()
-                .find(|s| s.name() == name)
-                .map(|s| scenarios = vec![s]),
-            ("--runs", Some(n)) => n.parse().ok().filter(|&n| n > 0).map(|n| runs = n),
-            ("--seed", Some(s)) => s.parse().ok().map(|s| seed = s),
-            ("--particles", Some(n)) => n.parse().ok().filter(|&n| n > 0).map(|n| particles = n),
-            ("--particle-runs", Some(n)) => n.parse().ok().map(|n| particle_runs = n),
-            _ => None,
-        };
-        if parsed.is_none() {
-            eprintln!("bad argument {flag} {}\n{USAGE}", value.unwrap_or(""));
-            return ExitCode::FAILURE;
+/// `liebayes azimuth`: every filter on every chosen scenario, a table per scenario, and the files.
+fn azimuth(args: &AzimuthArgs) -> Result<(), String> {
+    let config = args.simulation.config()?;
+    let methods = [
+        (Method::Exact, args.runs),
+        (Method::Ekf, args.runs),
+        (Method::Ukf, args.runs),
+        (Method::Particle(args.particles), args.baseline_runs),
+        (Method::Grid(args.cells), args.baseline_runs),
+        (Method::Marginalized(args.mpf_particles), args.baseline_runs),
+    ];
+    println!(
+        "Azimuth alignment (seed 000): {} s, dt {} s, a measurement every {} steps, sigma_0 {} m, \
+         sigma_m {} m, q {} m/sqrt(s); seed {}",
+        args.simulation.duration,
+        config.dt,
+        config.measure_every,
+        config.sigma0,
+        config.sigma_m,
+        config.q,
+        args.seed
+    );
+    println!(
+        "Final epoch. Divergence: final azimuth error > 10 deg (or a failed step). Circular \
+         consistency: mean of (1 - cos e)/(1 - rho), 1 when consistent."
+    );
+    for scenario in args.scenario.scenarios() {
+        println!("\n{} scenario", scenario.name());
+        println!(
+            "{:<10} {:>5} {:>11} {:>10} {:>9} {:>16} {:>20} {:>9} {:>10}",
+            "filter",
+            "runs",
+            "az RMSE deg",
+            "sigma_A deg",
+            "NEES r",
+            "95% band",
+            "circular (95% band)",
+            "diverged",
+            "ns/step"
+        );
+        let mut summaries = Vec::new();
+        for &(method, runs) in &methods {
+            if runs == 0 {
+                continue;
+            }
+            let summary = study(method, scenario, &config, runs, args.seed)
+                .map_err(|e| format!("{} on {}: {e}", method.label(), scenario.name()))?;
+            print_row(&summary);
+            summaries.push(summary);
+        }
+        if let Some(dir) = &args.out {
+            let files = report::write_scenario(dir, &summaries)
+                .map_err(|e| format!("writing into {}: {e}", dir.display()))?;
+            println!("wrote {} files into {}", files.len(), dir.display());
         }
     }
-    let config = Config::default();
-    println!(
-        "Azimuth alignment (seed 000), exact 7-number filter: {runs} runs per scenario, 500 s, \
-         measurements every 1 s, sigma_0 = sigma_m = 1 m, q = 0.1 m/sqrt(s), seed {seed}"
-    );
-    println!(
-        "{:<8} {:>16} {:>14} {:>12} {:>18} {:>12} {:>10}",
-        "scenario", "azimuth RMSE deg", "mean sigma_A", "NEES r", "95% band", "diverged", "ns/step"
-    );
+    Ok(())
+}
+
+fn print_row(s: &Summary) {
     let degrees = |x: Option<f64>| {
-        x.map_or("unobservable".to_string(), |r| {
+        x.map_or("unobserv.".to_string(), |r| {
             format!("{:.4}", r.to_degrees())
         })
     };
-    for scenario in scenarios {
-        match study(scenario, &config, runs, seed) {
-            Ok(s) => println!(
-                "{:<8} {:>16} {:>14} {:>12.3} {:>18} {:>12} {:>10.1}",
-                scenario.name(),
-                degrees(s.azimuth_rmse),
-                degrees(s.mean_sigma_a),
-                s.average_nees,
-                format!("[{:.3}, {:.3}]", s.nees_band.0, s.nees_band.1),
-                s.divergence_rate
-                    .map_or("-".to_string(), |d| format!("{:.1}%", 100.0 * d)),
-                s.ns_per_step
-            ),
-            Err(e) => {
-                eprintln!("{}: {e}", scenario.name());
-                return ExitCode::FAILURE;
+    let circular = match (s.circular.mean(), s.circular.band()) {
+        (Some(m), Some((l, h))) if m < 1e3 => format!("{m:.3} [{l:.2}, {h:.2}]"),
+        (Some(m), _) => format!("{m:.2e}"),
+        _ => "-".to_string(),
+    };
+    println!(
+        "{:<10} {:>5} {:>11} {:>10} {:>9.3} {:>16} {:>20} {:>9} {:>10.0}",
+        s.method.label(),
+        s.runs,
+        degrees(s.azimuth_rmse),
+        degrees(s.mean_sigma_a),
+        s.average_nees,
+        format!("[{:.3}, {:.3}]", s.nees_band.0, s.nees_band.1),
+        circular,
+        s.divergence_rate
+            .map_or("-".to_string(), |d| format!("{:.1}%", 100.0 * d)),
+        s.ns_per_step
+    );
+}
+
+/// `liebayes particles`: the smallest tried particle count whose azimuth RMSE is at most the exact
+/// filter's, on the same runs.
+fn particles(args: &ParticleArgs) -> Result<(), String> {
+    let config = args.simulation.config()?;
+    for scenario in args.scenario.scenarios() {
+        let exact = study(Method::Exact, scenario, &config, args.runs, args.seed)
+            .map_err(|e| e.to_string())?;
+        let Some(target) = exact.azimuth_rmse else {
+            println!(
+                "{}: the azimuth is unobservable; nothing to match",
+                scenario.name()
+            );
+            continue;
+        };
+        println!(
+            "{}: exact filter azimuth RMSE {:.4} deg over {} runs, {:.0} ns/step",
+            scenario.name(),
+            target.to_degrees(),
+            args.runs,
+            exact.ns_per_step
+        );
+        for &n in &args.counts {
+            let pf = study(Method::Particle(n), scenario, &config, args.runs, args.seed)
+                .map_err(|e| e.to_string())?;
+            let rmse = pf.azimuth_rmse.unwrap_or(f64::INFINITY);
+            println!(
+                "  {n:>7} particles: RMSE {:.4} deg, diverged {:.1}%, {:.0} ns/step ({:.0} x exact)",
+                rmse.to_degrees(),
+                100.0 * pf.divergence_rate.unwrap_or(0.0),
+                pf.ns_per_step,
+                pf.ns_per_step / exact.ns_per_step
+            );
+            if rmse <= target {
+                println!("  -> {n} particles reach the exact filter's RMSE");
+                break;
             }
         }
-        if particle_runs == 0 || scenario == Scenario::Static {
-            continue;
-        }
-        match particle_study(scenario, &config, particle_runs, seed, particles) {
-            Ok(s) => println!(
-                "{:<8} {:>16.4} {:>14} {:>12} {:>18} {:>12} {:>10.1}   <- particle filter, {particles} particles, {} runs",
-                "",
-                s.azimuth_rmse.to_degrees(),
-                "-",
-                "-",
-                "-",
-                format!("{:.1}%", 100.0 * s.divergence_rate),
-                s.ns_per_step,
-                s.runs
-            ),
-            Err(e) => println!("{:<8} particle filter failed: {e}", ""),
-        }
     }
-    ExitCode::SUCCESS
+    Ok(())
 }
 
 /// Bayes on the circle, and diffusion on SO(3), with exact densities.

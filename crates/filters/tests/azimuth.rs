@@ -44,23 +44,24 @@ fn exact_filter_equals_the_grid_of_kalman_filters_at_every_epoch() {
         let mut worst = 0.0_f64;
         for (k, v) in sim.velocities.iter().enumerate() {
             if let Some(z) = sim.measurements[k] {
-                let before_grid = grid.log_joint().to_vec();
+                let before_grid = grid.log_joint();
                 let before = exact.azimuth();
                 let log_evidence = exact.log_evidence(&measurement, &z).unwrap();
                 exact.update(&measurement, &z).unwrap();
                 grid.update(&measurement, &z).unwrap();
                 exact_total += log_evidence;
                 let after = exact.azimuth();
-                for (j, &angle) in grid.angles().iter().enumerate() {
+                let after_grid = grid.log_joint();
+                for (j, filter) in grid.grid().cells().iter().enumerate() {
+                    let angle = grid.grid().angle(j);
                     let a = So2::from_angle_unchecked(angle);
                     let exact_step = after.log_pdf(&a) - before.log_pdf(&a) + log_evidence;
-                    let grid_step = grid.log_joint()[j] - before_grid[j];
+                    let grid_step = after_grid[j] - before_grid[j];
                     let scale = 1.0 + after.log_pdf(&a).abs() + before.log_pdf(&a).abs();
                     let step_error = (exact_step - grid_step).abs() / scale;
                     magnitude += scale;
                     let joint = after.log_pdf(&a) + exact_total;
-                    let joint_error = (joint - grid.log_joint()[j]).abs() / (1.0 + magnitude);
-                    let filter = &grid.filters()[j];
+                    let joint_error = (joint - after_grid[j]).abs() / (1.0 + magnitude);
                     let mean = exact.conditional_mean(angle);
                     let mean_error = (filter.mean() - mean).amax() / (1.0 + mean.amax());
                     let cov_error = (filter.covariance() - Matrix2::identity() * exact.sigma2())

@@ -166,19 +166,20 @@ impl<X> CircularGrid<X> {
 
     /// Bayes for payload densities with an exact conditioning operator: each cell conditions its payload
     /// with `model_at(θⱼ)` and is reweighted by the payload's log evidence (the Rao-Blackwellized grid).
+    /// `model_at` may fail (a model built from validated parts for each angle).
     ///
     /// # Errors
     /// As [`condition_with`](Self::condition_with).
     pub fn condition_cells<M>(
         &mut self,
-        model_at: impl Fn(f64) -> M,
+        model_at: impl Fn(f64) -> Result<M, OperatorError>,
         z: &X::Measurement,
     ) -> Result<f64, OperatorError>
     where
         X: Condition<M>,
     {
         self.condition_with(|theta, x| {
-            let step = x.condition(&model_at(theta), z)?;
+            let step = x.condition(&model_at(theta)?, z)?;
             *x = step.posterior;
             Ok(step.log_evidence)
         })
@@ -190,7 +191,7 @@ impl<X> CircularGrid<X> {
     /// The first payload step's error (earlier cells are then already propagated).
     pub fn propagate_cells<M>(
         &mut self,
-        model_at: impl Fn(f64) -> M,
+        model_at: impl Fn(f64) -> Result<M, OperatorError>,
         input: &X::Input,
     ) -> Result<(), OperatorError>
     where
@@ -198,7 +199,7 @@ impl<X> CircularGrid<X> {
     {
         let n = self.len();
         for (j, x) in self.cells.iter_mut().enumerate() {
-            *x = x.propagate(&model_at(cell_angle(j, n)), input)?;
+            *x = x.propagate(&model_at(cell_angle(j, n))?, input)?;
         }
         Ok(())
     }

@@ -59,29 +59,23 @@ impl<X: Clone> ParticleSet<X> {
         &self.particles
     }
 
-    /// The normalised weights (allocates; for reporting, not per step).
-    pub fn weights(&self) -> Vec<f64> {
-        let max = self.max_log_weight();
-        let w: Vec<f64> = self.log_weights.iter().map(|l| (l - max).exp()).collect();
-        let total: f64 = w.iter().sum();
-        w.into_iter().map(|x| x / total).collect()
+    /// The normalised log weights `ln wᵢ` (`Σ wᵢ = 1` is kept after every step).
+    pub fn log_weights(&self) -> &[f64] {
+        &self.log_weights
     }
 
-    fn max_log_weight(&self) -> f64 {
-        self.log_weights
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max)
+    /// The normalised weights (allocates; for reporting, not per step).
+    pub fn weights(&self) -> Vec<f64> {
+        self.log_weights.iter().map(|l| l.exp()).collect()
     }
 
     /// The effective sample size `1 / Σ wᵢ²` of the normalised weights, in [1, N].
     pub fn effective_sample_size(&self) -> f64 {
-        let max = self.max_log_weight();
-        let (sum, sum_sq) = self.log_weights.iter().fold((0.0, 0.0), |(s, q), l| {
-            let w = (l - max).exp();
-            (s + w, q + w * w)
-        });
-        sum * sum / sum_sq
+        1.0 / self
+            .log_weights
+            .iter()
+            .map(|l| (2.0 * l).exp())
+            .sum::<f64>()
     }
 
     /// Chapman-Kolmogorov by sampling: each particle moves to a draw of `transition(x, rng)`.
@@ -93,6 +87,18 @@ impl<X: Clone> ParticleSet<X> {
         for x in &mut self.particles {
             *x = transition(x, rng);
         }
+    }
+
+    /// Propagation where each particle carries a density of its own (the marginalized particle filter):
+    /// `step` moves each particle in place and may fail.
+    ///
+    /// # Errors
+    /// The first error of `step` (earlier particles are then already moved).
+    pub fn try_propagate(
+        &mut self,
+        mut step: impl FnMut(&mut X) -> Result<(), OperatorError>,
+    ) -> Result<(), OperatorError> {
+        self.particles.iter_mut().try_for_each(&mut step)
     }
 
     /// Bayes by reweighting: `ln wᵢ += ln p(z | xᵢ)`, then normalisation. Returns the log evidence
@@ -205,11 +211,14 @@ impl<X: Clone> ParticleSet<X> {
     }
 
     /// `Σ wᵢ f(xᵢ)`.
-    pub fn expectation(&self, f: impl Fn(&X) -> f64) -> f64 {
-        self.weights()
+    pub fn expectation<T>(&self, f: impl Fn(&X) -> T) -> T
+    where
+        T: std::ops::Mul<f64, Output = T> + std::iter::Sum,
+    {
+        self.log_weights
             .iter()
             .zip(&self.particles)
-            .map(|(w, x)| w * f(x))
+            .map(|(l, x)| f(x) * l.exp())
             .sum()
     }
 }

@@ -375,7 +375,7 @@ impl<const N: usize> Condition<RotatedMeasurement<N>> for HarmonicGaussian<N> {
 /// A conditioning error, or as [`ParticleSet::condition`].
 pub fn condition_marginalized<Y, G, M>(
     set: &mut ParticleSet<(Y, G)>,
-    model_at: impl Fn(&Y) -> M,
+    model_at: impl Fn(&Y) -> Result<M, OperatorError>,
     z: &G::Measurement,
 ) -> Result<f64, OperatorError>
 where
@@ -383,7 +383,7 @@ where
     G: Clone + Condition<M>,
 {
     set.condition_with(|(y, density)| {
-        let step = density.condition(&model_at(y), z)?;
+        let step = density.condition(&model_at(y)?, z)?;
         *density = step.posterior;
         Ok(step.log_evidence)
     })

@@ -192,7 +192,7 @@ fn marginalized_particles_on_the_grid_points_equal_the_grid() {
         ParticleSet::from_samples((0..64).map(|j| (grid.angle(j), prior.clone())).collect())
             .unwrap();
     let z = Vector2::new(0.5, 2.0);
-    let model_at = |y: f64| LinearMeasurement::new(rotation(y), Matrix2::identity()).unwrap();
+    let model_at = |y: f64| LinearMeasurement::new(rotation(y), Matrix2::identity());
     let from_grid = grid.condition_cells(model_at, &z).unwrap();
     let from_particles =
         condition_marginalized(&mut particles, |y: &f64| model_at(*y), &z).unwrap();

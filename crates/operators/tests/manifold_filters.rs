@@ -200,16 +200,8 @@ fn so3_propagation_transports_the_covariance_by_the_adjoint() {
     let ad = delta.inverse().adjoint();
     let expected = ad * prior.covariance() * ad.transpose() + Matrix3::identity() * 1e-4;
     for (name, got) in [
-        (
-            "EKF",
-            prior.propagate(&Ekf(Turn(delta)), &()).unwrap(),
-        ),
-        (
-            "UKF",
-            prior
-                .propagate(&Ukf::new(Turn(delta)), &())
-                .unwrap(),
-        ),
+        ("EKF", prior.propagate(&Ekf(Turn(delta)), &()).unwrap()),
+        ("UKF", prior.propagate(&Ukf::new(Turn(delta)), &()).unwrap()),
     ] {
         assert!(got.mean().distance(&mean.compose(&delta)) < 1e-12, "{name}");
         let error = (got.covariance() - expected).amax();

@@ -46,7 +46,7 @@ pub struct AzimuthEstimates {
 }
 
 /// Refuses a non-finite measurement.
-fn check_measurement(z: &Vector2<f64>) -> Result<(), OperatorError> {
+pub(super) fn check_measurement(z: &Vector2<f64>) -> Result<(), OperatorError> {
     match z.iter().find(|v| !v.is_finite()) {
         Some(&value) => Err(OperatorError::NonFinite {
             what: "position measurement z",

@@ -1,26 +1,28 @@
-//! [`GridReference`]: the brute-force posterior of azimuth alignment, a bank of exact Kalman filters.
+//! [`GridReference`]: the brute-force posterior of azimuth alignment, a bank of exact Kalman filters on
+//! the operators crate's [`CircularGrid`].
 
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use liebayes_densities::Gaussian;
+use liebayes_operators::OperatorError;
+use liebayes_operators::grid::CircularGrid;
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
-use liebayes_operators::{Condition, OperatorError, Propagate};
 use nalgebra::{Matrix2, Vector2};
 use std::f64::consts::PI;
 
 /// The azimuth posterior evaluated exactly at the n angles `Aⱼ = 2πj/n`: given A the model is linear and
 /// Gaussian, so one Kalman filter per angle ([`liebayes_operators::kalman`], Joseph form) carries
-/// `p(r | Aⱼ, z₁..ₖ)` exactly, and the sum of its log evidences plus `ln(1/2π)` is the log joint
-/// `ln p(Aⱼ, z₁..ₖ)`. Nothing here knows the seven-number recursion, which is why it is a reference for
-/// it: the two must agree at every angle, at every epoch.
+/// `p(r | Aⱼ, z₁..ₖ)` exactly, and the grid's weights carry `p(Aⱼ | z₁..ₖ)` up to the trapezoid
+/// normalisation. Nothing here knows the seven-number recursion, which is why it is a reference for it:
+/// the two must agree at every angle, at every epoch.
 ///
-/// Moments over A are trapezoid sums over the grid: exponentially accurate for the periodic, analytic
-/// integrands while the grid resolves the posterior (spacing well below σ_A), and wrong once it does not.
-/// Costs n Kalman steps per step, a few hundred nanoseconds each.
+/// With few cells it is also the *grid filter* baseline: moments over A are trapezoid sums,
+/// exponentially accurate while the grid resolves the posterior (spacing well below σ_A) and a point-mass
+/// approximation once it does not. Costs n Kalman steps per step.
 #[derive(Clone, Debug)]
 pub struct GridReference {
-    angles: Vec<f64>,
-    filters: Vec<Gaussian<2>>,
-    log_joint: Vec<f64>,
+    grid: CircularGrid<Gaussian<2>>,
+    /// `ln p(z₁..ₖ)` by the trapezoid rule, summed over the updates.
+    log_evidence: f64,
 }
 
 /// `R(A) = [[cos A, −sin A], [sin A, cos A]]`.
@@ -35,38 +37,30 @@ impl GridReference {
     /// # Errors
     /// [`OperatorError::OutOfRange`] for n = 0, or the Gaussian's errors for r₀ and σ₀.
     pub fn new(n: usize, r0: Vector2<f64>, sigma0: f64) -> Result<Self, OperatorError> {
-        if n == 0 {
-            return Err(OperatorError::OutOfRange {
-                what: "number of grid angles",
-                value: 0.0,
-                range: "at least 1",
-            });
-        }
         let prior = Gaussian::new(r0, Matrix2::identity() * (sigma0 * sigma0))?;
         Ok(Self {
-            angles: (0..n).map(|j| 2.0 * PI * j as f64 / n as f64).collect(),
-            filters: vec![prior; n],
-            log_joint: vec![-(2.0 * PI).ln(); n],
+            grid: CircularGrid::uniform(n, prior)?,
+            log_evidence: 0.0,
         })
     }
 
-    /// The grid angles Aⱼ.
-    pub fn angles(&self) -> &[f64] {
-        &self.angles
+    /// The grid: angles, normalised cell masses and the per-angle Kalman filters `p(r | Aⱼ, z₁..ₖ)`.
+    pub fn grid(&self) -> &CircularGrid<Gaussian<2>> {
+        &self.grid
     }
 
-    /// `p(r | Aⱼ, z₁..ₖ)` for every j.
-    pub fn filters(&self) -> &[Gaussian<2>] {
-        &self.filters
+    /// `ln p(Aⱼ, z₁..ₖ)` (a density in A) for every j: `ln wⱼ + ln p(z₁..ₖ) − ln(2π/n)`.
+    pub fn log_joint(&self) -> Vec<f64> {
+        let cell = (2.0 * PI / self.grid.len() as f64).ln();
+        self.grid
+            .log_weights()
+            .iter()
+            .map(|l| l + self.log_evidence - cell)
+            .collect()
     }
 
-    /// `ln p(Aⱼ, z₁..ₖ)` (a density in A) for every j.
-    pub fn log_joint(&self) -> &[f64] {
-        &self.log_joint
-    }
-
-    /// Conditions every filter on z with `H = R(Aⱼ)`, `R = σ_m² I`, adding each log evidence to its
-    /// log joint.
+    /// Conditions every filter on z with `H = R(Aⱼ)`, `R = σ_m² I`, reweighting each cell by its
+    /// Kalman log evidence.
     ///
     /// # Errors
     /// The Kalman step's errors (a non-finite z).
@@ -76,16 +70,9 @@ impl GridReference {
         z: &Vector2<f64>,
     ) -> Result<(), OperatorError> {
         let noise = Matrix2::identity() * model.variance();
-        for ((filter, log_joint), &angle) in self
-            .filters
-            .iter_mut()
-            .zip(&mut self.log_joint)
-            .zip(&self.angles)
-        {
-            let step = filter.condition(&LinearMeasurement::new(rotation(angle), noise)?, z)?;
-            *filter = step.posterior;
-            *log_joint += step.log_evidence;
-        }
+        self.log_evidence += self
+            .grid
+            .condition_cells(|angle| LinearMeasurement::new(rotation(angle), noise), z)?;
         Ok(())
     }
 
@@ -103,49 +90,23 @@ impl GridReference {
             Matrix2::identity(),
             Matrix2::identity() * (model.noise_density() * input.dt),
         )?;
-        let offset = input.velocity * input.dt;
-        for filter in &mut self.filters {
-            *filter = filter.propagate(&process, &offset)?;
-        }
-        Ok(())
+        self.grid
+            .propagate_cells(|_| Ok(process.clone()), &(input.velocity * input.dt))
     }
 
-    /// `ln p(z₁..ₖ)`, the trapezoid sum of the joint over the grid (in log-sum-exp form).
+    /// `ln p(z₁..ₖ)`, the trapezoid sums of the evidence over the grid, accumulated.
     pub fn log_evidence(&self) -> f64 {
-        let max = self
-            .log_joint
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        let sum: f64 = self.log_joint.iter().map(|l| (l - max).exp()).sum();
-        max + (sum * 2.0 * PI / self.angles.len() as f64).ln()
+        self.log_evidence
     }
 
     /// `(E r, Cov r)` by the trapezoid rule over the grid: the mixture of the per-angle Gaussians with
     /// the posterior weights.
     pub fn moments(&self) -> (Vector2<f64>, Matrix2<f64>) {
-        let max = self
-            .log_joint
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        let weights: Vec<f64> = self.log_joint.iter().map(|l| (l - max).exp()).collect();
-        let total: f64 = weights.iter().sum();
-        let mean = self
-            .filters
-            .iter()
-            .zip(&weights)
-            .map(|(f, w)| f.mean() * (w / total))
-            .sum::<Vector2<f64>>();
-        let covariance = self
-            .filters
-            .iter()
-            .zip(&weights)
-            .map(|(f, w)| {
-                let d = f.mean() - mean;
-                (f.covariance() + d * d.transpose()) * (w / total)
-            })
-            .sum::<Matrix2<f64>>();
+        let mean = self.grid.expectation(|_, f| *f.mean());
+        let covariance = self.grid.expectation(|_, f| {
+            let d = f.mean() - mean;
+            f.covariance() + d * d.transpose()
+        });
         (mean, covariance)
     }
 }

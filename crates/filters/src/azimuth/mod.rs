@@ -8,17 +8,22 @@
 //! `p(r | A) = N(a + c cos A − c^× sin A, σ² I)`, `u^× = (−u_y, u_x)`: seven numbers (η, a, c, σ²),
 //! [`AzimuthDensity`]. It is checked against [`GridReference`], a bank of exact Kalman filters over a
 //! grid of azimuths built from the operators crate, and against `../shared/reference/azimuth_vectors.json`.
-//! [`scenario`] simulates the seed's three scenarios and [`study`] runs the Monte Carlo summary. The math is in `docs/filters/azimuth.md`.
+//! The baselines (EKF, UKF, particle, grid and marginalized particle filters) share the
+//! [`AzimuthFilter`] interface with it. [`scenario`] simulates the seed's three scenarios and [`study`]
+//! runs the Monte Carlo summary of any [`Method`]. The math is in `docs/filters/azimuth.md`.
 
+mod baselines;
 mod density;
 mod grid;
 mod model;
-mod particle_baseline;
 pub mod scenario;
-mod study;
+pub mod study;
 
+pub use baselines::{
+    AzimuthFilter, Estimate, GaussianBaseline, Linearisation, MarginalizedBaseline,
+    ParticleBaseline, PositionAzimuth,
+};
 pub use density::{AzimuthDensity, AzimuthEstimates};
 pub use grid::GridReference;
 pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
-pub use particle_baseline::ParticleBaseline;
-pub use study::{BaselineSummary, Summary, particle_study, study};
+pub use study::{Method, Summary, study};
