@@ -92,4 +92,33 @@ impl PositionMeasurement {
     pub fn variance(&self) -> f64 {
         self.sigma_m2
     }
+
+    /// The isotropic bound of a non-isotropic noise covariance `R_m`: `σ_m² = λ_max(R_m)`.
+    ///
+    /// With `R_m ≠ σ² I` the seven-number family is not closed (`docs/filters/azimuth.md`). The exact
+    /// filter run with this bound is the exact posterior given `z + n′`, `n′ ~ N(0, λ_max I − R_m)`
+    /// independent: a measurement with a little information thrown away, so the filter stays
+    /// consistent (conservative) at the price of that information.
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for non-finite entries, [`OperatorError::OutOfRange`] unless `R_m`
+    /// is symmetric with a positive largest eigenvalue.
+    pub fn isotropic_bound(noise: &nalgebra::Matrix2<f64>) -> Result<Self, OperatorError> {
+        if let Some(&value) = noise.iter().find(|v| !v.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: "position noise covariance R_m",
+                value,
+            });
+        }
+        let asymmetry = (noise[(0, 1)] - noise[(1, 0)]).abs();
+        if asymmetry > 1e-12 * noise.amax() {
+            return Err(OperatorError::OutOfRange {
+                what: "position noise covariance R_m (the value is |R_01 - R_10|)",
+                value: asymmetry,
+                range: "symmetric matrices",
+            });
+        }
+        let largest = noise.symmetric_eigenvalues().max();
+        Self::new(largest.sqrt())
+    }
 }
