@@ -115,3 +115,21 @@ fn impossible_measurements_and_empty_sets_are_errors() {
     set.propagate(&mut rng, |x, _| x + 1.0);
     assert_eq!(set.particles(), &[2.0, 3.0]);
 }
+
+/// The parallel weighting (feature `rayon`) gives the same weights and log evidence as the serial one.
+#[cfg(feature = "rayon")]
+#[test]
+fn parallel_weighting_equals_serial() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let samples: Vec<f64> = (0..5000)
+        .map(|_| rand::Rng::random::<f64>(&mut rng) * 10.0)
+        .collect();
+    let mut serial = ParticleSet::from_samples(samples.clone()).unwrap();
+    let mut parallel = ParticleSet::from_samples(samples).unwrap();
+    let likelihood = |x: &f64| -0.5 * (x - 3.0) * (x - 3.0);
+    let a = serial.condition(likelihood).unwrap();
+    let b = parallel.condition_parallel(likelihood).unwrap();
+    assert_eq!(a, b);
+    assert_eq!(serial.log_weights(), parallel.log_weights());
+    assert!(parallel.condition_parallel(|_| f64::NAN).is_err());
+}
