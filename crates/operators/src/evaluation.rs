@@ -13,13 +13,23 @@
 use nalgebra::{Cholesky, SMatrix, SVector};
 use std::f64::consts::PI;
 
-/// `eᵀ P⁻¹ e` by Cholesky (NEES of a state error, or NIS of an innovation with its covariance S);
-/// `None` when P is not positive definite.
+/// The normalised estimation error squared `eᵀ P⁻¹ e` by Cholesky; `None` when P is not positive
+/// definite.
 pub fn nees<const D: usize>(
     error: &SVector<f64, D>,
     covariance: &SMatrix<f64, D, D>,
 ) -> Option<f64> {
     Cholesky::new(*covariance).map(|c| error.dot(&c.solve(error)))
+}
+
+/// The normalised innovation squared `νᵀ S⁻¹ ν` of a measurement's innovation ν with its predicted
+/// covariance S (the same quadratic form as [`nees`]; mean M, the measurement dimension, for a consistent
+/// filter, band from [`average_nees_band`] with d = M); `None` when S is not positive definite.
+pub fn nis<const M: usize>(
+    innovation: &SVector<f64, M>,
+    covariance: &SMatrix<f64, M, M>,
+) -> Option<f64> {
+    nees(innovation, covariance)
 }
 
 /// The p-quantile of χ² with k degrees of freedom by the Wilson-Hilferty cube

@@ -29,8 +29,15 @@ pub enum Resampling {
 pub struct ParticleSet<X> {
     particles: Vec<X>,
     log_weights: Vec<f64>,
-    /// Per-step workspace for the log-likelihoods, kept so that conditioning does not allocate.
+    /// Per-step workspace for the log-likelihoods (and the weights when resampling), kept so that
+    /// conditioning and resampling do not allocate.
     scratch: Vec<f64>,
+    /// The resampled indices.
+    indices: Vec<usize>,
+    /// The resampling's other buffers.
+    work: Workspace,
+    /// The resampled particles, swapped with `particles`.
+    spare: Vec<X>,
 }
 
 impl<X: Clone> ParticleSet<X> {
@@ -49,6 +56,9 @@ impl<X: Clone> ParticleSet<X> {
         let log_weights = vec![-(particles.len() as f64).ln(); particles.len()];
         Ok(Self {
             scratch: Vec::with_capacity(particles.len()),
+            indices: Vec::with_capacity(particles.len()),
+            work: Workspace::default(),
+            spare: Vec::with_capacity(particles.len()),
             particles,
             log_weights,
         })
@@ -188,11 +198,23 @@ impl<X: Clone> ParticleSet<X> {
 
     /// Resamples to N equally weighted particles with `scheme`.
     pub fn resample<R: Rng + ?Sized>(&mut self, scheme: Resampling, rng: &mut R) {
-        let weights = self.weights();
-        let n = weights.len();
-        let indices = resample_indices(&weights, n, scheme, rng);
-        self.particles = indices.iter().map(|&i| self.particles[i].clone()).collect();
-        self.log_weights = vec![-(n as f64).ln(); n];
+        let n = self.particles.len();
+        self.scratch.clear();
+        self.scratch
+            .extend(self.log_weights.iter().map(|l| l.exp()));
+        resample_into(
+            &self.scratch,
+            n,
+            scheme,
+            rng,
+            &mut self.work,
+            &mut self.indices,
+        );
+        self.spare.clear();
+        self.spare
+            .extend(self.indices.iter().map(|&i| self.particles[i].clone()));
+        std::mem::swap(&mut self.particles, &mut self.spare);
+        self.log_weights.fill(-(n as f64).ln());
     }
 
     /// Resamples when the effective sample size falls below `fraction · N` (0.5 is the usual choice);
@@ -223,61 +245,91 @@ impl<X: Clone> ParticleSet<X> {
     }
 }
 
-/// The indices of n draws from normalised `weights` by `scheme`, in increasing order.
+/// The indices of n draws from normalised `weights` by `scheme`, in increasing order (empty when n or
+/// the weights are). Allocates its result; [`ParticleSet::resample`] reuses buffers instead.
 pub fn resample_indices<R: Rng + ?Sized>(
     weights: &[f64],
     n: usize,
     scheme: Resampling,
     rng: &mut R,
 ) -> Vec<usize> {
+    let mut indices = Vec::with_capacity(n);
+    resample_into(
+        weights,
+        n,
+        scheme,
+        rng,
+        &mut Workspace::default(),
+        &mut indices,
+    );
+    indices
+}
+
+/// Buffers reused from one resampling to the next.
+#[derive(Clone, Debug, Default)]
+struct Workspace {
+    points: Vec<f64>,
+    residual: Vec<f64>,
+}
+
+/// [`resample_indices`] into `out` (cleared first), with the workspace's buffers.
+fn resample_into<R: Rng + ?Sized>(
+    weights: &[f64],
+    n: usize,
+    scheme: Resampling,
+    rng: &mut R,
+    work: &mut Workspace,
+    out: &mut Vec<usize>,
+) {
+    out.clear();
+    if weights.is_empty() || n == 0 {
+        return;
+    }
     let nf = n as f64;
+    let points = &mut work.points;
+    points.clear();
     match scheme {
         Resampling::Multinomial => {
-            let mut points: Vec<f64> = (0..n).map(|_| rng.random::<f64>()).collect();
+            points.extend((0..n).map(|_| rng.random::<f64>()));
             points.sort_by(f64::total_cmp);
-            select(weights, &points)
+            select(weights, points, out);
         }
         Resampling::Stratified => {
-            let points: Vec<f64> = (0..n)
-                .map(|k| (k as f64 + rng.random::<f64>()) / nf)
-                .collect();
-            select(weights, &points)
+            points.extend((0..n).map(|k| (k as f64 + rng.random::<f64>()) / nf));
+            select(weights, points, out);
         }
         Resampling::Systematic => {
             let u = rng.random::<f64>();
-            let points: Vec<f64> = (0..n).map(|k| (k as f64 + u) / nf).collect();
-            select(weights, &points)
+            points.extend((0..n).map(|k| (k as f64 + u) / nf));
+            select(weights, points, out);
         }
         Resampling::Residual => {
-            let mut indices = Vec::with_capacity(n);
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             for (i, w) in weights.iter().enumerate() {
                 let copies = (nf * w).floor() as usize;
-                indices.extend(std::iter::repeat_n(i, copies));
+                out.extend(std::iter::repeat_n(i, copies));
             }
-            let rest = n - indices.len().min(n);
+            let rest = n - out.len().min(n);
             if rest > 0 {
-                let residual: Vec<f64> =
-                    weights.iter().map(|w| nf * w - (nf * w).floor()).collect();
+                let residual = &mut work.residual;
+                residual.clear();
+                residual.extend(weights.iter().map(|w| nf * w - (nf * w).floor()));
                 let total: f64 = residual.iter().sum();
-                let residual: Vec<f64> = residual.iter().map(|r| r / total).collect();
-                indices.extend(resample_indices(
-                    &residual,
-                    rest,
-                    Resampling::Multinomial,
-                    rng,
-                ));
-                indices.sort_unstable();
+                for r in residual.iter_mut() {
+                    *r /= total;
+                }
+                points.extend((0..rest).map(|_| rng.random::<f64>()));
+                points.sort_by(f64::total_cmp);
+                select(residual, points, out);
+                out.sort_unstable();
             }
-            indices.truncate(n);
-            indices
+            out.truncate(n);
         }
     }
 }
 
-/// For sorted points in [0, 1), the index whose cumulative-weight interval holds each point.
-fn select(weights: &[f64], sorted_points: &[f64]) -> Vec<usize> {
-    let mut indices = Vec::with_capacity(sorted_points.len());
+/// For sorted points in [0, 1), appends the index whose cumulative-weight interval holds each point.
+fn select(weights: &[f64], sorted_points: &[f64], out: &mut Vec<usize>) {
     let mut cumulative = weights[0];
     let mut i = 0;
     for &p in sorted_points {
@@ -285,7 +337,6 @@ fn select(weights: &[f64], sorted_points: &[f64]) -> Vec<usize> {
             i += 1;
             cumulative += weights[i];
         }
-        indices.push(i);
+        out.push(i);
     }
-    indices
 }

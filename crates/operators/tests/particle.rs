@@ -106,6 +106,9 @@ fn reweighting_matches_the_kalman_filter() {
 #[test]
 fn impossible_measurements_and_empty_sets_are_errors() {
     assert!(ParticleSet::<f64>::from_samples(vec![]).is_err());
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    assert!(resample_indices(&[], 5, Resampling::Systematic, &mut rng).is_empty());
+    assert!(resample_indices(&[1.0], 0, Resampling::Residual, &mut rng).is_empty());
     let mut set = ParticleSet::from_samples(vec![1.0, 2.0]).unwrap();
     assert!(set.condition(|_| f64::NEG_INFINITY).is_err());
     assert!(set.condition(|_| f64::NAN).is_err());
