@@ -34,7 +34,10 @@ where
         let f = model.0.jacobian(self.mean(), input);
         let q = model.0.noise(self.mean(), input);
         let mean = model.0.transition(self.mean(), input);
-        ManifoldGaussian::new(mean, f * self.covariance() * f.transpose() + q)
+        Ok(ManifoldGaussian::from_checked(
+            mean,
+            checked_covariance(f * self.covariance() * f.transpose() + q)?,
+        ))
     }
 }
 
@@ -65,7 +68,7 @@ where
             i_kh * p * i_kh.transpose() + update.gain * r * update.gain.transpose(),
         )?;
         Ok(Conditioned {
-            posterior: ManifoldGaussian::new(mean.retract(&update.correction), covariance)?,
+            posterior: ManifoldGaussian::from_checked(mean.retract(&update.correction), covariance),
             log_evidence: update.log_evidence,
         })
     }

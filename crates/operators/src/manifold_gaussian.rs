@@ -40,6 +40,11 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
         })
     }
 
+    /// From a covariance that [`checked_covariance`] has just symmetrised and factored.
+    pub(crate) fn from_checked(mean: X, covariance: SMatrix<f64, D, D>) -> Self {
+        Self { mean, covariance }
+    }
+
     /// μ.
     pub fn mean(&self) -> &X {
         &self.mean
@@ -63,8 +68,9 @@ pub trait ProcessModel<X: Manifold<D, Scalar = f64>, const D: usize> {
     fn noise(&self, x: &X, input: &Self::Input) -> SMatrix<f64, D, D>;
 
     /// `F = ∂ [f(x ⊞ δ, u) ⊟ f(x, u)] / ∂δ` at δ = 0 (a right Jacobian). The default is a central
-    /// difference with step 1e-6 in each tangent direction (about 1e-10 relative error for smooth f);
-    /// override it with the analytic form where the filter is on a hot path.
+    /// difference with step 1e-6 in each tangent direction: its error is about 1e-10 times the size of
+    /// f's coordinates (rounding) plus 1e-12 times f's third derivative (truncation). Override it with
+    /// the analytic form for accuracy far from the origin and for speed on a hot path.
     fn jacobian(&self, x: &X, input: &Self::Input) -> SMatrix<f64, D, D> {
         let centre = self.transition(x, input);
         numeric_jacobian(x, |y| centre.local(&self.transition(y, input)))
@@ -140,7 +146,8 @@ impl<const D: usize, const M: usize> GaussianUpdate<D, M> {
     }
 }
 
-/// Symmetrises P and checks that it is still positive definite after an update.
+/// Symmetrises P and checks that it is finite and positive definite (one Cholesky factorisation), after
+/// a propagation or an update.
 pub(crate) fn checked_covariance<const D: usize>(
     p: SMatrix<f64, D, D>,
 ) -> Result<SMatrix<f64, D, D>, OperatorError> {

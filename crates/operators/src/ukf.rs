@@ -164,7 +164,10 @@ where
                 .map(|y| outer(y) * w)
                 .sum::<SMatrix<f64, D, D>>()
             + ukf.model.noise(mu, input);
-        ManifoldGaussian::new(mean, checked_covariance(covariance)?)
+        Ok(ManifoldGaussian::from_checked(
+            mean,
+            checked_covariance(covariance)?,
+        ))
     }
 }
 
@@ -214,7 +217,7 @@ where
         let covariance =
             checked_covariance(self.covariance() - update.gain * s * update.gain.transpose())?;
         Ok(Conditioned {
-            posterior: ManifoldGaussian::new(mu.retract(&update.correction), covariance)?,
+            posterior: ManifoldGaussian::from_checked(mu.retract(&update.correction), covariance),
             log_evidence: update.log_evidence,
         })
     }

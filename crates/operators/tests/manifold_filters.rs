@@ -17,7 +17,7 @@ use nalgebra::{Matrix1, Matrix2, Matrix3, SMatrix, Vector1, Vector2, Vector3};
 use proptest::prelude::*;
 use std::f64::consts::PI;
 
-/// `x′ = F x + u + w` on R², written as a manifold model (Jacobian left to the numerical default).
+/// `x′ = F x + u + w` on R², written as a manifold model with its exact Jacobian F.
 struct Linear {
     f: Matrix2<f64>,
     q: Matrix2<f64>,
@@ -31,9 +31,12 @@ impl ProcessModel<Rn<f64, 2>, 2> for Linear {
     fn noise(&self, _: &Rn<f64, 2>, _: &Vector2<f64>) -> Matrix2<f64> {
         self.q
     }
+    fn jacobian(&self, _: &Rn<f64, 2>, _: &Vector2<f64>) -> Matrix2<f64> {
+        self.f
+    }
 }
 
-/// `z = H x + n` on R².
+/// `z = H x + n` on R², with its exact Jacobian H.
 struct LinearZ {
     h: SMatrix<f64, 1, 2>,
     r: f64,
@@ -45,6 +48,9 @@ impl MeasurementModel<Rn<f64, 2>, 2, 1> for LinearZ {
     }
     fn noise(&self, _: &Rn<f64, 2>) -> Matrix1<f64> {
         Matrix1::new(self.r)
+    }
+    fn jacobian(&self, _: &Rn<f64, 2>) -> SMatrix<f64, 1, 2> {
+        self.h
     }
 }
 
@@ -221,11 +227,33 @@ impl MeasurementModel<Rn<f64, 2>, 2, 1> for Range {
     }
 }
 
+/// The default central differences (step 1e-6): rounding error about 1e-16 |h| / 1e-6 and truncation
+/// error about 1e-12 |h‴|, so 1e-9 here, where |h| = 5 and h‴ is of order 1/25.
 #[test]
 fn numerical_jacobian_matches_the_analytic_one() {
     let x = Rn::new_unchecked(Vector2::new(3.0, -4.0));
     let analytic = x.coords().transpose() / 5.0;
     assert!((Range.jacobian(&x) - analytic).amax() < 1e-9);
+    // A linear model far from the origin: the truncation error vanishes, the rounding error remains.
+    let far = Rn::new_unchecked(Vector2::new(300.0, -400.0));
+    let z = LinearZ {
+        h: SMatrix::<f64, 1, 2>::new(0.5, 2.0),
+        r: 1.0,
+    };
+    let numeric = MeasurementModel::jacobian(&Numeric(&z), &far);
+    assert!((numeric - z.h).amax() < 1e-16 * 1000.0 / 1e-6 * 10.0);
+}
+
+/// A model that keeps the default (numerical) Jacobian of another's prediction.
+struct Numeric<'a>(&'a LinearZ);
+
+impl MeasurementModel<Rn<f64, 2>, 2, 1> for Numeric<'_> {
+    fn predict(&self, x: &Rn<f64, 2>) -> Vector1<f64> {
+        self.0.predict(x)
+    }
+    fn noise(&self, x: &Rn<f64, 2>) -> Matrix1<f64> {
+        self.0.noise(x)
+    }
 }
 
 #[test]
