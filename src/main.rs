@@ -242,17 +242,28 @@ fn azimuth(args: &AzimuthArgs) -> Result<(), String> {
             "ns/step"
         );
         let mut summaries = Vec::new();
+        // The plot of errors over time compares every method on the same runs: the cheap methods are
+        // run a second time with the costly ones' run count when the two differ.
+        let mut plotted = Vec::new();
         for &(method, runs) in &methods {
             if runs == 0 {
                 continue;
             }
-            let summary = study(method, scenario, &config, runs, args.seed)
-                .map_err(|e| format!("{} on {}: {e}", method.label(), scenario.name()))?;
+            let run = |runs| {
+                study(method, scenario, &config, runs, args.seed)
+                    .map_err(|e| format!("{} on {}: {e}", method.label(), scenario.name()))
+            };
+            let summary = run(runs)?;
             print_row(&summary);
+            if args.out.is_some() && args.baseline_runs > 0 && runs != args.baseline_runs {
+                plotted.push(run(args.baseline_runs)?);
+            } else {
+                plotted.push(summary.clone());
+            }
             summaries.push(summary);
         }
         if let Some(dir) = &args.out {
-            let files = report::write_scenario(dir, &summaries)
+            let files = report::write_scenario(dir, &summaries, &plotted)
                 .map_err(|e| format!("writing into {}: {e}", dir.display()))?;
             println!("wrote {} files into {}", files.len(), dir.display());
         }

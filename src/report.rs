@@ -25,8 +25,13 @@ const COLOURS: [RGBColor; 6] = [
     RGBColor(255, 127, 14),
 ];
 
-/// Writes the files of one scenario into `dir` and returns their paths.
-pub fn write_scenario(dir: &Path, summaries: &[Summary]) -> Result<Vec<PathBuf>> {
+/// Writes the files of one scenario into `dir` and returns their paths: the table of `summaries`, and the
+/// errors over time of `plotted` (the same methods, all over the same runs).
+pub fn write_scenario(
+    dir: &Path,
+    summaries: &[Summary],
+    plotted: &[Summary],
+) -> Result<Vec<PathBuf>> {
     let Some(first) = summaries.first() else {
         return Ok(Vec::new());
     };
@@ -55,7 +60,7 @@ pub fn write_scenario(dir: &Path, summaries: &[Summary]) -> Result<Vec<PathBuf>>
     plot_first_run(&run_plot, first)?;
     written.push(run_plot);
     let time_plot = dir.join(format!("azimuth_{name}_rmse.svg"));
-    plot_over_time(&time_plot, summaries)?;
+    plot_over_time(&time_plot, plotted)?;
     written.push(time_plot);
     Ok(written)
 }
