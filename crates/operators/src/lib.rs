@@ -8,11 +8,22 @@
 //!   posterior together with the log evidence `ln p(z)` (the log marginal likelihood), so that filters
 //!   can be compared and models selected on the same data.
 //!
-//! Implemented so far: the linear Kalman filter on [`Gaussian<N>`](liebayes_densities::Gaussian)
-//! ([`kalman`]), exact, with the Joseph-form covariance update; and the consistency metrics of
-//! [`evaluation`] (NEES and its band, angle errors); the particle filter over any state type with four
-//! resampling schemes ([`particle`]). The filters crate composes these into
-//! applications (the azimuth filter's grid reference is a bank of these Kalman filters).
+//! The algorithms, each checked against an exact computation in the tests:
+//!
+//! * [`kalman`]: the linear Kalman filter on [`Gaussian<N>`](liebayes_densities::Gaussian), exact, in
+//!   Joseph form;
+//! * [`Ekf`] and [`Ukf`]: the extended and unscented Kalman filters on any
+//!   [`Manifold`](liebayes_manifolds::Manifold), with a [`ManifoldGaussian`] state (mean on the
+//!   manifold, covariance in its tangent space) and user [`ProcessModel`]s and [`MeasurementModel`]s;
+//! * [`particle`]: the particle filter over any state type (log weights, four resampling schemes, ESS
+//!   threshold, parallel weighting with the `rayon` feature);
+//! * [`grid`]: the grid filter on the circle, optionally carrying a density per cell;
+//! * [`rao_blackwell`]: the closed-form composite of an angle and a conditionally Gaussian vector, and
+//!   the marginalized particle filter's step;
+//! * [`evaluation`]: a seeded, parallel Monte Carlo runner (progress bar with the `progress` feature)
+//!   and the consistency metrics (NEES, NIS, their χ² bands, a circular consistency statistic).
+//!
+//! The math of each is in `docs/operators/`; the filters crate composes them into applications.
 
 pub mod ekf;
 mod error;

@@ -9,7 +9,7 @@
 //! [`AzimuthDensity`]. It is checked against [`GridReference`], a bank of exact Kalman filters over a
 //! grid of azimuths built from the operators crate, and against `../shared/reference/azimuth_vectors.json`.
 //! The baselines (EKF, UKF, particle, grid and marginalized particle filters) share the
-//! [`AzimuthFilter`] interface with it. [`scenario`] simulates the seed's three scenarios and [`study`]
+//! [`AzimuthFilter`] interface with it. [`scenario`] simulates the seed's three scenarios and [`study()`]
 //! runs the Monte Carlo summary of any [`Method`]. The math is in `docs/filters/azimuth.md`.
 
 mod baselines;
