@@ -10,12 +10,13 @@
 //! P⁺ is left in the tangent space at μ rather than transported to μ⁺ (the first-order "reset"
 //! `J_r(Kν) P⁺ J_r(Kν)ᵀ` is omitted); on Rⁿ and SO(2) the two coincide.
 
+use crate::kalman::joseph;
 use crate::manifold_gaussian::{
     GaussianUpdate, ManifoldGaussian, MeasurementModel, ProcessModel, checked_covariance,
 };
 use crate::{Condition, Conditioned, OperatorError, Propagate};
 use liebayes_manifolds::Manifold;
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SVector;
 
 /// A model to be used by linearisation: `density.propagate(&Ekf(process), &u)`,
 /// `density.condition(&Ekf(measurement), &z)`. M, the measurement dimension, is inferred from z (and is
@@ -63,10 +64,7 @@ where
             &(h * p * h.transpose() + r),
             &(p * h.transpose()),
         )?;
-        let i_kh = SMatrix::<f64, D, D>::identity() - update.gain * h;
-        let covariance = checked_covariance(
-            i_kh * p * i_kh.transpose() + update.gain * r * update.gain.transpose(),
-        )?;
+        let covariance = checked_covariance(joseph(p, &update.gain, &h, &r))?;
         Ok(Conditioned {
             posterior: ManifoldGaussian::from_checked(mean.retract(&update.correction), covariance),
             log_evidence: update.log_evidence,

@@ -108,6 +108,18 @@ fn check_covariance<const K: usize>(
     Ok(())
 }
 
+/// Joseph's form of the updated covariance, `(I − K H) Σ (I − K H)ᵀ + K R Kᵀ`: symmetric and positive
+/// semi-definite whatever the rounding in K.
+pub(crate) fn joseph<const N: usize, const M: usize>(
+    sigma: &SMatrix<f64, N, N>,
+    gain: &SMatrix<f64, N, M>,
+    h: &SMatrix<f64, M, N>,
+    r: &SMatrix<f64, M, M>,
+) -> SMatrix<f64, N, N> {
+    let i_kh = SMatrix::<f64, N, N>::identity() - gain * h;
+    i_kh * sigma * i_kh.transpose() + gain * r * gain.transpose()
+}
+
 impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
     type Input = SVector<f64, N>;
 
@@ -149,9 +161,7 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaus
         })?;
         // K = Σ Hᵀ S⁻¹, from S Kᵀ = H Σ.
         let gain = s_factor.solve(&(h * sigma)).transpose();
-        let i_minus_kh = SMatrix::<f64, N, N>::identity() - gain * h;
-        let covariance =
-            i_minus_kh * sigma * i_minus_kh.transpose() + gain * model.noise * gain.transpose();
+        let covariance = joseph(sigma, &gain, h, &model.noise);
         let log_det_s = 2.0 * s_factor.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
         let mahalanobis = innovation.dot(&s_factor.solve(&innovation));
         let log_evidence = -0.5 * (mahalanobis + log_det_s + M as f64 * (2.0 * PI).ln());

@@ -8,7 +8,7 @@
 //!   y each carrying its own exactly conditioned density of x, weighted by that density's log evidence.
 
 use crate::error::all_finite;
-use crate::kalman::{LinearMeasurement, LinearProcess};
+use crate::kalman::{LinearMeasurement, LinearProcess, joseph};
 use crate::particle::ParticleSet;
 use crate::{Condition, Conditioned, OperatorError, Propagate};
 use liebayes_densities::{Density, Gaussian, GenVonMises2};
@@ -332,11 +332,9 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Harm
     ) -> Result<Conditioned<Self>, OperatorError> {
         let (harmonics, gain) = self.linear_step(model, z)?;
         let (angle, log_evidence) = self.reweighted_angle(&harmonics)?;
-        let i_kh = SMatrix::<f64, N, N>::identity() - gain * model.matrix();
-        let mut features = i_kh * self.features;
+        let mut features = self.features - gain * (model.matrix() * self.features);
         features.set_column(0, &(features.column(0) + gain * z));
-        let covariance =
-            i_kh * self.covariance * i_kh.transpose() + gain * model.noise() * gain.transpose();
+        let covariance = joseph(&self.covariance, &gain, model.matrix(), model.noise());
         Ok(Conditioned {
             posterior: Self::new(angle, features, covariance)?,
             log_evidence,

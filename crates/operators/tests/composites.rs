@@ -12,7 +12,7 @@ use liebayes_operators::grid::CircularGrid;
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::particle::ParticleSet;
 use liebayes_operators::rao_blackwell::{
-    HarmonicGaussian, RotatedMeasurement, condition_marginalized, features,
+    HarmonicGaussian, Harmonics, RotatedMeasurement, condition_marginalized, features,
 };
 use liebayes_operators::{Condition, OperatorError, Propagate};
 use nalgebra::{Matrix2, Matrix2x3, SMatrix, Vector2};
@@ -37,6 +37,29 @@ fn grid_of(prior: &HarmonicGaussian<2>) -> CircularGrid<Gaussian<2>> {
         |y| Gaussian::new(prior.conditional_mean(y), *prior.covariance()).unwrap(),
     )
     .unwrap()
+}
+
+/// The composite's grid conditioned cell by cell with `model_at(y)`, checking each cell's Kalman log
+/// evidence against the composite's harmonics at y; returns the grid and its log evidence.
+fn conditioned_grid(
+    prior: &HarmonicGaussian<2>,
+    harmonics: &Harmonics,
+    model_at: impl Fn(f64) -> Result<LinearMeasurement<2, 2>, OperatorError>,
+    z: &Vector2<f64>,
+) -> Result<(CircularGrid<Gaussian<2>>, f64), TestCaseError> {
+    let mut grid = grid_of(prior);
+    let mut worst = 0.0_f64;
+    let evidence = grid
+        .condition_with(|y, x| {
+            let step = x.condition(&model_at(y)?, z)?;
+            *x = step.posterior;
+            let l = step.log_evidence;
+            worst = worst.max((l - harmonics.at(y)).abs() / (1.0 + l.abs()));
+            Ok(l)
+        })
+        .unwrap();
+    prop_assert!(worst < 1e-9, "per-angle log evidence off by {worst:e}");
+    Ok((grid, evidence))
 }
 
 /// Checks a conditioned composite against the conditioned grid, cell by cell and in total.
@@ -99,17 +122,7 @@ proptest! {
         let z = Vector2::from(z);
         let step = prior.condition(&model, &z).unwrap();
         let harmonics = prior.linear_harmonics(&model, &z).unwrap();
-        let mut grid = grid_of(&prior);
-        let mut worst = 0.0_f64;
-        let grid_evidence = grid
-            .condition_with(|y, x| {
-                let k = x.condition(&model, &z)?;
-                *x = k.posterior;
-                worst = worst.max((k.log_evidence - harmonics.at(y)).abs() / (1.0 + k.log_evidence.abs()));
-                Ok(k.log_evidence)
-            })
-            .unwrap();
-        prop_assert!(worst < 1e-9, "per-angle log evidence off by {worst:e}");
+        let (grid, grid_evidence) = conditioned_grid(&prior, &harmonics, |_| Ok(model.clone()), &z)?;
         agree(&step.posterior, step.log_evidence, &grid, grid_evidence)?;
     }
 
@@ -124,18 +137,9 @@ proptest! {
         let z = Vector2::from(z);
         let step = prior.condition(&model, &z).unwrap();
         let harmonics = prior.rotated_harmonics(&model, &z).unwrap();
-        let mut grid = grid_of(&prior);
         let noise = Matrix2::identity() * model.variance();
-        let mut worst = 0.0_f64;
-        let grid_evidence = grid
-            .condition_with(|y, x| {
-                let k = x.condition(&LinearMeasurement::new(rotation(y), noise)?, &z)?;
-                *x = k.posterior;
-                worst = worst.max((k.log_evidence - harmonics.at(y)).abs() / (1.0 + k.log_evidence.abs()));
-                Ok(k.log_evidence)
-            })
-            .unwrap();
-        prop_assert!(worst < 1e-9, "per-angle log evidence off by {worst:e}");
+        let (grid, grid_evidence) =
+            conditioned_grid(&prior, &harmonics, |y| LinearMeasurement::new(rotation(y), noise), &z)?;
         agree(&step.posterior, step.log_evidence, &grid, grid_evidence)?;
     }
 }
