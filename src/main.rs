@@ -18,7 +18,7 @@ use std::process::ExitCode;
 
 /// Bayesian state estimation on Lie groups: exact filters and their baselines.
 #[derive(Parser, Debug)]
-#[command(name = "liebayes", version)]
+#[command(name = "liebayes", version, allow_negative_numbers = true)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -105,6 +105,7 @@ impl Simulation {
 }
 
 #[derive(clap::Args, Debug, Clone)]
+#[command(allow_negative_numbers = true)]
 struct AzimuthArgs {
     /// Which scenario.
     #[arg(long, value_enum, default_value_t = ScenarioArg::All)]
@@ -135,6 +136,7 @@ struct AzimuthArgs {
 }
 
 #[derive(clap::Args, Debug, Clone)]
+#[command(allow_negative_numbers = true)]
 struct ParticleArgs {
     /// Which scenario.
     #[arg(long, value_enum, default_value_t = ScenarioArg::Circle)]
