@@ -274,3 +274,54 @@ fn bad_input_is_refused_with_a_reason() {
     ));
     assert!(Ukf::<Range, 1>::with_scaling(Range, 0.0, 2.0, 0.0).is_err());
 }
+
+/// `x′ = x ⊞ w`: the identity motion with noise Q, on any manifold.
+struct Still<const D: usize>(SMatrix<f64, D, D>);
+
+impl<X: Manifold<D, Scalar = f64>, const D: usize> ProcessModel<X, D> for Still<D> {
+    type Input = ();
+    fn transition(&self, x: &X, (): &()) -> X {
+        x.clone()
+    }
+    fn noise(&self, _: &X, (): &()) -> SMatrix<f64, D, D> {
+        self.0
+    }
+}
+
+/// On every manifold of the crate, the identity motion must leave the mean where it is and add Q to the
+/// covariance, in both filters: the EKF's numerical Jacobian of `local ∘ retract` is the identity and the
+/// UKF's sigma points are symmetric, so its manifold mean is exact. This checks that each space's
+/// `retract` and `local` are consistent with what the filters assume of them.
+fn identity_motion_is_exact<X: Manifold<D, Scalar = f64> + std::fmt::Debug, const D: usize>(
+    mean: &X,
+) {
+    let l = SMatrix::<f64, D, D>::from_fn(|i, j| match i.cmp(&j) {
+        std::cmp::Ordering::Equal => 0.3,
+        std::cmp::Ordering::Greater => 0.05,
+        std::cmp::Ordering::Less => 0.0,
+    });
+    let p = l * l.transpose();
+    let q = SMatrix::<f64, D, D>::identity() * 1e-3;
+    let prior = ManifoldGaussian::new(mean.clone(), p).unwrap();
+    for (name, got) in [
+        ("EKF", prior.propagate(&Ekf(Still(q)), &()).unwrap()),
+        ("UKF", prior.propagate(&Ukf::new(Still(q)), &()).unwrap()),
+    ] {
+        assert!(got.mean().distance(mean) < 1e-12, "{name} on {mean:?}");
+        let error = (got.covariance() - (p + q)).amax();
+        assert!(
+            error < 1e-8,
+            "{name} on {mean:?}: covariance off by {error:e}"
+        );
+    }
+}
+
+#[test]
+fn identity_motion_is_exact_on_every_space() {
+    use liebayes_manifolds::{S2, Su2};
+    identity_motion_is_exact(&So2::from_angle_unchecked(3.1));
+    identity_motion_is_exact(&So3::exp(&Vector3::new(0.1, 3.0, -0.2)));
+    identity_motion_is_exact(&Su2::exp(&Vector3::new(2.0, -4.0, 1.0)));
+    identity_motion_is_exact(&S2::from_vector_normalizing(&Vector3::new(0.3, -0.4, 0.8)).unwrap());
+    identity_motion_is_exact(&Rn::new_unchecked(Vector3::new(1e3, -2.0, 0.5)));
+}
