@@ -81,10 +81,9 @@ impl<const N: usize> Pair<N> {
         self.grid
             .condition_with(|y, x| {
                 let step = x.condition(&model_at(y)?, z)?;
-                *x = step.posterior;
                 let expected = harmonics.at(y);
                 worst = worst.max((step.log_evidence - expected).abs() / (1.0 + expected.abs()));
-                Ok(step.log_evidence)
+                Ok((step.posterior, step.log_evidence))
             })
             .unwrap();
         self.compare(Some(worst));

@@ -16,7 +16,7 @@
 //! Costs n payload steps per step. The reference for anything angular: with enough cells it is exact
 //! wherever the payload steps are.
 
-use crate::numerics::log_sum_exp;
+use crate::numerics::LogWeights;
 use crate::{Condition, OperatorError, Propagate};
 use nalgebra::Vector2;
 use std::f64::consts::PI;
@@ -24,8 +24,11 @@ use std::f64::consts::PI;
 /// A density over an angle at n equally spaced cells, with a payload per cell.
 #[derive(Clone, Debug)]
 pub struct CircularGrid<X> {
-    log_weights: Vec<f64>,
+    /// The normalised cell masses, with the buffer a Bayes step fills.
+    weights: LogWeights,
     cells: Vec<X>,
+    /// The stepped payloads, swapped with `cells` once a step has succeeded.
+    spare: Vec<X>,
 }
 
 /// `θⱼ = 2πj/n`.
@@ -61,12 +64,15 @@ impl<X> CircularGrid<X> {
                 range: "at least 1",
             });
         }
-        let mut grid = Self {
-            log_weights: (0..n).map(|j| log_density(cell_angle(j, n))).collect(),
+        let mut weights = LogWeights::uniform(n);
+        let pending = weights.pending();
+        pending.extend((0..n).map(|j| log_density(cell_angle(j, n))));
+        weights.replace_with_pending("grid prior log density")?;
+        Ok(Self {
+            weights,
             cells: (0..n).map(|j| payload(cell_angle(j, n))).collect(),
-        };
-        grid.normalise()?;
-        Ok(grid)
+            spare: Vec::with_capacity(n),
+        })
     }
 
     /// The number of cells n.
@@ -86,7 +92,7 @@ impl<X> CircularGrid<X> {
 
     /// The normalised log weights `ln wⱼ` (posterior cell masses).
     pub fn log_weights(&self) -> &[f64] {
-        &self.log_weights
+        self.weights.values()
     }
 
     /// The payloads, `p(x | θⱼ)`.
@@ -100,7 +106,7 @@ impl<X> CircularGrid<X> {
         T: std::ops::Mul<f64, Output = T> + std::iter::Sum,
     {
         let n = self.len();
-        self.log_weights
+        self.log_weights()
             .iter()
             .zip(&self.cells)
             .enumerate()
@@ -117,51 +123,28 @@ impl<X> CircularGrid<X> {
         })
     }
 
-    /// Renormalises the log weights to `Σ wⱼ = 1` and returns the log of the old total.
-    fn normalise(&mut self) -> Result<f64, OperatorError> {
-        if let Some(&value) = self
-            .log_weights
-            .iter()
-            .find(|l| l.is_nan() || **l == f64::INFINITY)
-        {
-            return Err(OperatorError::NonFinite {
-                what: "grid cell log weight",
-                value,
-            });
-        }
-        let total = log_sum_exp(self.log_weights.iter().copied());
-        if total == f64::NEG_INFINITY {
-            return Err(OperatorError::NonFinite {
-                what: "grid total weight (every cell has likelihood zero)",
-                value: total,
-            });
-        }
-        for l in &mut self.log_weights {
-            *l -= total;
-        }
-        Ok(total)
-    }
-
-    /// Bayes with a per-cell step: `step(θⱼ, Xⱼ)` replaces the payload and returns
-    /// `ln p(z | θⱼ, past)`; returns `ln p(z | past)`. On error the grid is unchanged only if `step`
-    /// leaves payloads unchanged when it fails; the weights are renormalised either way.
+    /// Bayes with a per-cell step: `step(θⱼ, Xⱼ)` returns the cell's conditioned payload and
+    /// `ln p(z | θⱼ, past)`; returns `ln p(z | past)`.
     ///
     /// # Errors
-    /// The step's error, or [`OperatorError::NonFinite`] when every cell has likelihood zero.
+    /// The first error of `step`, [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood or when
+    /// every cell has likelihood zero; the grid is then unchanged.
     pub fn condition_with(
         &mut self,
-        mut step: impl FnMut(f64, &mut X) -> Result<f64, OperatorError>,
+        mut step: impl FnMut(f64, &X) -> Result<(X, f64), OperatorError>,
     ) -> Result<f64, OperatorError> {
         let n = self.len();
-        let mut failure = None;
-        for (j, (l, x)) in self.log_weights.iter_mut().zip(&mut self.cells).enumerate() {
-            match step(cell_angle(j, n), x) {
-                Ok(ll) => *l += ll,
-                Err(e) => failure = failure.or(Some(e)),
-            }
+        self.spare.clear();
+        let pending = self.weights.pending();
+        pending.clear();
+        for (j, x) in self.cells.iter().enumerate() {
+            let (next, ll) = step(cell_angle(j, n), x)?;
+            self.spare.push(next);
+            pending.push(ll);
         }
-        let total = self.normalise()?;
-        failure.map_or(Ok(total), Err)
+        let evidence = self.weights.add_pending("grid cell log-likelihood")?;
+        std::mem::swap(&mut self.cells, &mut self.spare);
+        Ok(evidence)
     }
 
     /// Bayes for payload densities with an exact conditioning operator: each cell conditions its payload
@@ -180,15 +163,14 @@ impl<X> CircularGrid<X> {
     {
         self.condition_with(|theta, x| {
             let step = x.condition(&model_at(theta)?, z)?;
-            *x = step.posterior;
-            Ok(step.log_evidence)
+            Ok((step.posterior, step.log_evidence))
         })
     }
 
     /// Propagates each payload through `model_at(θⱼ)` (the angle itself is constant).
     ///
     /// # Errors
-    /// The first payload step's error (earlier cells are then already propagated).
+    /// The first payload step's error; the grid is then unchanged.
     pub fn propagate_cells<M>(
         &mut self,
         model_at: impl Fn(f64) -> Result<M, OperatorError>,
@@ -198,9 +180,12 @@ impl<X> CircularGrid<X> {
         X: Propagate<M>,
     {
         let n = self.len();
-        for (j, x) in self.cells.iter_mut().enumerate() {
-            *x = x.propagate(&model_at(cell_angle(j, n))?, input)?;
+        self.spare.clear();
+        for (j, x) in self.cells.iter().enumerate() {
+            self.spare
+                .push(x.propagate(&model_at(cell_angle(j, n))?, input)?);
         }
+        std::mem::swap(&mut self.cells, &mut self.spare);
         Ok(())
     }
 }
@@ -212,7 +197,7 @@ impl CircularGrid<()> {
     /// [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, or when every cell has
     /// likelihood zero.
     pub fn condition(&mut self, log_likelihood: impl Fn(f64) -> f64) -> Result<f64, OperatorError> {
-        self.condition_with(|theta, ()| Ok(log_likelihood(theta)))
+        self.condition_with(|theta, ()| Ok(((), log_likelihood(theta))))
     }
 
     /// Chapman-Kolmogorov for `θ′ = θ + w`: the circular convolution
@@ -232,11 +217,12 @@ impl CircularGrid<()> {
                 value: total,
             });
         }
-        let w: Vec<f64> = self.log_weights.iter().map(|l| l.exp()).collect();
-        for (i, l) in self.log_weights.iter_mut().enumerate() {
-            let mass: f64 = (0..n).map(|j| w[j] * k[(i + n - j) % n]).sum::<f64>() / total;
-            *l = mass.ln();
-        }
-        self.normalise().map(|_| ())
+        let w: Vec<f64> = self.log_weights().iter().map(|l| l.exp()).collect();
+        let pending = self.weights.pending();
+        pending.clear();
+        pending.extend(
+            (0..n).map(|i| ((0..n).map(|j| w[j] * k[(i + n - j) % n]).sum::<f64>() / total).ln()),
+        );
+        self.weights.replace_with_pending("diffused grid weight")
     }
 }

@@ -2,7 +2,10 @@
 //! reweighting (with the log evidence), propagation by sampling, and four resampling schemes.
 
 use crate::OperatorError;
-use crate::numerics::log_sum_exp;
+use crate::numerics::LogWeights;
+
+/// What a failed Bayes step of a particle set names.
+const LIKELIHOOD: &str = "particle log-likelihood";
 use rand::Rng;
 
 /// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
@@ -28,15 +31,14 @@ pub enum Resampling {
 #[derive(Clone, Debug)]
 pub struct ParticleSet<X> {
     particles: Vec<X>,
-    log_weights: Vec<f64>,
-    /// Per-step workspace for the log-likelihoods (and the weights when resampling), kept so that
-    /// conditioning and resampling do not allocate.
-    scratch: Vec<f64>,
+    /// The normalised log weights, with the buffer a Bayes step fills (also the weights' buffer when
+    /// resampling), so that no step allocates.
+    weights: LogWeights,
     /// The resampled indices.
     indices: Vec<usize>,
     /// The resampling's other buffers.
     work: Workspace,
-    /// The resampled particles, swapped with `particles`.
+    /// The stepped or resampled particles, swapped with `particles`.
     spare: Vec<X>,
 }
 
@@ -53,14 +55,12 @@ impl<X: Clone> ParticleSet<X> {
                 range: "at least 1",
             });
         }
-        let log_weights = vec![-(particles.len() as f64).ln(); particles.len()];
         Ok(Self {
-            scratch: Vec::with_capacity(particles.len()),
+            weights: LogWeights::uniform(particles.len()),
             indices: Vec::with_capacity(particles.len()),
             work: Workspace::default(),
             spare: Vec::with_capacity(particles.len()),
             particles,
-            log_weights,
         })
     }
 
@@ -71,18 +71,18 @@ impl<X: Clone> ParticleSet<X> {
 
     /// The normalised log weights `ln wᵢ` (`Σ wᵢ = 1` is kept after every step).
     pub fn log_weights(&self) -> &[f64] {
-        &self.log_weights
+        self.weights.values()
     }
 
     /// The normalised weights (allocates; for reporting, not per step).
     pub fn weights(&self) -> Vec<f64> {
-        self.log_weights.iter().map(|l| l.exp()).collect()
+        self.log_weights().iter().map(|l| l.exp()).collect()
     }
 
     /// The effective sample size `1 / Σ wᵢ²` of the normalised weights, in [1, N].
     pub fn effective_sample_size(&self) -> f64 {
         1.0 / self
-            .log_weights
+            .log_weights()
             .iter()
             .map(|l| (2.0 * l).exp())
             .sum::<f64>()
@@ -100,15 +100,20 @@ impl<X: Clone> ParticleSet<X> {
     }
 
     /// Propagation where each particle carries a density of its own (the marginalized particle filter):
-    /// `step` moves each particle in place and may fail.
+    /// `step(x)` returns the moved particle and may fail.
     ///
     /// # Errors
-    /// The first error of `step` (earlier particles are then already moved).
+    /// The first error of `step`; the set is then unchanged.
     pub fn try_propagate(
         &mut self,
-        mut step: impl FnMut(&mut X) -> Result<(), OperatorError>,
+        mut step: impl FnMut(&X) -> Result<X, OperatorError>,
     ) -> Result<(), OperatorError> {
-        self.particles.iter_mut().try_for_each(&mut step)
+        self.spare.clear();
+        for x in &self.particles {
+            self.spare.push(step(x)?);
+        }
+        std::mem::swap(&mut self.particles, &mut self.spare);
+        Ok(())
     }
 
     /// Bayes by reweighting: `ln wᵢ += ln p(z | xᵢ)`, then normalisation. Returns the log evidence
@@ -120,29 +125,33 @@ impl<X: Clone> ParticleSet<X> {
     /// likelihood zero (the measurement is impossible under the particles: resample from a wider prior).
     /// The weights are then left unchanged.
     pub fn condition(&mut self, log_likelihood: impl Fn(&X) -> f64) -> Result<f64, OperatorError> {
-        self.scratch.clear();
-        self.scratch
-            .extend(self.particles.iter().map(log_likelihood));
-        self.reweight()
+        let pending = self.weights.pending();
+        pending.clear();
+        pending.extend(self.particles.iter().map(log_likelihood));
+        self.weights.add_pending(LIKELIHOOD)
     }
 
-    /// Bayes for particles that carry a density of their own (the marginalized particle filter): `step`
-    /// conditions each particle's payload in place and returns its log-likelihood, typically the log
+    /// Bayes for particles that carry a density of their own (the marginalized particle filter):
+    /// `step(x)` returns the particle's conditioned payload and its log-likelihood, typically the log
     /// evidence of an exact conditioning (see [`crate::rao_blackwell::condition_marginalized`]).
     ///
     /// # Errors
-    /// The first error of `step` (payloads already stepped stay so; weights are unchanged), or as
-    /// [`condition`](Self::condition).
+    /// The first error of `step`, or as [`condition`](Self::condition); the set is then unchanged.
     pub fn condition_with(
         &mut self,
-        mut step: impl FnMut(&mut X) -> Result<f64, OperatorError>,
+        mut step: impl FnMut(&X) -> Result<(X, f64), OperatorError>,
     ) -> Result<f64, OperatorError> {
-        self.scratch.clear();
-        for x in &mut self.particles {
-            let ll = step(x)?;
-            self.scratch.push(ll);
+        self.spare.clear();
+        let pending = self.weights.pending();
+        pending.clear();
+        for x in &self.particles {
+            let (next, ll) = step(x)?;
+            self.spare.push(next);
+            pending.push(ll);
         }
-        self.reweight()
+        let evidence = self.weights.add_pending(LIKELIHOOD)?;
+        std::mem::swap(&mut self.particles, &mut self.spare);
+        Ok(evidence)
     }
 
     /// [`condition`](Self::condition) with the likelihoods evaluated in parallel by rayon (feature
@@ -162,48 +171,15 @@ impl<X: Clone> ParticleSet<X> {
         self.particles
             .par_iter()
             .map(log_likelihood)
-            .collect_into_vec(&mut self.scratch);
-        self.reweight()
-    }
-
-    /// Adds the log-likelihoods in `scratch` to the log weights and renormalises; returns the log
-    /// evidence. Leaves the weights unchanged on error.
-    fn reweight(&mut self) -> Result<f64, OperatorError> {
-        if let Some(&value) = self
-            .scratch
-            .iter()
-            .find(|ll| ll.is_nan() || **ll == f64::INFINITY)
-        {
-            return Err(OperatorError::NonFinite {
-                what: "particle log-likelihood",
-                value,
-            });
-        }
-        let old_total = log_sum_exp(self.log_weights.iter().copied());
-        for (ll, l) in self.scratch.iter_mut().zip(&self.log_weights) {
-            *ll += l;
-        }
-        let log_total = log_sum_exp(self.scratch.iter().copied());
-        if log_total == f64::NEG_INFINITY {
-            return Err(OperatorError::NonFinite {
-                what: "largest particle log-likelihood (every particle has likelihood zero)",
-                value: log_total,
-            });
-        }
-        for (l, updated) in self.log_weights.iter_mut().zip(&self.scratch) {
-            *l = updated - log_total;
-        }
-        Ok(log_total - old_total)
+            .collect_into_vec(self.weights.pending());
+        self.weights.add_pending(LIKELIHOOD)
     }
 
     /// Resamples to N equally weighted particles with `scheme`.
     pub fn resample<R: Rng + ?Sized>(&mut self, scheme: Resampling, rng: &mut R) {
         let n = self.particles.len();
-        self.scratch.clear();
-        self.scratch
-            .extend(self.log_weights.iter().map(|l| l.exp()));
         resample_into(
-            &self.scratch,
+            self.weights.linear(),
             n,
             scheme,
             rng,
@@ -214,7 +190,7 @@ impl<X: Clone> ParticleSet<X> {
         self.spare
             .extend(self.indices.iter().map(|&i| self.particles[i].clone()));
         std::mem::swap(&mut self.particles, &mut self.spare);
-        self.log_weights.fill(-(n as f64).ln());
+        self.weights.reset_uniform();
     }
 
     /// Resamples when the effective sample size falls below `fraction · N` (0.5 is the usual choice);
@@ -237,7 +213,7 @@ impl<X: Clone> ParticleSet<X> {
     where
         T: std::ops::Mul<f64, Output = T> + std::iter::Sum,
     {
-        self.log_weights
+        self.log_weights()
             .iter()
             .zip(&self.particles)
             .map(|(l, x)| f(x) * l.exp())

@@ -382,7 +382,6 @@ where
 {
     set.condition_with(|(y, density)| {
         let step = density.condition(&model_at(y)?, z)?;
-        *density = step.posterior;
-        Ok(step.log_evidence)
+        Ok(((y.clone(), step.posterior), step.log_evidence))
     })
 }

@@ -52,10 +52,9 @@ fn conditioned_grid(
     let evidence = grid
         .condition_with(|y, x| {
             let step = x.condition(&model_at(y)?, z)?;
-            *x = step.posterior;
             let l = step.log_evidence;
             worst = worst.max((l - harmonics.at(y)).abs() / (1.0 + l.abs()));
-            Ok(l)
+            Ok((step.posterior, l))
         })
         .unwrap();
     prop_assert!(worst < 1e-9, "per-angle log evidence off by {worst:e}");
@@ -248,4 +247,41 @@ fn grid_bayes_and_diffusion_match_the_von_mises_algebra() {
     assert!(grid.diffuse(|_| -1.0).is_err());
     let _ = features(0.0);
     let _: SMatrix<f64, 1, 1> = SMatrix::zeros();
+}
+
+/// A failed Bayes or propagation step leaves the grid exactly as it was.
+#[test]
+fn failed_grid_steps_leave_the_grid_unchanged() {
+    let prior = Gaussian::new(Vector2::new(1.0, 0.0), Matrix2::identity()).unwrap();
+    let mut grid = CircularGrid::uniform(16, prior).unwrap();
+    let z = Vector2::new(0.5, 1.0);
+    grid.condition_cells(
+        |y| LinearMeasurement::new(rotation(y), Matrix2::identity()),
+        &z,
+    )
+    .unwrap();
+    let (weights, cells) = (grid.log_weights().to_vec(), grid.cells().to_vec());
+    // A model that fails half-way round the circle.
+    let failing = |y: f64| {
+        if y > 3.0 {
+            LinearMeasurement::new(rotation(y), Matrix2::new(f64::NAN, 0.0, 0.0, 1.0))
+        } else {
+            LinearMeasurement::new(rotation(y), Matrix2::identity())
+        }
+    };
+    assert!(grid.condition_cells(failing, &z).is_err());
+    let failing_process = |y: f64| {
+        LinearProcess::new(
+            Matrix2::identity(),
+            Matrix2::identity() * if y > 3.0 { -1.0 } else { 1.0 },
+        )
+    };
+    assert!(
+        grid.propagate_cells(failing_process, &Vector2::zeros())
+            .is_err()
+    );
+    assert_eq!(grid.log_weights(), &weights[..]);
+    for (a, b) in grid.cells().iter().zip(&cells) {
+        assert_eq!((a.mean(), a.covariance()), (b.mean(), b.covariance()));
+    }
 }

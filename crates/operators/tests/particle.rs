@@ -136,3 +136,35 @@ fn parallel_weighting_equals_serial() {
     assert_eq!(serial.log_weights(), parallel.log_weights());
     assert!(parallel.condition_parallel(|_| f64::NAN).is_err());
 }
+
+/// A failed step leaves the set exactly as it was: weights and particles.
+#[test]
+fn failed_steps_leave_the_set_unchanged() {
+    let mut set = ParticleSet::from_samples(vec![1.0, 2.0, 3.0]).unwrap();
+    set.condition(|x| -x).unwrap();
+    let (weights, particles) = (set.log_weights().to_vec(), set.particles().to_vec());
+    let fail_at_two = |x: &f64| {
+        if *x == 2.0 {
+            Err(liebayes_operators::OperatorError::NonFinite {
+                what: "test",
+                value: f64::NAN,
+            })
+        } else {
+            Ok((x + 10.0, 0.0))
+        }
+    };
+    assert!(set.condition_with(fail_at_two).is_err());
+    assert!(
+        set.try_propagate(|x| fail_at_two(x).map(|(y, _)| y))
+            .is_err()
+    );
+    assert!(
+        set.condition(|x| if *x == 3.0 { f64::NAN } else { 0.0 })
+            .is_err()
+    );
+    assert_eq!(set.log_weights(), &weights[..]);
+    assert_eq!(set.particles(), &particles[..]);
+    // And a successful one replaces both.
+    set.condition_with(|x| Ok((x + 10.0, 0.0))).unwrap();
+    assert_eq!(set.particles(), &[11.0, 12.0, 13.0]);
+}

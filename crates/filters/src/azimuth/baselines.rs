@@ -465,10 +465,8 @@ impl AzimuthFilter for MarginalizedBaseline {
             Matrix2::identity() * (process.noise_density() * input.dt),
         )?;
         let offset = input.velocity * input.dt;
-        self.set.try_propagate(|(_, density)| {
-            *density = density.propagate(&model, &offset)?;
-            Ok(())
-        })
+        self.set
+            .try_propagate(|(a, density)| Ok((*a, density.propagate(&model, &offset)?)))
     }
 
     fn update(

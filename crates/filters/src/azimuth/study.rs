@@ -126,8 +126,8 @@ pub fn run_once(
     let mut epochs = Vec::with_capacity(sim.measurements.iter().flatten().count());
     let mut failure = None;
     let mut steps = 0;
-    // The clock runs over the whole loop; the estimates (computed for the record, not part of a
-    // filter step) are timed apart and subtracted.
+    // The clock runs over the whole loop; the estimates and their record (not part of a filter step)
+    // are timed apart and subtracted.
     let mut estimating = Duration::ZERO;
     let start = Instant::now();
     for (k, v) in sim.velocities.iter().enumerate() {
@@ -135,14 +135,13 @@ pub fn run_once(
             if let Some(z) = sim.measurements[k] {
                 filter.update(&measurement, &z, &mut rng)?;
                 let clock = Instant::now();
-                let estimate = filter.estimate();
-                estimating += clock.elapsed();
                 epochs.push(epoch(
                     k as f64 * config.dt,
-                    &estimate,
+                    &filter.estimate(),
                     sim.true_azimuth,
                     &sim.positions[k],
                 ));
+                estimating += clock.elapsed();
             }
             let input = VelocityInput {
                 velocity: *v,
