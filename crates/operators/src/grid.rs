@@ -29,6 +29,8 @@ pub struct CircularGrid<X> {
     cells: Vec<X>,
     /// The stepped payloads, swapped with `cells` once a step has succeeded.
     spare: Vec<X>,
+    /// The diffusion's kernel values and linear weights (2n values), kept between steps.
+    workspace: Vec<f64>,
 }
 
 /// `θⱼ = 2πj/n`.
@@ -72,6 +74,7 @@ impl<X> CircularGrid<X> {
             weights,
             cells: (0..n).map(|j| payload(cell_angle(j, n))).collect(),
             spare: Vec::with_capacity(n),
+            workspace: Vec::new(),
         })
     }
 
@@ -209,15 +212,21 @@ impl CircularGrid<()> {
     /// everywhere.
     pub fn diffuse(&mut self, kernel: impl Fn(f64) -> f64) -> Result<(), OperatorError> {
         let n = self.len();
-        let k: Vec<f64> = (0..n).map(|j| kernel(cell_angle(j, n))).collect();
-        let total: f64 = k.iter().sum();
-        if !(total.is_finite() && total > 0.0) || k.iter().any(|v| *v < 0.0 || !v.is_finite()) {
+        self.workspace.clear();
+        self.workspace
+            .extend((0..n).map(|j| kernel(cell_angle(j, n))));
+        let total: f64 = self.workspace.iter().sum();
+        if !(total.is_finite() && total > 0.0)
+            || self.workspace.iter().any(|v| *v < 0.0 || !v.is_finite())
+        {
             return Err(OperatorError::NonFinite {
                 what: "diffusion kernel (it must be finite, non-negative and not zero everywhere)",
                 value: total,
             });
         }
-        let w: Vec<f64> = self.log_weights().iter().map(|l| l.exp()).collect();
+        self.workspace
+            .extend(self.weights.values().iter().map(|l| l.exp()));
+        let (k, w) = self.workspace.split_at(n);
         let pending = self.weights.pending();
         pending.clear();
         pending.extend(
