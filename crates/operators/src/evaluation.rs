@@ -157,7 +157,10 @@ impl Series {
 /// with `progress` a bar on standard error counts them (hidden when standard error is not a terminal).
 #[derive(Clone, Debug)]
 pub struct MonteCarlo {
+    // Read only by the progress bar (feature `progress`).
+    #[cfg_attr(not(feature = "progress"), allow(dead_code))]
     label: String,
+    #[cfg_attr(not(feature = "progress"), allow(dead_code))]
     progress: bool,
 }
 
@@ -207,12 +210,10 @@ impl MonteCarlo {
         #[cfg(all(feature = "rayon", not(feature = "progress")))]
         {
             use rayon::prelude::*;
-            let _ = (&self.label, self.progress);
             (0..runs).into_par_iter().map(job).collect()
         }
         #[cfg(not(feature = "rayon"))]
         {
-            let _ = (&self.label, self.progress);
             (0..runs).map(job).collect()
         }
     }
