@@ -1,32 +1,25 @@
-//! Test support shared by the crates' test suites: the independent reference vectors of
-//! `../shared/reference/` (computed outside this project), read where present and skipped with a
-//! message where not. Not published; a dev-dependency only.
+//! Test support shared by the crates' test suites: the independent reference vectors kept in this
+//! crate's `data/` folder (numbers computed outside this project; `data/README.md` says how). They
+//! ship with the repository, so every checkout runs every reference check. Not published; a
+//! dev-dependency only.
 
 use std::path::PathBuf;
 
 pub use serde_json::Value;
 
-/// The parsed reference file `name` (for example `"azimuth_vectors.json"`), or `None`, after saying so
-/// on stderr, where the project's `../shared` folder is absent. `LIEBAYES_SHARED` overrides its path.
+/// The parsed reference file `name` (for example `"azimuth_vectors.json"`) from `data/`.
 ///
 /// # Panics
-/// When the file exists but is not valid JSON (a broken checkout, not a skip).
-pub fn reference(name: &str) -> Option<Value> {
-    let dir = std::env::var_os("LIEBAYES_SHARED").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared"),
-        PathBuf::from,
-    );
-    let path = dir.join("reference").join(name);
-    if let Ok(text) = std::fs::read_to_string(&path) {
-        Some(serde_json::from_str(&text).expect("reference files are valid JSON"))
-    } else {
-        eprintln!(
-            "SKIPPED: reference file {} not found (the project's ../shared folder is absent; set \
-             LIEBAYES_SHARED to its path to run this check)",
-            path.display()
-        );
-        None
-    }
+/// When the file is missing or not valid JSON: a broken checkout, which must fail the test rather than
+/// skip it.
+pub fn reference(name: &str) -> Value {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("data")
+        .join(name);
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("reference file {} unreadable: {e}", path.display()));
+    serde_json::from_str(&text)
+        .unwrap_or_else(|e| panic!("reference file {} is not valid JSON: {e}", path.display()))
 }
 
 /// Relative error of `got` against `expected`, with exact zeros compared exactly.

@@ -7,7 +7,7 @@
 //! The joint posterior is exactly `p(r, A) = p(A) p(r | A)` with p(A) von Mises and
 //! `p(r | A) = N(a + c cos A − c^× sin A, σ² I)`, `u^× = (−u_y, u_x)`: seven numbers (η, a, c, σ²),
 //! [`AzimuthDensity`]. It is checked against [`GridReference`], a bank of exact Kalman filters over a
-//! grid of azimuths built from the operators crate, and against `../shared/reference/azimuth_vectors.json`.
+//! grid of azimuths built from the operators crate, and against the reference vectors `azimuth_vectors.json`.
 //! The baselines (EKF, UKF, particle, grid and marginalized particle filters) share the
 //! [`AzimuthFilter`] interface with it. [`scenario`] simulates the seed's three scenarios and [`study()`]
 //! runs the Monte Carlo summary of any [`Method`]. The math is in `docs/filters/azimuth.md`.
