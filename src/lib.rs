@@ -6,8 +6,23 @@
 //! * [`densities`]: probability densities on those spaces and their special functions.
 //! * [`operators`]: propagate, condition, and filters as generic algorithms.
 //! * [`filters`]: the applications.
+//!
+//! [`nalgebra`] and [`rand`] are re-exported: use `liebayes::nalgebra` and `liebayes::rand` so that your
+//! vectors, matrices and random number generators are the exact types the library takes, whatever
+//! versions your own crate depends on.
+//!
+//! ## Features
+//!
+//! | feature | default | what it adds |
+//! |---|---|---|
+//! | `cli` | yes | the `liebayes` command-line program (clap, SVG plots) |
+//! | `proptest` | no | proptest strategies for every space and density, and the law suites |
+//! | `rayon` | no | parallel particle weighting and parallel Monte Carlo runs |
+//! | `progress` | no | a terminal progress bar for Monte Carlo studies (implies `rayon`) |
 
 pub use liebayes_densities as densities;
 pub use liebayes_filters as filters;
 pub use liebayes_manifolds as manifolds;
 pub use liebayes_operators as operators;
+pub use nalgebra;
+pub use rand;
