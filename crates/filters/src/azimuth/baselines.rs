@@ -12,13 +12,13 @@ use super::density::check_measurement;
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use super::scenario::normal2;
 use super::{AzimuthDensity, GridReference};
-use liebayes_densities::{Gaussian, special};
+use liebayes_densities::{Gaussian, ManifoldGaussian, special};
 use liebayes_manifolds::{Manifold, So2};
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::particle::{ParticleSet, Resampling};
 use liebayes_operators::rao_blackwell::condition_marginalized;
 use liebayes_operators::{
-    Condition, Ekf, ManifoldGaussian, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
+    Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
 };
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 use rand::{Rng, RngCore};

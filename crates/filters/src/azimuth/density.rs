@@ -1,9 +1,8 @@
 //! [`AzimuthDensity`]: the exact seven-number posterior of azimuth alignment.
 
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
-use liebayes_densities::{GenVonMises2, VonMises, special};
+use liebayes_densities::{DensityError, GenVonMises2, HarmonicGaussian, VonMises, special};
 use liebayes_manifolds::So2;
-use liebayes_operators::rao_blackwell::HarmonicGaussian;
 use liebayes_operators::{Condition, Conditioned, OperatorError, Propagate};
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
 use std::f64::consts::PI;
@@ -138,7 +137,7 @@ impl AzimuthDensity {
     ///
     /// # Errors
     /// Never for a valid density; the composite's constructor errors otherwise.
-    pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, OperatorError> {
+    pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, DensityError> {
         HarmonicGaussian::new(
             GenVonMises2::new(self.eta, Vector2::zeros())?,
             Matrix2x3::from_columns(&[self.a, self.c, -perp(&self.c)]),
@@ -279,6 +278,7 @@ impl Propagate<VelocityProcess> for AzimuthDensity {
 
 impl Condition<PositionMeasurement> for AzimuthDensity {
     type Measurement = Vector2<f64>;
+    type Report = ();
 
     /// See [`AzimuthDensity::update`].
     fn condition(
@@ -292,6 +292,7 @@ impl Condition<PositionMeasurement> for AzimuthDensity {
         Ok(Conditioned {
             posterior,
             log_evidence,
+            report: (),
         })
     }
 }
