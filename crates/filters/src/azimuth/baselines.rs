@@ -210,8 +210,15 @@ impl GaussianBaseline {
     /// The prior `r ~ N(r₀, σ₀² I)`, `A ~ N(0, π²/3)` (the variance of the uniform azimuth).
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] or [`OperatorError::NotPositiveDefinite`] for bad r₀ or σ₀.
+    /// [`OperatorError::NonFinite`] for a non-finite r₀, [`OperatorError::Density`] for a σ₀ that
+    /// does not give a positive definite covariance.
     pub fn new(kind: Linearisation, r0: Vector2<f64>, sigma0: f64) -> Result<Self, OperatorError> {
+        if let Some(&value) = r0.iter().find(|v| !v.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: "initial position r_0",
+                value,
+            });
+        }
         let s2 = sigma0 * sigma0;
         let state = PositionAzimuth {
             r: r0,

@@ -128,7 +128,8 @@ impl AzimuthDensity {
         self.sigma2
     }
 
-    /// The same density as the operators crate's general Rao-Blackwellized composite:
+    /// The same density as the general Rao-Blackwellized composite of the densities crate (whose exact
+    /// steps are the operators crate's `rao_blackwell`):
     /// `p(A) = GVM₂(η, 0)`, `E[r | A] = B φ(A)` with `B = [a, c, −c^×]`, `Cov[r | A] = σ² I`. Propagating
     /// that composite with the linear process and conditioning it on the rotated measurement
     /// `z = R(A) r + n` gives this filter's seven numbers again, with η₂ = 0 at every step
