@@ -2,15 +2,19 @@
 //! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
 
 use crate::error::DensityError;
-use crate::gaussian::Gaussian;
 use crate::traits::{Density, Entropy};
 use liebayes_manifolds::{Jacobian, LieGroup, Manifold};
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Cholesky, SMatrix, SVector};
 use rand::Rng;
+use rand_distr::StandardNormal;
+use std::f64::consts::PI;
 
 /// Two means are the same point for [`ManifoldGaussian::kl_divergence`] when their offset is below
 /// 1e-6 standard deviations: squared Mahalanobis length at most 1e-12.
 const SAME_MEAN_MAHALANOBIS_SQUARED: f64 = 1e-12;
+
+/// Relative asymmetry accepted in P: `|P − Pᵀ| ≤ 1e-12 max|P|` (as for [`Gaussian`](crate::Gaussian)).
+const SYMMETRY_TOLERANCE: f64 = 1e-12;
 
 /// The distribution of `x = μ ⊞ δ`, `δ ~ N(0, P)`: a mean μ on a D-dimensional manifold X and a
 /// covariance P in the tangent space at μ (right perturbation, `μ ⊞ δ = μ · exp(δ)` on a group, the
@@ -34,7 +38,10 @@ const SAME_MEAN_MAHALANOBIS_SQUARED: f64 = 1e-12;
 /// # Construction
 /// [`new`](Self::new) validates P (finite, symmetric, positive definite, with a representable
 /// inverse) and factors it once; [`cholesky_factor`](Self::cholesky_factor), `log_pdf`, `sample` and
-/// [`mahalanobis_squared`](Self::mahalanobis_squared) reuse the factor and never invert.
+/// [`mahalanobis_squared`](Self::mahalanobis_squared) reuse the factor and never invert. On Rⁿ every
+/// quantity equals the [`Gaussian`](crate::Gaussian)'s (the tests check it); the type keeps its own
+/// factor rather than a `Gaussian` because the filters build one per step, and the checks above cost
+/// less here than `Gaussian::new`'s general ones.
 ///
 /// # Example
 /// ```
@@ -52,25 +59,91 @@ const SAME_MEAN_MAHALANOBIS_SQUARED: f64 = 1e-12;
 #[derive(Clone, Debug)]
 pub struct ManifoldGaussian<X, const D: usize> {
     mean: X,
-    /// `N(0, P)`, the distribution of δ, with P's Cholesky factor and log-determinant.
-    tangent: Gaussian<D>,
+    covariance: SMatrix<f64, D, D>,
+    /// L, lower triangular, `P = L Lᵀ`.
+    cholesky: SMatrix<f64, D, D>,
+    /// `ln det P`.
+    log_det: f64,
+}
+
+/// `(tr P⁻¹, ln det P)` from the Cholesky factor L of P: `tr P⁻¹ = ‖L⁻¹‖²_F` with L⁻¹ by forward
+/// substitution, `ln det P = 2 ln Π Lᵢᵢ` (one logarithm while the product stays a normal number, the
+/// sum of logarithms otherwise).
+fn inverse_trace_and_log_det<const D: usize>(l: &SMatrix<f64, D, D>) -> (f64, f64) {
+    let reciprocal: [f64; D] = std::array::from_fn(|i| 1.0 / l[(i, i)]);
+    let mut trace = 0.0;
+    let mut column = [0.0; D];
+    for j in 0..D {
+        // Column j of L⁻¹: zero above the diagonal, then forward substitution.
+        for i in j..D {
+            let sum: f64 = (j..i).map(|k| l[(i, k)] * column[k]).sum();
+            column[i] = if i == j {
+                reciprocal[i]
+            } else {
+                -sum * reciprocal[i]
+            };
+            trace += column[i] * column[i];
+        }
+    }
+    let product: f64 = l.diagonal().iter().product();
+    let log_det = if product.is_normal() {
+        2.0 * product.ln()
+    } else {
+        2.0 * l.diagonal().iter().map(|d| d.ln()).sum::<f64>()
+    };
+    (trace, log_det)
 }
 
 impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// The distribution `μ ⊞ N(0, P)`.
     ///
     /// # Errors
-    /// As [`Gaussian::new`] for P: [`DensityError::NonFinite`] for NaN or infinite entries,
-    /// [`DensityError::OutOfRange`] for a P that is not symmetric (to 1e-12 relative) or not positive
-    /// definite (with its smallest eigenvalue). Also [`DensityError::OutOfRange`] when P⁻¹ is not
-    /// representable: its trace `tr P⁻¹ = ‖L⁻¹‖²_F` overflows (eigenvalues of P below about 1e-308),
-    /// so that Mahalanobis distances and divergences would be infinite for every point.
+    /// [`DensityError::NonFinite`] for NaN or infinite entries, [`DensityError::OutOfRange`] for a P
+    /// that is not symmetric (to 1e-12 relative) or not positive definite (its Cholesky factorisation
+    /// fails), and when P⁻¹ is not representable: its trace `tr P⁻¹ = ‖L⁻¹‖²_F` overflows
+    /// (eigenvalues of P below about 1e-308), so that Mahalanobis distances and divergences would be
+    /// infinite for every point.
     pub fn new(mean: X, covariance: SMatrix<f64, D, D>) -> Result<Self, DensityError> {
-        let tangent = Gaussian::new(SVector::zeros(), covariance)?;
-        let inverse_trace = tangent
-            .cholesky_factor()
-            .solve_lower_triangular(&SMatrix::<f64, D, D>::identity())
-            .map_or(f64::INFINITY, |inverse| inverse.norm_squared());
+        const WHAT: &str = "tangent covariance P";
+        // One pass: finiteness, the largest magnitude, the largest asymmetry.
+        let (mut scale, mut asymmetry) = (0.0_f64, 0.0_f64);
+        for j in 0..D {
+            for i in 0..D {
+                let value = covariance[(i, j)];
+                if !value.is_finite() {
+                    return Err(DensityError::NonFinite { what: WHAT, value });
+                }
+                scale = scale.max(value.abs());
+                if i < j {
+                    asymmetry = asymmetry.max((value - covariance[(j, i)]).abs());
+                }
+            }
+        }
+        if asymmetry > SYMMETRY_TOLERANCE * scale {
+            return Err(DensityError::OutOfRange {
+                what: WHAT,
+                value: asymmetry,
+                range: "symmetric matrices (|P - P^T| <= 1e-12 max|P|); symmetrise it with \
+                        (P + P^T)/2",
+            });
+        }
+        let covariance = if asymmetry > 0.0 {
+            (covariance + covariance.transpose()) * 0.5
+        } else {
+            covariance
+        };
+        let Some(factor) = Cholesky::new(covariance) else {
+            return Err(DensityError::OutOfRange {
+                what: WHAT,
+                // The smallest eigenvalue for the message (a dynamic copy: the error path only).
+                value: nalgebra::DMatrix::from_column_slice(D, D, covariance.as_slice())
+                    .symmetric_eigenvalues()
+                    .min(),
+                range: "positive definite matrices (the value shown is the smallest eigenvalue)",
+            });
+        };
+        let cholesky = factor.unpack();
+        let (inverse_trace, log_det) = inverse_trace_and_log_det(&cholesky);
         if !inverse_trace.is_finite() {
             return Err(DensityError::OutOfRange {
                 what: "trace of the inverse tangent covariance P^-1",
@@ -78,7 +151,12 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
                 range: "finite values: P's eigenvalues must be above about 1e-308",
             });
         }
-        Ok(Self { mean, tangent })
+        Ok(Self {
+            mean,
+            covariance,
+            cholesky,
+            log_det,
+        })
     }
 
     /// μ, the mean on the manifold.
@@ -88,24 +166,32 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
 
     /// P, the covariance of `δ = x ⊟ μ` in the tangent space at μ.
     pub fn covariance(&self) -> &SMatrix<f64, D, D> {
-        self.tangent.covariance()
+        &self.covariance
     }
 
     /// The lower Cholesky factor L with `P = L Lᵀ` (computed once, at construction).
     pub fn cholesky_factor(&self) -> &SMatrix<f64, D, D> {
-        self.tangent.cholesky_factor()
+        &self.cholesky
     }
 
-    /// `N(0, P)`, the distribution of the tangent vector `δ = x ⊟ μ`.
-    pub fn tangent(&self) -> &Gaussian<D> {
-        &self.tangent
+    /// `ln det P`.
+    pub fn log_determinant(&self) -> f64 {
+        self.log_det
+    }
+
+    /// `δᵀ P⁻¹ δ` of a tangent vector at μ, by one triangular solve.
+    fn tangent_mahalanobis_squared(&self, delta: &SVector<f64, D>) -> f64 {
+        // The factor of a successful Cholesky decomposition has a positive diagonal.
+        self.cholesky
+            .solve_lower_triangular_unchecked(delta)
+            .norm_squared()
     }
 
     /// The squared Mahalanobis distance `(x ⊟ μ)ᵀ P⁻¹ (x ⊟ μ)` of a point, by one triangular solve:
     /// the NEES of an estimate μ against a true state x (χ² with D degrees of freedom when x is a draw
     /// of this density and the support stays inside the injectivity radius).
     pub fn mahalanobis_squared(&self, x: &X) -> f64 {
-        self.tangent.mahalanobis_squared(&self.mean.local(x))
+        self.tangent_mahalanobis_squared(&self.mean.local(x))
     }
 
     /// The first-order covariance `J P Jᵀ` of `f(x)` for a map with right Jacobian J at the mean
@@ -156,13 +242,12 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
                 range: "[0, 1e-12]: the closed-form KL needs a common mean point",
             });
         }
-        let solved = other
-            .cholesky_factor()
-            .solve_lower_triangular(self.cholesky_factor())
-            .map_or(f64::INFINITY, |m| m.norm_squared()); // tr(P_q⁻¹ P_p) = ‖L_q⁻¹ L_p‖²_F
-        Ok(0.5
-            * (solved + offset - D as f64 + other.tangent.log_determinant()
-                - self.tangent.log_determinant()))
+        // tr(P_q⁻¹ P_p) = ‖L_q⁻¹ L_p‖²_F.
+        let trace = other
+            .cholesky
+            .solve_lower_triangular_unchecked(&self.cholesky)
+            .norm_squared();
+        Ok(0.5 * (trace + offset - D as f64 + other.log_det - self.log_det))
     }
 }
 
@@ -187,17 +272,18 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> Density for ManifoldGaussian<
     /// `−½ (D ln 2π + ln det P + δᵀ P⁻¹ δ)` with `δ = x ⊟ μ`, against the Lebesgue measure in the
     /// tangent coordinates at μ (see the type docs).
     fn log_pdf(&self, x: &X) -> f64 {
-        self.tangent.log_pdf(&self.mean.local(x))
+        -0.5 * self.mahalanobis_squared(x) - self.log_normalizer()
     }
 
     /// `½ (D ln 2π + ln det P)`.
     fn log_normalizer(&self) -> f64 {
-        self.tangent.log_normalizer()
+        0.5 * (D as f64 * (2.0 * PI).ln() + self.log_det)
     }
 
     /// `μ ⊞ L z`, z standard normal in Rᴰ.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> X {
-        self.mean.retract(&self.tangent.sample(rng))
+        let z = SVector::<f64, D>::from_fn(|_, _| rng.sample(StandardNormal));
+        self.mean.retract(&(self.cholesky * z))
     }
 
     /// μ.
@@ -209,6 +295,6 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> Density for ManifoldGaussian<
 impl<X: Manifold<D, Scalar = f64>, const D: usize> Entropy for ManifoldGaussian<X, D> {
     /// `½ (D (1 + ln 2π) + ln det P)`, against the same base measure as `log_pdf`.
     fn entropy(&self) -> f64 {
-        self.tangent.entropy()
+        0.5 * (D as f64 * (1.0 + (2.0 * PI).ln()) + self.log_det)
     }
 }
