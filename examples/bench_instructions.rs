@@ -1,7 +1,8 @@
-//! Instruction counts of the manifold layer beside nalgebra, a measurement that does not depend on the
-//! load of a shared machine. Each operation sits in its own never-inlined function, called 10⁶ times on
-//! varied inputs; callgrind's inclusive count of that function divided by the number of calls is the
-//! cost of one call, free of the codegen of the surrounding loop.
+//! Instruction counts of the manifold layer beside nalgebra, and of one EKF and one UKF step of the
+//! azimuth baselines, a measurement that does not depend on the load of a shared machine. Each
+//! operation sits in its own never-inlined function, called 10⁶ times on varied inputs (the filter
+//! steps 10⁵ times, as in `cargo bench --bench azimuth`); callgrind's inclusive count of that function
+//! divided by the number of calls is the cost of one call, free of the codegen of the surrounding loop.
 //!
 //! ```sh
 //! cargo build --release --example bench_instructions
@@ -9,8 +10,14 @@
 //! callgrind_annotate --inclusive=yes callgrind.out | grep 'bench_instructions::op_'
 //! ```
 
+use liebayes::filters::azimuth::scenario::Config;
+use liebayes::filters::azimuth::{
+    AzimuthFilter, Method, PositionMeasurement, VelocityInput, VelocityProcess,
+};
 use liebayes::manifolds::{GroupAction, LieGroup, So3};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use rand::{RngCore, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
 
 const INPUTS: u32 = 100_000;
@@ -56,6 +63,38 @@ fn op_act_nalgebra(q: &UnitQuaternion<f64>, p: &Vector3<f64>) -> Vector3<f64> {
     q * p
 }
 
+/// Steps of the filter benchmarks.
+const FILTER_STEPS: usize = 100_000;
+
+/// One predict + update of the azimuth EKF through the common interface (a stationary platform
+/// measured at a fixed point, as in the criterion benchmark).
+#[inline(never)]
+fn op_ekf_step(filter: &mut dyn AzimuthFilter, rng: &mut dyn RngCore) {
+    // A tag that keeps the compiler from merging the two identical step functions into one.
+    black_box(1);
+    filter_step(filter, rng);
+}
+
+/// The same for the UKF.
+#[inline(never)]
+fn op_ukf_step(filter: &mut dyn AzimuthFilter, rng: &mut dyn RngCore) {
+    black_box(2);
+    filter_step(filter, rng);
+}
+
+fn filter_step(filter: &mut dyn AzimuthFilter, rng: &mut dyn RngCore) {
+    let process = VelocityProcess::new(0.1).unwrap();
+    let measurement = PositionMeasurement::new(1.0).unwrap();
+    let input = VelocityInput {
+        velocity: Vector2::zeros(),
+        dt: 0.1,
+    };
+    filter.predict(&process, black_box(&input), rng).unwrap();
+    filter
+        .update(&measurement, black_box(&Vector2::new(3.0, -4.0)), rng)
+        .unwrap();
+}
+
 fn main() {
     let v: Vec<_> = (0..INPUTS)
         .map(|i| {
@@ -85,5 +124,16 @@ fn main() {
             black_box(op_act_nalgebra(black_box(&theirs[i]), black_box(&v[j])));
         }
     }
-    println!("{} calls of each operation", v.len() * REPEATS);
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let config = Config::default();
+    let mut ekf = Method::Ekf.build(&config, &mut rng).unwrap();
+    let mut ukf = Method::Ukf.build(&config, &mut rng).unwrap();
+    for _ in 0..FILTER_STEPS {
+        op_ekf_step(ekf.as_mut(), &mut rng);
+        op_ukf_step(ukf.as_mut(), &mut rng);
+    }
+    println!(
+        "{} calls of each manifold operation, {FILTER_STEPS} filter steps",
+        v.len() * REPEATS
+    );
 }

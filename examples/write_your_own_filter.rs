@@ -1,15 +1,19 @@
 //! Write your own filter from the operators: a heading on SO(2) driven by a gyroscope and corrected by a
 //! compass whose reading wraps at ±π. `cargo run --release --example write_your_own_filter`.
 //!
-//! Two models, a process and a measurement, are all a user writes. The EKF and the UKF run them on the
-//! manifold (no angle is ever wrapped by hand), and a grid filter on the circle, built from the same
-//! measurement model's likelihood, gives the exact posterior to compare with.
+//! Two models, a process and a measurement, are all a user writes (here as types implementing the
+//! model traits; `ProcessFn` and `MeasurementFn` make the same models from closures). They are built
+//! once and used by reference at every step. The EKF and the UKF run them on the manifold (no angle is
+//! ever wrapped by hand) and report their innovation, whose NIS checks them; a grid filter on the
+//! circle, built from the same measurement model's likelihood, gives the exact posterior to compare
+//! with.
 
+use liebayes::densities::ManifoldGaussian;
 use liebayes::manifolds::{Manifold, So2};
 use liebayes::operators::evaluation::angle_difference;
 use liebayes::operators::grid::CircularGrid;
 use liebayes::operators::{
-    Condition, Ekf, ManifoldGaussian, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
+    Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
 };
 use nalgebra::{Matrix1, Vector1};
 
@@ -63,27 +67,20 @@ fn main() -> Result<(), OperatorError> {
         |t| -0.5 * angle_difference(t, 3.0).powi(2) / 0.5,
         |_| (),
     )?;
+    // The models, wrapped once: by reference, `Ekf(&gyro)` is as good as `Ekf(gyro)`.
+    let (ekf_gyro, ukf_gyro) = (Ekf(&gyro), Ukf::new(&gyro));
+    let (ekf_compass, ukf_compass) = (Ekf(&compass), Ukf::new(&compass));
     for (rate, reading) in [(0.1, -3.05), (0.1, -2.95), (0.0, -3.0), (0.2, -2.8)] {
         let step = (rate, 1.0);
-        ekf = ekf.propagate(&Ekf(Gyro { q2: gyro.q2 }), &step)?;
-        ukf = ukf.propagate(&Ukf::new(Gyro { q2: gyro.q2 }), &step)?;
+        ekf = ekf.propagate(&ekf_gyro, &step)?;
+        ukf = ukf.propagate(&ukf_gyro, &step)?;
         // The grid's propagation: the circular convolution with the step's density, θ′ − θ ~ N(ω dt, q² dt)
         // (one wrap of the normal suffices at this spread).
         grid.diffuse(|d| (-0.5 * angle_difference(d, rate).powi(2) / gyro.q2).exp())?;
 
         let z = Vector1::new(reading);
-        let e = ekf.condition(
-            &Ekf(Compass {
-                variance: compass.variance,
-            }),
-            &z,
-        )?;
-        let u = ukf.condition(
-            &Ukf::new(Compass {
-                variance: compass.variance,
-            }),
-            &z,
-        )?;
+        let e = ekf.condition(&ekf_compass, &z)?;
+        let u = ukf.condition(&ukf_compass, &z)?;
         let evidence = grid.condition(|t| {
             -0.5 * angle_difference(reading, t).powi(2) / compass.variance
                 - 0.5 * (2.0 * std::f64::consts::PI * compass.variance).ln()
@@ -93,13 +90,15 @@ fn main() -> Result<(), OperatorError> {
         let m = grid.first_moment();
         println!(
             "reading {reading:+.2}: EKF {:+.4} rad, UKF {:+.4} rad, exact grid mean {:+.4} rad; \
-             log evidence EKF {:.3}, UKF {:.3}, grid {:.3}",
+             log evidence EKF {:.3}, UKF {:.3}, grid {:.3}; NIS EKF {:.2}, UKF {:.2}",
             ekf.mean().angle(),
             ukf.mean().angle(),
             m.y.atan2(m.x),
             e.log_evidence,
             u.log_evidence,
-            evidence
+            evidence,
+            e.report.nis(),
+            u.report.nis(),
         );
     }
     Ok(())

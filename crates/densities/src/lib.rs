@@ -10,7 +10,8 @@
 //! | [`Bingham`] | SU(2) = S³ (and SO(3)) | uniform probability measure |
 //! | [`HeatKernelSo3`] | SO(3) | normalised Haar measure |
 //! | [`Gaussian`] | Rⁿ | Lebesgue |
-//! | [`TangentGaussian`] | any Lie group | Lebesgue in exponential coordinates at the mean |
+//! | [`ManifoldGaussian`] | any manifold | Lebesgue in the tangent coordinates at the mean |
+//! | [`HarmonicGaussian`] | SO(2) × Rⁿ | dy dx |
 //!
 //! * The algebra is shared through traits: [`Density`] (`log_pdf`, `log_normalizer`, `sample`, `mode`),
 //!   [`Product`] (Bayes with a conjugate likelihood, with the log evidence), [`Convolve`] (propagation
@@ -27,13 +28,14 @@ mod bingham_normalizer;
 mod error;
 mod gaussian;
 mod gen_von_mises;
+mod harmonic_gaussian;
 mod heat_kernel;
+mod manifold_gaussian;
 mod moment_matching;
 mod quadrature;
 mod scaled_bessel;
 mod scaled_bessel_coefficients;
 pub mod special;
-mod tangent_gaussian;
 #[cfg(feature = "proptest")]
 pub mod testing;
 mod traits;
@@ -44,9 +46,10 @@ pub use bingham::Bingham;
 pub use error::DensityError;
 pub use gaussian::Gaussian;
 pub use gen_von_mises::{GenVonMises2, GenVonMises2Sampler};
+pub use harmonic_gaussian::{HarmonicGaussian, harmonic_features};
 pub use heat_kernel::HeatKernelSo3;
 pub use liebayes_manifolds as manifolds;
-pub use tangent_gaussian::TangentGaussian;
+pub use manifold_gaussian::ManifoldGaussian;
 pub use traits::{Convolve, Density, Entropy, KlDivergence, Product};
 pub use von_mises::VonMises;
 pub use von_mises_fisher::VonMisesFisher;

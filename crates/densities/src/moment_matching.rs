@@ -4,8 +4,8 @@
 use crate::bingham::Bingham;
 use crate::error::DensityError;
 use crate::heat_kernel::HeatKernelSo3;
+use crate::manifold_gaussian::ManifoldGaussian;
 use crate::quadrature;
-use crate::tangent_gaussian::TangentGaussian;
 use crate::traits::Density;
 use liebayes_manifolds::{LieGroup, So3, Su2};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
@@ -84,7 +84,7 @@ fn vector_block(moments: &Matrix4<f64>) -> Matrix3<f64> {
     Matrix3::from_fn(|r, c| moments[(r + 1, c + 1)])
 }
 
-impl TangentGaussian<So3<f64>, 3> {
+impl ManifoldGaussian<So3<f64>, 3> {
     /// **Approximation**: the Bingham with the same second moments `E[q qᵀ]` as `q = μ exp(ξ)`,
     /// `ξ ~ N(0, Σ)` (computed by Gauss-Hermite cubature), fitted with [`Bingham::fit`]. The measured
     /// KL is in `docs/densities/bingham.md`.
@@ -98,9 +98,9 @@ impl TangentGaussian<So3<f64>, 3> {
 }
 
 impl Bingham {
-    /// **Approximation**: the tangent Gaussian at the Bingham's mode whose quaternion second moments
-    /// about the mode match the Bingham's: Σ solves `E_Σ[v vᵀ] = E_Bingham[v vᵀ]` (v the vector part of
-    /// `mode⁻¹ q`), by the fixed-point iteration `Σ ← Σ + 4 (E_B[v vᵀ] − E_Σ[v vᵀ])` from `4 E_B[v vᵀ]`
+    /// **Approximation**: the Gaussian in the tangent space at the Bingham's mode whose quaternion
+    /// second moments about the mode match the Bingham's: Σ solves `E_Σ[v vᵀ] = E_Bingham[v vᵀ]` (v the
+    /// vector part of `mode⁻¹ q`), by the fixed-point iteration `Σ ← Σ + 4 (E_B[v vᵀ] − E_Σ[v vᵀ])` from `4 E_B[v vᵀ]`
     /// (the leading order, v ≈ ξ/2), to a relative residual of 1e-12. The Bingham's other moments
     /// (the scalar block, and the cross terms, zero by symmetry for both) then agree too, as the
     /// trace is 1.
@@ -108,13 +108,13 @@ impl Bingham {
     /// # Errors
     /// [`DensityError::OutOfRange`] when the Bingham has no unique mode, or when it is too diffuse for
     /// the iteration to stay positive definite (spreads beyond about 60°).
-    pub fn to_tangent_gaussian_moment_matched(
+    pub fn to_manifold_gaussian_moment_matched(
         &self,
-    ) -> Result<TangentGaussian<So3<f64>, 3>, DensityError> {
+    ) -> Result<ManifoldGaussian<So3<f64>, 3>, DensityError> {
         let mode = self.mode().ok_or(DensityError::OutOfRange {
             what: "gap between the two largest Bingham eigenvalues",
             value: self.eigenvalues()[0] - self.eigenvalues()[1],
-            range: "(0, infinity): a tangent Gaussian needs a unique mode",
+            range: "(0, infinity): a manifold Gaussian needs a unique mode",
         })?;
         let target = vector_block(&self.rotated_left(&mode.inverse()).second_moment_matrix());
         let mut covariance = target * 4.0;
@@ -125,6 +125,6 @@ impl Bingham {
             }
             covariance += residual * 4.0;
         }
-        TangentGaussian::new(mode.to_so3(), covariance)
+        ManifoldGaussian::new(mode.to_so3(), covariance)
     }
 }

@@ -186,15 +186,15 @@ fn bingham_to_heat_kernel_inverts_the_isotropic_case() {
     }
 }
 
-/// KL(tangent Gaussian ‖ moment-matched Bingham) as an expectation over ξ ~ N(0, Σ) by 24-point
-/// Gauss-Hermite cubature (the tests' own rule). The tangent Gaussian's density against the normalised
+/// KL(manifold Gaussian ‖ moment-matched Bingham) as an expectation over ξ ~ N(0, Σ) by 24-point
+/// Gauss-Hermite cubature (the tests' own rule). The manifold Gaussian's density against the normalised
 /// Haar measure is N(ξ) · 8π² / (2(1 − cos θ)/θ²), θ = |ξ|, while the wrap-around beyond π is negligible
 /// (σ ≤ 20°).
-fn tangent_gaussian_bingham_kl(covariance: &nalgebra::Matrix3<f64>) -> (f64, f64) {
-    use liebayes_densities::{Bingham, Density, TangentGaussian};
+fn manifold_gaussian_bingham_kl(covariance: &nalgebra::Matrix3<f64>) -> (f64, f64) {
+    use liebayes_densities::{Bingham, Density, ManifoldGaussian};
     use liebayes_manifolds::{LieGroup, So3, Su2};
     let mean = So3::exp(&nalgebra::Vector3::new(0.4, -0.2, 1.0));
-    let tg = TangentGaussian::<So3<f64>, 3>::new(mean, *covariance).unwrap();
+    let tg = ManifoldGaussian::<So3<f64>, 3>::new(mean, *covariance).unwrap();
     let b: Bingham = tg.to_bingham_moment_matched().unwrap();
     let eigen = nalgebra::SymmetricEigen::new(*covariance);
     let scale = eigen.eigenvalues.map(f64::sqrt);
@@ -222,16 +222,16 @@ fn tangent_gaussian_bingham_kl(covariance: &nalgebra::Matrix3<f64>) -> (f64, f64
             }
         }
     }
-    // Σ round trip: Bingham → tangent Gaussian with Σ = 4 E[v vᵀ].
-    let back = b.to_tangent_gaussian_moment_matched().unwrap();
+    // Σ round trip: Bingham → manifold Gaussian with Σ = 4 E[v vᵀ].
+    let back = b.to_manifold_gaussian_moment_matched().unwrap();
     let mismatch = (back.covariance() - covariance).amax() / covariance.amax();
     (kl, mismatch)
 }
 
-/// Measured KL(tangent Gaussian ‖ Bingham) and the relative Σ mismatch of the reverse map, against σ,
+/// Measured KL(manifold Gaussian ‖ Bingham) and the relative Σ mismatch of the reverse map, against σ,
 /// for an isotropic and an anisotropic (1 : 0.5 : 0.2 in variance, correlated) Σ; rounded up.
 #[test]
-fn tangent_gaussian_bingham_error_against_spread() {
+fn manifold_gaussian_bingham_error_against_spread() {
     let shape = nalgebra::Matrix3::new(1.0, 0.2, 0.0, 0.2, 0.5, 0.1, 0.0, 0.1, 0.2);
     // (σ in degrees, KL bound isotropic, KL bound anisotropic): measured, rounded up in the second digit.
     let table = [
@@ -250,7 +250,7 @@ fn tangent_gaussian_bingham_error_against_spread() {
             ),
             ("anisotropic", shape * sigma * sigma, anisotropic_bound),
         ] {
-            let (kl, mismatch) = tangent_gaussian_bingham_kl(&cov);
+            let (kl, mismatch) = manifold_gaussian_bingham_kl(&cov);
             eprintln!(
                 "sigma {degrees:>4} deg, {name:>11}: KL(TG || Bingham) = {kl:.3e}, Sigma round-trip mismatch {mismatch:.2e}"
             );

@@ -1,13 +1,13 @@
-//! Laws of `Gaussian` and `TangentGaussian`: normalisation by quadrature in eigen-coordinates (an
+//! Laws of `Gaussian` and `ManifoldGaussian`: normalisation by quadrature in eigen-coordinates (an
 //! independent path from the Cholesky factor the type uses), product = normalised pointwise product,
 //! the convolution against its defining integral, sample moments, KL against quadrature, mode, and bad
-//! input; and first-order propagation of tangent Gaussians against Monte Carlo.
+//! input; and first-order propagation of manifold Gaussians against Monte Carlo.
 
 mod common;
 
 use common::quadrature::gauss_legendre;
 use liebayes_densities::{
-    Convolve, Density, Entropy, Gaussian, KlDivergence, Product, TangentGaussian,
+    Convolve, Density, Entropy, Gaussian, KlDivergence, ManifoldGaussian, Product,
 };
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, Rn, So3};
@@ -171,17 +171,17 @@ fn bad_covariances_are_refused_with_a_message() {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(12))]
 
-    /// First-order propagation of a concentrated tangent Gaussian through the action R ↦ R p and
+    /// First-order propagation of a concentrated manifold Gaussian through the action R ↦ R p and
     /// through composition, against 20 000-sample Monte Carlo: the difference is the statistical error
     /// plus the neglected second order, O(σ²) relative for σ = 1e-2.
     #[test]
-    fn tangent_gaussian_propagation_matches_monte_carlo(
+    fn manifold_gaussian_propagation_matches_monte_carlo(
         mean in st::so3::<f64>(), other in st::so3::<f64>(), p in st::point3::<f64>(), seed in any::<u64>(),
     ) {
         let sigma = 1e-2;
         let cov = Matrix3::new(1.0, 0.3, 0.0, 0.3, 2.0, -0.2, 0.0, -0.2, 0.5) * sigma * sigma;
-        let x = TangentGaussian::<So3<f64>, 3>::new(mean, cov).unwrap();
-        let y = TangentGaussian::<So3<f64>, 3>::new(other, cov * 0.5).unwrap();
+        let x = ManifoldGaussian::<So3<f64>, 3>::new(mean, cov).unwrap();
+        let y = ManifoldGaussian::<So3<f64>, 3>::new(other, cov * 0.5).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = 20_000;
         // Tangent samples come back exactly (local ∘ retract = id inside the injectivity radius).
@@ -205,16 +205,16 @@ proptest! {
 
 #[test]
 fn propagation_into_a_group_keeps_a_full_rank_covariance() {
-    // Translation by the rotated point is full rank: a tangent Gaussian on R³ comes out.
+    // Translation by the rotated point is full rank: a manifold Gaussian on R³ comes out.
     let mean = So3::exp(&nalgebra::Vector3::new(0.2, -0.1, 0.4));
-    let x = TangentGaussian::<So3<f64>, 3>::new(mean, Matrix3::identity() * 1e-4).unwrap();
+    let x = ManifoldGaussian::<So3<f64>, 3>::new(mean, Matrix3::identity() * 1e-4).unwrap();
     let adjoint = mean.adjoint();
-    let world = x.propagate(mean, &adjoint).unwrap();
+    let world = x.propagate_linearized(mean, &adjoint).unwrap();
     assert!(
         (world.covariance() - Matrix3::identity() * 1e-4).amax() < 1e-18,
         "Ad Σ Adᵀ = Σ for isotropic Σ"
     );
-    let degenerate = x.propagate(
+    let degenerate = x.propagate_linearized(
         Rn::<f64, 3>::new_unchecked(nalgebra::Vector3::zeros()),
         &mean.j_act_self(&nalgebra::Vector3::x()),
     );

@@ -113,6 +113,7 @@ fn gaussian_baselines_report_a_wrapped_normal() {
         assert_eq!(e.mean_r, Vector2::new(1.0, 2.0));
         assert_eq!(e.cov_r, Matrix2::identity() * 0.25);
         assert!(GaussianBaseline::new(kind, Vector2::zeros(), 0.0).is_err());
+        assert!(GaussianBaseline::new(kind, Vector2::new(f64::NAN, 0.0), 1.0).is_err());
     }
 }
 

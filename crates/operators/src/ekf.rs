@@ -2,27 +2,58 @@
 //!
 //! With the density `x = μ ⊞ δ`, `δ ~ N(0, P)` ([`ManifoldGaussian`]):
 //!
-//! * **propagate**: `μ′ = f(μ, u)`, `P′ = F P Fᵀ + Q`, F the right Jacobian of the motion;
+//! * **propagate**: `μ′ = f(μ, u)`, `P′ = F P Fᵀ + Q`, F the right Jacobian of the motion (and the
+//!   cross-covariance `Cov(δ, δ′) = P Fᵀ` for the [smoother](crate::smoother));
 //! * **condition**: `ν = z ⊟ h(μ)`, `S = H P Hᵀ + R`, `K = P Hᵀ S⁻¹`, `μ⁺ = μ ⊞ K ν`, and the
 //!   Joseph form `P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ`; log evidence `ln N(ν; 0, S)` (the linearised
-//!   model's, an approximation of `ln p(z)`).
+//!   model's, an approximation of `ln p(z)`); the report is the [`Innovation`] (ν, S, K, NIS).
 //!
 //! P⁺ is left in the tangent space at μ rather than transported to μ⁺ (the first-order "reset"
 //! `J_r(Kν) P⁺ J_r(Kν)ᵀ` is omitted); on Rⁿ and SO(2) the two coincide.
 
 use crate::kalman::joseph;
-use crate::manifold_gaussian::{
-    GaussianUpdate, ManifoldGaussian, MeasurementModel, ProcessModel, checked_covariance,
-};
-use crate::{Condition, Conditioned, OperatorError, Propagate};
+use crate::models::{MeasurementModel, ProcessModel};
+use crate::numerics::checked_gaussian;
+use crate::smoother::{GaussianTransition, Prediction};
+use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
+use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
 use nalgebra::SVector;
 
 /// A model to be used by linearisation: `density.propagate(&Ekf(process), &u)`,
-/// `density.condition(&Ekf(measurement), &z)`. M, the measurement dimension, is inferred from z (and is
+/// `density.condition(&Ekf(measurement), &z)`, or with a model kept elsewhere,
+/// `density.propagate(&Ekf(&process), &u)`. M, the measurement dimension, is inferred from z (and is
 /// 0, unused, for a process).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ekf<Model, const M: usize = 0>(pub Model);
+
+impl<X, P, const D: usize> GaussianTransition<X, D> for Ekf<P>
+where
+    X: Manifold<D, Scalar = f64>,
+    P: ProcessModel<X, D>,
+{
+    type Input = P::Input;
+
+    /// `μ′ = f(μ, u)`, `P′ = F P Fᵀ + Q`, cross-covariance `P Fᵀ`.
+    fn predict_with_cross(
+        &self,
+        prior: &ManifoldGaussian<X, D>,
+        input: &P::Input,
+    ) -> Result<Prediction<X, D>, OperatorError> {
+        let mean = prior.mean();
+        let f = self.0.jacobian(mean, input);
+        let cross = prior.covariance() * f.transpose();
+        let density = checked_gaussian(
+            self.0.transition(mean, input),
+            &(f * cross + self.0.noise(mean, input)),
+            "predicted covariance F P F^T + Q (check the process noise Q and the Jacobian F)",
+        )?;
+        Ok(Prediction {
+            density,
+            cross_covariance: cross,
+        })
+    }
+}
 
 impl<X, P, const D: usize> Propagate<Ekf<P>> for ManifoldGaussian<X, D>
 where
@@ -32,13 +63,7 @@ where
     type Input = P::Input;
 
     fn propagate(&self, model: &Ekf<P>, input: &P::Input) -> Result<Self, OperatorError> {
-        let f = model.0.jacobian(self.mean(), input);
-        let q = model.0.noise(self.mean(), input);
-        let mean = model.0.transition(self.mean(), input);
-        Ok(ManifoldGaussian::from_checked(
-            mean,
-            checked_covariance(f * self.covariance() * f.transpose() + q)?,
-        ))
+        model.predict_with_cross(self, input).map(|p| p.density)
     }
 }
 
@@ -48,26 +73,32 @@ where
     H: MeasurementModel<X, D, M>,
 {
     type Measurement = SVector<f64, M>;
+    type Report = Innovation<D, M>;
 
     fn condition(
         &self,
         model: &Ekf<H, M>,
         z: &SVector<f64, M>,
-    ) -> Result<Conditioned<Self>, OperatorError> {
+    ) -> Result<Conditioned<Self, Innovation<D, M>>, OperatorError> {
         crate::error::all_finite("measurement z", z.iter())?;
         let (mean, p) = (self.mean(), self.covariance());
         let h = model.0.jacobian(mean);
         let r = model.0.noise(mean);
-        let innovation = model.0.residual(z, &model.0.predict(mean));
-        let update = GaussianUpdate::new(
-            &innovation,
-            &(h * p * h.transpose() + r),
-            &(p * h.transpose()),
+        let pht = p * h.transpose();
+        let (report, log_evidence) = Innovation::new(
+            model.0.residual(z, &model.0.predict(mean)),
+            &(h * pht + r),
+            &pht,
         )?;
-        let covariance = checked_covariance(joseph(p, &update.gain, &h, &r))?;
+        let posterior = checked_gaussian(
+            mean.retract(&report.correction()),
+            &joseph(p, report.gain(), &h, &r),
+            "posterior covariance (Joseph form; check the measurement noise R and the Jacobian H)",
+        )?;
         Ok(Conditioned {
-            posterior: ManifoldGaussian::from_checked(mean.retract(&update.correction), covariance),
-            log_evidence: update.log_evidence,
+            posterior,
+            log_evidence,
+            report,
         })
     }
 }

@@ -24,7 +24,9 @@ pub fn nees<const D: usize>(
 
 /// The normalised innovation squared `νᵀ S⁻¹ ν` of a measurement's innovation ν with its predicted
 /// covariance S (the same quadratic form as [`nees`]; mean M, the measurement dimension, for a consistent
-/// filter, band from [`average_nees_band`] with d = M); `None` when S is not positive definite.
+/// filter, band from [`average_nees_band`] with d = M); `None` when S is not positive definite. The
+/// Kalman filters report it directly, from their own factor of S:
+/// [`Innovation::nis`](crate::Innovation::nis).
 pub fn nis<const M: usize>(
     innovation: &SVector<f64, M>,
     covariance: &SMatrix<f64, M, M>,

@@ -7,13 +7,13 @@
 //! * gain `K = Σ Hᵀ S⁻¹`, mean `μ + K ν`;
 //! * covariance in Joseph form `(I − K H) Σ (I − K H)ᵀ + K R Kᵀ`, symmetric and positive semi-definite
 //!   by construction whatever the rounding in K, unlike the short form `(I − K H) Σ`;
-//! * log evidence `ln N(z; H μ, S) = −½ (νᵀ S⁻¹ ν + ln det S + m ln 2π)`.
+//! * log evidence `ln N(z; H μ, S) = −½ (νᵀ S⁻¹ ν + ln det S + m ln 2π)`;
+//! * the report, an [`Innovation`]: ν, S, K and the NIS `νᵀ S⁻¹ ν`.
 
 use crate::error::all_finite;
-use crate::{Condition, Conditioned, OperatorError, Propagate};
+use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::Gaussian;
-use nalgebra::{Cholesky, SMatrix, SVector};
-use std::f64::consts::PI;
+use nalgebra::{SMatrix, SVector};
 
 /// The linear process `x′ = F x + u + w`, `w ~ N(0, Q)`; the input is u.
 #[derive(Clone, Debug, PartialEq)]
@@ -141,37 +141,33 @@ impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
 
 impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaussian<N> {
     type Measurement = SVector<f64, M>;
+    type Report = Innovation<N, M>;
 
-    /// The Kalman update in Joseph form, with `ln N(z; H μ, S)` (see the module docs).
+    /// The Kalman update in Joseph form, with `ln N(z; H μ, S)` and the [`Innovation`] (see the module
+    /// docs).
     fn condition(
         &self,
         model: &LinearMeasurement<N, M>,
         z: &SVector<f64, M>,
-    ) -> Result<Conditioned<Self>, OperatorError> {
+    ) -> Result<Conditioned<Self, Innovation<N, M>>, OperatorError> {
         all_finite("measurement z", z.iter())?;
         let h = &model.matrix;
         let sigma = self.covariance();
-        let innovation = z - h * self.mean();
-        let s = h * sigma * h.transpose() + model.noise;
-        let s_factor = Cholesky::new((s + s.transpose()) * 0.5).ok_or(OperatorError::OutOfRange {
-            what: "innovation covariance H P H^T + R",
-            value: s.diagonal().min(),
-            range: "positive definite matrices (the value shown is its smallest diagonal entry); make R \
-                    positive definite",
-        })?;
-        // K = Σ Hᵀ S⁻¹, from S Kᵀ = H Σ.
-        let gain = s_factor.solve(&(h * sigma)).transpose();
-        let covariance = joseph(sigma, &gain, h, &model.noise);
-        let log_det_s = 2.0 * s_factor.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
-        let mahalanobis = innovation.dot(&s_factor.solve(&innovation));
-        let log_evidence = -0.5 * (mahalanobis + log_det_s + M as f64 * (2.0 * PI).ln());
+        let sigma_ht = sigma * h.transpose();
+        let (report, log_evidence) = Innovation::new(
+            z - h * self.mean(),
+            &(h * sigma_ht + model.noise),
+            &sigma_ht,
+        )?;
+        let covariance = joseph(sigma, report.gain(), h, &model.noise);
         let posterior = Gaussian::new(
-            self.mean() + gain * innovation,
+            self.mean() + report.correction(),
             (covariance + covariance.transpose()) * 0.5,
         )?;
         Ok(Conditioned {
             posterior,
             log_evidence,
+            report,
         })
     }
 }

@@ -6,20 +6,28 @@
 //!   an input u;
 //! * [`Condition`]: Bayes, `p(x | z) = p(z | x) p(x) / p(z)`, with a measurement model, returning the
 //!   posterior together with the log evidence `ln p(z)` (the log marginal likelihood), so that filters
-//!   can be compared and models selected on the same data.
+//!   can be compared and models selected on the same data, and the algorithm's report (the Kalman
+//!   filters' [`Innovation`]: ν, S, K and the NIS).
+//!
+//! Every step is all or nothing: it returns a new density or a typed [`OperatorError`], and the
+//! containers that step in place (particle set, grid, smoother) are unchanged by a failed step.
 //!
 //! The algorithms, each checked against an exact computation in the tests:
 //!
 //! * [`kalman`]: the linear Kalman filter on [`Gaussian<N>`](liebayes_densities::Gaussian), exact, in
 //!   Joseph form;
 //! * [`Ekf`] and [`Ukf`]: the extended and unscented Kalman filters on any
-//!   [`Manifold`](liebayes_manifolds::Manifold), with a [`ManifoldGaussian`] state (mean on the
-//!   manifold, covariance in its tangent space) and user [`ProcessModel`]s and [`MeasurementModel`]s;
+//!   [`Manifold`](liebayes_manifolds::Manifold), on the densities crate's
+//!   [`ManifoldGaussian`](liebayes_densities::ManifoldGaussian) (mean on the manifold, covariance in
+//!   its tangent space), with user [`ProcessModel`]s and [`MeasurementModel`]s ([`models`]: used by
+//!   reference, or written from closures with [`ProcessFn`] and [`MeasurementFn`]);
+//! * [`smoother`]: the Rauch-Tung-Striebel smoother for that Gaussian (EKF or UKF linearisation);
 //! * [`particle`]: the particle filter over any state type (log weights, four resampling schemes, ESS
 //!   threshold, parallel weighting with the `rayon` feature);
 //! * [`grid`]: the grid filter on the circle, optionally carrying a density per cell;
-//! * [`rao_blackwell`]: the closed-form composite of an angle and a conditionally Gaussian vector, and
-//!   the marginalized particle filter's step;
+//! * [`rao_blackwell`]: the exact steps of the closed-form composite of an angle and a conditionally
+//!   Gaussian vector ([`HarmonicGaussian`](liebayes_densities::HarmonicGaussian)), and the
+//!   marginalized particle filter's step;
 //! * [`evaluation`]: a seeded, parallel Monte Carlo runner (progress bar with the `progress` feature)
 //!   and the consistency metrics (NEES, NIS, their χ² bands, a circular consistency statistic).
 //!
@@ -29,18 +37,22 @@ pub mod ekf;
 mod error;
 pub mod evaluation;
 pub mod grid;
+mod innovation;
 pub mod kalman;
-mod manifold_gaussian;
+pub mod models;
 mod numerics;
 pub mod particle;
 pub mod rao_blackwell;
+pub mod smoother;
 mod traits;
 pub mod ukf;
 
 pub use ekf::Ekf;
 pub use error::OperatorError;
-pub use manifold_gaussian::{ManifoldGaussian, MeasurementModel, ProcessModel};
+pub use innovation::Innovation;
+pub use models::{MeasurementFn, MeasurementModel, ProcessFn, ProcessModel};
 pub use traits::{Condition, Conditioned, Propagate};
 pub use ukf::Ukf;
 
 pub use liebayes_densities as densities;
+pub use liebayes_manifolds as manifolds;

@@ -1,6 +1,54 @@
-//! Small numerical pieces shared by the weighted-sample operators (particle set, grid).
+//! Small numerical pieces shared by the operators: log weights (particle set, grid), the weighted mean
+//! on a manifold (UKF, particle set) and the validated Gaussian a filter step returns.
 
 use crate::OperatorError;
+use liebayes_densities::ManifoldGaussian;
+use liebayes_manifolds::Manifold;
+use nalgebra::{SMatrix, SVector};
+
+/// Iterations of a weighted mean before giving up; convergence to 1e-12 takes 2 to 5 in practice.
+pub(crate) const MEAN_ITERATIONS: usize = 50;
+/// A weighted mean is converged when its step is below this (in tangent units; relative to `1 + |ẑ|`
+/// for the UKF's measurement mean).
+pub(crate) const MEAN_TOLERANCE: f64 = 1e-12;
+
+/// The weighted mean on a manifold of points `yᵢ` with weights `wᵢ` summing to 1 (some may be
+/// negative, as the UKF's centre weight): the fixed point of `m ← m ⊞ Σ wᵢ (yᵢ ⊟ m)`, by Gauss-Newton
+/// from `start`, at most 50 iterations, stopping at a step below 1e-12. Never an average of
+/// coordinates, so points on both sides of ±π average correctly. One function for the UKF and the
+/// particle set (the manifolds crate's shared weighted mean will replace it).
+pub(crate) fn manifold_mean<'a, X, const D: usize>(
+    start: &X,
+    points: &(impl Iterator<Item = (f64, &'a X)> + Clone),
+) -> X
+where
+    X: Manifold<D, Scalar = f64> + 'a,
+{
+    let mut mean = start.clone();
+    for _ in 0..MEAN_ITERATIONS {
+        let step = points
+            .clone()
+            .map(|(w, y)| mean.local(y) * w)
+            .sum::<SVector<f64, D>>();
+        mean = mean.retract(&step);
+        if step.norm() < MEAN_TOLERANCE {
+            break;
+        }
+    }
+    mean
+}
+
+/// The Gaussian a filter step returns: P symmetrised as `(P + Pᵀ)/2`, then validated; `what` names
+/// the step's covariance and what to check when it is refused (non-finite, not positive definite, or
+/// with an unrepresentable inverse).
+pub(crate) fn checked_gaussian<X: Manifold<D, Scalar = f64>, const D: usize>(
+    mean: X,
+    covariance: &SMatrix<f64, D, D>,
+    what: &'static str,
+) -> Result<ManifoldGaussian<X, D>, OperatorError> {
+    ManifoldGaussian::new(mean, (covariance + covariance.transpose()) * 0.5)
+        .map_err(|_| OperatorError::NotPositiveDefinite { what })
+}
 
 /// `ln Σ exp(lᵢ)`, computed as `m + ln Σ exp(lᵢ − m)` with m the largest term so that nothing
 /// overflows or underflows; −∞ for no terms or all terms −∞.

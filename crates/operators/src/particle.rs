@@ -2,11 +2,12 @@
 //! reweighting (with the log evidence), propagation by sampling, and four resampling schemes.
 
 use crate::OperatorError;
-use crate::numerics::LogWeights;
+use crate::numerics::{LogWeights, manifold_mean};
+use liebayes_manifolds::Manifold;
+use rand::Rng;
 
 /// What a failed Bayes step of a particle set names.
 const LIKELIHOOD: &str = "particle log-likelihood";
-use rand::Rng;
 
 /// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
 /// expected number of copies is N wᵢ); they differ in variance and cost:
@@ -62,6 +63,67 @@ impl<X: Clone> ParticleSet<X> {
             spare: Vec::with_capacity(particles.len()),
             particles,
         })
+    }
+
+    /// Weighted particles from linear weights `wᵢ ≥ 0` (any positive total; normalised here).
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for an empty set, for a number of weights different from the
+    /// number of particles, or for a negative weight; [`OperatorError::NonFinite`] for a NaN or
+    /// infinite weight or when every weight is zero.
+    pub fn from_weighted_samples(
+        particles: Vec<X>,
+        weights: &[f64],
+    ) -> Result<Self, OperatorError> {
+        if let Some(&w) = weights.iter().find(|w| !w.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: "particle weight",
+                value: w,
+            });
+        }
+        if let Some(&w) = weights.iter().find(|w| **w < 0.0) {
+            return Err(OperatorError::OutOfRange {
+                what: "particle weight",
+                value: w,
+                range: "[0, infinity)",
+            });
+        }
+        Self::with_log_weights(particles, weights.len(), weights.iter().map(|w| w.ln()))
+    }
+
+    /// Weighted particles from log weights `ln wᵢ` (any finite offset; −∞ is a zero weight),
+    /// normalised here without leaving the log domain, so weights below the smallest f64 are kept.
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for an empty set or a number of log weights different from the
+    /// number of particles; [`OperatorError::NonFinite`] for a NaN or +∞ log weight or when every
+    /// weight is zero.
+    pub fn from_log_weighted_samples(
+        particles: Vec<X>,
+        log_weights: &[f64],
+    ) -> Result<Self, OperatorError> {
+        Self::with_log_weights(particles, log_weights.len(), log_weights.iter().copied())
+    }
+
+    /// The particles with the given log weights (unnormalised), checked and normalised.
+    fn with_log_weights(
+        particles: Vec<X>,
+        count: usize,
+        log_weights: impl Iterator<Item = f64>,
+    ) -> Result<Self, OperatorError> {
+        if count != particles.len() {
+            return Err(OperatorError::OutOfRange {
+                what: "number of weights",
+                value: count as f64,
+                range: "equal to the number of particles",
+            });
+        }
+        let mut set = Self::from_samples(particles)?;
+        let pending = set.weights.pending();
+        pending.clear();
+        pending.extend(log_weights);
+        set.weights.replace_with_pending("particle log weight")?;
+        Ok(set)
     }
 
     /// The particles.
@@ -218,6 +280,34 @@ impl<X: Clone> ParticleSet<X> {
             .zip(&self.particles)
             .map(|(l, x)| f(x) * l.exp())
             .sum()
+    }
+}
+
+impl<X> ParticleSet<X> {
+    /// The weighted mean on the manifold, the fixed point of `m ← m ⊞ Σ wᵢ (xᵢ ⊟ m)`, by Gauss-Newton
+    /// from the heaviest particle (at most 50 iterations, stopping at a step below 1e-12; the same
+    /// function as the UKF's sigma-point mean). Never an average of coordinates, so particles on both
+    /// sides of ±π average correctly. The fixed point is unique while the particles lie within a ball
+    /// of radius below half the injectivity radius; for particles spread over the whole space (a
+    /// uniform angle) the mean is not defined and the result is the last iterate.
+    pub fn mean<const D: usize>(&self) -> X
+    where
+        X: Manifold<D, Scalar = f64>,
+    {
+        let heaviest = self
+            .log_weights()
+            .iter()
+            .zip(&self.particles)
+            .max_by(|a, b| a.0.total_cmp(b.0))
+            .map_or(&self.particles[0], |(_, x)| x);
+        manifold_mean(
+            heaviest,
+            &self
+                .log_weights()
+                .iter()
+                .zip(&self.particles)
+                .map(|(l, x)| (l.exp(), x)),
+        )
     }
 }
 

@@ -1,25 +1,38 @@
 //! Rao-Blackwellized composites: a density `p(x, y) = p(y) p(x | y)` over an angle y and a vector x.
 //!
-//! * [`HarmonicGaussian`]: held in closed form, `p(y)` a generalised von Mises of order 2 and
-//!   `p(x | y) = N(B φ(y), Σ)` with the features `φ(y) = (1, cos y, sin y)` and Σ the same for every y.
-//!   Linear processes and two kinds of measurement keep the form exactly (see the type docs); seed
-//!   000's seven-number azimuth filter is the special case `B = [a, c, −c^×]`, `Σ = σ² I`, η₂ = 0.
+//! * The closed-form family is the densities crate's [`HarmonicGaussian`]: `p(y)` a generalised von
+//!   Mises of order 2 and `p(x | y) = N(B φ(y), Σ)` with the features `φ(y) = (1, cos y, sin y)` and Σ
+//!   the same for every y. This module holds its exact steps: linear processes and two kinds of
+//!   measurement keep the form (see below); seed 000's seven-number azimuth filter is the special case
+//!   `B = [a, c, −c^×]`, `Σ = σ² I`, η₂ = 0.
 //! * [`condition_marginalized`]: the marginalized particle filter, the general fallback, particles for
 //!   y each carrying its own exactly conditioned density of x, weighted by that density's log evidence.
+//!
+//! The exact operations on a [`HarmonicGaussian`] (derivations in `docs/operators/rao_blackwell.md`):
+//!
+//! * **propagate** through `x′ = F x + u + w`, `w ~ N(0, Q)` ([`LinearProcess`]): `B ← F B + u e₀ᵀ`,
+//!   `Σ ← F Σ Fᵀ + Q`; p(y) unchanged.
+//! * **condition** on `z = H x + n`, `n ~ N(0, R)` with H independent of y ([`LinearMeasurement`]):
+//!   with `G = H B`, `S = H Σ Hᵀ + R`, `W = Gᵀ S⁻¹ G`, `g = Gᵀ S⁻¹ z`:
+//!   `η₁ += (g₁ − W₀₁, g₂ − W₀₂)`, `η₂ += (−(W₁₁ − W₂₂)/4, −W₁₂/2)`; the Kalman gain `K = Σ Hᵀ S⁻¹`
+//!   does not depend on y, so `B ← (I − K H) B + K z e₀ᵀ` and Σ by Joseph's form.
+//! * **condition** on `z = R(y) H x + n`, `n ~ N(0, σ_m² I₂)`, R(y) the plane rotation
+//!   ([`RotatedMeasurement`]), provided `H Σ Hᵀ = s I₂` is isotropic: then `S = (s + σ_m²) I` and
+//!   `K(y) = Σ Hᵀ R(y)ᵀ / S`, so that `K(y) z = Σ Hᵀ (cos y z − sin y z^×) / S` is again linear in φ and
+//!   `Σ⁺ = Σ − Σ Hᵀ H Σ / S` is independent of y. The exponent `−|z − R(y) H B φ|² / (2S)` is a
+//!   trigonometric polynomial of order 2 in y. When `H Σ Hᵀ` is not isotropic, Σ⁺ depends on y and the
+//!   family is not closed: the step refuses with [`OperatorError::NotClosed`].
+//!
+//! Each conditioning returns the exact log evidence
+//! `ln p(z) = constant + ln Z(η⁺) − ln Z(η)` with Z the [`GenVonMises2`] normaliser, and reports `()`.
 
 use crate::error::all_finite;
 use crate::kalman::{LinearMeasurement, LinearProcess, joseph};
 use crate::particle::ParticleSet;
 use crate::{Condition, Conditioned, OperatorError, Propagate};
-use liebayes_densities::{Density, Gaussian, GenVonMises2};
-use nalgebra::{Cholesky, SMatrix, SVector, Vector2, Vector3};
+use liebayes_densities::{Density, GenVonMises2, HarmonicGaussian};
+use nalgebra::{Cholesky, SMatrix, SVector, Vector2};
 use std::f64::consts::PI;
-
-/// `φ(y) = (1, cos y, sin y)`.
-pub fn features(y: f64) -> Vector3<f64> {
-    let (s, c) = y.sin_cos();
-    Vector3::new(1.0, c, s)
-}
 
 /// A measurement's log-likelihood as a function of the angle, after x is integrated out:
 /// `ln p(z | y, past) = constant + η₁ · u(y) + η₂ · u(2y)`, `u(y) = (cos y, sin y)`.
@@ -40,32 +53,6 @@ impl Harmonics {
         let (s2, c2) = (2.0 * y).sin_cos();
         self.constant + self.eta1.dot(&Vector2::new(c, s)) + self.eta2.dot(&Vector2::new(c2, s2))
     }
-}
-
-/// `p(y, x) = GVM₂(y; η₁, η₂) · N(x; B φ(y), Σ)`, `φ(y) = (1, cos y, sin y)`.
-///
-/// Exact operations (each keeps the form; derivations in `docs/operators/rao_blackwell.md`):
-///
-/// * **propagate** through `x′ = F x + u + w`, `w ~ N(0, Q)` ([`LinearProcess`]): `B ← F B + u e₀ᵀ`,
-///   `Σ ← F Σ Fᵀ + Q`; p(y) unchanged.
-/// * **condition** on `z = H x + n`, `n ~ N(0, R)` with H independent of y ([`LinearMeasurement`]):
-///   with `G = H B`, `S = H Σ Hᵀ + R`, `W = Gᵀ S⁻¹ G`, `g = Gᵀ S⁻¹ z`:
-///   `η₁ += (g₁ − W₀₁, g₂ − W₀₂)`, `η₂ += (−(W₁₁ − W₂₂)/4, −W₁₂/2)`; the Kalman gain `K = Σ Hᵀ S⁻¹`
-///   does not depend on y, so `B ← (I − K H) B + K z e₀ᵀ` and Σ by Joseph's form.
-/// * **condition** on `z = R(y) H x + n`, `n ~ N(0, σ_m² I₂)`, R(y) the plane rotation
-///   ([`RotatedMeasurement`]), provided `H Σ Hᵀ = s I₂` is isotropic: then `S = (s + σ_m²) I` and
-///   `K(y) = Σ Hᵀ R(y)ᵀ / S`, so that `K(y) z = Σ Hᵀ (cos y z − sin y z^×) / S` is again linear in φ and
-///   `Σ⁺ = Σ − Σ Hᵀ H Σ / S` is independent of y. The exponent `−|z − R(y) H B φ|² / (2S)` is a
-///   trigonometric polynomial of order 2 in y. When `H Σ Hᵀ` is not isotropic, Σ⁺ depends on y and the
-///   family is not closed: the step refuses with [`OperatorError::NotClosed`].
-///
-/// Each conditioning returns the exact log evidence
-/// `ln p(z) = constant + ln Z(η⁺) − ln Z(η)` with Z the [`GenVonMises2`] normaliser.
-#[derive(Clone, Debug, PartialEq)]
-pub struct HarmonicGaussian<const N: usize> {
-    angle: GenVonMises2,
-    features: SMatrix<f64, N, 3>,
-    covariance: SMatrix<f64, N, N>,
 }
 
 /// `z = R(y) H x + n`, `n ~ N(0, σ_m² I₂)`: a 2-vector of x seen in a frame turned by the angle y.
@@ -117,187 +104,110 @@ fn cross(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
     a.x * b.y - a.y * b.x
 }
 
-impl<const N: usize> HarmonicGaussian<N> {
-    /// The density with angle marginal p(y), feature matrix B and conditional covariance Σ
-    /// (symmetric positive definite).
-    ///
-    /// # Errors
-    /// [`OperatorError::NonFinite`] for non-finite B or Σ, [`OperatorError::NotPositiveDefinite`] for Σ.
-    pub fn new(
-        angle: GenVonMises2,
-        features: SMatrix<f64, N, 3>,
-        covariance: SMatrix<f64, N, N>,
-    ) -> Result<Self, OperatorError> {
-        all_finite("feature matrix B", features.iter())?;
-        all_finite("conditional covariance Sigma", covariance.iter())?;
-        let covariance = (covariance + covariance.transpose()) * 0.5;
-        if Cholesky::new(covariance).is_none() {
-            return Err(OperatorError::NotPositiveDefinite {
-                what: "conditional covariance Sigma",
-            });
-        }
-        Ok(Self {
-            angle,
-            features,
-            covariance,
-        })
-    }
+/// `ln p(z | y, past)` of a y-independent linear measurement, as harmonics of y (see the module docs).
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] for a non-finite z, [`OperatorError::NotPositiveDefinite`] when
+/// `S = H Σ Hᵀ + R` is not.
+pub fn linear_harmonics<const N: usize, const M: usize>(
+    density: &HarmonicGaussian<N>,
+    model: &LinearMeasurement<N, M>,
+    z: &SVector<f64, M>,
+) -> Result<Harmonics, OperatorError> {
+    Ok(linear_step(density, model, z)?.0)
+}
 
-    /// Independent y and x: `B = [μ, 0, 0]`, Σ the prior's covariance.
-    ///
-    /// # Errors
-    /// As [`new`](Self::new).
-    pub fn independent(angle: GenVonMises2, x: &Gaussian<N>) -> Result<Self, OperatorError> {
-        let mut features = SMatrix::<f64, N, 3>::zeros();
-        features.set_column(0, x.mean());
-        Self::new(angle, features, *x.covariance())
-    }
+/// `ln p(z | y, past)` of a rotated measurement, as harmonics of y (see the module docs).
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] for a non-finite z, [`OperatorError::NotClosed`] when `H Σ Hᵀ` is
+/// not isotropic.
+pub fn rotated_harmonics<const N: usize>(
+    density: &HarmonicGaussian<N>,
+    model: &RotatedMeasurement<N>,
+    z: &Vector2<f64>,
+) -> Result<Harmonics, OperatorError> {
+    Ok(rotated_step(density, model, z)?.0)
+}
+/// The harmonics and the gain of a linear measurement.
+fn linear_step<const N: usize, const M: usize>(
+    density: &HarmonicGaussian<N>,
+    model: &LinearMeasurement<N, M>,
+    z: &SVector<f64, M>,
+) -> Result<(Harmonics, SMatrix<f64, N, M>), OperatorError> {
+    all_finite("measurement z", z.iter())?;
+    let h = model.matrix();
+    let s = h * density.covariance() * h.transpose() + model.noise();
+    let factor =
+        Cholesky::new((s + s.transpose()) * 0.5).ok_or(OperatorError::NotPositiveDefinite {
+            what: "innovation covariance H Sigma H^T + R (make R positive definite)",
+        })?;
+    let g_matrix = h * density.features();
+    let w = g_matrix.transpose() * factor.solve(&g_matrix);
+    let s_inv_z = factor.solve(z);
+    let g = g_matrix.transpose() * s_inv_z;
+    let log_det = 2.0 * factor.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+    let harmonics = Harmonics {
+        constant: -0.5 * z.dot(&s_inv_z) + g[0]
+            - 0.5 * w[(0, 0)]
+            - 0.25 * (w[(1, 1)] + w[(2, 2)])
+            - 0.5 * (log_det + M as f64 * (2.0 * PI).ln()),
+        eta1: Vector2::new(g[1] - w[(0, 1)], g[2] - w[(0, 2)]),
+        eta2: Vector2::new(-0.25 * (w[(1, 1)] - w[(2, 2)]), -0.5 * w[(1, 2)]),
+    };
+    let gain = factor.solve(&(h * density.covariance())).transpose();
+    Ok((harmonics, gain))
+}
 
-    /// p(y).
-    pub fn angle(&self) -> &GenVonMises2 {
-        &self.angle
-    }
-
-    /// B: `E[x | y] = B φ(y)`.
-    pub fn features(&self) -> &SMatrix<f64, N, 3> {
-        &self.features
-    }
-
-    /// Σ = Cov[x | y].
-    pub fn covariance(&self) -> &SMatrix<f64, N, N> {
-        &self.covariance
-    }
-
-    /// `E[x | y] = B φ(y)`.
-    pub fn conditional_mean(&self, y: f64) -> SVector<f64, N> {
-        self.features * features(y)
-    }
-
-    /// The marginal moments of x: `E x = B E φ`, `Cov x = Σ + B Cov(φ) Bᵀ`, with the first and second
-    /// trigonometric moments of p(y).
-    pub fn marginal_moments(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
-        let (m1, m2) = self.angle.trigonometric_moments();
-        let mean_phi = Vector3::new(1.0, m1.x, m1.y);
-        // E φ φᵀ: E cos² = (1 + E cos 2y)/2, E sin² = (1 − E cos 2y)/2, E cos sin = E sin 2y / 2.
-        let second = SMatrix::<f64, 3, 3>::new(
-            1.0,
-            m1.x,
-            m1.y,
-            m1.x,
-            0.5 * (1.0 + m2.x),
-            0.5 * m2.y,
-            m1.y,
-            0.5 * m2.y,
-            0.5 * (1.0 - m2.x),
-        );
-        let cov_phi = second - mean_phi * mean_phi.transpose();
-        let cov = self.covariance + self.features * cov_phi * self.features.transpose();
-        (self.features * mean_phi, (cov + cov.transpose()) * 0.5)
-    }
-
-    /// `ln p(z | y, past)` of a y-independent linear measurement, as harmonics of y (see the type docs).
-    ///
-    /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite z, [`OperatorError::NotPositiveDefinite`] when
-    /// `S = H Σ Hᵀ + R` is not.
-    pub fn linear_harmonics<const M: usize>(
-        &self,
-        model: &LinearMeasurement<N, M>,
-        z: &SVector<f64, M>,
-    ) -> Result<Harmonics, OperatorError> {
-        Ok(self.linear_step(model, z)?.0)
-    }
-
-    /// The harmonics, the gain and the innovation covariance's factor of a linear measurement.
-    fn linear_step<const M: usize>(
-        &self,
-        model: &LinearMeasurement<N, M>,
-        z: &SVector<f64, M>,
-    ) -> Result<(Harmonics, SMatrix<f64, N, M>), OperatorError> {
-        all_finite("measurement z", z.iter())?;
-        let h = model.matrix();
-        let s = h * self.covariance * h.transpose() + model.noise();
-        let factor =
-            Cholesky::new((s + s.transpose()) * 0.5).ok_or(OperatorError::NotPositiveDefinite {
-                what: "innovation covariance H Sigma H^T + R (make R positive definite)",
-            })?;
-        let g_matrix = h * self.features;
-        let w = g_matrix.transpose() * factor.solve(&g_matrix);
-        let s_inv_z = factor.solve(z);
-        let g = g_matrix.transpose() * s_inv_z;
-        let log_det = 2.0 * factor.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
-        let harmonics = Harmonics {
-            constant: -0.5 * z.dot(&s_inv_z) + g[0]
-                - 0.5 * w[(0, 0)]
-                - 0.25 * (w[(1, 1)] + w[(2, 2)])
-                - 0.5 * (log_det + M as f64 * (2.0 * PI).ln()),
-            eta1: Vector2::new(g[1] - w[(0, 1)], g[2] - w[(0, 2)]),
-            eta2: Vector2::new(-0.25 * (w[(1, 1)] - w[(2, 2)]), -0.5 * w[(1, 2)]),
-        };
-        let gain = factor.solve(&(h * self.covariance)).transpose();
-        Ok((harmonics, gain))
-    }
-
-    /// `ln p(z | y, past)` of a rotated measurement, as harmonics of y (see the type docs).
-    ///
-    /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite z, [`OperatorError::NotClosed`] when `H Σ Hᵀ` is
-    /// not isotropic.
-    pub fn rotated_harmonics(
-        &self,
-        model: &RotatedMeasurement<N>,
-        z: &Vector2<f64>,
-    ) -> Result<Harmonics, OperatorError> {
-        Ok(self.rotated_step(model, z)?.0)
-    }
-
-    /// The harmonics and `S = s + σ_m²` of a rotated measurement.
-    fn rotated_step(
-        &self,
-        model: &RotatedMeasurement<N>,
-        z: &Vector2<f64>,
-    ) -> Result<(Harmonics, f64), OperatorError> {
-        all_finite("measurement z", z.iter())?;
-        let h = &model.matrix;
-        let projected = h * self.covariance * h.transpose();
-        let s_iso = 0.5 * projected.trace();
-        let anisotropy = (projected - SMatrix::<f64, 2, 2>::identity() * s_iso).amax();
-        if anisotropy > 1e-10 * s_iso {
-            return Err(OperatorError::NotClosed {
-                what: "H Sigma H^T of a rotated measurement is not isotropic, so the posterior \
+/// The harmonics and `S = s + σ_m²` of a rotated measurement.
+fn rotated_step<const N: usize>(
+    density: &HarmonicGaussian<N>,
+    model: &RotatedMeasurement<N>,
+    z: &Vector2<f64>,
+) -> Result<(Harmonics, f64), OperatorError> {
+    all_finite("measurement z", z.iter())?;
+    let h = &model.matrix;
+    let projected = h * density.covariance() * h.transpose();
+    let s_iso = 0.5 * projected.trace();
+    let anisotropy = (projected - SMatrix::<f64, 2, 2>::identity() * s_iso).amax();
+    if anisotropy > 1e-10 * s_iso {
+        return Err(OperatorError::NotClosed {
+            what: "H Sigma H^T of a rotated measurement is not isotropic, so the posterior \
                        covariance would depend on the angle; use the grid or the marginalized \
                        particle filter",
-                value: anisotropy / s_iso,
-            });
-        }
-        let s = s_iso + model.variance;
-        let g = h * self.features;
-        let (b0, b1, b2) = (
-            Vector2::new(g[(0, 0)], g[(1, 0)]),
-            Vector2::new(g[(0, 1)], g[(1, 1)]),
-            Vector2::new(g[(0, 2)], g[(1, 2)]),
-        );
-        let harmonics = Harmonics {
-            constant: -(2.0 * PI * s).ln()
-                - (z.norm_squared() - z.dot(&b1) - cross(&b2, z)
-                    + b0.norm_squared()
-                    + 0.5 * (b1.norm_squared() + b2.norm_squared()))
-                    / (2.0 * s),
-            eta1: Vector2::new(z.dot(&b0) - b0.dot(&b1), cross(&b0, z) - b0.dot(&b2)) / s,
-            eta2: Vector2::new(
-                0.5 * (z.dot(&b1) - cross(&b2, z)) - 0.25 * (b1.norm_squared() - b2.norm_squared()),
-                0.5 * (cross(&b1, z) + z.dot(&b2)) - 0.5 * b1.dot(&b2),
-            ) / s,
-        };
-        Ok((harmonics, s))
+            value: anisotropy / s_iso,
+        });
     }
+    let s = s_iso + model.variance;
+    let g = h * density.features();
+    let (b0, b1, b2) = (
+        Vector2::new(g[(0, 0)], g[(1, 0)]),
+        Vector2::new(g[(0, 1)], g[(1, 1)]),
+        Vector2::new(g[(0, 2)], g[(1, 2)]),
+    );
+    let harmonics = Harmonics {
+        constant: -(2.0 * PI * s).ln()
+            - (z.norm_squared() - z.dot(&b1) - cross(&b2, z)
+                + b0.norm_squared()
+                + 0.5 * (b1.norm_squared() + b2.norm_squared()))
+                / (2.0 * s),
+        eta1: Vector2::new(z.dot(&b0) - b0.dot(&b1), cross(&b0, z) - b0.dot(&b2)) / s,
+        eta2: Vector2::new(
+            0.5 * (z.dot(&b1) - cross(&b2, z)) - 0.25 * (b1.norm_squared() - b2.norm_squared()),
+            0.5 * (cross(&b1, z) + z.dot(&b2)) - 0.5 * b1.dot(&b2),
+        ) / s,
+    };
+    Ok((harmonics, s))
+}
 
-    /// p(y) multiplied by `exp(harmonics)`, and the log evidence `constant + ln Z(η⁺) − ln Z(η)`.
-    fn reweighted_angle(&self, h: &Harmonics) -> Result<(GenVonMises2, f64), OperatorError> {
-        let angle = GenVonMises2::new(self.angle.eta1() + h.eta1, self.angle.eta2() + h.eta2)?;
-        let log_evidence = h.constant + angle.log_normalizer() - self.angle.log_normalizer();
-        Ok((angle, log_evidence))
-    }
+/// p(y) multiplied by `exp(harmonics)`, and the log evidence `constant + ln Z(η⁺) − ln Z(η)`.
+fn reweighted_angle(
+    prior: &GenVonMises2,
+    h: &Harmonics,
+) -> Result<(GenVonMises2, f64), OperatorError> {
+    let angle = GenVonMises2::new(prior.eta1() + h.eta1, prior.eta2() + h.eta2)?;
+    let log_evidence = h.constant + angle.log_normalizer() - prior.log_normalizer();
+    Ok((angle, log_evidence))
 }
 
 impl<const N: usize> Propagate<LinearProcess<N>> for HarmonicGaussian<N> {
@@ -311,56 +221,61 @@ impl<const N: usize> Propagate<LinearProcess<N>> for HarmonicGaussian<N> {
     ) -> Result<Self, OperatorError> {
         all_finite("process input u", u.iter())?;
         let f = model.transition();
-        let mut features = f * self.features;
+        let mut features = f * self.features();
         features.set_column(0, &(features.column(0) + u));
-        Self::new(
-            self.angle.clone(),
+        Ok(Self::new(
+            self.angle().clone(),
             features,
-            f * self.covariance * f.transpose() + model.noise(),
-        )
+            f * self.covariance() * f.transpose() + model.noise(),
+        )?)
     }
 }
 
 impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for HarmonicGaussian<N> {
     type Measurement = SVector<f64, M>;
+    type Report = ();
 
-    /// See the type docs.
+    /// See the module docs.
     fn condition(
         &self,
         model: &LinearMeasurement<N, M>,
         z: &SVector<f64, M>,
     ) -> Result<Conditioned<Self>, OperatorError> {
-        let (harmonics, gain) = self.linear_step(model, z)?;
-        let (angle, log_evidence) = self.reweighted_angle(&harmonics)?;
-        let mut features = self.features - gain * (model.matrix() * self.features);
+        let (harmonics, gain) = linear_step(self, model, z)?;
+        let (angle, log_evidence) = reweighted_angle(self.angle(), &harmonics)?;
+        let mut features = self.features() - gain * (model.matrix() * self.features());
         features.set_column(0, &(features.column(0) + gain * z));
-        let covariance = joseph(&self.covariance, &gain, model.matrix(), model.noise());
+        let covariance = joseph(self.covariance(), &gain, model.matrix(), model.noise());
         Ok(Conditioned {
             posterior: Self::new(angle, features, covariance)?,
             log_evidence,
+            report: (),
         })
     }
 }
 
 impl<const N: usize> Condition<RotatedMeasurement<N>> for HarmonicGaussian<N> {
     type Measurement = Vector2<f64>;
+    type Report = ();
 
-    /// See the type docs.
+    /// See the module docs.
     fn condition(
         &self,
         model: &RotatedMeasurement<N>,
         z: &Vector2<f64>,
     ) -> Result<Conditioned<Self>, OperatorError> {
-        let (harmonics, s) = self.rotated_step(model, z)?;
-        let (angle, log_evidence) = self.reweighted_angle(&harmonics)?;
+        let (harmonics, s) = rotated_step(self, model, z)?;
+        let (angle, log_evidence) = reweighted_angle(self.angle(), &harmonics)?;
         // K(y) (z − R(y) H B φ) with K(y) = Σ Hᵀ R(y)ᵀ / S: R(y)ᵀ z = cos y z − sin y z^×.
-        let sigma_ht = self.covariance * model.matrix.transpose() / s;
+        let sigma = self.covariance();
+        let sigma_ht = sigma * model.matrix.transpose() / s;
         let rotated_z = SMatrix::<f64, 2, 3>::from_columns(&[Vector2::zeros(), *z, -perp(z)]);
-        let features = self.features + sigma_ht * (rotated_z - model.matrix * self.features);
-        let covariance = self.covariance - sigma_ht * model.matrix * self.covariance;
+        let features = self.features() + sigma_ht * (rotated_z - model.matrix * self.features());
+        let covariance = sigma - sigma_ht * model.matrix * sigma;
         Ok(Conditioned {
             posterior: Self::new(angle, features, covariance)?,
             log_evidence,
+            report: (),
         })
     }
 }

@@ -2,14 +2,21 @@
 
 use crate::OperatorError;
 
-/// The result of conditioning: the posterior density and the log evidence `ln p(z)` of the measurement
-/// under the prior (the log marginal likelihood, a density value in the measurement's units).
+/// The result of conditioning: the posterior density, the log evidence `ln p(z)` of the measurement
+/// under the prior (the log marginal likelihood, a density value in the measurement's units), and
+/// what else the algorithm computed on the way (its [`Condition::Report`]).
+///
+/// The report is where a step gives what a user checks a filter with: the Kalman filters (linear,
+/// extended, unscented) report their [`Innovation`](crate::Innovation) (ν, S, K and the NIS); steps
+/// without such quantities (particles, grids, the exact composites) report `()`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Conditioned<D> {
+pub struct Conditioned<D, R = ()> {
     /// `p(x | z)`.
     pub posterior: D,
     /// `ln p(z) = ln ∫ p(z | x) p(x) dx`.
     pub log_evidence: f64,
+    /// The algorithm's by-products (see [`Condition::Report`]).
+    pub report: R,
 }
 
 /// Chapman-Kolmogorov: the density of the state after the process `Model` acts with an input.
@@ -30,7 +37,13 @@ pub trait Condition<Model: ?Sized>: Sized {
     /// The measurement's type.
     type Measurement: ?Sized;
 
-    /// `p(x | z) = p(z | x) p(x) / p(z)`, with `ln p(z)`.
+    /// What the step reports besides the posterior and the log evidence: an
+    /// [`Innovation`](crate::Innovation) for the Kalman filters, `()` where the algorithm has nothing
+    /// more to say.
+    type Report;
+
+    /// `p(x | z) = p(z | x) p(x) / p(z)`, with `ln p(z)` and the report. All or nothing: on an error
+    /// nothing has changed (the method takes `&self`), and no partial result is returned.
     ///
     /// # Errors
     /// When the model or the measurement is invalid or the posterior is not a valid density.
@@ -38,5 +51,5 @@ pub trait Condition<Model: ?Sized>: Sized {
         &self,
         model: &Model,
         z: &Self::Measurement,
-    ) -> Result<Conditioned<Self>, OperatorError>;
+    ) -> Result<Conditioned<Self, Self::Report>, OperatorError>;
 }

@@ -7,25 +7,25 @@
 //!
 //! * **propagate**: `Yᵢ = f(χᵢ, u)`; the mean m is the weighted mean *on the manifold*, the fixed point
 //!   of `m ← m ⊞ Σ wᵢᵐ (Yᵢ ⊟ m)` (Gauss-Newton, never an average of coordinates, so sigma points on both
-//!   sides of ±π average correctly); `P′ = Σ wᵢᶜ (Yᵢ ⊟ m)(Yᵢ ⊟ m)ᵀ + Q`.
+//!   sides of ±π average correctly); `P′ = Σ wᵢᶜ (Yᵢ ⊟ m)(Yᵢ ⊟ m)ᵀ + Q`; for the
+//!   [smoother](crate::smoother), the cross-covariance `C = Σ wᵢᶜ dᵢ (Yᵢ ⊟ m)ᵀ` with dᵢ the sigma
+//!   offsets.
 //! * **condition**: `Zᵢ = h(χᵢ)`, ẑ the fixed point of `ẑ ← ẑ + Σ wᵢᵐ (Zᵢ ⊟ ẑ)` (with the model's residual,
 //!   which may wrap), `S = Σ wᵢᶜ rᵢ rᵢᵀ + R`, `C = Σ wᵢᶜ dᵢ rᵢᵀ` with dᵢ the sigma offsets,
-//!   `K = C S⁻¹`, `μ⁺ = μ ⊞ K (z ⊟ ẑ)`, `P⁺ = P − K S Kᵀ`; log evidence `ln N(z ⊟ ẑ; 0, S)`.
+//!   `K = C S⁻¹`, `μ⁺ = μ ⊞ K (z ⊟ ẑ)`, `P⁺ = P − K S Kᵀ`; log evidence `ln N(z ⊟ ẑ; 0, S)`; the
+//!   report is the [`Innovation`] (ν, S, K, NIS).
 //!
 //! Exact for linear models on Rⁿ (it then equals the Kalman filter). Nothing is allocated: the sigma
 //! points live in arrays of size D.
 
-use crate::manifold_gaussian::{
-    GaussianUpdate, ManifoldGaussian, MeasurementModel, ProcessModel, checked_covariance,
-};
-use crate::{Condition, Conditioned, OperatorError, Propagate};
+use crate::models::{MeasurementModel, ProcessModel};
+use crate::numerics::{MEAN_ITERATIONS, MEAN_TOLERANCE, checked_gaussian, manifold_mean};
+use crate::smoother::{GaussianTransition, Prediction};
+use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
+use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
-use nalgebra::{Cholesky, SMatrix, SVector};
-
-/// Iterations of the manifold mean before giving up; convergence to 1e-12 takes 2 to 5 in practice.
-const MEAN_ITERATIONS: usize = 50;
-/// The mean is converged when its step is below this (in tangent units).
-const MEAN_TOLERANCE: f64 = 1e-12;
+use nalgebra::{SMatrix, SVector};
+use std::iter::once;
 
 /// A model to be used through the unscented transform: `density.propagate(&Ukf::new(process), &u)`,
 /// `density.condition(&Ukf::new(measurement), &z)`. M, the measurement dimension, is inferred from z
@@ -99,43 +99,60 @@ impl<Model, const M: usize> Ukf<Model, M> {
     }
 }
 
-/// The sigma offsets `γ Lⱼ` (the −γ Lⱼ side is their negation).
-fn sigma_offsets<const D: usize>(
-    covariance: &SMatrix<f64, D, D>,
+/// The sigma offsets `γ Lⱼ` from the density's Cholesky factor (the −γ Lⱼ side is their negation).
+fn sigma_offsets<X, const D: usize>(
+    density: &ManifoldGaussian<X, D>,
     gamma: f64,
-) -> Result<[SVector<f64, D>; D], OperatorError> {
-    let l = Cholesky::new(*covariance)
-        .ok_or(OperatorError::NotPositiveDefinite {
-            what: "tangent covariance P",
-        })?
-        .l()
-        * gamma;
-    Ok(std::array::from_fn(|j| l.column(j).into_owned()))
+) -> [SVector<f64, D>; D]
+where
+    X: Manifold<D, Scalar = f64>,
+{
+    let l = density.cholesky_factor() * gamma;
+    std::array::from_fn(|j| l.column(j).into_owned())
 }
 
-/// The weighted mean of `centre` (weight w₀) and `plus`/`minus` (weight w each) on the manifold, by
-/// Gauss-Newton from `centre`.
-fn manifold_mean<X: Manifold<D, Scalar = f64>, const D: usize, const K: usize>(
-    centre: &X,
-    plus: &[X; K],
-    minus: &[X; K],
-    w0: f64,
-    w: f64,
-) -> X {
-    let mut mean = centre.clone();
-    for _ in 0..MEAN_ITERATIONS {
-        let step = mean.local(centre) * w0
-            + plus
-                .iter()
-                .chain(minus)
-                .map(|y| mean.local(y) * w)
-                .sum::<SVector<f64, D>>();
-        mean = mean.retract(&step);
-        if step.norm() < MEAN_TOLERANCE {
-            break;
+impl<X, P, const D: usize> GaussianTransition<X, D> for Ukf<P>
+where
+    X: Manifold<D, Scalar = f64>,
+    P: ProcessModel<X, D>,
+{
+    type Input = P::Input;
+
+    /// The unscented prediction (see the module docs), with the cross-covariance
+    /// `C = Σ wᵢᶜ dᵢ (Yᵢ ⊟ m)ᵀ` of the sigma offsets dᵢ and the images' deviations.
+    fn predict_with_cross(
+        &self,
+        prior: &ManifoldGaussian<X, D>,
+        input: &P::Input,
+    ) -> Result<Prediction<X, D>, OperatorError> {
+        let (gamma, w0m, w0c, w) = self.weights(D);
+        let offsets = sigma_offsets(prior, gamma);
+        let mu = prior.mean();
+        let centre = self.model.transition(mu, input);
+        let plus = offsets.map(|d| self.model.transition(&mu.retract(&d), input));
+        let minus = offsets.map(|d| self.model.transition(&mu.retract(&-d), input));
+        let mean = manifold_mean(
+            &centre,
+            &once((w0m, &centre)).chain(plus.iter().chain(&minus).map(|y| (w, y))),
+        );
+        let e0 = mean.local(&centre);
+        let mut covariance = e0 * e0.transpose() * w0c + self.model.noise(mu, input);
+        let mut cross = SMatrix::<f64, D, D>::zeros();
+        for (d, (yp, ym)) in offsets.iter().zip(plus.iter().zip(&minus)) {
+            let (ep, em) = (mean.local(yp), mean.local(ym));
+            covariance += (ep * ep.transpose() + em * em.transpose()) * w;
+            cross += d * (ep - em).transpose() * w;
         }
+        let density = checked_gaussian(
+            mean,
+            &covariance,
+            "predicted covariance (sigma points plus Q; check the process noise Q)",
+        )?;
+        Ok(Prediction {
+            density,
+            cross_covariance: cross,
+        })
     }
-    mean
 }
 
 impl<X, P, const D: usize> Propagate<Ukf<P>> for ManifoldGaussian<X, D>
@@ -146,28 +163,7 @@ where
     type Input = P::Input;
 
     fn propagate(&self, ukf: &Ukf<P>, input: &P::Input) -> Result<Self, OperatorError> {
-        let (gamma, w0m, w0c, w) = ukf.weights(D);
-        let offsets = sigma_offsets(self.covariance(), gamma)?;
-        let mu = self.mean();
-        let centre = ukf.model.transition(mu, input);
-        let plus = offsets.map(|d| ukf.model.transition(&mu.retract(&d), input));
-        let minus = offsets.map(|d| ukf.model.transition(&mu.retract(&-d), input));
-        let mean = manifold_mean(&centre, &plus, &minus, w0m, w);
-        let outer = |y: &X| {
-            let e = mean.local(y);
-            e * e.transpose()
-        };
-        let covariance = outer(&centre) * w0c
-            + plus
-                .iter()
-                .chain(&minus)
-                .map(|y| outer(y) * w)
-                .sum::<SMatrix<f64, D, D>>()
-            + ukf.model.noise(mu, input);
-        Ok(ManifoldGaussian::from_checked(
-            mean,
-            checked_covariance(covariance)?,
-        ))
+        ukf.predict_with_cross(self, input).map(|p| p.density)
     }
 }
 
@@ -177,20 +173,22 @@ where
     H: MeasurementModel<X, D, M>,
 {
     type Measurement = SVector<f64, M>;
+    type Report = Innovation<D, M>;
 
     fn condition(
         &self,
         ukf: &Ukf<H, M>,
         z: &SVector<f64, M>,
-    ) -> Result<Conditioned<Self>, OperatorError> {
+    ) -> Result<Conditioned<Self, Innovation<D, M>>, OperatorError> {
         crate::error::all_finite("measurement z", z.iter())?;
         let (gamma, w0m, w0c, w) = ukf.weights(D);
-        let offsets = sigma_offsets(self.covariance(), gamma)?;
+        let offsets = sigma_offsets(self, gamma);
         let (mu, h) = (self.mean(), &ukf.model);
         let centre = h.predict(mu);
         let plus = offsets.map(|d| h.predict(&mu.retract(&d)));
         let minus = offsets.map(|d| h.predict(&mu.retract(&-d)));
-        // ẑ by the same fixed point as the state mean, with the model's residual.
+        // ẑ by the same fixed point as the state mean (and its iteration limits), with the model's
+        // residual in place of `local`.
         let mut predicted = centre;
         for _ in 0..MEAN_ITERATIONS {
             let step = h.residual(&centre, &predicted) * w0m
@@ -212,13 +210,17 @@ where
             s += (rp * rp.transpose() + rm * rm.transpose()) * w;
             cross += d * (rp - rm).transpose() * w;
         }
-        let innovation = h.residual(z, &predicted);
-        let update = GaussianUpdate::new(&innovation, &s, &cross)?;
-        let covariance =
-            checked_covariance(self.covariance() - update.gain * s * update.gain.transpose())?;
+        let (report, log_evidence) = Innovation::new(h.residual(z, &predicted), &s, &cross)?;
+        let gain = report.gain();
+        let posterior = checked_gaussian(
+            mu.retract(&report.correction()),
+            &(self.covariance() - gain * report.covariance() * gain.transpose()),
+            "posterior covariance P - K S K^T (it lost positive definiteness; check R)",
+        )?;
         Ok(Conditioned {
-            posterior: ManifoldGaussian::from_checked(mu.retract(&update.correction), covariance),
-            log_evidence: update.log_evidence,
+            posterior,
+            log_evidence,
+            report,
         })
     }
 }

@@ -1,14 +1,17 @@
 //! The particle filter: resampling schemes unbiased (and systematic/residual within one copy of N wᵢ),
-//! and the log evidence and posterior mean against the exact Kalman filter on a conjugate problem.
+//! the log evidence and posterior mean against the exact Kalman filter on a conjugate problem, sets
+//! from weighted samples, and the weighted mean on a manifold.
 
 use liebayes_densities::Gaussian;
-use liebayes_operators::Condition;
+use liebayes_manifolds::{LieGroup, Manifold, Rn, So2, So3};
 use liebayes_operators::kalman::LinearMeasurement;
 use liebayes_operators::particle::{ParticleSet, Resampling, resample_indices};
-use nalgebra::{Matrix1, Vector1};
+use liebayes_operators::{Condition, OperatorError};
+use nalgebra::{Matrix1, Vector1, Vector2, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
+use std::f64::consts::PI;
 
 const SCHEMES: [Resampling; 4] = [
     Resampling::Multinomial,
@@ -167,4 +170,100 @@ fn failed_steps_leave_the_set_unchanged() {
     // And a successful one replaces both.
     set.condition_with(|x| Ok((x + 10.0, 0.0))).unwrap();
     assert_eq!(set.particles(), &[11.0, 12.0, 13.0]);
+}
+
+/// Weighted samples: linear and log weights give the set that reweighting equal samples gives, and
+/// log weights far below the smallest f64 keep their ratios.
+#[test]
+fn weighted_samples_equal_reweighted_samples() {
+    let particles: Vec<usize> = vec![0, 1, 2, 3];
+    let weights = [0.5, 2.0, 0.0, 1.5];
+    let from_linear = ParticleSet::from_weighted_samples(particles.clone(), &weights).unwrap();
+    let mut reweighted = ParticleSet::from_samples(particles.clone()).unwrap();
+    reweighted.condition(|x| weights[*x].ln()).unwrap();
+    for (a, b) in from_linear
+        .log_weights()
+        .iter()
+        .zip(reweighted.log_weights())
+    {
+        assert!(a == b || (a - b).abs() < 1e-15, "{a} vs {b}");
+    }
+    for (w, expected) in from_linear.weights().iter().zip([0.125, 0.5, 0.0, 0.375]) {
+        assert!((w - expected).abs() < 1e-15, "{w} vs {expected}");
+    }
+    // Log weights with a huge offset and one of e^(−2000) relative: normalised in the log domain.
+    let logs = [
+        -5000.0,
+        -5000.0 - 2000.0,
+        f64::NEG_INFINITY,
+        -5000.0 + 2.0_f64.ln(),
+    ];
+    let from_logs = ParticleSet::from_log_weighted_samples(particles, &logs).unwrap();
+    let l = from_logs.log_weights();
+    assert!((l[0] - (1.0_f64 / 3.0).ln()).abs() < 1e-12);
+    assert!((l[1] - l[0] + 2000.0).abs() < 1e-9);
+    assert_eq!(l[2], f64::NEG_INFINITY);
+}
+
+#[test]
+fn bad_weights_are_refused_with_a_reason() {
+    let two = || vec![1.0, 2.0];
+    let message = |r: Result<ParticleSet<f64>, OperatorError>| r.unwrap_err().to_string();
+    assert!(
+        message(ParticleSet::from_weighted_samples(two(), &[1.0])).contains("number of weights")
+    );
+    assert!(
+        message(ParticleSet::from_weighted_samples(two(), &[1.0, -0.5])).contains("[0, infinity)")
+    );
+    assert!(
+        message(ParticleSet::from_weighted_samples(two(), &[1.0, f64::NAN])).contains("finite")
+    );
+    assert!(ParticleSet::from_weighted_samples(two(), &[1.0, f64::INFINITY]).is_err());
+    assert!(message(ParticleSet::from_weighted_samples(two(), &[0.0, 0.0])).contains("zero"));
+    assert!(ParticleSet::from_weighted_samples(Vec::<f64>::new(), &[]).is_err());
+    assert!(ParticleSet::from_log_weighted_samples(two(), &[0.0, f64::NAN]).is_err());
+    assert!(ParticleSet::from_log_weighted_samples(two(), &[0.0, f64::INFINITY]).is_err());
+    let all_zero = [f64::NEG_INFINITY, f64::NEG_INFINITY];
+    assert!(ParticleSet::from_log_weighted_samples(two(), &all_zero).is_err());
+    assert!(ParticleSet::from_log_weighted_samples(two(), &[0.0, 0.0, 0.0]).is_err());
+}
+
+/// The weighted mean on the manifold: across the ±π cut on SO(2) (where an average of angles would
+/// give 0), exactly the weighted average on Rⁿ, and the centre of a symmetric set on SO(3).
+#[test]
+fn the_mean_is_taken_on_the_manifold() {
+    let angles = [PI - 0.1, -PI + 0.3, PI - 0.2];
+    let set = ParticleSet::from_weighted_samples(
+        angles
+            .iter()
+            .map(|a| So2::from_angle_unchecked(*a))
+            .collect(),
+        &[0.5, 0.25, 0.25],
+    )
+    .unwrap();
+    // Unwrapped: 0.5 (π − 0.1) + 0.25 (π + 0.3) + 0.25 (π − 0.2) = π − 0.025.
+    assert!(set.mean().distance(&So2::from_angle_unchecked(PI - 0.025)) < 1e-12);
+    let points = [
+        Vector2::new(1.0, 2.0),
+        Vector2::new(-3.0, 0.5),
+        Vector2::new(10.0, 1e3),
+    ];
+    let weights = [0.2, 0.7, 0.1];
+    let set = ParticleSet::from_weighted_samples(
+        points.iter().map(|p| Rn::new_unchecked(*p)).collect(),
+        &weights,
+    )
+    .unwrap();
+    let expected: Vector2<f64> = points.iter().zip(weights).map(|(p, w)| p * w).sum();
+    assert!((set.mean().coords() - expected).amax() < 1e-12 * expected.amax());
+    let centre = So3::exp(&Vector3::new(0.3, -2.0, 1.0));
+    let offsets = [Vector3::new(0.4, 0.1, -0.2), Vector3::new(-0.1, 0.3, 0.5)];
+    let set = ParticleSet::from_samples(
+        offsets
+            .iter()
+            .flat_map(|v| [centre.retract(v), centre.retract(&-v)])
+            .collect(),
+    )
+    .unwrap();
+    assert!(set.mean().distance(&centre) < 1e-12);
 }

@@ -12,13 +12,13 @@ use super::density::check_measurement;
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use super::scenario::normal2;
 use super::{AzimuthDensity, GridReference};
-use liebayes_densities::{Gaussian, special};
+use liebayes_densities::{Gaussian, ManifoldGaussian, special};
 use liebayes_manifolds::{Manifold, So2};
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::particle::{ParticleSet, Resampling};
 use liebayes_operators::rao_blackwell::condition_marginalized;
 use liebayes_operators::{
-    Condition, Ekf, ManifoldGaussian, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
+    Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
 };
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 use rand::{Rng, RngCore};
@@ -210,8 +210,15 @@ impl GaussianBaseline {
     /// The prior `r ~ N(r₀, σ₀² I)`, `A ~ N(0, π²/3)` (the variance of the uniform azimuth).
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] or [`OperatorError::NotPositiveDefinite`] for bad r₀ or σ₀.
+    /// [`OperatorError::NonFinite`] for a non-finite r₀, [`OperatorError::Density`] for a σ₀ that
+    /// does not give a positive definite covariance.
     pub fn new(kind: Linearisation, r0: Vector2<f64>, sigma0: f64) -> Result<Self, OperatorError> {
+        if let Some(&value) = r0.iter().find(|v| !v.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: "initial position r_0",
+                value,
+            });
+        }
         let s2 = sigma0 * sigma0;
         let state = PositionAzimuth {
             r: r0,

@@ -1,9 +1,8 @@
 //! [`AzimuthDensity`]: the exact seven-number posterior of azimuth alignment.
 
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
-use liebayes_densities::{GenVonMises2, VonMises, special};
+use liebayes_densities::{DensityError, GenVonMises2, HarmonicGaussian, VonMises, special};
 use liebayes_manifolds::So2;
-use liebayes_operators::rao_blackwell::HarmonicGaussian;
 use liebayes_operators::{Condition, Conditioned, OperatorError, Propagate};
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
 use std::f64::consts::PI;
@@ -129,7 +128,8 @@ impl AzimuthDensity {
         self.sigma2
     }
 
-    /// The same density as the operators crate's general Rao-Blackwellized composite:
+    /// The same density as the general Rao-Blackwellized composite of the densities crate (whose exact
+    /// steps are the operators crate's `rao_blackwell`):
     /// `p(A) = GVM₂(η, 0)`, `E[r | A] = B φ(A)` with `B = [a, c, −c^×]`, `Cov[r | A] = σ² I`. Propagating
     /// that composite with the linear process and conditioning it on the rotated measurement
     /// `z = R(A) r + n` gives this filter's seven numbers again, with η₂ = 0 at every step
@@ -138,7 +138,7 @@ impl AzimuthDensity {
     ///
     /// # Errors
     /// Never for a valid density; the composite's constructor errors otherwise.
-    pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, OperatorError> {
+    pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, DensityError> {
         HarmonicGaussian::new(
             GenVonMises2::new(self.eta, Vector2::zeros())?,
             Matrix2x3::from_columns(&[self.a, self.c, -perp(&self.c)]),
@@ -279,6 +279,7 @@ impl Propagate<VelocityProcess> for AzimuthDensity {
 
 impl Condition<PositionMeasurement> for AzimuthDensity {
     type Measurement = Vector2<f64>;
+    type Report = ();
 
     /// See [`AzimuthDensity::update`].
     fn condition(
@@ -292,6 +293,7 @@ impl Condition<PositionMeasurement> for AzimuthDensity {
         Ok(Conditioned {
             posterior,
             log_evidence,
+            report: (),
         })
     }
 }

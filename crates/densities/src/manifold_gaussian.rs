@@ -1,0 +1,300 @@
+//! [`ManifoldGaussian`]: a Gaussian in the tangent space at a point of any manifold (the "concentrated
+//! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
+
+use crate::error::DensityError;
+use crate::traits::{Density, Entropy};
+use liebayes_manifolds::{Jacobian, LieGroup, Manifold};
+use nalgebra::{Cholesky, SMatrix, SVector};
+use rand::Rng;
+use rand_distr::StandardNormal;
+use std::f64::consts::PI;
+
+/// Two means are the same point for [`ManifoldGaussian::kl_divergence`] when their offset is below
+/// 1e-6 standard deviations: squared Mahalanobis length at most 1e-12.
+const SAME_MEAN_MAHALANOBIS_SQUARED: f64 = 1e-12;
+
+/// Relative asymmetry accepted in P: `|P − Pᵀ| ≤ 1e-12 max|P|` (as for [`Gaussian`](crate::Gaussian)).
+const SYMMETRY_TOLERANCE: f64 = 1e-12;
+
+/// The distribution of `x = μ ⊞ δ`, `δ ~ N(0, P)`: a mean μ on a D-dimensional manifold X and a
+/// covariance P in the tangent space at μ (right perturbation, `μ ⊞ δ = μ · exp(δ)` on a group, the
+/// convention of the whole library).
+///
+/// # Base measure
+/// `log_pdf(x)` is the Gaussian log density of the tangent vector `δ = x ⊟ μ`: a density with respect
+/// to the Lebesgue measure **in the tangent coordinates at μ** (exponential coordinates on a Lie
+/// group). On Rⁿ that is the Lebesgue measure itself. On a curved space it differs from the density
+/// against the Riemannian or Haar measure by the Jacobian of `δ ↦ μ ⊞ δ` (on SO(3),
+/// `|det Jr(δ)|⁻¹ = θ² / (2(1 − cos θ))`, θ = |δ|, which is `1 + θ²/12 + …`), and the mass of δ
+/// beyond the injectivity radius (past ±π on SO(2)) wraps onto points that `local` maps elsewhere.
+/// Both effects vanish as P → 0: this is the usual concentrated-Gaussian approximation, exact on Rⁿ.
+/// Conversions to and from the exact SO(3) families (Bingham, heat kernel) are named approximations.
+///
+/// # Moments
+/// In the tangent coordinates at μ, `E[x ⊟ μ] = 0` and `E[(x ⊟ μ)(x ⊟ μ)ᵀ] = P` (exactly while the
+/// support stays inside the injectivity radius, up to the wrapped mass otherwise): μ is the mean on the
+/// manifold (the fixed point of `m ← m ⊞ E[x ⊟ m]`) and P the covariance about it.
+///
+/// # Construction
+/// [`new`](Self::new) validates P (finite, symmetric, positive definite, with a representable
+/// inverse) and factors it once; [`cholesky_factor`](Self::cholesky_factor), `log_pdf`, `sample` and
+/// [`mahalanobis_squared`](Self::mahalanobis_squared) reuse the factor and never invert. On Rⁿ every
+/// quantity equals the [`Gaussian`](crate::Gaussian)'s (the tests check it); the type keeps its own
+/// factor rather than a `Gaussian` because the filters build one per step, and the checks above cost
+/// less here than `Gaussian::new`'s general ones.
+///
+/// # Example
+/// ```
+/// use liebayes_densities::{Density, ManifoldGaussian};
+/// use liebayes_manifolds::{Manifold, So2};
+/// use nalgebra::{Matrix1, Vector1};
+///
+/// // A heading near +π with a standard deviation of 0.1 rad.
+/// let g = ManifoldGaussian::new(So2::from_angle_unchecked(3.1), Matrix1::new(0.01)).unwrap();
+/// // A point across the cut is 0.1 rad away in the tangent at the mean, one standard deviation.
+/// let x = g.mean().retract(&Vector1::new(0.1));
+/// assert!((g.mahalanobis_squared(&x) - 1.0).abs() < 1e-12);
+/// assert!(g.log_pdf(&x) < g.log_pdf(g.mean()));
+/// ```
+#[derive(Clone, Debug)]
+pub struct ManifoldGaussian<X, const D: usize> {
+    mean: X,
+    covariance: SMatrix<f64, D, D>,
+    /// L, lower triangular, `P = L Lᵀ`.
+    cholesky: SMatrix<f64, D, D>,
+    /// `ln det P`.
+    log_det: f64,
+}
+
+/// `(tr P⁻¹, ln det P)` from the Cholesky factor L of P: `tr P⁻¹ = ‖L⁻¹‖²_F` with L⁻¹ by forward
+/// substitution, `ln det P = 2 ln Π Lᵢᵢ` (one logarithm while the product stays a normal number, the
+/// sum of logarithms otherwise).
+fn inverse_trace_and_log_det<const D: usize>(l: &SMatrix<f64, D, D>) -> (f64, f64) {
+    let reciprocal: [f64; D] = std::array::from_fn(|i| 1.0 / l[(i, i)]);
+    let mut trace = 0.0;
+    let mut column = [0.0; D];
+    for j in 0..D {
+        // Column j of L⁻¹: zero above the diagonal, then forward substitution.
+        for i in j..D {
+            let sum: f64 = (j..i).map(|k| l[(i, k)] * column[k]).sum();
+            column[i] = if i == j {
+                reciprocal[i]
+            } else {
+                -sum * reciprocal[i]
+            };
+            trace += column[i] * column[i];
+        }
+    }
+    let product: f64 = l.diagonal().iter().product();
+    let log_det = if product.is_normal() {
+        2.0 * product.ln()
+    } else {
+        2.0 * l.diagonal().iter().map(|d| d.ln()).sum::<f64>()
+    };
+    (trace, log_det)
+}
+
+impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
+    /// The distribution `μ ⊞ N(0, P)`.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] for NaN or infinite entries, [`DensityError::OutOfRange`] for a P
+    /// that is not symmetric (to 1e-12 relative) or not positive definite (its Cholesky factorisation
+    /// fails), and when P⁻¹ is not representable: its trace `tr P⁻¹ = ‖L⁻¹‖²_F` overflows
+    /// (eigenvalues of P below about 1e-308), so that Mahalanobis distances and divergences would be
+    /// infinite for every point.
+    pub fn new(mean: X, covariance: SMatrix<f64, D, D>) -> Result<Self, DensityError> {
+        const WHAT: &str = "tangent covariance P";
+        // One pass: finiteness, the largest magnitude, the largest asymmetry.
+        let (mut scale, mut asymmetry) = (0.0_f64, 0.0_f64);
+        for j in 0..D {
+            for i in 0..D {
+                let value = covariance[(i, j)];
+                if !value.is_finite() {
+                    return Err(DensityError::NonFinite { what: WHAT, value });
+                }
+                scale = scale.max(value.abs());
+                if i < j {
+                    asymmetry = asymmetry.max((value - covariance[(j, i)]).abs());
+                }
+            }
+        }
+        if asymmetry > SYMMETRY_TOLERANCE * scale {
+            return Err(DensityError::OutOfRange {
+                what: WHAT,
+                value: asymmetry,
+                range: "symmetric matrices (|P - P^T| <= 1e-12 max|P|); symmetrise it with \
+                        (P + P^T)/2",
+            });
+        }
+        let covariance = if asymmetry > 0.0 {
+            (covariance + covariance.transpose()) * 0.5
+        } else {
+            covariance
+        };
+        let Some(factor) = Cholesky::new(covariance) else {
+            return Err(DensityError::OutOfRange {
+                what: WHAT,
+                // The smallest eigenvalue for the message (a dynamic copy: the error path only).
+                value: nalgebra::DMatrix::from_column_slice(D, D, covariance.as_slice())
+                    .symmetric_eigenvalues()
+                    .min(),
+                range: "positive definite matrices (the value shown is the smallest eigenvalue)",
+            });
+        };
+        let cholesky = factor.unpack();
+        let (inverse_trace, log_det) = inverse_trace_and_log_det(&cholesky);
+        if !inverse_trace.is_finite() {
+            return Err(DensityError::OutOfRange {
+                what: "trace of the inverse tangent covariance P^-1",
+                value: inverse_trace,
+                range: "finite values: P's eigenvalues must be above about 1e-308",
+            });
+        }
+        Ok(Self {
+            mean,
+            covariance,
+            cholesky,
+            log_det,
+        })
+    }
+
+    /// μ, the mean on the manifold.
+    pub fn mean(&self) -> &X {
+        &self.mean
+    }
+
+    /// P, the covariance of `δ = x ⊟ μ` in the tangent space at μ.
+    pub fn covariance(&self) -> &SMatrix<f64, D, D> {
+        &self.covariance
+    }
+
+    /// The lower Cholesky factor L with `P = L Lᵀ` (computed once, at construction).
+    pub fn cholesky_factor(&self) -> &SMatrix<f64, D, D> {
+        &self.cholesky
+    }
+
+    /// `ln det P`.
+    pub fn log_determinant(&self) -> f64 {
+        self.log_det
+    }
+
+    /// `δᵀ P⁻¹ δ` of a tangent vector at μ, by one triangular solve.
+    fn tangent_mahalanobis_squared(&self, delta: &SVector<f64, D>) -> f64 {
+        // The factor of a successful Cholesky decomposition has a positive diagonal.
+        self.cholesky
+            .solve_lower_triangular_unchecked(delta)
+            .norm_squared()
+    }
+
+    /// The squared Mahalanobis distance `(x ⊟ μ)ᵀ P⁻¹ (x ⊟ μ)` of a point, by one triangular solve:
+    /// the NEES of an estimate μ against a true state x (χ² with D degrees of freedom when x is a draw
+    /// of this density and the support stays inside the injectivity radius).
+    pub fn mahalanobis_squared(&self, x: &X) -> f64 {
+        self.tangent_mahalanobis_squared(&self.mean.local(x))
+    }
+
+    /// The first-order covariance `J P Jᵀ` of `f(x)` for a map with right Jacobian J at the mean
+    /// (`f(μ ⊞ δ) = f(μ) ⊞ (J δ + O(|δ|²))`). Unlike [`propagate_linearized`](Self::propagate_linearized)
+    /// it accepts rank-deficient results: rotating a point p cannot move it along p, so the covariance
+    /// of R p is singular.
+    pub fn propagated_covariance<const E: usize>(
+        &self,
+        jacobian: &Jacobian<f64, E, D>,
+    ) -> SMatrix<f64, E, E> {
+        let c = jacobian * self.covariance() * jacobian.transpose();
+        (c + c.transpose()) * 0.5
+    }
+
+    /// **First-order propagation** through a map `y = f(x)` into another manifold Y, given the image
+    /// of the mean f(μ) and the right Jacobian `J = ∂[f(μ ⊞ δ) ⊟ f(μ)]/∂δ` at δ = 0:
+    /// `y ~ f(μ) ⊞ N(0, J P Jᵀ)`. Exact for maps that are affine in the tangent coordinates (group
+    /// translations, the adjoint, linear maps of Rⁿ); for others the error is of order P² times the
+    /// second derivative of f.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new), when `J P Jᵀ` is not positive definite (J rank-deficient): a degenerate
+    /// Gaussian is refused, not repaired.
+    pub fn propagate_linearized<Y: Manifold<E, Scalar = f64>, const E: usize>(
+        &self,
+        image_of_mean: Y,
+        jacobian: &Jacobian<f64, E, D>,
+    ) -> Result<ManifoldGaussian<Y, E>, DensityError> {
+        ManifoldGaussian::new(image_of_mean, self.propagated_covariance(jacobian))
+    }
+
+    /// `KL(self ‖ other) = ½ (tr(P_q⁻¹ P_p) − D + ln det P_q − ln det P_p)` for two Gaussians with
+    /// the same mean point. Both are then images of their tangent Gaussians under the same map
+    /// `δ ↦ μ ⊞ δ`, so the value is exact wherever that map is injective on the support (up to the
+    /// wrapped mass, see the type docs; exact on Rⁿ).
+    ///
+    /// # Errors
+    /// [`DensityError::OutOfRange`] when the means differ, that is when `μ_p ⊟ μ_q` is longer than
+    /// 1e-6 of q's standard deviations (squared Mahalanobis length above 1e-12): the two densities then
+    /// live in different tangent coordinates and no exact closed form exists. Below that the offset's
+    /// term `½ (μ_p ⊟ μ_q)ᵀ P_q⁻¹ (μ_p ⊟ μ_q)` is included, as on Rⁿ.
+    pub fn kl_divergence(&self, other: &Self) -> Result<f64, DensityError> {
+        let offset = other.mahalanobis_squared(&self.mean);
+        if offset > SAME_MEAN_MAHALANOBIS_SQUARED {
+            return Err(DensityError::OutOfRange {
+                what: "squared Mahalanobis distance between the two means",
+                value: offset,
+                range: "[0, 1e-12]: the closed-form KL needs a common mean point",
+            });
+        }
+        // tr(P_q⁻¹ P_p) = ‖L_q⁻¹ L_p‖²_F.
+        let trace = other
+            .cholesky
+            .solve_lower_triangular_unchecked(&self.cholesky)
+            .norm_squared();
+        Ok(0.5 * (trace + offset - D as f64 + other.log_det - self.log_det))
+    }
+}
+
+impl<G: LieGroup<D, Scalar = f64>, const D: usize> ManifoldGaussian<G, D> {
+    /// The distribution of `a · b` for independent `a ~ self` and `b ~ other`, to first order:
+    /// mean `μ_a μ_b`, covariance `Ad(μ_b⁻¹) P_a Ad(μ_b⁻¹)ᵀ + P_b` (from `j_compose_self = Ad(b⁻¹)`
+    /// and `j_compose_other = I`). The error is of order P² (the second-order terms of the
+    /// Baker-Campbell-Hausdorff series).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new) (only when the sum overflows).
+    pub fn compose(&self, other: &Self) -> Result<Self, DensityError> {
+        let ja = self.mean.j_compose_self(&other.mean);
+        let covariance = self.propagated_covariance(&ja) + other.covariance();
+        Self::new(self.mean.compose(&other.mean), covariance)
+    }
+}
+
+impl<X: Manifold<D, Scalar = f64>, const D: usize> Density for ManifoldGaussian<X, D> {
+    type Point = X;
+
+    /// `−½ (D ln 2π + ln det P + δᵀ P⁻¹ δ)` with `δ = x ⊟ μ`, against the Lebesgue measure in the
+    /// tangent coordinates at μ (see the type docs).
+    fn log_pdf(&self, x: &X) -> f64 {
+        -0.5 * self.mahalanobis_squared(x) - self.log_normalizer()
+    }
+
+    /// `½ (D ln 2π + ln det P)`.
+    fn log_normalizer(&self) -> f64 {
+        0.5 * (D as f64 * (2.0 * PI).ln() + self.log_det)
+    }
+
+    /// `μ ⊞ L z`, z standard normal in Rᴰ.
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> X {
+        let z = SVector::<f64, D>::from_fn(|_, _| rng.sample(StandardNormal));
+        self.mean.retract(&(self.cholesky * z))
+    }
+
+    /// μ.
+    fn mode(&self) -> Option<X> {
+        Some(self.mean.clone())
+    }
+}
+
+impl<X: Manifold<D, Scalar = f64>, const D: usize> Entropy for ManifoldGaussian<X, D> {
+    /// `½ (D (1 + ln 2π) + ln det P)`, against the same base measure as `log_pdf`.
+    fn entropy(&self) -> f64 {
+        0.5 * (D as f64 * (1.0 + (2.0 * PI).ln()) + self.log_det)
+    }
+}

@@ -1,0 +1,218 @@
+//! `ManifoldGaussian` against independent computations: on Rⁿ it must be the Gaussian itself; on the
+//! circle its density, integrated over the circle's own parametrisation (not the tangent one), must
+//! give the Gaussian mass inside (−π, π]; on SO(3) its samples must have the tangent moments, and its
+//! KL divergence and entropy must match Monte Carlo estimates through `log_pdf` of sampled rotations.
+//! Bad covariances are refused with a message. (First-order propagation and composition against Monte
+//! Carlo are in `gaussian.rs`.)
+
+mod common;
+
+use common::quadrature::gauss_legendre;
+use liebayes_densities::testing::gaussian;
+use liebayes_densities::{Density, Entropy, Gaussian, KlDivergence, ManifoldGaussian};
+use liebayes_manifolds::testing::strategies as st;
+use liebayes_manifolds::{LieGroup, Manifold, Rn, So2, So3};
+use nalgebra::{Matrix1, Matrix2, Matrix3, Vector2, Vector3};
+use proptest::prelude::*;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::f64::consts::PI;
+
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// On Rⁿ, `x ⊟ μ = x − μ`: every quantity is the Gaussian's, the sample the same draw.
+    #[test]
+    fn on_rn_it_is_the_gaussian(
+        p in gaussian::<2>(), q in gaussian::<2>(), x in st::rn_tangent::<f64, 2>(), seed in any::<u64>(),
+    ) {
+        let mean = Rn::new_unchecked(*p.mean());
+        let mp = ManifoldGaussian::new(mean, *p.covariance()).unwrap();
+        let mq = ManifoldGaussian::new(mean, *q.covariance()).unwrap();
+        let point = Rn::new_unchecked(x);
+        prop_assert!(close(mp.log_pdf(&point), p.log_pdf(&x), 1e-12));
+        prop_assert!(close(mp.mahalanobis_squared(&point), p.mahalanobis_squared(&x), 1e-12));
+        prop_assert!(close(mp.entropy(), p.entropy(), 1e-12));
+        prop_assert!(close(mp.log_normalizer(), p.log_normalizer(), 1e-12));
+        prop_assert!(close(mp.log_determinant(), p.log_determinant(), 1e-12));
+        // KL with a common mean: the Gaussian KL of (μ, P_p) against (μ, P_q).
+        let same_mean_q = Gaussian::new(*p.mean(), *q.covariance()).unwrap();
+        prop_assert!(close(mp.kl_divergence(&mq).unwrap(), p.kl_divergence(&same_mean_q), 1e-12));
+        prop_assert!(mp.kl_divergence(&mp).unwrap().abs() <= 1e-12);
+        let (mut r1, mut r2) = (ChaCha8Rng::seed_from_u64(seed), ChaCha8Rng::seed_from_u64(seed));
+        let (a, b) = (mp.sample(&mut r1), p.sample(&mut r2));
+        prop_assert!((a.coords() - b).amax() <= 1e-12 * (1.0 + b.amax()));
+        prop_assert_eq!(*mp.mode().unwrap().coords(), *p.mean());
+    }
+
+    /// On SO(3), `μ ⊞ L e` is |e|² from the mean, for any mean, covariance and e within the
+    /// injectivity radius.
+    #[test]
+    fn mahalanobis_distance_of_a_retracted_point(
+        mean in st::so3::<f64>(), l in proptest::array::uniform6(0.05..0.5_f64), e in st::point3::<f64>(),
+    ) {
+        let lower = Matrix3::new(l[0], 0.0, 0.0, l[3] - 0.25, l[1], 0.0, l[4] - 0.25, l[5] - 0.25, l[2]);
+        let g = ManifoldGaussian::new(mean, lower * lower.transpose()).unwrap();
+        let e = e.normalize() * 2.0;
+        let delta = g.cholesky_factor() * e;
+        prop_assume!(delta.norm() < 3.0);
+        let x = mean.retract(&delta);
+        prop_assert!(close(g.mahalanobis_squared(&x), e.norm_squared(), 1e-9));
+        prop_assert!(g.log_pdf(&x) <= g.log_pdf(g.mean()));
+    }
+}
+
+/// ∫ p over the circle, parametrised by the absolute angle t ∈ (−π, π] (points `So2(t)`, not tangent
+/// vectors at μ), with panels split at the antipode of μ where `x ⊟ μ` jumps from π to −π. The result
+/// must be the mass of N(0, σ²) inside (−π, π], computed separately on the real line.
+#[test]
+fn integrates_over_the_circle_to_the_unwrapped_mass() {
+    let rule = gauss_legendre(40);
+    let integrate = |f: &dyn Fn(f64) -> f64, a: f64, b: f64, panels: u32| -> f64 {
+        (0..panels)
+            .map(|k| {
+                let h = (b - a) / f64::from(panels);
+                let (lo, hi) = (a + h * f64::from(k), a + h * f64::from(k + 1));
+                rule.iter()
+                    .map(|(x, w)| 0.5 * (hi - lo) * w * f(0.5 * (lo + hi) + 0.5 * (hi - lo) * x))
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    for (mu, sigma) in [(3.0, 0.05), (3.0, 0.3), (-0.4, 1.0), (PI, 1.5)] {
+        let g = ManifoldGaussian::new(So2::from_angle_unchecked(mu), Matrix1::new(sigma * sigma))
+            .unwrap();
+        let density = |t: f64| g.log_pdf(&So2::from_angle_unchecked(t)).exp();
+        // The antipode of μ in (−π, π].
+        let cut = if mu > 0.0 { mu - PI } else { mu + PI };
+        let panels = 200;
+        let on_circle =
+            integrate(&density, -PI, cut, panels) + integrate(&density, cut, PI, panels);
+        let normal = |d: f64| (-0.5 * d * d / (sigma * sigma)).exp() / (sigma * (2.0 * PI).sqrt());
+        let inside = integrate(&normal, -PI, PI, 2 * panels);
+        assert!(
+            (on_circle - inside).abs() < 1e-12,
+            "mu {mu}, sigma {sigma}: {on_circle} on the circle, {inside} on the line"
+        );
+    }
+}
+
+/// Mean and standard error of `f` over n samples of `g`.
+fn monte_carlo(
+    g: &ManifoldGaussian<So3<f64>, 3>,
+    n: u32,
+    seed: u64,
+    f: impl Fn(&So3<f64>) -> f64,
+) -> (f64, f64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (mut sum, mut sum_sq) = (0.0, 0.0);
+    for _ in 0..n {
+        let v = f(&g.sample(&mut rng));
+        sum += v;
+        sum_sq += v * v;
+    }
+    let mean = sum / f64::from(n);
+    let variance = (sum_sq / f64::from(n) - mean * mean).max(0.0);
+    (mean, (variance / f64::from(n)).sqrt())
+}
+
+#[test]
+fn so3_samples_kl_and_entropy_match_monte_carlo() {
+    let mean = So3::exp(&Vector3::new(0.4, -2.0, 1.1));
+    let lp = Matrix3::new(0.3, 0.0, 0.0, 0.1, 0.2, 0.0, -0.05, 0.08, 0.25);
+    let lq = Matrix3::new(0.4, 0.0, 0.0, -0.1, 0.3, 0.0, 0.0, 0.1, 0.2);
+    let p = ManifoldGaussian::new(mean, lp * lp.transpose()).unwrap();
+    let q = ManifoldGaussian::new(mean, lq * lq.transpose()).unwrap();
+    let n = 40_000;
+    // Tangent moments: whitened mean and covariance of x ⊟ μ within 5 standard errors (the tangent
+    // mass beyond π, where x ⊟ μ would wrap, is below 1e-30 at these spreads).
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let (mut m, mut c) = (Vector3::zeros(), Matrix3::zeros());
+    for _ in 0..n {
+        let d = mean.local(&p.sample(&mut rng));
+        m += d;
+        c += d * d.transpose();
+    }
+    let (m, c) = (m / f64::from(n), c / f64::from(n));
+    let li = p.cholesky_factor().try_inverse().unwrap();
+    let standard_error = (2.0 / f64::from(n)).sqrt();
+    assert!((li * m).amax() <= 5.0 * standard_error);
+    assert!((li * c * li.transpose() - Matrix3::identity()).amax() <= 5.0 * standard_error);
+    // KL(p ‖ q) = E_p[ln p − ln q] and H(p) = −E_p[ln p], through `log_pdf` of sampled rotations.
+    let (kl, kl_se) = monte_carlo(&p, n, 12, |x| p.log_pdf(x) - q.log_pdf(x));
+    let exact = p.kl_divergence(&q).unwrap();
+    assert!(
+        (kl - exact).abs() <= 5.0 * kl_se,
+        "KL {kl} ± {kl_se} vs {exact}"
+    );
+    let (h, h_se) = monte_carlo(&p, n, 13, |x| -p.log_pdf(x));
+    assert!(
+        (h - p.entropy()).abs() <= 5.0 * h_se,
+        "H {h} ± {h_se} vs {}",
+        p.entropy()
+    );
+    // The two sides are different computations that must not both be trivially zero.
+    assert!(exact > 0.1);
+}
+
+#[test]
+fn kl_needs_a_common_mean() {
+    let mean = So3::exp(&Vector3::new(0.1, 0.2, 0.3));
+    let p = ManifoldGaussian::new(mean, Matrix3::identity() * 0.01).unwrap();
+    let nearby = ManifoldGaussian::new(
+        mean.retract(&Vector3::new(1e-9, 0.0, 0.0)),
+        Matrix3::identity() * 0.02,
+    )
+    .unwrap();
+    // 1e-9 rad is 1e-8 standard deviations: the same point; the offset's term is included.
+    assert!(p.kl_divergence(&nearby).is_ok());
+    let moved = ManifoldGaussian::new(
+        mean.retract(&Vector3::new(1e-3, 0.0, 0.0)),
+        Matrix3::identity() * 0.02,
+    )
+    .unwrap();
+    let message = p.kl_divergence(&moved).unwrap_err().to_string();
+    assert!(message.contains("common mean"), "{message}");
+}
+
+#[test]
+fn bad_covariances_are_refused_with_a_message() {
+    let x = So2::from_angle_unchecked(1.0);
+    let not_pd = ManifoldGaussian::new(x, Matrix1::new(-1.0)).unwrap_err();
+    assert!(not_pd.to_string().contains("positive definite"), "{not_pd}");
+    assert!(ManifoldGaussian::new(x, Matrix1::new(f64::NAN)).is_err());
+    assert!(ManifoldGaussian::new(x, Matrix1::new(0.0)).is_err());
+    let y = Rn::new_unchecked(Vector2::new(1.0, 2.0));
+    let asymmetric = ManifoldGaussian::new(y, Matrix2::new(1.0, 0.5, 0.0, 1.0)).unwrap_err();
+    assert!(asymmetric.to_string().contains("symmetric"), "{asymmetric}");
+    // Positive definite, but P⁻¹ = 1e310 overflows: refused; at 1e-300 it is representable.
+    let tiny = ManifoldGaussian::new(y, Matrix2::new(1e-310, 0.0, 0.0, 1.0)).unwrap_err();
+    assert!(tiny.to_string().contains("inverse"), "{tiny}");
+    let small = ManifoldGaussian::new(y, Matrix2::new(1e-300, 0.0, 0.0, 1.0)).unwrap();
+    assert!(small.log_pdf(&y).is_finite() && small.entropy().is_finite());
+    let far = Rn::new_unchecked(Vector2::new(1.0 + 1e-140, 2.0));
+    assert!(small.mahalanobis_squared(&far).is_finite());
+    // ln det P where the product of the Cholesky diagonal under- or overflows (1e-375, 1e375): the
+    // sum of logarithms instead of the logarithm of the product.
+    for scale in [1e-250, 1e-100, 1e100, 1e250] {
+        let g = ManifoldGaussian::new(
+            Rn::<f64, 3>::new_unchecked(Vector3::zeros()),
+            Matrix3::identity() * scale,
+        )
+        .unwrap();
+        let expected = 3.0 * f64::ln(scale);
+        assert!(
+            (g.log_determinant() / expected - 1.0).abs() < 1e-15,
+            "{scale}: {}",
+            g.log_determinant()
+        );
+        assert!(g.entropy().is_finite());
+    }
+    // A huge but finite covariance is fine.
+    let wide = ManifoldGaussian::new(x, Matrix1::new(1e300)).unwrap();
+    assert!(wide.log_pdf(&So2::from_angle_unchecked(-2.0)).is_finite());
+}

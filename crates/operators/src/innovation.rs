@@ -1,0 +1,98 @@
+//! [`Innovation`]: what a Kalman-type conditioning step reports, and the Gaussian update it comes from.
+
+use crate::OperatorError;
+use crate::error::all_finite;
+use nalgebra::{Cholesky, SMatrix, SVector};
+use std::f64::consts::PI;
+
+/// The by-products of a Gaussian measurement update of an N-dimensional state by an M-dimensional
+/// measurement (the [`Condition::Report`](crate::Condition::Report) of the Kalman filter, the EKF and
+/// the UKF):
+///
+/// * the innovation `ν = z ⊟ ẑ` (the measurement minus its prediction, with the model's residual);
+/// * its predicted covariance S (`H P Hᵀ + R` for the linear and extended filters, the sigma-point
+///   covariance plus R for the unscented one);
+/// * the gain K, with `μ⁺ = μ ⊞ K ν`;
+/// * the normalised innovation squared `NIS = νᵀ S⁻¹ ν`.
+///
+/// For a consistent filter ν is zero-mean Gaussian with covariance S, so the NIS is χ² with M degrees
+/// of freedom, independent from step to step; averaged over n steps or runs it lies in the band of
+/// [`average_nees_band`](crate::evaluation::average_nees_band)`(M, n)` 95 % of the time. The fields
+/// are read-only: they are the quantities of one step and stay consistent with each other.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Innovation<const N: usize, const M: usize> {
+    nu: SVector<f64, M>,
+    covariance: SMatrix<f64, M, M>,
+    gain: SMatrix<f64, N, M>,
+    nis: f64,
+}
+
+impl<const N: usize, const M: usize> Innovation<N, M> {
+    /// The update from the innovation ν, its covariance S (symmetrised as `(S + Sᵀ)/2`) and the
+    /// cross-covariance `C = Cov(δ, z)`: `K = C S⁻¹` by the Cholesky factor `S = L Lᵀ` (never
+    /// inverted), `NIS = |L⁻¹ ν|²`, and the log evidence
+    /// `ln N(ν; 0, S) = −½ (NIS + ln det S + M ln 2π)`, returned beside the report.
+    pub(crate) fn new(
+        innovation: SVector<f64, M>,
+        covariance: &SMatrix<f64, M, M>,
+        cross_covariance: &SMatrix<f64, N, M>,
+    ) -> Result<(Self, f64), OperatorError> {
+        all_finite(
+            "innovation z - h(x) (the measurement model predicted a non-finite value)",
+            innovation.iter(),
+        )?;
+        let covariance = (covariance + covariance.transpose()) * 0.5;
+        let factor = Cholesky::new(covariance).ok_or(OperatorError::NotPositiveDefinite {
+            what: "innovation covariance S (make the measurement noise R positive definite)",
+        })?;
+        let gain = factor.solve(&cross_covariance.transpose()).transpose();
+        // The factor of a successful Cholesky decomposition has a positive diagonal.
+        let nis = factor
+            .l_dirty()
+            .solve_lower_triangular_unchecked(&innovation)
+            .norm_squared();
+        let log_det = 2.0
+            * factor
+                .l_dirty()
+                .diagonal()
+                .iter()
+                .map(|d| d.ln())
+                .sum::<f64>();
+        let log_evidence = -0.5 * (nis + log_det + M as f64 * (2.0 * PI).ln());
+        Ok((
+            Self {
+                nu: innovation,
+                covariance,
+                gain,
+                nis,
+            },
+            log_evidence,
+        ))
+    }
+
+    /// ν, the innovation `z ⊟ ẑ`.
+    pub fn innovation(&self) -> &SVector<f64, M> {
+        &self.nu
+    }
+
+    /// S, the innovation's predicted covariance.
+    pub fn covariance(&self) -> &SMatrix<f64, M, M> {
+        &self.covariance
+    }
+
+    /// K, the gain (`μ⁺ = μ ⊞ K ν`).
+    pub fn gain(&self) -> &SMatrix<f64, N, M> {
+        &self.gain
+    }
+
+    /// `νᵀ S⁻¹ ν`, computed in the step from the Cholesky factor of S (one triangular solve, no
+    /// inverse): χ² with M degrees of freedom for a consistent filter.
+    pub fn nis(&self) -> f64 {
+        self.nis
+    }
+
+    /// K ν, the correction of the mean in the tangent space at the prior mean.
+    pub(crate) fn correction(&self) -> SVector<f64, N> {
+        self.gain * self.nu
+    }
+}
