@@ -22,9 +22,9 @@ use nalgebra::{Complex, Matrix2, Matrix3, UnitComplex, Vector2, Vector3};
 /// # Tangent coordinates
 /// `v = [ρ; θ] = [ρ_x, ρ_y, θ]`: **translation block first, rotation angle last** (the order of manif
 /// and Sophus; [`Se3`](crate::Se3) uses the same). `hat(v) = [[0, −θ, ρ_x], [θ, 0, ρ_y], [0, 0, 0]]`
-/// and `exp(v) = (R(θ), V(θ) ρ)` with `V(θ) = (sin θ/θ) I + ((1 − cos θ)/θ) J`, `J = hat(1)` the
-/// quarter turn. Perturbations act on the right like everywhere in the crate,
-/// `x ⊞ v = x · exp(v)`, so ρ is a displacement in the body frame of `x`.
+/// and `exp(v) = (R(θ), V(θ) ρ)` with `V(θ) = (sin θ/θ) I + ((1 − cos θ)/θ) J`, where
+/// `J = [[0, −1], [1, 0]]` is the quarter turn. Perturbations act on the right like everywhere in the
+/// crate, `x ⊞ v = x · exp(v)`, so ρ is a displacement in the body frame of `x`.
 ///
 /// `log` returns θ in (−π, π] and `ρ = V(θ)⁻¹ t`, regular on that whole range (V is singular only at
 /// θ = 2πk, k ≠ 0). exp is injective for |θ| < π; `DIM` = 3.

@@ -189,38 +189,53 @@ pub(crate) fn v_inverse_times<T: Real>(phi: &Vector3<T>, t: &Vector3<T>) -> Vect
 /// `c₂ = (θ − sin θ)/θ³`, `c₃ = (θ² + 2 cos θ − 2)/(2θ⁴)`, `c₄ = (2θ − 3 sin θ + θ cos θ)/(2θ⁵)`
 ///
 /// (Barfoot and Furgale's left-Jacobian block at (−ρ, −φ); derived in docs/manifolds/poses.md).
-/// Above the series angle it is written against the unit axis, Φ = θ U, with the coefficients
-/// `c₂θ = E/θ`, `c₂θ² = E`, `c₃θ² = 1/2 − (1 − cos θ)/θ²` and `c₄θ³ = (3E − (1 − cos θ))/(2θ)`, where
-/// `E = (θ − sin θ)/θ` comes from [`theta_minus_sin_over_theta`]: each is then accurate to a few eps
-/// absolute and bounded for huge θ. Below, the Taylor series of c₂, c₃, c₄ to θ⁴ multiply Φ itself.
+/// With `ΦPΦ = −(φ·ρ)Φ` and `Φ² = φφᵀ − θ² I` the products collapse to vectors: for an axis `a`
+/// (φ itself below the series angle, the unit axis φ/θ above) and `d = a·ρ`,
+///
+/// `Q = β P + γ d hat(a) + k₁ (ρaᵀ + aρᵀ) − 2d (δ I + k₄ aaᵀ)`
+///
+/// with, against the unit axis, `β = −(1 − cos θ)/θ²`, `γ = E − 1 + 2(1 − cos θ)/θ²`, `k₁ = E/θ`,
+/// `δ = ((1 − cos θ) − E)/(2θ)`, `k₄ = (3E − (1 − cos θ))/(2θ)`, where `E = (θ − sin θ)/θ` comes from
+/// [`theta_minus_sin_over_theta`] and `1 − cos θ = 2 sin²(θ/2)`: each accurate to a few eps absolute
+/// and bounded for huge θ. Against φ itself they are the Taylor series to θ⁴ of `θ²c₃ − 1/2`,
+/// `c₂ − 2c₃`, `c₂`, `c₂ − θ²c₄` and `c₄`.
 fn coupling<T: Real>(rho: &Vector3<T>, phi: &Vector3<T>) -> Matrix3<T> {
     let theta = rotation_vector::norm(phi);
-    let (a, k1, k2, k3, k4) = if theta < T::SERIES_ANGLE {
+    let (a, [beta, gamma, k1, delta, k4]) = if theta < T::SERIES_ANGLE {
         let t2 = theta * theta;
         let t4 = t2 * t2;
-        let c2 = T::one() / T::lit(6.0) - t2 / T::lit(120.0) + t4 / T::lit(5040.0);
-        let c3 = T::one() / T::lit(24.0) - t2 / T::lit(720.0) + t4 / T::lit(40320.0);
-        let c4 = T::one() / T::lit(120.0) - t2 / T::lit(2520.0) + t4 / T::lit(120_960.0);
-        (rotation_vector::hat(phi), c2, c2, c3, c4)
+        let series = |c0: f64, c2: f64, c4: f64| T::lit(c0) + t2 * T::lit(c2) + t4 * T::lit(c4);
+        (
+            *phi,
+            [
+                series(-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0),
+                series(1.0 / 12.0, -1.0 / 180.0, 1.0 / 6720.0),
+                series(1.0 / 6.0, -1.0 / 120.0, 1.0 / 5040.0),
+                series(1.0 / 6.0, -1.0 / 60.0, 1.0 / 1680.0),
+                series(1.0 / 120.0, -1.0 / 2520.0, 1.0 / 120_960.0),
+            ],
+        )
     } else {
         let (s, c) = (theta * T::lit(0.5)).sin_cos();
         let versine = (s + s) * s; // 1 − cos θ without cancellation
         let e = theta_minus_sin_over_theta(theta, (s + s) * c);
+        let two_theta = theta + theta;
+        let beta = -(versine / theta / theta);
         (
-            rotation_vector::hat(&(phi / theta)),
-            e / theta,
-            e,
-            T::lit(0.5) - versine / theta / theta,
-            (T::lit(3.0) * e - versine) / (theta + theta),
+            phi / theta,
+            [
+                beta,
+                e - T::one() - beta - beta,
+                e / theta,
+                (versine - e) / two_theta,
+                (T::lit(3.0) * e - versine) / two_theta,
+            ],
         )
     };
-    let p = rotation_vector::hat(rho);
-    let ap = a * p;
-    let pa = p * a;
-    let apa = ap * a;
-    (ap + pa) * k1 + apa * (T::lit(3.0) * k3 - k2) - (a * ap + pa * a) * k3
-        + (apa * a + a * apa) * k4
-        - p * T::lit(0.5)
+    let d = a.dot(rho);
+    let symmetric = rho * a.transpose() + a * rho.transpose();
+    rotation_vector::hat(&(rho * beta + a * (gamma * d))) + symmetric * k1
+        - (Matrix3::identity() * delta + a * a.transpose() * k4) * (d + d)
 }
 
 impl<T: Real> LieGroup<6> for Se3<T> {
