@@ -1,5 +1,7 @@
 //! Benchmarks of the manifold layer: exp, log, compose, act and the Jacobians of `So3` and `Su2`, each
 //! beside nalgebra's `UnitQuaternion` and `Rotation3` equivalent in the same run.
+//! The poses `Se2` and `Se3` (compose, act, exp, log, right Jacobian and its inverse) run beside
+//! nalgebra's `Isometry2` and `Isometry3` (`cargo bench --bench manifolds -- pose`).
 //!
 //! Every benchmark maps one operation over the same 256 varied inputs (rotation angles spread over
 //! [0, π)) and reports the time per element: single calls of a few nanoseconds are dominated by loop
@@ -11,6 +13,9 @@ use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
 use liebayes::manifolds::{GroupAction, LieGroup, Manifold, So3, Su2};
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+
+use liebayes::manifolds::{Se2, Se3};
+use nalgebra::{Isometry2, Isometry3, Point2, Point3, Vector6};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -204,11 +209,130 @@ fn jacobians(c: &mut Criterion) {
     g.finish();
 }
 
+/// Pose tangents from the same inputs: SE(3) `[ρ; φ] = [p; v]`, SE(2) `[p_x, p_y, θ]` with
+/// θ = ±|v| in (−π, π).
+fn pose_tangents(x: &Inputs) -> (Vec<Vector6<f64>>, Vec<Vector3<f64>>) {
+    let se3 =
+        x.p.iter()
+            .zip(&x.v)
+            .map(|(p, v)| Vector6::new(p.x, p.y, p.z, v.x, v.y, v.z));
+    let se2 =
+        x.p.iter()
+            .zip(&x.v)
+            .map(|(p, v)| Vector3::new(p.x, p.y, v.norm().copysign(v.x)));
+    (se3.collect(), se2.collect())
+}
+
+fn poses(c: &mut Criterion) {
+    let x = Inputs::new();
+    let (v3, v2) = pose_tangents(&x);
+    let (w3, w2) = {
+        let swapped = Inputs {
+            v: x.w.clone(),
+            w: x.v.clone(),
+            p: x.p.iter().rev().copied().collect(),
+        };
+        pose_tangents(&swapped)
+    };
+    let pairs3: Vec<_> = v3
+        .iter()
+        .zip(&w3)
+        .map(|(a, b)| (Se3::exp(a), Se3::exp(b)))
+        .collect();
+    let pairs2: Vec<_> = v2
+        .iter()
+        .zip(&w2)
+        .map(|(a, b)| (Se2::exp(a), Se2::exp(b)))
+        .collect();
+    let iso3: Vec<(Isometry3<f64>, Isometry3<f64>)> = pairs3
+        .iter()
+        .map(|(a, b)| ((*a).into(), (*b).into()))
+        .collect();
+    let iso2: Vec<(Isometry2<f64>, Isometry2<f64>)> = pairs2
+        .iter()
+        .map(|(a, b)| ((*a).into(), (*b).into()))
+        .collect();
+
+    let mut g = group(c, "pose compose");
+    batch(&mut g, "Se2", &pairs2, |(a, b)| a.compose(b));
+    batch(&mut g, "nalgebra Isometry2 *", &iso2, |(a, b)| a * b);
+    batch(&mut g, "Se3", &pairs3, |(a, b)| a.compose(b));
+    batch(&mut g, "nalgebra Isometry3 *", &iso3, |(a, b)| a * b);
+    g.finish();
+
+    let points3: Vec<_> = pairs3
+        .iter()
+        .zip(&x.p)
+        .map(|((a, _), p)| (*a, *p))
+        .collect();
+    let iso_points3: Vec<_> = iso3
+        .iter()
+        .zip(&x.p)
+        .map(|((a, _), p)| (*a, Point3::from(*p)))
+        .collect();
+    let points2: Vec<_> = pairs2
+        .iter()
+        .zip(&x.p)
+        .map(|((a, _), p)| (*a, p.xy()))
+        .collect();
+    let iso_points2: Vec<_> = iso2
+        .iter()
+        .zip(&x.p)
+        .map(|((a, _), p)| (*a, Point2::from(p.xy())))
+        .collect();
+    let mut g = group(c, "pose act");
+    batch(&mut g, "Se2", &points2, |(a, p)| a.act(p));
+    batch(
+        &mut g,
+        "nalgebra Isometry2 * Point2",
+        &iso_points2,
+        |(a, p)| a * p,
+    );
+    batch(&mut g, "Se3", &points3, |(a, p)| a.act(p));
+    batch(
+        &mut g,
+        "nalgebra Isometry3 * Point3",
+        &iso_points3,
+        |(a, p)| a * p,
+    );
+    g.finish();
+
+    let mut g = group(c, "pose exp");
+    batch(&mut g, "Se2", &v2, Se2::exp);
+    batch(&mut g, "Se3", &v3, Se3::exp);
+    g.finish();
+
+    let elements2: Vec<_> = pairs2.iter().map(|(a, _)| *a).collect();
+    let elements3: Vec<_> = pairs3.iter().map(|(a, _)| *a).collect();
+    let mut g = group(c, "pose log");
+    batch(&mut g, "Se2", &elements2, Se2::log);
+    batch(&mut g, "Se3", &elements3, Se3::log);
+    g.finish();
+
+    let mut g = group(c, "pose jacobians");
+    batch(&mut g, "Se2 right_jacobian", &v2, Se2::right_jacobian);
+    batch(
+        &mut g,
+        "Se2 right_jacobian_inverse",
+        &v2,
+        Se2::right_jacobian_inverse,
+    );
+    batch(&mut g, "Se3 right_jacobian", &v3, Se3::right_jacobian);
+    batch(
+        &mut g,
+        "Se3 right_jacobian_inverse",
+        &v3,
+        Se3::right_jacobian_inverse,
+    );
+    batch(&mut g, "Se3 adjoint", &elements3, Se3::adjoint);
+    g.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default()
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2));
-    targets = exp, log, compose, act, jacobians
+    targets = exp, log, compose, act, jacobians, poses
 }
 criterion_main!(benches);

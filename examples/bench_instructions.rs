@@ -14,8 +14,8 @@ use liebayes::filters::azimuth::scenario::Config;
 use liebayes::filters::azimuth::{
     AzimuthFilter, Method, PositionMeasurement, VelocityInput, VelocityProcess,
 };
-use liebayes::manifolds::{GroupAction, LieGroup, So3};
-use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use liebayes::manifolds::{GroupAction, LieGroup, Se2, Se3, So3};
+use nalgebra::{Isometry2, Isometry3, Matrix3, Matrix6, UnitQuaternion, Vector2, Vector3, Vector6};
 use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
@@ -95,6 +95,100 @@ fn filter_step(filter: &mut dyn AzimuthFilter, rng: &mut dyn RngCore) {
         .unwrap();
 }
 
+#[inline(never)]
+fn op_se3_compose(a: &Se3<f64>, b: &Se3<f64>) -> Se3<f64> {
+    a.compose(b)
+}
+
+#[inline(never)]
+fn op_isometry3_compose(a: &Isometry3<f64>, b: &Isometry3<f64>) -> Isometry3<f64> {
+    a * b
+}
+
+#[inline(never)]
+fn op_se3_exp(v: &Vector6<f64>) -> Se3<f64> {
+    Se3::exp(v)
+}
+
+#[inline(never)]
+fn op_se3_log(x: &Se3<f64>) -> Vector6<f64> {
+    x.log()
+}
+
+#[inline(never)]
+fn op_se3_right_jacobian(v: &Vector6<f64>) -> Matrix6<f64> {
+    Se3::right_jacobian(v)
+}
+
+#[inline(never)]
+fn op_se3_right_jacobian_inverse(v: &Vector6<f64>) -> Matrix6<f64> {
+    Se3::right_jacobian_inverse(v)
+}
+
+#[inline(never)]
+fn op_se2_compose(a: &Se2<f64>, b: &Se2<f64>) -> Se2<f64> {
+    a.compose(b)
+}
+
+#[inline(never)]
+fn op_isometry2_compose(a: &Isometry2<f64>, b: &Isometry2<f64>) -> Isometry2<f64> {
+    a * b
+}
+
+#[inline(never)]
+fn op_se2_exp(v: &Vector3<f64>) -> Se2<f64> {
+    Se2::exp(v)
+}
+
+#[inline(never)]
+fn op_se2_log(x: &Se2<f64>) -> Vector3<f64> {
+    x.log()
+}
+
+#[inline(never)]
+fn op_se2_right_jacobian(v: &Vector3<f64>) -> Matrix3<f64> {
+    Se2::right_jacobian(v)
+}
+
+/// The poses on tangents built from the rotation inputs: SE(3) `[ρ; φ]` with ρ = (1, −2, 0.5) + φ,
+/// SE(2) `[ρ_x, ρ_y, θ]` with θ = ±|φ|.
+fn poses(v: &[Vector3<f64>]) {
+    let t3: Vec<_> = v
+        .iter()
+        .map(|p| Vector6::new(1.0 + p.x, p.y - 2.0, 0.5 + p.z, p.x, p.y, p.z))
+        .collect();
+    let t2: Vec<_> = v
+        .iter()
+        .map(|p| Vector3::new(1.0 + p.y, p.z - 2.0, p.norm().copysign(p.x)))
+        .collect();
+    let se3: Vec<_> = t3.iter().map(Se3::exp).collect();
+    let iso3: Vec<Isometry3<f64>> = se3.iter().map(|x| (*x).into()).collect();
+    let se2: Vec<_> = t2.iter().map(Se2::exp).collect();
+    let iso2: Vec<Isometry2<f64>> = se2.iter().map(|x| (*x).into()).collect();
+    for _ in 0..REPEATS {
+        for i in 0..v.len() {
+            let j = (i + 1) % v.len();
+            black_box(op_se3_compose(black_box(&se3[i]), black_box(&se3[j])));
+            black_box(op_isometry3_compose(
+                black_box(&iso3[i]),
+                black_box(&iso3[j]),
+            ));
+            black_box(op_se3_exp(black_box(&t3[i])));
+            black_box(op_se3_log(black_box(&se3[i])));
+            black_box(op_se3_right_jacobian(black_box(&t3[i])));
+            black_box(op_se3_right_jacobian_inverse(black_box(&t3[i])));
+            black_box(op_se2_compose(black_box(&se2[i]), black_box(&se2[j])));
+            black_box(op_isometry2_compose(
+                black_box(&iso2[i]),
+                black_box(&iso2[j]),
+            ));
+            black_box(op_se2_exp(black_box(&t2[i])));
+            black_box(op_se2_log(black_box(&se2[i])));
+            black_box(op_se2_right_jacobian(black_box(&t2[i])));
+        }
+    }
+}
+
 fn main() {
     let v: Vec<_> = (0..INPUTS)
         .map(|i| {
@@ -132,6 +226,7 @@ fn main() {
         op_ekf_step(ekf.as_mut(), &mut rng);
         op_ukf_step(ukf.as_mut(), &mut rng);
     }
+    poses(&v);
     println!(
         "{} calls of each manifold operation, {FILTER_STEPS} filter steps",
         v.len() * REPEATS

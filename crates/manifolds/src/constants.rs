@@ -6,6 +6,8 @@
 //! | constant | f64 | f32 | meaning |
 //! |---|---|---|---|
 //! | [`SERIES_ANGLE`](Thresholds::SERIES_ANGLE) | 1e-2 | 1e-1 | below this rotation angle, exp and the Jacobian coefficients use their Taylor series |
+//! | [`SINE_DEFECT_SERIES_ANGLE`](Thresholds::SINE_DEFECT_SERIES_ANGLE) | 1 | 1 | below this angle the SE(2)/SE(3) coupling coefficients take θ − sin θ from its Taylor series (nine terms) instead of the difference, which loses eps θ / (θ − sin θ) relative (12 eps at 1, 6e4 eps at 1e-2) |
+//! | [`LARGE_COORDINATE`](Thresholds::LARGE_COORDINATE) | 1e300 | 1e34 | translations with a component above this are scaled down before the products of exp, log and the pose Jacobians, and the results saturate at the largest finite value (no overflow into NaN) |
 //! | [`UNIT_NORM_TOLERANCE`](Thresholds::UNIT_NORM_TOLERANCE) | 1e-9 | 1e-5 | a quaternion, unit complex number or unit vector is accepted when abs(norm - 1) is at most this |
 //! | [`ORTHONORMAL_TOLERANCE`](Thresholds::ORTHONORMAL_TOLERANCE) | 1e-9 | 1e-5 | a rotation matrix is accepted when every entry of R^T R - I, and det R - 1, is at most this in absolute value |
 //! | [`MIN_DIRECTION_NORM`](Thresholds::MIN_DIRECTION_NORM) | 1e-150 | 1e-18 | the normalising constructors refuse vectors shorter than this: their direction is noise |
@@ -20,6 +22,23 @@
 pub trait Thresholds: Sized {
     /// Rotation angle below which exp and the Jacobian coefficients switch to their Taylor series.
     const SERIES_ANGLE: Self;
+    /// Rotation angle below which the coupling coefficients of SE(2) and SE(3) take θ − sin θ from its
+    /// Taylor series rather than the difference.
+    ///
+    /// The difference `θ − sin θ` of two rounded numbers of size θ has an absolute error of about
+    /// `eps θ`, that is `eps θ / (θ − sin θ) ≈ 6 eps / θ²` relative: 12 eps at 1, but 6e4 eps at 1e-2.
+    /// The pose Jacobians multiply `(θ − sin θ)/θ²` by the translation, so the difference alone would
+    /// cost `eps |ρ| / θ` absolute just above [`SERIES_ANGLE`](Self::SERIES_ANGLE). Nine terms of the
+    /// series reach 1e-19 relative at 1 (the first omitted term is θ¹⁸/21!).
+    const SINE_DEFECT_SERIES_ANGLE: Self;
+    /// Largest translation component that the products of the pose formulas (exp, log, Jr, Jr⁻¹ of
+    /// SE(2) and SE(3)) take directly.
+    ///
+    /// Their coefficient matrices have entries below 30 in size and at most about ten terms per entry,
+    /// so below this bound no product overflows (3e302 in f64, 3e36 in f32). Above it the translation
+    /// is divided by its largest component first and the result, scaled back, saturates at the largest
+    /// finite value: finite input never produces NaN.
+    const LARGE_COORDINATE: Self;
     /// Largest accepted `abs(norm - 1)` for quaternions, unit complex numbers and unit vectors.
     const UNIT_NORM_TOLERANCE: Self;
     /// Largest accepted entry of `R^T R - I` and of `det R - 1` for rotation matrices.
@@ -30,6 +49,8 @@ pub trait Thresholds: Sized {
 
 impl Thresholds for f64 {
     const SERIES_ANGLE: f64 = 1e-2;
+    const SINE_DEFECT_SERIES_ANGLE: f64 = 1.0;
+    const LARGE_COORDINATE: f64 = 1e300;
     const UNIT_NORM_TOLERANCE: f64 = 1e-9;
     const ORTHONORMAL_TOLERANCE: f64 = 1e-9;
     const MIN_DIRECTION_NORM: f64 = 1e-150;
@@ -37,6 +58,8 @@ impl Thresholds for f64 {
 
 impl Thresholds for f32 {
     const SERIES_ANGLE: f32 = 1e-1;
+    const SINE_DEFECT_SERIES_ANGLE: f32 = 1.0;
+    const LARGE_COORDINATE: f32 = 1e34;
     const UNIT_NORM_TOLERANCE: f32 = 1e-5;
     const ORTHONORMAL_TOLERANCE: f32 = 1e-5;
     const MIN_DIRECTION_NORM: f32 = 1e-18;

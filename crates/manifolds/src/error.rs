@@ -66,6 +66,18 @@ pub enum ManifoldError {
         /// The determinant found.
         det: f64,
     },
+    /// A homogeneous transformation matrix whose bottom row is not `[0, …, 0, 1]`.
+    #[error(
+        "the bottom row of a homogeneous transformation must be [0, ..., 0, 1], but it deviates by \
+         {deviation:e}, above the tolerance {tolerance:e}: the matrix is not a rigid motion; pass \
+         [[R, t], [0, 1]] or build the pose from its rotation and translation with from_parts"
+    )]
+    NotHomogeneous {
+        /// The largest absolute deviation of the bottom row from `[0, …, 0, 1]`.
+        deviation: f64,
+        /// The accepted deviation.
+        tolerance: f64,
+    },
     /// A slice had the wrong number of components.
     #[error("{what} needs {expected} components, got {got}")]
     WrongLength {

@@ -42,6 +42,13 @@
 //! # Ok::<(), liebayes_manifolds::ManifoldError>(())
 //! ```
 //!
+//! ## Poses
+//!
+//! [`Se2`] and [`Se3`] are the rigid motions `p ↦ R p + t` of the plane and of space, a rotation
+//! ([`So2`], [`So3`]) and a translation. Their tangent coordinates put **the translation block first
+//! and the rotation block last**, `v = [ρ; θ]` resp. `[ρ; φ]` (the order of manif and Sophus), and
+//! `x ⊞ v = x · exp(v)` like every group here, so ρ is a displacement in the body frame of `x`.
+//!
 //! With the `proptest` feature, [`testing`] exports the strategies (uniform and curated edge elements
 //! for every space) and the generic law suite this crate tests itself with.
 
@@ -50,10 +57,13 @@ pub mod constants;
 mod error;
 mod lie_group;
 mod manifold;
+mod pose;
 mod real;
 mod rn;
 mod rotation_vector;
 mod s2;
+mod se2;
+mod se3;
 mod so2;
 mod so3;
 mod su2;
@@ -66,6 +76,8 @@ pub use manifold::{Jacobian, Manifold, Tangent};
 pub use real::Real;
 pub use rn::Rn;
 pub use s2::S2;
+pub use se2::Se2;
+pub use se3::Se3;
 pub use so2::So2;
 pub use so3::So3;
 pub use su2::Su2;
@@ -73,4 +85,5 @@ pub use su2::Su2;
 /// The traits and types most code needs: `use liebayes_manifolds::prelude::*;`.
 pub mod prelude {
     pub use crate::{GroupAction, LieGroup, Manifold, ManifoldError, Real, Rn, S2, So2, So3, Su2};
+    pub use crate::{Se2, Se3};
 }

@@ -1,6 +1,6 @@
 //! The generic law suite (crate `testing` module) run on every space, in f64 and in f32, with uniform
 //! and curated edge elements (identity, 1e-8 from it, within 1e-12 of π, exactly π, w = −1, tangents of
-//! norm 20 and 30).
+//! norm 20 and 30; for the poses also translations of 1e3).
 
 use liebayes_manifolds::testing::laws::{
     check_action, check_group, check_jacobians, check_manifold,
@@ -59,6 +59,20 @@ group_laws!(
     st::point2::<f32>()
 );
 group_laws!(
+    se2_f64,
+    f64,
+    st::se2::<f64>(),
+    st::se2_tangent::<f64>(),
+    st::point2::<f64>()
+);
+group_laws!(
+    se2_f32,
+    f32,
+    st::se2::<f32>(),
+    st::se2_tangent::<f32>(),
+    st::point2::<f32>()
+);
+group_laws!(
     so3_f64,
     f64,
     st::so3::<f64>(),
@@ -84,6 +98,20 @@ group_laws!(
     f32,
     st::su2::<f32>(),
     st::rotation_vector::<f32>(),
+    st::point3::<f32>()
+);
+group_laws!(
+    se3_f64,
+    f64,
+    st::se3::<f64>(),
+    st::se3_tangent::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    se3_f32,
+    f32,
+    st::se3::<f32>(),
+    st::se3_tangent::<f32>(),
     st::point3::<f32>()
 );
 group_laws!(

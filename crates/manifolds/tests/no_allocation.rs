@@ -72,6 +72,22 @@ fn no_heap_allocation_in_any_operation() {
         &Vector1::new(1.0),
         &Vector2::new(1.0, 2.0),
     );
+    let (v6, w6) = (
+        nalgebra::Vector6::new(1.0, -2.0, 0.5, v.x, v.y, v.z),
+        nalgebra::Vector6::new(-0.3, 0.7, 2.0, w.x, w.y, w.z),
+    );
+    group_ops(
+        &liebayes_manifolds::Se3::exp(&v6),
+        &liebayes_manifolds::Se3::exp(&w6),
+        &v6,
+        &p,
+    );
+    group_ops(
+        &liebayes_manifolds::Se2::exp(&v),
+        &liebayes_manifolds::Se2::exp(&w),
+        &v,
+        &Vector2::new(1.0, 2.0),
+    );
     group_ops(&Rn::new_unchecked(v), &Rn::new_unchecked(w), &v, &p);
     let t = black_box(s2.retract(&Vector2::new(0.3, 0.2)));
     black_box(s2.local(&t));

@@ -10,6 +10,9 @@ use nalgebra::{Quaternion, SVector, Vector1, Vector2, Vector3};
 use proptest::prelude::*;
 use std::f64::consts::{PI, TAU};
 
+use crate::{Se2, Se3};
+use nalgebra::Vector6;
+
 /// A unit vector of R³, uniform on the sphere (z uniform in [−1, 1], longitude uniform).
 fn unit_vector_f64() -> impl Strategy<Value = [f64; 3]> {
     (-1.0..=1.0_f64, 0.0..TAU).prop_map(|(z, phi)| {
@@ -149,4 +152,101 @@ pub fn s2<T: Real>() -> impl Strategy<Value = S2<T>> {
 /// Points of Rⁿ: components in [−1e3, 1e3], and the origin.
 pub fn rn<T: Real, const N: usize>() -> impl Strategy<Value = Rn<T, N>> {
     rn_tangent::<T, N>().prop_map(Rn::new_unchecked)
+}
+
+/// Sizes of translation blocks of pose tangents: typical values in [0, 10), zero, within 1e-8 of
+/// zero, 20 and 30.
+pub fn translation_magnitude() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        6 => 0.0..10.0_f64,
+        1 => Just(0.0),
+        1 => 1e-10..=1e-8_f64,
+        1 => Just(20.0),
+        1 => Just(30.0),
+    ]
+}
+
+/// Sizes of pose translations: [`translation_magnitude`] and large ones (1e3, the scale of the [`rn`]
+/// strategies).
+fn pose_translation_magnitude() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        8 => translation_magnitude(),
+        1 => Just(1e3),
+    ]
+}
+
+fn planar<T: Real>(phi: f64, n: f64) -> Vector2<T> {
+    Vector2::new(T::lit(n * phi.cos()), T::lit(n * phi.sin()))
+}
+
+/// Translations of R² for poses: uniform direction, norm from [`translation_magnitude`] or 1e3.
+pub fn translation2<T: Real>() -> impl Strategy<Value = Vector2<T>> {
+    (0.0..TAU, pose_translation_magnitude()).prop_map(|(phi, n)| planar(phi, n))
+}
+
+/// Translations of R³ for poses: uniform direction, norm from [`translation_magnitude`] or 1e3.
+pub fn translation3<T: Real>() -> impl Strategy<Value = Vector3<T>> {
+    (unit_vector_f64(), pose_translation_magnitude()).prop_map(|(u, n)| to_vector(u, n))
+}
+
+/// Tangents of SE(2), `[ρ; θ]`: the angle from [`so2_tangent`] (0, 1e-8, within 1e-12 of ±π, exactly
+/// ±π, 20, 30), the translation block of uniform direction with norm from
+/// [`translation_magnitude`], and whole tangents within 1e-8 of zero.
+pub fn se2_tangent<T: Real>() -> impl Strategy<Value = Vector3<T>> {
+    let small = (unit_vector_f64(), 1e-10..=1e-8_f64).prop_map(|(u, n)| to_vector::<T>(u, n));
+    prop_oneof![
+        8 => (0.0..TAU, translation_magnitude(), so2_tangent::<T>()).prop_map(|(phi, n, theta)| {
+            let rho = planar::<T>(phi, n);
+            Vector3::new(rho.x, rho.y, theta.x)
+        }),
+        1 => small,
+    ]
+}
+
+/// Tangents of SE(3), `[ρ; φ]`: the rotation block from [`rotation_vector`] (0, 1e-8, within 1e-12 of
+/// π, exactly π, 20, 30), the translation block of uniform direction with norm from
+/// [`translation_magnitude`], and whole tangents within 1e-8 of zero.
+pub fn se3_tangent<T: Real>() -> impl Strategy<Value = Vector6<T>> {
+    let small = (
+        unit_vector_f64(),
+        unit_vector_f64(),
+        0.0..=1.0_f64,
+        1e-10..=1e-8_f64,
+    )
+        .prop_map(|(a, b, share, n)| {
+            let rho = to_vector::<T>(a, n * share.sqrt());
+            let phi = to_vector::<T>(b, n * (1.0 - share).sqrt());
+            Vector6::new(rho.x, rho.y, rho.z, phi.x, phi.y, phi.z)
+        });
+    prop_oneof![
+        8 => (unit_vector_f64(), translation_magnitude(), rotation_vector::<T>()).prop_map(
+            |(u, n, phi)| {
+                let rho = to_vector::<T>(u, n);
+                Vector6::new(rho.x, rho.y, rho.z, phi.x, phi.y, phi.z)
+            }
+        ),
+        1 => small,
+    ]
+}
+
+/// Elements of SE(2): a rotation from [`so2`] (uniform, exactly π, identity, near ±π) with a
+/// translation from [`translation2`] (including 1e3), exp of [`se2_tangent`] (within 1e-8 of the
+/// identity, angles within 1e-12 of π, tangents of norm 20 and 30), and the identity.
+pub fn se2<T: Real>() -> impl Strategy<Value = Se2<T>> {
+    prop_oneof![
+        4 => (so2::<T>(), translation2::<T>()).prop_map(|(r, t)| Se2::new_unchecked(r, t)),
+        4 => se2_tangent::<T>().prop_map(|v| Se2::exp(&v)),
+        1 => Just(Se2::identity()),
+    ]
+}
+
+/// Elements of SE(3): a rotation from [`so3`] (uniform, near the identity, within 1e-12 of π,
+/// exactly π) with a translation from [`translation3`] (including 1e3), exp of [`se3_tangent`]
+/// (within 1e-8 of the identity, tangents of norm 20 and 30), and the identity.
+pub fn se3<T: Real>() -> impl Strategy<Value = Se3<T>> {
+    prop_oneof![
+        4 => (so3::<T>(), translation3::<T>()).prop_map(|(r, t)| Se3::new_unchecked(r, t)),
+        4 => se3_tangent::<T>().prop_map(|v| Se3::exp(&v)),
+        1 => Just(Se3::identity()),
+    ]
 }
