@@ -9,12 +9,19 @@
 //! | [`UNIT_NORM_TOLERANCE`](Thresholds::UNIT_NORM_TOLERANCE) | 1e-9 | 1e-5 | a quaternion, unit complex number or unit vector is accepted when abs(norm - 1) is at most this |
 //! | [`ORTHONORMAL_TOLERANCE`](Thresholds::ORTHONORMAL_TOLERANCE) | 1e-9 | 1e-5 | a rotation matrix is accepted when every entry of R^T R - I, and det R - 1, is at most this in absolute value |
 //! | [`MIN_DIRECTION_NORM`](Thresholds::MIN_DIRECTION_NORM) | 1e-150 | 1e-18 | the normalising constructors refuse vectors shorter than this: their direction is noise |
+//! | [`POLAR_MAX_SWEEPS`] | 100 | 100 | bound on the Jacobi sweeps of [`So3::from_matrix_orthonormalized`](crate::So3::from_matrix_orthonormalized) |
 //!
 //! Why the series thresholds are safe: the series are kept to the theta^4 term, so their truncation
 //! error is below theta^6 / 5040 relative (for the worst coefficient), that is below 2e-16 at 1e-2 in
 //! f64 and below 2e-10 at 1e-1 in f32. Above the threshold the closed forms lose at most
 //! eps / theta^2 relative in the coefficients of hat(v)^2, which multiply a matrix of size theta^2, so
 //! the Jacobians keep an absolute error of a few eps.
+//!
+//! Why the sweep bound: cyclic Jacobi converges quadratically once the columns are nearly orthogonal,
+//! and a 3x3 matrix takes 3 to 6 sweeps. A singular matrix takes longer: a column in the span of
+//! another loses a factor eps per sweep until it underflows, at most about 2 * 1074 / 52 = 41 sweeps
+//! in f64 (and 2 * 149 / 23 = 13 in f32); the bound of 100 leaves room for both and only keeps the
+//! loop finite.
 
 /// The numerical thresholds of the crate for one scalar type (see the [module docs](self)).
 pub trait Thresholds: Sized {
@@ -27,6 +34,9 @@ pub trait Thresholds: Sized {
     /// Smallest norm the normalising constructors accept.
     const MIN_DIRECTION_NORM: Self;
 }
+
+/// Bound on the Jacobi sweeps behind [`So3::from_matrix_orthonormalized`](crate::So3::from_matrix_orthonormalized).
+pub const POLAR_MAX_SWEEPS: usize = 100;
 
 impl Thresholds for f64 {
     const SERIES_ANGLE: f64 = 1e-2;

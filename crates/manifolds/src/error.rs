@@ -76,6 +76,15 @@ pub enum ManifoldError {
         /// The number given.
         got: usize,
     },
+    /// The Jacobi sweeps behind an orthonormalisation stopped at their bound.
+    #[error(
+        "the SVD of the matrix did not converge in {sweeps} Jacobi sweeps, so it has no nearest \
+         rotation to report; check the matrix for entries that are not meant to be there"
+    )]
+    PolarNotConverged {
+        /// The bound that was reached.
+        sweeps: usize,
+    },
 }
 
 /// Checks that every value is finite.

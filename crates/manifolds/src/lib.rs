@@ -50,6 +50,7 @@ pub mod constants;
 mod error;
 mod lie_group;
 mod manifold;
+mod polar;
 mod real;
 mod rn;
 mod rotation_vector;

@@ -1,6 +1,6 @@
 //! The [`Manifold`] trait: points, tangent vectors, and the two maps between them.
 
-use crate::real::Real;
+use crate::real::{Real, stable_norm};
 use nalgebra::{SMatrix, SVector};
 use std::fmt::Debug;
 
@@ -33,8 +33,8 @@ pub trait Manifold<const D: usize>: Clone + Debug + Sized {
     /// y ⊟ x: the tangent vector at `self` that leads to `other`.
     fn local(&self, other: &Self) -> Tangent<Self::Scalar, D>;
 
-    /// Geodesic distance: the norm of `self.local(other)`.
+    /// Geodesic distance: the norm of `self.local(other)` (computed without overflow or underflow).
     fn distance(&self, other: &Self) -> Self::Scalar {
-        self.local(other).norm()
+        stable_norm(&self.local(other))
     }
 }
