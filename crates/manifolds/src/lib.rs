@@ -9,12 +9,15 @@
 //!
 //! ## The convention
 //!
-//! **Perturbations live in the tangent space on the right, and all Jacobians are right Jacobians.**
+//! **Perturbations live in the tangent space on the right, and all Jacobians are right Jacobians**,
+//! unless the group is wrapped in [`Left`].
 //!
-//! * `x ⊞ v = x · exp(v)` ([`Manifold::retract`]), `y ⊟ x = log(x⁻¹ · y)` ([`Manifold::local`]).
+//! * `x ⊞ v = x · exp(v)` ([`Manifold::retract`]), `y ⊟ x = log(x⁻¹ · y)` ([`Manifold::local`]):
+//!   errors in the body frame. [`Left<G>`](Left) gives `exp(v) · x` and `log(y · x⁻¹)`, errors in the
+//!   world frame, with every Jacobian in that convention, so every generic operator runs with either.
 //! * A Jacobian named `J_out_in` (methods `j_<out>_<in>`) is the matrix with
-//!   `out(in ⊞ δ) = out(in) ⊞ (J_out_in δ + O(|δ|²))`, where ⊞ is plain addition for outputs and
-//!   inputs that are tangent vectors or points.
+//!   `out(in ⊞ δ) = out(in) ⊞ (J_out_in δ + O(|δ|²))`, with the type's own ⊞, which is plain addition
+//!   for outputs and inputs that are tangent vectors or points.
 //! * `Jr(v)` with `exp(v + δ) = exp(v) exp(Jr(v) δ)`; `Jl(v) = Jr(−v)`; `Ad(g)` with
 //!   `g exp(v) g⁻¹ = exp(Ad(g) v)`.
 //! * Quaternions are Hamilton, scalar first in all I/O (`w, x, y, z`), rotating actively:
@@ -48,6 +51,7 @@
 mod approx_impls;
 pub mod constants;
 mod error;
+mod left;
 mod lie_group;
 mod manifold;
 mod polar;
@@ -62,6 +66,7 @@ mod su2;
 pub mod testing;
 
 pub use error::ManifoldError;
+pub use left::Left;
 pub use lie_group::{GroupAction, LieGroup};
 pub use manifold::{Jacobian, Manifold, Tangent};
 pub use real::Real;

@@ -1,6 +1,6 @@
 //! The generic law suite (crate `testing` module) run on every space, in f64 and in f32, with uniform
 //! and curated edge elements (identity, 1e-8 from it, within 1e-12 of π, exactly π, w = −1, tangents of
-//! norm 20 and 30).
+//! norm 20 and 30): the groups, and the groups with world-frame errors (`Left`).
 
 use liebayes_manifolds::testing::laws::{
     check_action, check_group, check_jacobians, check_manifold,
@@ -148,3 +148,62 @@ mod s2_laws {
         }
     }
 }
+
+// World-frame (left) errors: the finite differences go through Left's retract and local, so these
+// check the left-convention Jacobians.
+group_laws!(
+    left_so2_f64,
+    f64,
+    st::left(st::so2::<f64>()),
+    st::so2_tangent::<f64>(),
+    st::point2::<f64>()
+);
+group_laws!(
+    left_so2_f32,
+    f32,
+    st::left(st::so2::<f32>()),
+    st::so2_tangent::<f32>(),
+    st::point2::<f32>()
+);
+group_laws!(
+    left_so3_f64,
+    f64,
+    st::left(st::so3::<f64>()),
+    st::rotation_vector::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    left_so3_f32,
+    f32,
+    st::left(st::so3::<f32>()),
+    st::rotation_vector::<f32>(),
+    st::point3::<f32>()
+);
+group_laws!(
+    left_su2_f64,
+    f64,
+    st::left(st::su2::<f64>()),
+    st::rotation_vector::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    left_su2_f32,
+    f32,
+    st::left(st::su2::<f32>()),
+    st::rotation_vector::<f32>(),
+    st::point3::<f32>()
+);
+group_laws!(
+    left_r3_f64,
+    f64,
+    st::left(st::rn::<f64, 3>()),
+    st::rn_tangent::<f64, 3>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    left_r3_f32,
+    f32,
+    st::left(st::rn::<f32, 3>()),
+    st::rn_tangent::<f32, 3>(),
+    st::point3::<f32>()
+);

@@ -1,11 +1,18 @@
 //! The generic law suite: algebraic laws and finite-difference checks of every Jacobian, for any
 //! [`Manifold`], [`LieGroup`] and [`GroupAction`].
 //!
+//! Nothing here assumes a convention: the finite differences perturb inputs with the type's own
+//! `retract` and measure outputs with its own `local`, so they check the Jacobians of [`Left`] (world
+//! frame) as they check those of the right-perturbed groups; only the intrinsic maps (Jr, Jl, Ad) are
+//! differenced through the group operations directly.
+//!
 //! Each function returns `Err(TestCaseError)` with a message naming the law, the values and the
 //! tolerance, so it can be called inside `proptest!` blocks. Tolerances come from [`Tolerance`], which
 //! derives them from the scalar's machine epsilon; they are never tuned per test.
 
-use crate::{GroupAction, Jacobian, LieGroup, Manifold, Real, Rn, S2, So2, So3, Su2, Tangent};
+use crate::{
+    GroupAction, Jacobian, Left, LieGroup, Manifold, Real, Rn, S2, So2, So3, Su2, Tangent,
+};
 use nalgebra::{ComplexField, RealField, SMatrix, SVector};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -62,6 +69,29 @@ pub trait LawSubject<const D: usize>: Manifold<D> {
     /// The size of the coordinates, which rounding errors scale with: 1 for the compact spaces,
     /// `1 + max |x_i|` for Rⁿ.
     fn coordinate_scale(&self) -> Self::Scalar;
+}
+
+/// `Left<G>` has the radius, equivalent tangents and conditioning of `G`: exp and log are the same
+/// maps, and `local(x, y) = log(y x⁻¹)` is as well conditioned as `log(x⁻¹ y)`.
+impl<G: LieGroup<D> + LawSubject<D>, const D: usize> LawSubject<D> for Left<G> {
+    fn injectivity_radius() -> G::Scalar {
+        G::injectivity_radius()
+    }
+    fn equivalent_tangent_near(
+        v: &Tangent<G::Scalar, D>,
+        reference: &Tangent<G::Scalar, D>,
+    ) -> Tangent<G::Scalar, D> {
+        G::equivalent_tangent_near(v, reference)
+    }
+    fn jacobian_is_regular(v: &Tangent<G::Scalar, D>) -> bool {
+        G::jacobian_is_regular(v)
+    }
+    fn log_condition(v: &Tangent<G::Scalar, D>) -> G::Scalar {
+        G::log_condition(v)
+    }
+    fn coordinate_scale(&self) -> G::Scalar {
+        self.inner().coordinate_scale()
+    }
 }
 
 /// The equivalent of `v = θ u` along the same axis, `(θ + k·period) u`, closest to `reference`.
@@ -325,13 +355,14 @@ pub fn check_group<G: LieGroup<D> + LawSubject<D>, const D: usize>(
 }
 
 /// Every Jacobian of [`LieGroup`] against a central finite difference at `a`, `b` (for the binary
-/// operations) and `v` (for exp and retract): `Jr`, `Jl`, `J_exp_tangent`, `J_log_self`,
-/// `J_compose_self`, `J_compose_other`, `J_inverse_self`, `J_retract_self`, `J_retract_tangent`,
-/// `J_local_self`, `J_local_other`. Group-valued outputs are differenced through `local` at the
-/// unperturbed output; tangent-valued outputs are unwrapped to the equivalent tangent nearest the
-/// unperturbed one, so the check also holds on the branch cut (angle exactly π). Checks whose
-/// linearisation point is within 0.5 of a singularity of exp are skipped (there is no finite Jacobian
-/// to compare with).
+/// operations) and `v` (for exp and retract): the intrinsic `Jr` (`log(exp(v)⁻¹ exp(v + δ))`) and
+/// `Jl` (`log(exp(v + δ) exp(v)⁻¹)`), and, in the type's own convention, `J_exp_tangent`,
+/// `J_log_self`, `J_compose_self`, `J_compose_other`, `J_inverse_self`, `J_retract_self`,
+/// `J_retract_tangent`, `J_local_self`, `J_local_other`: inputs are perturbed with the type's
+/// `retract`, group-valued outputs are differenced through its `local` at the unperturbed output, and
+/// tangent-valued outputs are unwrapped to the equivalent tangent nearest the unperturbed one, so the
+/// check also holds on the branch cut (angle exactly π). Checks whose linearisation point is within
+/// 0.5 of a singularity of exp are skipped (there is no finite Jacobian to compare with).
 ///
 /// # Errors
 /// The first Jacobian that disagrees, with both matrices.
@@ -356,7 +387,13 @@ pub fn check_jacobians<G: LieGroup<D> + LawSubject<D>, const D: usize>(
 
     let ev = G::exp(v);
     close(
-        "Jr(v) = J_exp_tangent",
+        "Jr(v)",
+        &G::right_jacobian(v),
+        &finite_difference(h, |d| ev.inverse().compose(&G::exp(&(v + d))).log()),
+        t,
+    )?;
+    close(
+        "J_exp_tangent",
         &G::j_exp_tangent(v),
         &group_fd(&|d| G::exp(&(v + d))),
         t,
@@ -422,8 +459,8 @@ pub fn check_jacobians<G: LieGroup<D> + LawSubject<D>, const D: usize>(
     Ok(())
 }
 
-/// Action laws at `p`: `e · p = p`, `(a b) · p = a · (b · p)`, and `J_act_self`, `J_act_point` against
-/// central finite differences.
+/// Action laws at `p`: `e · p = p`, `(a b) · p = a · (b · p)`, and `J_act_self` (with `a` perturbed by
+/// the type's `retract`) and `J_act_point` against central finite differences.
 ///
 /// # Errors
 /// The first law that fails, with its numbers.

@@ -5,10 +5,11 @@
 //! tangents of norm 20 and 30, and (for SU(2)) `w = −1` and `w < 0`. Values are drawn in `f64` and
 //! rounded to the scalar type.
 
-use crate::{LieGroup, Real, Rn, S2, So2, So3, Su2};
+use crate::{Left, LieGroup, Real, Rn, S2, So2, So3, Su2};
 use nalgebra::{Quaternion, SVector, Vector1, Vector2, Vector3};
 use proptest::prelude::*;
 use std::f64::consts::{PI, TAU};
+use std::fmt::Debug;
 
 /// A unit vector of R³, uniform on the sphere (z uniform in [−1, 1], longitude uniform).
 fn unit_vector_f64() -> impl Strategy<Value = [f64; 3]> {
@@ -149,4 +150,12 @@ pub fn s2<T: Real>() -> impl Strategy<Value = S2<T>> {
 /// Points of Rⁿ: components in [−1e3, 1e3], and the origin.
 pub fn rn<T: Real, const N: usize>() -> impl Strategy<Value = Rn<T, N>> {
     rn_tangent::<T, N>().prop_map(Rn::new_unchecked)
+}
+
+/// Elements of [`Left<G>`](Left) for any group: the elements of `elements` (for instance [`so3`]),
+/// wrapped. Tangents and points are those of `G`.
+pub fn left<G: Clone + Debug>(
+    elements: impl Strategy<Value = G>,
+) -> impl Strategy<Value = Left<G>> {
+    elements.prop_map(Left::new)
 }
