@@ -19,7 +19,8 @@ pub type Jacobian<T, const R: usize, const C: usize> = SMatrix<T, R, C>;
 /// (π for SO(2), SO(3) and S², 2π for SU(2), unbounded for Rⁿ), and `x.retract(&x.local(&y)) == y`
 /// wherever `local` is defined. On the Lie groups of this crate, `retract(x, v) = x · exp(v)`:
 /// perturbations act on the right, in the tangent space at `x` (the body frame);
-/// [`Left`](crate::Left) gives `exp(v) · x` (the world frame).
+/// [`Left`](crate::Left) gives `exp(v) · x` (the world frame) and
+/// [`ProductManifold`](crate::ProductManifold) acts factor by factor.
 pub trait Manifold<const D: usize>: Clone + Debug + Sized {
     /// The scalar type of coordinates.
     type Scalar: Real;

@@ -1,6 +1,6 @@
 //! The generic law suite (crate `testing` module) run on every space, in f64 and in f32, with uniform
 //! and curated edge elements (identity, 1e-8 from it, within 1e-12 of π, exactly π, w = −1, tangents of
-//! norm 20 and 30): the groups, and the groups with world-frame errors (`Left`).
+//! norm 20 and 30): the groups, the groups with world-frame errors (`Left`), and products.
 
 use liebayes_manifolds::testing::laws::{
     check_action, check_group, check_jacobians, check_manifold,
@@ -12,8 +12,9 @@ use proptest::prelude::*;
 /// Cases per property: enough to hit every curated class many times (each has weight >= 1/16).
 const CASES: u32 = 2048;
 
+/// The manifold, group and Jacobian laws of a group, and its action laws when points are given.
 macro_rules! group_laws {
-    ($name:ident, $t:ty, $elem:expr, $tangent:expr, $point:expr) => {
+    ($name:ident, $t:ty, $elem:expr, $tangent:expr $(, $point:expr)?) => {
         mod $name {
             use super::*;
 
@@ -35,10 +36,12 @@ macro_rules! group_laws {
                     check_jacobians(&a, &b, &v, &Tolerance::<$t>::for_scalar())?;
                 }
 
+                $(
                 #[test]
                 fn action(a in $elem, b in $elem, p in $point) {
                     check_action(&a, &b, &p, &Tolerance::<$t>::for_scalar())?;
                 }
+                )?
             }
         }
     };
@@ -207,3 +210,82 @@ group_laws!(
     st::rn_tangent::<f32, 3>(),
     st::point3::<f32>()
 );
+
+/// Products: SO(3) × R³, SO(2) × R², Left<SO(3)> × R³ and (SO(3) × R³) × R², in both scalars.
+mod products {
+    use super::*;
+    use liebayes_manifolds::{Left, ProductManifold, Rn, So2, So3};
+
+    type So3R3<T> = ProductManifold<So3<T>, Rn<T, 3>, 3, 3, 6>;
+
+    macro_rules! product_laws {
+        ($t:ident) => {
+            mod $t {
+                use super::*;
+
+                group_laws!(
+                    so3_r3,
+                    $t,
+                    st::product::<_, _, 3, 3, 6>(st::so3::<$t>(), st::rn::<$t, 3>()),
+                    st::product_tangent::<So3<$t>, Rn<$t, 3>, 3, 3, 6>(
+                        st::rotation_vector(),
+                        st::rn_tangent()
+                    )
+                );
+                group_laws!(
+                    so2_r2,
+                    $t,
+                    st::product::<_, _, 1, 2, 3>(st::so2::<$t>(), st::rn::<$t, 2>()),
+                    st::product_tangent::<So2<$t>, Rn<$t, 2>, 1, 2, 3>(
+                        st::so2_tangent(),
+                        st::rn_tangent()
+                    )
+                );
+                group_laws!(
+                    left_so3_r3,
+                    $t,
+                    st::product::<_, _, 3, 3, 6>(st::left(st::so3::<$t>()), st::rn::<$t, 3>()),
+                    st::product_tangent::<Left<So3<$t>>, Rn<$t, 3>, 3, 3, 6>(
+                        st::rotation_vector(),
+                        st::rn_tangent()
+                    )
+                );
+                group_laws!(
+                    so3_r3_r2,
+                    $t,
+                    st::product::<_, _, 6, 2, 8>(
+                        st::product::<_, _, 3, 3, 6>(st::so3::<$t>(), st::rn::<$t, 3>()),
+                        st::rn::<$t, 2>()
+                    ),
+                    st::product_tangent::<So3R3<$t>, Rn<$t, 2>, 6, 2, 8>(
+                        st::product_tangent::<So3<$t>, Rn<$t, 3>, 3, 3, 6>(
+                            st::rotation_vector(),
+                            st::rn_tangent()
+                        ),
+                        st::rn_tangent()
+                    )
+                );
+
+                proptest! {
+                    #![proptest_config(ProptestConfig::with_cases(CASES))]
+
+                    /// S² × R³: a product of a manifold that is not a group.
+                    #[test]
+                    fn s2_r3_manifold(
+                        x in st::product::<_, _, 2, 3, 5>(st::s2::<$t>(), st::rn::<$t, 3>()),
+                        y in st::product::<_, _, 2, 3, 5>(st::s2::<$t>(), st::rn::<$t, 3>()),
+                        v in st::product_tangent::<liebayes_manifolds::S2<$t>, Rn<$t, 3>, 2, 3, 5>(
+                            st::s2_tangent(),
+                            st::rn_tangent()
+                        ),
+                    ) {
+                        check_manifold(&x, &y, &v, &Tolerance::<$t>::for_scalar())?;
+                    }
+                }
+            }
+        };
+    }
+
+    product_laws!(f64);
+    product_laws!(f32);
+}

@@ -11,7 +11,8 @@
 //! derives them from the scalar's machine epsilon; they are never tuned per test.
 
 use crate::{
-    GroupAction, Jacobian, Left, LieGroup, Manifold, Real, Rn, S2, So2, So3, Su2, Tangent,
+    GroupAction, Jacobian, Left, LieGroup, Manifold, ProductManifold, Real, Rn, S2, So2, So3, Su2,
+    Tangent,
 };
 use nalgebra::{ComplexField, RealField, SMatrix, SVector};
 use proptest::prelude::*;
@@ -69,6 +70,13 @@ pub trait LawSubject<const D: usize>: Manifold<D> {
     /// The size of the coordinates, which rounding errors scale with: 1 for the compact spaces,
     /// `1 + max |x_i|` for Rⁿ.
     fn coordinate_scale(&self) -> Self::Scalar;
+
+    /// How far `v` reaches towards the injectivity radius: `|v| / injectivity_radius()`, or for a
+    /// product the largest ratio of its factors (whose blocks have radii of their own). `local` and
+    /// `log` return tangents with a ratio of at most 1.
+    fn injectivity_ratio(v: &Tangent<Self::Scalar, D>) -> Self::Scalar {
+        v.norm() / Self::injectivity_radius()
+    }
 }
 
 /// `Left<G>` has the radius, equivalent tangents and conditioning of `G`: exp and log are the same
@@ -91,6 +99,51 @@ impl<G: LieGroup<D> + LawSubject<D>, const D: usize> LawSubject<D> for Left<G> {
     }
     fn coordinate_scale(&self) -> G::Scalar {
         self.inner().coordinate_scale()
+    }
+    fn injectivity_ratio(v: &Tangent<G::Scalar, D>) -> G::Scalar {
+        G::injectivity_ratio(v)
+    }
+}
+
+/// A product is injective where both factors are (radius: the smaller one; ratio: the larger one),
+/// has equivalent tangents block by block, is regular where both factors are, and is as badly
+/// conditioned and as large as its worse factor.
+impl<A, B, const DA: usize, const DB: usize, const D: usize> LawSubject<D>
+    for ProductManifold<A, B, DA, DB, D>
+where
+    A: LawSubject<DA>,
+    B: LawSubject<DB, Scalar = A::Scalar>,
+{
+    fn injectivity_radius() -> A::Scalar {
+        A::injectivity_radius().min(B::injectivity_radius())
+    }
+    fn equivalent_tangent_near(
+        v: &Tangent<A::Scalar, D>,
+        reference: &Tangent<A::Scalar, D>,
+    ) -> Tangent<A::Scalar, D> {
+        let (va, vb) = Self::split_tangent(v);
+        let (ra, rb) = Self::split_tangent(reference);
+        Self::join_tangent(
+            &A::equivalent_tangent_near(&va, &ra),
+            &B::equivalent_tangent_near(&vb, &rb),
+        )
+    }
+    fn jacobian_is_regular(v: &Tangent<A::Scalar, D>) -> bool {
+        let (va, vb) = Self::split_tangent(v);
+        A::jacobian_is_regular(&va) && B::jacobian_is_regular(&vb)
+    }
+    fn log_condition(v: &Tangent<A::Scalar, D>) -> A::Scalar {
+        let (va, vb) = Self::split_tangent(v);
+        A::log_condition(&va).max(B::log_condition(&vb))
+    }
+    fn coordinate_scale(&self) -> A::Scalar {
+        self.first()
+            .coordinate_scale()
+            .max(self.second().coordinate_scale())
+    }
+    fn injectivity_ratio(v: &Tangent<A::Scalar, D>) -> A::Scalar {
+        let (va, vb) = Self::split_tangent(v);
+        A::injectivity_ratio(&va).max(B::injectivity_ratio(&vb))
     }
 }
 
@@ -271,7 +324,7 @@ pub fn check_manifold<M: LawSubject<D>, const D: usize>(
         t_v * M::log_condition(v),
     )?;
     prop_assert!(
-        back.norm() <= M::injectivity_radius() * (one + t),
+        M::injectivity_ratio(&back) <= one + t,
         "local(x, retract(x, v)) = {back:?} lies outside the injectivity radius"
     );
     let yx = x.local(y);
@@ -321,7 +374,7 @@ pub fn check_group<G: LieGroup<D> + LawSubject<D>, const D: usize>(
     let expected = G::equivalent_tangent_near(v, &back);
     close("log(exp(v)) == v", &back, &expected, t * (one + v.norm()))?;
     prop_assert!(
-        back.norm() <= G::injectivity_radius() * (one + t),
+        G::injectivity_ratio(&back) <= one + t,
         "log(exp(v)) = {back:?} lies outside the injectivity radius"
     );
     close("vee(hat(v)) == v", &G::vee(&G::hat(v)), v, t)?;

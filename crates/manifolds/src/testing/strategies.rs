@@ -5,7 +5,7 @@
 //! tangents of norm 20 and 30, and (for SU(2)) `w = −1` and `w < 0`. Values are drawn in `f64` and
 //! rounded to the scalar type.
 
-use crate::{Left, LieGroup, Real, Rn, S2, So2, So3, Su2};
+use crate::{Left, LieGroup, Manifold, ProductManifold, Real, Rn, S2, So2, So3, Su2, Tangent};
 use nalgebra::{Quaternion, SVector, Vector1, Vector2, Vector3};
 use proptest::prelude::*;
 use std::f64::consts::{PI, TAU};
@@ -158,4 +158,30 @@ pub fn left<G: Clone + Debug>(
     elements: impl Strategy<Value = G>,
 ) -> impl Strategy<Value = Left<G>> {
     elements.prop_map(Left::new)
+}
+
+/// Points of a [`ProductManifold`]: the two factors drawn independently. The dimensions are usually
+/// named, `product::<_, _, 3, 3, 6>(so3(), rn())`.
+pub fn product<A, B, const DA: usize, const DB: usize, const D: usize>(
+    first: impl Strategy<Value = A>,
+    second: impl Strategy<Value = B>,
+) -> impl Strategy<Value = ProductManifold<A, B, DA, DB, D>>
+where
+    A: Clone + Debug,
+    B: Clone + Debug,
+{
+    (first, second).prop_map(|(a, b)| ProductManifold::new(a, b))
+}
+
+/// Tangents of `ProductManifold<A, B, DA, DB, D>`: the blocks drawn independently
+/// (for instance [`rotation_vector`] and [`rn_tangent`]) and stacked.
+pub fn product_tangent<A, B, const DA: usize, const DB: usize, const D: usize>(
+    first: impl Strategy<Value = Tangent<A::Scalar, DA>>,
+    second: impl Strategy<Value = Tangent<A::Scalar, DB>>,
+) -> impl Strategy<Value = Tangent<A::Scalar, D>>
+where
+    A: Manifold<DA>,
+    B: Manifold<DB, Scalar = A::Scalar>,
+{
+    (first, second).prop_map(|(a, b)| ProductManifold::<A, B, DA, DB, D>::join_tangent(&a, &b))
 }
