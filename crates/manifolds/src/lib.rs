@@ -45,6 +45,12 @@
 //! # Ok::<(), liebayes_manifolds::ManifoldError>(())
 //! ```
 //!
+//! ## Products and means
+//!
+//! [`ProductManifold`] stacks two spaces into one state (attitude × bias is
+//! `ProductManifold<So3<f64>, Rn<f64, 3>, 3, 3, 6>`), a Lie group when both factors are; products
+//! nest. [`weighted_mean`] averages samples on any [`Manifold`] by Gauss-Newton, without allocating.
+//!
 //! With the `proptest` feature, [`testing`] exports the strategies (uniform and curated edge elements
 //! for every space) and the generic law suite this crate tests itself with.
 
@@ -54,6 +60,7 @@ mod error;
 mod left;
 mod lie_group;
 mod manifold;
+mod mean;
 mod polar;
 mod product;
 mod real;
@@ -70,6 +77,7 @@ pub use error::ManifoldError;
 pub use left::Left;
 pub use lie_group::{GroupAction, LieGroup};
 pub use manifold::{Jacobian, Manifold, Tangent};
+pub use mean::{MeanSettings, weighted_mean};
 pub use product::ProductManifold;
 pub use real::Real;
 pub use rn::Rn;

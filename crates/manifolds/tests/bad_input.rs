@@ -6,9 +6,10 @@
 
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{
-    GroupAction, LieGroup, Manifold, ManifoldError, Real, Rn, S2, So2, So3, Su2,
+    GroupAction, Left, LieGroup, Manifold, ManifoldError, MeanSettings, ProductManifold, Real, Rn,
+    S2, So2, So3, Su2, weighted_mean,
 };
-use nalgebra::{Matrix2, Matrix3, Quaternion, Vector1, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, Quaternion, SVector, Vector1, Vector2, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
@@ -281,7 +282,7 @@ proptest! {
         // are representable (|p| <= 0.44 MAX).
         let p = Vector3::new(px, py, pz) / 4.0;
         let finite3 = |m: &Matrix3<f64>| all_finite(m.iter().copied());
-        for r in [So3::exp(&v), a.retract(&v)] {
+        for r in [So3::exp(&v), a.retract(&v), Left::new(a).retract(&v).into_inner()] {
             prop_assert!(unit_wxyz(r.to_quaternion_wxyz(), 1e-12), "{r:?}");
             prop_assert!(r.log().norm() <= std::f64::consts::PI * (1.0 + 1e-15));
             prop_assert!(all_finite(r.act(&p).iter().copied()), "{r:?} . {p:?}");
@@ -298,6 +299,8 @@ proptest! {
             a.j_retract_self(&v),
             a.j_retract_tangent(&v),
             a.j_act_self(&p),
+            Left::new(a).j_retract_self(&v),
+            Left::new(a).j_act_self(&p),
         ] {
             prop_assert!(finite3(&j), "{j:e}");
         }
@@ -347,9 +350,12 @@ proptest! {
         }
     }
 
-    /// Rⁿ on inputs below a quarter of the range (sums of two stay representable).
+    /// Rⁿ and products on inputs below a quarter of the range (sums of two stay representable).
     #[test]
-    fn vector_space_operations_stay_finite(x in finite(), y in finite(), z in finite()) {
+    fn vector_space_and_product_operations_stay_finite(
+        x in finite(), y in finite(), z in finite(),
+        a in st::so3::<f64>(),
+    ) {
         let v = Vector3::new(x, y, z) / 4.0;
         let p = Rn::new(v).unwrap();
         let q = Rn::new(-v).unwrap();
@@ -357,6 +363,50 @@ proptest! {
             prop_assert!(all_finite(r.coords().iter().copied()));
         }
         prop_assert!(all_finite(p.local(&q).iter().copied()) && p.distance(&q).is_finite());
+        let xb = ProductManifold::<_, _, 3, 3, 6>::new(a, p);
+        let d = SVector::<f64, 6>::from_fn(|i, _| v[i % 3]);
+        let moved = xb.retract(&d);
+        prop_assert!(unit_wxyz(moved.first().to_quaternion_wxyz(), 1e-12));
+        prop_assert!(all_finite(xb.local(&moved).iter().copied()));
+        prop_assert!(all_finite(xb.j_retract_tangent(&d).iter().copied()));
+    }
+
+    /// The weighted mean with weights of every kind: an error exactly when a weight is not finite or
+    /// the sum is zero up to rounding or overflows, and a valid rotation otherwise.
+    #[test]
+    fn mean_weights(w1 in raw(), w2 in raw(), w3 in raw(), a in st::so3::<f64>()) {
+        let xs = [
+            a,
+            a.retract(&Vector3::new(0.1, 0.0, 0.0)),
+            a.retract(&Vector3::new(0.0, -0.1, 0.05)),
+        ];
+        let weights = [w1, w2, w3];
+        let result = weighted_mean(&a, xs.iter().zip(weights), MeanSettings::default());
+        let sum: f64 = weights.iter().sum();
+        let absolute: f64 = weights.iter().map(|w| w.abs()).sum();
+        let valid = all_finite(weights)
+            && sum.is_finite()
+            && absolute.is_finite()
+            && sum.abs() > 3.0 * f64::EPSILON * absolute;
+        match result {
+            Ok(m) => {
+                prop_assert!(valid);
+                prop_assert!(unit_wxyz(m.to_quaternion_wxyz(), 1e-12));
+            }
+            Err(ManifoldError::NonFiniteWeight { index, value }) => {
+                prop_assert!(!weights[index].is_finite());
+                prop_assert!(value.is_nan() == weights[index].is_nan());
+            }
+            Err(ManifoldError::DegenerateWeights { .. }) => prop_assert!(!valid),
+            // Valid weights can extrapolate far (a sum near zero makes the normalised weights huge):
+            // the iteration may then not converge.
+            Err(ManifoldError::MeanNotConverged { .. }) => {
+                prop_assert!(valid);
+                let largest = weights.iter().map(|w| (w / sum).abs()).fold(0.0, f64::max);
+                prop_assert!(largest > 2.0, "weights {weights:?} did not converge");
+            }
+            Err(e) => prop_assert!(false, "unexpected error {e}"),
+        }
     }
 }
 
