@@ -481,6 +481,29 @@ fn orthonormalized_scaled_rotations_recover_the_rotation() {
     }
 }
 
+/// Matrices at the ends of the range that stalled or broke earlier versions of the Jacobi polar
+/// factor: a rotation scaled to MIN_POSITIVE (subnormal entries) with one entry 1 or MAX (ratios
+/// beyond the exponent range), a negative scale with one entry MIN_POSITIVE, and the zero matrix.
+#[test]
+fn orthonormalized_at_the_ends_of_the_range() {
+    let r = So3::exp(&Vector3::new(0.4, -1.3, 0.2)).to_matrix();
+    for (scale, entry, value) in [
+        (f64::MIN_POSITIVE, 4, 1.0),
+        (f64::MIN_POSITIVE, 8, f64::MAX),
+        (-f64::MIN_POSITIVE, 1, f64::MIN_POSITIVE),
+        (2e-308, 0, 1e-300),
+        (5e-324, 3, 1.0),
+    ] {
+        let mut m = r * scale;
+        m[entry] = value;
+        check_orthonormalized(&m).unwrap();
+    }
+    assert!(matches!(
+        So3::from_matrix_orthonormalized(&Matrix3::<f64>::zeros()),
+        Err(ManifoldError::NotProperRotation { det }) if det == 0.0
+    ));
+}
+
 /// `S2::log_at` next to the antipode with a subnormal component once gave [inf, NaN]: the direction's
 /// norm was subnormal and θ / norm overflowed.
 #[test]
