@@ -1,5 +1,7 @@
 //! Benchmarks of the manifold layer: exp, log, compose, act and the Jacobians of `So3` and `Su2`, each
-//! beside nalgebra's `UnitQuaternion` and `Rotation3` equivalent in the same run.
+//! beside nalgebra's `UnitQuaternion` and `Rotation3` equivalent in the same run; the world-frame
+//! retraction of `Left<So3>`; the product SO(3) × R³ beside its two factors done by hand; and the
+//! weighted mean of unscented sigma points.
 //! The poses `Se2` and `Se3` (compose, act, exp, log, right Jacobian and its inverse) run beside
 //! nalgebra's `Isometry2` and `Isometry3` (`cargo bench --bench manifolds -- pose`).
 //!
@@ -11,11 +13,13 @@
 
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
-use liebayes::manifolds::{GroupAction, LieGroup, Manifold, So3, Su2};
-use nalgebra::{Rotation3, UnitQuaternion, Vector3};
-
-use liebayes::manifolds::{Se2, Se3};
-use nalgebra::{Isometry2, Isometry3, Point2, Point3, Vector6};
+use liebayes::manifolds::{
+    GroupAction, Left, LieGroup, Manifold, MeanSettings, ProductManifold, Rn, Se2, Se3, So3, Su2,
+    weighted_mean,
+};
+use nalgebra::{
+    Isometry2, Isometry3, Point2, Point3, Rotation3, SVector, UnitQuaternion, Vector3, Vector6,
+};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -328,11 +332,117 @@ fn poses(c: &mut Criterion) {
     g.finish();
 }
 
+/// Attitude and gyroscope bias.
+type AttitudeBias = ProductManifold<So3<f64>, Rn<f64, 3>, 3, 3, 6>;
+
+fn product(c: &mut Criterion) {
+    let x = Inputs::new();
+    let states: Vec<(AttitudeBias, AttitudeBias, SVector<f64, 6>)> = x
+        .v
+        .iter()
+        .zip(&x.w)
+        .zip(&x.p)
+        .map(|((v, w), p)| {
+            let state = |r: &Vector3<f64>| AttitudeBias::new(So3::exp(r), Rn::new_unchecked(*p));
+            (
+                state(v),
+                state(w),
+                AttitudeBias::join_tangent(&(w * 0.1), p),
+            )
+        })
+        .collect();
+    let mut g = group(c, "product");
+    batch(&mut g, "So3 x R3 retract", &states, |(a, _, d)| {
+        a.retract(d)
+    });
+    batch(
+        &mut g,
+        "So3 retract + R3 add (by hand)",
+        &states,
+        |(a, _, d)| {
+            let (dr, db) = AttitudeBias::split_tangent(d);
+            (a.first().retract(&dr), a.second().coords() + db)
+        },
+    );
+    batch(&mut g, "So3 x R3 local", &states, |(a, b, _)| a.local(b));
+    batch(&mut g, "So3 x R3 compose", &states, |(a, b, _)| {
+        a.compose(b)
+    });
+    batch(&mut g, "So3 x R3 j_retract_self", &states, |(a, _, d)| {
+        a.j_retract_self(d)
+    });
+    batch(&mut g, "So3 x R3 j_local_other", &states, |(a, b, _)| {
+        a.j_local_other(b)
+    });
+    let left: Vec<_> =
+        x.v.iter()
+            .zip(&x.w)
+            .map(|(v, w)| (Left::new(So3::exp(v)), Left::new(So3::exp(w)), w * 0.1))
+            .collect();
+    batch(&mut g, "Left<So3> retract", &left, |(a, _, d)| a.retract(d));
+    batch(&mut g, "Left<So3> local", &left, |(a, b, _)| a.local(b));
+    g.finish();
+}
+
+/// The 2D + 1 sigma points of the scaled unscented transform (α = 1, κ = 0) around `centre` with
+/// offsets `columns`, and their weights.
+fn sigma_points<X: Manifold<D, Scalar = f64>, const D: usize>(
+    centre: &X,
+    columns: &[SVector<f64, D>; D],
+) -> (Vec<X>, Vec<f64>) {
+    let spread = (D as f64).sqrt();
+    let points = std::iter::once(centre.clone())
+        .chain(columns.iter().map(|l| centre.retract(&(l * spread))))
+        .chain(columns.iter().map(|l| centre.retract(&(l * -spread))))
+        .collect();
+    let weights = std::iter::once(0.0)
+        .chain(std::iter::repeat_n(0.5 / D as f64, 2 * D))
+        .collect();
+    (points, weights)
+}
+
+fn mean(c: &mut Criterion) {
+    let x = Inputs::new();
+    let columns3: [Vector3<f64>; 3] = std::array::from_fn(|i| x.w[i] * 0.1);
+    let columns6: [SVector<f64, 6>; 6] =
+        std::array::from_fn(|i| AttitudeBias::join_tangent(&(x.w[i] * 0.1), &x.p[i]));
+    let so3: Vec<_> =
+        x.v.iter()
+            .map(|v| sigma_points(&So3::exp(v), &columns3))
+            .collect();
+    let product: Vec<_> =
+        x.v.iter()
+            .zip(&x.p)
+            .map(|(v, p)| {
+                sigma_points(
+                    &AttitudeBias::new(So3::exp(v), Rn::new_unchecked(*p)),
+                    &columns6,
+                )
+            })
+            .collect();
+    let mut g = group(c, "weighted_mean");
+    batch(&mut g, "So3, 7 sigma points", &so3, |(xs, ws)| {
+        weighted_mean(
+            &xs[0],
+            xs.iter().zip(ws.iter().copied()),
+            MeanSettings::default(),
+        )
+    });
+    batch(&mut g, "So3 x R3, 13 sigma points", &product, |(xs, ws)| {
+        weighted_mean(
+            &xs[0],
+            xs.iter().zip(ws.iter().copied()),
+            MeanSettings::default(),
+        )
+    });
+    g.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default()
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2));
-    targets = exp, log, compose, act, jacobians, poses
+    targets = exp, log, compose, act, jacobians, poses, product, mean
 }
 criterion_main!(benches);

@@ -88,6 +88,69 @@ pub enum ManifoldError {
         /// The number given.
         got: usize,
     },
+    /// The Jacobi sweeps behind an orthonormalisation stopped at their bound.
+    #[error(
+        "the SVD of the matrix did not converge in {sweeps} Jacobi sweeps, so it has no nearest \
+         rotation to report; check the matrix for entries that are not meant to be there"
+    )]
+    PolarNotConverged {
+        /// The bound that was reached.
+        sweeps: usize,
+    },
+    /// A setting is outside its valid range.
+    #[error("{what} is {value}, outside its valid range {range}")]
+    OutOfRange {
+        /// The setting.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+        /// The valid range.
+        range: &'static str,
+    },
+    /// A computation over samples was given none.
+    #[error("{what} needs at least one sample, got none")]
+    EmptyInput {
+        /// What was being computed.
+        what: &'static str,
+    },
+    /// A weight is NaN or infinite.
+    #[error(
+        "weight {index} is {value}: every weight must be a finite number (negative weights are \
+         allowed, as long as the weights have a non-zero sum)"
+    )]
+    NonFiniteWeight {
+        /// The position of the weight in the samples.
+        index: usize,
+        /// The weight.
+        value: f64,
+    },
+    /// The weights cannot be normalised: their sum is not finite or is zero up to rounding.
+    #[error(
+        "the weights sum to {sum:e} (their absolute values to {absolute_sum:e}): the sum must be \
+         finite and larger in magnitude than its rounding error, n eps sum|w_i| (n weights, eps the \
+         scalar's machine epsilon), so that the weights can be normalised"
+    )]
+    DegenerateWeights {
+        /// The sum of the weights.
+        sum: f64,
+        /// The sum of their absolute values.
+        absolute_sum: f64,
+    },
+    /// The Gauss-Newton iteration of a weighted mean did not reach its tolerance.
+    #[error(
+        "the weighted mean did not converge in {iterations} iterations: the last step has \
+         tangent norm {last_step:e}, above the tolerance {tolerance:e}. The mean is unique when the \
+         samples, with positive weights, lie in a ball of radius below half the injectivity radius; \
+         otherwise start nearer the samples or allow more iterations"
+    )]
+    MeanNotConverged {
+        /// The iterations done (the bound of the settings).
+        iterations: usize,
+        /// The tangent norm of the last step (infinite or NaN if the step overflowed).
+        last_step: f64,
+        /// The tolerance of the settings.
+        tolerance: f64,
+    },
 }
 
 /// Checks that every value is finite.

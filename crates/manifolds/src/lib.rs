@@ -9,12 +9,15 @@
 //!
 //! ## The convention
 //!
-//! **Perturbations live in the tangent space on the right, and all Jacobians are right Jacobians.**
+//! **Perturbations live in the tangent space on the right, and all Jacobians are right Jacobians**,
+//! unless the group is wrapped in [`Left`].
 //!
-//! * `x ⊞ v = x · exp(v)` ([`Manifold::retract`]), `y ⊟ x = log(x⁻¹ · y)` ([`Manifold::local`]).
+//! * `x ⊞ v = x · exp(v)` ([`Manifold::retract`]), `y ⊟ x = log(x⁻¹ · y)` ([`Manifold::local`]):
+//!   errors in the body frame. [`Left<G>`](Left) gives `exp(v) · x` and `log(y · x⁻¹)`, errors in the
+//!   world frame, with every Jacobian in that convention, so every generic operator runs with either.
 //! * A Jacobian named `J_out_in` (methods `j_<out>_<in>`) is the matrix with
-//!   `out(in ⊞ δ) = out(in) ⊞ (J_out_in δ + O(|δ|²))`, where ⊞ is plain addition for outputs and
-//!   inputs that are tangent vectors or points.
+//!   `out(in ⊞ δ) = out(in) ⊞ (J_out_in δ + O(|δ|²))`, with the type's own ⊞, which is plain addition
+//!   for outputs and inputs that are tangent vectors or points.
 //! * `Jr(v)` with `exp(v + δ) = exp(v) exp(Jr(v) δ)`; `Jl(v) = Jr(−v)`; `Ad(g)` with
 //!   `g exp(v) g⁻¹ = exp(Ad(g) v)`.
 //! * Quaternions are Hamilton, scalar first in all I/O (`w, x, y, z`), rotating actively:
@@ -49,15 +52,25 @@
 //! and the rotation block last**, `v = [ρ; θ]` resp. `[ρ; φ]` (the order of manif and Sophus), and
 //! `x ⊞ v = x · exp(v)` like every group here, so ρ is a displacement in the body frame of `x`.
 //!
+//! ## Products and means
+//!
+//! [`ProductManifold`] stacks two spaces into one state (attitude × bias is
+//! `ProductManifold<So3<f64>, Rn<f64, 3>, 3, 3, 6>`), a Lie group when both factors are; products
+//! nest. [`weighted_mean`] averages samples on any [`Manifold`] by Gauss-Newton, without allocating.
+//!
 //! With the `proptest` feature, [`testing`] exports the strategies (uniform and curated edge elements
 //! for every space) and the generic law suite this crate tests itself with.
 
 mod approx_impls;
 pub mod constants;
 mod error;
+mod left;
 mod lie_group;
 mod manifold;
+mod mean;
+mod polar;
 mod pose;
+mod product;
 mod real;
 mod rn;
 mod rotation_vector;
@@ -71,8 +84,11 @@ mod su2;
 pub mod testing;
 
 pub use error::ManifoldError;
+pub use left::Left;
 pub use lie_group::{GroupAction, LieGroup};
 pub use manifold::{Jacobian, Manifold, Tangent};
+pub use mean::{MeanSettings, weighted_mean};
+pub use product::ProductManifold;
 pub use real::Real;
 pub use rn::Rn;
 pub use s2::S2;
@@ -84,6 +100,8 @@ pub use su2::Su2;
 
 /// The traits and types most code needs: `use liebayes_manifolds::prelude::*;`.
 pub mod prelude {
-    pub use crate::{GroupAction, LieGroup, Manifold, ManifoldError, Real, Rn, S2, So2, So3, Su2};
-    pub use crate::{Se2, Se3};
+    pub use crate::{
+        GroupAction, Left, LieGroup, Manifold, ManifoldError, MeanSettings, ProductManifold, Real,
+        Rn, S2, Se2, Se3, So2, So3, Su2, weighted_mean,
+    };
 }

@@ -1,10 +1,11 @@
 //! The [`LieGroup`] and [`GroupAction`] traits, with the Jacobians every group derives from its
 //! adjoint and its right Jacobian.
 //!
-//! Convention (see the crate docs): perturbations live in the tangent space on the right,
-//! `x ⊞ δ = x · exp(δ)`, and a Jacobian `J_out_in` is defined by
-//! `out(in ⊞ δ) = out(in) ⊞ (J_out_in δ + O(|δ|²))`; for tangent-valued or point-valued outputs ⊞ is
-//! plain addition.
+//! Convention (see the crate docs): a Jacobian `J_out_in` is defined by
+//! `out(in ⊞ δ) = out(in) ⊞ (J_out_in δ + O(|δ|²))` with the type's own ⊞ ([`Manifold::retract`]);
+//! for tangent-valued or point-valued outputs ⊞ is plain addition. The groups of the crate perturb on
+//! the right, `x ⊞ δ = x · exp(δ)`, and the provided Jacobians are the formulas for that retraction;
+//! [`Left`](crate::Left) perturbs on the left and overrides all of them.
 
 use crate::manifold::{Jacobian, Manifold, Tangent};
 use nalgebra::SVector;
@@ -14,7 +15,16 @@ use std::fmt::Debug;
 ///
 /// Implementors provide the group operations, `exp`/`log`, `hat`/`vee`, the adjoint and the right
 /// Jacobian (with its inverse); the Jacobians of compose, inverse, exp, log, retract and local follow
-/// from those and are provided. All Jacobians are right Jacobians.
+/// from those and are provided.
+///
+/// **The Jacobians follow the type's retraction.** Every `j_<out>_<in>` is the matrix J with
+/// `out(in ⊞ δ) = out(in) ⊞ (J δ + O(|δ|²))`, where ⊞ is [`Manifold::retract`] of this type, on the
+/// input and on the output alike. The intrinsic maps (`right_jacobian`, `left_jacobian`, their
+/// inverses, `adjoint`) do not depend on it. The provided implementations are the formulas for the
+/// right retraction `x ⊞ δ = x · exp(δ)` that every group of the crate uses (body-frame errors); a type
+/// with another retraction must override all of them, as [`Left`](crate::Left) does for world-frame
+/// errors `x ⊞ δ = exp(δ) · x`. There are no `retract_left`/`local_left` methods: wrapping the group in
+/// `Left` is the one way to perturb on the left, and it keeps every generic operator working.
 pub trait LieGroup<const D: usize>: Manifold<D> {
     /// The Lie algebra in the group's own representation (a skew matrix for SO(2)/SO(3), a pure
     /// quaternion for SU(2), a vector for Rⁿ).
@@ -68,47 +78,55 @@ pub trait LieGroup<const D: usize>: Manifold<D> {
         Self::right_jacobian_inverse(&-v)
     }
 
-    /// `J_compose_self`: right Jacobian of `self · other` with respect to `self`, `Ad(other⁻¹)`.
+    /// `J_compose_self`: Jacobian of `self · other` with respect to `self`; `Ad(other⁻¹)` for the right
+    /// retraction.
     fn j_compose_self(&self, other: &Self) -> Jacobian<Self::Scalar, D, D> {
         other.inverse().adjoint()
     }
 
-    /// `J_compose_other`: right Jacobian of `self · other` with respect to `other`, the identity.
+    /// `J_compose_other`: Jacobian of `self · other` with respect to `other`; the identity for the
+    /// right retraction.
     fn j_compose_other(&self, _other: &Self) -> Jacobian<Self::Scalar, D, D> {
         Jacobian::identity()
     }
 
-    /// `J_inverse_self`: right Jacobian of `self⁻¹` with respect to `self`, `-Ad(self)`.
+    /// `J_inverse_self`: Jacobian of `self⁻¹` with respect to `self`; `-Ad(self)` for the right
+    /// retraction.
     fn j_inverse_self(&self) -> Jacobian<Self::Scalar, D, D> {
         -self.adjoint()
     }
 
-    /// `J_exp_tangent`: right Jacobian of `exp(v)` with respect to `v`, `Jr(v)`.
+    /// `J_exp_tangent`: Jacobian of `exp(v)` with respect to `v`; `Jr(v)` for the right retraction.
     fn j_exp_tangent(v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
         Self::right_jacobian(v)
     }
 
-    /// `J_log_self`: Jacobian of `log(self)` with respect to `self`, `Jr⁻¹(log(self))`.
+    /// `J_log_self`: Jacobian of `log(self)` with respect to `self`; `Jr⁻¹(log(self))` for the right
+    /// retraction.
     fn j_log_self(&self) -> Jacobian<Self::Scalar, D, D> {
         Self::right_jacobian_inverse(&self.log())
     }
 
-    /// `J_retract_self`: right Jacobian of `self ⊞ v` with respect to `self`, `Ad(exp(v))⁻¹ = Ad(exp(-v))`.
+    /// `J_retract_self`: Jacobian of `self ⊞ v` with respect to `self`; `Ad(exp(v))⁻¹ = Ad(exp(-v))`
+    /// for the right retraction.
     fn j_retract_self(&self, v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
         Self::exp(&-v).adjoint()
     }
 
-    /// `J_retract_tangent`: right Jacobian of `self ⊞ v` with respect to `v`, `Jr(v)`.
+    /// `J_retract_tangent`: Jacobian of `self ⊞ v` with respect to `v`; `Jr(v)` for the right
+    /// retraction.
     fn j_retract_tangent(&self, v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
         Self::right_jacobian(v)
     }
 
-    /// `J_local_self`: Jacobian of `other ⊟ self` with respect to `self`, `-Jl⁻¹(other ⊟ self)`.
+    /// `J_local_self`: Jacobian of `other ⊟ self` with respect to `self`; `-Jl⁻¹(other ⊟ self)` for the
+    /// right retraction.
     fn j_local_self(&self, other: &Self) -> Jacobian<Self::Scalar, D, D> {
         -Self::left_jacobian_inverse(&self.local(other))
     }
 
-    /// `J_local_other`: Jacobian of `other ⊟ self` with respect to `other`, `Jr⁻¹(other ⊟ self)`.
+    /// `J_local_other`: Jacobian of `other ⊟ self` with respect to `other`; `Jr⁻¹(other ⊟ self)` for
+    /// the right retraction.
     fn j_local_other(&self, other: &Self) -> Jacobian<Self::Scalar, D, D> {
         Self::right_jacobian_inverse(&self.local(other))
     }
@@ -119,7 +137,7 @@ pub trait GroupAction<const D: usize, const P: usize>: LieGroup<D> {
     /// The transformed point `g · p`.
     fn act(&self, p: &SVector<Self::Scalar, P>) -> SVector<Self::Scalar, P>;
 
-    /// `J_act_self`: right Jacobian of `g · p` with respect to `g`.
+    /// `J_act_self`: Jacobian of `g · p` with respect to `g`, perturbed by the type's retraction.
     fn j_act_self(&self, p: &SVector<Self::Scalar, P>) -> Jacobian<Self::Scalar, P, D>;
 
     /// `J_act_point`: Jacobian of `g · p` with respect to `p`.

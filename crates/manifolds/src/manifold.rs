@@ -1,6 +1,6 @@
 //! The [`Manifold`] trait: points, tangent vectors, and the two maps between them.
 
-use crate::real::Real;
+use crate::real::{Real, stable_norm};
 use nalgebra::{SMatrix, SVector};
 use std::fmt::Debug;
 
@@ -17,8 +17,10 @@ pub type Jacobian<T, const R: usize, const C: usize> = SMatrix<T, R, C>;
 ///
 /// Law: `x.local(&x.retract(&v)) == v` whenever `|v|` is below the space's injectivity radius
 /// (π for SO(2), SO(3) and S², 2π for SU(2), unbounded for Rⁿ), and `x.retract(&x.local(&y)) == y`
-/// wherever `local` is defined. On a Lie group, `retract(x, v) = x · exp(v)`: perturbations act on the
-/// right, in the tangent space at `x`.
+/// wherever `local` is defined. On the Lie groups of this crate, `retract(x, v) = x · exp(v)`:
+/// perturbations act on the right, in the tangent space at `x` (the body frame);
+/// [`Left`](crate::Left) gives `exp(v) · x` (the world frame) and
+/// [`ProductManifold`](crate::ProductManifold) acts factor by factor.
 pub trait Manifold<const D: usize>: Clone + Debug + Sized {
     /// The scalar type of coordinates.
     type Scalar: Real;
@@ -33,8 +35,8 @@ pub trait Manifold<const D: usize>: Clone + Debug + Sized {
     /// y ⊟ x: the tangent vector at `self` that leads to `other`.
     fn local(&self, other: &Self) -> Tangent<Self::Scalar, D>;
 
-    /// Geodesic distance: the norm of `self.local(other)`.
+    /// Geodesic distance: the norm of `self.local(other)` (computed without overflow or underflow).
     fn distance(&self, other: &Self) -> Self::Scalar {
-        self.local(other).norm()
+        stable_norm(&self.local(other))
     }
 }

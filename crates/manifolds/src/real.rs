@@ -1,7 +1,7 @@
 //! The scalar types the crate is generic over.
 
 use crate::constants::Thresholds;
-use nalgebra::RealField;
+use nalgebra::{RealField, SVector};
 
 /// A real scalar: `f64` or `f32`.
 ///
@@ -14,6 +14,8 @@ pub trait Real: RealField + Copy + Default + Thresholds {
     fn to_f64(self) -> f64;
     /// The largest finite value.
     fn max_finite() -> Self;
+    /// The smallest positive normal value.
+    fn min_positive() -> Self;
 }
 
 impl Real for f64 {
@@ -28,6 +30,10 @@ impl Real for f64 {
     #[inline]
     fn max_finite() -> Self {
         f64::MAX
+    }
+    #[inline]
+    fn min_positive() -> Self {
+        f64::MIN_POSITIVE
     }
 }
 
@@ -44,5 +50,26 @@ impl Real for f32 {
     #[inline]
     fn max_finite() -> Self {
         f32::MAX
+    }
+    #[inline]
+    fn min_positive() -> Self {
+        f32::MIN_POSITIVE
+    }
+}
+
+/// Euclidean norm that neither underflows for tiny nor overflows for huge components (it is infinite
+/// only when the norm itself exceeds the largest finite value). One check on the fast path.
+#[inline]
+pub(crate) fn stable_norm<T: Real, const N: usize>(v: &SVector<T, N>) -> T {
+    let n2 = v.norm_squared();
+    if n2.is_finite() && n2 > T::MIN_DIRECTION_NORM * T::MIN_DIRECTION_NORM {
+        n2.sqrt()
+    } else {
+        let scale = v.amax();
+        if scale == T::zero() {
+            T::zero()
+        } else {
+            (v / scale).norm() * scale
+        }
     }
 }

@@ -8,10 +8,12 @@
 //! * Jr⁻¹(v) = I + (θ/2) U + (1 − (θ/2) cot(θ/2)) U².
 //!
 //! Writing the coefficients against the unit-axis matrix U keeps them bounded for any finite v
-//! (no 0 · ∞ for huge tangents). Below [`Thresholds::SERIES_ANGLE`](crate::constants::Thresholds)
-//! the Taylor series of the coefficients of hat(v) and hat(v)² are used instead.
+//! (no 0 · ∞ for huge tangents), and every function works from the half angle θ/2 = |v/2|, which is
+//! finite for every finite v (|v| itself overflows when the components approach the largest finite
+//! value). Below [`Thresholds::SERIES_ANGLE`](crate::constants::Thresholds) the Taylor series of the
+//! coefficients of hat(v) and hat(v)² are used instead.
 
-use crate::real::Real;
+use crate::real::{Real, stable_norm as norm};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 /// The cross-product matrix: `hat(v) w = v × w`.
@@ -32,39 +34,32 @@ pub(crate) fn vee<T: Real>(m: &Matrix3<T>) -> Vector3<T> {
     )
 }
 
-/// Euclidean norm that neither underflows for tiny nor overflows for huge components.
+/// `v / 2` and its norm θ/2, finite for every finite `v`.
 #[inline]
-pub(crate) fn norm<T: Real>(v: &Vector3<T>) -> T {
-    let n2 = v.norm_squared();
-    if n2.is_finite() && n2 > T::MIN_DIRECTION_NORM * T::MIN_DIRECTION_NORM {
-        n2.sqrt()
-    } else {
-        let scale = v.amax();
-        if scale == T::zero() {
-            T::zero()
-        } else {
-            (v / scale).norm() * scale
-        }
-    }
+fn half<T: Real>(v: &Vector3<T>) -> (Vector3<T>, T) {
+    let half_v = v * T::lit(0.5);
+    let h = norm(&half_v);
+    (half_v, h)
 }
 
 /// The unit quaternion of a rotation vector, valid for every finite `v` (period 4π in θ).
 #[inline]
 pub(crate) fn exp<T: Real>(v: &Vector3<T>) -> UnitQuaternion<T> {
-    let theta = norm(v);
-    let (s, c) = (theta * T::lit(0.5)).sin_cos();
-    // k = sin(θ/2) / θ = (1/2) (1 − θ²/24 + θ⁴/1920 − …). Both candidates are computed and one is
-    // selected: with sin and cos in one basic block the compiler fuses them into a single `sincos`
-    // call (the discarded quotient may be 0/0 at θ = 0; it is never used).
-    let t2 = theta * theta;
-    let series = T::lit(0.5) * (T::one() - t2 / T::lit(24.0) + t2 * t2 / T::lit(1920.0));
-    let direct = s / theta;
-    let k = if theta < T::SERIES_ANGLE {
+    let (half_v, h) = half(v);
+    let (s, c) = h.sin_cos();
+    // k = sin(θ/2) / (θ/2) = 1 − h²/6 + h⁴/120 − … with h = θ/2. Both candidates are computed and one
+    // is selected: with sin and cos in one basic block the compiler fuses them into a single `sincos`
+    // call (the discarded quotient may be 0/0 at θ = 0; it is never used). `h + h` is θ, or +∞ for
+    // tangents whose norm overflows, which take the closed form.
+    let h2 = h * h;
+    let series = T::one() - h2 / T::lit(6.0) + h2 * h2 / T::lit(120.0);
+    let direct = s / h;
+    let k = if h + h < T::SERIES_ANGLE {
         series
     } else {
         direct
     };
-    UnitQuaternion::new_unchecked(Quaternion::new(c, v.x * k, v.y * k, v.z * k))
+    UnitQuaternion::new_unchecked(Quaternion::new(c, half_v.x * k, half_v.y * k, half_v.z * k))
 }
 
 /// The rotation vector of a quaternion on the SU(2) principal branch: θ = 2 atan2(|xyz|, w) in [0, 2π].
@@ -86,7 +81,7 @@ pub(crate) fn log<T: Real>(q: &Quaternion<T>) -> Vector3<T> {
     }
 }
 
-/// Computes `I + p·U + r·U²` with U = hat(v/θ) and `(p, r) = closed_form(θ)`, or, below the series
+/// Computes `I + p·U + r·U²` with U = hat(v/θ) and `(p, r) = closed_form(θ/2)`, or, below the series
 /// threshold, `I + p·hat(v) + r·hat(v)²` with `(p, r) = series(θ²)`.
 ///
 /// Both are `(1 − r n²) I + r a aᵀ + p hat(a)` with `a` the unit axis (n = 1) or `v` itself (n = θ),
@@ -97,12 +92,12 @@ fn axis_polynomial<T: Real>(
     closed_form: impl Fn(T) -> (T, T),
     series: impl Fn(T) -> (T, T),
 ) -> Matrix3<T> {
-    let theta = norm(v);
-    let (a, n2, (p, r)) = if theta < T::SERIES_ANGLE {
-        let t2 = theta * theta;
+    let (half_v, h) = half(v);
+    let (a, n2, (p, r)) = if h + h < T::SERIES_ANGLE {
+        let t2 = T::lit(4.0) * h * h;
         (*v, t2, series(t2))
     } else {
-        (v / theta, T::one(), closed_form(theta))
+        (half_v / h, T::one(), closed_form(h))
     };
     let d = T::one() - r * n2;
     let (rx, ry, rz) = (r * a.x, r * a.y, r * a.z);
@@ -120,13 +115,13 @@ fn axis_polynomial<T: Real>(
     )
 }
 
-/// Coefficients of U and U² in Jr: `(−(1 − cos θ)/θ, (θ − sin θ)/θ)`, from one `sin_cos(θ/2)`:
-/// 1 − cos θ = 2 sin²(θ/2) (no cancellation) and sin θ = 2 sin(θ/2) cos(θ/2).
+/// Coefficients of U and U² in Jr, `(−(1 − cos θ)/θ, (θ − sin θ)/θ)`, from the half angle h = θ/2 and
+/// one `sin_cos(h)`: 1 − cos θ = 2 sin² h (no cancellation) and sin θ = 2 sin h cos h, so the
+/// coefficients are `(−sin² h / h, 1 − sin h cos h / h)`.
 #[inline]
-fn right_jacobian_closed<T: Real>(theta: T) -> (T, T) {
-    let (s, c) = (theta * T::lit(0.5)).sin_cos();
-    let two_s = s + s;
-    (-(two_s * s) / theta, (theta - two_s * c) / theta)
+fn right_jacobian_closed<T: Real>(h: T) -> (T, T) {
+    let (s, c) = h.sin_cos();
+    (-(s * s) / h, T::one() - s * c / h)
 }
 
 /// Coefficients of hat(v) and hat(v)² in Jr as series in t2 = θ²:
@@ -139,15 +134,15 @@ fn right_jacobian_series<T: Real>(t2: T) -> (T, T) {
     )
 }
 
-/// Coefficients of U and U² in Jr⁻¹: `(θ/2, 1 − (θ/2) cot(θ/2))`. For huge θ the second can exceed
-/// the scalar's range; it saturates at the largest finite value so that the matrix stays NaN-free.
+/// Coefficients of U and U² in Jr⁻¹ from the half angle h = θ/2: `(h, 1 − h cot h)`. For huge θ the
+/// second can exceed the scalar's range; it saturates at the largest finite value so that the matrix
+/// stays NaN-free.
 #[inline]
-fn right_jacobian_inverse_closed<T: Real>(theta: T) -> (T, T) {
-    let half = theta * T::lit(0.5);
-    let (s, c) = half.sin_cos();
-    let r = T::one() - half * c / s;
+fn right_jacobian_inverse_closed<T: Real>(h: T) -> (T, T) {
+    let (s, c) = h.sin_cos();
+    let r = T::one() - h * c / s;
     let max = T::max_finite();
-    (half, r.clamp(-max, max))
+    (h, r.clamp(-max, max))
 }
 
 /// Coefficients of hat(v) and hat(v)² in Jr⁻¹ as series in t2 = θ²:
@@ -378,7 +373,7 @@ mod tests {
         // The closed forms of b and c cancel like eps/θ² just above the threshold (see constants).
         for theta in [0.01, 0.05, 0.3, 1.0, 2.0, 3.0, std::f64::consts::PI, 4.5] {
             let cancellation = 8.0 * f64::EPSILON / (theta * theta).min(1.0);
-            let (p, r) = right_jacobian_closed(theta);
+            let (p, r) = right_jacobian_closed(theta / 2.0);
             assert_rel(
                 -p / theta,
                 a_reference(theta),
@@ -391,7 +386,7 @@ mod tests {
                 cancellation,
                 "Jr U^2 coefficient",
             );
-            let (p, r) = right_jacobian_inverse_closed(theta);
+            let (p, r) = right_jacobian_inverse_closed(theta / 2.0);
             assert_rel(p, theta / 2.0, 0.0, "Jr^-1 U coefficient");
             // The Bernoulli series converges like (θ/2π)^(2n): 15 terms reach 1e-24 for θ <= 1. Above,
             // the law Jr(v) Jr^-1(v) = I (tests/laws.rs) checks this coefficient at every angle.

@@ -2,8 +2,7 @@
 
 use crate::error::{ManifoldError, check_unit, normalized};
 use crate::manifold::{Manifold, Tangent};
-use crate::real::Real;
-use crate::rotation_vector;
+use crate::real::{Real, stable_norm};
 use nalgebra::{Matrix3x2, Unit, Vector3};
 
 /// A unit vector of R³, a point of the sphere S².
@@ -82,24 +81,33 @@ impl<T: Real> S2<T> {
     }
 
     /// The sphere's exponential at this point: `cos|w| x + sin|w| w/|w|` for an ambient tangent vector
-    /// `w` (its component along `x` is ignored), renormalised.
+    /// `w` (its component along `x` is ignored), renormalised. Valid for every finite `w`, also when
+    /// |w| exceeds the largest finite value (the angle is then taken modulo 2π from its half).
     #[must_use]
     pub fn exp_at(&self, w: &Vector3<T>) -> Self {
+        let scale = w.amax();
+        if scale == T::zero() {
+            return *self;
+        }
+        self.exp_scaled(&(w / scale), scale)
+    }
+
+    /// [`exp_at`](Self::exp_at) of `w · scale`, with `w` of order one so that nothing overflows.
+    ///
+    /// With the unit tangent direction u and the half angle h = θ/2, `cos θ = 1 − 2 sin² h` and
+    /// `sin θ = 2 sin h cos h`: accurate at every angle (no series needed near 0) and finite for every
+    /// finite `scale`.
+    fn exp_scaled(&self, w: &Vector3<T>, scale: T) -> Self {
         let x = self.as_vector();
-        let w = w - x * x.dot(w);
-        let theta = rotation_vector::norm(&w);
-        let (s, c) = theta.sin_cos();
-        // sin θ / θ = 1 − θ²/6 + θ⁴/120 − …; both candidates computed, one selected (see
-        // `rotation_vector::exp`: keeps sin and cos fused into one call).
-        let t2 = theta * theta;
-        let series = T::one() - t2 / T::lit(6.0) + t2 * t2 / T::lit(120.0);
-        let direct = s / theta;
-        let sinc = if theta < T::SERIES_ANGLE {
-            series
-        } else {
-            direct
-        };
-        Self::new_unchecked((x * c + w * sinc).normalize())
+        let t = w - x * x.dot(w);
+        let n = stable_norm(&t);
+        if n == T::zero() {
+            return *self;
+        }
+        let h = scale * T::lit(0.5) * n;
+        let (s, c) = h.sin_cos();
+        let two_s = s + s;
+        Self::new_unchecked((x * (T::one() - two_s * s) + t * (two_s * c / n)).normalize())
     }
 
     /// The sphere's logarithm at this point: the ambient tangent vector of length
@@ -108,11 +116,14 @@ impl<T: Real> S2<T> {
         let x = self.as_vector();
         let y = other.as_vector();
         let cross = x.cross(y);
-        let theta = rotation_vector::norm(&cross).atan2(x.dot(y));
+        let theta = stable_norm(&cross).atan2(x.dot(y));
+        // The direction of y's tangent part; scaled by its largest component first, so that a
+        // subnormal direction (next to the antipode or to x itself) does not overflow θ/|direction|.
         let direction = cross.cross(x);
-        let n = rotation_vector::norm(&direction);
-        if n > T::zero() {
-            direction * (theta / n)
+        let scale = direction.amax();
+        if scale > T::zero() {
+            let d = direction / scale;
+            d * (theta / d.norm())
         } else if x.dot(y) >= T::zero() {
             Vector3::zeros()
         } else {
@@ -124,16 +135,20 @@ impl<T: Real> S2<T> {
     pub fn angle_to(&self, other: &Self) -> T {
         let x = self.as_vector();
         let y = other.as_vector();
-        rotation_vector::norm(&x.cross(y)).atan2(x.dot(y))
+        stable_norm(&x.cross(y)).atan2(x.dot(y))
     }
 }
 
 impl<T: Real> Manifold<2> for S2<T> {
     type Scalar = T;
 
-    /// `exp_x(B(x) u)`.
+    /// `exp_x(B(x) u)`, valid for every finite `u`.
     fn retract(&self, u: &Tangent<T, 2>) -> Self {
-        self.exp_at(&(self.tangent_basis() * u))
+        let scale = u.amax();
+        if scale == T::zero() {
+            return *self;
+        }
+        self.exp_scaled(&(self.tangent_basis() * (u / scale)), scale)
     }
 
     /// `B(x)ᵀ log_x(y)`.

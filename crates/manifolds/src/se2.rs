@@ -281,10 +281,8 @@ impl<T: Real> LieGroup<3> for Se2<T> {
     /// `[V(θ)⁻¹ t; θ]` with θ = atan2(sin, cos) in (−π, π] (a half turn gives +π, also with sine −0) and
     /// `V(θ)⁻¹ = (θ/2) cot(θ/2) I − (θ/2) J`, regular on that whole range (at θ = π it is −(π/2) J).
     fn log(&self) -> Tangent<T, 3> {
-        // atan2 gives −π for a half turn stored with sine −0 (and rounds to −π for sines of order
-        // −1e-300): such a rotation is the half turn π of the principal branch.
-        let angle = self.rotation.angle();
-        let theta = if angle == -T::pi() { T::pi() } else { angle };
+        // `So2::angle` keeps the principal branch (−π, π] also for a half turn stored with sine −0.
+        let theta = self.rotation.angle();
         let rho = v_inverse_times(theta, &self.translation);
         Vector3::new(rho.x, rho.y, theta)
     }

@@ -200,7 +200,7 @@ pub(crate) fn v_inverse_times<T: Real>(phi: &Vector3<T>, t: &Vector3<T>) -> Vect
 /// and bounded for huge θ. Against φ itself they are the Taylor series to θ⁴ of `θ²c₃ − 1/2`,
 /// `c₂ − 2c₃`, `c₂`, `c₂ − θ²c₄` and `c₄`.
 fn coupling<T: Real>(rho: &Vector3<T>, phi: &Vector3<T>) -> Matrix3<T> {
-    let theta = rotation_vector::norm(phi);
+    let theta = crate::real::stable_norm(phi);
     let (a, [beta, gamma, k1, delta, k4]) = if theta < T::SERIES_ANGLE {
         let t2 = theta * theta;
         let t4 = t2 * t2;

@@ -98,7 +98,10 @@ impl<T: Real> So2<T> {
     /// The angle in (−π, π].
     #[inline]
     pub fn angle(&self) -> T {
-        self.z.im.atan2(self.z.re)
+        let angle = self.z.im.atan2(self.z.re);
+        // A half turn stored with sine −0 (or a sine of order −1e-300) gives atan2 = −π, outside the
+        // principal branch: it is the half turn π.
+        if angle == -T::pi() { T::pi() } else { angle }
     }
 
     /// `cos θ`.

@@ -3,7 +3,8 @@
 use crate::error::{ManifoldError, check_finite, check_rotation_matrix, normalized};
 use crate::lie_group::{LieGroup, impl_manifold_for_group};
 use crate::manifold::Tangent;
-use crate::real::Real;
+use crate::polar;
+use crate::real::{Real, stable_norm};
 use crate::rotation_vector;
 use crate::su2::Su2;
 use approx::{AbsDiffEq, RelativeEq};
@@ -93,27 +94,26 @@ impl<T: Real> So3<T> {
         ))
     }
 
-    /// The rotation nearest to `m` in the Frobenius norm (`U Vᵀ` from the SVD `m = U S Vᵀ`): the
-    /// renormalisation helper for matrices that drifted from orthonormality.
+    /// The rotation nearest to `m` in the Frobenius norm (the polar factor `U Vᵀ` of the SVD
+    /// `m = U S Vᵀ`): the renormalisation helper for matrices that drifted from orthonormality.
+    ///
+    /// Valid for entries of any finite size, side by side (1e-300 next to 1e300): the SVD is a
+    /// one-sided Jacobi iteration that never squares an entry, and it resolves matrices whose columns
+    /// (or rows) have very different sizes to their own relative accuracy, so `R D` and `D R` give R
+    /// for any positive diagonal D. When the smallest singular value is below the rounding of the
+    /// largest, its direction is fixed by orientation (Kabsch's determinant correction), so the result
+    /// is always a rotation: the nearest rotation of a matrix within rounding of `m`.
     ///
     /// # Errors
-    /// [`ManifoldError::NonFinite`], or [`ManifoldError::NotProperRotation`] when `det m <= 0` (a
-    /// reflection or a degenerate matrix has no nearest rotation worth the name).
+    /// [`ManifoldError::NonFinite`]; [`ManifoldError::NotProperRotation`] when `det m <= 0` (a
+    /// reflection or a degenerate matrix has no nearest rotation worth the name);
+    /// [`ManifoldError::PolarNotConverged`] if the Jacobi sweeps reach
+    /// [`POLAR_MAX_SWEEPS`](crate::constants::POLAR_MAX_SWEEPS).
     pub fn from_matrix_orthonormalized(m: &Matrix3<T>) -> Result<Self, ManifoldError> {
         check_finite("matrix", m.iter())?;
-        // The polar factor is invariant under positive scaling; scaling first keeps the SVD and the
-        // determinant free of overflow and underflow.
-        let scale = m.amax();
-        let m = if scale > T::zero() { m / scale } else { *m };
-        let det = m.determinant();
-        if det <= T::zero() {
-            return Err(ManifoldError::NotProperRotation { det: det.to_f64() });
-        }
-        let svd = m.svd(true, true);
-        match (svd.u, svd.v_t) {
-            (Some(u), Some(v_t)) => Ok(Self::from_matrix_unchecked(&(u * v_t))),
-            _ => Err(ManifoldError::NotProperRotation { det: det.to_f64() }),
-        }
+        let r = polar::nearest_rotation(m)?;
+        let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
+        Ok(Self::from_quaternion_unchecked(q.into_inner().normalize()))
     }
 
     /// The rotation of a rotation vector (axis times angle), checked for finiteness.
@@ -175,7 +175,7 @@ impl<T: Real> So3<T> {
     /// The rotation angle in [0, π].
     #[inline]
     pub fn angle(&self) -> T {
-        T::lit(2.0) * rotation_vector::norm(&self.q.imag()).atan2(self.q.w.abs())
+        T::lit(2.0) * stable_norm(&self.q.imag()).atan2(self.q.w.abs())
     }
 
     /// Rotates a vector: `R v = q v q*`.

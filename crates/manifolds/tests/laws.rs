@@ -1,6 +1,7 @@
 //! The generic law suite (crate `testing` module) run on every space, in f64 and in f32, with uniform
 //! and curated edge elements (identity, 1e-8 from it, within 1e-12 of π, exactly π, w = −1, tangents of
-//! norm 20 and 30; for the poses also translations of 1e3).
+//! norm 20 and 30; for the poses also translations of 1e3): the groups, the groups with world-frame
+//! errors (`Left`), and products.
 
 use liebayes_manifolds::testing::laws::{
     check_action, check_group, check_jacobians, check_manifold,
@@ -12,8 +13,9 @@ use proptest::prelude::*;
 /// Cases per property: enough to hit every curated class many times (each has weight >= 1/16).
 const CASES: u32 = 2048;
 
+/// The manifold, group and Jacobian laws of a group, and its action laws when points are given.
 macro_rules! group_laws {
-    ($name:ident, $t:ty, $elem:expr, $tangent:expr, $point:expr) => {
+    ($name:ident, $t:ty, $elem:expr, $tangent:expr $(, $point:expr)?) => {
         mod $name {
             use super::*;
 
@@ -35,10 +37,12 @@ macro_rules! group_laws {
                     check_jacobians(&a, &b, &v, &Tolerance::<$t>::for_scalar())?;
                 }
 
+                $(
                 #[test]
                 fn action(a in $elem, b in $elem, p in $point) {
                     check_action(&a, &b, &p, &Tolerance::<$t>::for_scalar())?;
                 }
+                )?
             }
         }
     };
@@ -175,4 +179,170 @@ mod s2_laws {
             basis_laws(&x, &v)?;
         }
     }
+}
+
+// World-frame (left) errors: the finite differences go through Left's retract and local, so these
+// check the left-convention Jacobians.
+group_laws!(
+    left_so2_f64,
+    f64,
+    st::left(st::so2::<f64>()),
+    st::so2_tangent::<f64>(),
+    st::point2::<f64>()
+);
+group_laws!(
+    left_so2_f32,
+    f32,
+    st::left(st::so2::<f32>()),
+    st::so2_tangent::<f32>(),
+    st::point2::<f32>()
+);
+group_laws!(
+    left_so3_f64,
+    f64,
+    st::left(st::so3::<f64>()),
+    st::rotation_vector::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    left_so3_f32,
+    f32,
+    st::left(st::so3::<f32>()),
+    st::rotation_vector::<f32>(),
+    st::point3::<f32>()
+);
+group_laws!(
+    left_su2_f64,
+    f64,
+    st::left(st::su2::<f64>()),
+    st::rotation_vector::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    left_su2_f32,
+    f32,
+    st::left(st::su2::<f32>()),
+    st::rotation_vector::<f32>(),
+    st::point3::<f32>()
+);
+group_laws!(
+    left_r3_f64,
+    f64,
+    st::left(st::rn::<f64, 3>()),
+    st::rn_tangent::<f64, 3>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    left_r3_f32,
+    f32,
+    st::left(st::rn::<f32, 3>()),
+    st::rn_tangent::<f32, 3>(),
+    st::point3::<f32>()
+);
+group_laws!(
+    left_se2_f64,
+    f64,
+    st::left(st::se2::<f64>()),
+    st::se2_tangent::<f64>(),
+    st::point2::<f64>()
+);
+group_laws!(
+    left_se2_f32,
+    f32,
+    st::left(st::se2::<f32>()),
+    st::se2_tangent::<f32>(),
+    st::point2::<f32>()
+);
+group_laws!(
+    left_se3_f64,
+    f64,
+    st::left(st::se3::<f64>()),
+    st::se3_tangent::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    left_se3_f32,
+    f32,
+    st::left(st::se3::<f32>()),
+    st::se3_tangent::<f32>(),
+    st::point3::<f32>()
+);
+
+/// Products: SO(3) × R³, SO(2) × R², Left<SO(3)> × R³ and (SO(3) × R³) × R², in both scalars.
+mod products {
+    use super::*;
+    use liebayes_manifolds::{Left, ProductManifold, Rn, So2, So3};
+
+    type So3R3<T> = ProductManifold<So3<T>, Rn<T, 3>, 3, 3, 6>;
+
+    macro_rules! product_laws {
+        ($t:ident) => {
+            mod $t {
+                use super::*;
+
+                group_laws!(
+                    so3_r3,
+                    $t,
+                    st::product::<_, _, 3, 3, 6>(st::so3::<$t>(), st::rn::<$t, 3>()),
+                    st::product_tangent::<So3<$t>, Rn<$t, 3>, 3, 3, 6>(
+                        st::rotation_vector(),
+                        st::rn_tangent()
+                    )
+                );
+                group_laws!(
+                    so2_r2,
+                    $t,
+                    st::product::<_, _, 1, 2, 3>(st::so2::<$t>(), st::rn::<$t, 2>()),
+                    st::product_tangent::<So2<$t>, Rn<$t, 2>, 1, 2, 3>(
+                        st::so2_tangent(),
+                        st::rn_tangent()
+                    )
+                );
+                group_laws!(
+                    left_so3_r3,
+                    $t,
+                    st::product::<_, _, 3, 3, 6>(st::left(st::so3::<$t>()), st::rn::<$t, 3>()),
+                    st::product_tangent::<Left<So3<$t>>, Rn<$t, 3>, 3, 3, 6>(
+                        st::rotation_vector(),
+                        st::rn_tangent()
+                    )
+                );
+                group_laws!(
+                    so3_r3_r2,
+                    $t,
+                    st::product::<_, _, 6, 2, 8>(
+                        st::product::<_, _, 3, 3, 6>(st::so3::<$t>(), st::rn::<$t, 3>()),
+                        st::rn::<$t, 2>()
+                    ),
+                    st::product_tangent::<So3R3<$t>, Rn<$t, 2>, 6, 2, 8>(
+                        st::product_tangent::<So3<$t>, Rn<$t, 3>, 3, 3, 6>(
+                            st::rotation_vector(),
+                            st::rn_tangent()
+                        ),
+                        st::rn_tangent()
+                    )
+                );
+
+                proptest! {
+                    #![proptest_config(ProptestConfig::with_cases(CASES))]
+
+                    /// S² × R³: a product of a manifold that is not a group.
+                    #[test]
+                    fn s2_r3_manifold(
+                        x in st::product::<_, _, 2, 3, 5>(st::s2::<$t>(), st::rn::<$t, 3>()),
+                        y in st::product::<_, _, 2, 3, 5>(st::s2::<$t>(), st::rn::<$t, 3>()),
+                        v in st::product_tangent::<liebayes_manifolds::S2<$t>, Rn<$t, 3>, 2, 3, 5>(
+                            st::s2_tangent(),
+                            st::rn_tangent()
+                        ),
+                    ) {
+                        check_manifold(&x, &y, &v, &Tolerance::<$t>::for_scalar())?;
+                    }
+                }
+            }
+        };
+    }
+
+    product_laws!(f64);
+    product_laws!(f32);
 }

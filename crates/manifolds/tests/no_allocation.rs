@@ -1,8 +1,12 @@
 //! Every operation of the manifold layer runs without touching the heap: a counting global allocator
-//! sees zero allocations across exp, log, compose, inverse, act, retract, local and every Jacobian.
+//! sees zero allocations across exp, log, compose, inverse, act, retract, local and every Jacobian, for
+//! the groups, the groups with world-frame errors, products, and the weighted mean.
 #![allow(unsafe_code)] // implementing GlobalAlloc is unsafe by definition; this wrapper only counts.
 
-use liebayes_manifolds::{GroupAction, LieGroup, Manifold, Rn, S2, So2, So3, Su2};
+use liebayes_manifolds::{
+    GroupAction, Left, LieGroup, Manifold, MeanSettings, ProductManifold, Rn, S2, So2, So3, Su2,
+    weighted_mean,
+};
 use nalgebra::{Vector1, Vector2, Vector3};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::hint::black_box;
@@ -27,17 +31,27 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-fn group_ops<G: GroupAction<D, P>, const D: usize, const P: usize>(
+fn group_ops<G: GroupAction<D, P, Scalar = f64>, const D: usize, const P: usize>(
     a: &G,
     b: &G,
     v: &nalgebra::SVector<G::Scalar, D>,
     p: &nalgebra::SVector<G::Scalar, P>,
 ) {
+    lie_ops(a, b, v);
+    black_box(a.act(p));
+    black_box(a.j_act_self(p));
+    black_box(a.j_act_point(p));
+}
+
+fn lie_ops<G: LieGroup<D, Scalar = f64>, const D: usize>(
+    a: &G,
+    b: &G,
+    v: &nalgebra::SVector<G::Scalar, D>,
+) {
     black_box(G::exp(v));
     black_box(a.log());
     black_box(a.compose(b));
     black_box(a.inverse());
-    black_box(a.act(p));
     black_box(a.retract(v));
     black_box(a.local(b));
     black_box(a.adjoint());
@@ -53,8 +67,9 @@ fn group_ops<G: GroupAction<D, P>, const D: usize, const P: usize>(
     black_box(a.j_retract_tangent(v));
     black_box(a.j_local_self(b));
     black_box(a.j_local_other(b));
-    black_box(a.j_act_self(p));
-    black_box(a.j_act_point(p));
+    // Close samples converge (a mean far from them could fail, which is not what this measures).
+    let near = a.retract(&(v * 1e-3));
+    black_box(weighted_mean(a, [(a, 0.5), (&near, 0.5)], MeanSettings::default()).ok());
 }
 
 #[test]
@@ -89,6 +104,12 @@ fn no_heap_allocation_in_any_operation() {
         &Vector2::new(1.0, 2.0),
     );
     group_ops(&Rn::new_unchecked(v), &Rn::new_unchecked(w), &v, &p);
+    group_ops(&Left::new(So3::exp(&v)), &Left::new(So3::exp(&w)), &v, &p);
+    let attitude_bias = |v: &Vector3<f64>| {
+        ProductManifold::<_, _, 3, 3, 6>::new(So3::exp(v), Rn::new_unchecked(*v))
+    };
+    let v6 = nalgebra::SVector::<f64, 6>::from_fn(|i, _| 0.1 * i as f64);
+    lie_ops(&attitude_bias(&v), &attitude_bias(&w), &v6);
     let t = black_box(s2.retract(&Vector2::new(0.3, 0.2)));
     black_box(s2.local(&t));
     black_box(s2.tangent_basis());

@@ -4,7 +4,7 @@
 use approx::assert_relative_eq;
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, So2, So3, Su2};
-use nalgebra::{Rotation2, Rotation3, UnitComplex, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Rotation2, Rotation3, UnitComplex, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 use std::f64::consts::PI;
 
@@ -60,6 +60,29 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    /// On well-conditioned matrices (a rotation times a symmetric positive definite stretch, so the
+    /// nearest rotation is known exactly), the Jacobi polar factor equals the rotation and agrees with
+    /// nalgebra's SVD-based polar decomposition.
+    #[test]
+    fn orthonormalized_is_the_polar_factor(
+        r in st::so3::<f64>(),
+        s in st::so3::<f64>(),
+        stretch in proptest::array::uniform3(0.2..5.0_f64),
+        scale in prop_oneof![Just(1.0), Just(1e-200), Just(1e200)],
+    ) {
+        // m = R P with P = S diag(stretch) Sᵀ symmetric positive definite: polar(m) = R.
+        let p = s.to_matrix() * Matrix3::from_diagonal(&nalgebra::Vector3::from(stretch)) * s.to_matrix().transpose();
+        let m = r.to_matrix() * p * scale;
+        let q = So3::from_matrix_orthonormalized(&m).unwrap();
+        prop_assert!(q.distance(&r) < 1e-13, "{:e}", q.distance(&r));
+        let (_, u) = (m / scale).polar();
+        prop_assert!((q.to_matrix() - u).amax() < 1e-13);
+    }
+}
+
 fn relative_eq_rot(a: &So3<f64>, b: &So3<f64>) -> bool {
     approx::relative_eq!(*a, *b, epsilon = 1e-14)
 }
@@ -104,4 +127,12 @@ fn exp_near_identity_keeps_first_order_accuracy() {
         assert_relative_eq!(q[1], v.x / 2.0, max_relative = 1e-15);
         assert_relative_eq!(So3::exp(&v).log(), v, max_relative = 1e-15);
     }
+}
+
+#[test]
+fn so2_half_turn_with_negative_zero_sine_has_angle_pi() {
+    use liebayes_manifolds::{LieGroup, So2};
+    let r = So2::<f64>::from_cos_sin_unchecked(-1.0, -0.0);
+    assert_eq!(r.angle(), std::f64::consts::PI);
+    assert_eq!(r.log().x, std::f64::consts::PI);
 }

@@ -1,11 +1,19 @@
 //! The generic law suite: algebraic laws and finite-difference checks of every Jacobian, for any
 //! [`Manifold`], [`LieGroup`] and [`GroupAction`].
 //!
+//! Nothing here assumes a convention: the finite differences perturb inputs with the type's own
+//! `retract` and measure outputs with its own `local`, so they check the Jacobians of [`Left`] (world
+//! frame) as they check those of the right-perturbed groups; only the intrinsic maps (Jr, Jl, Ad) are
+//! differenced through the group operations directly.
+//!
 //! Each function returns `Err(TestCaseError)` with a message naming the law, the values and the
 //! tolerance, so it can be called inside `proptest!` blocks. Tolerances come from [`Tolerance`], which
 //! derives them from the scalar's machine epsilon; they are never tuned per test.
 
-use crate::{GroupAction, Jacobian, LieGroup, Manifold, Real, Rn, S2, So2, So3, Su2, Tangent};
+use crate::{
+    GroupAction, Jacobian, Left, LieGroup, Manifold, ProductManifold, Real, Rn, S2, So2, So3, Su2,
+    Tangent,
+};
 use nalgebra::{ComplexField, RealField, SMatrix, SVector};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -47,14 +55,6 @@ pub trait LawSubject<const D: usize>: Manifold<D> {
     /// for SU(2)).
     fn injectivity_radius() -> Self::Scalar;
 
-    /// The size of `v` that the principal branch of the logarithm keeps within
-    /// [`injectivity_radius`](Self::injectivity_radius): `|v|` (the default) where the logarithm
-    /// returns a ball, the norm of the rotation block for SE(2) and SE(3), whose logarithms keep the
-    /// rotation principal and leave the translation block unbounded.
-    fn principal_norm(v: &Tangent<Self::Scalar, D>) -> Self::Scalar {
-        v.norm()
-    }
-
     /// The tangent vector reaching the same point as `v` from any base (`retract(x, result) ==
     /// retract(x, v)`) that is closest to `reference`.
     fn equivalent_tangent_near(
@@ -74,6 +74,82 @@ pub trait LawSubject<const D: usize>: Manifold<D> {
     /// The size of the coordinates, which rounding errors scale with: 1 for the compact spaces,
     /// `1 + max |x_i|` for Rⁿ.
     fn coordinate_scale(&self) -> Self::Scalar;
+
+    /// How far `v` reaches towards the injectivity radius: `|v| / injectivity_radius()` (the default),
+    /// for a product the largest ratio of its factors (whose blocks have radii of their own), for SE(2)
+    /// and SE(3) the rotation block's (their logarithms keep the rotation principal and leave the
+    /// translation block unbounded). `local` and `log` return tangents with a ratio of at most 1.
+    fn injectivity_ratio(v: &Tangent<Self::Scalar, D>) -> Self::Scalar {
+        v.norm() / Self::injectivity_radius()
+    }
+}
+
+/// `Left<G>` has the radius, equivalent tangents and conditioning of `G`: exp and log are the same
+/// maps, and `local(x, y) = log(y x⁻¹)` is as well conditioned as `log(x⁻¹ y)`.
+impl<G: LieGroup<D> + LawSubject<D>, const D: usize> LawSubject<D> for Left<G> {
+    fn injectivity_radius() -> G::Scalar {
+        G::injectivity_radius()
+    }
+    fn equivalent_tangent_near(
+        v: &Tangent<G::Scalar, D>,
+        reference: &Tangent<G::Scalar, D>,
+    ) -> Tangent<G::Scalar, D> {
+        G::equivalent_tangent_near(v, reference)
+    }
+    fn jacobian_is_regular(v: &Tangent<G::Scalar, D>) -> bool {
+        G::jacobian_is_regular(v)
+    }
+    fn log_condition(v: &Tangent<G::Scalar, D>) -> G::Scalar {
+        G::log_condition(v)
+    }
+    fn coordinate_scale(&self) -> G::Scalar {
+        self.inner().coordinate_scale()
+    }
+    fn injectivity_ratio(v: &Tangent<G::Scalar, D>) -> G::Scalar {
+        G::injectivity_ratio(v)
+    }
+}
+
+/// A product is injective where both factors are (radius: the smaller one; ratio: the larger one),
+/// has equivalent tangents block by block, is regular where both factors are, and is as badly
+/// conditioned and as large as its worse factor.
+impl<A, B, const DA: usize, const DB: usize, const D: usize> LawSubject<D>
+    for ProductManifold<A, B, DA, DB, D>
+where
+    A: LawSubject<DA>,
+    B: LawSubject<DB, Scalar = A::Scalar>,
+{
+    fn injectivity_radius() -> A::Scalar {
+        A::injectivity_radius().min(B::injectivity_radius())
+    }
+    fn equivalent_tangent_near(
+        v: &Tangent<A::Scalar, D>,
+        reference: &Tangent<A::Scalar, D>,
+    ) -> Tangent<A::Scalar, D> {
+        let (va, vb) = Self::split_tangent(v);
+        let (ra, rb) = Self::split_tangent(reference);
+        Self::join_tangent(
+            &A::equivalent_tangent_near(&va, &ra),
+            &B::equivalent_tangent_near(&vb, &rb),
+        )
+    }
+    fn jacobian_is_regular(v: &Tangent<A::Scalar, D>) -> bool {
+        let (va, vb) = Self::split_tangent(v);
+        A::jacobian_is_regular(&va) && B::jacobian_is_regular(&vb)
+    }
+    fn log_condition(v: &Tangent<A::Scalar, D>) -> A::Scalar {
+        let (va, vb) = Self::split_tangent(v);
+        A::log_condition(&va).max(B::log_condition(&vb))
+    }
+    fn coordinate_scale(&self) -> A::Scalar {
+        self.first()
+            .coordinate_scale()
+            .max(self.second().coordinate_scale())
+    }
+    fn injectivity_ratio(v: &Tangent<A::Scalar, D>) -> A::Scalar {
+        let (va, vb) = Self::split_tangent(v);
+        A::injectivity_ratio(&va).max(B::injectivity_ratio(&vb))
+    }
 }
 
 /// The equivalent of `v = θ u` along the same axis, `(θ + k·period) u`, closest to `reference`.
@@ -196,8 +272,8 @@ impl<T: Real> LawSubject<3> for Se2<T> {
     fn injectivity_radius() -> T {
         T::pi()
     }
-    fn principal_norm(v: &Tangent<T, 3>) -> T {
-        v.z.abs()
+    fn injectivity_ratio(v: &Tangent<T, 3>) -> T {
+        v.z.abs() / T::pi()
     }
     fn equivalent_tangent_near(v: &Tangent<T, 3>, reference: &Tangent<T, 3>) -> Tangent<T, 3> {
         match shifted_rotation(&Vector1::new(v.z), &Vector1::new(reference.z)) {
@@ -224,8 +300,8 @@ impl<T: Real> LawSubject<6> for Se3<T> {
     fn injectivity_radius() -> T {
         T::pi()
     }
-    fn principal_norm(v: &Tangent<T, 6>) -> T {
-        Vector3::new(v[3], v[4], v[5]).norm()
+    fn injectivity_ratio(v: &Tangent<T, 6>) -> T {
+        Vector3::new(v[3], v[4], v[5]).norm() / T::pi()
     }
     fn equivalent_tangent_near(v: &Tangent<T, 6>, reference: &Tangent<T, 6>) -> Tangent<T, 6> {
         let phi = Vector3::new(v[3], v[4], v[5]);
@@ -328,7 +404,7 @@ pub fn check_manifold<M: LawSubject<D>, const D: usize>(
         t_v * M::log_condition(v),
     )?;
     prop_assert!(
-        M::principal_norm(&back) <= M::injectivity_radius() * (one + t),
+        M::injectivity_ratio(&back) <= one + t,
         "local(x, retract(x, v)) = {back:?} lies outside the injectivity radius"
     );
     let yx = x.local(y);
@@ -378,7 +454,7 @@ pub fn check_group<G: LieGroup<D> + LawSubject<D>, const D: usize>(
     let expected = G::equivalent_tangent_near(v, &back);
     close("log(exp(v)) == v", &back, &expected, t * (one + v.norm()))?;
     prop_assert!(
-        G::principal_norm(&back) <= G::injectivity_radius() * (one + t),
+        G::injectivity_ratio(&back) <= one + t,
         "log(exp(v)) = {back:?} lies outside the injectivity radius"
     );
     close("vee(hat(v)) == v", &G::vee(&G::hat(v)), v, t)?;
@@ -412,13 +488,14 @@ pub fn check_group<G: LieGroup<D> + LawSubject<D>, const D: usize>(
 }
 
 /// Every Jacobian of [`LieGroup`] against a central finite difference at `a`, `b` (for the binary
-/// operations) and `v` (for exp and retract): `Jr`, `Jl`, `J_exp_tangent`, `J_log_self`,
-/// `J_compose_self`, `J_compose_other`, `J_inverse_self`, `J_retract_self`, `J_retract_tangent`,
-/// `J_local_self`, `J_local_other`. Group-valued outputs are differenced through `local` at the
-/// unperturbed output; tangent-valued outputs are unwrapped to the equivalent tangent nearest the
-/// unperturbed one, so the check also holds on the branch cut (angle exactly π). Checks whose
-/// linearisation point is within 0.5 of a singularity of exp are skipped (there is no finite Jacobian
-/// to compare with).
+/// operations) and `v` (for exp and retract): the intrinsic `Jr` (`log(exp(v)⁻¹ exp(v + δ))`) and
+/// `Jl` (`log(exp(v + δ) exp(v)⁻¹)`), and, in the type's own convention, `J_exp_tangent`,
+/// `J_log_self`, `J_compose_self`, `J_compose_other`, `J_inverse_self`, `J_retract_self`,
+/// `J_retract_tangent`, `J_local_self`, `J_local_other`: inputs are perturbed with the type's
+/// `retract`, group-valued outputs are differenced through its `local` at the unperturbed output, and
+/// tangent-valued outputs are unwrapped to the equivalent tangent nearest the unperturbed one, so the
+/// check also holds on the branch cut (angle exactly π). Checks whose linearisation point is within
+/// 0.5 of a singularity of exp are skipped (there is no finite Jacobian to compare with).
 ///
 /// # Errors
 /// The first Jacobian that disagrees, with both matrices.
@@ -443,7 +520,13 @@ pub fn check_jacobians<G: LieGroup<D> + LawSubject<D>, const D: usize>(
 
     let ev = G::exp(v);
     close(
-        "Jr(v) = J_exp_tangent",
+        "Jr(v)",
+        &G::right_jacobian(v),
+        &finite_difference(h, |d| ev.inverse().compose(&G::exp(&(v + d))).log()),
+        t,
+    )?;
+    close(
+        "J_exp_tangent",
         &G::j_exp_tangent(v),
         &group_fd(&|d| G::exp(&(v + d))),
         t,
@@ -509,8 +592,8 @@ pub fn check_jacobians<G: LieGroup<D> + LawSubject<D>, const D: usize>(
     Ok(())
 }
 
-/// Action laws at `p`: `e · p = p`, `(a b) · p = a · (b · p)`, and `J_act_self`, `J_act_point` against
-/// central finite differences.
+/// Action laws at `p`: `e · p = p`, `(a b) · p = a · (b · p)`, and `J_act_self` (with `a` perturbed by
+/// the type's `retract`) and `J_act_point` against central finite differences.
 ///
 /// # Errors
 /// The first law that fails, with its numbers.

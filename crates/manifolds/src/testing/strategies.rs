@@ -5,10 +5,11 @@
 //! tangents of norm 20 and 30, and (for SU(2)) `w = −1` and `w < 0`. Values are drawn in `f64` and
 //! rounded to the scalar type.
 
-use crate::{LieGroup, Real, Rn, S2, So2, So3, Su2};
+use crate::{Left, LieGroup, Manifold, ProductManifold, Real, Rn, S2, So2, So3, Su2, Tangent};
 use nalgebra::{Quaternion, SVector, Vector1, Vector2, Vector3};
 use proptest::prelude::*;
 use std::f64::consts::{PI, TAU};
+use std::fmt::Debug;
 
 use crate::{Se2, Se3};
 use nalgebra::Vector6;
@@ -249,4 +250,38 @@ pub fn se3<T: Real>() -> impl Strategy<Value = Se3<T>> {
         4 => se3_tangent::<T>().prop_map(|v| Se3::exp(&v)),
         1 => Just(Se3::identity()),
     ]
+}
+
+/// Elements of [`Left<G>`](Left) for any group: the elements of `elements` (for instance [`so3`]),
+/// wrapped. Tangents and points are those of `G`.
+pub fn left<G: Clone + Debug>(
+    elements: impl Strategy<Value = G>,
+) -> impl Strategy<Value = Left<G>> {
+    elements.prop_map(Left::new)
+}
+
+/// Points of a [`ProductManifold`]: the two factors drawn independently. The dimensions are usually
+/// named, `product::<_, _, 3, 3, 6>(so3(), rn())`.
+pub fn product<A, B, const DA: usize, const DB: usize, const D: usize>(
+    first: impl Strategy<Value = A>,
+    second: impl Strategy<Value = B>,
+) -> impl Strategy<Value = ProductManifold<A, B, DA, DB, D>>
+where
+    A: Clone + Debug,
+    B: Clone + Debug,
+{
+    (first, second).prop_map(|(a, b)| ProductManifold::new(a, b))
+}
+
+/// Tangents of `ProductManifold<A, B, DA, DB, D>`: the blocks drawn independently
+/// (for instance [`rotation_vector`] and [`rn_tangent`]) and stacked.
+pub fn product_tangent<A, B, const DA: usize, const DB: usize, const D: usize>(
+    first: impl Strategy<Value = Tangent<A::Scalar, DA>>,
+    second: impl Strategy<Value = Tangent<A::Scalar, DB>>,
+) -> impl Strategy<Value = Tangent<A::Scalar, D>>
+where
+    A: Manifold<DA>,
+    B: Manifold<DB, Scalar = A::Scalar>,
+{
+    (first, second).prop_map(|(a, b)| ProductManifold::<A, B, DA, DB, D>::join_tangent(&a, &b))
 }

@@ -1,0 +1,526 @@
+//! Bad input never panics and never yields NaN. Every public constructor and operation of the crate is
+//! fed NaN, ±∞, ±MAX, ±MIN_POSITIVE, subnormals, ±0, ±1e±300 and ordinary numbers: a constructor must
+//! return an error exactly when its input is invalid and a valid element (unit norm, orthonormal)
+//! otherwise; an operation on valid elements with finite tangents must return finite numbers and
+//! valid elements. The fixed cases at the end are the regressions of reported failures.
+
+use liebayes_manifolds::testing::strategies as st;
+use liebayes_manifolds::{
+    GroupAction, Left, LieGroup, Manifold, ManifoldError, MeanSettings, ProductManifold, Real, Rn,
+    S2, So2, So3, Su2, weighted_mean,
+};
+use nalgebra::{Matrix2, Matrix3, Quaternion, SVector, Vector1, Vector2, Vector3};
+use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
+use std::f64::consts::PI;
+
+/// Raw numbers a user might pass, good and bad.
+fn raw() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        6 => -2.0..2.0_f64,
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(f64::NEG_INFINITY),
+        1 => Just(f64::MAX),
+        1 => Just(-f64::MAX),
+        1 => Just(f64::MIN_POSITIVE),
+        1 => Just(-f64::MIN_POSITIVE),
+        1 => prop::num::f64::SUBNORMAL,
+        2 => Just(0.0),
+        1 => Just(-0.0),
+        2 => Just(1.0),
+        1 => Just(1e300),
+        1 => Just(-1e300),
+        1 => Just(1e-300),
+        1 => Just(-1e-300),
+    ]
+}
+
+/// The finite values of [`raw`].
+fn finite() -> impl Strategy<Value = f64> {
+    raw().prop_filter("finite", |x| x.is_finite())
+}
+
+/// The same classes in f32 (MAX, MIN_POSITIVE and subnormals of f32, 1e±30 for 1e±300).
+fn finite_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        6 => -2.0..2.0_f32,
+        1 => Just(f32::MAX),
+        1 => Just(-f32::MAX),
+        1 => Just(f32::MIN_POSITIVE),
+        1 => prop::num::f32::SUBNORMAL,
+        2 => Just(0.0),
+        1 => Just(-0.0),
+        1 => Just(1e30),
+        1 => Just(-1e-30),
+    ]
+}
+
+fn all_finite<T: Real>(values: impl IntoIterator<Item = T>) -> bool {
+    values.into_iter().all(|v| v.is_finite())
+}
+
+/// The Euclidean norm without overflow or underflow (the reference for the checks, computed
+/// independently of the crate's own scaling).
+fn safe_norm(values: &[f64]) -> f64 {
+    values.iter().fold(0.0, |acc: f64, v| acc.hypot(*v))
+}
+
+/// A quaternion `[w, x, y, z]` is finite and unit within `tolerance`.
+fn unit_wxyz<T: Real>(q: [T; 4], tolerance: T) -> bool {
+    all_finite(q) && (Quaternion::new(q[0], q[1], q[2], q[3]).norm() - T::one()).abs() <= tolerance
+}
+
+/// A matrix is a rotation: finite, orthonormal and with determinant +1, within `tolerance`.
+fn is_rotation(m: &Matrix3<f64>, tolerance: f64) -> bool {
+    all_finite(m.iter().copied())
+        && (m.transpose() * m - Matrix3::identity()).amax() <= tolerance
+        && (m.determinant() - 1.0).abs() <= tolerance
+}
+
+/// `So3::from_matrix_orthonormalized(m)` is an error exactly for non-finite matrices and those with
+/// det m <= 0 (decided by the cofactor determinant of `m / max |m_ij|` where that is clearly away
+/// from zero), and otherwise a unit quaternion whose matrix Q is a rotation and the nearest one:
+/// `Qᵀ m` is symmetric (the first-order optimality condition of max tr(Qᵀ m) over rotations).
+fn check_orthonormalized(m: &Matrix3<f64>) -> Result<(), TestCaseError> {
+    let finite = all_finite(m.iter().copied());
+    let scaled = if finite && m.amax() > 0.0 {
+        m / m.amax()
+    } else {
+        *m
+    };
+    let det = scaled.determinant();
+    match So3::from_matrix_orthonormalized(m) {
+        Ok(s) => {
+            prop_assert!(finite && det > -1e-12, "accepted with det {det:e}");
+            prop_assert!(unit_wxyz(s.to_quaternion_wxyz(), 4.0 * f64::EPSILON));
+            let q = s.to_matrix();
+            prop_assert!(is_rotation(&q, 1e-14));
+            let h = q.transpose() * scaled;
+            prop_assert!((h - h.transpose()).amax() <= 1e-14, "Q^T M = {h:e}");
+        }
+        Err(ManifoldError::NonFinite { .. }) => prop_assert!(!finite),
+        Err(ManifoldError::NotProperRotation { det: reported }) => {
+            prop_assert!(
+                finite && reported <= 0.0 && det < 1e-12,
+                "refused with det {det:e}"
+            );
+        }
+        Err(e) => prop_assert!(false, "unexpected error {e}"),
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2048))]
+
+    #[test]
+    fn quaternion_constructors(w in raw(), x in raw(), y in raw(), z in raw()) {
+        let q = Quaternion::new(w, x, y, z);
+        let finite = all_finite([w, x, y, z]);
+        let norm = safe_norm(&[w, x, y, z]);
+        let unit = finite && (norm - 1.0).abs() <= 1e-9;
+        match Su2::from_quaternion(q) {
+            Ok(e) => {
+                prop_assert!(unit);
+                prop_assert!(unit_wxyz(e.to_quaternion_wxyz(), 1e-9));
+            }
+            Err(err) => { prop_assert!(!unit); prop_assert!(!err.to_string().is_empty()); }
+        }
+        prop_assert_eq!(Su2::from_quaternion_wxyz(w, x, y, z).is_ok(), unit);
+        prop_assert_eq!(So3::from_quaternion(q).is_ok(), unit);
+        prop_assert_eq!(So3::from_quaternion_wxyz(w, x, y, z).is_ok(), unit);
+        let long_enough = finite && norm >= 1e-150;
+        match So3::from_quaternion_normalizing(q) {
+            Ok(r) => {
+                prop_assert!(long_enough);
+                prop_assert!(unit_wxyz(r.to_quaternion_wxyz(), 1e-15));
+            }
+            Err(ManifoldError::NonFinite { .. }) => prop_assert!(!finite),
+            Err(ManifoldError::ZeroVector { .. }) => prop_assert!(finite && norm < 1e-150),
+            Err(e) => prop_assert!(false, "unexpected error {e}"),
+        }
+        match Su2::from_quaternion_normalizing(q) {
+            Ok(r) => {
+                prop_assert!(long_enough);
+                let c = r.to_quaternion_wxyz();
+                prop_assert!(unit_wxyz(c, 1e-15));
+                // The same direction as q: q / |q| componentwise (q scaled by its largest entry first).
+                let scale = q.coords.amax();
+                let scaled = safe_norm(&[w / scale, x / scale, y / scale, z / scale]);
+                for (got, raw) in c.iter().zip([w, x, y, z]) {
+                    prop_assert!((got - raw / scale / scaled).abs() <= 1e-15);
+                }
+            }
+            Err(_) => prop_assert!(!long_enough),
+        }
+    }
+
+    #[test]
+    fn vector_constructors(x in raw(), y in raw(), z in raw(), angle in raw()) {
+        let v = Vector3::new(x, y, z);
+        let finite = all_finite([x, y, z]);
+        let norm = safe_norm(&[x, y, z]);
+        let unit = finite && (norm - 1.0).abs() <= 1e-9;
+        prop_assert_eq!(S2::new(v).is_ok(), unit);
+        match S2::from_vector_normalizing(&v) {
+            Ok(s) => {
+                prop_assert!(finite && norm >= 1e-150);
+                let u = s.as_vector();
+                prop_assert!(all_finite(u.iter().copied()) && (u.norm() - 1.0).abs() < 1e-15);
+                // Parallel to v and pointing the same way.
+                let scaled = v / v.amax();
+                prop_assert!(u.cross(&scaled).norm() <= 1e-15 * scaled.norm() && u.dot(&scaled) > 0.0);
+            }
+            Err(_) => prop_assert!(!finite || norm < 1e-150),
+        }
+        for r in [So3::from_rotation_vector(&v), Su2::from_rotation_vector(&v).map(So3::from)] {
+            match r {
+                Ok(r) => {
+                    prop_assert!(finite);
+                    prop_assert!(unit_wxyz(r.to_quaternion_wxyz(), 1e-12), "exp({v:?}) = {r:?}");
+                    // A rotation about v: v is fixed (v scaled to order one first).
+                    let axis = if norm > 0.0 { v / v.amax() } else { v };
+                    prop_assert!((r.rotate(&axis) - axis).norm() <= 1e-12);
+                }
+                Err(_) => prop_assert!(!finite),
+            }
+        }
+        match So3::from_axis_angle(&v, angle) {
+            Ok(r) => {
+                prop_assert!(finite && angle.is_finite() && norm >= 1e-150);
+                prop_assert!(unit_wxyz(r.to_quaternion_wxyz(), 1e-12));
+                let axis = v / v.amax();
+                prop_assert!((r.rotate(&axis) - axis).norm() <= 1e-12);
+            }
+            Err(_) => prop_assert!(!finite || !angle.is_finite() || norm < 1e-150),
+        }
+        prop_assert_eq!(Rn::new(v).is_ok(), finite);
+        prop_assert_eq!(Rn::<f64, 3>::from_slice(&[x, y, z]).is_ok(), finite);
+        let wrong_length = matches!(
+            Rn::<f64, 3>::from_slice(&[x, y]),
+            Err(ManifoldError::WrongLength { expected: 3, got: 2, .. })
+        );
+        prop_assert!(wrong_length);
+        match So2::from_angle(angle) {
+            Ok(r) => {
+                prop_assert!(angle.is_finite());
+                prop_assert!((r.cos().hypot(r.sin()) - 1.0).abs() <= 1e-15);
+            }
+            Err(_) => prop_assert!(!angle.is_finite()),
+        }
+        let p = Vector2::new(x, y);
+        let norm2 = safe_norm(&[x, y]);
+        let finite2 = all_finite([x, y]);
+        prop_assert_eq!(So2::from_cos_sin(x, y).is_ok(), finite2 && (norm2 - 1.0).abs() <= 1e-9);
+        match So2::from_vector_normalizing(&p) {
+            Ok(r) => {
+                prop_assert!(finite2 && norm2 >= 1e-150);
+                // The angle of the direction, on the principal branch (−π, π].
+                let expected = y.atan2(x);
+                let expected = if expected == -PI { PI } else { expected };
+                prop_assert!((r.angle() - expected).abs() <= 1e-15);
+            }
+            Err(_) => prop_assert!(!finite2 || norm2 < 1e-150),
+        }
+    }
+
+    /// A rotation with one entry replaced, or scaled, or with a flipped column.
+    #[test]
+    fn matrix_constructors(
+        r in st::so3::<f64>(),
+        i in 0usize..9,
+        bad in raw(),
+        scale in finite(),
+        replace in any::<bool>(),
+        flip in any::<bool>(),
+    ) {
+        for mut m in [r.to_matrix(), r.to_matrix() * scale] {
+            if replace {
+                m[i] = bad;
+            }
+            if flip {
+                m.set_column(0, &-m.column(0));
+            }
+            let finite = all_finite(m.iter().copied());
+            let rotation = finite
+                && (m.transpose() * m - Matrix3::identity()).amax() <= 1e-9
+                && (m.determinant() - 1.0).abs() <= 1e-9;
+            match So3::from_matrix(&m) {
+                Ok(s) => {
+                    prop_assert!(rotation);
+                    prop_assert!(unit_wxyz(s.to_quaternion_wxyz(), 1e-12));
+                    prop_assert!((s.to_matrix() - m).amax() <= 1e-8);
+                }
+                Err(e) => prop_assert!(!rotation, "{}", e),
+            }
+            check_orthonormalized(&m)?;
+            let m2 = Matrix2::new(m.m11, m.m12, m.m21, m.m22);
+            let rotation2 = all_finite(m2.iter().copied())
+                && (m2.transpose() * m2 - Matrix2::identity()).amax() <= 1e-9
+                && (m2.determinant() - 1.0).abs() <= 1e-9;
+            match So2::from_matrix(&m2) {
+                Ok(s) => { prop_assert!(rotation2); prop_assert!((s.to_matrix() - m2).amax() <= 1e-8); }
+                Err(_) => prop_assert!(!rotation2),
+            }
+        }
+    }
+
+    /// Matrices of entries of every size and sign (many of them reflections or degenerate): the
+    /// nearest rotation is a unit quaternion and satisfies the optimality condition, or an error.
+    #[test]
+    fn orthonormalizing_arbitrary_matrices(entries in proptest::array::uniform9(raw())) {
+        check_orthonormalized(&Matrix3::from_column_slice(&entries))?;
+    }
+
+    /// Every operation of the rotation groups on finite tangents and points of any size gives finite
+    /// numbers and valid elements.
+    #[test]
+    fn rotation_operations_stay_finite(
+        x in finite(), y in finite(), z in finite(),
+        px in finite(), py in finite(), pz in finite(),
+        a in st::so3::<f64>(),
+    ) {
+        let v = Vector3::new(x, y, z);
+        // Points small enough that their rotations, and the partial sums of the Jacobian products,
+        // are representable (|p| <= 0.44 MAX).
+        let p = Vector3::new(px, py, pz) / 4.0;
+        let finite3 = |m: &Matrix3<f64>| all_finite(m.iter().copied());
+        for r in [So3::exp(&v), a.retract(&v), Left::new(a).retract(&v).into_inner()] {
+            prop_assert!(unit_wxyz(r.to_quaternion_wxyz(), 1e-12), "{r:?}");
+            prop_assert!(r.log().norm() <= std::f64::consts::PI * (1.0 + 1e-15));
+            prop_assert!(all_finite(r.act(&p).iter().copied()), "{r:?} . {p:?}");
+            prop_assert!(all_finite(a.local(&r).iter().copied()));
+        }
+        let q = Su2::exp(&v);
+        prop_assert!(unit_wxyz(q.to_quaternion_wxyz(), 1e-12));
+        prop_assert!(q.log().norm() <= 2.0 * std::f64::consts::PI * (1.0 + 1e-15));
+        for j in [
+            So3::right_jacobian(&v),
+            So3::right_jacobian_inverse(&v),
+            So3::left_jacobian(&v),
+            So3::left_jacobian_inverse(&v),
+            a.j_retract_self(&v),
+            a.j_retract_tangent(&v),
+            a.j_act_self(&p),
+            Left::new(a).j_retract_self(&v),
+            Left::new(a).j_act_self(&p),
+        ] {
+            prop_assert!(finite3(&j), "{j:e}");
+        }
+        let so2 = So2::exp(&Vector1::new(x));
+        prop_assert!((so2.cos().hypot(so2.sin()) - 1.0).abs() <= 1e-15);
+        prop_assert!(so2.angle().is_finite() && all_finite(so2.act(&p.xy()).iter().copied()));
+    }
+
+    /// The same in f32, whose range ends at 3.4e38.
+    #[test]
+    fn rotation_operations_stay_finite_f32(x in finite_f32(), y in finite_f32(), z in finite_f32()) {
+        let v = Vector3::new(x, y, z);
+        let r = So3::exp(&v);
+        prop_assert!(unit_wxyz(r.to_quaternion_wxyz(), 1e-5), "exp({v:?}) = {r:?}");
+        prop_assert!(all_finite(r.log().iter().copied()));
+        prop_assert!(unit_wxyz(Su2::exp(&v).to_quaternion_wxyz(), 1e-5));
+        prop_assert!(all_finite(So3::right_jacobian(&v).iter().copied()));
+        prop_assert!(all_finite(So3::right_jacobian_inverse(&v).iter().copied()));
+        let s = S2::new(Vector3::new(0.0_f32, 0.6, 0.8)).unwrap();
+        let t = s.retract(&v.xy());
+        prop_assert!((t.as_vector().norm() - 1.0).abs() <= 1e-6, "{t:?}");
+        prop_assert!(all_finite(s.local(&t).iter().copied()));
+    }
+
+    /// The sphere's exp and log on finite tangents of any size, and between any two points.
+    #[test]
+    fn sphere_operations_stay_finite(
+        x in finite(), y in finite(), z in finite(),
+        s in st::s2::<f64>(),
+        t in st::s2::<f64>(),
+    ) {
+        let on_sphere = |p: &S2<f64>| (p.as_vector().norm() - 1.0).abs() <= 1e-15;
+        let u = Vector2::new(x, y);
+        let moved = s.retract(&u);
+        prop_assert!(on_sphere(&moved), "retract({u:?}) = {moved:?}");
+        let w = Vector3::new(x, y, z);
+        prop_assert!(on_sphere(&s.exp_at(&w)), "exp_at({w:?})");
+        for (a, b) in [(s, t), (s, moved), (s, s)] {
+            let l = a.log_at(&b);
+            prop_assert!(all_finite(l.iter().copied()) && l.norm() <= std::f64::consts::PI + 1e-15);
+            prop_assert!(all_finite(a.local(&b).iter().copied()));
+            prop_assert!(a.distance(&b).is_finite());
+        }
+        // Moderate tangents keep local(x, retract(x, u)) = u (inside the injectivity radius).
+        if u.norm() < 3.0 {
+            prop_assert!((s.local(&moved) - u).norm() <= 1e-12 * (1.0 + u.norm()));
+        }
+    }
+
+    /// Rⁿ and products on inputs below a quarter of the range (sums of two stay representable).
+    #[test]
+    fn vector_space_and_product_operations_stay_finite(
+        x in finite(), y in finite(), z in finite(),
+        a in st::so3::<f64>(),
+    ) {
+        let v = Vector3::new(x, y, z) / 4.0;
+        let p = Rn::new(v).unwrap();
+        let q = Rn::new(-v).unwrap();
+        for r in [p.retract(&v), p.compose(&q), p.inverse(), Rn::exp(&v)] {
+            prop_assert!(all_finite(r.coords().iter().copied()));
+        }
+        prop_assert!(all_finite(p.local(&q).iter().copied()) && p.distance(&q).is_finite());
+        let xb = ProductManifold::<_, _, 3, 3, 6>::new(a, p);
+        let d = SVector::<f64, 6>::from_fn(|i, _| v[i % 3]);
+        let moved = xb.retract(&d);
+        prop_assert!(unit_wxyz(moved.first().to_quaternion_wxyz(), 1e-12));
+        prop_assert!(all_finite(xb.local(&moved).iter().copied()));
+        prop_assert!(all_finite(xb.j_retract_tangent(&d).iter().copied()));
+    }
+
+    /// The weighted mean with weights of every kind: an error exactly when a weight is not finite or
+    /// the sum is zero up to rounding or overflows, and a valid rotation otherwise.
+    #[test]
+    fn mean_weights(w1 in raw(), w2 in raw(), w3 in raw(), a in st::so3::<f64>()) {
+        let xs = [
+            a,
+            a.retract(&Vector3::new(0.1, 0.0, 0.0)),
+            a.retract(&Vector3::new(0.0, -0.1, 0.05)),
+        ];
+        let weights = [w1, w2, w3];
+        let result = weighted_mean(&a, xs.iter().zip(weights), MeanSettings::default());
+        let sum: f64 = weights.iter().sum();
+        let absolute: f64 = weights.iter().map(|w| w.abs()).sum();
+        let valid = all_finite(weights)
+            && sum.is_finite()
+            && absolute.is_finite()
+            && sum.abs() > 3.0 * f64::EPSILON * absolute;
+        match result {
+            Ok(m) => {
+                prop_assert!(valid);
+                prop_assert!(unit_wxyz(m.to_quaternion_wxyz(), 1e-12));
+            }
+            Err(ManifoldError::NonFiniteWeight { index, value }) => {
+                prop_assert!(!weights[index].is_finite());
+                prop_assert!(value.is_nan() == weights[index].is_nan());
+            }
+            Err(ManifoldError::DegenerateWeights { .. }) => prop_assert!(!valid),
+            // Valid weights can extrapolate far (a sum near zero makes the normalised weights huge):
+            // the iteration may then not converge.
+            Err(ManifoldError::MeanNotConverged { .. }) => {
+                prop_assert!(valid);
+                let largest = weights.iter().map(|w| (w / sum).abs()).fold(0.0, f64::max);
+                prop_assert!(largest > 2.0, "weights {weights:?} did not converge");
+            }
+            Err(e) => prop_assert!(false, "unexpected error {e}"),
+        }
+    }
+}
+
+/// `So3::from_rotation_vector` with components near the largest finite value once gave a NaN
+/// rotation: |v| overflowed. The half angle |v/2| does not.
+#[test]
+fn rotation_vector_near_max_is_a_rotation() {
+    for v in [
+        Vector3::new(f64::MAX, f64::MAX, 0.0),
+        Vector3::new(f64::MAX, f64::MAX, f64::MAX),
+        Vector3::new(-f64::MAX, 0.0, f64::MAX),
+    ] {
+        let r = So3::from_rotation_vector(&v).unwrap();
+        assert!(unit_wxyz(r.to_quaternion_wxyz(), 1e-15), "{r:?}");
+        let axis = v / f64::MAX;
+        assert!((r.rotate(&axis) - axis).norm() < 1e-15);
+        assert!(all_finite(So3::right_jacobian_inverse(&v).iter().copied()));
+        assert!(all_finite(So3::right_jacobian(&v).iter().copied()));
+    }
+}
+
+/// `So3::from_matrix_orthonormalized` of a matrix with entries from 1e-271 to 1e105 once returned a
+/// quaternion of norm 0.707: the SVD's U Vᵀ was a reflection (the sign of the smallest singular value
+/// was noise) although det m > 0.
+#[test]
+fn orthonormalized_mixed_scales_is_a_rotation() {
+    let m = Matrix3::new(
+        1.652_582_859_788_945e105,
+        8.421_494_974_489_744e-166,
+        -2.073_439_323_802_459_3e25,
+        3.022_673_643_029_488e25,
+        -3.801_107_542_442_793_6e17,
+        1.754_641_897_787_742e-61,
+        3.388_117_856_695_569e-115,
+        -8.995_655_003_933_006e55,
+        5.096_182_860_333_663e-35,
+    );
+    let s = So3::from_matrix_orthonormalized(&m).unwrap();
+    assert!(unit_wxyz(s.to_quaternion_wxyz(), 4.0 * f64::EPSILON));
+    assert!(is_rotation(&s.to_matrix(), 1e-15));
+}
+
+/// Uniformly scaled rotations of any finite scale, and rotations with columns or rows of different
+/// scales (`R D` and `D R` have the nearest rotation R), orthonormalise to R.
+#[test]
+fn orthonormalized_scaled_rotations_recover_the_rotation() {
+    let r = So3::exp(&Vector3::new(0.3, -0.4, 1.0));
+    let m = r.to_matrix();
+    for scale in [1e-300, 1e-200, 1e-20, 1.0, 1e20, 1e200, 1e300, f64::MAX] {
+        let s = So3::from_matrix_orthonormalized(&(m * scale)).unwrap();
+        assert!(s.distance(&r) < 4.0 * f64::EPSILON, "scale {scale}");
+        assert!(unit_wxyz(s.to_quaternion_wxyz(), 4.0 * f64::EPSILON));
+    }
+    for d in [
+        Vector3::new(1e300, 1.0, 1e-300),
+        Vector3::new(1.0, 1e-300, 1e-300),
+        Vector3::new(1e-150, 1e150, 3.0),
+        Vector3::new(f64::MAX, 1.0, 1e-300),
+        Vector3::new(1.0, 1e-310, 1e-310),
+    ] {
+        // Subnormal entries carry fewer digits: relative precision eps · MIN_POSITIVE / |entry|.
+        let precision = 1.0 + f64::MIN_POSITIVE / d.min();
+        let d = Matrix3::from_diagonal(&d);
+        for graded in [m * d, d * m] {
+            let s = So3::from_matrix_orthonormalized(&graded).unwrap();
+            let error = s.distance(&r);
+            assert!(
+                error < 16.0 * f64::EPSILON * precision,
+                "{graded:e}: {error:e}"
+            );
+        }
+    }
+}
+
+/// Matrices at the ends of the range that stalled or broke earlier versions of the Jacobi polar
+/// factor: a rotation scaled to MIN_POSITIVE (subnormal entries) with one entry 1 or MAX (ratios
+/// beyond the exponent range), a negative scale with one entry MIN_POSITIVE, and the zero matrix.
+#[test]
+fn orthonormalized_at_the_ends_of_the_range() {
+    let r = So3::exp(&Vector3::new(0.4, -1.3, 0.2)).to_matrix();
+    for (scale, entry, value) in [
+        (f64::MIN_POSITIVE, 4, 1.0),
+        (f64::MIN_POSITIVE, 8, f64::MAX),
+        (-f64::MIN_POSITIVE, 1, f64::MIN_POSITIVE),
+        (2e-308, 0, 1e-300),
+        (5e-324, 3, 1.0),
+    ] {
+        let mut m = r * scale;
+        m[entry] = value;
+        check_orthonormalized(&m).unwrap();
+    }
+    assert!(matches!(
+        So3::from_matrix_orthonormalized(&Matrix3::<f64>::zeros()),
+        Err(ManifoldError::NotProperRotation { det }) if det == 0.0
+    ));
+}
+
+/// `S2::log_at` next to the antipode with a subnormal component once gave [inf, NaN]: the direction's
+/// norm was subnormal and θ / norm overflowed.
+#[test]
+fn sphere_log_next_to_the_antipode_with_subnormal_components() {
+    let x = S2::new(Vector3::new(0.0, 0.0, 1.0)).unwrap();
+    for tiny in [5e-324_f64, 1e-310, -2.2e-308, 1e-200] {
+        let y = S2::new(Vector3::new(tiny, 0.0, -1.0)).unwrap();
+        let l = x.log_at(&y);
+        assert!(all_finite(l.iter().copied()), "{l:?}");
+        assert!((l.norm() - std::f64::consts::PI).abs() < 1e-15);
+        assert!((l.normalize() - Vector3::x() * tiny.signum()).norm() < 1e-15);
+        let z = S2::new(Vector3::new(tiny, 0.0, 1.0)).unwrap();
+        assert!(all_finite(x.log_at(&z).iter().copied()));
+        assert!(x.log_at(&z).norm() <= 1e-15);
+    }
+}
