@@ -112,6 +112,11 @@ impl<G: LieGroup<D>, const D: usize> Manifold<D> for Left<G> {
     fn local(&self, other: &Self) -> Tangent<G::Scalar, D> {
         other.0.compose(&self.0.inverse()).log()
     }
+
+    #[inline]
+    fn is_finite(&self) -> bool {
+        self.0.is_finite()
+    }
 }
 
 impl<G: LieGroup<D>, const D: usize> LieGroup<D> for Left<G> {

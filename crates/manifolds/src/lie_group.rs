@@ -144,9 +144,10 @@ pub trait GroupAction<const D: usize, const P: usize>: LieGroup<D> {
     fn j_act_point(&self, p: &SVector<Self::Scalar, P>) -> Jacobian<Self::Scalar, P, P>;
 }
 
-/// Implements [`Manifold`] for a group through `retract = compose(exp)` and `local = log(inverse · other)`.
+/// Implements [`Manifold`] for a group through `retract = compose(exp)` and `local = log(inverse · other)`,
+/// with `is_finite` the given test of the stored coordinates.
 macro_rules! impl_manifold_for_group {
-    ($ty:ident, $dim:literal) => {
+    ($ty:ident, $dim:literal, |$x:ident| $finite:expr) => {
         impl<T: $crate::real::Real> $crate::manifold::Manifold<$dim> for $ty<T> {
             type Scalar = T;
 
@@ -158,6 +159,12 @@ macro_rules! impl_manifold_for_group {
             #[inline]
             fn local(&self, other: &Self) -> $crate::manifold::Tangent<T, $dim> {
                 self.inverse().compose(other).log()
+            }
+
+            #[inline]
+            fn is_finite(&self) -> bool {
+                let $x = self;
+                $finite
             }
         }
     };

@@ -35,6 +35,11 @@ pub trait Manifold<const D: usize>: Clone + Debug + Sized {
     /// y ⊟ x: the tangent vector at `self` that leads to `other`.
     fn local(&self, other: &Self) -> Tangent<Self::Scalar, D>;
 
+    /// Whether every stored coordinate is finite. A point from a validated constructor always is;
+    /// generic code checks it on the points that models and `*_unchecked` constructors return (a
+    /// filter step refuses a state that is not, instead of carrying NaN on).
+    fn is_finite(&self) -> bool;
+
     /// Geodesic distance: the norm of `self.local(other)` (computed without overflow or underflow).
     fn distance(&self, other: &Self) -> Self::Scalar {
         stable_norm(&self.local(other))

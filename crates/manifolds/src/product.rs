@@ -175,6 +175,11 @@ where
         )
     }
 
+    #[inline]
+    fn is_finite(&self) -> bool {
+        self.first.is_finite() && self.second.is_finite()
+    }
+
     /// `√(d_A² + d_B²)` with the factors' own distances (computed without overflow).
     fn distance(&self, other: &Self) -> A::Scalar {
         self.first

@@ -66,6 +66,11 @@ impl<T: Real, const N: usize> Manifold<N> for Rn<T, N> {
     fn local(&self, other: &Self) -> Tangent<T, N> {
         other.v - self.v
     }
+
+    #[inline]
+    fn is_finite(&self) -> bool {
+        self.v.iter().all(nalgebra::ComplexField::is_finite)
+    }
 }
 
 impl<T: Real, const N: usize> LieGroup<N> for Rn<T, N> {

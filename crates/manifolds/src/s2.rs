@@ -156,6 +156,10 @@ impl<T: Real> Manifold<2> for S2<T> {
         self.tangent_basis().transpose() * self.log_at(other)
     }
 
+    fn is_finite(&self) -> bool {
+        self.n.iter().all(nalgebra::ComplexField::is_finite)
+    }
+
     /// The great-circle angle.
     fn distance(&self, other: &Self) -> T {
         self.angle_to(other)

@@ -337,7 +337,10 @@ impl<T: Real> LieGroup<3> for Se2<T> {
     }
 }
 
-impl_manifold_for_group!(Se2, 3);
+impl_manifold_for_group!(Se2, 3, |x| {
+    crate::Manifold::is_finite(&x.rotation)
+        && x.translation.iter().all(nalgebra::ComplexField::is_finite)
+});
 
 impl<T: Real> GroupAction<3, 2> for Se2<T> {
     /// `R p + t`.

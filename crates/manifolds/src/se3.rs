@@ -325,7 +325,10 @@ impl<T: Real> LieGroup<6> for Se3<T> {
     }
 }
 
-impl_manifold_for_group!(Se3, 6);
+impl_manifold_for_group!(Se3, 6, |x| {
+    crate::Manifold::is_finite(&x.rotation)
+        && x.translation.iter().all(nalgebra::ComplexField::is_finite)
+});
 
 impl<T: Real> GroupAction<6, 3> for Se3<T> {
     /// `R p + t`.

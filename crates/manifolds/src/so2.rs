@@ -195,7 +195,7 @@ impl<T: Real> LieGroup<1> for So2<T> {
     }
 }
 
-impl_manifold_for_group!(So2, 1);
+impl_manifold_for_group!(So2, 1, |x| x.z.re.is_finite() && x.z.im.is_finite());
 
 impl<T: Real> GroupAction<1, 2> for So2<T> {
     #[inline]

@@ -221,7 +221,11 @@ impl<T: Real> LieGroup<3> for So3<T> {
     }
 }
 
-impl_manifold_for_group!(So3, 3);
+impl_manifold_for_group!(So3, 3, |x| x
+    .q
+    .coords
+    .iter()
+    .all(nalgebra::ComplexField::is_finite));
 
 rotation_vector::impl_rotation_action!(So3);
 

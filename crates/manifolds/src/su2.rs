@@ -142,7 +142,11 @@ impl<T: Real> LieGroup<3> for Su2<T> {
     }
 }
 
-impl_manifold_for_group!(Su2, 3);
+impl_manifold_for_group!(Su2, 3, |x| x
+    .q
+    .coords
+    .iter()
+    .all(nalgebra::ComplexField::is_finite));
 
 rotation_vector::impl_rotation_action!(Su2);
 

@@ -137,6 +137,10 @@ impl Manifold<3> for PositionAzimuth {
         let d = other.r - self.r;
         Vector3::new(d.x, d.y, self.azimuth.local(&other.azimuth)[0])
     }
+
+    fn is_finite(&self) -> bool {
+        self.r.iter().all(|v| v.is_finite()) && self.azimuth.is_finite()
+    }
 }
 
 /// `r′ = r + v dt + w`, `A′ = A`, as a manifold process model (F = I).
