@@ -3,9 +3,10 @@
 use crate::scaled_bessel::scaled_i0_and_difference;
 use std::sync::OnceLock;
 
-/// `ln K(z)` with `K(z) = E_uniform[exp(Σ zᵢ xᵢ²)]` (against the uniform probability measure on S³),
-/// and `∂ ln K / ∂zᵢ = E[xᵢ²]` (the second moments along the eigenvectors), for finite z (a NaN
-/// gives NaN; `Bingham`'s constructors refuse non-finite input before calling this).
+/// `ln K(z) − max z` with `K(z) = E_uniform[exp(Σ zᵢ xᵢ²)]` (against the uniform probability measure on
+/// S³), and `∂ ln K / ∂zᵢ = E[xᵢ²]` (the second moments along the eigenvectors), for finite z whose
+/// spread is representable (the callers check both). The largest eigenvalue is left out so that log
+/// densities `Σ (zᵢ − z₀) uᵢ² − (ln K − z₀)` never subtract numbers of its size.
 ///
 /// Writing `x = (cos φ · a, sin φ · b)` with `a, b ∈ S¹` and integrating the two circles out gives the
 /// one-dimensional representation, for the pairing {0, 1}, {2, 3} of the sorted eigenvalues
@@ -21,7 +22,7 @@ use std::sync::OnceLock;
 /// spread, see `nodes_for_spread`); Ĩ and A come from [`scaled_i0_i1`](crate::special::scaled_i0_i1)'s
 /// polynomial pieces, with `1 − A` summed without cancellation. Every reference case is within 2e-13
 /// (ln K) and 1.4e-14 (moments, relative).
-pub fn log_normalizer_and_moments(z: &[f64; 4]) -> (f64, [f64; 4]) {
+pub(crate) fn log_normalizer_and_moments(z: &[f64; 4]) -> (f64, [f64; 4]) {
     // Sort descending, remembering where each eigenvalue came from.
     let mut order = [0usize, 1, 2, 3];
     order.sort_by(|&i, &j| z[j].total_cmp(&z[i]));
@@ -63,7 +64,7 @@ pub fn log_normalizer_and_moments(z: &[f64; 4]) -> (f64, [f64; 4]) {
     for k in 0..4 {
         out[order[k]] = moments[k] / total;
     }
-    (s[0] + largest + total.ln(), out)
+    (largest + total.ln(), out)
 }
 
 /// A node of the tanh-sinh rule on [0, 1], with `1 − t` formed without cancellation and the log of

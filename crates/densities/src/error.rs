@@ -37,16 +37,3 @@ pub(crate) fn finite(what: &'static str, value: f64) -> Result<f64, DensityError
         Err(DensityError::NonFinite { what, value })
     }
 }
-
-/// Checks that `value` is finite and non-negative.
-pub(crate) fn non_negative(what: &'static str, value: f64) -> Result<f64, DensityError> {
-    finite(what, value)?;
-    if value < 0.0 {
-        return Err(DensityError::OutOfRange {
-            what,
-            value,
-            range: "[0, infinity)",
-        });
-    }
-    Ok(value)
-}
