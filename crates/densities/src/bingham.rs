@@ -20,6 +20,30 @@ const MAX_EIGENVALUE: f64 = 1e300;
 /// so 200 proposals all rejected has probability below 1e-40.
 const MAX_PROPOSALS: usize = 200;
 
+/// The symmetric eigendecomposition, refused where it is not finite (nalgebra's can return NaN for
+/// matrices whose entries span more than the f64 range once scaled, such as 1e83 beside 1e-308).
+fn finite_eigen(
+    what: &'static str,
+    m: Matrix4<f64>,
+) -> Result<SymmetricEigen<f64, nalgebra::U4>, DensityError> {
+    let eigen = SymmetricEigen::new(m);
+    let finite = eigen
+        .eigenvalues
+        .iter()
+        .chain(eigen.eigenvectors.iter())
+        .all(|v| v.is_finite());
+    if finite {
+        Ok(eigen)
+    } else {
+        Err(DensityError::OutOfRange {
+            what,
+            value: m.amax(),
+            range: "symmetric matrices whose eigendecomposition is finite in f64 (entries within a \
+                    range of about 1e300 of each other)",
+        })
+    }
+}
+
 /// Checks that the eigenvalue spread `max z − min z` is at most [`Bingham::MAX_SPREAD`] and that every
 /// eigenvalue is within ±1e300.
 pub(crate) fn check_spread(z: &[f64; 4]) -> Result<(), DensityError> {
@@ -130,7 +154,7 @@ impl Bingham {
             });
         }
         // Halves first: M + Mᵀ overflows for entries past f64::MAX / 2.
-        let eigen = SymmetricEigen::new(m * 0.5 + m.transpose() * 0.5);
+        let eigen = finite_eigen("Bingham parameter matrix", m * 0.5 + m.transpose() * 0.5)?;
         let mut order = [0usize, 1, 2, 3];
         order.sort_by(|&i, &j| eigen.eigenvalues[j].total_cmp(&eigen.eigenvalues[i]));
         let orientation = Matrix4::from_fn(|r, c| eigen.eigenvectors[(r, order[c])]);
@@ -190,7 +214,10 @@ impl Bingham {
                 range: "symmetric positive semi-definite matrices with a positive trace",
             });
         }
-        let eigen = SymmetricEigen::new((scatter * 0.5 + scatter.transpose() * 0.5) / trace);
+        let eigen = finite_eigen(
+            "scatter matrix",
+            (scatter * 0.5 + scatter.transpose() * 0.5) / trace,
+        )?;
         let mut order = [0usize, 1, 2, 3];
         order.sort_by(|&i, &j| eigen.eigenvalues[j].total_cmp(&eigen.eigenvalues[i]));
         let orientation = Matrix4::from_fn(|r, c| eigen.eigenvectors[(r, order[c])]);

@@ -4,7 +4,7 @@ use crate::error::{DensityError, finite};
 use crate::quadrature;
 use crate::scaled_bessel;
 use crate::traits::{Density, Entropy, KlDivergence, Product};
-use crate::von_mises::{check_concentration, sample_offset, scaled_cos_minus_one};
+use crate::von_mises::{sample_offset, scaled_cos_minus_one};
 use liebayes_manifolds::{LieGroup, So2};
 use nalgebra::Vector2;
 use rand::Rng;
@@ -18,13 +18,13 @@ const TRAPEZOID_LIMIT: f64 = 1e4;
 /// maxima, and its shape does not depend on the concentration, so a fixed grid finds their basins.
 const MODE_GRID: usize = 64;
 
-/// Deepest bisection of the adaptive partition: cells of width 2π·2⁻⁶⁰⁰ resolve concentrations up to
-/// f64::MAX (the width needed is about 1/√κ).
-const MAX_DEPTH: usize = 600;
+/// Deepest bisection of the adaptive partition: cells of width 2π·2⁻⁶⁴ are far below the 1e-8 that
+/// the largest concentration needs.
+const MAX_DEPTH: usize = 64;
 
-/// Most cells the adaptive partition makes (it needs about 40 per mode per factor e of concentration
-/// beyond 1, that is a few thousand at κ = 1e300).
-const MAX_CELLS: usize = 1 << 15;
+/// Most cells the adaptive partition makes (it makes a few hundred: 240 at κ₂ = 1e8, and the count
+/// grows like the logarithm of the concentration).
+const MAX_CELLS: usize = 1 << 12;
 
 /// Proposals a draw makes at most: every envelope used accepts at least e^(−1) ≈ 0.37 of them (the
 /// harmonic ones are chosen only then), so 400 rejections in a row have probability below 1e-80.
@@ -34,7 +34,8 @@ const MAX_PROPOSALS: usize = 400;
 ///
 /// `p(θ) = exp(η₁ · u(θ) + η₂ · u(2θ)) / Z`, `u(θ) = (cos θ, sin θ)`,
 ///
-/// with respect to dθ (total mass 2π). κ₁ = |η₁|, κ₂ = |η₂|, each at most 1e300. It contains the von
+/// with respect to dθ (total mass 2π). κ₁ = |η₁|, κ₂ = |η₂|, with κ₁ + 4κ₂ ≤ 1e16
+/// ([`GenVonMises2::MAX_CONCENTRATION`]). It contains the von
 /// Mises (η₂ = 0) and is the family in which the azimuth posterior is claimed to stay von Mises: that
 /// claim is checked by measuring η₂, not assumed.
 ///
@@ -59,21 +60,33 @@ pub struct GenVonMises2 {
 }
 
 /// The exponent about a reference angle θ₀: differences `g(d) = f(θ₀ + d) − f(θ₀)` and the derivative
-/// `f′(θ₀ + d)`, with the bound `L₂ = κ₁ + 4κ₂ ≥ max |f″|`.
+/// `f′(θ₀ + d)`, with the bound `L₂ = κ₁ + 4κ₂ ≥ max |f″|`. Angles θ₀ + d are never formed: u(θ₀ + d)
+/// is u(θ₀) rotated by d, so offsets far below the resolution of θ₀ (1e-16) keep their effect, as
+/// concentrations past 1e32 need.
 #[derive(Clone, Copy, Debug)]
 struct Offsets {
     eta1: Vector2<f64>,
     eta2: Vector2<f64>,
-    reference: f64,
+    /// u(θ₀) and u(2θ₀).
+    first: Vector2<f64>,
+    second: Vector2<f64>,
     curvature_bound: f64,
+}
+
+/// `u` rotated by the angle whose (cos, sin) is `(c, s)`.
+fn rotate(u: &Vector2<f64>, c: f64, s: f64) -> Vector2<f64> {
+    Vector2::new(u.x * c - u.y * s, u.y * c + u.x * s)
 }
 
 impl Offsets {
     fn new(eta1: &Vector2<f64>, eta2: &Vector2<f64>, reference: f64) -> Self {
+        let (s, c) = reference.sin_cos();
+        let (s2, c2) = (2.0 * reference).sin_cos();
         Self {
             eta1: *eta1,
             eta2: *eta2,
-            reference,
+            first: Vector2::new(c, s),
+            second: Vector2::new(c2, s2),
             curvature_bound: eta1.x.hypot(eta1.y) + 4.0 * eta2.x.hypot(eta2.y),
         }
     }
@@ -81,15 +94,21 @@ impl Offsets {
     /// `g(d) = η₁ · (u(θ₀ + d) − u(θ₀)) + η₂ · (u(2θ₀ + 2d) − u(2θ₀))`, each difference as
     /// `2 sin(n d/2) (−sin, cos)(n θ₀ + n d/2)`.
     fn g(&self, d: f64) -> f64 {
-        let (s1, c1) = (self.reference + 0.5 * d).sin_cos();
-        let (s2, c2) = (2.0 * self.reference + d).sin_cos();
-        2.0 * (0.5 * d).sin() * (self.eta1.y * c1 - self.eta1.x * s1)
-            + 2.0 * d.sin() * (self.eta2.y * c2 - self.eta2.x * s2)
+        let (sh, ch) = (0.5 * d).sin_cos();
+        let (s, c) = d.sin_cos();
+        let a = rotate(&self.first, ch, sh); // u(θ₀ + d/2)
+        let b = rotate(&self.second, c, s); // u(2θ₀ + d)
+        2.0 * sh * (self.eta1.y * a.x - self.eta1.x * a.y)
+            + 2.0 * s * (self.eta2.y * b.x - self.eta2.x * b.y)
     }
 
-    /// `f′(θ₀ + d)`.
+    /// `f′(θ₀ + d) = η₁ · u′(θ₀ + d) + 2 η₂ · u′(2θ₀ + 2d)`, `u′ = (−sin, cos)`.
     fn slope(&self, d: f64) -> f64 {
-        derivatives(&self.eta1, &self.eta2, self.reference + d).0
+        let (s, c) = d.sin_cos();
+        let (s2, c2) = (2.0 * d).sin_cos();
+        let a = rotate(&self.first, c, s);
+        let b = rotate(&self.second, c2, s2);
+        self.eta1.y * a.x - self.eta1.x * a.y + 2.0 * (self.eta2.y * b.x - self.eta2.x * b.y)
     }
 
     /// Visits the leaves of the adaptive partition of [−π, π) as `(start, width, g(centre), bound)`,
@@ -235,17 +254,29 @@ fn log_normalizer_offset(offsets: &Offsets) -> f64 {
 }
 
 impl GenVonMises2 {
+    /// The largest accepted `κ₁ + 4κ₂`: the density's peaks are about 1/√(κ₁ + 4κ₂) wide, and an angle
+    /// near π is resolved only to 4.4e-16 in f64, so beyond 1e16 (peaks of 1e-8 rad) a second mode near
+    /// the antipode of the first can no longer be integrated or sampled. The von Mises, whose one mode is
+    /// the origin of its offsets, has no such limit.
+    pub const MAX_CONCENTRATION: f64 = 1e16;
+
     /// The distribution with first- and second-harmonic natural parameters η₁, η₂.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] for NaN or infinite components, [`DensityError::OutOfRange`] when
-    /// κ₁ or κ₂ exceeds 1e300.
+    /// `κ₁ + 4κ₂` exceeds 1e16 (see [`MAX_CONCENTRATION`](Self::MAX_CONCENTRATION)).
     pub fn new(eta1: Vector2<f64>, eta2: Vector2<f64>) -> Result<Self, DensityError> {
         for &v in eta1.iter().chain(eta2.iter()) {
             finite("harmonic parameter", v)?;
         }
-        check_concentration("first-harmonic concentration |eta1|", eta1.x.hypot(eta1.y))?;
-        check_concentration("second-harmonic concentration |eta2|", eta2.x.hypot(eta2.y))?;
+        let combined = eta1.x.hypot(eta1.y) + 4.0 * eta2.x.hypot(eta2.y);
+        if combined > Self::MAX_CONCENTRATION {
+            return Err(DensityError::OutOfRange {
+                what: "combined concentration |eta1| + 4 |eta2|",
+                value: combined,
+                range: "[0, 1e16]; beyond it use VonMises (no second harmonic) or a tangent Gaussian",
+            });
+        }
         let reference = global_maximum(&eta1, &eta2);
         let offsets = Offsets::new(&eta1, &eta2, reference);
         Ok(Self {
@@ -274,13 +305,13 @@ impl GenVonMises2 {
     /// the normaliser's quadrature rule (exponentially accurate, as the normaliser).
     pub fn trigonometric_moments(&self) -> (Vector2<f64>, Vector2<f64>) {
         let (mut m1, mut m2) = (Vector2::zeros(), Vector2::zeros());
-        for_each_node(&self.offsets(), |d, weight, g| {
+        let offsets = self.offsets();
+        for_each_node(&offsets, |d, weight, g| {
             let w = (g - self.log_normalizer_offset).exp() * weight;
-            let t = self.reference + d;
-            let (s, c) = t.sin_cos();
-            let (s2, c2) = (2.0 * t).sin_cos();
-            m1 += Vector2::new(c, s) * w;
-            m2 += Vector2::new(c2, s2) * w;
+            let (s, c) = d.sin_cos();
+            let (s2, c2) = (2.0 * d).sin_cos();
+            m1 += rotate(&offsets.first, c, s) * w;
+            m2 += rotate(&offsets.second, c2, s2) * w;
         });
         (m1, m2)
     }
@@ -290,9 +321,13 @@ impl GenVonMises2 {
         self.offsets().g(d) - self.log_normalizer_offset
     }
 
-    /// The offset of `angle` from the reference, in [−π, π].
-    fn offset_of(&self, angle: f64) -> f64 {
-        So2::from_angle_unchecked(angle - self.reference).angle()
+    /// The offset of `x` from the reference, in (−π, π], by the rotation `θ₀⁻¹ x` (no difference of
+    /// angles is rounded).
+    fn offset_of(&self, x: &So2<f64>) -> f64 {
+        So2::from_angle_unchecked(self.reference)
+            .inverse()
+            .compose(x)
+            .angle()
     }
 }
 
@@ -301,7 +336,7 @@ impl Density for GenVonMises2 {
 
     /// `η₁ · u(θ) + η₂ · u(2θ) − ln Z`, evaluated as `g(θ − θ₀) − (ln Z − f(θ₀))`.
     fn log_pdf(&self, x: &So2<f64>) -> f64 {
-        self.log_pdf_at_offset(self.offset_of(x.angle()))
+        self.log_pdf_at_offset(self.offset_of(x))
     }
 
     /// `ln Z` (see the type docs).
@@ -331,7 +366,10 @@ impl Density for GenVonMises2 {
 impl GenVonMises2 {
     /// The exact sampler with its envelope chosen and built (see [`GenVonMises2Sampler`]).
     pub fn sampler(&self) -> GenVonMises2Sampler {
-        let (k1, k2) = (self.eta1.norm(), self.eta2.norm());
+        let (k1, k2) = (
+            self.eta1.x.hypot(self.eta1.y),
+            self.eta2.x.hypot(self.eta2.y),
+        );
         // ln of the acceptance rates Z / (2π I₀(κ₁) e^κ₂) and Z / (2π I₀(κ₂) e^κ₁).
         let log_z_minus = self.log_normalizer() - (2.0 * PI).ln() - k1 - k2;
         let first = log_z_minus - scaled_bessel::log_scaled_i0(k1);
@@ -428,7 +466,7 @@ impl CellEnvelope {
 impl rand::distr::Distribution<So2<f64>> for GenVonMises2Sampler {
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
         let p = &self.density;
-        let (k1, k2) = (p.eta1.norm(), p.eta2.norm());
+        let (k1, k2) = (p.eta1.x.hypot(p.eta1.y), p.eta2.x.hypot(p.eta2.y));
         match &self.envelope {
             Envelope::Cells(cells) => {
                 let d = cells.draw(&p.offsets(), rng);
@@ -509,7 +547,9 @@ impl KlDivergence for GenVonMises2 {
         let mut total = 0.0;
         for_each_node(&self.offsets(), |d, weight, g| {
             let lp = g - self.log_normalizer_offset;
-            let lq = other.log_pdf_at_offset(other.offset_of(self.reference + d));
+            let x =
+                So2::from_angle_unchecked(self.reference).compose(&So2::from_angle_unchecked(d));
+            let lq = other.log_pdf_at_offset(other.offset_of(&x));
             total += weight * lp.exp() * (lp - lq);
         });
         total

@@ -92,10 +92,32 @@ impl HeatKernelSo3 {
         self.center.to_matrix() * (-self.s).exp()
     }
 
-    /// `ln f(t)` for the rotation angle t ∈ [0, π] of `c⁻¹ R` (|t| is used, and angles beyond π, NaN
-    /// included, count as π).
-    pub fn log_density_of_angle(&self, t: f64) -> f64 {
-        let t = t.abs().min(PI);
+    /// `ln f(t)` for the rotation angle t ∈ [0, π] of `c⁻¹ R`.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `0 ≤ t ≤ π`.
+    pub fn log_density_of_angle(&self, t: f64) -> Result<f64, DensityError> {
+        Ok(self.log_f(check_angle(t)?))
+    }
+
+    /// The density of the rotation angle, `f(t) (1 − cos t)/π` on [0, π].
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `0 ≤ t ≤ π`.
+    pub fn angle_pdf(&self, t: f64) -> Result<f64, DensityError> {
+        Ok(self.pdf_of_angle(check_angle(t)?))
+    }
+
+    /// The CDF of the rotation angle, `∫_0^t f(u)(1 − cos u)/π du`, for t ∈ [0, π].
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `0 ≤ t ≤ π`.
+    pub fn angle_cdf(&self, t: f64) -> Result<f64, DensityError> {
+        Ok(self.cdf_of_angle(check_angle(t)?))
+    }
+
+    /// `ln f(t)` for t ∈ [0, π].
+    fn log_f(&self, t: f64) -> f64 {
         if self.s < POISSON_LIMIT {
             log_density_poisson(self.s, t)
         } else {
@@ -103,21 +125,33 @@ impl HeatKernelSo3 {
         }
     }
 
-    /// The density of the rotation angle, `f(t) (1 − cos t)/π` on [0, π].
-    pub fn angle_pdf(&self, t: f64) -> f64 {
+    /// [`Self::angle_pdf`] for t ∈ [0, π].
+    fn pdf_of_angle(&self, t: f64) -> f64 {
         let half = (t / 2.0).sin();
-        (self.log_density_of_angle(t) + (2.0 * half * half / PI).ln()).exp()
+        (self.log_f(t) + (2.0 * half * half / PI).ln()).exp()
     }
 
-    /// The CDF of the rotation angle, `∫_0^t f(u)(1 − cos u)/π du`, for t ∈ [0, π].
-    pub fn angle_cdf(&self, t: f64) -> f64 {
-        let t = t.clamp(0.0, PI);
+    /// [`Self::angle_cdf`] for t ∈ [0, π].
+    fn cdf_of_angle(&self, t: f64) -> f64 {
         if self.s >= CDF_SERIES_LIMIT {
             return cdf_series(self.s, t).clamp(0.0, 1.0);
         }
-        self.integrate_over_angle(t, |u| self.angle_pdf(u))
+        self.integrate_over_angle(t, |u| self.pdf_of_angle(u))
             .clamp(0.0, 1.0)
     }
+}
+
+/// Checks a rotation angle against [0, π].
+fn check_angle(t: f64) -> Result<f64, DensityError> {
+    finite("rotation angle t", t)?;
+    if !(0.0..=PI).contains(&t) {
+        return Err(DensityError::OutOfRange {
+            what: "rotation angle t",
+            value: t,
+            range: "[0, pi]",
+        });
+    }
+    Ok(t.abs())
 }
 
 impl Convolve for HeatKernelSo3 {
@@ -216,7 +250,7 @@ impl Density for HeatKernelSo3 {
 
     /// `ln f(angle(c⁻¹ R))`, with respect to the normalised Haar measure.
     fn log_pdf(&self, x: &So3<f64>) -> f64 {
-        self.log_density_of_angle(self.center.inverse().compose(x).angle())
+        self.log_f(self.center.inverse().compose(x).angle())
     }
 
     /// 0: the series and its Poisson form are normalised (the degree-0 coefficient is 1).
@@ -245,8 +279,7 @@ impl Density for HeatKernelSo3 {
                     continue; // the proposal is the Maxwell law truncated to (0, π]
                 }
                 let half = (t / 2.0).sin();
-                let log_angle_density =
-                    self.log_density_of_angle(t) + (2.0 * half * half / PI).ln();
+                let log_angle_density = self.log_f(t) + (2.0 * half * half / PI).ln();
                 let log_maxwell = log_maxwell_constant + 2.0 * t.ln() - t * t / (2.0 * self.s);
                 let log_ratio = log_angle_density - log_maxwell - log_bound;
                 if log_ratio > 0.0 {
@@ -289,13 +322,13 @@ impl HeatKernelSo3 {
         let (mut lo, mut hi) = (0.0, PI);
         let mut t = (3.0 * self.s).sqrt().min(PI / 2.0);
         for _ in 0..100 {
-            let residual = self.angle_cdf(t) - u;
+            let residual = self.cdf_of_angle(t) - u;
             if residual > 0.0 {
                 hi = t;
             } else {
                 lo = t;
             }
-            let pdf = self.angle_pdf(t);
+            let pdf = self.pdf_of_angle(t);
             let newton = t - residual / pdf;
             let next = if pdf > 0.0 && newton > lo && newton < hi {
                 newton
@@ -315,7 +348,7 @@ impl Entropy for HeatKernelSo3 {
     /// `−∫ f ln f dHaar = −∫_0^π f(t) ln f(t) (1 − cos t)/π dt`, by Gauss-Legendre quadrature on panels
     /// of width √s/2 (no closed form exists).
     fn entropy(&self) -> f64 {
-        -self.integrate_over_angle(PI, |t| self.angle_pdf(t) * self.log_density_of_angle(t))
+        -self.integrate_over_angle(PI, |t| self.pdf_of_angle(t) * self.log_f(t))
     }
 }
 
@@ -331,18 +364,18 @@ impl KlDivergence for HeatKernelSo3 {
         let (sd, cd) = (delta / 2.0).sin_cos();
         self.integrate_over_angle(PI, |t| {
             let (st, ct) = (t / 2.0).sin_cos();
-            let log_p = self.log_density_of_angle(t);
+            let log_p = self.log_f(t);
             let inner = quadrature::integrate(
                 |c| {
                     let w = (cd * ct - sd * st * c).abs().min(1.0);
                     let t_other = 2.0 * w.acos();
-                    0.5 * (log_p - other.log_density_of_angle(t_other))
+                    0.5 * (log_p - other.log_f(t_other))
                 },
                 -1.0,
                 1.0,
                 4,
             );
-            self.angle_pdf(t) * inner
+            self.pdf_of_angle(t) * inner
         })
     }
 }

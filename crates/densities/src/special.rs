@@ -147,7 +147,8 @@ pub fn log_i1(kappa: f64) -> Result<f64, DensityError> {
     Ok(if kappa == 0.0 {
         f64::NEG_INFINITY
     } else if kappa <= SERIES_LIMIT {
-        (kappa / 2.0).ln() + power_series_tail(1, kappa).0.ln_1p()
+        // ln κ − ln 2, not ln(κ/2): κ/2 rounds to 0 for κ = 5e-324.
+        kappa.ln() - std::f64::consts::LN_2 + power_series_tail(1, kappa).0.ln_1p()
     } else {
         kappa - log_sqrt_two_pi(kappa) + asymptotic_sum(1, kappa).ln()
     })
@@ -588,7 +589,7 @@ mod tests {
             assert!(log_i1(k).is_finite() && super::log_i0_scaled(k).unwrap().is_finite());
         }
         assert_eq!(log_i1(0.0), f64::NEG_INFINITY);
-        assert_eq!(log_i1(5e-324), (5e-324_f64 / 2.0).ln());
+        assert_eq!(log_i1(5e-324), 5e-324_f64.ln() - std::f64::consts::LN_2);
     }
 
     /// These never returned (NaN fell through every stopping test; κ = −1e16 summed 5e15 terms) or

@@ -160,7 +160,9 @@ impl Product for VonMisesFisher {
     /// `κ₁₂ − κ₁ − κ₂ = −κ₁ κ₂ |μ₁ − μ₂|² / (κ₁₂ + κ₁ + κ₂)`: nothing of size κ cancels.
     fn log_product_integral(&self, other: &Self) -> f64 {
         let (k1, k2) = (self.kappa, other.kappa);
-        let k12 = (self.eta() + other.eta()).norm();
+        // Scaled by the larger κ: |η₁ + η₂|² overflows past 1.3e154.
+        let scale = k1.max(k2).max(f64::MIN_POSITIVE);
+        let k12 = scale * (self.eta() / scale + other.eta() / scale).norm();
         let gap = (self.mean.as_vector() - other.mean.as_vector()).norm_squared();
         let excess = if k1 == 0.0 || k2 == 0.0 {
             0.0

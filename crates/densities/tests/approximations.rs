@@ -123,7 +123,7 @@ fn heat_kernel_bingham_kl(s: f64) -> (f64, f64) {
     let kl = common::quadrature::integrate_peaked(
         |t| {
             let log_bingham = z1 * (t / 2.0).sin().powi(2) - log_k;
-            h.angle_pdf(t) * (h.log_density_of_angle(t) - log_bingham)
+            h.angle_pdf(t).unwrap() * (h.log_density_of_angle(t).unwrap() - log_bingham)
         },
         s.sqrt().min(end),
         end,

@@ -234,8 +234,13 @@ impl AzimuthDensity {
         let rho = special::a1(kappa).unwrap_or(1.0);
         let (mode, sigma_a, along, across) = if kappa > 0.0 {
             let mu = self.eta.y.atan2(self.eta.x);
-            // −2 ln A = −2 ln(1 − (1 − A)), which keeps its digits at large κ.
-            let sigma_a = (-2.0 * (-special::one_minus_a1(kappa).unwrap_or(0.0)).ln_1p()).sqrt();
+            // −2 ln A, as −2 ln(1 − (1 − A)) where A > ½ so that it keeps its digits at large κ.
+            let log_rho = if rho > 0.5 {
+                (-special::one_minus_a1(kappa).unwrap_or(0.0)).ln_1p()
+            } else {
+                rho.ln()
+            };
+            let sigma_a = (-2.0 * log_rho).sqrt();
             (
                 Some(mu),
                 Some(sigma_a),
