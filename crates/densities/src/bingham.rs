@@ -16,8 +16,8 @@ const TOLERANCE: f64 = 1e-10;
 const MAX_EIGENVALUE: f64 = 1e300;
 
 /// Proposals a draw may take before it gives up waiting for an acceptance. The acceptance rate of the
-/// envelope is at least 0.38 over the whole accepted range (measured; see `docs/densities/bingham.md`),
-/// so 200 proposals all rejected has probability below 1e-40.
+/// envelope is at least 0.43 over the whole accepted range (measured; see `docs/densities/bingham.md`),
+/// so 200 proposals all rejected has probability below 1e-48.
 const MAX_PROPOSALS: usize = 200;
 
 /// The symmetric eigendecomposition, refused where it is not finite (nalgebra's can return NaN for
@@ -352,9 +352,9 @@ impl Density for Bingham {
     /// Exact rejection sampling from an angular central Gaussian envelope (Kent, Ganeiber & Mardia,
     /// 2013). With `aₖ = z₀ − zₖ ≥ 0`, b solving `Σ 1/(b + 2aₖ) = 1` and `ωₖ = 1 + 2aₖ/b`: draw
     /// `yₖ ~ N(0, 1/ωₖ)`, `u = y/|y|`, and accept when
-    /// `ln U < −Σ aₖuₖ² + 2 ln(Σ ωₖuₖ²) + (4 − b)/2 − 2 ln(4/b)`. The acceptance rate is at least 0.38
+    /// `ln U < −Σ aₖuₖ² + 2 ln(Σ ωₖuₖ²) + (4 − b)/2 − 2 ln(4/b)`. The acceptance rate is at least 0.43
     /// over the accepted range (measured); a draw makes at most 200 proposals and, were all rejected
-    /// (probability below 1e-40), keeps the last one.
+    /// (probability below 1e-48), keeps the last one.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> Su2<f64> {
         let Envelope {
             a,
@@ -432,5 +432,60 @@ impl KlDivergence for Bingham {
             - self.log_normalizer_minus_max
             - self.envelope.a.dot(&self.moments)
             + other.envelope.a.dot(&along_other)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    /// The acceptance rate `E_envelope[density / (M · envelope)]` of the sampler, by 20 000 proposals,
+    /// over eigenvalue gaps from 0 to the largest spread accepted (1e6), including the shapes that
+    /// make the envelope worst (one, two or three gaps large, the others 0). The documented bound,
+    /// 0.43, is the worst measured (0.443, three equal gaps of 1e6) rounded down; the standard error is
+    /// below 0.004.
+    #[test]
+    fn acceptance_rate_is_bounded_below_over_the_whole_range() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let mut worst = 1.0_f64;
+        for gaps in [
+            [0.0, 0.0, 0.0],
+            [1.0, 2.0, 3.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, 10.0],
+            [0.0, 10.0, 10.0],
+            [10.0, 10.0, 10.0],
+            [0.0, 0.0, 1e6],
+            [0.0, 1e6, 1e6],
+            [1e6, 1e6, 1e6],
+            [1.0, 1e3, 1e6],
+            [0.3, 3.0, 30.0],
+        ] {
+            let z = Vector4::new(0.0, -gaps[0], -gaps[1], -gaps[2]);
+            let Envelope {
+                a,
+                omega,
+                log_bound,
+            } = Envelope::new(&z);
+            let draws = 20_000;
+            let mut accepted = 0.0;
+            for _ in 0..draws {
+                let y =
+                    Vector4::from_fn(|k, _| rng.sample::<f64, _>(StandardNormal) / omega[k].sqrt());
+                let u = y / y.norm();
+                let u2 = u.component_mul(&u);
+                let log_ratio = -a.dot(&u2) + 2.0 * omega.dot(&u2).ln() - log_bound;
+                assert!(
+                    log_ratio <= 1e-12,
+                    "{gaps:?}: the envelope must bound the density"
+                );
+                accepted += log_ratio.exp();
+            }
+            let rate = accepted / f64::from(draws);
+            eprintln!("gaps {gaps:?}: acceptance rate {rate:.3}");
+            worst = worst.min(rate);
+        }
+        assert!(worst >= 0.43, "worst acceptance rate {worst}");
     }
 }
