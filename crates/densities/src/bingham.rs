@@ -191,7 +191,8 @@ impl Bingham {
     /// eigenvectors of S, and eigenvalues z (largest 0) solving `E_z[uₖ²] = sₖ` for the eigenvalues
     /// sₖ of S. The equations are solved by damped Newton's method from `zₖ = 1/(2s₀) − 1/(2sₖ)` (the
     /// concentrated limit), with the Jacobian by central differences of the accurate gradient, to a
-    /// relative moment residual of 1e-11.
+    /// relative moment residual of 1e-11 (or until no halving of the step decreases it: its rounding
+    /// floor), at most 100 steps.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`], or [`DensityError::OutOfRange`] when S is not symmetric positive
@@ -251,17 +252,24 @@ impl Bingham {
             let Some(step) = jacobian.lu().solve(&r) else {
                 break;
             };
-            // Halve the step until the residual decreases (and the eigenvalues stay ≤ 0).
+            // Halve the step until the residual decreases (and the eigenvalues stay ≤ 0), at most 20
+            // times; a step that cannot decrease it at all means the residual is at its rounding
+            // floor, and further iterations would only repeat the 20 halvings.
+            let mut improved = false;
             let mut scale = 1.0;
-            loop {
+            for _ in 0..20 {
                 let candidate = (z - step * scale).map(|v| v.min(0.0));
                 let r_candidate = residual(&candidate);
-                if r_candidate.amax() < r.amax() || scale < 1e-6 {
+                if r_candidate.amax() < r.amax() {
                     z = candidate;
                     r = r_candidate;
+                    improved = true;
                     break;
                 }
                 scale *= 0.5;
+            }
+            if !improved {
+                break;
             }
         }
         Self::from_sorted_eigen(orientation, Vector4::new(0.0, z[0], z[1], z[2]))

@@ -17,8 +17,9 @@ pub(crate) const MAX_CONCENTRATION: f64 = 1e300;
 /// Below this concentration the sampler proposes from the uniform distribution.
 const UNIFORM_ENVELOPE_BELOW: f64 = 1e-3;
 
-/// Above this concentration the sampler proposes from a Gaussian in the angle.
-const GAUSSIAN_ENVELOPE_ABOVE: f64 = 1e3;
+/// Above this concentration the sampler proposes from a Gaussian in the angle (the wrapped-normal
+/// limit); below, Best & Fisher's envelope is as fast and accepts a little more (0.66 against 0.64).
+const GAUSSIAN_ENVELOPE_ABOVE: f64 = 1e8;
 
 /// Proposals a draw makes at most: every envelope accepts at least 0.63 of them, so 200 rejections in a
 /// row have probability below 1e-86.
@@ -77,20 +78,25 @@ pub(crate) fn sample_offset<R: Rng + ?Sized>(kappa: f64, rng: &mut R) -> f64 {
             }
         }
     } else {
-        // Best & Fisher: wrapped Cauchy envelope, r = s + √(1 + s²), s = 1/(2κ).
+        // Best & Fisher: wrapped Cauchy envelope, r = s + √(1 + s²), s = 1/(2κ), z = cos(πU),
+        // w = (1 + r z)/(r + z), y = κ (r − w). Written with r − 1 = s + s²/(1 + √(1 + s²)),
+        // 1 ∓ z = 2 sin²(πU/2), 2 cos²(πU/2) and 1 − w = (r − 1)(1 − z)/(r − 1 + 1 + z), so that y and
+        // the angle keep their digits at large κ (in the plain form r − w loses log₁₀ κ digits).
         let s = 0.5 / kappa;
-        let r = s + s.hypot(1.0);
-        let mut w = 1.0;
+        let r_minus_one = s + s * s / (1.0 + s.hypot(1.0));
+        let mut one_minus_w = 0.0;
         for _ in 0..MAX_PROPOSALS {
-            let z = (PI * rng.random::<f64>()).cos();
-            w = (1.0 + r * z) / (r + z);
-            let y = kappa * (r - w);
+            let (sh, ch) = (0.5 * PI * rng.random::<f64>()).sin_cos();
+            let (one_minus_z, one_plus_z) = (2.0 * sh * sh, 2.0 * ch * ch);
+            one_minus_w = r_minus_one * one_minus_z / (r_minus_one + one_plus_z);
+            let y = kappa * (r_minus_one + one_minus_w);
             let v: f64 = rng.random();
             if y * (2.0 - y) - v >= 0.0 || (y / v).ln() + 1.0 - y >= 0.0 {
                 break;
             }
         }
-        let angle = w.clamp(-1.0, 1.0).acos();
+        // acos(w) = 2 asin(√((1 − w)/2)), accurate for w near 1.
+        let angle = 2.0 * (0.5 * one_minus_w).min(1.0).sqrt().asin();
         offset = if rng.random::<bool>() { angle } else { -angle };
     }
     offset
@@ -262,12 +268,12 @@ impl Density for VonMises {
     ///
     /// * κ = 0: the uniform distribution;
     /// * κ < 1e-3: uniform proposals d, accepted with probability `e^(κ (cos d − 1))` ≥ e^(−2κ);
-    /// * 1e-3 ≤ κ ≤ 1e3: Best & Fisher's (1979) wrapped-Cauchy envelope, with `r = s + √(1 + s²)`,
-    ///   `s = 1/(2κ)`;
-    /// * κ > 1e3: Gaussian proposals d ~ N(0, π²/(4κ)) restricted to [−π, π], accepted with
+    /// * 1e-3 ≤ κ ≤ 1e8: Best & Fisher's (1979) wrapped-Cauchy envelope, with `r = s + √(1 + s²)`,
+    ///   `s = 1/(2κ)`, written with `r − 1` and `1 − w` formed without cancellation (the plain form
+    ///   lost log₁₀ κ digits and never accepted at κ = 1e16, where `r − w` rounded to 0);
+    /// * κ > 1e8: Gaussian proposals d ~ N(0, π²/(4κ)) restricted to [−π, π], accepted with
     ///   probability `e^(κ (2d²/π² − 2 sin²(d/2)))` ≤ 1 (as 1 − cos d ≥ 2d²/π² there); the rate tends
-    ///   to 2/π. This is the wrapped-normal limit, exact at every κ, and it keeps the digits of the
-    ///   small offsets that Best & Fisher's `1 − w` loses at large κ.
+    ///   to 2/π. This is the wrapped-normal limit, exact at every κ.
     ///
     /// A draw makes at most 200 proposals and, were all rejected (probability below 1e-86), keeps the
     /// last one.
@@ -348,5 +354,32 @@ fn unit_or_x(eta: &Vector2<f64>, kappa: f64) -> Vector2<f64> {
         eta / kappa
     } else {
         Vector2::x()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    /// At large κ the offset is N(0, 1/κ) to O(1/κ²), so κ d² has mean 1 and variance 2: its sample
+    /// mean over n draws must lie within 5 standard errors √(2/n) of 1, in both large-κ branches and
+    /// across their hand-over; and every offset of the Gaussian branch must be finite and in [−π, π].
+    #[test]
+    fn large_concentrations_sample_the_wrapped_normal_limit() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(23);
+        let n = 20_000;
+        for kappa in [1e4, 1e7, 1e8, 1.000_000_1e8, 1e12, 1e16, 1e300, f64::MAX / 2.0] {
+            let mean = (0..n)
+                .map(|_| {
+                    let d = sample_offset(kappa, &mut rng);
+                    assert!(d.is_finite() && d.abs() <= PI, "κ {kappa:e}: {d}");
+                    kappa * d * d
+                })
+                .sum::<f64>()
+                / f64::from(n);
+            let tolerance = 5.0 * (2.0 / f64::from(n)).sqrt();
+            assert!((mean - 1.0).abs() < tolerance, "κ {kappa:e}: E[κ d²] = {mean}");
+        }
     }
 }
