@@ -10,7 +10,7 @@ use rand_distr::StandardNormal;
 use std::f64::consts::PI;
 
 /// Below this variance the density uses the Poisson-summed (small-time) form, above it the character
-/// series (both are exact; each converges fast on its side: ERRATA.md measured 8e-14 with this switch).
+/// series (both are exact; each converges fast on its side: 8e-14 was measured with this switch).
 const POISSON_LIMIT: f64 = 1.0;
 
 /// Below this variance the angle CDF integrates the angle density numerically; above it, it sums the
@@ -29,7 +29,7 @@ const MAX_SERIES_TERMS: u32 = 1000;
 /// 67 % of them, so the fallback has probability below 1e-90).
 const MAX_PROPOSALS: usize = 200;
 
-/// The isotropic heat kernel on SO(3), `LD(c, s I)` in seed 002's notation: the distribution of
+/// The isotropic heat kernel on SO(3), `LD(c, s I)` in the attitude application's notation: the distribution of
 /// `c · exp(ω)` for Brownian motion run for "time" s in the tangent space, that is per-axis tangent
 /// variance `s = σ²` (rad²). Its density with respect to the **normalised Haar measure** depends only on
 /// the rotation angle t of `c⁻¹ R`:
