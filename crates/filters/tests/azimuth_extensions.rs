@@ -333,8 +333,9 @@ fn non_isotropic_noise_with_the_isotropic_bound_is_conservative() {
         let (e, truth) = last.unwrap();
         nees_sum += nees(&(e.mean_r - truth), &e.cov_r).unwrap();
         let error = angle_difference(e.mode.unwrap(), sim.true_azimuth);
-        circular
-            .add(circular_consistency(error, liebayes_densities::special::a1(e.kappa)).unwrap());
+        circular.add(
+            circular_consistency(error, liebayes_densities::special::a1(e.kappa).unwrap()).unwrap(),
+        );
     }
     let (low, high) = average_nees_band(2, runs);
     let average = nees_sum / runs as f64;

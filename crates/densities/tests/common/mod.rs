@@ -5,4 +5,5 @@
 #[allow(unused_imports)] // each test binary uses a different subset
 pub use liebayes_reference::{reference, relative_error};
 
+pub mod fuzz;
 pub mod quadrature;

@@ -200,8 +200,8 @@ impl AzimuthDensity {
         // hypot, not norm: |η| near 1e-300 must not underflow.
         Ok(
             -(2.0 * PI * s).ln() - (w.norm_squared() + self.a.norm_squared()) / (2.0 * s)
-                + special::log_i0(eta.x.hypot(eta.y))
-                - special::log_i0(self.eta.x.hypot(self.eta.y)),
+                + special::log_i0(eta.x.hypot(eta.y))?
+                - special::log_i0(self.eta.x.hypot(self.eta.y))?,
         )
     }
 
@@ -229,14 +229,22 @@ impl AzimuthDensity {
     pub fn estimates(&self) -> AzimuthEstimates {
         // hypot, not norm: |η| = 1e-300 must not underflow to an unobservable azimuth.
         let kappa = self.eta.x.hypot(self.eta.y);
-        let rho = special::a1(kappa);
+        // κ is the hypot of finite numbers: the functions refuse it only where it overflowed to +∞,
+        // where their limits are A = 1, 1 − A = 0, A′ = 0.
+        let rho = special::a1(kappa).unwrap_or(1.0);
         let (mode, sigma_a, along, across) = if kappa > 0.0 {
             let mu = self.eta.y.atan2(self.eta.x);
-            let sigma_a = (-2.0 * rho.ln()).sqrt();
+            // −2 ln A, as −2 ln(1 − (1 − A)) where A > ½ so that it keeps its digits at large κ.
+            let log_rho = if rho > 0.5 {
+                (-special::one_minus_a1(kappa).unwrap_or(0.0)).ln_1p()
+            } else {
+                rho.ln()
+            };
+            let sigma_a = (-2.0 * log_rho).sqrt();
             (
                 Some(mu),
                 Some(sigma_a),
-                special::a1_derivative(kappa),
+                special::a1_derivative(kappa).unwrap_or(0.0),
                 rho / kappa,
             )
         } else {
