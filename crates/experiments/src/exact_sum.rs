@@ -23,7 +23,10 @@ const NORMALISE_EVERY: u32 = 1 << 30;
 /// Non-finite values are kept aside: the total is NaN if a NaN or both infinities were added, ±∞ if
 /// one infinity was, and otherwise the exact sum of the finite values rounded to the nearest f64
 /// (±∞ when that overflows; an exact zero is +0).
-#[derive(Clone, Debug, PartialEq, Eq)]
+///
+/// Two sums compare equal when their exact totals and non-finite flags are equal, however they were
+/// built.
+#[derive(Clone)]
 pub struct ExactSum {
     limbs: [i64; LIMBS],
     /// Additions since the last normalisation.
@@ -31,6 +34,23 @@ pub struct ExactSum {
     nan: bool,
     positive_infinity: bool,
     negative_infinity: bool,
+}
+
+impl PartialEq for ExactSum {
+    fn eq(&self, other: &Self) -> bool {
+        let (a, b) = (self.normalised(), other.normalised());
+        a.limbs == b.limbs
+            && (a.nan, a.positive_infinity, a.negative_infinity)
+                == (b.nan, b.positive_infinity, b.negative_infinity)
+    }
+}
+
+impl Eq for ExactSum {}
+
+impl std::fmt::Debug for ExactSum {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "ExactSum({:e})", self.value())
+    }
 }
 
 impl Default for ExactSum {
@@ -118,6 +138,14 @@ impl ExactSum {
         self.pending = 0;
     }
 
+    /// A copy with its carries propagated.
+    fn normalised(&self) -> Self {
+        let mut sum = self.clone();
+        sum.pending = 1;
+        sum.normalise();
+        sum
+    }
+
     /// The exact total rounded to the nearest f64 (ties to even); see the type for non-finite values.
     pub fn value(&self) -> f64 {
         if self.nan || (self.positive_infinity && self.negative_infinity) {
@@ -129,9 +157,7 @@ impl ExactSum {
         if self.negative_infinity {
             return f64::NEG_INFINITY;
         }
-        let mut sum = self.clone();
-        sum.pending = 1;
-        sum.normalise();
+        let mut sum = self.normalised();
         let negative = sum.limbs[LIMBS - 1] < 0;
         if negative {
             // The magnitude: every limb negated, then carried again.
@@ -195,5 +221,58 @@ impl FromIterator<f64> for ExactSum {
         let mut sum = Self::new();
         sum.extend(values);
         sum
+    }
+}
+
+/// The serialized form of an [`ExactSum`]: its normalised limbs, lowest first, and the non-finite
+/// flags.
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(rename = "ExactSum", deny_unknown_fields)]
+struct ExactSumFields {
+    limbs: Vec<i64>,
+    nan: bool,
+    positive_infinity: bool,
+    negative_infinity: bool,
+}
+
+impl serde::Serialize for ExactSum {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let sum = self.normalised();
+        ExactSumFields {
+            limbs: sum.limbs.to_vec(),
+            nan: sum.nan,
+            positive_infinity: sum.positive_infinity,
+            negative_infinity: sum.negative_infinity,
+        }
+        .serialize(serializer)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for ExactSum {
+    /// Reads normalised limbs back: 68 of them, each but the last in [0, 2³²), the last within the
+    /// range a sum of at most 2⁶⁴ values can reach.
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let fields = ExactSumFields::deserialize(deserializer)?;
+        let limbs: [i64; LIMBS] = fields.limbs.try_into().map_err(|l: Vec<i64>| {
+            D::Error::custom(format!("an exact sum has {LIMBS} limbs, not {}", l.len()))
+        })?;
+        let top_range = -(1_i64 << LIMB_BITS)..(1_i64 << LIMB_BITS);
+        if limbs[..LIMBS - 1]
+            .iter()
+            .any(|l| !(0..1 << LIMB_BITS).contains(l))
+            || !top_range.contains(&limbs[LIMBS - 1])
+        {
+            return Err(D::Error::custom(
+                "exact sum limbs out of range (each in [0, 2^32), the last in (-2^32, 2^32))",
+            ));
+        }
+        Ok(Self {
+            limbs,
+            pending: 0,
+            nan: fields.nan,
+            positive_infinity: fields.positive_infinity,
+            negative_infinity: fields.negative_infinity,
+        })
     }
 }

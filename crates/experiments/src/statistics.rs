@@ -11,7 +11,8 @@ use crate::ExactSum;
 /// `(Σx² − (Σx)²/n) / (n − 1)` are computed from the exact sums, each rounded once, then combined in
 /// f64: the variance keeps a relative accuracy of about `ε · mean² / variance`, which loses digits
 /// only for values whose spread is below 1e-8 of their size.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RunningStats {
     count: u64,
     non_finite: u64,
