@@ -18,6 +18,9 @@ pub enum ExperimentError {
     /// Text that should name a shard is not of the form `K/N`.
     #[error("shard {0:?} is not of the form K/N with 1 <= K <= N (for example 2/8)")]
     BadShard(String),
+    /// A scenario that cannot be simulated with its settings.
+    #[error("scenario: {0}")]
+    Scenario(String),
     /// Two partial summaries that cannot be merged.
     #[error("cannot merge these summaries: {0}")]
     Incompatible(String),

@@ -1,29 +1,41 @@
 //! # liebayes-experiments
 //!
 //! The experiment layer: what simulating, replaying, scoring and studying filters share, whatever
-//! the application. It is being built; today it holds the statistics a study keeps:
+//! the application. An application adds its scenario, its filters and, where the state's manifold
+//! is not enough, its scoring; the layer does the rest.
 //!
-//! * [`ExactSum`]: the exact sum of f64 values, rounded once when read, so that partial sums of a
-//!   study split into shards merge to the same bits as one run over all of it;
-//! * [`RunningStats`]: count, exact sums of values and squares, extremes and the count of
-//!   non-finite values of a stream, merged exactly: a metric's summary over any number of runs in
-//!   constant memory;
-//! * [`Shard`] and [`run_rng`]: shard K of N runs a contiguous range of run indices, and each run
-//!   draws from its own random stream, so the shards' runs are exactly the full study's;
-//! * [`Summary`]: per-epoch [`MetricSeries`] and per-run statistics by metric name, failures by
-//!   reason, and the run ranges covered; summaries of disjoint ranges merge exactly (serde, so a
-//!   shard's summary can be written to a file and merged elsewhere).
-//!
-//! Nothing here depends on a particular filter or state space.
+//! * [`RecursiveFilter`]: the one interface a study drives (predict with an input, update with a
+//!   measurement returning its log evidence and NIS, an estimate with its uncertainty).
+//!   [`Recursive`] gives it to any density that steps through the operators' `Propagate` and
+//!   `Condition` (the Kalman filters on a manifold, the linear Kalman filter).
+//! * [`Scenario`] simulates a [`Trajectory`] of [`Step`]s from a run's generator; [`replay()`] is the
+//!   one loop that runs a filter through it and scores each measurement epoch, stopping at the first
+//!   failure with where and why.
+//! * [`Scorer`]: named metrics of an estimate against the truth; [`ManifoldScorer`] scores a
+//!   Gaussian on any manifold through `local` (squared error, NEES).
+//! * [`Study`]: runs of a scenario and a filter, each from its own stream [`run_rng`], over one
+//!   [`Shard`] of the runs, in parallel with the `rayon` feature, into a [`Summary`] (per-epoch
+//!   [`MetricSeries`], per-run statistics, failures by reason, timing) that merges exactly: shards
+//!   run on different machines combine to one study's figures, bit for bit.
+//! * [`ExactSum`] and [`RunningStats`]: the exact, mergeable statistics beneath, in constant memory
+//!   whatever the number of runs.
 
 mod error;
 mod exact_sum;
+pub mod filter;
+pub mod replay;
+pub mod score;
 mod shard;
 mod statistics;
+pub mod study;
 mod summary;
 
 pub use error::ExperimentError;
 pub use exact_sum::ExactSum;
+pub use filter::{Recursive, RecursiveFilter};
+pub use replay::{Scenario, Step, Trajectory, replay};
+pub use score::{ManifoldScorer, Scorer};
 pub use shard::{Shard, run_rng};
 pub use statistics::RunningStats;
+pub use study::Study;
 pub use summary::{MAX_EPOCHS, MAX_FAILURE_REASONS, MetricSeries, Summary};

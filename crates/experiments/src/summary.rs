@@ -70,8 +70,12 @@ impl MetricSeries {
     }
 }
 
-/// The summary of a study over some run ranges: per-epoch series and per-run scalars (a final error,
-/// a time per step) by metric name, and the failed runs counted by reason.
+/// The summary of a study over some run ranges: per-epoch series and per-run scalars (a final error)
+/// by metric name, the failed runs counted by reason, and the filters' time per step.
+///
+/// Everything but the timing is determined by the study's seed and runs: two summaries of the same
+/// runs have equal series, scalars and failures bit for bit, however they were sharded. The timing
+/// is measured, so it differs from one execution to the next; it is kept apart for that reason.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Summary {
@@ -80,6 +84,7 @@ pub struct Summary {
     series: BTreeMap<String, MetricSeries>,
     scalars: BTreeMap<String, RunningStats>,
     failures: BTreeMap<String, u64>,
+    timing: RunningStats,
 }
 
 impl Summary {
@@ -160,6 +165,16 @@ impl Summary {
         &self.scalars
     }
 
+    /// Records a run's filter time per step (s).
+    pub fn add_timing(&mut self, seconds_per_step: f64) {
+        self.timing.add(seconds_per_step);
+    }
+
+    /// The filter time per step (s) over the successful runs: measured, so not reproducible.
+    pub fn timing(&self) -> &RunningStats {
+        &self.timing
+    }
+
     /// Failed runs by reason.
     pub fn failures(&self) -> &BTreeMap<String, u64> {
         &self.failures
@@ -197,6 +212,7 @@ impl Summary {
         for (reason, &count) in &other.failures {
             self.count_failures(reason, count);
         }
+        self.timing.merge(&other.timing);
         Ok(())
     }
 }

@@ -93,7 +93,7 @@ fn epochs_beyond_the_limit_and_bad_files_are_errors() {
             .is_none_or(|s| s.epochs().is_empty())
     );
     for bad in [
-        r#"{"runs": [], "series": {}, "scalars": {}, "failures": {}, "extra": 1}"#,
+        r#"{"runs": [], "series": {}, "scalars": {}, "failures": {}, "timing": {"count": 0, "non_finite": 0, "sum": {"limbs": [], "nan": false, "positive_infinity": false, "negative_infinity": false}, "sum_of_squares": {"limbs": [], "nan": false, "positive_infinity": false, "negative_infinity": false}, "min": null, "max": null}, "extra": 1}"#,
         r#"{"runs": [], "series": {"e": {"epochs": [{"count": 1, "non_finite": 0, "sum": {"limbs": [1], "nan": false, "positive_infinity": false, "negative_infinity": false}, "sum_of_squares": {"limbs": [1], "nan": false, "positive_infinity": false, "negative_infinity": false}, "min": 1.0, "max": 1.0}]}}, "scalars": {}, "failures": {}}"#,
     ] {
         assert!(serde_json::from_str::<Summary>(bad).is_err(), "{bad}");

@@ -1,0 +1,156 @@
+//! A study: many runs of one scenario and one filter, each seeded from its own stream, scored and
+//! summarised in constant memory, in parallel with the `rayon` feature, over one shard of the runs.
+
+use crate::filter::RecursiveFilter;
+use crate::replay::{Scenario, replay};
+use crate::score::Scorer;
+use crate::{ExperimentError, Shard, Summary, run_rng};
+use liebayes_operators::OperatorError;
+use rand_chacha::ChaCha8Rng;
+
+/// The most runs a study may have.
+pub const MAX_RUNS: u64 = 1 << 40;
+
+/// Runs handed to a worker at a time: each such block is summarised on its own, and the blocks'
+/// summaries merged (exactly, so the block size does not change any figure).
+const BLOCK: u64 = 64;
+
+/// What a study runs: how many runs, from which seed, and which shard of them here.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Study {
+    runs: u64,
+    seed: u64,
+    shard: Shard,
+}
+
+impl Study {
+    /// `runs` runs from `seed`, of which this process runs `shard`.
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] for no runs or more than [`MAX_RUNS`].
+    pub fn new(runs: u64, seed: u64, shard: Shard) -> Result<Self, ExperimentError> {
+        if runs == 0 || runs > MAX_RUNS {
+            return Err(ExperimentError::OutOfRange {
+                what: "number of runs",
+                value: runs.to_string(),
+                range: "[1, 2^40]",
+            });
+        }
+        Ok(Self { runs, seed, shard })
+    }
+
+    /// The total number of runs (all shards).
+    pub fn runs(&self) -> u64 {
+        self.runs
+    }
+
+    /// The seed.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// The shard run here.
+    pub fn shard(&self) -> Shard {
+        self.shard
+    }
+
+    /// Runs this shard: run k simulates `scenario` and builds its filter with `build` from the
+    /// generator [`run_rng`]`(seed, k)` (simulation first, then the filter's own randomness), replays
+    /// it, and records its scores in the summary: per measurement epoch, every metric of `scorer`,
+    /// the log evidence and the NIS (where the filter reports one); per run, the filter time. A
+    /// run that fails is counted under its reason and contributes nothing else. `progress` is called
+    /// with the number of runs done so far after each block of runs.
+    ///
+    /// # Errors
+    /// [`ExperimentError`] when the scenario cannot be simulated (a setting out of range); filter
+    /// failures are recorded in the summary instead.
+    pub fn run<S, F, Sc>(
+        &self,
+        scenario: &S,
+        build: &(dyn Fn(&mut ChaCha8Rng) -> Result<F, OperatorError> + Sync),
+        scorer: &Sc,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<Summary, ExperimentError>
+    where
+        S: Scenario,
+        F: RecursiveFilter<Input = S::Input, Measurement = S::Measurement>,
+        Sc: Scorer<S::Truth, F::Estimate>,
+    {
+        let range = self.shard.runs(self.runs);
+        let blocks = (range.end - range.start).div_ceil(BLOCK);
+        let done = std::sync::atomic::AtomicU64::new(0);
+        let block = |b: u64| -> Result<Summary, ExperimentError> {
+            let start = range.start + b * BLOCK;
+            let end = (start + BLOCK).min(range.end);
+            let mut summary = Summary::new(start..end);
+            for run in start..end {
+                self.record(run, scenario, build, scorer, &mut summary)?;
+            }
+            let so_far = done.fetch_add(end - start, std::sync::atomic::Ordering::Relaxed);
+            progress(so_far + end - start);
+            Ok(summary)
+        };
+        let mut summary = Summary::new(range.start..range.start);
+        for part in map_blocks(blocks, &block) {
+            summary.merge(&part?)?;
+        }
+        Ok(summary)
+    }
+
+    /// One run into `summary`.
+    fn record<S, F, Sc>(
+        &self,
+        run: u64,
+        scenario: &S,
+        build: &(dyn Fn(&mut ChaCha8Rng) -> Result<F, OperatorError> + Sync),
+        scorer: &Sc,
+        summary: &mut Summary,
+    ) -> Result<(), ExperimentError>
+    where
+        S: Scenario,
+        F: RecursiveFilter<Input = S::Input, Measurement = S::Measurement>,
+        Sc: Scorer<S::Truth, F::Estimate>,
+    {
+        let mut rng = run_rng(self.seed, run);
+        let trajectory = scenario.simulate(&mut rng)?;
+        let mut filter = match build(&mut rng) {
+            Ok(filter) => filter,
+            Err(error) => {
+                summary.add_failure(&format!("building the filter: {error}"));
+                return Ok(());
+            }
+        };
+        let scores = match replay(&mut filter, &trajectory, scorer) {
+            Ok(scores) => scores,
+            Err(failure) => {
+                summary.add_failure(&failure.error.to_string());
+                return Ok(());
+            }
+        };
+        for k in 0..scores.epochs() {
+            for (j, name) in scores.names.iter().enumerate() {
+                let value = scores.values[k * scores.names.len() + j];
+                // A filter without an innovation covariance has no NIS: nothing to record.
+                if *name == "nis" && value.is_nan() {
+                    continue;
+                }
+                summary.add_epoch(name, k, value)?;
+            }
+        }
+        summary.add_timing(scores.seconds_per_step);
+        Ok(())
+    }
+}
+
+/// `f` over the blocks `0..blocks`, in parallel with the `rayon` feature.
+#[cfg(feature = "rayon")]
+fn map_blocks<T: Send>(blocks: u64, f: &(impl Fn(u64) -> T + Sync)) -> Vec<T> {
+    use rayon::prelude::*;
+    (0..blocks).into_par_iter().map(f).collect()
+}
+
+/// `f` over the blocks `0..blocks`.
+#[cfg(not(feature = "rayon"))]
+fn map_blocks<T>(blocks: u64, f: &impl Fn(u64) -> T) -> Vec<T> {
+    (0..blocks).map(f).collect()
+}

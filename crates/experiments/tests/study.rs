@@ -1,0 +1,199 @@
+//! A study end to end on a filter whose consistency is known: an EKF tracking a heading on SO(2) from
+//! unit-vector measurements, driven through `Recursive` (the operator traits), replayed and scored
+//! through the manifold. Its NEES and NIS must sit in their χ² bands, and three shards merged must
+//! equal one study over all runs, bit for bit.
+
+use liebayes_densities::ManifoldGaussian;
+use liebayes_experiments::{
+    ExperimentError, ManifoldScorer, Recursive, RecursiveFilter, Scenario, Shard, Step, Study,
+    Summary, Trajectory, replay,
+};
+use liebayes_manifolds::{Manifold, So2};
+use liebayes_operators::evaluation::average_nees_band;
+use liebayes_operators::{Ekf, MeasurementFn, OperatorError, ProcessFn};
+use nalgebra::{Matrix1, Matrix2, Vector1, Vector2};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+/// Turn rate (rad per step), process variance (rad²), measurement sigma, prior mean and variance.
+const RATE: f64 = 0.3;
+const Q: f64 = 1e-3;
+const SIGMA: f64 = 0.05;
+const PRIOR_MEAN: f64 = 3.0;
+const PRIOR_VARIANCE: f64 = 0.01;
+
+/// The heading after a step of the turn rate plus process noise; a measurement every other step.
+struct Heading {
+    steps: usize,
+}
+
+impl Scenario for Heading {
+    type Truth = So2<f64>;
+    type Input = ();
+    type Measurement = Vector2<f64>;
+
+    fn epochs(&self) -> usize {
+        self.steps / 2
+    }
+
+    fn simulate(
+        &self,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Trajectory<So2<f64>, (), Vector2<f64>>, ExperimentError> {
+        let normal = |rng: &mut ChaCha8Rng| rng.sample::<f64, _>(StandardNormal);
+        let mut x = So2::from_angle_unchecked(PRIOR_MEAN + PRIOR_VARIANCE.sqrt() * normal(rng));
+        let mut steps = Vec::with_capacity(self.steps);
+        for k in 1..=self.steps {
+            x = x.retract(&Vector1::new(RATE + Q.sqrt() * normal(rng)));
+            let measurement = (k % 2 == 0).then(|| {
+                let (s, c) = x.angle().sin_cos();
+                Vector2::new(c + SIGMA * normal(rng), s + SIGMA * normal(rng))
+            });
+            steps.push(Step {
+                time: k as f64,
+                input: (),
+                truth: x,
+                measurement,
+            });
+        }
+        Ok(steps)
+    }
+}
+
+/// The EKF of the scenario, with the given assumed measurement sigma.
+fn filter(
+    sigma: f64,
+) -> Result<
+    impl RecursiveFilter<
+        Input = (),
+        Measurement = Vector2<f64>,
+        Estimate = ManifoldGaussian<So2<f64>, 1>,
+    >,
+    OperatorError,
+> {
+    let process = ProcessFn::new(
+        |x: &So2<f64>, (): &()| x.retract(&Vector1::new(RATE)),
+        |_, ()| Matrix1::new(Q),
+    );
+    let measurement = MeasurementFn::new(
+        |x: &So2<f64>| {
+            let (s, c) = x.angle().sin_cos();
+            Vector2::new(c, s)
+        },
+        move |_| Matrix2::identity() * (sigma * sigma),
+    );
+    let prior = ManifoldGaussian::new(
+        So2::from_angle_unchecked(PRIOR_MEAN),
+        Matrix1::new(PRIOR_VARIANCE),
+    )
+    .map_err(OperatorError::from)?;
+    Ok(Recursive::new(prior, Ekf(process), Ekf(measurement)))
+}
+
+fn study(runs: u64, shard: Shard, sigma: f64) -> Summary {
+    Study::new(runs, 11, shard)
+        .unwrap()
+        .run(
+            &Heading { steps: 40 },
+            &|_| filter(sigma),
+            &ManifoldScorer,
+            &|_| {},
+        )
+        .unwrap()
+}
+
+/// The mean of the pooled values is inside the χ² band of their average.
+fn in_band(summary: &Summary, metric: &str, dof: usize) -> (f64, (f64, f64)) {
+    let pooled = summary.series(metric).unwrap().pooled();
+    let count = usize::try_from(pooled.count()).unwrap();
+    (pooled.mean().unwrap(), average_nees_band(dof, count))
+}
+
+#[test]
+fn a_consistent_filter_scores_inside_its_bands() {
+    let summary = study(300, Shard::WHOLE, SIGMA);
+    assert!(summary.failures().is_empty(), "{:?}", summary.failures());
+    // The final epoch's NEES over runs (independent across runs), 1 degree of freedom.
+    let last = summary
+        .series("nees")
+        .unwrap()
+        .epochs()
+        .last()
+        .unwrap()
+        .clone();
+    let (low, high) = average_nees_band(1, 300);
+    let nees = last.mean().unwrap();
+    assert!(
+        (low..=high).contains(&nees),
+        "final NEES {nees} outside [{low}, {high}]"
+    );
+    // The NIS of every update pooled (independent for a consistent filter), 2 degrees of freedom.
+    let (nis, (low, high)) = in_band(&summary, "nis", 2);
+    assert!(
+        (low..=high).contains(&nis),
+        "NIS {nis} outside [{low}, {high}]"
+    );
+    assert_eq!(summary.series("nees").unwrap().epochs().len(), 20);
+    // A filter that believes its sensor four times better than it is fails the NIS band.
+    let (nis, (_, high)) = in_band(&study(300, Shard::WHOLE, SIGMA / 2.0), "nis", 2);
+    assert!(nis > high, "overconfident NIS {nis} inside the band");
+}
+
+#[test]
+fn three_shards_merged_equal_one_study_bit_for_bit() {
+    let whole = study(200, Shard::WHOLE, SIGMA);
+    let mut merged = Summary::default();
+    for k in [3, 1, 2] {
+        let part = study(200, Shard::new(k, 3).unwrap(), SIGMA);
+        let text = serde_json::to_string(&part).unwrap();
+        merged.merge(&serde_json::from_str(&text).unwrap()).unwrap();
+    }
+    assert_eq!(merged.runs(), whole.runs());
+    assert_eq!(merged.all_series(), whole.all_series());
+    assert_eq!(merged.failures(), whole.failures());
+    let text = |s: &Summary| serde_json::to_string(s.all_series()).unwrap();
+    assert_eq!(text(&merged), text(&whole));
+    assert_eq!(merged.timing().count(), 200);
+}
+
+#[test]
+fn failing_runs_are_counted_by_reason_and_left_out() {
+    // Runs whose filter cannot be built (here: every one with an odd first draw) are failures.
+    let summary = Study::new(50, 3, Shard::WHOLE)
+        .unwrap()
+        .run(
+            &Heading { steps: 10 },
+            &|rng: &mut ChaCha8Rng| {
+                if rng.random::<bool>() {
+                    Err(OperatorError::OutOfRange {
+                        what: "test setting",
+                        value: -1.0,
+                        range: "[0, 1]",
+                    })
+                } else {
+                    filter(SIGMA)
+                }
+            },
+            &ManifoldScorer,
+            &|_| {},
+        )
+        .unwrap();
+    let failed: u64 = summary.failures().values().sum();
+    assert!((10..=40).contains(&failed), "{failed}");
+    let scored = summary.series("nees").unwrap().epochs()[0].count();
+    assert_eq!(scored + failed, 50);
+}
+
+#[test]
+fn replay_stops_at_the_first_failure_and_says_where() {
+    let mut rng = liebayes_experiments::run_rng(0, 0);
+    let mut trajectory = Heading { steps: 10 }.simulate(&mut rng).unwrap();
+    trajectory[5].measurement = Some(Vector2::new(f64::NAN, 0.0));
+    let failure = replay(&mut filter(SIGMA).unwrap(), &trajectory, &ManifoldScorer).unwrap_err();
+    assert_eq!(failure.step, 5);
+    assert!(
+        failure.to_string().starts_with("step 5 (t = 6 s)"),
+        "{failure}"
+    );
+}
