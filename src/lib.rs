@@ -6,7 +6,8 @@
 //! * [`densities`]: probability densities on those spaces and their special functions.
 //! * [`operators`]: propagate, condition, and filters as generic algorithms.
 //! * [`filters`]: the applications.
-//! * [`experiments`]: the experiment layer (today: exact, mergeable statistics for studies).
+//! * [`experiments`]: the experiment layer: one filter interface, scenarios, replay, scoring, and
+//!   studies that shard across machines and merge exactly.
 //!
 //! [`nalgebra`] and [`rand`] are re-exported: use `liebayes::nalgebra` and `liebayes::rand` so that your
 //! vectors, matrices and random number generators are the exact types the library takes, whatever
