@@ -17,6 +17,8 @@
 //!   [`Shard`] of the runs, in parallel with the `rayon` feature, into a [`Summary`] (per-epoch
 //!   [`MetricSeries`], per-run statistics, failures by reason, timing) that merges exactly: shards
 //!   run on different machines combine to one study's figures, bit for bit.
+//! * [`search::smallest_passing`]: the smallest size (a particle count) at which a filter meets a
+//!   target, by doubling then bisection, in a bounded number of studies.
 //! * [`ExactSum`] and [`RunningStats`]: the exact, mergeable statistics beneath, in constant memory
 //!   whatever the number of runs.
 
@@ -25,6 +27,7 @@ mod exact_sum;
 pub mod filter;
 pub mod replay;
 pub mod score;
+pub mod search;
 mod shard;
 mod statistics;
 pub mod study;
