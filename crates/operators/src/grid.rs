@@ -16,6 +16,7 @@
 //! Costs n payload steps per step. The reference for anything angular: with enough cells it is exact
 //! wherever the payload steps are.
 
+use crate::error::{reserve, with_capacity};
 use crate::numerics::LogWeights;
 use crate::{Condition, OperatorError, Propagate};
 use nalgebra::Vector2;
@@ -33,6 +34,9 @@ pub struct CircularGrid<X> {
     workspace: Vec<f64>,
 }
 
+/// What a grid names when its size is refused.
+const CELLS: &str = "number of grid cells";
+
 /// `θⱼ = 2πj/n`.
 fn cell_angle(j: usize, n: usize) -> f64 {
     2.0 * PI * j as f64 / n as f64
@@ -42,7 +46,7 @@ impl<X: Clone> CircularGrid<X> {
     /// n cells with the uniform angle prior and the same payload in each.
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] for n = 0.
+    /// As [`from_log_density`](Self::from_log_density).
     pub fn uniform(n: usize, payload: X) -> Result<Self, OperatorError> {
         Self::from_log_density(n, |_| 0.0, |_| payload.clone())
     }
@@ -52,8 +56,10 @@ impl<X> CircularGrid<X> {
     /// n cells weighted by an (unnormalised) log density of the angle, cell j carrying `payload(θⱼ)`.
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] for n = 0, [`OperatorError::NonFinite`] when the log density is
-    /// NaN or +∞ somewhere, or −∞ everywhere.
+    /// [`OperatorError::OutOfRange`] for n = 0, [`OperatorError::TooLarge`] for n above
+    /// [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the cells cannot be allocated (checked before
+    /// any payload is built), [`OperatorError::NonFinite`] when the log density is NaN or +∞
+    /// somewhere, or −∞ everywhere.
     pub fn from_log_density(
         n: usize,
         log_density: impl Fn(f64) -> f64,
@@ -66,14 +72,17 @@ impl<X> CircularGrid<X> {
                 range: "at least 1",
             });
         }
-        let mut weights = LogWeights::uniform(n);
+        let mut weights = LogWeights::uniform(CELLS, n)?;
+        let mut cells = with_capacity(CELLS, n)?;
+        let spare = with_capacity(CELLS, n)?;
         let pending = weights.pending();
         pending.extend((0..n).map(|j| log_density(cell_angle(j, n))));
         weights.replace_with_pending("grid prior log density")?;
+        cells.extend((0..n).map(|j| payload(cell_angle(j, n))));
         Ok(Self {
             weights,
-            cells: (0..n).map(|j| payload(cell_angle(j, n))).collect(),
-            spare: Vec::with_capacity(n),
+            cells,
+            spare,
             workspace: Vec::new(),
         })
     }
@@ -209,10 +218,16 @@ impl CircularGrid<()> {
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] when the kernel is negative, NaN or infinite somewhere, or zero
-    /// everywhere.
+    /// everywhere; [`OperatorError::TooLarge`] when its workspace cannot be allocated (first call).
     pub fn diffuse(&mut self, kernel: impl Fn(f64) -> f64) -> Result<(), OperatorError> {
         let n = self.len();
         self.workspace.clear();
+        // n ≤ MAX_ELEMENTS = 2³⁰, so 2n does not overflow.
+        reserve(
+            &mut self.workspace,
+            "diffusion workspace (twice the cells)",
+            2 * n,
+        )?;
         self.workspace
             .extend((0..n).map(|j| kernel(cell_angle(j, n))));
         let total: f64 = self.workspace.iter().sum();

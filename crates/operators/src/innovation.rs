@@ -59,6 +59,11 @@ impl<const N: usize, const M: usize> Innovation<N, M> {
                 .map(|d| d.ln())
                 .sum::<f64>();
         let log_evidence = -0.5 * (nis + log_det + M as f64 * (2.0 * PI).ln());
+        all_finite(
+            "innovation statistics (the NIS nu^T S^-1 nu, the gain K or the log evidence overflow: \
+             the measurement is too far from its prediction for S, or S is nearly singular)",
+            [nis, log_evidence].iter().chain(gain.iter()),
+        )?;
         Ok((
             Self {
                 nu: innovation,

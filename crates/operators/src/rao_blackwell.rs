@@ -63,18 +63,20 @@ pub struct RotatedMeasurement<const N: usize> {
 }
 
 impl<const N: usize> RotatedMeasurement<N> {
-    /// The measurement with matrix H (2 × N) and noise standard deviation σ_m > 0.
+    /// The measurement with matrix H (2 × N) and noise standard deviation σ_m, in
+    /// [1.5e-154, 1.3e154] so that σ_m² is a positive normal number (a σ_m² that underflows to zero
+    /// or a subnormal would make the innovation variance lose its meaning).
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite H, [`OperatorError::OutOfRange`] unless σ_m is
-    /// finite and positive.
+    /// [`OperatorError::NonFinite`] for a non-finite H, [`OperatorError::OutOfRange`] for σ_m
+    /// outside that range.
     pub fn new(matrix: SMatrix<f64, 2, N>, sigma: f64) -> Result<Self, OperatorError> {
         all_finite("rotated measurement matrix H", matrix.iter())?;
-        if !(sigma.is_finite() && sigma > 0.0) {
+        if !(sigma > 0.0 && (sigma * sigma).is_normal()) {
             return Err(OperatorError::OutOfRange {
                 what: "rotated measurement noise standard deviation sigma_m",
                 value: sigma,
-                range: "(0, infinity)",
+                range: "[1.5e-154, 1.3e154] (sigma_m^2 must be a positive normal number)",
             });
         }
         Ok(Self {
@@ -207,6 +209,11 @@ fn reweighted_angle(
 ) -> Result<(GenVonMises2, f64), OperatorError> {
     let angle = GenVonMises2::new(prior.eta1() + h.eta1, prior.eta2() + h.eta2)?;
     let log_evidence = h.constant + angle.log_normalizer() - prior.log_normalizer();
+    all_finite(
+        "log evidence of the composite's measurement (it overflows: the measurement is too far \
+         from its prediction for the noise)",
+        [log_evidence].iter(),
+    )?;
     Ok((angle, log_evidence))
 }
 
