@@ -2,6 +2,7 @@
 
 use crate::OperatorError;
 use crate::error::all_finite;
+use crate::numerics::symmetric_part;
 use nalgebra::{Cholesky, SMatrix, SVector};
 use std::f64::consts::PI;
 
@@ -41,7 +42,7 @@ impl<const N: usize, const M: usize> Innovation<N, M> {
             "innovation z - h(x) (the measurement model predicted a non-finite value)",
             innovation.iter(),
         )?;
-        let covariance = (covariance + covariance.transpose()) * 0.5;
+        let covariance = symmetric_part(covariance);
         let factor = Cholesky::new(covariance).ok_or(OperatorError::NotPositiveDefinite {
             what: "innovation covariance S (make the measurement noise R positive definite)",
         })?;

@@ -11,6 +11,7 @@
 //! * the report, an [`Innovation`]: ν, S, K and the NIS `νᵀ S⁻¹ ν`.
 
 use crate::error::all_finite;
+use crate::numerics::symmetric_part;
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::Gaussian;
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -135,6 +136,22 @@ fn smallest_eigenvalue<const K: usize>(m: &SMatrix<f64, K, K>) -> f64 {
     .map_or(f64::NAN, |e| e.eigenvalues.min())
 }
 
+/// The Gaussian a step returns, if its mean, covariance and log determinant are finite (a product
+/// that overflows is refused, not carried on).
+pub(crate) fn checked<const N: usize>(
+    g: Gaussian<N>,
+    what: &'static str,
+) -> Result<Gaussian<N>, OperatorError> {
+    all_finite(
+        what,
+        g.mean()
+            .iter()
+            .chain(g.covariance().iter())
+            .chain(std::iter::once(&g.log_determinant())),
+    )?;
+    Ok(g)
+}
+
 /// Joseph's form of the updated covariance, `(I − K H) Σ (I − K H)ᵀ + K R Kᵀ`: symmetric and positive
 /// semi-definite whatever the rounding in K.
 pub(crate) fn joseph<const N: usize, const M: usize>(
@@ -159,10 +176,10 @@ impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
         all_finite("process input u", input.iter())?;
         let f = &model.transition;
         let covariance = f * self.covariance() * f.transpose() + model.noise;
-        Ok(Gaussian::new(
-            f * self.mean() + input,
-            (covariance + covariance.transpose()) * 0.5,
-        )?)
+        checked(
+            Gaussian::new(f * self.mean() + input, symmetric_part(&covariance))?,
+            "predicted mean F mu + u or covariance F Sigma F^T + Q (it overflows)",
+        )
     }
 }
 
@@ -187,9 +204,9 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaus
             &sigma_ht,
         )?;
         let covariance = joseph(sigma, report.gain(), h, &model.noise);
-        let posterior = Gaussian::new(
-            self.mean() + report.correction(),
-            (covariance + covariance.transpose()) * 0.5,
+        let posterior = checked(
+            Gaussian::new(self.mean() + report.correction(), symmetric_part(&covariance))?,
+            "posterior mean or covariance (it overflows)",
         )?;
         Ok(Conditioned {
             posterior,

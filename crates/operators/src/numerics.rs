@@ -17,8 +17,14 @@ pub(crate) struct Produced {
     pub(crate) covariance: &'static str,
 }
 
+/// `(M + Mᵀ)/2`, computed as `M/2 + Mᵀ/2` so that entries near the largest finite value do not
+/// overflow.
+pub(crate) fn symmetric_part<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+    m * 0.5 + m.transpose() * 0.5
+}
+
 /// The Gaussian a filter step returns: the mean checked with [`Manifold::is_finite`], P symmetrised as
-/// `(P + Pᵀ)/2` and validated by the density's constructor (finite, positive definite, with a
+/// `(P + Pᵀ)/2` (by [`symmetric_part`]) and validated by the density's constructor (finite, positive definite, with a
 /// representable inverse).
 ///
 /// # Errors
@@ -32,7 +38,7 @@ pub(crate) fn checked_gaussian<X: Manifold<D, Scalar = f64>, const D: usize>(
     if !mean.is_finite() {
         return Err(OperatorError::NonFinitePoint { what: what.mean });
     }
-    ManifoldGaussian::new(mean, (covariance + covariance.transpose()) * 0.5).map_err(|e| match e {
+    ManifoldGaussian::new(mean, symmetric_part(covariance)).map_err(|e| match e {
         DensityError::NonFinite { value, .. } => OperatorError::NonFinite {
             what: what.covariance,
             value,

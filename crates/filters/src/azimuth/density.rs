@@ -3,6 +3,7 @@
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use liebayes_densities::{DensityError, GenVonMises2, HarmonicGaussian, VonMises, special};
 use liebayes_manifolds::So2;
+use liebayes_operators::rao_blackwell::MAX_CONCENTRATION;
 use liebayes_operators::{Condition, Conditioned, OperatorError, Propagate};
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
 use std::f64::consts::PI;
@@ -22,7 +23,7 @@ use std::f64::consts::PI;
 ///
 /// Both steps cost a few nanoseconds and allocate nothing; the log evidence adds two ln I₀. `a × b = a_x b_y − a_y b_x`.
 ///
-/// **Valid range**, kept by every constructor and step: η finite, the components of a and c within
+/// **Valid range**, kept by every constructor and step: η with a finite norm κ = |η|, the components of a and c within
 /// ±[`POSITION_LIMIT`] = ±1e150 m and σ² in [2.2e-308, [`VARIANCE_LIMIT`] = 1e300] m² (a positive
 /// normal number), so that every moment of [`estimates`](Self::estimates), which holds |c|², is
 /// finite. A step whose result would leave the range (an overflow, a variance that underflows) is
@@ -164,10 +165,15 @@ impl AzimuthDensity {
         origin: Origin,
     ) -> Result<Self, OperatorError> {
         let [eta_name, position_name, variance_name] = origin.names();
-        let angle = VonMises::new(eta).map_err(|_| OperatorError::NonFinite {
-            what: eta_name,
-            value: if eta.x.is_finite() { eta.y } else { eta.x },
-        })?;
+        // κ = |η| must be finite too (η = (MAX, MAX) has finite components).
+        let kappa = eta.x.hypot(eta.y);
+        let angle = VonMises::new(eta)
+            .ok()
+            .filter(|_| kappa.is_finite())
+            .ok_or(OperatorError::NonFinite {
+                what: eta_name,
+                value: kappa,
+            })?;
         if let Some(&value) = a.iter().chain(c.iter()).find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
                 what: position_name,
@@ -225,8 +231,19 @@ impl AzimuthDensity {
     /// the seed's prior, stored in seven numbers instead of eleven and updated in a few nanoseconds.
     ///
     /// # Errors
-    /// Never for a valid density; the composite's constructor errors otherwise.
+    /// [`DensityError::OutOfRange`] for κ above
+    /// [`MAX_CONCENTRATION`](liebayes_operators::rao_blackwell::MAX_CONCENTRATION) (1e10), where the
+    /// composite's normaliser, a trapezoid sum of about 12 √κ terms, would take seconds; the
+    /// composite's constructor errors otherwise.
     pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, DensityError> {
+        let kappa = self.eta().x.hypot(self.eta().y);
+        if kappa > MAX_CONCENTRATION {
+            return Err(DensityError::OutOfRange {
+                what: "concentration kappa of the azimuth for its composite form",
+                value: kappa,
+                range: "[0, 1e10]",
+            });
+        }
         HarmonicGaussian::new(
             GenVonMises2::new(*self.eta(), Vector2::zeros())?,
             Matrix2x3::from_columns(&[self.a, self.c, -perp(&self.c)]),
