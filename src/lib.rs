@@ -19,6 +19,7 @@
 //! | `proptest` | no | proptest strategies for every space and density, and the law suites |
 //! | `rayon` | no | parallel particle weighting and parallel Monte Carlo runs |
 //! | `progress` | no | a terminal progress bar for Monte Carlo studies (implies `rayon`) |
+//! | `serde` | no | `Serialize`/`Deserialize` for points, densities and filter states, read back through the validated constructors |
 
 pub use liebayes_densities as densities;
 pub use liebayes_filters as filters;

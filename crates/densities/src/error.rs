@@ -7,7 +7,7 @@ use liebayes_manifolds::ManifoldError;
 #[non_exhaustive]
 pub enum DensityError {
     /// A parameter is NaN or infinite.
-    #[error("{what} is {value}: it must be a finite number")]
+    #[error("{what} is {}: it must be a finite number", shown(*.value))]
     NonFinite {
         /// The parameter.
         what: &'static str,
@@ -15,7 +15,7 @@ pub enum DensityError {
         value: f64,
     },
     /// A parameter lies outside the range where the density or function is defined.
-    #[error("{what} is {value}, outside its range {range}")]
+    #[error("{what} is {}, outside its range {range}", shown(*.value))]
     OutOfRange {
         /// The parameter.
         what: &'static str,
@@ -29,6 +29,16 @@ pub enum DensityError {
     Manifold(#[from] ManifoldError),
 }
 
+/// A value for a message: plain for moderate magnitudes, in exponent form otherwise (f64::MAX would
+/// print 309 digits).
+fn shown(value: f64) -> String {
+    if value == 0.0 || (1e-4..1e6).contains(&value.abs()) || !value.is_finite() {
+        format!("{value}")
+    } else {
+        format!("{value:e}")
+    }
+}
+
 /// Checks that `value` is finite.
 pub(crate) fn finite(what: &'static str, value: f64) -> Result<f64, DensityError> {
     if value.is_finite() {
@@ -36,17 +46,4 @@ pub(crate) fn finite(what: &'static str, value: f64) -> Result<f64, DensityError
     } else {
         Err(DensityError::NonFinite { what, value })
     }
-}
-
-/// Checks that `value` is finite and non-negative.
-pub(crate) fn non_negative(what: &'static str, value: f64) -> Result<f64, DensityError> {
-    finite(what, value)?;
-    if value < 0.0 {
-        return Err(DensityError::OutOfRange {
-            what,
-            value,
-            range: "[0, infinity)",
-        });
-    }
-    Ok(value)
 }

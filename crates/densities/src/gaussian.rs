@@ -10,20 +10,43 @@ use std::f64::consts::PI;
 /// Relative asymmetry accepted in a covariance or information matrix: `|A − Aᵀ| ≤ 1e-12 max|A|`.
 const SYMMETRY_TOLERANCE: f64 = 1e-12;
 
+/// Largest accepted magnitude of a mean component and of an entry of Σ or Σ⁻¹: with it every derived
+/// quantity (sums of two covariances or information matrices, Mahalanobis distances between two means,
+/// the KL divergence, ln det Σ) stays finite.
+const MAX_SCALE: f64 = 1e100;
+
 /// The normal distribution `N(μ, Σ)` on Rⁿ, with respect to the Lebesgue measure:
 ///
 /// `p(x) = (2π)^(−n/2) det(Σ)^(−1/2) exp(−½ (x − μ)ᵀ Σ⁻¹ (x − μ))`.
 ///
 /// Stored in moment form with the Cholesky factor `Σ = L Lᵀ` (computed once at construction, so
 /// `log_pdf` and `sample` solve triangular systems and never invert). Any symmetric positive definite Σ
-/// is accepted, however ill-conditioned, as long as its Cholesky factorisation exists in f64;
-/// near-singular covariances are refused with an error, never repaired silently.
+/// is accepted, however ill-conditioned, as long as its Cholesky factorisation exists in f64 and the
+/// entries of μ, Σ and Σ⁻¹ are at most 1e100 in magnitude (so covariances from about 1e-100 to 1e100
+/// in every direction); near-singular covariances are refused with an error, never repaired silently.
 #[derive(Clone, Debug)]
 pub struct Gaussian<const N: usize> {
     mean: SVector<f64, N>,
     covariance: SMatrix<f64, N, N>,
     cholesky: SMatrix<f64, N, N>,
+    information: SMatrix<f64, N, N>,
     log_det: f64,
+}
+
+/// Checks that every entry is at most [`MAX_SCALE`] in magnitude.
+fn within_scale<const R: usize, const C: usize>(
+    what: &'static str,
+    m: &SMatrix<f64, R, C>,
+) -> Result<(), DensityError> {
+    let largest = m.amax();
+    if largest > MAX_SCALE {
+        return Err(DensityError::OutOfRange {
+            what,
+            value: largest,
+            range: "entries of at most 1e100 in magnitude (the value shown is the largest)",
+        });
+    }
+    Ok(())
 }
 
 /// Checks that a matrix is finite, symmetric (to [`SYMMETRY_TOLERANCE`]) and positive definite, and
@@ -35,6 +58,7 @@ fn spd_cholesky<const N: usize>(
     for &v in m.iter() {
         finite(what, v)?;
     }
+    within_scale(what, m)?;
     let scale = m.amax();
     let asymmetry = (m - m.transpose()).amax();
     if asymmetry > SYMMETRY_TOLERANCE * scale {
@@ -62,7 +86,9 @@ impl<const N: usize> Gaussian<N> {
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] for NaN or infinite entries, [`DensityError::OutOfRange`] for a
-    /// covariance that is not symmetric or not positive definite (with its smallest eigenvalue).
+    /// covariance that is not symmetric or not positive definite (with its smallest eigenvalue), or
+    /// when an entry of μ, Σ or Σ⁻¹ exceeds 1e100 in magnitude (Σ = 1e308 I and Σ = 1e-310 I were
+    /// accepted before, with an infinite or NaN information matrix).
     pub fn new(
         mean: SVector<f64, N>,
         covariance: SMatrix<f64, N, N>,
@@ -70,12 +96,23 @@ impl<const N: usize> Gaussian<N> {
         for &v in mean.iter() {
             finite("mean", v)?;
         }
+        within_scale("mean", &mean)?;
         let cholesky = spd_cholesky("covariance", &covariance)?;
+        let information = Cholesky::pack_dirty(cholesky).inverse();
+        if !information.iter().all(|v| v.is_finite()) {
+            return Err(DensityError::OutOfRange {
+                what: "covariance",
+                value: covariance.amax(),
+                range: "matrices whose inverse is finite (entries of at most 1e100)",
+            });
+        }
+        within_scale("information matrix (inverse covariance)", &information)?;
         let log_det = 2.0 * cholesky.diagonal().iter().map(|d| d.ln()).sum::<f64>();
         Ok(Self {
             mean,
-            covariance: (covariance + covariance.transpose()) * 0.5,
+            covariance: covariance * 0.5 + covariance.transpose() * 0.5,
             cholesky,
+            information,
             log_det,
         })
     }
@@ -92,7 +129,7 @@ impl<const N: usize> Gaussian<N> {
         let chol = Cholesky::pack_dirty(l);
         let covariance = chol.inverse();
         let mean = chol.solve(information_vector);
-        Self::new(mean, (covariance + covariance.transpose()) * 0.5)
+        Self::new(mean, covariance * 0.5 + covariance.transpose() * 0.5)
     }
 
     /// The mean μ.
@@ -110,21 +147,30 @@ impl<const N: usize> Gaussian<N> {
         &self.cholesky
     }
 
-    /// The information matrix Σ⁻¹ (by the Cholesky factor).
+    /// The information matrix Σ⁻¹ (by the Cholesky factor, computed once at construction).
     pub fn information_matrix(&self) -> SMatrix<f64, N, N> {
-        Cholesky::pack_dirty(self.cholesky).inverse()
+        self.information
     }
 
-    /// The squared Mahalanobis distance `(x − μ)ᵀ Σ⁻¹ (x − μ)`, by one triangular solve.
+    /// The squared Mahalanobis distance `(x − μ)ᵀ Σ⁻¹ (x − μ)`, by one triangular solve on the
+    /// difference scaled to unit size (so that coordinates near f64::MAX give +∞, never NaN). NaN for
+    /// a point with a NaN coordinate.
     ///
     /// # Panics
     /// Never: the Cholesky factor of a positive definite matrix has a positive diagonal.
     pub fn mahalanobis_squared(&self, x: &SVector<f64, N>) -> f64 {
+        // Halves first: x − μ overflows for coordinates of opposite sign near f64::MAX.
+        let half = x * 0.5 - self.mean * 0.5;
+        let scale = half.amax();
+        if scale == 0.0 || !scale.is_finite() {
+            return if scale == 0.0 { 0.0 } else { scale * scale };
+        }
         let z = self
             .cholesky
-            .solve_lower_triangular(&(x - self.mean))
+            .solve_lower_triangular(&(half / scale))
             .expect("the Cholesky factor has a positive diagonal");
-        z.norm_squared()
+        let root = 2.0 * scale * z.norm();
+        root * root
     }
 
     /// `ln det Σ`.
@@ -136,7 +182,9 @@ impl<const N: usize> Gaussian<N> {
 impl<const N: usize> Density for Gaussian<N> {
     type Point = SVector<f64, N>;
 
-    /// `−½ (n ln 2π + ln det Σ + (x − μ)ᵀ Σ⁻¹ (x − μ))`.
+    /// `−½ (n ln 2π + ln det Σ + (x − μ)ᵀ Σ⁻¹ (x − μ))`; −∞ where the Mahalanobis distance
+    /// overflows (points beyond about 1e154 standard deviations), NaN for a point with a NaN
+    /// coordinate.
     fn log_pdf(&self, x: &SVector<f64, N>) -> f64 {
         -0.5 * self.mahalanobis_squared(x) - self.log_normalizer()
     }
@@ -168,7 +216,7 @@ impl<const N: usize> Convolve for Gaussian<N> {
 impl<const N: usize> Product for Gaussian<N> {
     /// Information forms add: `Λ = Λ₁ + Λ₂`, `h = h₁ + h₂`.
     fn product(&self, other: &Self) -> Result<Self, DensityError> {
-        let (l1, l2) = (self.information_matrix(), other.information_matrix());
+        let (l1, l2) = (&self.information, &other.information);
         Self::from_information(&(l1 * self.mean + l2 * other.mean), &(l1 + l2))
     }
 

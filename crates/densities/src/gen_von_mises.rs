@@ -1,45 +1,289 @@
 //! [`GenVonMises2`]: the generalised von Mises distribution with first and second harmonics.
 
 use crate::error::{DensityError, finite};
-use crate::special;
+use crate::quadrature;
+use crate::scaled_bessel;
 use crate::traits::{Density, Entropy, KlDivergence, Product};
-use liebayes_manifolds::So2;
+use crate::von_mises::{sample_offset, scaled_cos_minus_one};
+use liebayes_manifolds::{LieGroup, So2};
 use nalgebra::Vector2;
 use rand::Rng;
 use std::f64::consts::PI;
+
+/// Above this `κ₁ + 4κ₂` the normaliser and the moments use the adaptive partition instead of the
+/// periodic trapezoid rule (whose 32 + 12√κ points would grow without bound).
+const TRAPEZOID_LIMIT: f64 = 1e4;
+
+/// Grid on which the mode search starts: an order-2 trigonometric polynomial has at most two local
+/// maxima, and its shape does not depend on the concentration, so a fixed grid finds their basins.
+const MODE_GRID: usize = 64;
+
+/// Deepest bisection of the adaptive partition: cells of width 2π·2⁻⁶⁴ are far below the 1e-8 that
+/// the largest concentration needs.
+const MAX_DEPTH: usize = 64;
+
+/// Most cells the adaptive partition makes (it makes a few hundred: 240 at κ₂ = 1e8, and the count
+/// grows like the logarithm of the concentration).
+const MAX_CELLS: usize = 1 << 12;
+
+/// Proposals a draw makes at most: every envelope used accepts at least e^(−1) ≈ 0.37 of them (the
+/// harmonic ones are chosen only then), so 400 rejections in a row have probability below 1e-80.
+const MAX_PROPOSALS: usize = 400;
 
 /// The generalised von Mises distribution of order 2 on the circle:
 ///
 /// `p(θ) = exp(η₁ · u(θ) + η₂ · u(2θ)) / Z`, `u(θ) = (cos θ, sin θ)`,
 ///
-/// with respect to dθ (total mass 2π). κ₁ = |η₁|, κ₂ = |η₂|. It contains the von Mises (η₂ = 0) and is
-/// the family in which seed 000 asserts that the azimuth posterior stays von Mises: that claim is checked
-/// by measuring η₂, not assumed.
+/// with respect to dθ (total mass 2π). κ₁ = |η₁|, κ₂ = |η₂|, with κ₁ + 4κ₂ ≤ 1e16
+/// ([`GenVonMises2::MAX_CONCENTRATION`]). It contains the von
+/// Mises (η₂ = 0) and is the family in which the azimuth posterior is claimed to stay von Mises: that
+/// claim is checked by measuring η₂, not assumed.
 ///
-/// **Normaliser**: the periodic trapezoid rule in log-sum-exp form on `N = 32 + 12 √(κ₁ + 4κ₂)` points,
-/// exponentially accurate for this analytic periodic integrand. Checked in the tests against the
-/// Jacobi-Anger series `Z = 2π Σ_k I₂ₖ(κ₁) I_k(κ₂) cos(2k(μ₁ − μ₂))`.
+/// Everything is computed relative to a reference angle θ₀ (the mode): the exponent differences
+/// `g(d) = f(θ₀ + d) − f(θ₀)` are formed from `u(θ₀ + d) − u(θ₀) = 2 sin(d/2) u′(θ₀ + d/2)`, so they
+/// never subtract numbers of size κ, and `ln p = g(d) − (ln Z − f(θ₀))`.
+///
+/// **Normaliser**: for `κ₁ + 4κ₂ ≤ 1e4` the periodic trapezoid rule on `N = 32 + 12 √(κ₁ + 4κ₂)`
+/// points, exponentially accurate for this analytic periodic integrand (checked in the tests against
+/// the Jacobi-Anger series `Z = 2π Σ_k I₂ₖ(κ₁) I_k(κ₂) cos(2k(μ₁ − μ₂))`); above, 20-point
+/// Gauss-Legendre on the cells of an adaptive partition of the offsets (cells are bisected until g
+/// varies by at most 1 over them, or until they carry less than e^(−40)/√κ of the mass), which costs
+/// the same at every concentration.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GenVonMises2 {
     eta1: Vector2<f64>,
     eta2: Vector2<f64>,
-    log_normalizer: f64,
+    /// θ₀, the reference angle (the mode, 0 for the uniform distribution).
+    reference: f64,
+    /// `ln Z − f(θ₀)`.
+    log_normalizer_offset: f64,
+}
+
+/// The exponent about a reference angle θ₀: differences `g(d) = f(θ₀ + d) − f(θ₀)` and the derivative
+/// `f′(θ₀ + d)`, with the bound `L₂ = κ₁ + 4κ₂ ≥ max |f″|`. Angles θ₀ + d are never formed: u(θ₀ + d)
+/// is u(θ₀) rotated by d, so offsets far below the resolution of θ₀ (1e-16) keep their effect, as
+/// concentrations past 1e32 need.
+#[derive(Clone, Copy, Debug)]
+struct Offsets {
+    eta1: Vector2<f64>,
+    eta2: Vector2<f64>,
+    /// u(θ₀) and u(2θ₀).
+    first: Vector2<f64>,
+    second: Vector2<f64>,
+    curvature_bound: f64,
+}
+
+/// `u` rotated by the angle whose (cos, sin) is `(c, s)`.
+fn rotate(u: &Vector2<f64>, c: f64, s: f64) -> Vector2<f64> {
+    Vector2::new(u.x * c - u.y * s, u.y * c + u.x * s)
+}
+
+impl Offsets {
+    fn new(eta1: &Vector2<f64>, eta2: &Vector2<f64>, reference: f64) -> Self {
+        let (s, c) = reference.sin_cos();
+        let (s2, c2) = (2.0 * reference).sin_cos();
+        Self {
+            eta1: *eta1,
+            eta2: *eta2,
+            first: Vector2::new(c, s),
+            second: Vector2::new(c2, s2),
+            curvature_bound: eta1.x.hypot(eta1.y) + 4.0 * eta2.x.hypot(eta2.y),
+        }
+    }
+
+    /// `g(d) = η₁ · (u(θ₀ + d) − u(θ₀)) + η₂ · (u(2θ₀ + 2d) − u(2θ₀))`, each difference as
+    /// `2 sin(n d/2) (−sin, cos)(n θ₀ + n d/2)`.
+    fn g(&self, d: f64) -> f64 {
+        let (sh, ch) = (0.5 * d).sin_cos();
+        let (s, c) = d.sin_cos();
+        let a = rotate(&self.first, ch, sh); // u(θ₀ + d/2)
+        let b = rotate(&self.second, c, s); // u(2θ₀ + d)
+        2.0 * sh * (self.eta1.y * a.x - self.eta1.x * a.y)
+            + 2.0 * s * (self.eta2.y * b.x - self.eta2.x * b.y)
+    }
+
+    /// `f′(θ₀ + d) = η₁ · u′(θ₀ + d) + 2 η₂ · u′(2θ₀ + 2d)`, `u′ = (−sin, cos)`.
+    fn slope(&self, d: f64) -> f64 {
+        let (s, c) = d.sin_cos();
+        let (s2, c2) = (2.0 * d).sin_cos();
+        let a = rotate(&self.first, c, s);
+        let b = rotate(&self.second, c2, s2);
+        self.eta1.y * a.x - self.eta1.x * a.y + 2.0 * (self.eta2.y * b.x - self.eta2.x * b.y)
+    }
+
+    /// Visits the leaves of the adaptive partition of [−π, π) as `(start, width, g(centre), bound)`,
+    /// `bound ≥ max g` on the cell: cells are bisected until `|f′(m)| r + L₂ r²/2 ≤ max_excess` (r the
+    /// half width) or until their bound lies `cutoff` below the largest value of g seen so far. No
+    /// allocation: the pending cells live on a fixed stack (depth-first, so it holds at most one
+    /// pending sibling per level).
+    fn partition(&self, max_excess: f64, cutoff: f64, mut visit: impl FnMut(f64, f64, f64, f64)) {
+        let mut stack = [(0.0_f64, 0.0_f64, 0_u16); MAX_DEPTH + 1];
+        stack[0] = (-PI, 2.0 * PI, 0);
+        let mut pending = 1;
+        let mut cells = 0;
+        let mut largest = f64::NEG_INFINITY;
+        while pending > 0 {
+            pending -= 1;
+            let (start, width, depth) = stack[pending];
+            let r = 0.5 * width;
+            let centre = start + r;
+            let value = self.g(centre);
+            largest = largest.max(value);
+            let excess = self.slope(centre).abs() * r + 0.5 * self.curvature_bound * r * r;
+            let bound = value + excess;
+            let split = excess > max_excess
+                && bound >= largest - cutoff
+                && usize::from(depth) < MAX_DEPTH
+                && cells + pending + 2 <= MAX_CELLS
+                && pending + 2 <= MAX_DEPTH + 1;
+            if split {
+                // Right half first on the stack, so the left is visited first.
+                stack[pending] = (centre, r, depth + 1);
+                stack[pending + 1] = (start, r, depth + 1);
+                pending += 2;
+            } else {
+                cells += 1;
+                visit(start, width, value, bound);
+            }
+        }
+    }
+
+    /// Visits 20-point Gauss-Legendre nodes `(d, weight, g(d))` on every cell of the partition that
+    /// can matter (bound within `40 + ½ ln(1 + L₂)` of the largest value: the rest carries less than
+    /// 1e-17 of the mass), the cells refined until g varies by at most 1 across them.
+    fn quadrature(&self, mut visit: impl FnMut(f64, f64, f64)) {
+        let cutoff = 40.0 + 0.5 * self.curvature_bound.ln_1p();
+        let rule = quadrature::gauss_legendre();
+        let mut largest = f64::NEG_INFINITY;
+        self.partition(1.0, cutoff, |start, width, value, bound| {
+            largest = largest.max(value);
+            if bound < largest - cutoff {
+                return;
+            }
+            let (mid, half) = (start + 0.5 * width, 0.5 * width);
+            for &(x, w) in rule {
+                let d = mid + half * x;
+                visit(d, w * half, self.g(d));
+            }
+        });
+    }
+}
+
+/// `(f′(θ), f″(θ))` of the exponent `f = η₁ · u(θ) + η₂ · u(2θ)`.
+fn derivatives(eta1: &Vector2<f64>, eta2: &Vector2<f64>, angle: f64) -> (f64, f64) {
+    let (s, c) = angle.sin_cos();
+    let (s2, c2) = (2.0 * angle).sin_cos();
+    let d1 = -eta1.x * s + eta1.y * c - 2.0 * eta2.x * s2 + 2.0 * eta2.y * c2;
+    let d2 = -eta1.x * c - eta1.y * s - 4.0 * eta2.x * c2 - 4.0 * eta2.y * s2;
+    (d1, d2)
+}
+
+/// `f(θ)`, directly (for locating maxima; the densities use [`Offsets::g`]).
+fn exponent(eta1: &Vector2<f64>, eta2: &Vector2<f64>, angle: f64) -> f64 {
+    let (s, c) = angle.sin_cos();
+    let (s2, c2) = (2.0 * angle).sin_cos();
+    eta1.x * c + eta1.y * s + eta2.x * c2 + eta2.y * s2
+}
+
+/// Newton's method on f′ from `start`, at most 50 steps, stopping where the curvature is not
+/// negative.
+fn refine_maximum(eta1: &Vector2<f64>, eta2: &Vector2<f64>, start: f64) -> f64 {
+    let mut best = start;
+    for _ in 0..50 {
+        let (d1, d2) = derivatives(eta1, eta2, best);
+        if d2 >= 0.0 {
+            break;
+        }
+        let step = d1 / d2;
+        best -= step;
+        if step.abs() < 1e-15 {
+            break;
+        }
+    }
+    best
+}
+
+/// The global maximum of f: every local maximum of a 64-point grid refined by Newton's method, the
+/// best kept (angle in (−π, π]).
+fn global_maximum(eta1: &Vector2<f64>, eta2: &Vector2<f64>) -> f64 {
+    let h = 2.0 * PI / MODE_GRID as f64;
+    let value = |i: usize| exponent(eta1, eta2, h * (i % MODE_GRID) as f64);
+    let best = (0..MODE_GRID)
+        .filter(|&i| value(i) >= value(i + MODE_GRID - 1) && value(i) >= value(i + 1))
+        .map(|i| refine_maximum(eta1, eta2, h * i as f64))
+        .max_by(|a, b| exponent(eta1, eta2, *a).total_cmp(&exponent(eta1, eta2, *b)))
+        .unwrap_or(0.0);
+    So2::from_angle_unchecked(best).angle()
+}
+
+/// Trapezoid points for the normaliser: the integrand's Fourier coefficients decay like those of a von
+/// Mises of concentration at most κ₁ + 4κ₂, whose aliasing error 2 A_N is below 1e-16 for N ≥ 9√κ.
+fn trapezoid_points(offsets: &Offsets) -> usize {
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let extra = (12.0 * offsets.curvature_bound.min(TRAPEZOID_LIMIT).sqrt()).ceil() as usize;
+    32 + extra
+}
+
+/// Visits quadrature nodes `(d, weight, g(d))` for integrals over the circle of functions of
+/// the density: the trapezoid rule at moderate concentration, the adaptive Gauss-Legendre rule above.
+fn for_each_node(offsets: &Offsets, mut visit: impl FnMut(f64, f64, f64)) {
+    if offsets.curvature_bound <= TRAPEZOID_LIMIT {
+        let n = trapezoid_points(offsets);
+        let h = 2.0 * PI / n as f64;
+        for i in 0..n {
+            let d = h * i as f64 - PI;
+            visit(d, h, offsets.g(d));
+        }
+    } else {
+        offsets.quadrature(visit);
+    }
+}
+
+/// `ln Z − f(θ₀)`, by log-sum-exp over the nodes.
+fn log_normalizer_offset(offsets: &Offsets) -> f64 {
+    let mut largest = f64::NEG_INFINITY;
+    let mut sum = 0.0;
+    for_each_node(offsets, |_, weight, g| {
+        if g > largest {
+            sum *= (largest - g).exp();
+            largest = g;
+        }
+        sum += weight * (g - largest).exp();
+    });
+    largest + sum.ln()
 }
 
 impl GenVonMises2 {
+    /// The largest accepted `κ₁ + 4κ₂`: the density's peaks are about 1/√(κ₁ + 4κ₂) wide, and an angle
+    /// near π is resolved only to 4.4e-16 in f64, so beyond 1e16 (peaks of 1e-8 rad) a second mode near
+    /// the antipode of the first can no longer be integrated or sampled. The von Mises, whose one mode is
+    /// the origin of its offsets, has no such limit.
+    pub const MAX_CONCENTRATION: f64 = 1e16;
+
     /// The distribution with first- and second-harmonic natural parameters η₁, η₂.
     ///
     /// # Errors
-    /// [`DensityError::NonFinite`] for NaN or infinite components.
+    /// [`DensityError::NonFinite`] for NaN or infinite components, [`DensityError::OutOfRange`] when
+    /// `κ₁ + 4κ₂` exceeds 1e16 (see [`MAX_CONCENTRATION`](Self::MAX_CONCENTRATION)).
     pub fn new(eta1: Vector2<f64>, eta2: Vector2<f64>) -> Result<Self, DensityError> {
         for &v in eta1.iter().chain(eta2.iter()) {
             finite("harmonic parameter", v)?;
         }
-        let log_normalizer = log_normalizer(&eta1, &eta2);
+        let combined = eta1.x.hypot(eta1.y) + 4.0 * eta2.x.hypot(eta2.y);
+        if combined > Self::MAX_CONCENTRATION {
+            return Err(DensityError::OutOfRange {
+                what: "combined concentration |eta1| + 4 |eta2|",
+                value: combined,
+                range: "[0, 1e16]; beyond it use VonMises (no second harmonic) or a tangent Gaussian",
+            });
+        }
+        let reference = global_maximum(&eta1, &eta2);
+        let offsets = Offsets::new(&eta1, &eta2, reference);
         Ok(Self {
             eta1,
             eta2,
-            log_normalizer,
+            reference,
+            log_normalizer_offset: log_normalizer_offset(&offsets),
         })
     }
 
@@ -53,98 +297,85 @@ impl GenVonMises2 {
         &self.eta2
     }
 
+    fn offsets(&self) -> Offsets {
+        Offsets::new(&self.eta1, &self.eta2, self.reference)
+    }
+
     /// The first and second trigonometric moments `(E u(θ), E u(2θ))`, `u(θ) = (cos θ, sin θ)`, by
-    /// the periodic trapezoid rule on the normaliser's points (exponentially accurate, as the
-    /// normaliser).
+    /// the normaliser's quadrature rule (exponentially accurate, as the normaliser).
     pub fn trigonometric_moments(&self) -> (Vector2<f64>, Vector2<f64>) {
-        let n = points(&self.eta1, &self.eta2);
-        let h = 2.0 * PI / n as f64;
-        (0..n).fold((Vector2::zeros(), Vector2::zeros()), |(m1, m2), i| {
-            let t = h * i as f64;
-            let w = (self.exponent(t) - self.log_normalizer).exp() * h;
-            let (s, c) = t.sin_cos();
-            let (s2, c2) = (2.0 * t).sin_cos();
-            (m1 + Vector2::new(c, s) * w, m2 + Vector2::new(c2, s2) * w)
-        })
+        let (mut m1, mut m2) = (Vector2::zeros(), Vector2::zeros());
+        let offsets = self.offsets();
+        for_each_node(&offsets, |d, weight, g| {
+            let w = (g - self.log_normalizer_offset).exp() * weight;
+            let (s, c) = d.sin_cos();
+            let (s2, c2) = (2.0 * d).sin_cos();
+            m1 += rotate(&offsets.first, c, s) * w;
+            m2 += rotate(&offsets.second, c2, s2) * w;
+        });
+        (m1, m2)
     }
 
-    fn exponent(&self, angle: f64) -> f64 {
-        let (s, c) = angle.sin_cos();
-        let (s2, c2) = (2.0 * angle).sin_cos();
-        self.eta1.x * c + self.eta1.y * s + self.eta2.x * c2 + self.eta2.y * s2
+    /// `ln p` at the offset d from the reference angle.
+    fn log_pdf_at_offset(&self, d: f64) -> f64 {
+        self.offsets().g(d) - self.log_normalizer_offset
     }
-}
 
-/// Trapezoid points for the normaliser: the integrand's Fourier coefficients decay like those of a von
-/// Mises of concentration at most κ₁ + 4κ₂, whose aliasing error 2 A_N is below 1e-16 for N ≥ 9√κ.
-fn points(eta1: &Vector2<f64>, eta2: &Vector2<f64>) -> usize {
-    let kappa = eta1.norm() + 4.0 * eta2.norm();
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let extra = (12.0 * kappa.sqrt()).ceil().min(1e8) as usize;
-    32 + extra
-}
-
-fn log_normalizer(eta1: &Vector2<f64>, eta2: &Vector2<f64>) -> f64 {
-    let n = points(eta1, eta2);
-    let h = 2.0 * PI / n as f64;
-    let exponent = |t: f64| {
-        let (s, c) = t.sin_cos();
-        let (s2, c2) = (2.0 * t).sin_cos();
-        eta1.x * c + eta1.y * s + eta2.x * c2 + eta2.y * s2
-    };
-    let max = (0..n)
-        .map(|i| exponent(h * i as f64))
-        .fold(f64::NEG_INFINITY, f64::max);
-    let sum: f64 = (0..n).map(|i| (exponent(h * i as f64) - max).exp()).sum();
-    max + (sum * h).ln()
+    /// The offset of `x` from the reference, in (−π, π], by the rotation `θ₀⁻¹ x` (no difference of
+    /// angles is rounded).
+    fn offset_of(&self, x: &So2<f64>) -> f64 {
+        So2::from_angle_unchecked(self.reference)
+            .inverse()
+            .compose(x)
+            .angle()
+    }
 }
 
 impl Density for GenVonMises2 {
     type Point = So2<f64>;
 
-    /// `η₁ · u(θ) + η₂ · u(2θ) − ln Z`.
+    /// `η₁ · u(θ) + η₂ · u(2θ) − ln Z`, evaluated as `g(θ − θ₀) − (ln Z − f(θ₀))`.
     fn log_pdf(&self, x: &So2<f64>) -> f64 {
-        self.exponent(x.angle()) - self.log_normalizer
+        self.log_pdf_at_offset(self.offset_of(x))
     }
 
-    /// `ln Z` by the trapezoid rule (see the type docs).
+    /// `ln Z` (see the type docs).
     fn log_normalizer(&self) -> f64 {
-        self.log_normalizer
+        exponent(&self.eta1, &self.eta2, self.reference) + self.log_normalizer_offset
     }
 
     /// One exact draw; see [`GenVonMises2Sampler`], which this builds and uses once. For many draws
     /// from one distribution, build the sampler with [`GenVonMises2::sampler`] and keep it: where the
-    /// grid envelope is needed that is the difference between a grid pass per draw and a binary search.
+    /// partition envelope is needed that is the difference between building it per draw and a binary
+    /// search.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
         rand::distr::Distribution::sample(&self.sampler(), rng)
     }
 
-    /// The global maximum of the exponent: every local maximum of a grid (an order-2 trigonometric
-    /// polynomial has at most two) refined by Newton's method, the best kept; `None` for the uniform
-    /// distribution.
+    /// The global maximum of the exponent (the reference angle): every local maximum of a 64-point grid
+    /// (an order-2 trigonometric polynomial has at most two) refined by Newton's method, the best
+    /// kept; `None` for the uniform distribution.
     fn mode(&self) -> Option<So2<f64>> {
         if self.eta1.norm() + self.eta2.norm() == 0.0 {
             return None;
         }
-        let n = points(&self.eta1, &self.eta2);
-        let h = 2.0 * PI / n as f64;
-        let value = |i: usize| self.exponent(h * (i % n) as f64);
-        (0..n)
-            .filter(|&i| value(i) >= value(i + n - 1) && value(i) >= value(i + 1))
-            .map(|i| self.refine_maximum(h * i as f64))
-            .max_by(|a, b| self.exponent(*a).total_cmp(&self.exponent(*b)))
-            .map(So2::from_angle_unchecked)
+        Some(So2::from_angle_unchecked(self.reference))
     }
 }
 
 impl GenVonMises2 {
     /// The exact sampler with its envelope chosen and built (see [`GenVonMises2Sampler`]).
     pub fn sampler(&self) -> GenVonMises2Sampler {
-        let (k1, k2) = (self.eta1.norm(), self.eta2.norm());
-        let first = self.log_normalizer - (2.0 * PI).ln() - special::log_i0(k1) - k2;
-        let second = self.log_normalizer - (2.0 * PI).ln() - special::log_i0(k2) - k1;
-        let envelope = if first.max(second) < 0.01_f64.ln() {
-            Envelope::Grid(GridEnvelope::new(self, k1 + 2.0 * k2))
+        let (k1, k2) = (
+            self.eta1.x.hypot(self.eta1.y),
+            self.eta2.x.hypot(self.eta2.y),
+        );
+        // ln of the acceptance rates Z / (2π I₀(κ₁) e^κ₂) and Z / (2π I₀(κ₂) e^κ₁).
+        let log_z_minus = self.log_normalizer() - (2.0 * PI).ln() - k1 - k2;
+        let first = log_z_minus - scaled_bessel::log_scaled_i0(k1);
+        let second = log_z_minus - scaled_bessel::log_scaled_i0(k2);
+        let envelope = if first.max(second) < -1.0 {
+            Envelope::Cells(CellEnvelope::new(&self.offsets()))
         } else if first >= second {
             Envelope::FirstHarmonic
         } else {
@@ -157,19 +388,22 @@ impl GenVonMises2 {
     }
 }
 
-/// Exact rejection sampling of a [`GenVonMises2`] from the better of three envelopes, chosen once:
+/// Exact rejection sampling of a [`GenVonMises2`] from the best of three envelopes, chosen once:
 ///
 /// * the von Mises of η₁, accepting with `exp(η₂ · u(2θ) − κ₂)`, acceptance rate
 ///   `Z / (2π I₀(κ₁) e^κ₂)`;
 /// * the bimodal von Mises of η₂ on the doubled angle, accepting with `exp(η₁ · u(θ) − κ₁)`, rate
 ///   `Z / (2π I₀(κ₂) e^κ₁)`;
-/// * when both rates fall below 1 % (strong harmonics whose modes disagree): a piecewise-constant
-///   envelope on `8L + 64` cells (at most 2¹⁶) for `L = κ₁ + 2κ₂ ≥ max |f′|`, cell i carrying
-///   `exp(f(cᵢ) + L h/2)`, an upper bound of `exp(f)` on the cell, so the envelope exceeds the density
-///   by at most e^(π/8) where it is not capped. A draw picks a cell by binary search in the cumulative
-///   masses.
+/// * when both rates fall below e^(−1) (strong harmonics whose modes disagree, or any concentration
+///   beyond that): a piecewise-constant envelope on the cells of the adaptive partition of the
+///   offsets from the mode, bisected until `|f′(m)| r + L₂ r²/2 ≤ ½` (m the centre, r the half width,
+///   `L₂ = κ₁ + 4κ₂ ≥ max |f″|`), cell i carrying `exp(g(mᵢ) + excessᵢ)`, an upper bound of `exp(g)`
+///   on it. Where the cell is not negligible the envelope exceeds the density by at most e, so the
+///   rate is at least e^(−1); a few hundred cells serve any concentration. A draw picks a cell by
+///   binary search in the cumulative masses.
 ///
-/// Implements [`rand::distr::Distribution`].
+/// The acceptance exponents are formed without cancellation (`κ (cos d − 1)`, and g), so the sampler
+/// stays exact at concentrations up to 1e300. Implements [`rand::distr::Distribution`].
 #[derive(Clone, Debug)]
 pub struct GenVonMises2Sampler {
     density: GenVonMises2,
@@ -180,120 +414,104 @@ pub struct GenVonMises2Sampler {
 enum Envelope {
     FirstHarmonic,
     SecondHarmonic,
-    Grid(GridEnvelope),
+    Cells(CellEnvelope),
 }
 
-/// The piecewise-constant envelope: cell width, the bound `L h/2`, the exponent at every cell centre and
-/// the cumulative masses `Σ exp(f(cⱼ) − max f)`.
+/// The piecewise-constant envelope on the partition: per cell its start, width and bound, and the
+/// cumulative masses `Σ width · exp(bound − max bound)`.
 #[derive(Clone, Debug)]
-struct GridEnvelope {
-    h: f64,
-    bound: f64,
-    exponents: Vec<f64>,
+struct CellEnvelope {
+    cells: Vec<(f64, f64, f64)>,
     cumulative: Vec<f64>,
 }
 
-impl GridEnvelope {
-    fn new(p: &GenVonMises2, lipschitz: f64) -> Self {
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let cells = ((8.0 * lipschitz).ceil().min(65_472.0) as usize) + 64;
-        let h = 2.0 * PI / cells as f64;
-        let exponents: Vec<f64> = (0..cells)
-            .map(|i| p.exponent((i as f64 + 0.5) * h))
-            .collect();
-        let max = exponents.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let cumulative = exponents
+impl CellEnvelope {
+    fn new(offsets: &Offsets) -> Self {
+        let mut cells = Vec::new();
+        offsets.partition(0.5, 60.0, |start, width, _, bound| {
+            cells.push((start, width, bound));
+        });
+        let max = cells.iter().map(|c| c.2).fold(f64::NEG_INFINITY, f64::max);
+        let cumulative = cells
             .iter()
-            .scan(0.0, |total, e| {
-                *total += (e - max).exp();
+            .scan(0.0, |total, &(_, width, bound)| {
+                *total += width * (bound - max).exp();
                 Some(*total)
             })
             .collect();
-        Self {
-            h,
-            bound: lipschitz * h / 2.0,
-            exponents,
-            cumulative,
-        }
+        Self { cells, cumulative }
     }
 
-    fn draw<R: Rng + ?Sized>(&self, p: &GenVonMises2, rng: &mut R) -> f64 {
-        let cells = self.cumulative.len();
-        let total = self.cumulative[cells - 1];
-        loop {
+    /// One offset from the mode.
+    fn draw<R: Rng + ?Sized>(&self, offsets: &Offsets, rng: &mut R) -> f64 {
+        let count = self.cumulative.len();
+        let total = self.cumulative[count - 1];
+        let mut d = 0.0;
+        for _ in 0..MAX_PROPOSALS {
             let target = rng.random::<f64>() * total;
             let i = self
                 .cumulative
                 .partition_point(|&c| c < target)
-                .min(cells - 1);
-            let angle = (i as f64 + rng.random::<f64>()) * self.h;
-            if rng.random::<f64>().ln() < p.exponent(angle) - self.exponents[i] - self.bound {
-                return angle;
+                .min(count - 1);
+            let (start, width, bound) = self.cells[i];
+            d = start + rng.random::<f64>() * width;
+            if rng.random::<f64>().ln() < offsets.g(d) - bound {
+                break;
             }
         }
+        d
     }
 }
 
 impl rand::distr::Distribution<So2<f64>> for GenVonMises2Sampler {
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
         let p = &self.density;
-        let (k1, k2) = (p.eta1.norm(), p.eta2.norm());
-        let angle = match &self.envelope {
-            Envelope::Grid(grid) => grid.draw(p, rng),
-            Envelope::FirstHarmonic => loop {
-                let a = von_mises_angle(&p.eta1, rng);
-                let (s2, c2) = (2.0 * a).sin_cos();
-                if rng.random::<f64>().ln() < p.eta2.x * c2 + p.eta2.y * s2 - k2 {
-                    break a;
-                }
-            },
-            Envelope::SecondHarmonic => loop {
-                let half = von_mises_angle(&p.eta2, rng) / 2.0;
-                let a = if rng.random::<bool>() {
-                    half
-                } else {
-                    half + PI
-                };
-                let (s, c) = a.sin_cos();
-                if rng.random::<f64>().ln() < p.eta1.x * c + p.eta1.y * s - k1 {
-                    break a;
-                }
-            },
-        };
-        So2::from_angle_unchecked(angle)
-    }
-}
-
-/// One angle from the von Mises with natural parameter η.
-fn von_mises_angle<R: Rng + ?Sized>(eta: &Vector2<f64>, rng: &mut R) -> f64 {
-    crate::VonMises::new(*eta).map_or(0.0, |p| p.sample(rng).angle())
-}
-
-impl GenVonMises2 {
-    /// Newton's method on the exponent's derivative from `start`, stopping where the curvature is not
-    /// negative.
-    fn refine_maximum(&self, start: f64) -> f64 {
-        let mut best = start;
-        for _ in 0..50 {
-            let (s, c) = best.sin_cos();
-            let (s2, c2) = (2.0 * best).sin_cos();
-            let d1 = -self.eta1.x * s + self.eta1.y * c - 2.0 * self.eta2.x * s2
-                + 2.0 * self.eta2.y * c2;
-            let d2 = -self.eta1.x * c
-                - self.eta1.y * s
-                - 4.0 * self.eta2.x * c2
-                - 4.0 * self.eta2.y * s2;
-            if d2 >= 0.0 {
-                break;
+        let (k1, k2) = (p.eta1.x.hypot(p.eta1.y), p.eta2.x.hypot(p.eta2.y));
+        match &self.envelope {
+            Envelope::Cells(cells) => {
+                let d = cells.draw(&p.offsets(), rng);
+                So2::from_angle_unchecked(p.reference).compose(&So2::from_angle_unchecked(d))
             }
-            let step = d1 / d2;
-            best -= step;
-            if step.abs() < 1e-15 {
-                break;
+            Envelope::FirstHarmonic => {
+                let mut a = So2::identity();
+                for _ in 0..MAX_PROPOSALS {
+                    a = von_mises_draw(&p.eta1, k1, rng);
+                    let (s2, c2) = (2.0 * a.angle()).sin_cos();
+                    if rng.random::<f64>().ln() < scaled_cos_minus_one(&p.eta2, k2, c2, s2) {
+                        break;
+                    }
+                }
+                a
+            }
+            Envelope::SecondHarmonic => {
+                let mut a = So2::identity();
+                for _ in 0..MAX_PROPOSALS {
+                    let doubled = von_mises_draw(&p.eta2, k2, rng).angle();
+                    let half = So2::from_angle_unchecked(doubled / 2.0);
+                    a = if rng.random::<bool>() {
+                        half
+                    } else {
+                        half.compose(&So2::from_angle_unchecked(PI))
+                    };
+                    if rng.random::<f64>().ln()
+                        < scaled_cos_minus_one(&p.eta1, k1, a.cos(), a.sin())
+                    {
+                        break;
+                    }
+                }
+                a
             }
         }
-        best
     }
+}
+
+/// One draw from the von Mises with natural parameter η (|η| = κ), uniform for κ = 0.
+fn von_mises_draw<R: Rng + ?Sized>(eta: &Vector2<f64>, kappa: f64, rng: &mut R) -> So2<f64> {
+    if kappa == 0.0 {
+        return So2::from_angle_unchecked(rng.random_range(-PI..PI));
+    }
+    let mu = So2::from_angle_unchecked(eta.y.atan2(eta.x));
+    mu.compose(&So2::from_angle_unchecked(sample_offset(kappa, rng)))
 }
 
 impl Product for GenVonMises2 {
@@ -302,39 +520,38 @@ impl Product for GenVonMises2 {
         Self::new(self.eta1 + other.eta1, self.eta2 + other.eta2)
     }
 
-    /// `ln Z(η₁ + η₁′, η₂ + η₂′) − ln Z − ln Z′`.
+    /// `ln Z(η₁ + η₁′, η₂ + η₂′) − ln Z − ln Z′`; `−∞` where the product leaves the accepted range.
     fn log_product_integral(&self, other: &Self) -> f64 {
-        log_normalizer(&(self.eta1 + other.eta1), &(self.eta2 + other.eta2))
-            - self.log_normalizer
-            - other.log_normalizer
+        self.product(other).map_or(f64::NEG_INFINITY, |joint| {
+            joint.log_normalizer() - self.log_normalizer() - other.log_normalizer()
+        })
     }
 }
 
-/// `∫ f(θ) dθ` over the circle by the trapezoid rule on `n` points.
-fn trapezoid(n: usize, f: impl Fn(f64) -> f64) -> f64 {
-    let h = 2.0 * PI / n as f64;
-    (0..n).map(|i| f(h * i as f64)).sum::<f64>() * h
-}
-
 impl Entropy for GenVonMises2 {
-    /// `−∫ p ln p dθ` by the trapezoid rule on the normaliser's grid (no closed form).
+    /// `−∫ p ln p dθ` by the normaliser's quadrature rule (no closed form).
     fn entropy(&self) -> f64 {
-        let n = points(&self.eta1, &self.eta2);
-        -trapezoid(n, |t| {
-            let l = self.exponent(t) - self.log_normalizer;
-            l.exp() * l
-        })
+        let mut total = 0.0;
+        for_each_node(&self.offsets(), |_, weight, g| {
+            let l = g - self.log_normalizer_offset;
+            total -= weight * l.exp() * l;
+        });
+        total
     }
 }
 
 impl KlDivergence for GenVonMises2 {
-    /// `∫ p ln(p/q) dθ` by the trapezoid rule on the finer of the two normalisers' grids.
+    /// `∫ p ln(p/q) dθ` by `p`'s quadrature rule (where p has its mass), q evaluated at the same
+    /// angles.
     fn kl_divergence(&self, other: &Self) -> f64 {
-        let n = points(&self.eta1, &self.eta2).max(points(&other.eta1, &other.eta2));
-        trapezoid(n, |t| {
-            let lp = self.exponent(t) - self.log_normalizer;
-            let lq = other.exponent(t) - other.log_normalizer;
-            lp.exp() * (lp - lq)
-        })
+        let mut total = 0.0;
+        for_each_node(&self.offsets(), |d, weight, g| {
+            let lp = g - self.log_normalizer_offset;
+            let x =
+                So2::from_angle_unchecked(self.reference).compose(&So2::from_angle_unchecked(d));
+            let lq = other.log_pdf_at_offset(other.offset_of(&x));
+            total += weight * lp.exp() * (lp - lq);
+        });
+        total
     }
 }

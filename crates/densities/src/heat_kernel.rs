@@ -10,14 +10,26 @@ use rand_distr::StandardNormal;
 use std::f64::consts::PI;
 
 /// Below this variance the density uses the Poisson-summed (small-time) form, above it the character
-/// series (both are exact; each converges fast on its side: ERRATA.md measured 8e-14 with this switch).
+/// series (both are exact; each converges fast on its side: 8e-14 was measured with this switch).
 const POISSON_LIMIT: f64 = 1.0;
 
 /// Below this variance the angle CDF integrates the angle density numerically; above it, it sums the
 /// closed-form series (which needs about √(80/s) terms).
 const CDF_SERIES_LIMIT: f64 = 0.05;
 
-/// The isotropic heat kernel on SO(3), `LD(c, s I)` in seed 002's notation: the distribution of
+/// The smallest accepted variance: the log density, down to `−π²/(2s)` at the half turn, stays finite
+/// (it is −4.9e300 there).
+const MIN_VARIANCE: f64 = 1e-300;
+
+/// Bound on the terms of the character series (it needs about √(80/s) ≤ 9 terms for s ≥ 1 and the CDF
+/// series about 40 for s ≥ 0.05).
+const MAX_SERIES_TERMS: u32 = 1000;
+
+/// Proposals of the small-variance sampler before it falls back to inverting the CDF (it accepts about
+/// 67 % of them, so the fallback has probability below 1e-90).
+const MAX_PROPOSALS: usize = 200;
+
+/// The isotropic heat kernel on SO(3), `LD(c, s I)` in the attitude application's notation: the distribution of
 /// `c · exp(ω)` for Brownian motion run for "time" s in the tangent space, that is per-axis tangent
 /// variance `s = σ²` (rad²). Its density with respect to the **normalised Haar measure** depends only on
 /// the rotation angle t of `c⁻¹ R`:
@@ -30,7 +42,7 @@ const CDF_SERIES_LIMIT: f64 = 0.05;
 /// `f(t) = √(2π) s^(−3/2) e^(s/8) / sin(t/2) · Σ_m (−1)^m (t + 2πm) e^(−(t + 2πm)²/(2s))`,
 ///
 /// entirely in logarithms, so `log_pdf` stays finite where the density underflows (s = 1e-4 at t = π:
-/// ln f ≈ −49 000). Range: s from 1e-6 to 10 and beyond, all angles including 0 and π.
+/// ln f ≈ −49 000). Range: s from 1e-300 to f64::MAX, all angles including 0 and π.
 /// Convolution is closed: `LD(c₁, s₁) * LD(c₂, s₂) = LD(c₁ c₂, s₁ + s₂)`.
 /// See `docs/densities/heat_kernel_so3.md`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,17 +52,19 @@ pub struct HeatKernelSo3 {
 }
 
 impl HeatKernelSo3 {
-    /// The heat kernel centred at `center` with per-axis variance `s = σ² > 0` (rad²).
+    /// The heat kernel centred at `center` with per-axis variance `s = σ²` (rad²), s ∈ [1e-300,
+    /// f64::MAX].
     ///
     /// # Errors
-    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `s > 0`.
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `1e-300 ≤ s < ∞` (below,
+    /// the log density at the half turn, −π²/(2s), overflows).
     pub fn new(center: So3<f64>, s: f64) -> Result<Self, DensityError> {
         finite("variance s", s)?;
-        if s <= 0.0 {
+        if s < MIN_VARIANCE {
             return Err(DensityError::OutOfRange {
                 what: "variance s",
                 value: s,
-                range: "(0, infinity)",
+                range: "[1e-300, f64::MAX]",
             });
         }
         Ok(Self { center, s })
@@ -79,8 +93,31 @@ impl HeatKernelSo3 {
     }
 
     /// `ln f(t)` for the rotation angle t ∈ [0, π] of `c⁻¹ R`.
-    pub fn log_density_of_angle(&self, t: f64) -> f64 {
-        let t = t.abs().min(PI);
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `0 ≤ t ≤ π`.
+    pub fn log_density_of_angle(&self, t: f64) -> Result<f64, DensityError> {
+        Ok(self.log_f(check_angle(t)?))
+    }
+
+    /// The density of the rotation angle, `f(t) (1 − cos t)/π` on [0, π].
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `0 ≤ t ≤ π`.
+    pub fn angle_pdf(&self, t: f64) -> Result<f64, DensityError> {
+        Ok(self.pdf_of_angle(check_angle(t)?))
+    }
+
+    /// The CDF of the rotation angle, `∫_0^t f(u)(1 − cos u)/π du`, for t ∈ [0, π].
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `0 ≤ t ≤ π`.
+    pub fn angle_cdf(&self, t: f64) -> Result<f64, DensityError> {
+        Ok(self.cdf_of_angle(check_angle(t)?))
+    }
+
+    /// `ln f(t)` for t ∈ [0, π].
+    fn log_f(&self, t: f64) -> f64 {
         if self.s < POISSON_LIMIT {
             log_density_poisson(self.s, t)
         } else {
@@ -88,21 +125,33 @@ impl HeatKernelSo3 {
         }
     }
 
-    /// The density of the rotation angle, `f(t) (1 − cos t)/π` on [0, π].
-    pub fn angle_pdf(&self, t: f64) -> f64 {
+    /// [`Self::angle_pdf`] for t ∈ [0, π].
+    fn pdf_of_angle(&self, t: f64) -> f64 {
         let half = (t / 2.0).sin();
-        (self.log_density_of_angle(t) + (2.0 * half * half / PI).ln()).exp()
+        (self.log_f(t) + (2.0 * half * half / PI).ln()).exp()
     }
 
-    /// The CDF of the rotation angle, `∫_0^t f(u)(1 − cos u)/π du`, for t ∈ [0, π].
-    pub fn angle_cdf(&self, t: f64) -> f64 {
-        let t = t.clamp(0.0, PI);
+    /// [`Self::angle_cdf`] for t ∈ [0, π].
+    fn cdf_of_angle(&self, t: f64) -> f64 {
         if self.s >= CDF_SERIES_LIMIT {
             return cdf_series(self.s, t).clamp(0.0, 1.0);
         }
-        self.integrate_over_angle(t, |u| self.angle_pdf(u))
+        self.integrate_over_angle(t, |u| self.pdf_of_angle(u))
             .clamp(0.0, 1.0)
     }
+}
+
+/// Checks a rotation angle against [0, π].
+fn check_angle(t: f64) -> Result<f64, DensityError> {
+    finite("rotation angle t", t)?;
+    if !(0.0..=PI).contains(&t) {
+        return Err(DensityError::OutOfRange {
+            what: "rotation angle t",
+            value: t,
+            range: "[0, pi]",
+        });
+    }
+    Ok(t.abs())
 }
 
 impl Convolve for HeatKernelSo3 {
@@ -119,7 +168,7 @@ fn density_series(s: f64, t: f64) -> f64 {
     let c2 = 2.0 * (t / 2.0).cos();
     let (mut u_prev, mut u) = (0.0, 1.0); // U_(−1), U_0
     let mut sum = 1.0;
-    for l in 1.. {
+    for l in 1..=MAX_SERIES_TERMS {
         let lf = f64::from(l);
         // advance two steps: U_(2l−1), U_(2l)
         for _ in 0..2 {
@@ -152,18 +201,18 @@ fn sinhc(x: f64) -> f64 {
 /// `ln f = ½ ln 2π − (3/2) ln s + s/8 + ln(t / sin(t/2)) − t²/(2s) + ln(S(t)/t)`,
 ///
 /// `S(t)/t = 1 + Σ_(m=1..3) (−1)^m [E₊ + E₋ − (a/t)(E₊ − E₋)]`, `a = 2πm`,
-/// `E± = e^(±a t/s − a²/(2s))`, with `(a/t)(E₊ − E₋) = (2a²/s) e^(−a²/2s) sinhc(a t/s)` for small
-/// a t/s. Images beyond |m| = 3 weigh less than e^(−18π²/s) ≈ 1e-77 at s = 1.
+/// `E± = e^(±a t/s − a²/(2s)) = e^(a (±t − a/2)/s)` (the second form never subtracts infinities when s
+/// is tiny), with `(a/t)(E₊ − E₋) = e^(ln(2a²/s) − a²/2s) sinhc(a t/s)` for small a t/s. Images beyond
+/// |m| = 3 weigh less than e^(−18π²/s) ≈ 1e-77 at s = 1.
 fn log_density_poisson(s: f64, t: f64) -> f64 {
     let mut ratio = 1.0; // S(t)/t
     for m in 1..=3 {
         let a = 2.0 * PI * f64::from(m);
         let x = a * t / s;
-        let c = a * a / (2.0 * s);
-        let e_plus = (x - c).exp();
-        let e_minus = (-x - c).exp();
+        let e_plus = (a * (t - 0.5 * a) / s).exp();
+        let e_minus = (-a * (t + 0.5 * a) / s).exp();
         let sinh_part = if x < 1.0 {
-            2.0 * a * a / s * (-c).exp() * sinhc(x)
+            ((2.0 * a * a).ln() - s.ln() - a * (0.5 * a / s)).exp() * sinhc(x)
         } else {
             a / t * (e_plus - e_minus)
         };
@@ -185,7 +234,7 @@ fn log_density_poisson(s: f64, t: f64) -> f64 {
 /// (sin(lt)/l − sin((l+1)t)/(l+1))]`, from `(1 − cos u) sin((l+½)u)/sin(u/2) = cos(lu) − cos((l+1)u)`.
 fn cdf_series(s: f64, t: f64) -> f64 {
     let mut sum = t - t.sin();
-    for l in 1.. {
+    for l in 1..=MAX_SERIES_TERMS {
         let lf = f64::from(l);
         let weight = (2.0 * lf + 1.0) * (-lf * (lf + 1.0) * s / 2.0).exp();
         sum += weight * ((lf * t).sin() / lf - ((lf + 1.0) * t).sin() / (lf + 1.0));
@@ -201,7 +250,7 @@ impl Density for HeatKernelSo3 {
 
     /// `ln f(angle(c⁻¹ R))`, with respect to the normalised Haar measure.
     fn log_pdf(&self, x: &So3<f64>) -> f64 {
-        self.log_density_of_angle(self.center.inverse().compose(x).angle())
+        self.log_f(self.center.inverse().compose(x).angle())
     }
 
     /// 0: the series and its Poisson form are normalised (the degree-0 coefficient is 1).
@@ -214,14 +263,15 @@ impl Density for HeatKernelSo3 {
     /// the angle density over m is `e^(s/8) (S(t)/t) (2 sin(t/2)/t)`, at most 1.39 e^(s/8) for s < 1 (the tests
     /// measure it on a fine grid), bounded here by `1.5 e^(s/8)`,
     /// so a draw is accepted with probability `h(t) / (1.5 e^(s/8) m(t))` (about 67 %). The bound is
-    /// checked at every draw; were it ever exceeded, that draw falls back to inversion, so the sampler
-    /// stays exact either way. For s ≥ 1, and as that fallback, the angle comes from inverting its CDF
-    /// (Newton safeguarded by bisection) with a uniform axis.
+    /// checked at every draw; were it ever exceeded, or were 200 proposals in a row rejected
+    /// (probability below 1e-90), that draw falls back to inversion, so the sampler stays exact either
+    /// way. For s ≥ 1, and as that fallback, the angle comes from inverting its CDF (Newton safeguarded
+    /// by bisection, at most 100 steps) with a uniform axis.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So3<f64> {
         if self.s < POISSON_LIMIT {
             let log_bound = self.s / 8.0 + 1.5_f64.ln();
             let log_maxwell_constant = 0.5 * (2.0 / PI).ln() - 1.5 * self.s.ln();
-            loop {
+            for _ in 0..MAX_PROPOSALS {
                 let xi =
                     Vector3::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal)) * self.s.sqrt();
                 let t = xi.norm();
@@ -229,8 +279,7 @@ impl Density for HeatKernelSo3 {
                     continue; // the proposal is the Maxwell law truncated to (0, π]
                 }
                 let half = (t / 2.0).sin();
-                let log_angle_density =
-                    self.log_density_of_angle(t) + (2.0 * half * half / PI).ln();
+                let log_angle_density = self.log_f(t) + (2.0 * half * half / PI).ln();
                 let log_maxwell = log_maxwell_constant + 2.0 * t.ln() - t * t / (2.0 * self.s);
                 let log_ratio = log_angle_density - log_maxwell - log_bound;
                 if log_ratio > 0.0 {
@@ -273,13 +322,13 @@ impl HeatKernelSo3 {
         let (mut lo, mut hi) = (0.0, PI);
         let mut t = (3.0 * self.s).sqrt().min(PI / 2.0);
         for _ in 0..100 {
-            let residual = self.angle_cdf(t) - u;
+            let residual = self.cdf_of_angle(t) - u;
             if residual > 0.0 {
                 hi = t;
             } else {
                 lo = t;
             }
-            let pdf = self.angle_pdf(t);
+            let pdf = self.pdf_of_angle(t);
             let newton = t - residual / pdf;
             let next = if pdf > 0.0 && newton > lo && newton < hi {
                 newton
@@ -299,7 +348,7 @@ impl Entropy for HeatKernelSo3 {
     /// `−∫ f ln f dHaar = −∫_0^π f(t) ln f(t) (1 − cos t)/π dt`, by Gauss-Legendre quadrature on panels
     /// of width √s/2 (no closed form exists).
     fn entropy(&self) -> f64 {
-        -self.integrate_over_angle(PI, |t| self.angle_pdf(t) * self.log_density_of_angle(t))
+        -self.integrate_over_angle(PI, |t| self.pdf_of_angle(t) * self.log_f(t))
     }
 }
 
@@ -315,18 +364,18 @@ impl KlDivergence for HeatKernelSo3 {
         let (sd, cd) = (delta / 2.0).sin_cos();
         self.integrate_over_angle(PI, |t| {
             let (st, ct) = (t / 2.0).sin_cos();
-            let log_p = self.log_density_of_angle(t);
+            let log_p = self.log_f(t);
             let inner = quadrature::integrate(
                 |c| {
                     let w = (cd * ct - sd * st * c).abs().min(1.0);
                     let t_other = 2.0 * w.acos();
-                    0.5 * (log_p - other.log_density_of_angle(t_other))
+                    0.5 * (log_p - other.log_f(t_other))
                 },
                 -1.0,
                 1.0,
                 4,
             );
-            self.angle_pdf(t) * inner
+            self.pdf_of_angle(t) * inner
         })
     }
 }

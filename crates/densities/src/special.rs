@@ -1,9 +1,14 @@
 //! Special functions: modified Bessel functions of the first kind in log form and as ratios, the
 //! inverse of A(κ) = I₁(κ)/I₀(κ), and the von Mises-Fisher functions on S².
 //!
-//! All are for κ ≥ 0 and accurate to a few ulp (relative error ≤ 1e-13, checked against 50-digit
-//! reference values) from κ = 0 (and 1e-300) to 1e6 and beyond. No function overflows: the Bessel
-//! functions themselves (I₀(1e6) ≈ e^(10⁶)) are never formed.
+//! **Domain.** Every function takes κ ∈ [0, f64::MAX] (−0 counts as 0) and returns
+//! [`DensityError::NonFinite`] for NaN or ±∞ and [`DensityError::OutOfRange`] for κ < 0, before any
+//! series is summed; orders n of [`bessel_ratio`] go up to [`MAX_ORDER`]. Inside the domain every
+//! result is finite (ln I₁(0) = −∞ is the one exact infinity) and every loop has a fixed bound.
+//!
+//! **Accuracy.** A few ulp (relative error ≤ 1e-13, most values within 4 ulp, checked against
+//! 50-digit reference values) from κ = 0 (and subnormal κ) to 1e6 and beyond. No function overflows:
+//! the Bessel functions themselves (I₀(1e6) ≈ e^(10⁶)) are never formed.
 //!
 //! Methods, by range:
 //!
@@ -17,15 +22,20 @@
 //! * `In/I₀` for κ > 30 and orders with 2n² > κ (where the asymptotic expansion is slow): Miller's
 //!   backward recurrence, normalised by the asymptotic ratio at the highest order it handles (forward
 //!   recurrence would amplify errors by e^(n²/κ)).
-//! * [`scaled_i0_i1`], `e^(−x) I₀(x)` and `e^(−x) I₁(x)` for inner loops: piecewise polynomials to 64,
-//!   12 Hankel terms beyond (about 10 ns for the pair).
+//! * [`one_minus_a1`], [`a1_derivative`], [`log_i0_scaled`] and [`scaled_i0_i1`]: polynomial pieces
+//!   to 64 and 16 Hankel terms beyond, for the combinations that cancel when formed from A
+//!   (1 − A, 1 − A/κ − A², ln I₀ − κ); about 10 ns each.
 //! * [`bingham_log_normalizer_and_moments`]: the Bingham normaliser on S³ and its gradient, a
 //!   one-dimensional integral of these (see `Bingham`).
 
-pub use crate::bingham_normalizer::log_normalizer_and_moments as bingham_log_normalizer_and_moments;
-use crate::error::DensityError;
-pub use crate::scaled_bessel::scaled_i0_i1;
+use crate::error::{DensityError, finite};
+use crate::scaled_bessel;
 use std::f64::consts::PI;
+
+/// The highest order [`bessel_ratio`] accepts (and [`VonMises::trigonometric_moment`](crate::VonMises)
+/// with it): the backward recurrence it may run costs about one step per order, so the bound keeps a
+/// call under a millisecond.
+pub const MAX_ORDER: u32 = 100_000;
 
 /// Largest κ for which the power series is used.
 const SERIES_LIMIT: f64 = 30.0;
@@ -33,23 +43,39 @@ const SERIES_LIMIT: f64 = 30.0;
 /// The factor by which a growing power series is scaled down.
 const RESCALE: f64 = 1e280;
 
+/// Bound on the terms of every series here: each converges in far fewer (the power series in about 60
+/// terms at κ = 30, the Hankel sums in under 60 above 30).
+const MAX_TERMS: u32 = 500;
+
+/// Checks that κ is a finite non-negative number (−0 becomes 0).
+pub(crate) fn concentration(what: &'static str, kappa: f64) -> Result<f64, DensityError> {
+    finite(what, kappa)?;
+    if kappa < 0.0 {
+        return Err(DensityError::OutOfRange {
+            what,
+            value: kappa,
+            range: "[0, f64::MAX]",
+        });
+    }
+    Ok(kappa.abs())
+}
+
 /// Power series of `I_ν(κ) / ((κ/2)^ν / ν!)`, that is `Σ_k (κ²/4)^k ν! / (k! (k+ν)!)`, minus its first
 /// term (which is 1), returned as `(sum − 1, rescalings)`: the sum is divided by [`RESCALE`] whenever
 /// it grows past it, so that for large κ only its logarithm, `ln(tail) + rescalings · ln(RESCALE)`,
-/// is meaningful.
+/// is meaningful. For 0 ≤ κ ≤ 30.
 fn power_series_tail(nu: u32, kappa: f64) -> (f64, i32) {
     let q = kappa * kappa / 4.0;
     let nu = f64::from(nu);
     let mut term = 1.0;
     let mut tail = 0.0;
     let mut rescalings = 0;
-    let mut k = 0.0;
-    loop {
-        k += 1.0;
+    for k in 1..=MAX_TERMS {
+        let k = f64::from(k);
         term *= q / (k * (k + nu));
         tail += term;
         if term <= f64::EPSILON * 0.25 * (1.0 + tail) {
-            return (tail, rescalings);
+            break;
         }
         if tail > RESCALE {
             tail /= RESCALE;
@@ -57,77 +83,144 @@ fn power_series_tail(nu: u32, kappa: f64) -> (f64, i32) {
             rescalings += 1;
         }
     }
+    (tail, rescalings)
 }
 
-/// The Hankel asymptotic sum `Σ_k c_k(ν) κ^(−k)` (c₀ = 1), for κ > 30.
+/// The Hankel asymptotic sum `Σ_k c_k(ν) κ^(−k)` (c₀ = 1), for κ > 30 and 2ν² ≤ κ.
 fn asymptotic_sum(nu: u32, kappa: f64) -> f64 {
     let four_nu2 = 4.0 * f64::from(nu) * f64::from(nu);
     let mut term = 1.0_f64;
     let mut sum = 1.0;
-    let mut k = 0.0_f64;
-    loop {
-        k += 1.0;
+    for k in 1..=MAX_TERMS {
+        let k = f64::from(k);
         let next = term * ((2.0 * k - 1.0).powi(2) - four_nu2) / (8.0 * k * kappa);
         if next.abs() >= term.abs() && k > 1.0 {
-            return sum; // smallest term reached: the expansion's best value
+            break; // smallest term reached: the expansion's best value
         }
         term = next;
         sum += term;
         if term.abs() <= f64::EPSILON * 0.25 * sum.abs() {
-            return sum;
+            break;
         }
     }
+    sum
 }
 
-/// `ln I₀(κ)` for κ ≥ 0 (`ln I₀(κ) = κ²/4 + O(κ⁴)` near 0, `κ − ½ ln(2πκ) + O(1/κ)` for large κ).
-///
-/// Returns NaN only for NaN input; for κ < 0 it returns `ln I₀(|κ|)` (I₀ is even).
-pub fn log_i0(kappa: f64) -> f64 {
-    let kappa = kappa.abs();
+/// `ln(√(2πκ))` without forming 2πκ (which overflows past 2.8e307).
+fn log_sqrt_two_pi(kappa: f64) -> f64 {
+    0.5 * ((2.0 * PI).ln() + kappa.ln())
+}
+
+/// `ln I₀(κ)` for valid κ.
+pub(crate) fn ln_i0(kappa: f64) -> f64 {
     if kappa <= SERIES_LIMIT {
         power_series_tail(0, kappa).0.ln_1p()
     } else {
-        kappa - 0.5 * (2.0 * PI * kappa).ln() + asymptotic_sum(0, kappa).ln()
+        kappa - log_sqrt_two_pi(kappa) + asymptotic_sum(0, kappa).ln()
     }
 }
 
-/// `ln I₁(κ)` for κ ≥ 0; `−∞` at κ = 0.
-pub fn log_i1(kappa: f64) -> f64 {
-    if kappa == 0.0 {
-        return f64::NEG_INFINITY;
-    }
-    if kappa <= SERIES_LIMIT {
-        (kappa / 2.0).ln() + power_series_tail(1, kappa).0.ln_1p()
+/// `ln I₀(κ)`: `κ²/4 + O(κ⁴)` near 0 (to full relative accuracy), `κ − ½ ln(2πκ) + O(1/κ)` for large κ.
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX] (see the module docs).
+pub fn log_i0(kappa: f64) -> Result<f64, DensityError> {
+    concentration("kappa", kappa).map(ln_i0)
+}
+
+/// `ln I₀(κ) − κ = ln(e^(−κ) I₀(κ))`, to a few ulp **absolute** (it lies in [−½ ln(2πκ) − …, 0]):
+/// the part of the von Mises log normaliser left once κ is taken out, so that log densities
+/// `κ (cos d − 1) − ln 2π − (ln I₀(κ) − κ)` never subtract numbers of size κ.
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn log_i0_scaled(kappa: f64) -> Result<f64, DensityError> {
+    concentration("kappa", kappa).map(scaled_bessel::log_scaled_i0)
+}
+
+/// `ln I₁(κ)`; `−∞` at κ = 0 (the one exact infinity of this module), `ln(κ/2)` for subnormal κ.
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn log_i1(kappa: f64) -> Result<f64, DensityError> {
+    let kappa = concentration("kappa", kappa)?;
+    Ok(if kappa == 0.0 {
+        f64::NEG_INFINITY
+    } else if kappa <= SERIES_LIMIT {
+        // ln κ − ln 2, not ln(κ/2): κ/2 rounds to 0 for κ = 5e-324.
+        kappa.ln() - std::f64::consts::LN_2 + power_series_tail(1, kappa).0.ln_1p()
     } else {
-        kappa - 0.5 * (2.0 * PI * kappa).ln() + asymptotic_sum(1, kappa).ln()
-    }
+        kappa - log_sqrt_two_pi(kappa) + asymptotic_sum(1, kappa).ln()
+    })
+}
+
+/// `A(κ) = I₁(κ)/I₀(κ)` for valid κ.
+pub(crate) fn mean_resultant(kappa: f64) -> f64 {
+    ratio(1, kappa)
 }
 
 /// `A(κ) = I₁(κ)/I₀(κ)`, the mean resultant length of a von Mises distribution: κ/2 − κ³/16 + … near
-/// 0, 1 − 1/(2κ) − … for large κ.
-pub fn a1(kappa: f64) -> f64 {
-    bessel_ratio(1, kappa)
+/// 0, 1 − 1/(2κ) − … for large κ. Where 1 − A matters (large κ), use [`one_minus_a1`].
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn a1(kappa: f64) -> Result<f64, DensityError> {
+    concentration("kappa", kappa).map(mean_resultant)
+}
+
+/// `1 − A(κ) = (I₀ − I₁)/I₀`, the circular variance of a von Mises distribution, to a few ulp relative
+/// at every κ (1/(2κ) + 1/(8κ²) + … for large κ, where `1 − a1(κ)` keeps only 16 − log₁₀(2κ) digits).
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn one_minus_a1(kappa: f64) -> Result<f64, DensityError> {
+    concentration("kappa", kappa).map(scaled_bessel::one_minus_a1)
 }
 
 /// `I₂(κ)/I₀(κ)`: κ²/8 near 0, 1 − 2/κ + … for large κ.
-pub fn a2(kappa: f64) -> f64 {
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn a2(kappa: f64) -> Result<f64, DensityError> {
     bessel_ratio(2, kappa)
 }
 
-/// `I_n(κ)/I₀(κ)` for κ ≥ 0 and any order n: the n-th trigonometric moment `E[cos n(θ − μ)]` of a von
-/// Mises distribution.
-pub fn bessel_ratio(n: u32, kappa: f64) -> f64 {
+/// `I_n(κ)/I₀(κ)` for κ ≥ 0 and orders n ≤ [`MAX_ORDER`]: the n-th trigonometric moment
+/// `E[cos n(θ − μ)]` of a von Mises distribution. It underflows to 0 where it is below 1e-308
+/// (orders far beyond √κ and κ).
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX]; [`DensityError::OutOfRange`] for n > [`MAX_ORDER`].
+pub fn bessel_ratio(n: u32, kappa: f64) -> Result<f64, DensityError> {
+    let kappa = concentration("kappa", kappa)?;
+    check_order(n)?;
+    Ok(ratio(n, kappa))
+}
+
+/// Checks an order against [`MAX_ORDER`].
+pub(crate) fn check_order(n: u32) -> Result<(), DensityError> {
+    if n > MAX_ORDER {
+        return Err(DensityError::OutOfRange {
+            what: "order n",
+            value: f64::from(n),
+            range: "[0, 100000] (special::MAX_ORDER)",
+        });
+    }
+    Ok(())
+}
+
+/// `I_n(κ)/I₀(κ)` for valid κ and n ≤ [`MAX_ORDER`].
+pub(crate) fn ratio(n: u32, kappa: f64) -> f64 {
     if n == 0 {
         return 1.0;
     }
     if kappa == 0.0 {
         return 0.0;
     }
-    let nf = f64::from(n);
     if kappa > SERIES_LIMIT {
         // Largest order the asymptotic expansion handles fast and exactly: 2n² ≤ κ.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let top = (kappa / 2.0).sqrt().floor().min(f64::from(u32::MAX - 1)) as u32;
+        let top = (kappa / 2.0).sqrt().floor().min(f64::from(MAX_ORDER)) as u32;
         if n <= top {
             return asymptotic_sum(n, kappa) / asymptotic_sum(0, kappa);
         }
@@ -137,14 +230,23 @@ pub fn bessel_ratio(n: u32, kappa: f64) -> f64 {
     // where the ratio does not.
     let (tail_n, rescalings_n) = power_series_tail(n, kappa);
     let (tail_0, rescalings_0) = power_series_tail(0, kappa);
-    if rescalings_n == 0 && n <= 32 && nf * (kappa / 2.0).ln() > -600.0 {
-        // No over- or underflow: the product directly, without the eps · |ln(κ/2)| that exp(ln …)
-        // would add for small κ.
+    if rescalings_n == 0 && n <= 32 {
+        // No overflow (the prefactor is at most 15³²/32! ≈ 160), and an underflow of the decreasing
+        // product is that of the result (the series ratio is at most 1): the product directly,
+        // without the eps · |ln(κ/2)| that exp(ln …) would add for small κ (1.5e-13 at κ = 1e-300).
         let prefactor: f64 = (1..=n).map(|k| kappa / 2.0 / f64::from(k)).product();
         return prefactor * (1.0 + tail_n) / (1.0 + tail_0);
     }
-    let log_factorial: f64 = (2..=n).map(|k| f64::from(k).ln()).sum();
-    let log_prefactor = nf * (kappa / 2.0).ln() - log_factorial;
+    // ln((κ/2)^n / n!), stopping once it is so negative that the ratio underflows (the series factor
+    // is below e^(κ²/4) ≤ e^225 here): at most a few hundred terms for κ ≤ 30.
+    let log_half = (kappa / 2.0).ln();
+    let mut log_prefactor = 0.0;
+    for k in 1..=n {
+        log_prefactor += log_half - f64::from(k).ln();
+        if log_prefactor < -1000.0 {
+            return 0.0;
+        }
+    }
     let log_series = |tail: f64, rescalings: i32| {
         if rescalings == 0 {
             tail.ln_1p()
@@ -159,7 +261,8 @@ pub fn bessel_ratio(n: u32, kappa: f64) -> f64 {
 /// `Aₙ` for κ > 30 and n above `top` (the highest order with 2·top² ≤ κ), by Miller's backward
 /// recurrence `v_(k−1) = v_(k+1) + (2k/κ) v_k` from `v_(N+1) = 0, v_N = 1`, normalised by the asymptotic
 /// `A_top`. The recurrence is stable downwards (I_k is its minimal solution); the error of the arbitrary
-/// start decays like e^(−(N² − n²)/κ), so N = √(n² + 40κ) + 10 leaves less than e^(−40).
+/// start decays like e^(−(N² − n²)/κ), so N = √(n² + 40κ) + 10 leaves less than e^(−40). With
+/// n ≤ [`MAX_ORDER`] and κ < 2n², N − top is below 7n: a bounded number of steps.
 fn backward_recurrence_ratio(n: u32, top: u32, kappa: f64) -> f64 {
     let nf = f64::from(n);
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -183,20 +286,28 @@ fn backward_recurrence_ratio(n: u32, top: u32, kappa: f64) -> f64 {
     at_n / current * (asymptotic_sum(top, kappa) / asymptotic_sum(0, kappa))
 }
 
-/// `dA/dκ = 1 − A/κ − A²` (½ at κ = 0).
-pub fn a1_derivative(kappa: f64) -> f64 {
-    if kappa == 0.0 {
-        return 0.5;
-    }
-    let a = a1(kappa);
-    1.0 - a / kappa - a * a
+/// `A′(κ) = dA/dκ = 1 − A/κ − A²` (½ at κ = 0, 1/(2κ²) + 1/(4κ³) + … for large κ): the variance of
+/// cos(θ − μ) under a von Mises distribution and its Fisher information in κ. Accurate to a few ulp at
+/// every κ (the formula itself cancels: it was 220x wrong at κ = 1e9); see [`scaled_i0_i1`]'s methods.
+/// The value is below the smallest normal number (and then loses relative accuracy, down to 0) for
+/// κ above about 1.5e154.
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn a1_derivative(kappa: f64) -> Result<f64, DensityError> {
+    concentration("kappa", kappa).map(scaled_bessel::a1_derivative)
 }
 
 /// The κ ≥ 0 with `A(κ) = I₁(κ)/I₀(κ) = r`, for r in [0, 1): the maximum-likelihood concentration of a
-/// von Mises distribution whose sample mean resultant length is r.
+/// von Mises distribution whose sample mean resultant length is r. Finite for every r < 1: the largest
+/// f64 below 1 gives κ ≈ 4.5e15.
 ///
-/// Newton's method from the starting value `r (2 − r²)/(1 − r²)`, to full precision. The result is as
-/// accurate as r allows: its relative condition number is `r / (κ A'(κ))`, about 2κ for large κ.
+/// Newton's method, at most 60 steps (it takes 3 to 6): for r < ½ on `A(κ) = r` from
+/// `r (2 − r²)/(1 − r²)`; for r ≥ ½ on `1/(1 − A(κ)) = 1/d`, d = 1 − r (exact there), a nearly linear
+/// function (2κ + ½ + O(1/κ)), from Best and Fisher's `1/(r d (2 + d))`. Both use the accurate 1 − A
+/// and A′, so the result is accurate to a few ulp **given r**: its relative condition number with
+/// respect to d is close to 1, while with respect to r it is about 2κ (so an r rounded from a decimal
+/// value carries that error).
 ///
 /// # Errors
 /// [`DensityError::OutOfRange`] unless `0 ≤ r < 1`.
@@ -208,31 +319,60 @@ pub fn a1_inverse(r: f64) -> Result<f64, DensityError> {
             range: "[0, 1)",
         });
     }
-    if r == 0.0 {
-        return Ok(0.0);
-    }
-    let mut kappa = r * (2.0 - r * r) / (1.0 - r * r);
-    for _ in 0..100 {
-        let step = (a1(kappa) - r) / a1_derivative(kappa);
-        let next = if kappa - step > 0.0 {
-            kappa - step
-        } else {
-            kappa / 2.0
-        };
-        if (next - kappa).abs() <= 2.0 * f64::EPSILON * next {
-            return Ok(next);
-        }
-        kappa = next;
-    }
-    Ok(kappa)
+    Ok(a1_inverse_valid(r))
 }
 
-/// `coth κ − 1/κ`: the mean resultant length `E[μ·x]` of a von Mises-Fisher distribution on S², κ/3
-/// near 0, 1 − 1/κ for large κ.
-///
-/// Below κ = 0.25 the series `Σ 2^(2n) B_(2n) κ^(2n−1) / (2n)!` (ratio ≈ (κ/π)², eight terms reach
-/// 1e-18); above, the closed form loses at most `3/κ² · eps` ≤ 48 eps to cancellation.
-pub fn vmf_mean_resultant(kappa: f64) -> f64 {
+/// [`a1_inverse`] for r in [0, 1).
+pub(crate) fn a1_inverse_valid(r: f64) -> f64 {
+    if r == 0.0 {
+        return 0.0;
+    }
+    if r >= 0.5 {
+        return a1_inverse_of_complement(1.0 - r);
+    }
+    let mut kappa = r * (2.0 - r * r) / (1.0 - r * r);
+    for _ in 0..60 {
+        let step = (mean_resultant(kappa) - r) / scaled_bessel::a1_derivative(kappa);
+        let next = newton_next(kappa, step);
+        let done = (next - kappa).abs() <= 2.0 * f64::EPSILON * next;
+        kappa = next;
+        if done {
+            break;
+        }
+    }
+    kappa
+}
+
+/// The κ with `1 − A(κ) = d`, for d in (0, ½]: Newton's method on the nearly linear `1/(1 − A(κ))`
+/// from `1/(r d (2 + d))`, r = 1 − d (Best and Fisher's approximation), at most 60 steps.
+pub(crate) fn a1_inverse_of_complement(d: f64) -> f64 {
+    let r = 1.0 - d;
+    let mut kappa = 1.0 / (r * d * (2.0 + d));
+    for _ in 0..60 {
+        // h(κ) = 1/D(κ) with D = 1 − A, h′ = A′/D²: the step (h − 1/d)/h′ = D (d − D)/(d A′).
+        let big_d = scaled_bessel::one_minus_a1(kappa);
+        let step = big_d * (d - big_d) / (d * scaled_bessel::a1_derivative(kappa));
+        let next = newton_next(kappa, step);
+        let done = (next - kappa).abs() <= 2.0 * f64::EPSILON * next;
+        kappa = next;
+        if done {
+            break;
+        }
+    }
+    kappa
+}
+
+/// A Newton step kept positive: halving instead of stepping past 0.
+fn newton_next(kappa: f64, step: f64) -> f64 {
+    if kappa - step > 0.0 {
+        kappa - step
+    } else {
+        kappa / 2.0
+    }
+}
+
+/// `coth κ − 1/κ` for valid κ.
+pub(crate) fn vmf_mean_resultant_valid(kappa: f64) -> f64 {
     if kappa < 0.25 {
         // 2^(2n) B_(2n) / (2n)!, n = 1..=8
         const C: [f64; 8] = [
@@ -253,34 +393,112 @@ pub fn vmf_mean_resultant(kappa: f64) -> f64 {
     }
 }
 
-/// `ln(κ / (4π sinh κ))`: the log normaliser of the von Mises-Fisher density on S² with respect to the
-/// surface measure (−ln 4π at κ = 0).
+/// `coth κ − 1/κ`: the mean resultant length `E[μ·x]` of a von Mises-Fisher distribution on S², κ/3
+/// near 0, 1 − 1/κ for large κ.
 ///
-/// Below κ = 1, `−ln 4π − ln_1p(Σ_(k≥1) κ^(2k)/(2k+1)!)`; above, `ln κ − ln 2π − κ − ln_1p(−e^(−2κ))`,
-/// which never forms sinh κ.
-pub fn vmf_log_normalizer(kappa: f64) -> f64 {
+/// Below κ = 0.25 the series `Σ 2^(2n) B_(2n) κ^(2n−1) / (2n)!` (ratio ≈ (κ/π)², eight terms reach
+/// 1e-18); above, the closed form loses at most `3/κ² · eps` ≤ 48 eps to cancellation.
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn vmf_mean_resultant(kappa: f64) -> Result<f64, DensityError> {
+    concentration("kappa", kappa).map(vmf_mean_resultant_valid)
+}
+
+/// `1 − (coth κ − 1/κ)` for valid κ, without cancellation: `1 − A₃` below κ = 1 (where A₃ < 0.32),
+/// `1/κ − 2/(e^(2κ) − 1)` above (the second term is at most 0.32 of the first).
+pub(crate) fn vmf_one_minus_mean_resultant(kappa: f64) -> f64 {
+    if kappa < 1.0 {
+        1.0 - vmf_mean_resultant_valid(kappa)
+    } else {
+        1.0 / kappa - 2.0 / (2.0 * kappa).exp_m1()
+    }
+}
+
+/// `ln(κ / (4π sinh κ)) + κ` for valid κ: the von Mises-Fisher log normaliser with κ taken out, at
+/// most `ln(κ/2π)` in size, so that log densities `… − κ |x − μ|²/2` never subtract numbers of size κ.
+/// Below κ = 1, `−ln 4π − ln_1p(Σ_(k≥1) κ^(2k)/(2k+1)!) + κ`; above, `ln κ − ln 2π − ln_1p(−e^(−2κ))`.
+pub(crate) fn vmf_log_normalizer_plus_kappa(kappa: f64) -> f64 {
     if kappa < 1.0 {
         let k2 = kappa * kappa;
         let mut term = 1.0;
         let mut tail = 0.0;
-        let mut k = 1.0;
-        loop {
+        for k in 1..=30 {
+            let k = f64::from(k);
             term *= k2 / ((2.0 * k) * (2.0 * k + 1.0));
             tail += term;
             if term <= f64::EPSILON * 0.25 * (1.0 + tail) {
                 break;
             }
-            k += 1.0;
         }
-        -(4.0 * PI).ln() - tail.ln_1p()
+        -(4.0 * PI).ln() - tail.ln_1p() + kappa
     } else {
-        kappa.ln() - (2.0 * PI).ln() - kappa - (-(-2.0 * kappa).exp()).ln_1p()
+        kappa.ln() - (2.0 * PI).ln() - (-(-2.0 * kappa).exp()).ln_1p()
     }
+}
+
+/// `ln(κ / (4π sinh κ))`: the log normaliser of the von Mises-Fisher density on S² with respect to the
+/// surface measure (−ln 4π at κ = 0). Never forms sinh κ; for log densities prefer the form with κ
+/// taken out (`VonMisesFisher::log_pdf` does).
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn vmf_log_normalizer(kappa: f64) -> Result<f64, DensityError> {
+    let kappa = concentration("kappa", kappa)?;
+    Ok(vmf_log_normalizer_plus_kappa(kappa) - kappa)
+}
+
+/// `(e^(−κ) I₀(κ), e^(−κ) I₁(κ))`, both in (0, 1] and never overflowing, from polynomial pieces below
+/// 64 and 16 Hankel terms above (about 10 ns for the pair; A = I₁/I₀ from it within 8 ulp).
+///
+/// # Errors
+/// Unless κ ∈ [0, f64::MAX].
+pub fn scaled_i0_i1(kappa: f64) -> Result<(f64, f64), DensityError> {
+    concentration("kappa", kappa).map(scaled_bessel::scaled_i0_i1)
+}
+
+/// The Bingham normaliser `ln K(z)` on S³ (against the uniform probability measure) and its gradient
+/// `E[xₖ²] = ∂ ln K/∂zₖ`, for eigenvalues z whose spread `max z − min z` is at most
+/// [`Bingham::MAX_SPREAD`](crate::Bingham::MAX_SPREAD). Method and accuracy: see `Bingham`.
+///
+/// # Errors
+/// [`DensityError::NonFinite`] for a non-finite eigenvalue, [`DensityError::OutOfRange`] for a spread
+/// beyond the limit.
+pub fn bingham_log_normalizer_and_moments(z: &[f64; 4]) -> Result<(f64, [f64; 4]), DensityError> {
+    for &v in z {
+        finite("Bingham eigenvalue", v)?;
+    }
+    crate::bingham::check_spread(z)?;
+    let (log_normalizer_minus_max, moments) =
+        crate::bingham_normalizer::log_normalizer_and_moments(z);
+    let max = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    Ok((max + log_normalizer_minus_max, moments))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{MAX_ORDER, SERIES_LIMIT, power_series_tail};
+    use std::time::Instant;
+
+    // The functions on valid arguments, unwrapped.
+    fn log_i0(k: f64) -> f64 {
+        super::log_i0(k).unwrap()
+    }
+    fn log_i1(k: f64) -> f64 {
+        super::log_i1(k).unwrap()
+    }
+    fn a1(k: f64) -> f64 {
+        super::a1(k).unwrap()
+    }
+    fn a2(k: f64) -> f64 {
+        super::a2(k).unwrap()
+    }
+    fn a1_derivative(k: f64) -> f64 {
+        super::a1_derivative(k).unwrap()
+    }
+    fn bessel_ratio(n: u32, k: f64) -> f64 {
+        super::bessel_ratio(n, k).unwrap()
+    }
 
     #[test]
     fn branches_meet_at_the_series_limit() {
@@ -364,5 +582,92 @@ mod tests {
         assert!(bessel_ratio(50, 1e6) > 0.99);
         assert!(log_i0(1e300).is_finite());
         assert_eq!(bessel_ratio(3, 0.0), 0.0);
+        // 2π κ overflowed here: ln I₀(1e308) was −∞.
+        for k in [1e308, f64::MAX] {
+            let expected = k - 0.5 * ((2.0 * std::f64::consts::PI).ln() + k.ln());
+            assert_eq!(log_i0(k), expected, "{k:e}");
+            assert!(log_i1(k).is_finite() && super::log_i0_scaled(k).unwrap().is_finite());
+        }
+        assert_eq!(log_i1(0.0), f64::NEG_INFINITY);
+        assert_eq!(log_i1(5e-324), 5e-324_f64.ln() - std::f64::consts::LN_2);
+    }
+
+    /// These never returned (NaN fell through every stopping test; κ = −1e16 summed 5e15 terms) or
+    /// took seconds (order u32::MAX ran the recurrence 4e9 steps): each is now refused at once.
+    #[test]
+    fn bad_arguments_are_refused_before_any_series() {
+        let start = Instant::now();
+        for k in [
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -1e16,
+            -1.0,
+            -5e-324,
+        ] {
+            assert!(super::log_i0(k).is_err(), "log_i0({k})");
+            assert!(super::log_i1(k).is_err(), "log_i1({k})");
+            assert!(super::a1(k).is_err(), "a1({k})");
+            assert!(super::bessel_ratio(3, k).is_err(), "bessel_ratio(3, {k})");
+            assert!(super::a1_derivative(k).is_err() && super::one_minus_a1(k).is_err());
+            assert!(super::vmf_log_normalizer(k).is_err() && super::vmf_mean_resultant(k).is_err());
+            assert!(super::scaled_i0_i1(k).is_err() && super::log_i0_scaled(k).is_err());
+        }
+        let error = super::bessel_ratio(u32::MAX, 1.0).unwrap_err();
+        assert!(error.to_string().contains("100000"), "{error}");
+        assert!(super::bessel_ratio(MAX_ORDER + 1, 1e6).is_err());
+        assert!(start.elapsed().as_millis() < 50);
+        assert_eq!(super::log_i0(-0.0), Ok(0.0));
+    }
+
+    /// The highest order at every κ regime, each well under the 200 ms the fuzz harness allows.
+    #[test]
+    fn the_highest_order_is_fast() {
+        for kappa in [1e-300, 1.0, 30.0, 31.0, 1e4, 2e10, 1e300, f64::MAX] {
+            let start = Instant::now();
+            let value = bessel_ratio(MAX_ORDER, kappa);
+            assert!((0.0..=1.0).contains(&value), "{kappa:e}: {value}");
+            assert!(
+                start.elapsed().as_millis() < 100,
+                "{kappa:e}: {:?}",
+                start.elapsed()
+            );
+        }
+        assert_eq!(bessel_ratio(MAX_ORDER, 1.0), 0.0);
+        assert!(bessel_ratio(MAX_ORDER, 1e300) > 0.999_999);
+    }
+
+    /// A⁻¹ is finite for every r < 1 (it was +∞ from 1 − 1e-8 on) and inverts the accurate 1 − A to a
+    /// few ulp: checked through D(A⁻¹(r)) = 1 − r, whose condition number is about 1.
+    #[test]
+    fn inverse_is_finite_and_accurate_up_to_one() {
+        let below_one = 1.0 - f64::EPSILON / 2.0;
+        for r in [
+            1e-300,
+            5e-324,
+            0.1,
+            0.49,
+            0.5,
+            0.9,
+            0.99,
+            1.0 - 1e-8,
+            1.0 - 1e-12,
+            below_one,
+        ] {
+            let kappa = super::a1_inverse(r).unwrap();
+            assert!(kappa.is_finite() && kappa > 0.0, "A^-1({r}) = {kappa}");
+            let (target, got) = if r < 0.5 {
+                (r, a1(kappa))
+            } else {
+                (1.0 - r, super::one_minus_a1(kappa).unwrap())
+            };
+            let error = ((got - target) / target).abs();
+            assert!(
+                error <= 6.0 * f64::EPSILON,
+                "A^-1({r}) = {kappa:e}: residual {error:e}"
+            );
+        }
+        let top = super::a1_inverse(below_one).unwrap();
+        assert!((top * f64::EPSILON - 1.0).abs() < 1e-3, "{top:e}"); // κ ≈ 1/(2d) = 1/eps
     }
 }

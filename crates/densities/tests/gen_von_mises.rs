@@ -21,16 +21,16 @@ fn bessel_series_log_normalizer(eta1: &Vector2<f64>, eta2: &Vector2<f64>) -> (f6
     let delta = eta1.y.atan2(eta1.x) - eta2.y.atan2(eta2.x) / 2.0;
     let terms: Vec<f64> = (1..400)
         .map(|k| {
-            special::bessel_ratio(2 * k, k1)
-                * special::bessel_ratio(k, k2)
+            special::bessel_ratio(2 * k, k1).unwrap()
+                * special::bessel_ratio(k, k2).unwrap()
                 * (2.0 * f64::from(k) * delta).cos()
         })
         .collect();
     let bracket = 1.0 + 2.0 * terms.iter().sum::<f64>();
     let condition = (1.0 + 2.0 * terms.iter().map(|t| t.abs()).sum::<f64>()) / bracket;
     let value = (2.0 * std::f64::consts::PI).ln()
-        + special::log_i0(k1)
-        + special::log_i0(k2)
+        + special::log_i0(k1).unwrap()
+        + special::log_i0(k2).unwrap()
         + bracket.ln();
     (value, condition)
 }

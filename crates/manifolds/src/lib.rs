@@ -59,7 +59,9 @@
 //! nest. [`weighted_mean`] averages samples on any [`Manifold`] by Gauss-Newton, without allocating.
 //!
 //! With the `proptest` feature, [`testing`] exports the strategies (uniform and curated edge elements
-//! for every space) and the generic law suite this crate tests itself with.
+//! for every space) and the generic law suite this crate tests itself with. With the `serde` feature,
+//! every point implements `Serialize` and `Deserialize`, and reading goes through the validated
+//! constructors (a file cannot produce a quaternion that is not unit).
 
 mod approx_impls;
 pub mod constants;
@@ -77,6 +79,8 @@ mod rotation_vector;
 mod s2;
 mod se2;
 mod se3;
+#[cfg(feature = "serde")]
+mod serde_impls;
 mod so2;
 mod so3;
 mod su2;

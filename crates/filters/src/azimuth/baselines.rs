@@ -134,7 +134,8 @@ impl AzimuthFilter for AzimuthDensity {
         let e = self.estimates();
         Estimate {
             azimuth: e.mode,
-            rho: special::a1(e.kappa),
+            // e.kappa is finite or, if η overflowed, +∞, where A = 1.
+            rho: special::a1(e.kappa).unwrap_or(1.0),
             mean_r: e.mean_r,
             cov_r: e.cov_r,
         }

@@ -316,8 +316,8 @@ impl AzimuthDensity {
         let eta = self.eta() + Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s;
         // hypot, not norm: |η| near 1e-300 must not underflow.
         let value = -(2.0 * PI * s).ln() - (w.norm_squared() + self.a.norm_squared()) / (2.0 * s)
-            + special::log_i0(eta.x.hypot(eta.y))
-            - special::log_i0(self.eta().x.hypot(self.eta().y));
+            + special::log_i0(eta.x.hypot(eta.y))?
+            - special::log_i0(self.eta().x.hypot(self.eta().y))?;
         if !value.is_finite() {
             return Err(OperatorError::NonFinite {
                 what: "log evidence of the measurement (it overflows: the measurement is too far \
@@ -369,7 +369,9 @@ impl AzimuthDensity {
         let eta = self.eta();
         // hypot, not norm: |η| = 1e-300 must not underflow to an unobservable azimuth.
         let kappa = eta.x.hypot(eta.y);
-        let rho = special::a1(kappa);
+        // κ is the hypot of finite numbers, finite by the valid range: the functions cannot refuse it
+        // (their limits at +∞, A = 1 and A′ = 0, are the fallbacks).
+        let rho = special::a1(kappa).unwrap_or(1.0);
         let b = Matrix2::from_columns(&[self.c, -perp(&self.c)]);
         let sigma_r = Matrix2::identity() * self.sigma2;
         if kappa == 0.0 {
@@ -384,7 +386,7 @@ impl AzimuthDensity {
         let scaled = eta / eta.amax();
         let direction = scaled / scaled.norm();
         let (b1, b2) = (b * direction, b * Vector2::new(-direction.y, direction.x));
-        let along = special::a1_derivative(kappa).max(0.0);
+        let along = special::a1_derivative(kappa).unwrap_or(0.0).max(0.0);
         let across = rho / kappa;
         AzimuthEstimates {
             kappa,

@@ -1,0 +1,187 @@
+//! The reproductions a fuzzer (3.3e6 calls) and a new user found, each as it returns now. Every one
+//! of these hung, took seconds, or returned a NaN or infinite value from a constructor that said Ok.
+
+use liebayes_densities::manifolds::{LieGroup, S2, So2, So3};
+use liebayes_densities::{
+    Bingham, Density, Gaussian, GenVonMises2, HeatKernelSo3, Product, VonMises, VonMisesFisher,
+    special,
+};
+use nalgebra::{Matrix3, Matrix4, Vector2, Vector3, Vector4};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::time::{Duration, Instant};
+
+/// Runs `f` and checks that it returned within a generous bound (the test profile is opt-level 1).
+fn quick<T>(what: &str, f: impl FnOnce() -> T) -> T {
+    let start = Instant::now();
+    let value = f();
+    let elapsed = start.elapsed();
+    assert!(elapsed < Duration::from_millis(200), "{what}: {elapsed:?}");
+    value
+}
+
+#[test]
+fn special_functions_refuse_nan_and_negative_arguments_at_once() {
+    assert!(quick("log_i0(NaN)", || special::log_i0(f64::NAN)).is_err());
+    assert!(quick("a1(NaN)", || special::a1(f64::NAN)).is_err());
+    assert!(quick("log_i1(NaN)", || special::log_i1(f64::NAN)).is_err());
+    assert!(
+        quick("bessel_ratio(3, NaN)", || special::bessel_ratio(
+            3,
+            f64::NAN
+        ))
+        .is_err()
+    );
+    let error = quick("a1(-1e16)", || special::a1(-1e16)).unwrap_err();
+    assert!(error.to_string().contains("[0, f64::MAX]"), "{error}");
+}
+
+#[test]
+fn huge_orders_are_refused_or_fast() {
+    let error = quick("bessel_ratio(u32::MAX, 1)", || {
+        special::bessel_ratio(u32::MAX, 1.0)
+    })
+    .unwrap_err();
+    assert!(error.to_string().contains("MAX_ORDER"), "{error}");
+    let p = VonMises::new(Vector2::new(3.0, 0.0)).unwrap();
+    assert!(
+        quick("trigonometric_moment(u32::MAX)", || p
+            .trigonometric_moment(u32::MAX))
+        .is_err()
+    );
+    let top = quick("trigonometric_moment(MAX_ORDER)", || {
+        p.trigonometric_moment(special::MAX_ORDER)
+    })
+    .unwrap();
+    assert_eq!(top, Vector2::zeros());
+}
+
+#[test]
+fn log_i0_of_1e308_is_finite() {
+    let value = special::log_i0(1e308).unwrap();
+    assert!(value.is_finite() && value > 9.9e307, "{value}");
+}
+
+#[test]
+fn inverse_of_a_near_one_is_finite() {
+    for r in [1.0 - 1e-8, 1.0 - 1e-12, 1.0 - f64::EPSILON / 2.0] {
+        let kappa = special::a1_inverse(r).unwrap();
+        assert!(kappa.is_finite(), "A^-1({r}) = {kappa}");
+        // 1 − A(κ) = 1/(2κ) + 1/(8κ²) + …, so κ ≈ 1/(2(1 − r)).
+        let expected = 0.5 / (1.0 - r);
+        assert!(
+            (kappa / expected - 1.0).abs() < 1e-6,
+            "{kappa:e} vs {expected:e}"
+        );
+    }
+    // A′ at 1e9 was 220x wrong (1 − A/κ − A² cancels): it is 1/(2κ²)(1 + 1/(2κ) + …).
+    let derivative = special::a1_derivative(1e9).unwrap();
+    assert!(
+        (derivative / 5.000_000_002_5e-19 - 1.0).abs() < 1e-15,
+        "{derivative:e}"
+    );
+}
+
+#[test]
+fn von_mises_samplers_return_at_every_concentration() {
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    for kappa in [5e-324, 1e-300, 1e-4, 1e16, 1e300] {
+        let p = VonMises::new(Vector2::new(kappa, 0.0)).unwrap();
+        let x = quick("VonMises::sample", || p.sample(&mut rng));
+        assert!((x.cos().hypot(x.sin()) - 1.0).abs() < 1e-15);
+        if kappa >= 1e16 {
+            assert!(x.angle().abs() < 1e-6, "κ {kappa:e}: {}", x.angle());
+        }
+    }
+    let p = GenVonMises2::new(Vector2::new(1e7, 0.0), Vector2::new(-1e6, 0.0)).unwrap();
+    let x = quick("GenVonMises2::sample", || p.sample(&mut rng));
+    assert!(x.angle().abs() < 0.01, "{}", x.angle());
+}
+
+#[test]
+fn bingham_with_unrepresentable_spreads_is_refused() {
+    let diagonal = |z: [f64; 4]| Matrix4::from_diagonal(&Vector4::from(z));
+    let error = Bingham::new(&diagonal([-1e300, 1e6, f64::MAX, 5e-324])).unwrap_err();
+    assert!(
+        error.to_string().contains("1e300") || error.to_string().contains("1e6"),
+        "{error}"
+    );
+    assert!(Bingham::new(&diagonal([f64::MAX, 0.0, 0.0, -1e4])).is_err());
+    // At the edge of the range: finite normaliser, a sample on S³, quickly.
+    let p = Bingham::new(&diagonal([0.0, -1e6, -1e6, -1e6])).unwrap();
+    assert!(p.log_normalizer().is_finite());
+    let q = quick("Bingham::sample", || {
+        p.sample(&mut ChaCha8Rng::seed_from_u64(2))
+    });
+    let [w, ..] = q.to_quaternion_wxyz();
+    assert!(w.abs() > 0.99);
+}
+
+#[test]
+fn gen_von_mises_beyond_its_range_is_refused_at_once() {
+    let error = quick("GenVonMises2::new(1e17)", || {
+        GenVonMises2::new(Vector2::new(1e17, 0.0), Vector2::zeros())
+    })
+    .unwrap_err();
+    assert!(error.to_string().contains("1e16"), "{error}");
+    let p = quick("GenVonMises2::new(1e15)", || {
+        GenVonMises2::new(Vector2::new(1e15, 0.0), Vector2::zeros())
+    })
+    .unwrap();
+    // ln Z = κ − ½ ln(2πκ) + ln 2π + O(1/κ).
+    let expected =
+        1e15 - 0.5 * (2.0 * std::f64::consts::PI * 1e15).ln() + (2.0 * std::f64::consts::PI).ln();
+    assert!(
+        (p.log_normalizer() - expected).abs() <= 1.0,
+        "{}",
+        p.log_normalizer()
+    );
+}
+
+#[test]
+fn constructors_refuse_parameters_whose_normalisers_overflow() {
+    let error = VonMises::new(Vector2::new(f64::MAX, f64::MAX)).unwrap_err();
+    assert!(error.to_string().contains("[0, 1e300]"), "{error}");
+    // Large values are shown in exponent form, not as 309 digits.
+    let error = Bingham::new(&Matrix4::from_diagonal(&Vector4::new(
+        f64::MAX,
+        0.0,
+        0.0,
+        0.0,
+    )))
+    .unwrap_err();
+    assert!(
+        error.to_string().contains("1.7976931348623157e308"),
+        "{error}"
+    );
+    assert!(VonMisesFisher::from_natural(&Vector3::new(0.0, f64::MAX, f64::MAX)).is_err());
+    for s in [1e-310, 5e-324, 1e-301] {
+        assert!(HeatKernelSo3::new(So3::identity(), s).is_err(), "s {s:e}");
+    }
+    let h = HeatKernelSo3::new(So3::identity(), 1e-300).unwrap();
+    let x = So3::exp(&Vector3::new(1.0, 0.0, 0.0));
+    assert!(h.log_pdf(&x).is_finite());
+    for scale in [1e308, 1e-310, 1e101, 1e-101] {
+        let error = Gaussian::new(Vector3::zeros(), Matrix3::identity() * scale).unwrap_err();
+        assert!(error.to_string().contains("1e100"), "{scale:e}: {error}");
+    }
+    let g = Gaussian::new(Vector3::zeros(), Matrix3::identity() * 1e-100).unwrap();
+    assert!(g.information_matrix().iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn von_mises_fisher_keeps_tiny_concentrations_and_equals_the_uniform_at_zero() {
+    let x = S2::new(Vector3::x()).unwrap();
+    let p = VonMisesFisher::new(x, 1e-300).unwrap();
+    let product = p.product(&p).unwrap();
+    assert_eq!(product.concentration(), 2e-300);
+    assert_eq!(product.mean_direction(), Some(x));
+    assert_eq!(
+        VonMisesFisher::new(x, 0.0).unwrap(),
+        VonMisesFisher::uniform()
+    );
+    assert_eq!(
+        VonMises::from_mean_concentration(So2::from_angle(1.0).unwrap(), 0.0).unwrap(),
+        VonMises::uniform()
+    );
+}

@@ -1,0 +1,95 @@
+//! serde round trips of every space (feature `serde`), and refusal of invalid points on reading.
+#![cfg(feature = "serde")]
+
+use liebayes_manifolds::testing::strategies as st;
+use liebayes_manifolds::{Left, MeanSettings, ProductManifold, Rn, S2, Se2, Se3, So2, So3, Su2};
+use proptest::prelude::*;
+use serde::{Serialize, de::DeserializeOwned};
+use std::fmt::Debug;
+
+/// JSON and back gives the same value, exactly.
+fn round_trip<X: Serialize + DeserializeOwned + PartialEq + Debug>(
+    x: &X,
+) -> Result<(), TestCaseError> {
+    let text = serde_json::to_string(x).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let back: X =
+        serde_json::from_str(&text).map_err(|e| TestCaseError::fail(format!("{e}: {text}")))?;
+    prop_assert_eq!(&back, x, "{}", text);
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn rotations(a in st::so2::<f64>(), b in st::so3::<f64>(), c in st::su2::<f64>(), d in st::so3::<f32>()) {
+        round_trip(&a)?;
+        round_trip(&b)?;
+        round_trip(&c)?;
+        round_trip(&d)?;
+        round_trip(&Left::new(b))?;
+    }
+
+    #[test]
+    fn sphere_vectors_and_poses(
+        a in st::s2::<f64>(),
+        b in st::rn::<f64, 3>(),
+        c in st::se2::<f64>(),
+        d in st::se3::<f64>(),
+        e in st::se3::<f32>(),
+    ) {
+        round_trip(&a)?;
+        round_trip(&b)?;
+        round_trip(&c)?;
+        round_trip(&d)?;
+        round_trip(&e)?;
+    }
+
+    #[test]
+    fn products(r in st::so3::<f64>(), b in st::rn::<f64, 3>(), t in st::rn::<f64, 2>()) {
+        let inner = ProductManifold::<_, _, 3, 3, 6>::new(r, b);
+        round_trip(&inner)?;
+        round_trip(&ProductManifold::<_, _, 6, 2, 8>::new(inner, t))?;
+    }
+}
+
+#[test]
+fn the_written_forms_are_the_documented_ones() {
+    let r = <So3<f64> as liebayes_manifolds::LieGroup<3>>::identity();
+    assert_eq!(serde_json::to_string(&r).unwrap(), "[1.0,0.0,0.0,0.0]");
+    let x = Se2::new(
+        So2::<f64>::from_cos_sin(0.0, 1.0).unwrap(),
+        nalgebra::Vector2::new(1.0, 2.0),
+    )
+    .unwrap();
+    assert_eq!(
+        serde_json::to_string(&x).unwrap(),
+        r#"{"rotation":[0.0,1.0],"translation":[1.0,2.0]}"#
+    );
+    let settings = MeanSettings::<f64>::new(20, 1e-9).unwrap();
+    assert_eq!(
+        serde_json::to_string(&settings).unwrap(),
+        r#"{"max_iterations":20,"tolerance":1e-9}"#
+    );
+}
+
+#[test]
+fn invalid_points_are_refused_with_the_constructors_message() {
+    let not_unit = serde_json::from_str::<So3<f64>>("[2.0,0.0,0.0,0.0]").unwrap_err();
+    assert!(not_unit.to_string().contains("unit norm"), "{not_unit}");
+    assert!(serde_json::from_str::<Su2<f64>>("[0.5,0.5,0.5]").is_err());
+    assert!(serde_json::from_str::<So2<f64>>("[0.0,0.0]").is_err());
+    assert!(serde_json::from_str::<S2<f64>>("[0.0,0.0,0.0]").is_err());
+    assert!(serde_json::from_str::<Rn<f64, 2>>("[1.0]").is_err());
+    assert!(serde_json::from_str::<Se3<f64>>(r#"{"rotation":[1.0,0.0,0.0,0.0]}"#).is_err());
+    assert!(
+        serde_json::from_str::<Se2<f64>>(
+            r#"{"rotation":[1.0,0.0],"translation":[0.0,0.0],"scale":2.0}"#
+        )
+        .is_err()
+    );
+    assert!(
+        serde_json::from_str::<MeanSettings<f64>>(r#"{"max_iterations":0,"tolerance":1e-9}"#)
+            .is_err()
+    );
+}
