@@ -284,7 +284,12 @@ fn moments_by_quadrature(density: &AzimuthDensity) -> (Vector2<f64>, Matrix2<f64
     let means: Vec<Vector2<f64>> = angles
         .map(|t| density.conditional_mean(&So2::from_angle_unchecked(t)))
         .collect();
-    let mean: Vector2<f64> = means.iter().zip(&weights).map(|(m, w)| m * *w).sum::<Vector2<f64>>() / total;
+    let mean: Vector2<f64> = means
+        .iter()
+        .zip(&weights)
+        .map(|(m, w)| m * *w)
+        .sum::<Vector2<f64>>()
+        / total;
     let spread: Matrix2<f64> = means
         .iter()
         .zip(&weights)

@@ -343,7 +343,10 @@ fn non_isotropic_noise_with_the_isotropic_bound_is_conservative() {
         nees_sum += nees(&(e.mean_r - truth), &e.cov_r).unwrap();
         let error = heading_error(e.mode.unwrap(), sim.true_azimuth);
         circular
-            .add(circular_consistency(error, liebayes_densities::special::a1(e.kappa).unwrap()).unwrap())
+            .add(
+                circular_consistency(error, liebayes_densities::special::a1(e.kappa).unwrap())
+                    .unwrap(),
+            )
             .unwrap();
     }
     let (low, high) = average_nees_band(2, runs).unwrap();

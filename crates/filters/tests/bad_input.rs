@@ -6,8 +6,6 @@
 //! cases at the end are the regressions of reported failures (`LIEBAYES_FUZZ_CASES` runs the
 //! properties long).
 
-mod support;
-
 use liebayes_filters::azimuth::scenario::{Config, Scenario, simulate, trajectory};
 use liebayes_filters::azimuth::study::run_once;
 use liebayes_filters::azimuth::{
@@ -15,35 +13,35 @@ use liebayes_filters::azimuth::{
     MarginalizedBaseline, Method, ParticleBaseline, PositionMeasurement, VelocityInput,
     VelocityProcess, study,
 };
-use liebayes_operators::OperatorError;
+use liebayes_operators::{MAX_ELEMENTS, OperatorError};
+use liebayes_reference::fuzz::{self, size, value};
 use nalgebra::{Cholesky, Matrix2, Vector2};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use support::{config, nasty_f64, nasty_size, within_time_limit};
 
 fn vector() -> impl Strategy<Value = Vector2<f64>> {
-    (nasty_f64(), nasty_f64()).prop_map(|(x, y)| Vector2::new(x, y))
+    (value(), value()).prop_map(|(x, y)| Vector2::new(x, y))
 }
 
 /// Nasty 2 × 2 matrices, their symmetric parts (often indefinite) and singular `v vᵀ`.
 fn covariance() -> impl Strategy<Value = Matrix2<f64>> {
     prop_oneof![
         (vector(), vector()).prop_map(|(a, b)| Matrix2::from_columns(&[a, b])),
-        (nasty_f64(), nasty_f64(), nasty_f64()).prop_map(|(p, q, r)| Matrix2::new(p, q, q, r)),
+        (value(), value(), value()).prop_map(|(p, q, r)| Matrix2::new(p, q, q, r)),
         vector().prop_map(|v| v * v.transpose()),
     ]
 }
 
 /// Mostly ordinary positive values, sometimes nasty ones: so that configurations are often valid.
 fn mostly_valid() -> impl Strategy<Value = f64> {
-    prop_oneof![3 => 0.01..2.0_f64, 1 => nasty_f64()]
+    prop_oneof![3 => 0.01..2.0_f64, 1 => value()]
 }
 
 /// Mostly small counts, sometimes nasty ones.
 fn mostly_small() -> impl Strategy<Value = usize> {
-    prop_oneof![3 => 1..12_usize, 1 => nasty_size()]
+    prop_oneof![3 => 1..12_usize, 1 => size(MAX_ELEMENTS)]
 }
 
 fn finite<'a>(values: impl IntoIterator<Item = &'a f64>) -> bool {
@@ -101,7 +99,7 @@ fn step_filter(
     if filter.predict(process, input, &mut rng).is_err() {
         prop_assert_eq!(&before, &estimate(filter));
     }
-    if let Ok(e) = filter.estimate() {
+    if let Some(e) = counted(filter.estimate()) {
         prop_assert!(finite(e.mean_r.iter()) && finite(e.cov_r.iter()));
         prop_assert!(e.rho.is_finite() && (0.0..=1.0).contains(&e.rho));
         prop_assert!(e.azimuth.is_none_or(f64::is_finite));
@@ -109,151 +107,232 @@ fn step_filter(
     Ok(())
 }
 
-proptest! {
-    #![proptest_config(config())]
+/// The value of a fallible call, with an error counted by the harness (and its message checked).
+fn counted<T, E: std::fmt::Display>(result: Result<T, E>) -> Option<T> {
+    match result {
+        Ok(value) => Some(value),
+        Err(error) => fuzz::checked::<(), E>("error", Err(error)).and(None),
+    }
+}
 
-    #[test]
-    fn models(q in nasty_f64(), sigma in nasty_f64(), noise in covariance()) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            if let Ok(process) = VelocityProcess::new(q) {
-                prop_assert!(process.noise_density().is_finite() && process.noise_density() >= 0.0);
-            }
-            for measurement in [PositionMeasurement::new(sigma), PositionMeasurement::isotropic_bound(&noise)]
+/// Runs one case of a property through the harness's time-limited [`fuzz::call`]: a panic, a hang or
+/// a failed assertion fails the test.
+fn property(name: &'static str, case: impl FnOnce() -> Result<(), TestCaseError> + Send + 'static) {
+    if let Err(failure) = fuzz::call(name, case) {
+        panic!("{name}: {failure}");
+    }
+}
+
+#[test]
+fn models() {
+    fuzz::run(
+        "models",
+        (value(), value(), covariance()),
+        |(q, sigma, noise)| {
+            property("models", move || -> Result<(), TestCaseError> {
+                if let Some(process) = counted(VelocityProcess::new(q)) {
+                    prop_assert!(
+                        process.noise_density().is_finite() && process.noise_density() >= 0.0
+                    );
+                }
+                for measurement in [
+                    PositionMeasurement::new(sigma),
+                    PositionMeasurement::isotropic_bound(&noise),
+                ]
                 .into_iter()
                 .flatten()
-            {
-                let v = measurement.variance();
-                prop_assert!(v.is_normal() && v > 0.0 && v <= 1e300);
-            }
-            Ok(())
-        })?;
-    }
+                {
+                    let v = measurement.variance();
+                    prop_assert!(v.is_normal() && v > 0.0 && v <= 1e300);
+                }
+                Ok(())
+            });
+        },
+    );
+}
 
-    /// The exact filter from nasty parameters, stepped with nasty models and data.
-    #[test]
-    fn exact_filter(
-        eta in vector(), a in vector(), c in vector(), sigma2 in nasty_f64(), r0 in vector(),
-        sigma0 in nasty_f64(), q in nasty_f64(), sigma_m in nasty_f64(),
-        zs in proptest::collection::vec(vector(), 3), velocities in proptest::collection::vec(vector(), 3),
-        dts in proptest::collection::vec(nasty_f64(), 3),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            if let Ok(d) = AzimuthDensity::new(r0, sigma0) {
-                sound(&d)?;
-            }
-            let Ok(mut density) = AzimuthDensity::from_parts(eta, a, c, sigma2)
-                .or_else(|_| AzimuthDensity::new(r0, sigma0))
-            else {
-                return Ok(());
-            };
-            sound(&density)?;
-            let process = VelocityProcess::new(q).unwrap_or(VelocityProcess::new(0.1).unwrap());
-            let measurement =
-                PositionMeasurement::new(sigma_m).unwrap_or(PositionMeasurement::new(1.0).unwrap());
-            for ((z, v), dt) in zs.iter().zip(&velocities).zip(&dts) {
-                if let Ok(value) = density.log_evidence(&measurement, z) {
-                    prop_assert!(value.is_finite());
+/// The exact filter from nasty parameters, stepped with nasty models and data.
+#[test]
+fn exact_filter() {
+    fuzz::run(
+        "exact_filter",
+        (
+            vector(),
+            vector(),
+            vector(),
+            value(),
+            vector(),
+            value(),
+            value(),
+            value(),
+            proptest::collection::vec(vector(), 3),
+            proptest::collection::vec(vector(), 3),
+            proptest::collection::vec(value(), 3),
+        ),
+        |(eta, a, c, sigma2, r0, sigma0, q, sigma_m, zs, velocities, dts)| {
+            property("exact_filter", move || -> Result<(), TestCaseError> {
+                if let Some(d) = counted(AzimuthDensity::new(r0, sigma0)) {
+                    sound(&d)?;
                 }
-                let before = density;
-                if density.update(&measurement, z).is_err() {
-                    prop_assert_eq!(before, density);
-                }
+                let Ok(mut density) = AzimuthDensity::from_parts(eta, a, c, sigma2)
+                    .or_else(|_| AzimuthDensity::new(r0, sigma0))
+                else {
+                    return Ok(());
+                };
                 sound(&density)?;
-                let before = density;
-                let input = VelocityInput { velocity: *v, dt: *dt };
-                if density.predict(&process, &input).is_err() {
-                    prop_assert_eq!(before, density);
+                let process = VelocityProcess::new(q).unwrap_or(VelocityProcess::new(0.1).unwrap());
+                let measurement = PositionMeasurement::new(sigma_m)
+                    .unwrap_or(PositionMeasurement::new(1.0).unwrap());
+                for ((z, v), dt) in zs.iter().zip(&velocities).zip(&dts) {
+                    if let Some(value) = counted(density.log_evidence(&measurement, z)) {
+                        prop_assert!(value.is_finite());
+                    }
+                    let before = density;
+                    if density.update(&measurement, z).is_err() {
+                        prop_assert_eq!(before, density);
+                    }
+                    sound(&density)?;
+                    let before = density;
+                    let input = VelocityInput {
+                        velocity: *v,
+                        dt: *dt,
+                    };
+                    if density.predict(&process, &input).is_err() {
+                        prop_assert_eq!(before, density);
+                    }
+                    sound(&density)?;
                 }
-                sound(&density)?;
-            }
-            if let Ok(composite) = density.to_composite() {
-                prop_assert!(finite(composite.covariance().iter()));
-            }
-            Ok(())
-        })?;
-    }
+                if let Some(composite) = counted(density.to_composite()) {
+                    prop_assert!(finite(composite.covariance().iter()));
+                }
+                Ok(())
+            });
+        },
+    );
+}
 
-    /// Every baseline from a nasty prior, stepped with nasty data through the common interface.
-    #[test]
-    fn baselines(
-        n in nasty_size(), r0 in vector(), sigma0 in nasty_f64(), z in vector(), v in vector(),
-        dt in nasty_f64(), q in nasty_f64(), sigma_m in nasty_f64(),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            let mut rng = ChaCha8Rng::seed_from_u64(2);
-            let small = (1..=40).contains(&n);
-            let mut filters: Vec<Box<dyn AzimuthFilter>> = Vec::new();
-            match ParticleBaseline::new(n, r0, sigma0, &mut rng) {
-                Ok(f) => filters.push(Box::new(f)),
-                Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
-                Err(_) => {}
-            }
-            match MarginalizedBaseline::new(n, r0, sigma0, &mut rng) {
-                Ok(f) => filters.push(Box::new(f)),
-                Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
-                Err(_) => {}
-            }
-            match GridReference::new(n, r0, sigma0) {
-                Ok(f) => filters.push(Box::new(f)),
-                Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
-                Err(_) => {}
-            }
-            for kind in [Linearisation::Extended, Linearisation::Unscented] {
-                if let Ok(f) = GaussianBaseline::new(kind, r0, sigma0) {
+/// Every baseline from a nasty prior, stepped with nasty data through the common interface.
+#[test]
+fn baselines() {
+    fuzz::run(
+        "baselines",
+        (
+            size(MAX_ELEMENTS),
+            vector(),
+            value(),
+            vector(),
+            vector(),
+            value(),
+            value(),
+            value(),
+        ),
+        |(n, r0, sigma0, z, v, dt, q, sigma_m)| {
+            property("baselines", move || -> Result<(), TestCaseError> {
+                let mut rng = ChaCha8Rng::seed_from_u64(2);
+                let small = (1..=40).contains(&n);
+                let mut filters: Vec<Box<dyn AzimuthFilter>> = Vec::new();
+                match ParticleBaseline::new(n, r0, sigma0, &mut rng) {
+                    Ok(f) => filters.push(Box::new(f)),
+                    Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
+                    Err(_) => {}
+                }
+                match MarginalizedBaseline::new(n, r0, sigma0, &mut rng) {
+                    Ok(f) => filters.push(Box::new(f)),
+                    Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
+                    Err(_) => {}
+                }
+                match GridReference::new(n, r0, sigma0) {
+                    Ok(f) => filters.push(Box::new(f)),
+                    Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
+                    Err(_) => {}
+                }
+                for kind in [Linearisation::Extended, Linearisation::Unscented] {
+                    if let Some(f) = counted(GaussianBaseline::new(kind, r0, sigma0)) {
+                        filters.push(Box::new(f));
+                    }
+                }
+                if let Some(f) = counted(AzimuthDensity::new(r0, sigma0)) {
                     filters.push(Box::new(f));
                 }
-            }
-            if let Ok(f) = AzimuthDensity::new(r0, sigma0) {
-                filters.push(Box::new(f));
-            }
-            let process = VelocityProcess::new(q).unwrap_or(VelocityProcess::new(0.1).unwrap());
-            let measurement =
-                PositionMeasurement::new(sigma_m).unwrap_or(PositionMeasurement::new(1.0).unwrap());
-            let input = VelocityInput { velocity: v, dt };
-            for filter in &mut filters {
-                step_filter(filter.as_mut(), &process, &input, &measurement, &z)?;
-                step_filter(filter.as_mut(), &process, &input, &measurement, &(z * 0.5))?;
-            }
-            Ok(())
-        })?;
-    }
+                let process = VelocityProcess::new(q).unwrap_or(VelocityProcess::new(0.1).unwrap());
+                let measurement = PositionMeasurement::new(sigma_m)
+                    .unwrap_or(PositionMeasurement::new(1.0).unwrap());
+                let input = VelocityInput { velocity: v, dt };
+                for filter in &mut filters {
+                    step_filter(filter.as_mut(), &process, &input, &measurement, &z)?;
+                    step_filter(filter.as_mut(), &process, &input, &measurement, &(z * 0.5))?;
+                }
+                Ok(())
+            });
+        },
+    );
+}
 
-    #[test]
-    fn scenarios_and_studies(
-        sigma0 in mostly_valid(), sigma_m in mostly_valid(), q in mostly_valid(),
-        dt in mostly_valid(), measure_every in mostly_small(), steps in mostly_small(),
-        runs in mostly_small(), duration in nasty_f64(),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            if let Ok(count) = Config::steps_for(duration, dt) {
-                prop_assert!(count >= 1 && count <= liebayes_operators::MAX_ELEMENTS);
-            }
-            let config = Config { sigma0, sigma_m, q, dt, measure_every, steps };
-            let valid = config.validate().is_ok();
-            let mut rng = ChaCha8Rng::seed_from_u64(3);
-            match simulate(Scenario::Line, &config, &mut rng) {
-                Ok(sim) => {
-                    prop_assert!(valid && sim.positions.len() == steps);
-                    prop_assert!(sim.true_azimuth.is_finite());
-                    prop_assert!(sim.positions.iter().all(|p| finite(p.iter())));
-                    prop_assert!(sim.measurements.iter().flatten().all(|z| finite(z.iter())));
-                }
-                Err(_) => prop_assert!(!valid),
-            }
-            prop_assert_eq!(trajectory(Scenario::Circle, &config, &mut rng).is_ok(), valid);
-            for method in [Method::Exact, Method::Ekf, Method::Particle(5)] {
-                if let Ok(run) = run_once(method, Scenario::Circle, &config, 4) {
-                    prop_assert!(valid);
-                    prop_assert!(run.epochs.iter().all(|e| finite(e.position_error.iter())));
-                }
-            }
-            if let Ok(summary) = study(Method::Exact, Scenario::Line, &config, runs, 5) {
-                prop_assert!(valid && summary.runs == runs);
-                prop_assert!(summary.ns_per_step.is_finite());
-            }
-            Ok(())
-        })?;
-    }
+#[test]
+fn scenarios_and_studies() {
+    fuzz::run(
+        "scenarios_and_studies",
+        (
+            mostly_valid(),
+            mostly_valid(),
+            mostly_valid(),
+            mostly_valid(),
+            mostly_small(),
+            mostly_small(),
+            mostly_small(),
+            value(),
+        ),
+        |(sigma0, sigma_m, q, dt, measure_every, steps, runs, duration)| {
+            property(
+                "scenarios_and_studies",
+                move || -> Result<(), TestCaseError> {
+                    if let Some(count) = counted(Config::steps_for(duration, dt)) {
+                        prop_assert!(count >= 1 && count <= liebayes_operators::MAX_ELEMENTS);
+                    }
+                    let config = Config {
+                        sigma0,
+                        sigma_m,
+                        q,
+                        dt,
+                        measure_every,
+                        steps,
+                    };
+                    let valid = config.validate().is_ok();
+                    let mut rng = ChaCha8Rng::seed_from_u64(3);
+                    match simulate(Scenario::Line, &config, &mut rng) {
+                        Ok(sim) => {
+                            prop_assert!(valid && sim.positions.len() == steps);
+                            prop_assert!(sim.true_azimuth.is_finite());
+                            prop_assert!(sim.positions.iter().all(|p| finite(p.iter())));
+                            prop_assert!(
+                                sim.measurements.iter().flatten().all(|z| finite(z.iter()))
+                            );
+                        }
+                        Err(_) => prop_assert!(!valid),
+                    }
+                    prop_assert_eq!(
+                        trajectory(Scenario::Circle, &config, &mut rng).is_ok(),
+                        valid
+                    );
+                    for method in [Method::Exact, Method::Ekf, Method::Particle(5)] {
+                        if let Some(run) = counted(run_once(method, Scenario::Circle, &config, 4)) {
+                            prop_assert!(valid);
+                            prop_assert!(
+                                run.epochs.iter().all(|e| finite(e.position_error.iter()))
+                            );
+                        }
+                    }
+                    if let Some(summary) =
+                        counted(study(Method::Exact, Scenario::Line, &config, runs, 5))
+                    {
+                        prop_assert!(valid && summary.runs == runs);
+                        prop_assert!(summary.ns_per_step.is_finite());
+                    }
+                    Ok(())
+                },
+            );
+        },
+    );
 }
 
 // The regressions, each of which panicked, hung or returned NaN before.
@@ -274,7 +353,7 @@ fn a_measurement_noise_that_squares_to_zero_is_refused() {
         if density.update(&tiny, &Vector2::new(3.0, 4.0)).is_err() {
             assert_eq!(before, density);
         }
-        let e = within_time_limit(move || density.estimates());
+        let e = fuzz::call("estimates", move || density.estimates());
         assert!(e.cov_r.iter().all(|v| v.is_finite()));
         let _ = density.azimuth();
     }
@@ -288,7 +367,11 @@ fn a_precise_measurement_keeps_a_positive_variance() {
     let mut density = AzimuthDensity::new(Vector2::new(1.0, 2.0), 1.0).unwrap();
     density.update(&precise, &Vector2::new(3.0, 4.0)).unwrap();
     let expected = 1e-18 / (1.0 + 1e-18);
-    assert!((density.sigma2() / expected - 1.0).abs() < 1e-15, "{}", density.sigma2());
+    assert!(
+        (density.sigma2() / expected - 1.0).abs() < 1e-15,
+        "{}",
+        density.sigma2()
+    );
     density.update(&precise, &Vector2::new(3.0, 4.0)).unwrap();
     assert!(Cholesky::new(density.estimates().cov_r).is_some());
 }

@@ -205,7 +205,10 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaus
         )?;
         let covariance = joseph(sigma, report.gain(), h, &model.noise);
         let posterior = checked(
-            Gaussian::new(self.mean() + report.correction(), symmetric_part(&covariance))?,
+            Gaussian::new(
+                self.mean() + report.correction(),
+                symmetric_part(&covariance),
+            )?,
             "posterior mean or covariance (it overflows)",
         )?;
         Ok(Conditioned {

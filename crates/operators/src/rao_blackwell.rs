@@ -150,10 +150,9 @@ fn linear_step<const N: usize, const M: usize>(
     all_finite("measurement z", z.iter())?;
     let h = model.matrix();
     let s = h * density.covariance() * h.transpose() + model.noise();
-    let factor =
-        Cholesky::new(symmetric_part(&s)).ok_or(OperatorError::NotPositiveDefinite {
-            what: "innovation covariance H Sigma H^T + R (make R positive definite)",
-        })?;
+    let factor = Cholesky::new(symmetric_part(&s)).ok_or(OperatorError::NotPositiveDefinite {
+        what: "innovation covariance H Sigma H^T + R (make R positive definite)",
+    })?;
     let g_matrix = h * density.features();
     let w = g_matrix.transpose() * factor.solve(&g_matrix);
     let s_inv_z = factor.solve(z);

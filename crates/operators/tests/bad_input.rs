@@ -5,13 +5,11 @@
 //! and a container stepped in place must be exactly as it was after an error. The fixed cases at the
 //! end are the regressions of reported failures (`LIEBAYES_FUZZ_CASES` runs the properties long).
 
-mod support;
-
 use liebayes_densities::{Gaussian, GenVonMises2, HarmonicGaussian, ManifoldGaussian};
 use liebayes_manifolds::{Manifold, Rn, So2};
 use liebayes_operators::evaluation::{
-    MeanEstimate, MonteCarlo, Series, average_nees_band, chi_square_quantile,
-    circular_consistency, nees,
+    MeanEstimate, MonteCarlo, Series, average_nees_band, chi_square_quantile, circular_consistency,
+    nees,
 };
 use liebayes_operators::grid::CircularGrid;
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
@@ -21,12 +19,12 @@ use liebayes_operators::smoother::RtsSmoother;
 use liebayes_operators::{
     Condition, Ekf, MAX_ELEMENTS, MeasurementFn, OperatorError, ProcessFn, Propagate, Ukf,
 };
+use liebayes_reference::fuzz::{self, size, value};
 use nalgebra::{Matrix1, Matrix2, Matrix2x3, SMatrix, SVector, Vector1, Vector2};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use support::{config, nasty_f64, nasty_size, within_time_limit};
 
 const SCHEMES: [Resampling; 4] = [
     Resampling::Multinomial,
@@ -36,7 +34,7 @@ const SCHEMES: [Resampling; 4] = [
 ];
 
 fn matrix<const R: usize, const C: usize>() -> impl Strategy<Value = SMatrix<f64, R, C>> {
-    proptest::collection::vec(nasty_f64(), R * C).prop_map(|v| SMatrix::from_column_slice(&v))
+    proptest::collection::vec(value(), R * C).prop_map(|v| SMatrix::from_column_slice(&v))
 }
 
 /// Covariances: nasty matrices, their symmetric parts (often indefinite), singular `v vᵀ` and
@@ -80,353 +78,467 @@ fn normalised(log_weights: &[f64], ess: f64) -> Result<(), TestCaseError> {
     Ok(())
 }
 
-proptest! {
-    #![proptest_config(config())]
-
-    #[test]
-    fn kalman_filter(
-        f in matrix::<2, 2>(), q in covariance::<2>(), h in matrix::<1, 2>(), r in covariance::<1>(),
-        p in covariance::<2>(), u in matrix::<2, 1>(), z in matrix::<1, 1>(),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            let prior = prior_or_default(p);
-            if let Ok(process) = LinearProcess::new(f, q) {
-                if let Ok(next) = prior.propagate(&process, &u) {
-                    prop_assert!(finite_gaussian(&next));
-                }
-            }
-            if let Ok(model) = LinearMeasurement::new(h, r) {
-                if let Ok(step) = prior.condition(&model, &z) {
-                    prop_assert!(finite_gaussian(&step.posterior));
-                    prop_assert!(step.log_evidence.is_finite());
-                    prop_assert!(step.report.nis().is_finite() && step.report.nis() >= 0.0);
-                    prop_assert!(finite(step.report.gain().iter()));
-                }
-            }
-            Ok(())
-        })?;
+/// The value of a fallible call, with an error counted by the harness (and its message checked).
+fn counted<T, E: std::fmt::Display>(result: Result<T, E>) -> Option<T> {
+    match result {
+        Ok(value) => Some(value),
+        Err(error) => fuzz::checked::<(), E>("error", Err(error)).and(None),
     }
+}
 
-    /// The EKF and the UKF on SO(2) and R² with closure models whose outputs are nasty.
-    #[test]
-    fn ekf_and_ukf(
-        rate in nasty_f64(), q in nasty_f64(), scale in nasty_f64(), r in nasty_f64(),
-        z in nasty_f64(), shift in matrix::<2, 1>(), p in covariance::<2>(),
-        alpha in nasty_f64(), beta in nasty_f64(), kappa in nasty_f64(),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            let heading = ManifoldGaussian::new(So2::from_angle_unchecked(1.0), Matrix1::new(0.2))
-                .unwrap();
-            let gyro = ProcessFn::new(
-                move |x: &So2<f64>, (): &()| x.retract(&Vector1::new(rate)),
-                move |_, ()| Matrix1::new(q),
-            );
-            let compass = MeasurementFn::new(
-                move |x: &So2<f64>| Vector1::new(scale * x.angle()),
-                move |_| Matrix1::new(r),
-            );
-            let position = ManifoldGaussian::new(Rn::new_unchecked(Vector2::new(1.0, 2.0)), p)
-                .unwrap_or_else(|_| {
-                    ManifoldGaussian::new(Rn::new_unchecked(Vector2::zeros()), Matrix2::identity())
+/// Runs one case of a property through the harness's time-limited [`fuzz::call`]: a panic, a hang or
+/// a failed assertion fails the test.
+fn property(name: &'static str, case: impl FnOnce() -> Result<(), TestCaseError> + Send + 'static) {
+    if let Err(failure) = fuzz::call(name, case) {
+        panic!("{name}: {failure}");
+    }
+}
+
+#[test]
+fn kalman_filter() {
+    fuzz::run(
+        "kalman_filter",
+        (
+            matrix::<2, 2>(),
+            covariance::<2>(),
+            matrix::<1, 2>(),
+            covariance::<1>(),
+            covariance::<2>(),
+            matrix::<2, 1>(),
+            matrix::<1, 1>(),
+        ),
+        |(f, q, h, r, p, u, z)| {
+            property("kalman_filter", move || -> Result<(), TestCaseError> {
+                let prior = prior_or_default(p);
+                if let Some(process) = counted(LinearProcess::new(f, q)) {
+                    if let Some(next) = counted(prior.propagate(&process, &u)) {
+                        prop_assert!(finite_gaussian(&next));
+                    }
+                }
+                if let Some(model) = counted(LinearMeasurement::new(h, r)) {
+                    if let Some(step) = counted(prior.condition(&model, &z)) {
+                        prop_assert!(finite_gaussian(&step.posterior));
+                        prop_assert!(step.log_evidence.is_finite());
+                        prop_assert!(step.report.nis().is_finite() && step.report.nis() >= 0.0);
+                        prop_assert!(finite(step.report.gain().iter()));
+                    }
+                }
+                Ok(())
+            });
+        },
+    );
+}
+
+/// The EKF and the UKF on SO(2) and R² with closure models whose outputs are nasty.
+#[test]
+fn ekf_and_ukf() {
+    fuzz::run(
+        "ekf_and_ukf",
+        (
+            value(),
+            value(),
+            value(),
+            value(),
+            value(),
+            matrix::<2, 1>(),
+            covariance::<2>(),
+            value(),
+            value(),
+            value(),
+        ),
+        |(rate, q, scale, r, z, shift, p, alpha, beta, kappa)| {
+            property("ekf_and_ukf", move || -> Result<(), TestCaseError> {
+                let heading =
+                    ManifoldGaussian::new(So2::from_angle_unchecked(1.0), Matrix1::new(0.2))
+                        .unwrap();
+                let gyro = ProcessFn::new(
+                    move |x: &So2<f64>, (): &()| x.retract(&Vector1::new(rate)),
+                    move |_, ()| Matrix1::new(q),
+                );
+                let compass = MeasurementFn::new(
+                    move |x: &So2<f64>| Vector1::new(scale * x.angle()),
+                    move |_| Matrix1::new(r),
+                );
+                let position = ManifoldGaussian::new(Rn::new_unchecked(Vector2::new(1.0, 2.0)), p)
+                    .unwrap_or_else(|_| {
+                        ManifoldGaussian::new(
+                            Rn::new_unchecked(Vector2::zeros()),
+                            Matrix2::identity(),
+                        )
                         .unwrap()
-                });
-            let drift = ProcessFn::new(
-                move |x: &Rn<f64, 2>, (): &()| Rn::new_unchecked(x.coords() + shift),
-                move |_, ()| Matrix2::identity() * q,
-            );
-            let range = MeasurementFn::new(
-                move |x: &Rn<f64, 2>| Vector1::new(x.coords().norm() * scale),
-                move |_| Matrix1::new(r),
-            );
-            let z = Vector1::new(z);
-            for next in [
-                heading.propagate(&Ekf(&gyro), &()),
-                heading.propagate(&Ukf::new(&gyro), &()),
-            ]
-            .into_iter()
-            .chain(Ukf::with_scaling(&gyro, alpha, beta, kappa).map(|m| heading.propagate(&m, &())))
-            .flatten()
-            {
-                prop_assert!(finite_manifold_gaussian(&next));
-            }
-            for step in [
-                heading.condition(&Ekf(&compass), &z),
-                heading.condition(&Ukf::new(&compass), &z),
-            ]
-            .into_iter()
-            .chain(Ukf::with_scaling(&compass, alpha, beta, kappa).map(|m| heading.condition(&m, &z)))
-            .flatten()
-            {
-                prop_assert!(finite_manifold_gaussian(&step.posterior));
-                prop_assert!(step.log_evidence.is_finite() && step.report.nis().is_finite());
-            }
-            for next in [
-                position.propagate(&Ekf(&drift), &()),
-                position.propagate(&Ukf::new(&drift), &()),
-            ]
-            .into_iter()
-            .flatten()
-            {
-                prop_assert!(finite_manifold_gaussian(&next));
-            }
-            for step in [
-                position.condition(&Ekf(&range), &z),
-                position.condition(&Ukf::new(&range), &z),
-            ]
-            .into_iter()
-            .flatten()
-            {
-                prop_assert!(finite_manifold_gaussian(&step.posterior));
-                prop_assert!(step.log_evidence.is_finite());
-            }
-            Ok(())
-        })?;
-    }
+                    });
+                let drift = ProcessFn::new(
+                    move |x: &Rn<f64, 2>, (): &()| Rn::new_unchecked(x.coords() + shift),
+                    move |_, ()| Matrix2::identity() * q,
+                );
+                let range = MeasurementFn::new(
+                    move |x: &Rn<f64, 2>| Vector1::new(x.coords().norm() * scale),
+                    move |_| Matrix1::new(r),
+                );
+                let z = Vector1::new(z);
+                for next in [
+                    heading.propagate(&Ekf(&gyro), &()),
+                    heading.propagate(&Ukf::new(&gyro), &()),
+                ]
+                .into_iter()
+                .chain(
+                    Ukf::with_scaling(&gyro, alpha, beta, kappa)
+                        .map(|m| heading.propagate(&m, &())),
+                )
+                .flatten()
+                {
+                    prop_assert!(finite_manifold_gaussian(&next));
+                }
+                for step in [
+                    heading.condition(&Ekf(&compass), &z),
+                    heading.condition(&Ukf::new(&compass), &z),
+                ]
+                .into_iter()
+                .chain(
+                    Ukf::with_scaling(&compass, alpha, beta, kappa)
+                        .map(|m| heading.condition(&m, &z)),
+                )
+                .flatten()
+                {
+                    prop_assert!(finite_manifold_gaussian(&step.posterior));
+                    prop_assert!(step.log_evidence.is_finite() && step.report.nis().is_finite());
+                }
+                for next in [
+                    position.propagate(&Ekf(&drift), &()),
+                    position.propagate(&Ukf::new(&drift), &()),
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    prop_assert!(finite_manifold_gaussian(&next));
+                }
+                for step in [
+                    position.condition(&Ekf(&range), &z),
+                    position.condition(&Ukf::new(&range), &z),
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    prop_assert!(finite_manifold_gaussian(&step.posterior));
+                    prop_assert!(step.log_evidence.is_finite());
+                }
+                Ok(())
+            });
+        },
+    );
+}
 
-    /// Particle sets from nasty weights, stepped with nasty likelihoods and moves: normalised after
-    /// every step that succeeds, unchanged after every one that fails.
-    #[test]
-    fn particle_set(
-        weights in proptest::collection::vec(nasty_f64(), 0..6),
-        log_weights in proptest::collection::vec(nasty_f64(), 1..6),
-        likelihoods in proptest::collection::vec(nasty_f64(), 6),
-        moves in proptest::collection::vec(nasty_f64(), 6),
-        fraction in nasty_f64(),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            let points = |n: usize| (0..n).map(|i| Rn::new_unchecked(Vector1::new(i as f64)))
-                .collect::<Vec<_>>();
-            let _ = ParticleSet::from_weighted_samples(points(weights.len()), &weights);
-            let Ok(mut set) =
-                ParticleSet::from_log_weighted_samples(points(log_weights.len()), &log_weights)
-            else {
-                return Ok(());
-            };
-            normalised(set.log_weights(), set.effective_sample_size())?;
-            let mut rng = ChaCha8Rng::seed_from_u64(1);
-            for round in 0..3 {
-                let before = (set.particles().to_vec(), set.log_weights().to_vec());
-                let offset = round * 2;
-                let step = set.condition(|x| likelihoods[(x.coords()[0] as usize % 6 + offset) % 6]);
-                match step {
-                    Ok(evidence) => prop_assert!(!evidence.is_nan() && evidence < f64::INFINITY),
-                    Err(_) => {
+/// Particle sets from nasty weights, stepped with nasty likelihoods and moves: normalised after
+/// every step that succeeds, unchanged after every one that fails.
+#[test]
+fn particle_set() {
+    fuzz::run(
+        "particle_set",
+        (
+            proptest::collection::vec(value(), 0..6),
+            proptest::collection::vec(value(), 1..6),
+            proptest::collection::vec(value(), 6),
+            proptest::collection::vec(value(), 6),
+            value(),
+        ),
+        |(weights, log_weights, likelihoods, moves, fraction)| {
+            property("particle_set", move || -> Result<(), TestCaseError> {
+                let points = |n: usize| {
+                    (0..n)
+                        .map(|i| Rn::new_unchecked(Vector1::new(i as f64)))
+                        .collect::<Vec<_>>()
+                };
+                let _ = ParticleSet::from_weighted_samples(points(weights.len()), &weights);
+                let Ok(mut set) =
+                    ParticleSet::from_log_weighted_samples(points(log_weights.len()), &log_weights)
+                else {
+                    return Ok(());
+                };
+                normalised(set.log_weights(), set.effective_sample_size())?;
+                let mut rng = ChaCha8Rng::seed_from_u64(1);
+                for round in 0..3 {
+                    let before = (set.particles().to_vec(), set.log_weights().to_vec());
+                    let offset = round * 2;
+                    let step =
+                        set.condition(|x| likelihoods[(x.coords()[0] as usize % 6 + offset) % 6]);
+                    match step {
+                        Ok(evidence) => {
+                            prop_assert!(!evidence.is_nan() && evidence < f64::INFINITY)
+                        }
+                        Err(_) => {
+                            prop_assert_eq!(&before.0, set.particles());
+                            prop_assert_eq!(&before.1, set.log_weights());
+                        }
+                    }
+                    normalised(set.log_weights(), set.effective_sample_size())?;
+                    let before = (set.particles().to_vec(), set.log_weights().to_vec());
+                    let moved = set.propagate(&mut rng, |x, _| {
+                        x.retract(&Vector1::new(
+                            moves[(x.coords()[0].abs() as usize % 6 + round) % 6],
+                        ))
+                    });
+                    if moved.is_err() {
                         prop_assert_eq!(&before.0, set.particles());
                         prop_assert_eq!(&before.1, set.log_weights());
                     }
+                    prop_assert!(set.particles().iter().all(Manifold::is_finite));
+                    if let Some(mean) = counted(set.mean()) {
+                        prop_assert!(mean.is_finite());
+                    }
+                    let scheme = SCHEMES[round % 4];
+                    set.resample_if_degenerate(fraction, scheme, &mut rng);
+                    normalised(set.log_weights(), set.effective_sample_size())?;
                 }
-                normalised(set.log_weights(), set.effective_sample_size())?;
-                let before = (set.particles().to_vec(), set.log_weights().to_vec());
-                let moved = set.propagate(&mut rng, |x, _| {
-                    x.retract(&Vector1::new(moves[(x.coords()[0].abs() as usize % 6 + round) % 6]))
-                });
-                if moved.is_err() {
-                    prop_assert_eq!(&before.0, set.particles());
-                    prop_assert_eq!(&before.1, set.log_weights());
-                }
-                prop_assert!(set.particles().iter().all(Manifold::is_finite));
-                if let Ok(mean) = set.mean() {
-                    prop_assert!(mean.is_finite());
-                }
-                let scheme = SCHEMES[round % 4];
-                set.resample_if_degenerate(fraction, scheme, &mut rng);
-                normalised(set.log_weights(), set.effective_sample_size())?;
-            }
-            Ok(())
-        })?;
-    }
+                Ok(())
+            });
+        },
+    );
+}
 
-    #[test]
-    fn resampling(
-        weights in proptest::collection::vec(nasty_f64(), 0..6),
-        n in nasty_size(),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            let mut rng = ChaCha8Rng::seed_from_u64(2);
-            for scheme in SCHEMES {
-                if let Ok(indices) = resample_indices(&weights, n, scheme, &mut rng) {
-                    prop_assert_eq!(indices.len(), n);
-                    prop_assert!(indices.iter().all(|&i| i < weights.len() && weights[i] > 0.0));
-                    prop_assert!(indices.windows(2).all(|w| w[0] <= w[1]));
+#[test]
+fn resampling() {
+    fuzz::run(
+        "resampling",
+        (proptest::collection::vec(value(), 0..6), size(MAX_ELEMENTS)),
+        |(weights, n)| {
+            property("resampling", move || -> Result<(), TestCaseError> {
+                let mut rng = ChaCha8Rng::seed_from_u64(2);
+                for scheme in SCHEMES {
+                    if let Some(indices) = counted(resample_indices(&weights, n, scheme, &mut rng))
+                    {
+                        prop_assert_eq!(indices.len(), n);
+                        prop_assert!(
+                            indices
+                                .iter()
+                                .all(|&i| i < weights.len() && weights[i] > 0.0)
+                        );
+                        prop_assert!(indices.windows(2).all(|w| w[0] <= w[1]));
+                    }
                 }
-            }
-            Ok(())
-        })?;
-    }
+                Ok(())
+            });
+        },
+    );
+}
 
-    #[test]
-    fn grid(
-        n in nasty_size(),
-        log_density in proptest::collection::vec(nasty_f64(), 1..5),
-        likelihood in proptest::collection::vec(nasty_f64(), 1..5),
-        kernel in proptest::collection::vec(nasty_f64(), 1..5),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            let uniform = CircularGrid::uniform(n, ());
-            prop_assert_eq!(uniform.is_ok(), (1..=40).contains(&n));
-            let at = |table: &[f64], theta: f64| {
-                table[((theta * 100.0) as usize) % table.len()]
-            };
-            let Ok(mut grid) = CircularGrid::from_log_density(
-                n.min(40),
-                |t| at(&log_density, t),
-                |_| (),
-            ) else {
-                return Ok(());
-            };
-            let ess = |g: &CircularGrid<()>| {
-                1.0 / g.log_weights().iter().map(|l| (2.0 * l).exp()).sum::<f64>()
-            };
-            normalised(grid.log_weights(), ess(&grid))?;
-            let before = grid.log_weights().to_vec();
-            match grid.condition(|t| at(&likelihood, t)) {
-                Ok(evidence) => prop_assert!(!evidence.is_nan() && evidence < f64::INFINITY),
-                Err(_) => prop_assert_eq!(&before, grid.log_weights()),
-            }
-            normalised(grid.log_weights(), ess(&grid))?;
-            let before = grid.log_weights().to_vec();
-            if grid.diffuse(|d| at(&kernel, d)).is_err() {
-                prop_assert_eq!(&before, grid.log_weights());
-            }
-            normalised(grid.log_weights(), ess(&grid))?;
-            prop_assert!(finite(grid.first_moment().iter()));
-            Ok(())
-        })?;
-    }
-
-    /// The closed-form composite and the marginalized particle filter with nasty models.
-    #[test]
-    fn composites(
-        h in matrix::<2, 2>(), sigma in nasty_f64(), f in matrix::<2, 2>(), q in covariance::<2>(),
-        r in covariance::<2>(), z in matrix::<2, 1>(), u in matrix::<2, 1>(),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            let prior = HarmonicGaussian::new(
-                GenVonMises2::new(Vector2::new(0.5, 1.0), Vector2::zeros()).unwrap(),
-                Matrix2x3::new(1.0, 0.5, 0.0, -1.0, 0.0, 0.5),
-                Matrix2::identity() * 0.3,
-            )
-            .unwrap();
-            let finite_composite = |g: &HarmonicGaussian<2>| {
-                finite(g.angle().eta1().iter())
-                    && finite(g.angle().eta2().iter())
-                    && finite(g.features().iter())
-                    && finite(g.covariance().iter())
-            };
-            if let Ok(model) = RotatedMeasurement::new(h, sigma) {
-                if let Ok(step) = prior.condition(&model, &z) {
-                    prop_assert!(finite_composite(&step.posterior) && step.log_evidence.is_finite());
+#[test]
+fn grid() {
+    fuzz::run(
+        "grid",
+        (
+            size(MAX_ELEMENTS),
+            proptest::collection::vec(value(), 1..5),
+            proptest::collection::vec(value(), 1..5),
+            proptest::collection::vec(value(), 1..5),
+        ),
+        |(n, log_density, likelihood, kernel)| {
+            property("grid", move || -> Result<(), TestCaseError> {
+                let uniform = CircularGrid::uniform(n, ());
+                prop_assert_eq!(uniform.is_ok(), (1..=40).contains(&n));
+                let at =
+                    |table: &[f64], theta: f64| table[((theta * 100.0) as usize) % table.len()];
+                let Ok(mut grid) =
+                    CircularGrid::from_log_density(n.min(40), |t| at(&log_density, t), |_| ())
+                else {
+                    return Ok(());
+                };
+                let ess = |g: &CircularGrid<()>| {
+                    1.0 / g.log_weights().iter().map(|l| (2.0 * l).exp()).sum::<f64>()
+                };
+                normalised(grid.log_weights(), ess(&grid))?;
+                let before = grid.log_weights().to_vec();
+                match grid.condition(|t| at(&likelihood, t)) {
+                    Ok(evidence) => prop_assert!(!evidence.is_nan() && evidence < f64::INFINITY),
+                    Err(_) => prop_assert_eq!(&before, grid.log_weights()),
                 }
-            }
-            if let Ok(process) = LinearProcess::new(f, q) {
-                if let Ok(next) = prior.propagate(&process, &u) {
-                    prop_assert!(finite_composite(&next));
+                normalised(grid.log_weights(), ess(&grid))?;
+                let before = grid.log_weights().to_vec();
+                if grid.diffuse(|d| at(&kernel, d)).is_err() {
+                    prop_assert_eq!(&before, grid.log_weights());
                 }
-            }
-            let mut set = ParticleSet::from_samples(
-                [0.3, 2.0, -1.0]
-                    .map(|a| (a, Gaussian::new(Vector2::zeros(), Matrix2::identity()).unwrap()))
-                    .to_vec(),
-            )
-            .unwrap();
-            let before = set.log_weights().to_vec();
-            let step = condition_marginalized(
-                &mut set,
-                |a| LinearMeasurement::new(So2::from_angle_unchecked(*a).to_matrix() * h[(0, 0)], r),
-                &z,
-            );
-            match step {
-                Ok(evidence) => prop_assert!(!evidence.is_nan() && evidence < f64::INFINITY),
-                Err(_) => prop_assert_eq!(&before, set.log_weights()),
-            }
-            prop_assert!(set.particles().iter().all(|(_, g)| finite_gaussian(g)));
-            Ok(())
-        })?;
-    }
+                normalised(grid.log_weights(), ess(&grid))?;
+                prop_assert!(finite(grid.first_moment().iter()));
+                Ok(())
+            });
+        },
+    );
+}
 
-    #[test]
-    fn smoother(
-        steps in nasty_size(), rate in nasty_f64(), q in nasty_f64(), r in nasty_f64(),
-        z in nasty_f64(),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            let prior = ManifoldGaussian::new(So2::from_angle_unchecked(0.5), Matrix1::new(0.1))
+/// The closed-form composite and the marginalized particle filter with nasty models.
+#[test]
+fn composites() {
+    fuzz::run(
+        "composites",
+        (
+            matrix::<2, 2>(),
+            value(),
+            matrix::<2, 2>(),
+            covariance::<2>(),
+            covariance::<2>(),
+            matrix::<2, 1>(),
+            matrix::<2, 1>(),
+        ),
+        |(h, sigma, f, q, r, z, u)| {
+            property("composites", move || -> Result<(), TestCaseError> {
+                let prior = HarmonicGaussian::new(
+                    GenVonMises2::new(Vector2::new(0.5, 1.0), Vector2::zeros()).unwrap(),
+                    Matrix2x3::new(1.0, 0.5, 0.0, -1.0, 0.0, 0.5),
+                    Matrix2::identity() * 0.3,
+                )
                 .unwrap();
-            prop_assert_eq!(
-                RtsSmoother::with_capacity(prior.clone(), steps).is_ok(),
-                steps <= 40
-            );
-            let gyro = ProcessFn::new(
-                move |x: &So2<f64>, (): &()| x.retract(&Vector1::new(rate)),
-                move |_, ()| Matrix1::new(q),
-            );
-            let compass = MeasurementFn::new(
-                |x: &So2<f64>| Vector1::new(x.angle()),
-                move |_| Matrix1::new(r),
-            );
-            let mut rts = RtsSmoother::new(prior);
-            for _ in 0..3 {
-                let before = (rts.filtered().len(), rts.current().clone());
-                let propagated = rts.propagate(&Ekf(&gyro), &());
-                let conditioned = rts.condition(&Ukf::new(&compass), &Vector1::new(z)).map(|_| ());
-                if propagated.is_err() {
-                    prop_assert_eq!(rts.filtered().len(), before.0);
+                let finite_composite = |g: &HarmonicGaussian<2>| {
+                    finite(g.angle().eta1().iter())
+                        && finite(g.angle().eta2().iter())
+                        && finite(g.features().iter())
+                        && finite(g.covariance().iter())
+                };
+                if let Some(model) = counted(RotatedMeasurement::new(h, sigma)) {
+                    if let Some(step) = counted(prior.condition(&model, &z)) {
+                        prop_assert!(
+                            finite_composite(&step.posterior) && step.log_evidence.is_finite()
+                        );
+                    }
                 }
-                if propagated.is_err() && conditioned.is_err() {
-                    prop_assert_eq!(rts.current().mean(), before.1.mean());
-                    prop_assert_eq!(rts.current().covariance(), before.1.covariance());
+                if let Some(process) = counted(LinearProcess::new(f, q)) {
+                    if let Some(next) = counted(prior.propagate(&process, &u)) {
+                        prop_assert!(finite_composite(&next));
+                    }
                 }
-            }
-            if let Ok(smoothed) = rts.smooth() {
-                prop_assert!(smoothed.iter().all(finite_manifold_gaussian));
-            }
-            Ok(())
-        })?;
-    }
+                let mut set = ParticleSet::from_samples(
+                    [0.3, 2.0, -1.0]
+                        .map(|a| {
+                            (
+                                a,
+                                Gaussian::new(Vector2::zeros(), Matrix2::identity()).unwrap(),
+                            )
+                        })
+                        .to_vec(),
+                )
+                .unwrap();
+                let before = set.log_weights().to_vec();
+                let step = condition_marginalized(
+                    &mut set,
+                    |a| {
+                        LinearMeasurement::new(
+                            So2::from_angle_unchecked(*a).to_matrix() * h[(0, 0)],
+                            r,
+                        )
+                    },
+                    &z,
+                );
+                match step {
+                    Ok(evidence) => prop_assert!(!evidence.is_nan() && evidence < f64::INFINITY),
+                    Err(_) => prop_assert_eq!(&before, set.log_weights()),
+                }
+                prop_assert!(set.particles().iter().all(|(_, g)| finite_gaussian(g)));
+                Ok(())
+            });
+        },
+    );
+}
 
-    #[test]
-    fn evaluation(
-        e in matrix::<2, 1>(), p in covariance::<2>(), z in nasty_f64(), dof in nasty_f64(),
-        dim in nasty_size(), runs in nasty_size(), values in proptest::collection::vec(nasty_f64(), 4),
-        epochs in proptest::collection::vec(nasty_size(), 4),
-    ) {
-        within_time_limit(move || -> Result<(), TestCaseError> {
-            if let Ok(value) = nees(&e, &p) {
-                prop_assert!(value.is_finite() && value >= 0.0);
-            }
-            if let Ok(value) = chi_square_quantile(z, dof) {
-                prop_assert!(value.is_finite() && value >= 0.0);
-            }
-            if let Ok((low, high)) = average_nees_band(dim, runs) {
-                prop_assert!(low.is_finite() && high.is_finite() && low <= high);
-            }
-            if let Some(value) = circular_consistency(z, dof) {
-                prop_assert!(value.is_finite() && value >= 0.0);
-            }
-            let mut mean = MeanEstimate::default();
-            let mut series = Series::default();
-            for (&value, &k) in values.iter().zip(&epochs) {
-                let before = mean;
-                if mean.add(value).is_err() {
-                    prop_assert_eq!(before, mean);
+#[test]
+fn smoother() {
+    fuzz::run(
+        "smoother",
+        (size(MAX_ELEMENTS), value(), value(), value(), value()),
+        |(steps, rate, q, r, z)| {
+            property("smoother", move || -> Result<(), TestCaseError> {
+                let prior =
+                    ManifoldGaussian::new(So2::from_angle_unchecked(0.5), Matrix1::new(0.1))
+                        .unwrap();
+                prop_assert_eq!(
+                    RtsSmoother::with_capacity(prior.clone(), steps).is_ok(),
+                    steps <= 40
+                );
+                let gyro = ProcessFn::new(
+                    move |x: &So2<f64>, (): &()| x.retract(&Vector1::new(rate)),
+                    move |_, ()| Matrix1::new(q),
+                );
+                let compass = MeasurementFn::new(
+                    |x: &So2<f64>| Vector1::new(x.angle()),
+                    move |_| Matrix1::new(r),
+                );
+                let mut rts = RtsSmoother::new(prior);
+                for _ in 0..3 {
+                    let before = (rts.filtered().len(), rts.current().clone());
+                    let propagated = rts.propagate(&Ekf(&gyro), &());
+                    let conditioned = rts
+                        .condition(&Ukf::new(&compass), &Vector1::new(z))
+                        .map(|_| ());
+                    if propagated.is_err() {
+                        prop_assert_eq!(rts.filtered().len(), before.0);
+                    }
+                    if propagated.is_err() && conditioned.is_err() {
+                        prop_assert_eq!(rts.current().mean(), before.1.mean());
+                        prop_assert_eq!(rts.current().covariance(), before.1.covariance());
+                    }
                 }
-                let before = series.clone();
-                if series.add(k, value).is_err() {
-                    prop_assert_eq!(&before, &series);
+                if let Some(smoothed) = counted(rts.smooth()) {
+                    prop_assert!(smoothed.iter().all(finite_manifold_gaussian));
                 }
-            }
-            prop_assert!(mean.mean().is_none_or(f64::is_finite));
-            prop_assert!(mean.band().is_none_or(|(l, h)| l.is_finite() && h.is_finite()));
-            prop_assert!(series.means().iter().flatten().all(|m| m.is_finite()));
-            let copy = series.clone();
-            if series.merge(&copy).is_err() {
-                prop_assert_eq!(&copy, &series);
-            }
-            let outcome = MonteCarlo::new("fuzz").quiet().run(runs, |i| i);
-            prop_assert_eq!(outcome.map(|v| v.len()).ok(), (runs <= 40).then_some(runs));
-            Ok(())
-        })?;
-    }
+                Ok(())
+            });
+        },
+    );
+}
+
+#[test]
+fn evaluation() {
+    fuzz::run(
+        "evaluation",
+        (
+            matrix::<2, 1>(),
+            covariance::<2>(),
+            value(),
+            value(),
+            size(MAX_ELEMENTS),
+            size(MAX_ELEMENTS),
+            proptest::collection::vec(value(), 4),
+            proptest::collection::vec(size(MAX_ELEMENTS), 4),
+        ),
+        |(e, p, z, dof, dim, runs, values, epochs)| {
+            property("evaluation", move || -> Result<(), TestCaseError> {
+                if let Some(value) = counted(nees(&e, &p)) {
+                    prop_assert!(value.is_finite() && value >= 0.0);
+                }
+                if let Some(value) = counted(chi_square_quantile(z, dof)) {
+                    prop_assert!(value.is_finite() && value >= 0.0);
+                }
+                if let Some((low, high)) = counted(average_nees_band(dim, runs)) {
+                    prop_assert!(low.is_finite() && high.is_finite() && low <= high);
+                }
+                if let Some(value) = circular_consistency(z, dof) {
+                    prop_assert!(value.is_finite() && value >= 0.0);
+                }
+                let mut mean = MeanEstimate::default();
+                let mut series = Series::default();
+                for (&value, &k) in values.iter().zip(&epochs) {
+                    let before = mean;
+                    if mean.add(value).is_err() {
+                        prop_assert_eq!(before, mean);
+                    }
+                    let before = series.clone();
+                    if series.add(k, value).is_err() {
+                        prop_assert_eq!(&before, &series);
+                    }
+                }
+                prop_assert!(mean.mean().is_none_or(f64::is_finite));
+                prop_assert!(
+                    mean.band()
+                        .is_none_or(|(l, h)| l.is_finite() && h.is_finite())
+                );
+                prop_assert!(series.means().iter().flatten().all(|m| m.is_finite()));
+                let copy = series.clone();
+                if series.merge(&copy).is_err() {
+                    prop_assert_eq!(&copy, &series);
+                }
+                let outcome = MonteCarlo::new("fuzz").quiet().run(runs, |i| i);
+                prop_assert_eq!(outcome.map(|v| v.len()).ok(), (runs <= 40).then_some(runs));
+                Ok(())
+            });
+        },
+    );
 }
 
 // The regressions, each of which panicked, aborted, hung or returned a wrong value before.
@@ -448,7 +560,10 @@ fn resampling_normalises_its_weights_before_allocating() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     for scheme in SCHEMES {
         assert_eq!(resample_indices(&[1e300], 1, scheme, &mut rng), Ok(vec![0]));
-        assert_eq!(resample_indices(&[1e10, 0.0], 1, scheme, &mut rng), Ok(vec![0]));
+        assert_eq!(
+            resample_indices(&[1e10, 0.0], 1, scheme, &mut rng),
+            Ok(vec![0])
+        );
         assert_eq!(
             resample_indices(&[f64::MAX, f64::MAX], 2, scheme, &mut rng)
                 .unwrap()
@@ -491,7 +606,8 @@ fn containers_refuse_sizes_before_allocating() {
 #[test]
 fn log_weights_stay_normalised_at_huge_offsets() {
     for offset in [-1e300, -1e15, 1e300] {
-        let set = ParticleSet::from_log_weighted_samples(vec![0.0, 1.0], &[offset, offset]).unwrap();
+        let set =
+            ParticleSet::from_log_weighted_samples(vec![0.0, 1.0], &[offset, offset]).unwrap();
         assert_eq!(set.weights(), vec![0.5, 0.5], "{offset}");
         assert_eq!(set.effective_sample_size(), 2.0);
         let mut set =
@@ -508,8 +624,11 @@ fn log_weights_stay_normalised_at_huge_offsets() {
 /// the particle set and the smoother, and nothing changes.
 #[test]
 fn models_returning_nan_are_refused() {
-    let prior = ManifoldGaussian::new(Rn::new_unchecked(Vector2::new(1.0, 2.0)), Matrix2::identity())
-        .unwrap();
+    let prior = ManifoldGaussian::new(
+        Rn::new_unchecked(Vector2::new(1.0, 2.0)),
+        Matrix2::identity(),
+    )
+    .unwrap();
     let broken = ProcessFn::new(
         |_: &Rn<f64, 2>, (): &()| Rn::new_unchecked(Vector2::new(f64::NAN, 0.0)),
         |_, ()| Matrix2::identity(),
