@@ -1,4 +1,4 @@
-//! The exact azimuth-alignment filter (seed 000) on one simulated run of the circle scenario, beside the
+//! The exact azimuth-alignment filter on one simulated run of the circle scenario, beside the
 //! EKF on [r, A]: `cargo run --release --example azimuth`.
 //!
 //! The platform's velocity is known in its own axes, its position is measured in world axes, and the two

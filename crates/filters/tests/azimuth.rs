@@ -3,7 +3,7 @@
 //! edges.
 
 use liebayes_densities::Density;
-use liebayes_filters::azimuth::scenario::{Config, Scenario, simulate};
+use liebayes_filters::azimuth::scenario::{Config, Scenario, simulate, trajectory};
 use liebayes_filters::azimuth::{
     AzimuthDensity, GridReference, PositionMeasurement, VelocityInput, VelocityProcess,
 };
@@ -237,7 +237,7 @@ fn replays_the_reference_vectors() {
     eprintln!("azimuth reference vectors: {epochs} epochs, worst relative error {worst:.1e}");
 }
 
-/// Static scenario from the origin: η stays exactly 0 (ERRATA): κ = 0, no mode, no σ_A, finite
+/// Static scenario from the origin: η stays exactly 0 (the measurements carry no azimuth information): κ = 0, no mode, no σ_A, finite
 /// moments, and `Cov r = (σ² + |c|²/2) I`.
 #[test]
 fn static_scenario_reports_an_unobservable_azimuth_without_nan() {
@@ -299,6 +299,16 @@ fn moments_by_quadrature(density: &AzimuthDensity) -> (Vector2<f64>, Matrix2<f64
     (mean, spread + Matrix2::identity() * density.sigma2())
 }
 
+/// The smaller eigenvalue of a symmetric 2 × 2 matrix in closed form, `m − √(d² + b²)`, on the
+/// matrix scaled to unit size (so that no square overflows or underflows).
+fn smallest_eigenvalue(cov: &Matrix2<f64>) -> f64 {
+    let scale = cov.amax();
+    let unit = cov / scale;
+    (0.5 * (unit[(0, 0)] + unit[(1, 1)])
+        - (0.5 * (unit[(0, 0)] - unit[(1, 1)])).hypot(unit[(0, 1)]))
+        * scale
+}
+
 /// Cov r is σ² I plus two positive semi-definite terms with non-negative coefficients, so it is
 /// positive definite with eigenvalues at least σ² at every κ: from 0 and the smallest subnormal to
 /// 1e300, in every mean direction, for world-fixed parts c from 0 to 1e6 m (and 2.2e7 m, the end of
@@ -337,12 +347,7 @@ fn point_estimates_are_positive_definite_at_any_concentration() {
                     nalgebra::Cholesky::new(cov).is_some(),
                     "kappa {kappa}, mu {mu}, c {c:?}: {cov:?}"
                 );
-                // The smaller eigenvalue in closed form, on the matrix scaled to unit size.
-                let scale = cov.amax();
-                let unit = cov / scale;
-                let low = (0.5 * (unit[(0, 0)] + unit[(1, 1)])
-                    - (0.5 * (unit[(0, 0)] - unit[(1, 1)])).hypot(unit[(0, 1)]))
-                    * scale;
+                let (low, scale) = (smallest_eigenvalue(&cov), cov.amax());
                 assert!(
                     low >= sigma2 * (1.0 - 1e-9) - 8.0 * f64::EPSILON * scale,
                     "kappa {kappa}, mu {mu}, c {c:?}: eigenvalue {low}"
@@ -540,4 +545,73 @@ fn exact_filter_is_the_general_composite_specialised() {
             scenario.name()
         );
     }
+}
+
+/// The line scenario run for `LIEBAYES_LONG_STEPS` steps (default 10⁸, 10⁷ measurements; about a
+/// minute in release): κ grows to about 5e9 and |c| to 2.2e7 m. At every measurement Cov r must
+/// pass a Cholesky factorisation and have its smaller eigenvalue at least σ² (up to the rounding
+/// of its entries), and every step must succeed. Ignored by default:
+/// `cargo test --release -p liebayes-filters --test azimuth -- --ignored --nocapture long_line_run`.
+#[test]
+#[ignore = "a long run: 10^8 steps, about a minute in release"]
+fn long_line_run_stays_positive_definite() {
+    let steps = std::env::var("LIEBAYES_LONG_STEPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(100_000_000);
+    let config = Config {
+        steps,
+        ..Config::default()
+    };
+    let start = std::time::Instant::now();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut run = trajectory(Scenario::Line, &config, &mut rng).unwrap();
+    let truth = So2::from_angle_unchecked(run.true_azimuth());
+    let mut density = AzimuthDensity::new(Vector2::zeros(), config.sigma0).unwrap();
+    let process = VelocityProcess::new(config.q).unwrap();
+    let measurement = PositionMeasurement::new(config.sigma_m).unwrap();
+    // The smallest ratio of Cov r's smaller eigenvalue to σ², over every measurement.
+    let mut worst_ratio = f64::INFINITY;
+    for (k, step) in run.by_ref().enumerate() {
+        if let Some(z) = step.measurement {
+            density
+                .update(&measurement, &z)
+                .unwrap_or_else(|e| panic!("step {k}: {e}"));
+            let e = density.estimates();
+            assert!(
+                nalgebra::Cholesky::new(e.cov_r).is_some(),
+                "step {k}, kappa {}: {:?}",
+                e.kappa,
+                e.cov_r
+            );
+            let ratio = smallest_eigenvalue(&e.cov_r) / density.sigma2();
+            assert!(
+                ratio >= 1.0 - 1e-9 - 8.0 * f64::EPSILON * e.cov_r.amax() / density.sigma2(),
+                "step {k}, kappa {}: eigenvalue ratio {ratio}",
+                e.kappa
+            );
+            worst_ratio = worst_ratio.min(ratio);
+        }
+        let input = VelocityInput {
+            velocity: step.velocity,
+            dt: config.dt,
+        };
+        density
+            .predict(&process, &input)
+            .unwrap_or_else(|e| panic!("step {k}: {e}"));
+    }
+    let e = density.estimates();
+    let error = estimation_error(&truth, &So2::from_angle_unchecked(e.mode.unwrap()))[0];
+    eprintln!(
+        "line run of {steps} steps in {:.1} s: final kappa {:.3e}, |c| {:.3e} m, sigma^2 {:.3e}, \
+         smallest eigenvalue of Cov r {:.6e} (at least {worst_ratio:.12} sigma^2 over the run), \
+         azimuth error {error:.3e} rad ({:.2} sigma_A)",
+        start.elapsed().as_secs_f64(),
+        e.kappa,
+        density.c().norm(),
+        density.sigma2(),
+        smallest_eigenvalue(&e.cov_r),
+        error.abs() / e.sigma_a.unwrap(),
+    );
+    assert!(error.abs() <= 5.0 * e.sigma_a.unwrap());
 }

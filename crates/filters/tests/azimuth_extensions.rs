@@ -1,4 +1,4 @@
-//! Item 6 of the azimuth issue: the forms beyond the seed, each checked against brute force.
+//! Item 6 of the azimuth issue: the forms beyond the blog post's, each checked against brute force.
 //!
 //! * **Velocity matching** (world-frame velocity measured, position and velocity as the state): exact,
 //!   the general composite `HarmonicGaussian<4>`, against a grid of 4-D Kalman filters.

@@ -3,7 +3,7 @@
 //! * The closed-form family is the densities crate's [`HarmonicGaussian`]: `p(y)` a generalised von
 //!   Mises of order 2 and `p(x | y) = N(B φ(y), Σ)` with the features `φ(y) = (1, cos y, sin y)` and Σ
 //!   the same for every y. This module holds its exact steps: linear processes and two kinds of
-//!   measurement keep the form (see below); seed 000's seven-number azimuth filter is the special case
+//!   measurement keep the form (see below); the seven-number azimuth-alignment filter is the special case
 //!   `B = [a, c, −c^×]`, `Σ = σ² I`, η₂ = 0.
 //! * [`condition_marginalized`]: the marginalized particle filter, the general fallback, particles for
 //!   y each carrying its own exactly conditioned density of x, weighted by that density's log evidence.

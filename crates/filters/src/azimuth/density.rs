@@ -42,7 +42,7 @@ pub const POSITION_LIMIT: f64 = 1e150;
 /// The largest conditional variance σ² (m²).
 pub const VARIANCE_LIMIT: f64 = 1e300;
 
-/// Point estimates of an [`AzimuthDensity`] (seed 000's).
+/// Point estimates of an [`AzimuthDensity`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AzimuthEstimates {
     /// κ = |η|, the azimuth's concentration; 0 when it is unobservable so far.
@@ -228,7 +228,7 @@ impl AzimuthDensity {
     /// that composite with the linear process and conditioning it on the rotated measurement
     /// `z = R(A) r + n` gives this filter's seven numbers again, with η₂ = 0 at every step
     /// (`tests/azimuth.rs` checks it at every epoch): this type is the composite's specialisation to
-    /// the seed's prior, stored in seven numbers instead of eleven and updated in a few nanoseconds.
+    /// the blog post's prior, stored in seven numbers instead of eleven and updated in a few nanoseconds.
     ///
     /// # Errors
     /// [`DensityError::OutOfRange`] for κ above
@@ -349,7 +349,7 @@ impl AzimuthDensity {
         Ok(())
     }
 
-    /// The point estimates (seed 000), from the first and second circular moments of p(A):
+    /// The point estimates, from the first and second circular moments of p(A):
     ///
     /// `E r = a + ρ b₁`, `Cov r = σ² I + A′(κ) b₁ b₁ᵀ + (ρ/κ) b₂ b₂ᵀ`, with ρ = A(κ) = I₁(κ)/I₀(κ),
     /// μ the mean direction and `b₁ = c cos μ − c^× sin μ`, `b₂ = −c sin μ − c^× cos μ` (the columns

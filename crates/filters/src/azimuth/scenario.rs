@@ -1,4 +1,4 @@
-//! The seed's three motion scenarios, and a seeded simulator of truth and measurements: recorded
+//! The three motion scenarios of the azimuth-alignment blog post, and a seeded simulator of truth and measurements: recorded
 //! ([`simulate`]) or streamed step by step ([`trajectory`], for runs too long to record).
 
 use super::density::variance_of;
@@ -22,7 +22,7 @@ pub enum Scenario {
 }
 
 impl Scenario {
-    /// All three, in the seed's order.
+    /// All three, in the blog post's order.
     pub const ALL: [Scenario; 3] = [Scenario::Static, Scenario::Circle, Scenario::Line];
 
     /// The velocity at time t.
@@ -47,7 +47,7 @@ impl Scenario {
     }
 }
 
-/// Noise levels and timing; the default is the seed's: 500 s, propagation every 0.1 s, a position
+/// Noise levels and timing; the default is the blog post's: 500 s, propagation every 0.1 s, a position
 /// measurement every 1 s, σ_m = σ₀ = 1 m, q = 0.1 m/√s, initial position at the origin. The fields
 /// are checked by [`validate`](Self::validate) before any simulation or study uses them.
 #[derive(Clone, Copy, Debug, PartialEq)]
