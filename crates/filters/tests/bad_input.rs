@@ -82,9 +82,9 @@ fn sound(density: &AzimuthDensity) -> Result<(), TestCaseError> {
 /// after success.
 fn step_filter(
     filter: &mut dyn AzimuthFilter,
-    process: &VelocityProcess,
+    process: VelocityProcess,
     input: &VelocityInput,
-    measurement: &PositionMeasurement,
+    measurement: PositionMeasurement,
     z: &Vector2<f64>,
 ) -> Result<(), TestCaseError> {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
@@ -92,11 +92,11 @@ fn step_filter(
     // itself.
     let estimate = |f: &dyn AzimuthFilter| format!("{:?}", f.estimate());
     let before = estimate(filter);
-    if filter.update(measurement, z, &mut rng).is_err() {
+    if filter.update(&measurement, z, &mut rng).is_err() {
         prop_assert_eq!(&before, &estimate(filter));
     }
     let before = estimate(filter);
-    if filter.predict(process, input, &mut rng).is_err() {
+    if filter.predict(&process, input, &mut rng).is_err() {
         prop_assert_eq!(&before, &estimate(filter));
     }
     if let Some(e) = counted(filter.estimate()) {
@@ -259,8 +259,8 @@ fn baselines() {
                     .unwrap_or(PositionMeasurement::new(1.0).unwrap());
                 let input = VelocityInput { velocity: v, dt };
                 for filter in &mut filters {
-                    step_filter(filter.as_mut(), &process, &input, &measurement, &z)?;
-                    step_filter(filter.as_mut(), &process, &input, &measurement, &(z * 0.5))?;
+                    step_filter(filter.as_mut(), process, &input, measurement, &z)?;
+                    step_filter(filter.as_mut(), process, &input, measurement, &(z * 0.5))?;
                 }
                 Ok(())
             });
@@ -287,7 +287,7 @@ fn scenarios_and_studies() {
                 "scenarios_and_studies",
                 move || -> Result<(), TestCaseError> {
                     if let Some(count) = counted(Config::steps_for(duration, dt)) {
-                        prop_assert!(count >= 1 && count <= liebayes_operators::MAX_ELEMENTS);
+                        prop_assert!((1..=MAX_ELEMENTS).contains(&count));
                     }
                     let config = Config {
                         sigma0,
@@ -433,4 +433,71 @@ fn simulations_refuse_sizes_before_allocating() {
         .validate()
         .is_err()
     );
+}
+
+/// η = (MAX, MAX) has finite components but κ = |η| = ∞: it was accepted, and every estimate was
+/// NaN. It is refused, and so is any κ above the von Mises family's limit 1e300.
+#[test]
+fn a_concentration_that_overflows_is_refused() {
+    for eta in [
+        Vector2::new(f64::MAX, f64::MAX),
+        Vector2::new(-f64::MAX, f64::MAX),
+    ] {
+        assert!(matches!(
+            AzimuthDensity::from_parts(eta, Vector2::zeros(), Vector2::zeros(), 1.0),
+            Err(OperatorError::OutOfRange { .. })
+        ));
+    }
+    let largest = AzimuthDensity::from_parts(
+        Vector2::new(0.6e300, 0.8e300),
+        Vector2::zeros(),
+        Vector2::zeros(),
+        1.0,
+    )
+    .unwrap();
+    let e = largest.estimates();
+    assert!((e.kappa / 1e300 - 1.0).abs() < 1e-15 && e.sigma_a.unwrap() > 0.0);
+}
+
+/// A case the harness found: a prior at 1e300 m, a step of 1e300 s and a subnormal velocity, through
+/// every baseline. Each step now fails with an error and leaves the filter as it was, or gives a
+/// finite estimate.
+#[test]
+fn baselines_survive_a_prior_far_away_and_a_huge_step() {
+    let (r0, sigma0) = (
+        Vector2::new(f64::MIN_POSITIVE, 1e300),
+        1.835_701_760_938_207_8,
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let mut filters: Vec<Box<dyn AzimuthFilter>> = Vec::new();
+    for filter in [
+        ParticleBaseline::new(6, r0, sigma0, &mut rng)
+            .map(|f| Box::new(f) as Box<dyn AzimuthFilter>),
+        MarginalizedBaseline::new(6, r0, sigma0, &mut rng).map(|f| Box::new(f) as _),
+        GridReference::new(6, r0, sigma0).map(|f| Box::new(f) as _),
+        GaussianBaseline::new(Linearisation::Extended, r0, sigma0).map(|f| Box::new(f) as _),
+        GaussianBaseline::new(Linearisation::Unscented, r0, sigma0).map(|f| Box::new(f) as _),
+        AzimuthDensity::new(r0, sigma0).map(|f| Box::new(f) as _),
+    ] {
+        match filter {
+            Ok(f) => filters.push(f),
+            Err(e) => assert!(!e.to_string().is_empty()),
+        }
+    }
+    let process = VelocityProcess::new(8.002_486_246_475_813).unwrap();
+    let measurement = PositionMeasurement::new(1.0).unwrap();
+    let input = VelocityInput {
+        velocity: Vector2::new(1e-160, 0.0),
+        dt: 1e300,
+    };
+    for filter in &mut filters {
+        step_filter(
+            filter.as_mut(),
+            process,
+            &input,
+            measurement,
+            &Vector2::zeros(),
+        )
+        .unwrap();
+    }
 }

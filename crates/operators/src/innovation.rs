@@ -60,11 +60,15 @@ impl<const N: usize, const M: usize> Innovation<N, M> {
                 .map(|d| d.ln())
                 .sum::<f64>();
         let log_evidence = -0.5 * (nis + log_det + M as f64 * (2.0 * PI).ln());
-        all_finite(
-            "innovation statistics (the NIS nu^T S^-1 nu, the gain K or the log evidence overflow: \
-             the measurement is too far from its prediction for S, or S is nearly singular)",
-            [nis, log_evidence].iter().chain(gain.iter()),
-        )?;
+        // The log evidence holds the NIS, so one test covers both. A gain that overflows is refused by
+        // the caller's check of the posterior it produces (mean μ ⊞ K ν and covariance).
+        if !log_evidence.is_finite() {
+            return Err(OperatorError::NonFinite {
+                what: "innovation statistics (the NIS nu^T S^-1 nu or the log evidence overflow: the \
+                       measurement is too far from its prediction for S, or S is nearly singular)",
+                value: log_evidence,
+            });
+        }
         Ok((
             Self {
                 nu: innovation,

@@ -30,6 +30,7 @@ pub(crate) fn symmetric_part<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<
 /// # Errors
 /// [`OperatorError::NonFinitePoint`] for a mean that is not finite, [`OperatorError::NonFinite`] for a
 /// covariance entry that is not, [`OperatorError::NotPositiveDefinite`] otherwise.
+#[inline]
 pub(crate) fn checked_gaussian<X: Manifold<D, Scalar = f64>, const D: usize>(
     mean: X,
     covariance: &SMatrix<f64, D, D>,

@@ -23,8 +23,9 @@
 //!   trigonometric polynomial of order 2 in y. When `H Σ Hᵀ` is not isotropic, Σ⁺ depends on y and the
 //!   family is not closed: the step refuses with [`OperatorError::NotClosed`].
 //!
-//! A conditioning step whose angle would be more concentrated than [`MAX_CONCENTRATION`] (1e10) is
-//! refused with [`OperatorError::OutOfRange`]: the normaliser's cost grows as √κ.
+//! A conditioning step whose angle would be more concentrated than the generalised von Mises family
+//! allows (`κ₁ + 4κ₂` up to [`GenVonMises2::MAX_CONCENTRATION`] = 1e16) is refused with the density's
+//! error, and the composite is left as it was.
 //!
 //! Each conditioning returns the exact log evidence
 //! `ln p(z) = constant + ln Z(η⁺) − ln Z(η)` with Z the [`GenVonMises2`] normaliser, and reports `()`.
@@ -37,12 +38,6 @@ use crate::{Condition, Conditioned, OperatorError, Propagate};
 use liebayes_densities::{Density, GenVonMises2, HarmonicGaussian};
 use nalgebra::{Cholesky, SMatrix, SVector, Vector2};
 use std::f64::consts::PI;
-
-/// The largest concentration `|η₁| + 4 |η₂|` a conditioning step of the composite gives its angle:
-/// the generalised von Mises normaliser is a trapezoid sum of about `12 √κ` terms (1.2e6 at the
-/// limit, some 50 ms), so a step beyond it is refused rather than left to run for seconds. The exact
-/// azimuth filter's seven numbers have no such limit.
-pub const MAX_CONCENTRATION: f64 = 1e10;
 
 /// A measurement's log-likelihood as a function of the angle, after x is integrated out:
 /// `ln p(z | y, past) = constant + η₁ · u(y) + η₂ · u(2y)`, `u(y) = (cos y, sin y)`.
@@ -233,17 +228,7 @@ fn reweighted_angle(
     prior: &GenVonMises2,
     h: &Harmonics,
 ) -> Result<(GenVonMises2, f64), OperatorError> {
-    let (eta1, eta2) = (prior.eta1() + h.eta1, prior.eta2() + h.eta2);
-    let concentration = eta1.norm() + 4.0 * eta2.norm();
-    if concentration.is_nan() || concentration > MAX_CONCENTRATION {
-        return Err(OperatorError::OutOfRange {
-            what: "concentration |eta_1| + 4 |eta_2| of the composite's angle after the step (its \
-                   normaliser sums about 12 sqrt(kappa) terms)",
-            value: concentration,
-            range: "[0, 1e10]",
-        });
-    }
-    let angle = GenVonMises2::new(eta1, eta2)?;
+    let angle = GenVonMises2::new(prior.eta1() + h.eta1, prior.eta2() + h.eta2)?;
     let log_evidence = h.constant + angle.log_normalizer() - prior.log_normalizer();
     all_finite(
         "log evidence of the composite's measurement (it overflows: the measurement is too far \

@@ -3,7 +3,6 @@
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use liebayes_densities::{DensityError, GenVonMises2, HarmonicGaussian, VonMises, special};
 use liebayes_manifolds::So2;
-use liebayes_operators::rao_blackwell::MAX_CONCENTRATION;
 use liebayes_operators::{Condition, Conditioned, OperatorError, Propagate};
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
 use std::f64::consts::PI;
@@ -23,7 +22,8 @@ use std::f64::consts::PI;
 ///
 /// Both steps cost a few nanoseconds and allocate nothing; the log evidence adds two ln I₀. `a × b = a_x b_y − a_y b_x`.
 ///
-/// **Valid range**, kept by every constructor and step: η with a finite norm κ = |η|, the components of a and c within
+/// **Valid range**, kept by every constructor and step: η with a norm κ = |η| up to
+/// [`CONCENTRATION_LIMIT`] = 1e300, the components of a and c within
 /// ±[`POSITION_LIMIT`] = ±1e150 m and σ² in [2.2e-308, [`VARIANCE_LIMIT`] = 1e300] m² (a positive
 /// normal number), so that every moment of [`estimates`](Self::estimates), which holds |c|², is
 /// finite. A step whose result would leave the range (an overflow, a variance that underflows) is
@@ -38,6 +38,9 @@ pub struct AzimuthDensity {
 
 /// The largest magnitude of a component of a or c (m): their squares stay finite.
 pub const POSITION_LIMIT: f64 = 1e150;
+
+/// The largest concentration κ = |η| of the azimuth, the von Mises family's limit.
+pub const CONCENTRATION_LIMIT: f64 = 1e300;
 
 /// The largest conditional variance σ² (m²).
 pub const VARIANCE_LIMIT: f64 = 1e300;
@@ -165,15 +168,22 @@ impl AzimuthDensity {
         origin: Origin,
     ) -> Result<Self, OperatorError> {
         let [eta_name, position_name, variance_name] = origin.names();
-        // κ = |η| must be finite too (η = (MAX, MAX) has finite components).
+        if let Some(&value) = eta.iter().find(|v| !v.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: eta_name,
+                value,
+            });
+        }
+        // κ = |η| must be in range too (η = (MAX, MAX) has finite components and κ = ∞).
         let kappa = eta.x.hypot(eta.y);
-        let angle = VonMises::new(eta)
-            .ok()
-            .filter(|_| kappa.is_finite())
-            .ok_or(OperatorError::NonFinite {
+        if kappa > CONCENTRATION_LIMIT {
+            return Err(OperatorError::OutOfRange {
                 what: eta_name,
                 value: kappa,
-            })?;
+                range: "concentration kappa = |eta| in [0, 1e300]",
+            });
+        }
+        let angle = VonMises::new(eta)?;
         if let Some(&value) = a.iter().chain(c.iter()).find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
                 what: position_name,
@@ -231,19 +241,9 @@ impl AzimuthDensity {
     /// the blog post's prior, stored in seven numbers instead of eleven and updated in a few nanoseconds.
     ///
     /// # Errors
-    /// [`DensityError::OutOfRange`] for κ above
-    /// [`MAX_CONCENTRATION`](liebayes_operators::rao_blackwell::MAX_CONCENTRATION) (1e10), where the
-    /// composite's normaliser, a trapezoid sum of about 12 √κ terms, would take seconds; the
-    /// composite's constructor errors otherwise.
+    /// [`DensityError::OutOfRange`] for κ above the generalised von Mises family's
+    /// [`GenVonMises2::MAX_CONCENTRATION`] (1e16); the composite's constructor errors otherwise.
     pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, DensityError> {
-        let kappa = self.eta().x.hypot(self.eta().y);
-        if kappa > MAX_CONCENTRATION {
-            return Err(DensityError::OutOfRange {
-                what: "concentration kappa of the azimuth for its composite form",
-                value: kappa,
-                range: "[0, 1e10]",
-            });
-        }
         HarmonicGaussian::new(
             GenVonMises2::new(*self.eta(), Vector2::zeros())?,
             Matrix2x3::from_columns(&[self.a, self.c, -perp(&self.c)]),

@@ -23,7 +23,9 @@ pub use baselines::{
     AzimuthFilter, Estimate, GaussianBaseline, Linearisation, MarginalizedBaseline,
     ParticleBaseline, PositionAzimuth,
 };
-pub use density::{AzimuthDensity, AzimuthEstimates};
+pub use density::{
+    AzimuthDensity, AzimuthEstimates, CONCENTRATION_LIMIT, POSITION_LIMIT, VARIANCE_LIMIT,
+};
 pub use grid::GridReference;
 pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
 pub use study::{Method, Summary, study};
