@@ -99,28 +99,12 @@ fn step_filter(
     if filter.predict(&process, input, &mut rng).is_err() {
         prop_assert_eq!(&before, &estimate(filter));
     }
-    if let Some(e) = counted(filter.estimate()) {
+    if let Some(e) = fuzz::counted(filter.estimate()) {
         prop_assert!(finite(e.mean_r.iter()) && finite(e.cov_r.iter()));
         prop_assert!(e.rho.is_finite() && (0.0..=1.0).contains(&e.rho));
         prop_assert!(e.azimuth.is_none_or(f64::is_finite));
     }
     Ok(())
-}
-
-/// The value of a fallible call, with an error counted by the harness (and its message checked).
-fn counted<T, E: std::fmt::Display>(result: Result<T, E>) -> Option<T> {
-    match result {
-        Ok(value) => Some(value),
-        Err(error) => fuzz::checked::<(), E>("error", Err(error)).and(None),
-    }
-}
-
-/// Runs one case of a property through the harness's time-limited [`fuzz::call`]: a panic, a hang or
-/// a failed assertion fails the test.
-fn property(name: &'static str, case: impl FnOnce() -> Result<(), TestCaseError> + Send + 'static) {
-    if let Err(failure) = fuzz::call(name, case) {
-        panic!("{name}: {failure}");
-    }
 }
 
 #[test]
@@ -129,8 +113,8 @@ fn models() {
         "models",
         (value(), value(), covariance()),
         |(q, sigma, noise)| {
-            property("models", move || -> Result<(), TestCaseError> {
-                if let Some(process) = counted(VelocityProcess::new(q)) {
+            fuzz::case("models", move || -> Result<(), TestCaseError> {
+                if let Some(process) = fuzz::counted(VelocityProcess::new(q)) {
                     prop_assert!(
                         process.noise_density().is_finite() && process.noise_density() >= 0.0
                     );
@@ -170,8 +154,8 @@ fn exact_filter() {
             proptest::collection::vec(value(), 3),
         ),
         |(eta, a, c, sigma2, r0, sigma0, q, sigma_m, zs, velocities, dts)| {
-            property("exact_filter", move || -> Result<(), TestCaseError> {
-                if let Some(d) = counted(AzimuthDensity::new(r0, sigma0)) {
+            fuzz::case("exact_filter", move || -> Result<(), TestCaseError> {
+                if let Some(d) = fuzz::counted(AzimuthDensity::new(r0, sigma0)) {
                     sound(&d)?;
                 }
                 let Ok(mut density) = AzimuthDensity::from_parts(eta, a, c, sigma2)
@@ -184,7 +168,7 @@ fn exact_filter() {
                 let measurement = PositionMeasurement::new(sigma_m)
                     .unwrap_or(PositionMeasurement::new(1.0).unwrap());
                 for ((z, v), dt) in zs.iter().zip(&velocities).zip(&dts) {
-                    if let Some(value) = counted(density.log_evidence(&measurement, z)) {
+                    if let Some(value) = fuzz::counted(density.log_evidence(&measurement, z)) {
                         prop_assert!(value.is_finite());
                     }
                     let before = density;
@@ -202,7 +186,7 @@ fn exact_filter() {
                     }
                     sound(&density)?;
                 }
-                if let Some(composite) = counted(density.to_composite()) {
+                if let Some(composite) = fuzz::counted(density.to_composite()) {
                     prop_assert!(finite(composite.covariance().iter()));
                 }
                 Ok(())
@@ -227,7 +211,7 @@ fn baselines() {
             value(),
         ),
         |(n, r0, sigma0, z, v, dt, q, sigma_m)| {
-            property("baselines", move || -> Result<(), TestCaseError> {
+            fuzz::case("baselines", move || -> Result<(), TestCaseError> {
                 let mut rng = ChaCha8Rng::seed_from_u64(2);
                 let small = (1..=40).contains(&n);
                 let mut filters: Vec<Box<dyn AzimuthFilter>> = Vec::new();
@@ -247,11 +231,11 @@ fn baselines() {
                     Err(_) => {}
                 }
                 for kind in [Linearisation::Extended, Linearisation::Unscented] {
-                    if let Some(f) = counted(GaussianBaseline::new(kind, r0, sigma0)) {
+                    if let Some(f) = fuzz::counted(GaussianBaseline::new(kind, r0, sigma0)) {
                         filters.push(Box::new(f));
                     }
                 }
-                if let Some(f) = counted(AzimuthDensity::new(r0, sigma0)) {
+                if let Some(f) = fuzz::counted(AzimuthDensity::new(r0, sigma0)) {
                     filters.push(Box::new(f));
                 }
                 let process = VelocityProcess::new(q).unwrap_or(VelocityProcess::new(0.1).unwrap());
@@ -283,10 +267,10 @@ fn scenarios_and_studies() {
             value(),
         ),
         |(sigma0, sigma_m, q, dt, measure_every, steps, runs, duration)| {
-            property(
+            fuzz::case(
                 "scenarios_and_studies",
                 move || -> Result<(), TestCaseError> {
-                    if let Some(count) = counted(Config::steps_for(duration, dt)) {
+                    if let Some(count) = fuzz::counted(Config::steps_for(duration, dt)) {
                         prop_assert!((1..=MAX_ELEMENTS).contains(&count));
                     }
                     let config = Config {
@@ -315,7 +299,9 @@ fn scenarios_and_studies() {
                         valid
                     );
                     for method in [Method::Exact, Method::Ekf, Method::Particle(5)] {
-                        if let Some(run) = counted(run_once(method, Scenario::Circle, &config, 4)) {
+                        if let Some(run) =
+                            fuzz::counted(run_once(method, Scenario::Circle, &config, 4))
+                        {
                             prop_assert!(valid);
                             prop_assert!(
                                 run.epochs.iter().all(|e| finite(e.position_error.iter()))
@@ -323,7 +309,7 @@ fn scenarios_and_studies() {
                         }
                     }
                     if let Some(summary) =
-                        counted(study(Method::Exact, Scenario::Line, &config, runs, 5))
+                        fuzz::counted(study(Method::Exact, Scenario::Line, &config, runs, 5))
                     {
                         prop_assert!(valid && summary.runs == runs);
                         prop_assert!(summary.ns_per_step.is_finite());

@@ -85,22 +85,6 @@ fn pick(table: &[f64], x: f64, shift: usize) -> f64 {
     table[((x.abs() as usize) % table.len() + shift) % table.len()]
 }
 
-/// The value of a fallible call, with an error counted by the harness (and its message checked).
-fn counted<T, E: std::fmt::Display>(result: Result<T, E>) -> Option<T> {
-    match result {
-        Ok(value) => Some(value),
-        Err(error) => fuzz::checked::<(), E>("error", Err(error)).and(None),
-    }
-}
-
-/// Runs one case of a property through the harness's time-limited [`fuzz::call`]: a panic, a hang or
-/// a failed assertion fails the test.
-fn property(name: &'static str, case: impl FnOnce() -> Result<(), TestCaseError> + Send + 'static) {
-    if let Err(failure) = fuzz::call(name, case) {
-        panic!("{name}: {failure}");
-    }
-}
-
 #[test]
 fn kalman_filter() {
     fuzz::run(
@@ -115,15 +99,15 @@ fn kalman_filter() {
             matrix::<1, 1>(),
         ),
         |(f, q, h, r, p, u, z)| {
-            property("kalman_filter", move || -> Result<(), TestCaseError> {
+            fuzz::case("kalman_filter", move || -> Result<(), TestCaseError> {
                 let prior = prior_or_default(p);
-                if let Some(process) = counted(LinearProcess::new(f, q)) {
-                    if let Some(next) = counted(prior.propagate(&process, &u)) {
+                if let Some(process) = fuzz::counted(LinearProcess::new(f, q)) {
+                    if let Some(next) = fuzz::counted(prior.propagate(&process, &u)) {
                         prop_assert!(finite_gaussian(&next));
                     }
                 }
-                if let Some(model) = counted(LinearMeasurement::new(h, r)) {
-                    if let Some(step) = counted(prior.condition(&model, &z)) {
+                if let Some(model) = fuzz::counted(LinearMeasurement::new(h, r)) {
+                    if let Some(step) = fuzz::counted(prior.condition(&model, &z)) {
                         prop_assert!(finite_gaussian(&step.posterior));
                         prop_assert!(step.log_evidence.is_finite());
                         prop_assert!(step.report.nis().is_finite() && step.report.nis() >= 0.0);
@@ -154,7 +138,7 @@ fn ekf_and_ukf() {
             value(),
         ),
         |(rate, q, scale, r, z, shift, p, alpha, beta, kappa)| {
-            property("ekf_and_ukf", move || -> Result<(), TestCaseError> {
+            fuzz::case("ekf_and_ukf", move || -> Result<(), TestCaseError> {
                 let heading =
                     ManifoldGaussian::new(So2::from_angle_unchecked(1.0), Matrix1::new(0.2))
                         .unwrap();
@@ -249,7 +233,7 @@ fn particle_set() {
             value(),
         ),
         |(weights, log_weights, likelihoods, moves, fraction)| {
-            property("particle_set", move || -> Result<(), TestCaseError> {
+            fuzz::case("particle_set", move || -> Result<(), TestCaseError> {
                 let points = |n: usize| {
                     (0..n)
                         .map(|i| Rn::new_unchecked(Vector1::new(i as f64)))
@@ -267,7 +251,7 @@ fn particle_set() {
                     let before = (set.particles().to_vec(), set.log_weights().to_vec());
                     let offset = round * 2;
                     let step = set.condition(|x| pick(&likelihoods, x.coords()[0], offset));
-                    if let Some(evidence) = counted(step) {
+                    if let Some(evidence) = fuzz::counted(step) {
                         prop_assert!(evidence.is_finite(), "log evidence {evidence}");
                     } else {
                         prop_assert_eq!(&before.0, set.particles());
@@ -283,7 +267,7 @@ fn particle_set() {
                         prop_assert_eq!(&before.1, set.log_weights());
                     }
                     prop_assert!(set.particles().iter().all(Manifold::is_finite));
-                    if let Some(mean) = counted(set.mean()) {
+                    if let Some(mean) = fuzz::counted(set.mean()) {
                         prop_assert!(mean.is_finite());
                     }
                     let scheme = SCHEMES[round % 4];
@@ -302,10 +286,11 @@ fn resampling() {
         "resampling",
         (proptest::collection::vec(value(), 0..6), size(MAX_ELEMENTS)),
         |(weights, n)| {
-            property("resampling", move || -> Result<(), TestCaseError> {
+            fuzz::case("resampling", move || -> Result<(), TestCaseError> {
                 let mut rng = ChaCha8Rng::seed_from_u64(2);
                 for scheme in SCHEMES {
-                    if let Some(indices) = counted(resample_indices(&weights, n, scheme, &mut rng))
+                    if let Some(indices) =
+                        fuzz::counted(resample_indices(&weights, n, scheme, &mut rng))
                     {
                         prop_assert_eq!(indices.len(), n);
                         prop_assert!(
@@ -333,7 +318,7 @@ fn grid() {
             proptest::collection::vec(value(), 1..5),
         ),
         |(n, log_density, likelihood, kernel)| {
-            property("grid", move || -> Result<(), TestCaseError> {
+            fuzz::case("grid", move || -> Result<(), TestCaseError> {
                 let uniform = CircularGrid::uniform(n, ());
                 prop_assert_eq!(uniform.is_ok(), (1..=40).contains(&n));
                 let at = |table: &[f64], theta: f64| pick(table, theta * 100.0, 0);
@@ -347,7 +332,7 @@ fn grid() {
                 };
                 normalised(grid.log_weights(), ess(&grid))?;
                 let before = grid.log_weights().to_vec();
-                if let Some(evidence) = counted(grid.condition(|t| at(&likelihood, t))) {
+                if let Some(evidence) = fuzz::counted(grid.condition(|t| at(&likelihood, t))) {
                     prop_assert!(evidence.is_finite(), "log evidence {evidence}");
                 } else {
                     prop_assert_eq!(&before, grid.log_weights());
@@ -380,7 +365,7 @@ fn composites() {
             matrix::<2, 1>(),
         ),
         |(h, sigma, f, q, r, z, u)| {
-            property("composites", move || -> Result<(), TestCaseError> {
+            fuzz::case("composites", move || -> Result<(), TestCaseError> {
                 let prior = HarmonicGaussian::new(
                     GenVonMises2::new(Vector2::new(0.5, 1.0), Vector2::zeros()).unwrap(),
                     Matrix2x3::new(1.0, 0.5, 0.0, -1.0, 0.0, 0.5),
@@ -393,15 +378,15 @@ fn composites() {
                         && finite(g.features().iter())
                         && finite(g.covariance().iter())
                 };
-                if let Some(model) = counted(RotatedMeasurement::new(h, sigma)) {
-                    if let Some(step) = counted(prior.condition(&model, &z)) {
+                if let Some(model) = fuzz::counted(RotatedMeasurement::new(h, sigma)) {
+                    if let Some(step) = fuzz::counted(prior.condition(&model, &z)) {
                         prop_assert!(
                             finite_composite(&step.posterior) && step.log_evidence.is_finite()
                         );
                     }
                 }
-                if let Some(process) = counted(LinearProcess::new(f, q)) {
-                    if let Some(next) = counted(prior.propagate(&process, &u)) {
+                if let Some(process) = fuzz::counted(LinearProcess::new(f, q)) {
+                    if let Some(next) = fuzz::counted(prior.propagate(&process, &u)) {
                         prop_assert!(finite_composite(&next));
                     }
                 }
@@ -427,7 +412,7 @@ fn composites() {
                     },
                     &z,
                 );
-                if let Some(evidence) = counted(step) {
+                if let Some(evidence) = fuzz::counted(step) {
                     prop_assert!(evidence.is_finite(), "log evidence {evidence}");
                 } else {
                     prop_assert_eq!(&before, set.log_weights());
@@ -445,7 +430,7 @@ fn smoother() {
         "smoother",
         (size(MAX_ELEMENTS), value(), value(), value(), value()),
         |(steps, rate, q, r, z)| {
-            property("smoother", move || -> Result<(), TestCaseError> {
+            fuzz::case("smoother", move || -> Result<(), TestCaseError> {
                 let prior =
                     ManifoldGaussian::new(So2::from_angle_unchecked(0.5), Matrix1::new(0.1))
                         .unwrap();
@@ -476,7 +461,7 @@ fn smoother() {
                         prop_assert_eq!(rts.current().covariance(), before.1.covariance());
                     }
                 }
-                if let Some(smoothed) = counted(rts.smooth()) {
+                if let Some(smoothed) = fuzz::counted(rts.smooth()) {
                     prop_assert!(smoothed.iter().all(finite_manifold_gaussian));
                 }
                 Ok(())
@@ -500,14 +485,14 @@ fn evaluation() {
             proptest::collection::vec(size(MAX_ELEMENTS), 4),
         ),
         |(e, p, z, dof, dim, runs, values, epochs)| {
-            property("evaluation", move || -> Result<(), TestCaseError> {
-                if let Some(value) = counted(nees(&e, &p)) {
+            fuzz::case("evaluation", move || -> Result<(), TestCaseError> {
+                if let Some(value) = fuzz::counted(nees(&e, &p)) {
                     prop_assert!(value.is_finite() && value >= 0.0);
                 }
-                if let Some(value) = counted(chi_square_quantile(z, dof)) {
+                if let Some(value) = fuzz::counted(chi_square_quantile(z, dof)) {
                     prop_assert!(value.is_finite() && value >= 0.0);
                 }
-                if let Some((low, high)) = counted(average_nees_band(dim, runs)) {
+                if let Some((low, high)) = fuzz::counted(average_nees_band(dim, runs)) {
                     prop_assert!(low.is_finite() && high.is_finite() && low <= high);
                 }
                 if let Some(value) = circular_consistency(z, dof) {
