@@ -139,8 +139,9 @@ impl<X> CircularGrid<X> {
     /// `ln p(z | θⱼ, past)`; returns `ln p(z | past)`.
     ///
     /// # Errors
-    /// The first error of `step`, [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood or when
-    /// every cell has likelihood zero; the grid is then unchanged.
+    /// The first error of `step`, [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, when
+    /// every cell has likelihood zero or when the log evidence is below −f64::MAX; the grid is then
+    /// unchanged.
     pub fn condition_with(
         &mut self,
         mut step: impl FnMut(f64, &X) -> Result<(X, f64), OperatorError>,
@@ -206,8 +207,8 @@ impl CircularGrid<()> {
     /// Bayes with a log-likelihood of the angle; returns the log evidence.
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, or when every cell has
-    /// likelihood zero.
+    /// [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, when every cell has likelihood
+    /// zero or when the log evidence is below −f64::MAX; the grid is then unchanged.
     pub fn condition(&mut self, log_likelihood: impl Fn(f64) -> f64) -> Result<f64, OperatorError> {
         self.condition_with(|theta, ()| Ok(((), log_likelihood(theta))))
     }

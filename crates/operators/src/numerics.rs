@@ -140,8 +140,8 @@ impl LogWeights {
     /// `lᵢ + pendingᵢ` would round every weight's own value away, leave the posterior weights exact.
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] when a pending value is NaN or +∞, or when every updated weight is
-    /// zero; the weights are then unchanged.
+    /// [`OperatorError::NonFinite`] when a pending value is NaN or +∞, when every updated weight is
+    /// zero, or when the log evidence is below −f64::MAX (−∞ in f64); the weights are then unchanged.
     pub(crate) fn add_pending(&mut self, what: &'static str) -> Result<f64, OperatorError> {
         check(what, &self.pending)?;
         let offset = self
@@ -155,7 +155,17 @@ impl LogWeights {
         for (p, l) in self.pending.iter_mut().zip(&self.values) {
             *p = l + (*p - offset);
         }
-        Ok(offset + self.normalise_pending()?)
+        let sum = LogSum::of(&self.pending).ok_or_else(every_weight_zero)?;
+        let evidence = offset + sum.total();
+        if evidence == f64::NEG_INFINITY {
+            return Err(OperatorError::NonFinite {
+                what: "log evidence ln sum w_i exp(l_i) (below -1.8e308: the data are too unlikely \
+                       under every weighted point for f64)",
+                value: evidence,
+            });
+        }
+        self.write(sum);
+        Ok(evidence)
     }
 
     /// The pending values, normalised, become the weights.
@@ -164,16 +174,21 @@ impl LogWeights {
     /// As [`Self::add_pending`].
     pub(crate) fn replace_with_pending(&mut self, what: &'static str) -> Result<(), OperatorError> {
         check(what, &self.pending)?;
-        self.normalise_pending().map(|_| ())
+        self.normalise_pending()
     }
 
-    /// Normalises the pending values into the weights; returns their log total.
-    fn normalise_pending(&mut self) -> Result<f64, OperatorError> {
+    /// Normalises the pending values into the weights.
+    fn normalise_pending(&mut self) -> Result<(), OperatorError> {
         let sum = LogSum::of(&self.pending).ok_or_else(every_weight_zero)?;
+        self.write(sum);
+        Ok(())
+    }
+
+    /// The pending values, normalised by their log sum, become the weights.
+    fn write(&mut self, sum: LogSum) {
         for (l, p) in self.values.iter_mut().zip(&self.pending) {
             *l = sum.normalised(*p);
         }
-        Ok(sum.total())
     }
 }
 

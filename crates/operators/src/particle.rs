@@ -209,8 +209,8 @@ impl<X: Clone> ParticleSet<X> {
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] when a log-likelihood is NaN or +∞, or when every particle has
-    /// likelihood zero (the measurement is impossible under the particles: resample from a wider prior).
-    /// The weights are then left unchanged.
+    /// likelihood zero (the measurement is impossible under the particles: resample from a wider prior),
+    /// or when the log evidence is below −f64::MAX. The weights are then left unchanged.
     pub fn condition(&mut self, log_likelihood: impl Fn(&X) -> f64) -> Result<f64, OperatorError> {
         let pending = self.weights.pending();
         pending.clear();

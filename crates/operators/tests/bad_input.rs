@@ -729,3 +729,26 @@ fn linear_models_need_positive_semi_definite_noise() {
     }
     assert!(RotatedMeasurement::new(SMatrix::<f64, 2, 2>::identity(), 1e-200).is_err());
 }
+
+/// A log evidence below −f64::MAX (a particle of log weight −1e308 holding the largest likelihood,
+/// −1e308) used to be returned as −∞ beside weights that were updated; the harness's long run found
+/// it. It is an error now, and the weights are unchanged.
+#[test]
+fn a_log_evidence_below_the_range_is_an_error() {
+    let mut set = ParticleSet::from_log_weighted_samples(vec![0.0, 1.0], &[-1e308, 0.0]).unwrap();
+    let before = set.log_weights().to_vec();
+    let step = set.condition(|x| if *x == 0.0 { -1e308 } else { f64::NEG_INFINITY });
+    assert!(
+        matches!(step, Err(OperatorError::NonFinite { .. })),
+        "{step:?}"
+    );
+    assert_eq!(set.log_weights(), &before[..]);
+    let mut grid =
+        CircularGrid::from_log_density(2, |t| if t == 0.0 { -1e308 } else { 0.0 }, |_| ()).unwrap();
+    let before = grid.log_weights().to_vec();
+    assert!(
+        grid.condition(|t| if t == 0.0 { -1e308 } else { f64::NEG_INFINITY })
+            .is_err()
+    );
+    assert_eq!(grid.log_weights(), &before[..]);
+}
