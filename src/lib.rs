@@ -6,6 +6,7 @@
 //! * [`densities`]: probability densities on those spaces and their special functions.
 //! * [`operators`]: propagate, condition, and filters as generic algorithms.
 //! * [`filters`]: the applications.
+//! * [`experiments`]: the experiment layer (today: exact, mergeable statistics for studies).
 //!
 //! [`nalgebra`] and [`rand`] are re-exported: use `liebayes::nalgebra` and `liebayes::rand` so that your
 //! vectors, matrices and random number generators are the exact types the library takes, whatever
@@ -22,6 +23,7 @@
 //! | `serde` | no | `Serialize`/`Deserialize` for points, densities and filter states, read back through the validated constructors |
 
 pub use liebayes_densities as densities;
+pub use liebayes_experiments as experiments;
 pub use liebayes_filters as filters;
 pub use liebayes_manifolds as manifolds;
 pub use liebayes_operators as operators;

@@ -26,7 +26,7 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Azimuth alignment (seed 000): the exact filter and its baselines, Monte Carlo over runs.
+    /// Azimuth alignment: the exact seven-number filter and its baselines, Monte Carlo over runs.
     Azimuth(AzimuthArgs),
     /// The bootstrap particle filter's particle count that reaches the exact filter's azimuth RMSE.
     Particles(ParticleArgs),
@@ -204,7 +204,7 @@ fn azimuth(args: &AzimuthArgs) -> Result<(), String> {
         (Method::Marginalized(args.mpf_particles), args.baseline_runs),
     ];
     println!(
-        "Azimuth alignment (seed 000): {} s, dt {} s, a measurement every {} steps, sigma_0 {} m, \
+        "Azimuth alignment: {} s, dt {} s, a measurement every {} steps, sigma_0 {} m, \
          sigma_m {} m, q {} m/sqrt(s); seed {}",
         args.simulation.duration,
         config.dt,

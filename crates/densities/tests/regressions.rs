@@ -9,16 +9,9 @@ use liebayes_densities::{
 use nalgebra::{Matrix3, Matrix4, Vector2, Vector3, Vector4};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use std::time::{Duration, Instant};
 
-/// Runs `f` and checks that it returned within a generous bound (the test profile is opt-level 1).
-fn quick<T>(what: &str, f: impl FnOnce() -> T) -> T {
-    let start = Instant::now();
-    let value = f();
-    let elapsed = start.elapsed();
-    assert!(elapsed < Duration::from_millis(200), "{what}: {elapsed:?}");
-    value
-}
+mod common;
+use common::fuzz::quick;
 
 #[test]
 fn special_functions_refuse_nan_and_negative_arguments_at_once() {

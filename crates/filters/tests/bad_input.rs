@@ -328,7 +328,9 @@ fn scenarios_and_studies() {
 #[test]
 fn a_measurement_noise_that_squares_to_zero_is_refused() {
     assert!(matches!(
-        PositionMeasurement::new(1e-200),
+        fuzz::quick("PositionMeasurement::new(1e-200)", || {
+            PositionMeasurement::new(1e-200)
+        }),
         Err(OperatorError::OutOfRange { .. })
     ));
     let tiny = PositionMeasurement::new(1.5e-154).unwrap();
@@ -336,12 +338,12 @@ fn a_measurement_noise_that_squares_to_zero_is_refused() {
     for _ in 0..3 {
         // Each step either succeeds with a density in range or fails and changes nothing.
         let before = density;
-        if density.update(&tiny, &Vector2::new(3.0, 4.0)).is_err() {
+        if fuzz::quick("update", || density.update(&tiny, &Vector2::new(3.0, 4.0))).is_err() {
             assert_eq!(before, density);
         }
-        let e = fuzz::call("estimates", move || density.estimates());
+        let e = fuzz::quick("estimates", || density.estimates());
         assert!(e.cov_r.iter().all(|v| v.is_finite()));
-        let _ = density.azimuth();
+        let _ = fuzz::quick("azimuth", || density.azimuth());
     }
 }
 
@@ -364,9 +366,20 @@ fn a_precise_measurement_keeps_a_positive_variance() {
 
 #[test]
 fn constructors_refuse_derived_quantities_that_overflow() {
-    assert!(VelocityProcess::new(1e200).is_err());
+    assert!(
+        fuzz::quick("VelocityProcess::new(1e200)", || VelocityProcess::new(
+            1e200
+        ))
+        .is_err()
+    );
     assert!(VelocityProcess::new(1e-200).is_ok());
-    assert!(AzimuthDensity::new(Vector2::zeros(), -1.0).is_err());
+    assert!(
+        fuzz::quick("AzimuthDensity::new(r0, -1)", || AzimuthDensity::new(
+            Vector2::zeros(),
+            -1.0
+        ))
+        .is_err()
+    );
     assert!(AzimuthDensity::new(Vector2::zeros(), 1e-200).is_err());
     assert!(AzimuthDensity::new(Vector2::new(1e200, 0.0), 1.0).is_err());
     assert!(GaussianBaseline::new(Linearisation::Extended, Vector2::zeros(), -1.0).is_err());
@@ -380,7 +393,9 @@ fn baselines_refuse_huge_counts_before_drawing() {
     let mut rng = ChaCha8Rng::seed_from_u64(6);
     for n in [usize::MAX, liebayes_operators::MAX_ELEMENTS + 1] {
         assert!(matches!(
-            MarginalizedBaseline::new(n, Vector2::zeros(), 1.0, &mut rng),
+            fuzz::quick("MarginalizedBaseline::new(huge)", || {
+                MarginalizedBaseline::new(n, Vector2::zeros(), 1.0, &mut rng)
+            }),
             Err(OperatorError::TooLarge { .. })
         ));
         assert!(matches!(
@@ -403,11 +418,17 @@ fn simulations_refuse_sizes_before_allocating() {
     };
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     assert!(matches!(
-        simulate(Scenario::Line, &config, &mut rng),
+        fuzz::quick("simulate(steps = usize::MAX)", || simulate(
+            Scenario::Line,
+            &config,
+            &mut rng
+        )),
         Err(OperatorError::TooLarge { .. })
     ));
     assert!(matches!(
-        Config::steps_for(1e300, 1e-300),
+        fuzz::quick("steps_for(1e300, 1e-300)", || Config::steps_for(
+            1e300, 1e-300
+        )),
         Err(OperatorError::TooLarge { .. })
     ));
     assert!(Config::steps_for(500.0, 0.1) == Ok(5000));

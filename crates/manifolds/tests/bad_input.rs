@@ -9,31 +9,16 @@ use liebayes_manifolds::{
     GroupAction, Left, LieGroup, Manifold, ManifoldError, MeanSettings, ProductManifold, Real, Rn,
     S2, So2, So3, Su2, weighted_mean,
 };
+use liebayes_reference::fuzz;
 use nalgebra::{Matrix2, Matrix3, Quaternion, SVector, Vector1, Vector2, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 use std::f64::consts::PI;
 
-/// Raw numbers a user might pass, good and bad.
+/// Raw numbers a user might pass, good and bad: the shared bad-input harness's generator (NaN, ±∞,
+/// ±MAX, ±MIN_POSITIVE, subnormals, ±0, ±1e±300, ordinary and log-uniform magnitudes).
 fn raw() -> impl Strategy<Value = f64> {
-    prop_oneof![
-        6 => -2.0..2.0_f64,
-        1 => Just(f64::NAN),
-        1 => Just(f64::INFINITY),
-        1 => Just(f64::NEG_INFINITY),
-        1 => Just(f64::MAX),
-        1 => Just(-f64::MAX),
-        1 => Just(f64::MIN_POSITIVE),
-        1 => Just(-f64::MIN_POSITIVE),
-        1 => prop::num::f64::SUBNORMAL,
-        2 => Just(0.0),
-        1 => Just(-0.0),
-        2 => Just(1.0),
-        1 => Just(1e300),
-        1 => Just(-1e300),
-        1 => Just(1e-300),
-        1 => Just(-1e-300),
-    ]
+    fuzz::value()
 }
 
 /// The finite values of [`raw`].
@@ -112,7 +97,9 @@ fn check_orthonormalized(m: &Matrix3<f64>) -> Result<(), TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(2048))]
+    // Each case is a few cheap calls: 32 times the harness's case count (2048 in CI), which
+    // `LIEBAYES_FUZZ_CASES` scales for the long run.
+    #![proptest_config(ProptestConfig::with_cases(32 * fuzz::cases()))]
 
     #[test]
     fn quaternion_constructors(w in raw(), x in raw(), y in raw(), z in raw()) {

@@ -87,6 +87,37 @@ impl<X> CircularGrid<X> {
         })
     }
 
+    /// n cells with the given (unnormalised) log weights `ln wⱼ` and payloads, cell j at angle
+    /// `2πj/n`: a saved grid read back, or a prior computed elsewhere. The weights are normalised
+    /// here without leaving the log domain (−∞ is a zero weight).
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for no cells or a number of weights different from the number
+    /// of cells, [`OperatorError::TooLarge`] for more than [`MAX_ELEMENTS`](crate::MAX_ELEMENTS)
+    /// cells or when the grid's buffers cannot be allocated, [`OperatorError::NonFinite`] for a NaN
+    /// or +∞ log weight, or −∞ everywhere.
+    pub fn from_log_weights(log_weights: &[f64], cells: Vec<X>) -> Result<Self, OperatorError> {
+        let n = cells.len();
+        if n == 0 || log_weights.len() != n {
+            return Err(OperatorError::OutOfRange {
+                what: "number of grid log weights",
+                value: log_weights.len() as f64,
+                range: "equal to the number of cells, at least 1",
+            });
+        }
+        let mut weights = LogWeights::uniform(CELLS, n)?;
+        let spare = with_capacity(CELLS, n)?;
+        let pending = weights.pending();
+        pending.extend_from_slice(log_weights);
+        weights.replace_with_pending("grid log weight")?;
+        Ok(Self {
+            weights,
+            cells,
+            spare,
+            workspace: Vec::new(),
+        })
+    }
+
     /// The number of cells n.
     pub fn len(&self) -> usize {
         self.cells.len()

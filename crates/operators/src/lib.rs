@@ -43,6 +43,8 @@ pub mod models;
 mod numerics;
 pub mod particle;
 pub mod rao_blackwell;
+#[cfg(feature = "serde")]
+mod serde_impls;
 pub mod smoother;
 mod traits;
 pub mod ukf;

@@ -20,6 +20,7 @@ const PARTICLES: &str = "number of particles";
 /// * `Systematic`: one uniform offset u, points (k + u)/N; each particle gets ⌊N wᵢ⌋ or ⌈N wᵢ⌉ copies.
 /// * `Residual`: ⌊N wᵢ⌋ copies each, then the remainder multinomially from the residual weights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Resampling {
     /// Independent draws.
     Multinomial,

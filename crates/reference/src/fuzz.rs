@@ -186,6 +186,25 @@ pub fn call<T: Send + 'static>(name: &str, f: impl FnOnce() -> T + Send + 'stati
     }
 }
 
+/// Runs `f` on this thread and returns its result, failing if it took longer than [`time_limit`]:
+/// for the fixed reproductions of a suite, which must return at once. In the test profile the
+/// default limit (200 ms) only catches hangs and seconds-long loops; run the suites in release with
+/// `LIEBAYES_FUZZ_TIMEOUT_MS=1` to hold every reproduction to a millisecond.
+///
+/// # Panics
+/// If `f` panics, or returned later than the limit.
+pub fn quick<T>(name: &str, f: impl FnOnce() -> T) -> T {
+    let start = Instant::now();
+    let value = f();
+    let elapsed = start.elapsed();
+    assert!(
+        elapsed <= time_limit(),
+        "{name} took {elapsed:?}, more than {:?}",
+        time_limit()
+    );
+    value
+}
+
 /// What a returned value must satisfy: finite numbers, points on their manifold, densities with a
 /// finite normaliser. Returns a description of the violation.
 pub trait Valid {

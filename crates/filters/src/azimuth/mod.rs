@@ -17,6 +17,8 @@ mod density;
 mod grid;
 mod model;
 pub mod scenario;
+#[cfg(feature = "serde")]
+mod serde_impls;
 pub mod study;
 
 pub use baselines::{

@@ -37,6 +37,7 @@ impl VelocityProcess {
 
 /// The input of one propagation step: the velocity v in platform axes over the step dt.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct VelocityInput {
     /// v (m/s), platform axes.
     pub velocity: Vector2<f64>,

@@ -1,0 +1,24 @@
+//! The crate's error type.
+
+use thiserror::Error;
+
+/// What can go wrong in setting up or combining a study.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum ExperimentError {
+    /// A setting is outside its range.
+    #[error("{what} is {value}, outside {range}")]
+    OutOfRange {
+        /// The setting.
+        what: &'static str,
+        /// Its value, as given.
+        value: String,
+        /// The accepted range.
+        range: &'static str,
+    },
+    /// Text that should name a shard is not of the form `K/N`.
+    #[error("shard {0:?} is not of the form K/N with 1 <= K <= N (for example 2/8)")]
+    BadShard(String),
+    /// Two partial summaries that cannot be merged.
+    #[error("cannot merge these summaries: {0}")]
+    Incompatible(String),
+}

@@ -1,0 +1,111 @@
+//! Summaries of shards merge to the summary of one study over all runs, bit for bit, in any order and
+//! through a file; overlapping shards are refused.
+
+use liebayes_experiments::{ExperimentError, MAX_EPOCHS, Shard, Summary, run_rng};
+use rand::Rng;
+
+/// A stand-in study: run k draws its per-epoch errors, a final value and sometimes a failure from its
+/// own stream; values span twelve decades, so a floating-point sum would depend on the order.
+fn study(seed: u64, shard: Shard, runs: u64) -> Summary {
+    let range = shard.runs(runs);
+    let mut summary = Summary::new(range.clone());
+    for run in range {
+        let mut rng = run_rng(seed, run);
+        if rng.random_bool(0.05) {
+            summary.add_failure(if rng.random_bool(0.5) {
+                "diverged"
+            } else {
+                "not positive definite"
+            });
+            continue;
+        }
+        for k in 0..40 {
+            let scale = 10f64.powi(rng.random_range(-6..6));
+            summary
+                .add_epoch("error", k, rng.random_range(-1.0..1.0) * scale)
+                .unwrap();
+            summary
+                .add_epoch("nees", k, rng.random::<f64>() * 6.0)
+                .unwrap();
+        }
+        summary.add_scalar("seconds", rng.random::<f64>() * 1e-3);
+    }
+    summary
+}
+
+#[test]
+fn three_shards_merged_equal_one_study_bit_for_bit() {
+    let whole = study(42, Shard::WHOLE, 1000);
+    let shards: Vec<Summary> = (1..=3)
+        .map(|k| study(42, Shard::new(k, 3).unwrap(), 1000))
+        .collect();
+    for order in [[0, 1, 2], [2, 0, 1], [1, 2, 0]] {
+        let mut merged = Summary::default();
+        for i in order {
+            // Through a file: what `--shard` writes and `merge` reads.
+            let text = serde_json::to_string(&shards[i]).unwrap();
+            merged.merge(&serde_json::from_str(&text).unwrap()).unwrap();
+        }
+        assert_eq!(merged, whole);
+        assert_eq!(
+            serde_json::to_string(&merged).unwrap(),
+            serde_json::to_string(&whole).unwrap()
+        );
+    }
+    assert_eq!(whole.run_count(), 1000);
+    assert_eq!(whole.runs(), std::slice::from_ref(&(0..1000)));
+    let failures: u64 = whole.failures().values().sum();
+    assert!((20..=80).contains(&failures), "{failures}");
+    let nees = whole.series("nees").unwrap().pooled();
+    assert_eq!(nees.count(), 40 * (1000 - failures));
+    // The mean of uniform [0, 6) values, to 4 standard errors.
+    let error = (nees.mean().unwrap() - 3.0).abs();
+    assert!(
+        error < 4.0 * (3.0 / (nees.count() as f64)).sqrt(),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_shard_merged_twice_is_refused_and_changes_nothing() {
+    let mut merged = study(1, Shard::new(1, 2).unwrap(), 100);
+    let before = merged.clone();
+    let error = merged
+        .merge(&study(1, Shard::new(1, 2).unwrap(), 100))
+        .unwrap_err();
+    assert!(matches!(error, ExperimentError::Incompatible(_)), "{error}");
+    assert!(error.to_string().contains("merged twice"), "{error}");
+    assert_eq!(merged, before);
+    merged
+        .merge(&study(1, Shard::new(2, 2).unwrap(), 100))
+        .unwrap();
+    assert_eq!(merged, study(1, Shard::WHOLE, 100));
+}
+
+#[test]
+fn epochs_beyond_the_limit_and_bad_files_are_errors() {
+    let mut summary = Summary::new(0..1);
+    assert!(summary.add_epoch("error", MAX_EPOCHS, 1.0).is_err());
+    assert!(summary.add_epoch("error", usize::MAX, 1.0).is_err());
+    assert!(
+        summary
+            .series("error")
+            .is_none_or(|s| s.epochs().is_empty())
+    );
+    for bad in [
+        r#"{"runs": [], "series": {}, "scalars": {}, "failures": {}, "extra": 1}"#,
+        r#"{"runs": [], "series": {"e": {"epochs": [{"count": 1, "non_finite": 0, "sum": {"limbs": [1], "nan": false, "positive_infinity": false, "negative_infinity": false}, "sum_of_squares": {"limbs": [1], "nan": false, "positive_infinity": false, "negative_infinity": false}, "min": 1.0, "max": 1.0}]}}, "scalars": {}, "failures": {}}"#,
+    ] {
+        assert!(serde_json::from_str::<Summary>(bad).is_err(), "{bad}");
+    }
+}
+
+#[test]
+fn failure_reasons_are_bounded() {
+    let mut summary = Summary::new(0..1000);
+    for i in 0..1000 {
+        summary.add_failure(&format!("reason {i}"));
+    }
+    assert_eq!(summary.failures().len(), 65);
+    assert_eq!(summary.failures()["other reasons"], 1000 - 64);
+}
