@@ -169,7 +169,7 @@ fn main() -> Result<(), OperatorError> {
         accel_every: 10,
         runs: 500,
     };
-    let (low, high) = average_nees_band(3, base.runs);
+    let (low, high) = average_nees_band(3, base.runs)?;
     println!(
         "gravity-aided attitude, {} runs of {} s: average final NEES (95 % band [{low:.2}, {high:.2}])",
         base.runs,
@@ -208,7 +208,7 @@ mod tests {
             accel_every: 10,
             runs: 200,
         };
-        let (low, high) = average_nees_band(3, settings.runs);
+        let (low, high) = average_nees_band(3, settings.runs).unwrap();
         for filter in [Filter::Ekf, Filter::Ukf] {
             let nees = average_nees::<Left<So3<f64>>>(&filter, &settings).unwrap();
             assert!(

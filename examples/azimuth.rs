@@ -1,4 +1,4 @@
-//! The exact azimuth-alignment filter (seed 000) on one simulated run of the circle scenario, beside the
+//! The exact azimuth-alignment filter on one simulated run of the circle scenario, beside the
 //! EKF on [r, A]: `cargo run --release --example azimuth`.
 //!
 //! The platform's velocity is known in its own axes, its position is measured in world axes, and the two
@@ -9,15 +9,19 @@ use liebayes::filters::azimuth::{
     AzimuthDensity, AzimuthFilter, GaussianBaseline, Linearisation, PositionMeasurement,
     VelocityInput, VelocityProcess,
 };
+use liebayes::manifolds::So2;
 use liebayes::operators::OperatorError;
-use liebayes::operators::evaluation::angle_difference;
+use liebayes::operators::evaluation::estimation_error;
 use nalgebra::Vector2;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 fn main() -> Result<(), OperatorError> {
     let config = Config::default();
-    let sim = simulate(Scenario::Circle, &config, &mut ChaCha8Rng::seed_from_u64(2));
+    let sim = simulate(Scenario::Circle, &config, &mut ChaCha8Rng::seed_from_u64(2))?;
+    let truth = So2::from_angle_unchecked(sim.true_azimuth);
+    // The azimuth error `estimate ⊟ truth`, wrapped by SO(2).
+    let error = |a: f64| estimation_error(&truth, &So2::from_angle_unchecked(a))[0];
     let process = VelocityProcess::new(config.q)?;
     let measurement = PositionMeasurement::new(config.sigma_m)?;
     let mut exact = AzimuthDensity::new(Vector2::zeros(), config.sigma0)?;
@@ -30,16 +34,16 @@ fn main() -> Result<(), OperatorError> {
             exact.update(&measurement, &z)?;
             AzimuthFilter::update(&mut ekf, &measurement, &z, &mut rng)?;
             if k % 1000 == 0 {
-                let (e, b) = (exact.estimate(), ekf.estimate());
+                let (e, b) = (exact.estimate()?, ekf.estimate()?);
                 let show = |x: Option<f64>| {
                     x.map_or("   -   ".into(), |x| format!("{:8.3}", x.to_degrees()))
                 };
                 println!(
                     "{:4.0}   {} {}    {} {}",
                     k as f64 * config.dt,
-                    show(e.azimuth.map(|a| angle_difference(a, sim.true_azimuth))),
+                    show(e.azimuth.map(error)),
                     show(e.sigma_a()),
-                    show(b.azimuth.map(|a| angle_difference(a, sim.true_azimuth))),
+                    show(b.azimuth.map(error)),
                     show(b.sigma_a()),
                 );
             }

@@ -10,12 +10,17 @@
 
 use liebayes::densities::ManifoldGaussian;
 use liebayes::manifolds::{Manifold, So2};
-use liebayes::operators::evaluation::angle_difference;
 use liebayes::operators::grid::CircularGrid;
 use liebayes::operators::{
     Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
 };
 use nalgebra::{Matrix1, Vector1};
+
+/// `a ⊟ b` on SO(2): the angle difference a − b wrapped to (−π, π], through the group rather than by
+/// hand.
+fn wrapped(a: f64, b: f64) -> f64 {
+    So2::from_angle_unchecked(b).local(&So2::from_angle_unchecked(a))[0]
+}
 
 /// θ′ = θ + ω dt + w, w ~ N(0, q² dt): gyroscope integration with rate noise.
 struct Gyro {
@@ -50,7 +55,7 @@ impl MeasurementModel<So2<f64>, 1, 1> for Compass {
     }
 
     fn residual(&self, z: &Vector1<f64>, predicted: &Vector1<f64>) -> Vector1<f64> {
-        Vector1::new(angle_difference(z[0], predicted[0]))
+        Vector1::new(wrapped(z[0], predicted[0]))
     }
 }
 
@@ -62,11 +67,8 @@ fn main() -> Result<(), OperatorError> {
     // Start near +π; the compass readings will come from the other side of the cut.
     let prior = ManifoldGaussian::new(So2::from_angle_unchecked(3.0), Matrix1::new(0.5))?;
     let (mut ekf, mut ukf) = (prior.clone(), prior);
-    let mut grid = CircularGrid::from_log_density(
-        720,
-        |t| -0.5 * angle_difference(t, 3.0).powi(2) / 0.5,
-        |_| (),
-    )?;
+    let mut grid =
+        CircularGrid::from_log_density(720, |t| -0.5 * wrapped(t, 3.0).powi(2) / 0.5, |_| ())?;
     // The models, wrapped once: by reference, `Ekf(&gyro)` is as good as `Ekf(gyro)`.
     let (ekf_gyro, ukf_gyro) = (Ekf(&gyro), Ukf::new(&gyro));
     let (ekf_compass, ukf_compass) = (Ekf(&compass), Ukf::new(&compass));
@@ -76,13 +78,13 @@ fn main() -> Result<(), OperatorError> {
         ukf = ukf.propagate(&ukf_gyro, &step)?;
         // The grid's propagation: the circular convolution with the step's density, θ′ − θ ~ N(ω dt, q² dt)
         // (one wrap of the normal suffices at this spread).
-        grid.diffuse(|d| (-0.5 * angle_difference(d, rate).powi(2) / gyro.q2).exp())?;
+        grid.diffuse(|d| (-0.5 * wrapped(d, rate).powi(2) / gyro.q2).exp())?;
 
         let z = Vector1::new(reading);
         let e = ekf.condition(&ekf_compass, &z)?;
         let u = ukf.condition(&ukf_compass, &z)?;
         let evidence = grid.condition(|t| {
-            -0.5 * angle_difference(reading, t).powi(2) / compass.variance
+            -0.5 * wrapped(reading, t).powi(2) / compass.variance
                 - 0.5 * (2.0 * std::f64::consts::PI * compass.variance).ln()
         })?;
         ekf = e.posterior;

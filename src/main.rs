@@ -77,30 +77,18 @@ struct Simulation {
 }
 
 impl Simulation {
+    /// The library's configuration, checked by the library.
     fn config(&self) -> Result<Config, String> {
-        if !(self.duration.is_finite()
-            && self.duration > 0.0
-            && self.dt.is_finite()
-            && self.dt > 0.0)
-        {
-            return Err(format!(
-                "duration {} s and dt {} s must be positive",
-                self.duration, self.dt
-            ));
-        }
-        if self.measure_every == 0 {
-            return Err("--measure-every must be at least 1".into());
-        }
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let steps = (self.duration / self.dt).round() as usize;
-        Ok(Config {
+        let config = Config {
             sigma0: self.sigma0,
             sigma_m: self.sigma_m,
             q: self.q,
             dt: self.dt,
             measure_every: self.measure_every,
-            steps,
-        })
+            steps: Config::steps_for(self.duration, self.dt).map_err(|e| e.to_string())?,
+        };
+        config.validate().map_err(|e| e.to_string())?;
+        Ok(config)
     }
 }
 

@@ -3,7 +3,7 @@
 //! The applications, each a composition of the operators:
 //!
 //! * [`azimuth`]: the exact von Mises × Gaussian filter for aligning two frames rotated by an unknown
-//!   azimuth (seed 000), with its brute-force reference (a grid of Kalman filters) and its scenarios.
+//!   azimuth (the blog post "Exact finite-state filter for azimuth alignment"), with its brute-force reference (a grid of Kalman filters) and its scenarios.
 //!
 //! The IMU attitude filter (Bingham and heat kernel on SO(3)) and angle-of-arrival positioning (von
 //! Mises-Fisher) follow in their own issues.

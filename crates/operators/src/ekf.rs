@@ -13,7 +13,7 @@
 
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::checked_gaussian;
+use crate::numerics::{Produced, checked_gaussian};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -46,7 +46,11 @@ where
         let density = checked_gaussian(
             self.0.transition(mean, input),
             &(f * cross + self.0.noise(mean, input)),
-            "predicted covariance F P F^T + Q (check the process noise Q and the Jacobian F)",
+            Produced {
+                mean: "the predicted mean f(mu, u) of the process model",
+                covariance: "predicted covariance F P F^T + Q (check the process noise Q and the \
+                             Jacobian F)",
+            },
         )?;
         Ok(Prediction {
             density,
@@ -93,7 +97,11 @@ where
         let posterior = checked_gaussian(
             mean.retract(&report.correction()),
             &joseph(p, report.gain(), &h, &r),
-            "posterior covariance (Joseph form; check the measurement noise R and the Jacobian H)",
+            Produced {
+                mean: "the posterior mean mu ⊞ K nu",
+                covariance: "posterior covariance (Joseph form; check the measurement noise R and \
+                             the Jacobian H)",
+            },
         )?;
         Ok(Conditioned {
             posterior,

@@ -1,6 +1,14 @@
 //! The error type of the operators crate.
 
 use liebayes_densities::DensityError;
+use liebayes_manifolds::ManifoldError;
+
+/// The largest number of elements any container of the crate holds: particles, grid cells,
+/// resampled draws, recorded smoother steps, epochs of a [`Series`](crate::evaluation::Series) and
+/// Monte Carlo runs. 2³⁰ = 1 073 741 824; a size above it is refused with
+/// [`OperatorError::TooLarge`] before anything is allocated, and a size below it whose buffers cannot
+/// be allocated is refused the same way (the allocation is tried, never assumed).
+pub const MAX_ELEMENTS: usize = 1 << 30;
 
 /// Why a propagation or a conditioning step could not be carried out.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -41,6 +49,79 @@ pub enum OperatorError {
     /// The resulting density is not valid (for example a covariance that lost positive definiteness).
     #[error("the resulting density is invalid: {0}")]
     Density(#[from] DensityError),
+    /// A model returned a point with a NaN or infinite coordinate (checked with
+    /// [`Manifold::is_finite`](liebayes_manifolds::Manifold::is_finite)); the step is refused.
+    #[error(
+        "{what} is not finite (a coordinate is NaN or infinite): check the model for an overflow \
+         or a division by zero"
+    )]
+    NonFinitePoint {
+        /// Which point, and which model produced it.
+        what: &'static str,
+    },
+    /// A size is above [`MAX_ELEMENTS`], or its buffers cannot be allocated.
+    #[error(
+        "{what} is {value}: the largest accepted is {max}, and the memory for it must be available; \
+         use a smaller size"
+    )]
+    TooLarge {
+        /// The size.
+        what: &'static str,
+        /// The value given.
+        value: usize,
+        /// The largest accepted.
+        max: usize,
+    },
+    /// A computation on the manifold failed, with what the step was computing: a weighted mean that
+    /// did not converge (sigma points or particles spread over more than half the injectivity radius)
+    /// or whose weights are degenerate.
+    #[error("{what}: {source}")]
+    Manifold {
+        /// What the step was computing.
+        what: &'static str,
+        /// The manifold layer's error.
+        source: ManifoldError,
+    },
+}
+
+/// Checks a size against [`MAX_ELEMENTS`].
+pub(crate) fn check_size(what: &'static str, value: usize) -> Result<(), OperatorError> {
+    if value > MAX_ELEMENTS {
+        return Err(OperatorError::TooLarge {
+            what,
+            value,
+            max: MAX_ELEMENTS,
+        });
+    }
+    Ok(())
+}
+
+/// Makes room for `additional` more elements in `buffer`, refusing sizes above [`MAX_ELEMENTS`] and
+/// allocations that fail (instead of aborting).
+pub(crate) fn reserve<T>(
+    buffer: &mut Vec<T>,
+    what: &'static str,
+    additional: usize,
+) -> Result<(), OperatorError> {
+    let too_large = OperatorError::TooLarge {
+        what,
+        value: buffer.len().saturating_add(additional),
+        max: MAX_ELEMENTS,
+    };
+    if buffer.len().saturating_add(additional) > MAX_ELEMENTS {
+        return Err(too_large);
+    }
+    buffer.try_reserve(additional).map_err(|_| too_large)
+}
+
+/// An empty vector with room for `capacity` elements, as [`reserve`].
+pub(crate) fn with_capacity<T>(
+    what: &'static str,
+    capacity: usize,
+) -> Result<Vec<T>, OperatorError> {
+    let mut buffer = Vec::new();
+    reserve(&mut buffer, what, capacity)?;
+    Ok(buffer)
 }
 
 /// Checks that every value is finite.

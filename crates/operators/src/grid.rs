@@ -16,6 +16,7 @@
 //! Costs n payload steps per step. The reference for anything angular: with enough cells it is exact
 //! wherever the payload steps are.
 
+use crate::error::{reserve, with_capacity};
 use crate::numerics::LogWeights;
 use crate::{Condition, OperatorError, Propagate};
 use nalgebra::Vector2;
@@ -33,6 +34,9 @@ pub struct CircularGrid<X> {
     workspace: Vec<f64>,
 }
 
+/// What a grid names when its size is refused.
+const CELLS: &str = "number of grid cells";
+
 /// `θⱼ = 2πj/n`.
 fn cell_angle(j: usize, n: usize) -> f64 {
     2.0 * PI * j as f64 / n as f64
@@ -42,7 +46,7 @@ impl<X: Clone> CircularGrid<X> {
     /// n cells with the uniform angle prior and the same payload in each.
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] for n = 0.
+    /// As [`from_log_density`](Self::from_log_density).
     pub fn uniform(n: usize, payload: X) -> Result<Self, OperatorError> {
         Self::from_log_density(n, |_| 0.0, |_| payload.clone())
     }
@@ -52,8 +56,10 @@ impl<X> CircularGrid<X> {
     /// n cells weighted by an (unnormalised) log density of the angle, cell j carrying `payload(θⱼ)`.
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] for n = 0, [`OperatorError::NonFinite`] when the log density is
-    /// NaN or +∞ somewhere, or −∞ everywhere.
+    /// [`OperatorError::OutOfRange`] for n = 0, [`OperatorError::TooLarge`] for n above
+    /// [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the cells cannot be allocated (checked before
+    /// any payload is built), [`OperatorError::NonFinite`] when the log density is NaN or +∞
+    /// somewhere, or −∞ everywhere.
     pub fn from_log_density(
         n: usize,
         log_density: impl Fn(f64) -> f64,
@@ -66,14 +72,17 @@ impl<X> CircularGrid<X> {
                 range: "at least 1",
             });
         }
-        let mut weights = LogWeights::uniform(n);
+        let mut weights = LogWeights::uniform(CELLS, n)?;
+        let mut cells = with_capacity(CELLS, n)?;
+        let spare = with_capacity(CELLS, n)?;
         let pending = weights.pending();
         pending.extend((0..n).map(|j| log_density(cell_angle(j, n))));
         weights.replace_with_pending("grid prior log density")?;
+        cells.extend((0..n).map(|j| payload(cell_angle(j, n))));
         Ok(Self {
             weights,
-            cells: (0..n).map(|j| payload(cell_angle(j, n))).collect(),
-            spare: Vec::with_capacity(n),
+            cells,
+            spare,
             workspace: Vec::new(),
         })
     }
@@ -84,7 +93,9 @@ impl<X> CircularGrid<X> {
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] for no cells or a number of weights different from the number
-    /// of cells, [`OperatorError::NonFinite`] for a NaN or +∞ log weight, or −∞ everywhere.
+    /// of cells, [`OperatorError::TooLarge`] for more than [`MAX_ELEMENTS`](crate::MAX_ELEMENTS)
+    /// cells or when the grid's buffers cannot be allocated, [`OperatorError::NonFinite`] for a NaN
+    /// or +∞ log weight, or −∞ everywhere.
     pub fn from_log_weights(log_weights: &[f64], cells: Vec<X>) -> Result<Self, OperatorError> {
         let n = cells.len();
         if n == 0 || log_weights.len() != n {
@@ -94,14 +105,15 @@ impl<X> CircularGrid<X> {
                 range: "equal to the number of cells, at least 1",
             });
         }
-        let mut weights = LogWeights::uniform(n);
+        let mut weights = LogWeights::uniform(CELLS, n)?;
+        let spare = with_capacity(CELLS, n)?;
         let pending = weights.pending();
         pending.extend_from_slice(log_weights);
         weights.replace_with_pending("grid log weight")?;
         Ok(Self {
             weights,
             cells,
-            spare: Vec::with_capacity(n),
+            spare,
             workspace: Vec::new(),
         })
     }
@@ -158,8 +170,9 @@ impl<X> CircularGrid<X> {
     /// `ln p(z | θⱼ, past)`; returns `ln p(z | past)`.
     ///
     /// # Errors
-    /// The first error of `step`, [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood or when
-    /// every cell has likelihood zero; the grid is then unchanged.
+    /// The first error of `step`, [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, when
+    /// every cell has likelihood zero or when the log evidence is below −f64::MAX; the grid is then
+    /// unchanged.
     pub fn condition_with(
         &mut self,
         mut step: impl FnMut(f64, &X) -> Result<(X, f64), OperatorError>,
@@ -225,8 +238,8 @@ impl CircularGrid<()> {
     /// Bayes with a log-likelihood of the angle; returns the log evidence.
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, or when every cell has
-    /// likelihood zero.
+    /// [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, when every cell has likelihood
+    /// zero or when the log evidence is below −f64::MAX; the grid is then unchanged.
     pub fn condition(&mut self, log_likelihood: impl Fn(f64) -> f64) -> Result<f64, OperatorError> {
         self.condition_with(|theta, ()| Ok(((), log_likelihood(theta))))
     }
@@ -237,10 +250,16 @@ impl CircularGrid<()> {
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] when the kernel is negative, NaN or infinite somewhere, or zero
-    /// everywhere.
+    /// everywhere; [`OperatorError::TooLarge`] when its workspace cannot be allocated (first call).
     pub fn diffuse(&mut self, kernel: impl Fn(f64) -> f64) -> Result<(), OperatorError> {
         let n = self.len();
         self.workspace.clear();
+        // n ≤ MAX_ELEMENTS = 2³⁰, so 2n does not overflow.
+        reserve(
+            &mut self.workspace,
+            "diffusion workspace (twice the cells)",
+            2 * n,
+        )?;
         self.workspace
             .extend((0..n).map(|j| kernel(cell_angle(j, n))));
         let total: f64 = self.workspace.iter().sum();

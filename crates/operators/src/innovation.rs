@@ -2,6 +2,7 @@
 
 use crate::OperatorError;
 use crate::error::all_finite;
+use crate::numerics::symmetric_part;
 use nalgebra::{Cholesky, SMatrix, SVector};
 use std::f64::consts::PI;
 
@@ -41,7 +42,7 @@ impl<const N: usize, const M: usize> Innovation<N, M> {
             "innovation z - h(x) (the measurement model predicted a non-finite value)",
             innovation.iter(),
         )?;
-        let covariance = (covariance + covariance.transpose()) * 0.5;
+        let covariance = symmetric_part(covariance);
         let factor = Cholesky::new(covariance).ok_or(OperatorError::NotPositiveDefinite {
             what: "innovation covariance S (make the measurement noise R positive definite)",
         })?;
@@ -59,6 +60,15 @@ impl<const N: usize, const M: usize> Innovation<N, M> {
                 .map(|d| d.ln())
                 .sum::<f64>();
         let log_evidence = -0.5 * (nis + log_det + M as f64 * (2.0 * PI).ln());
+        // The log evidence holds the NIS, so one test covers both. A gain that overflows is refused by
+        // the caller's check of the posterior it produces (mean μ ⊞ K ν and covariance).
+        if !log_evidence.is_finite() {
+            return Err(OperatorError::NonFinite {
+                what: "innovation statistics (the NIS nu^T S^-1 nu or the log evidence overflow: the \
+                       measurement is too far from its prediction for S, or S is nearly singular)",
+                value: log_evidence,
+            });
+        }
         Ok((
             Self {
                 nu: innovation,

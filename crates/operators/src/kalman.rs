@@ -11,9 +11,10 @@
 //! * the report, an [`Innovation`]: ν, S, K and the NIS `νᵀ S⁻¹ ν`.
 
 use crate::error::all_finite;
+use crate::numerics::symmetric_part;
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::Gaussian;
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Cholesky, SMatrix, SVector};
 
 /// The linear process `x′ = F x + u + w`, `w ~ N(0, Q)`; the input is u.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,11 +25,13 @@ pub struct LinearProcess<const N: usize> {
 
 impl<const N: usize> LinearProcess<N> {
     /// The process with transition matrix F and noise covariance Q (symmetric positive semi-definite;
-    /// a zero Q is a deterministic process).
+    /// a zero Q is a deterministic process). Any finite entries are accepted; a product
+    /// `F Σ Fᵀ + Q` that overflows is refused by the step that computes it.
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] for NaN or infinite entries, [`OperatorError::OutOfRange`] for a Q
-    /// that is not symmetric or has a negative diagonal entry.
+    /// that is not symmetric (to 1e-12 of its largest entry) or not positive semi-definite (an
+    /// eigenvalue below −1e-12 times its largest entry).
     pub fn new(
         transition: SMatrix<f64, N, N>,
         noise: SMatrix<f64, N, N>,
@@ -84,28 +87,69 @@ impl<const N: usize, const M: usize> LinearMeasurement<N, M> {
     }
 }
 
-/// Symmetric to 1e-12 relative, with a non-negative diagonal (the cheap necessary conditions of
-/// positive semi-definiteness; the Cholesky factorisations downstream catch the rest).
+/// The rounding allowed in a covariance's symmetry and in its smallest eigenvalue, relative to its
+/// largest entry.
+const COVARIANCE_TOLERANCE: f64 = 1e-12;
+
+/// Symmetric to 1e-12 relative and positive semi-definite to the same tolerance: the Cholesky
+/// factorisation of `M / max|M| + 1e-12 I` exists, that is the smallest eigenvalue of M is at least
+/// about `−1e-12 max|M|` (the rounding of a covariance computed as a product). Scaling first keeps
+/// huge and subnormal entries in range; the factorisation is bounded, and the eigenvalue shown in the
+/// error is computed on the error path only.
 fn check_covariance<const K: usize>(
     what: &'static str,
     m: &SMatrix<f64, K, K>,
 ) -> Result<(), OperatorError> {
-    let asymmetry = (m - m.transpose()).amax();
-    if asymmetry > 1e-12 * m.amax() {
+    let scale = m.amax();
+    if scale == 0.0 {
+        return Ok(());
+    }
+    let scaled = m / scale;
+    let asymmetry = (scaled - scaled.transpose()).amax();
+    if asymmetry > COVARIANCE_TOLERANCE {
         return Err(OperatorError::OutOfRange {
             what,
-            value: asymmetry,
+            value: asymmetry * scale,
             range: "symmetric matrices (the value shown is max |A - A^T|)",
         });
     }
-    if let Some(&d) = m.diagonal().iter().find(|&&d| d < 0.0) {
+    let symmetric = (scaled + scaled.transpose()) * 0.5;
+    let shifted = symmetric + SMatrix::<f64, K, K>::identity() * COVARIANCE_TOLERANCE;
+    if Cholesky::new(shifted).is_none() {
         return Err(OperatorError::OutOfRange {
             what,
-            value: d,
-            range: "positive semi-definite matrices (the value shown is a negative diagonal entry)",
+            value: smallest_eigenvalue(&symmetric) * scale,
+            range: "positive semi-definite matrices (the value shown is the smallest eigenvalue)",
         });
     }
     Ok(())
+}
+
+/// The smallest eigenvalue of a symmetric matrix with entries in [−1, 1] (a dynamic copy and a
+/// bounded iteration: error messages only; NaN if the iteration does not converge).
+fn smallest_eigenvalue<const K: usize>(m: &SMatrix<f64, K, K>) -> f64 {
+    nalgebra::SymmetricEigen::try_new(
+        nalgebra::DMatrix::from_column_slice(K, K, m.as_slice()),
+        f64::EPSILON,
+        1000,
+    )
+    .map_or(f64::NAN, |e| e.eigenvalues.min())
+}
+
+/// The Gaussian a step returns, if its mean, covariance and log determinant are finite (a product
+/// that overflows is refused, not carried on).
+pub(crate) fn checked<const N: usize>(
+    g: Gaussian<N>,
+    what: &'static str,
+) -> Result<Gaussian<N>, OperatorError> {
+    all_finite(
+        what,
+        g.mean()
+            .iter()
+            .chain(g.covariance().iter())
+            .chain(std::iter::once(&g.log_determinant())),
+    )?;
+    Ok(g)
 }
 
 /// Joseph's form of the updated covariance, `(I − K H) Σ (I − K H)ᵀ + K R Kᵀ`: symmetric and positive
@@ -132,10 +176,10 @@ impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
         all_finite("process input u", input.iter())?;
         let f = &model.transition;
         let covariance = f * self.covariance() * f.transpose() + model.noise;
-        Ok(Gaussian::new(
-            f * self.mean() + input,
-            (covariance + covariance.transpose()) * 0.5,
-        )?)
+        checked(
+            Gaussian::new(f * self.mean() + input, symmetric_part(&covariance))?,
+            "predicted mean F mu + u or covariance F Sigma F^T + Q (it overflows)",
+        )
     }
 }
 
@@ -160,9 +204,12 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaus
             &sigma_ht,
         )?;
         let covariance = joseph(sigma, report.gain(), h, &model.noise);
-        let posterior = Gaussian::new(
-            self.mean() + report.correction(),
-            (covariance + covariance.transpose()) * 0.5,
+        let posterior = checked(
+            Gaussian::new(
+                self.mean() + report.correction(),
+                symmetric_part(&covariance),
+            )?,
+            "posterior mean or covariance (it overflows)",
         )?;
         Ok(Conditioned {
             posterior,

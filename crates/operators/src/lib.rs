@@ -50,7 +50,7 @@ mod traits;
 pub mod ukf;
 
 pub use ekf::Ekf;
-pub use error::OperatorError;
+pub use error::{MAX_ELEMENTS, OperatorError};
 pub use innovation::Innovation;
 pub use models::{MeasurementFn, MeasurementModel, ProcessFn, ProcessModel};
 pub use traits::{Condition, Conditioned, Propagate};

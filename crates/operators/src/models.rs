@@ -280,7 +280,6 @@ where
 /// A compass reading of a heading in (−π, π], the residual wrapped:
 /// ```
 /// use liebayes_operators::densities::ManifoldGaussian;
-/// use liebayes_operators::evaluation::angle_difference;
 /// use liebayes_operators::manifolds::{Manifold, So2};
 /// use liebayes_operators::{Condition, Ekf, MeasurementFn};
 /// use nalgebra::{Matrix1, Vector1};
@@ -288,7 +287,10 @@ where
 /// let compass = MeasurementFn::new(|x: &So2<f64>| Vector1::new(x.angle()), |_| {
 ///     Matrix1::new(0.01)
 /// })
-/// .with_residual(|z: &Vector1<f64>, p: &Vector1<f64>| Vector1::new(angle_difference(z[0], p[0])));
+/// // z ⊟ ẑ through SO(2): the angle difference wrapped to (−π, π].
+/// .with_residual(|z: &Vector1<f64>, p: &Vector1<f64>| {
+///     So2::from_angle_unchecked(p[0]).local(&So2::from_angle_unchecked(z[0]))
+/// });
 /// let prior = ManifoldGaussian::new(So2::from_angle_unchecked(3.1), Matrix1::new(0.01)).unwrap();
 /// // A reading across the cut, 0.1 rad from the mean: the posterior is half-way, past π, not near 0.
 /// let reading = 3.2 - 2.0 * std::f64::consts::PI;

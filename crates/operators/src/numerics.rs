@@ -1,63 +1,87 @@
-//! Small numerical pieces shared by the operators: log weights (particle set, grid), the weighted mean
-//! on a manifold (UKF, particle set) and the validated Gaussian a filter step returns.
+//! Small numerical pieces shared by the operators: log weights (particle set, grid) and the validated
+//! Gaussian a filter step returns.
 
 use crate::OperatorError;
-use liebayes_densities::ManifoldGaussian;
+use crate::error::with_capacity;
+use liebayes_densities::{DensityError, ManifoldGaussian};
 use liebayes_manifolds::Manifold;
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SMatrix;
 
-/// Iterations of a weighted mean before giving up; convergence to 1e-12 takes 2 to 5 in practice.
-pub(crate) const MEAN_ITERATIONS: usize = 50;
-/// A weighted mean is converged when its step is below this (in tangent units; relative to `1 + |ẑ|`
-/// for the UKF's measurement mean).
-pub(crate) const MEAN_TOLERANCE: f64 = 1e-12;
-
-/// The weighted mean on a manifold of points `yᵢ` with weights `wᵢ` summing to 1 (some may be
-/// negative, as the UKF's centre weight): the fixed point of `m ← m ⊞ Σ wᵢ (yᵢ ⊟ m)`, by Gauss-Newton
-/// from `start`, at most 50 iterations, stopping at a step below 1e-12. Never an average of
-/// coordinates, so points on both sides of ±π average correctly. One function for the UKF and the
-/// particle set (the manifolds crate's shared weighted mean will replace it).
-pub(crate) fn manifold_mean<'a, X, const D: usize>(
-    start: &X,
-    points: &(impl Iterator<Item = (f64, &'a X)> + Clone),
-) -> X
-where
-    X: Manifold<D, Scalar = f64> + 'a,
-{
-    let mut mean = start.clone();
-    for _ in 0..MEAN_ITERATIONS {
-        let step = points
-            .clone()
-            .map(|(w, y)| mean.local(y) * w)
-            .sum::<SVector<f64, D>>();
-        mean = mean.retract(&step);
-        if step.norm() < MEAN_TOLERANCE {
-            break;
-        }
-    }
-    mean
+/// What a step names when the Gaussian it produced is refused: the mean (a model returned a point
+/// that is not finite) or the covariance (non-finite, not positive definite), each with what to check.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Produced {
+    /// The step's mean, and which model produced it.
+    pub(crate) mean: &'static str,
+    /// The step's covariance, and what to check when it is refused.
+    pub(crate) covariance: &'static str,
 }
 
-/// The Gaussian a filter step returns: P symmetrised as `(P + Pᵀ)/2`, then validated; `what` names
-/// the step's covariance and what to check when it is refused (non-finite, not positive definite, or
-/// with an unrepresentable inverse).
+/// `(M + Mᵀ)/2`, computed as `M/2 + Mᵀ/2` so that entries near the largest finite value do not
+/// overflow.
+pub(crate) fn symmetric_part<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+    m * 0.5 + m.transpose() * 0.5
+}
+
+/// The Gaussian a filter step returns: the mean checked with [`Manifold::is_finite`], P symmetrised as
+/// `(P + Pᵀ)/2` (by [`symmetric_part`]) and validated by the density's constructor (finite, positive definite, with a
+/// representable inverse).
+///
+/// # Errors
+/// [`OperatorError::NonFinitePoint`] for a mean that is not finite, [`OperatorError::NonFinite`] for a
+/// covariance entry that is not, [`OperatorError::NotPositiveDefinite`] otherwise.
+#[inline]
 pub(crate) fn checked_gaussian<X: Manifold<D, Scalar = f64>, const D: usize>(
     mean: X,
     covariance: &SMatrix<f64, D, D>,
-    what: &'static str,
+    what: Produced,
 ) -> Result<ManifoldGaussian<X, D>, OperatorError> {
-    ManifoldGaussian::new(mean, (covariance + covariance.transpose()) * 0.5)
-        .map_err(|_| OperatorError::NotPositiveDefinite { what })
+    if !mean.is_finite() {
+        return Err(OperatorError::NonFinitePoint { what: what.mean });
+    }
+    ManifoldGaussian::new(mean, symmetric_part(covariance)).map_err(|e| match e {
+        DensityError::NonFinite { value, .. } => OperatorError::NonFinite {
+            what: what.covariance,
+            value,
+        },
+        _ => OperatorError::NotPositiveDefinite {
+            what: what.covariance,
+        },
+    })
 }
 
-/// `ln Σ exp(lᵢ)`, computed as `m + ln Σ exp(lᵢ − m)` with m the largest term so that nothing
-/// overflows or underflows; −∞ for no terms or all terms −∞.
-pub(crate) fn log_sum_exp(values: impl Iterator<Item = f64> + Clone) -> f64 {
-    let max = values.clone().fold(f64::NEG_INFINITY, f64::max);
-    if max == f64::NEG_INFINITY {
-        return max;
+/// `ln Σ exp(lᵢ)` split as `m + ln s` with m the largest term and `s = Σ exp(lᵢ − m)` in [1, n], so
+/// that nothing overflows or underflows and the relative values `lᵢ − m` are kept whatever the size
+/// of m: normalising `lᵢ` to `(lᵢ − m) − ln s` is exact to rounding even at offsets of −1e300, where
+/// `lᵢ − (m + ln s)` would lose `ln s` to m's rounding. `None` for no terms or all terms −∞.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LogSum {
+    max: f64,
+    log_scaled_sum: f64,
+}
+
+impl LogSum {
+    fn of(values: &[f64]) -> Option<Self> {
+        let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if max == f64::NEG_INFINITY {
+            return None;
+        }
+        let scaled: f64 = values.iter().map(|l| (l - max).exp()).sum();
+        Some(Self {
+            max,
+            log_scaled_sum: scaled.ln(),
+        })
     }
-    max + values.map(|l| (l - max).exp()).sum::<f64>().ln()
+
+    /// `ln Σ exp(lᵢ)` (rounded: m absorbs ln s when |m| ≫ 1).
+    fn total(self) -> f64 {
+        self.max + self.log_scaled_sum
+    }
+
+    /// `lᵢ − ln Σ exp(lⱼ)`, from the relative value first.
+    fn normalised(self, l: f64) -> f64 {
+        (l - self.max) - self.log_scaled_sum
+    }
 }
 
 /// Normalised log weights (`Σ exp(lᵢ) = 1`) with a buffer of pending values, so that a Bayes step
@@ -70,12 +94,18 @@ pub(crate) struct LogWeights {
 }
 
 impl LogWeights {
-    /// n equal weights.
-    pub(crate) fn uniform(n: usize) -> Self {
-        Self {
-            values: vec![-(n as f64).ln(); n],
-            pending: Vec::with_capacity(n),
-        }
+    /// n equal weights, `what` naming the count in an error.
+    ///
+    /// # Errors
+    /// [`OperatorError::TooLarge`] above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the buffers
+    /// cannot be allocated.
+    pub(crate) fn uniform(what: &'static str, n: usize) -> Result<Self, OperatorError> {
+        let mut values = with_capacity(what, n)?;
+        values.resize(n, -(n as f64).ln());
+        Ok(Self {
+            values,
+            pending: with_capacity(what, n)?,
+        })
     }
 
     /// The normalised log weights.
@@ -105,15 +135,37 @@ impl LogWeights {
     /// Bayes: `lᵢ += pendingᵢ`, then normalisation. Returns `ln Σ wᵢ exp(pendingᵢ)` (the log evidence,
     /// the weights being normalised before the step).
     ///
+    /// The log-likelihoods' largest value M is taken out before they are added to the weights,
+    /// `lᵢ ← lᵢ + (pendingᵢ − M)`, and added back only to the evidence: offsets such as −1e300, where
+    /// `lᵢ + pendingᵢ` would round every weight's own value away, leave the posterior weights exact.
+    ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] when a pending value is NaN or +∞, or when every updated weight is
-    /// zero; the weights are then unchanged.
+    /// [`OperatorError::NonFinite`] when a pending value is NaN or +∞, when every updated weight is
+    /// zero, or when the log evidence is below −f64::MAX (−∞ in f64); the weights are then unchanged.
     pub(crate) fn add_pending(&mut self, what: &'static str) -> Result<f64, OperatorError> {
         check(what, &self.pending)?;
-        for (p, l) in self.pending.iter_mut().zip(&self.values) {
-            *p += l;
+        let offset = self
+            .pending
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        if offset == f64::NEG_INFINITY {
+            return Err(every_weight_zero());
         }
-        self.normalise_pending()
+        for (p, l) in self.pending.iter_mut().zip(&self.values) {
+            *p = l + (*p - offset);
+        }
+        let sum = LogSum::of(&self.pending).ok_or_else(every_weight_zero)?;
+        let evidence = offset + sum.total();
+        if evidence == f64::NEG_INFINITY {
+            return Err(OperatorError::NonFinite {
+                what: "log evidence ln sum w_i exp(l_i) (below -1.8e308: the data are too unlikely \
+                       under every weighted point for f64)",
+                value: evidence,
+            });
+        }
+        self.write(sum);
+        Ok(evidence)
     }
 
     /// The pending values, normalised, become the weights.
@@ -122,22 +174,29 @@ impl LogWeights {
     /// As [`Self::add_pending`].
     pub(crate) fn replace_with_pending(&mut self, what: &'static str) -> Result<(), OperatorError> {
         check(what, &self.pending)?;
-        self.normalise_pending().map(|_| ())
+        self.normalise_pending()
     }
 
-    /// Normalises the pending values into the weights; returns their log total.
-    fn normalise_pending(&mut self) -> Result<f64, OperatorError> {
-        let total = log_sum_exp(self.pending.iter().copied());
-        if total == f64::NEG_INFINITY {
-            return Err(OperatorError::NonFinite {
-                what: "total weight (every weight would be zero)",
-                value: total,
-            });
-        }
+    /// Normalises the pending values into the weights.
+    fn normalise_pending(&mut self) -> Result<(), OperatorError> {
+        let sum = LogSum::of(&self.pending).ok_or_else(every_weight_zero)?;
+        self.write(sum);
+        Ok(())
+    }
+
+    /// The pending values, normalised by their log sum, become the weights.
+    fn write(&mut self, sum: LogSum) {
         for (l, p) in self.values.iter_mut().zip(&self.pending) {
-            *l = p - total;
+            *l = sum.normalised(*p);
         }
-        Ok(total)
+    }
+}
+
+/// The error of a step after which no weight is left.
+fn every_weight_zero() -> OperatorError {
+    OperatorError::NonFinite {
+        what: "total weight (every weight would be zero)",
+        value: f64::NEG_INFINITY,
     }
 }
 
@@ -146,5 +205,48 @@ fn check(what: &'static str, values: &[f64]) -> Result<(), OperatorError> {
     match values.iter().find(|v| v.is_nan() || **v == f64::INFINITY) {
         Some(&value) => Err(OperatorError::NonFinite { what, value }),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Against the direct sums for moderate values, and relative values kept at offsets of ±1e300.
+    #[test]
+    fn log_sums_keep_the_relative_values() {
+        let values = [-1.0, 0.5, -3.0];
+        let sum = LogSum::of(&values).unwrap();
+        let direct: f64 = values.iter().map(|l: &f64| l.exp()).sum();
+        assert!((sum.total() - direct.ln()).abs() < 1e-15);
+        for offset in [-1e300, -1e15, 1e300] {
+            let shifted = values.map(|l| l + offset);
+            let sum = LogSum::of(&shifted).unwrap();
+            // The shifted values are exact multiples of their ulp; their differences are not, so
+            // compare with the normalisation of the differences the shift left.
+            let relative = shifted.map(|l| l - shifted[1]);
+            let reference = LogSum::of(&relative).unwrap();
+            for (s, r) in shifted.iter().zip(&relative) {
+                assert_eq!(sum.normalised(*s), reference.normalised(*r), "{offset}");
+            }
+            let total: f64 = shifted.iter().map(|l| sum.normalised(*l).exp()).sum();
+            assert!((total - 1.0).abs() < 1e-15, "{offset}: {total}");
+        }
+        assert_eq!(LogSum::of(&[f64::NEG_INFINITY; 2]), None);
+        assert_eq!(LogSum::of(&[]), None);
+    }
+
+    /// Two particles with log-likelihoods −1e300 keep their prior weights 0.9 and 0.1.
+    #[test]
+    fn huge_negative_likelihoods_keep_the_prior_weights() {
+        let mut w = LogWeights::uniform("test weights", 2).unwrap();
+        w.pending().extend([0.9_f64.ln(), 0.1_f64.ln()]);
+        w.replace_with_pending("test").unwrap();
+        w.pending().clear();
+        w.pending().extend([-1e300, -1e300]);
+        let evidence = w.add_pending("test").unwrap();
+        assert_eq!(evidence, -1e300);
+        assert!((w.values()[0].exp() - 0.9).abs() < 1e-15);
+        assert!((w.values()[1].exp() - 0.1).abs() < 1e-15);
     }
 }

@@ -2,12 +2,15 @@
 //! reweighting (with the log evidence), propagation by sampling, and four resampling schemes.
 
 use crate::OperatorError;
-use crate::numerics::{LogWeights, manifold_mean};
-use liebayes_manifolds::Manifold;
+use crate::error::{check_size, reserve, with_capacity};
+use crate::numerics::LogWeights;
+use liebayes_manifolds::{Manifold, MeanSettings, weighted_mean};
 use rand::Rng;
 
 /// What a failed Bayes step of a particle set names.
 const LIKELIHOOD: &str = "particle log-likelihood";
+/// What a particle count names.
+const PARTICLES: &str = "number of particles";
 
 /// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
 /// expected number of copies is N wᵢ); they differ in variance and cost:
@@ -48,20 +51,23 @@ impl<X: Clone> ParticleSet<X> {
     /// Equally weighted particles (samples of the prior).
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] for an empty set.
+    /// [`OperatorError::OutOfRange`] for an empty set, [`OperatorError::TooLarge`] for more than
+    /// [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) particles or when the set's buffers cannot be
+    /// allocated.
     pub fn from_samples(particles: Vec<X>) -> Result<Self, OperatorError> {
-        if particles.is_empty() {
+        let n = particles.len();
+        if n == 0 {
             return Err(OperatorError::OutOfRange {
-                what: "number of particles",
+                what: PARTICLES,
                 value: 0.0,
                 range: "at least 1",
             });
         }
         Ok(Self {
-            weights: LogWeights::uniform(particles.len()),
-            indices: Vec::with_capacity(particles.len()),
+            weights: LogWeights::uniform(PARTICLES, n)?,
+            indices: with_capacity(PARTICLES, n)?,
             work: Workspace::default(),
-            spare: Vec::with_capacity(particles.len()),
+            spare: with_capacity(PARTICLES, n)?,
             particles,
         })
     }
@@ -151,19 +157,38 @@ impl<X: Clone> ParticleSet<X> {
             .sum::<f64>()
     }
 
-    /// Chapman-Kolmogorov by sampling: each particle moves to a draw of `transition(x, rng)`.
-    pub fn propagate<R: Rng + ?Sized>(
+    /// Chapman-Kolmogorov by sampling: each particle moves to a draw of `transition(x, rng)`, checked
+    /// with [`Manifold::is_finite`].
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinitePoint`] when a moved particle is not finite; the set is then
+    /// unchanged (the draws already taken from `rng` are not given back).
+    pub fn propagate<R: Rng + ?Sized, const D: usize>(
         &mut self,
         rng: &mut R,
         mut transition: impl FnMut(&X, &mut R) -> X,
-    ) {
-        for x in &mut self.particles {
-            *x = transition(x, rng);
+    ) -> Result<(), OperatorError>
+    where
+        X: Manifold<D>,
+    {
+        self.spare.clear();
+        for x in &self.particles {
+            let moved = transition(x, rng);
+            if !moved.is_finite() {
+                return Err(OperatorError::NonFinitePoint {
+                    what: "a particle moved by the transition",
+                });
+            }
+            self.spare.push(moved);
         }
+        std::mem::swap(&mut self.particles, &mut self.spare);
+        Ok(())
     }
 
     /// Propagation where each particle carries a density of its own (the marginalized particle filter):
-    /// `step(x)` returns the moved particle and may fail.
+    /// `step(x)` returns the moved particle and may fail. For particles that are not points of a
+    /// manifold the step is where they are validated (a density payload checks itself when it is
+    /// built); points of a manifold move with [`propagate`](Self::propagate), which checks them.
     ///
     /// # Errors
     /// The first error of `step`; the set is then unchanged.
@@ -185,8 +210,8 @@ impl<X: Clone> ParticleSet<X> {
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] when a log-likelihood is NaN or +∞, or when every particle has
-    /// likelihood zero (the measurement is impossible under the particles: resample from a wider prior).
-    /// The weights are then left unchanged.
+    /// likelihood zero (the measurement is impossible under the particles: resample from a wider prior),
+    /// or when the log evidence is below −f64::MAX. The weights are then left unchanged.
     pub fn condition(&mut self, log_likelihood: impl Fn(&X) -> f64) -> Result<f64, OperatorError> {
         let pending = self.weights.pending();
         pending.clear();
@@ -241,6 +266,8 @@ impl<X: Clone> ParticleSet<X> {
     /// Resamples to N equally weighted particles with `scheme`.
     pub fn resample<R: Rng + ?Sized>(&mut self, scheme: Resampling, rng: &mut R) {
         let n = self.particles.len();
+        // The weights are normalised, finite and not all zero (kept so by every step), and the
+        // buffers have room for n: nothing here can fail.
         resample_into(
             self.weights.linear(),
             n,
@@ -257,7 +284,7 @@ impl<X: Clone> ParticleSet<X> {
     }
 
     /// Resamples when the effective sample size falls below `fraction · N` (0.5 is the usual choice);
-    /// returns whether it did.
+    /// returns whether it did (never for a NaN fraction).
     pub fn resample_if_degenerate<R: Rng + ?Sized>(
         &mut self,
         fraction: f64,
@@ -285,13 +312,16 @@ impl<X: Clone> ParticleSet<X> {
 }
 
 impl<X> ParticleSet<X> {
-    /// The weighted mean on the manifold, the fixed point of `m ← m ⊞ Σ wᵢ (xᵢ ⊟ m)`, by Gauss-Newton
-    /// from the heaviest particle (at most 50 iterations, stopping at a step below 1e-12; the same
-    /// function as the UKF's sigma-point mean). Never an average of coordinates, so particles on both
-    /// sides of ±π average correctly. The fixed point is unique while the particles lie within a ball
-    /// of radius below half the injectivity radius; for particles spread over the whole space (a
-    /// uniform angle) the mean is not defined and the result is the last iterate.
-    pub fn mean<const D: usize>(&self) -> X
+    /// The weighted mean on the manifold, the fixed point of `m ← m ⊞ Σ wᵢ (xᵢ ⊟ m)`, by the
+    /// manifolds crate's [`weighted_mean`] from the heaviest particle (default [`MeanSettings`]).
+    /// Never an average of coordinates, so particles on both sides of ±π average correctly. The fixed
+    /// point is unique while the particles lie within a ball of radius below half the injectivity
+    /// radius; for particles spread over the whole space (a uniform angle) the mean is not defined.
+    ///
+    /// # Errors
+    /// [`OperatorError::Manifold`] when the iteration does not converge (particles spread over the
+    /// whole space) or the weights are degenerate.
+    pub fn mean<const D: usize>(&self) -> Result<X, OperatorError>
     where
         X: Manifold<D, Scalar = f64>,
     {
@@ -301,35 +331,91 @@ impl<X> ParticleSet<X> {
             .zip(&self.particles)
             .max_by(|a, b| a.0.total_cmp(b.0))
             .map_or(&self.particles[0], |(_, x)| x);
-        manifold_mean(
+        weighted_mean(
             heaviest,
-            &self
-                .log_weights()
+            self.particles
                 .iter()
-                .zip(&self.particles)
-                .map(|(l, x)| (l.exp(), x)),
+                .zip(self.log_weights())
+                .map(|(x, l)| (x, l.exp())),
+            MeanSettings::default(),
         )
+        .map_err(|source| OperatorError::Manifold {
+            what: "the weighted mean of the particles",
+            source,
+        })
     }
 }
 
-/// The indices of n draws from normalised `weights` by `scheme`, in increasing order (empty when n or
-/// the weights are). Allocates its result; [`ParticleSet::resample`] reuses buffers instead.
+/// The indices of n draws from `weights` by `scheme`, in increasing order (empty for n = 0). The
+/// weights need not be normalised: they are divided by their largest value and then by their sum
+/// before anything is drawn, so that any finite non-negative weights with a positive sum (1e300,
+/// subnormals) give draws in proportion to them. Allocates its result;
+/// [`ParticleSet::resample`] reuses buffers instead.
+///
+/// # Errors
+/// [`OperatorError::OutOfRange`] for no weights (with n > 0) or a negative weight,
+/// [`OperatorError::NonFinite`] for a NaN or infinite weight or weights that are all zero,
+/// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the result
+/// cannot be allocated; all checked before anything is allocated.
 pub fn resample_indices<R: Rng + ?Sized>(
     weights: &[f64],
     n: usize,
     scheme: Resampling,
     rng: &mut R,
-) -> Vec<usize> {
-    let mut indices = Vec::with_capacity(n);
-    resample_into(
-        weights,
-        n,
-        scheme,
-        rng,
-        &mut Workspace::default(),
-        &mut indices,
-    );
-    indices
+) -> Result<Vec<usize>, OperatorError> {
+    const DRAWS: &str = "number of resampled draws";
+    check_size(DRAWS, n)?;
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    if weights.is_empty() {
+        return Err(OperatorError::OutOfRange {
+            what: "number of weights to resample from",
+            value: 0.0,
+            range: "at least 1",
+        });
+    }
+    if let Some(&w) = weights.iter().find(|w| !w.is_finite()) {
+        return Err(OperatorError::NonFinite {
+            what: "resampling weight",
+            value: w,
+        });
+    }
+    if let Some(&w) = weights.iter().find(|w| **w < 0.0) {
+        return Err(OperatorError::OutOfRange {
+            what: "resampling weight",
+            value: w,
+            range: "[0, infinity)",
+        });
+    }
+    let largest = weights.iter().copied().fold(0.0, f64::max);
+    if largest == 0.0 {
+        return Err(OperatorError::NonFinite {
+            what: "total resampling weight (every weight is zero)",
+            value: 0.0,
+        });
+    }
+    let mut work = Workspace::default();
+    reserve(
+        &mut work.normalised,
+        "number of weights to resample from",
+        weights.len(),
+    )?;
+    work.normalised.extend(weights.iter().map(|w| w / largest));
+    let total: f64 = work.normalised.iter().sum();
+    for w in &mut work.normalised {
+        *w /= total;
+    }
+    let mut indices = with_capacity(DRAWS, n)?;
+    reserve(&mut work.points, DRAWS, n)?;
+    reserve(
+        &mut work.residual,
+        "number of weights to resample from",
+        weights.len(),
+    )?;
+    let normalised = std::mem::take(&mut work.normalised);
+    resample_into(&normalised, n, scheme, rng, &mut work, &mut indices);
+    Ok(indices)
 }
 
 /// Buffers reused from one resampling to the next.
@@ -337,9 +423,12 @@ pub fn resample_indices<R: Rng + ?Sized>(
 struct Workspace {
     points: Vec<f64>,
     residual: Vec<f64>,
+    /// The weights of [`resample_indices`], normalised.
+    normalised: Vec<f64>,
 }
 
-/// [`resample_indices`] into `out` (cleared first), with the workspace's buffers.
+/// n draws from normalised, finite, non-negative `weights` (at least one, not all zero) into `out`
+/// (cleared first), with the workspace's buffers.
 fn resample_into<R: Rng + ?Sized>(
     weights: &[f64],
     n: usize,
@@ -349,7 +438,7 @@ fn resample_into<R: Rng + ?Sized>(
     out: &mut Vec<usize>,
 ) {
     out.clear();
-    if weights.is_empty() || n == 0 {
+    if n == 0 {
         return;
     }
     let nf = n as f64;
@@ -371,36 +460,51 @@ fn resample_into<R: Rng + ?Sized>(
             select(weights, points, out);
         }
         Resampling::Residual => {
+            // With normalised weights ⌊N wᵢ⌋ ≤ N wᵢ, so the floors sum to at most N (up to the
+            // rounding of N wᵢ, which the bound below absorbs).
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             for (i, w) in weights.iter().enumerate() {
-                let copies = (nf * w).floor() as usize;
+                let copies = ((nf * w).floor() as usize).min(n - out.len());
                 out.extend(std::iter::repeat_n(i, copies));
             }
-            let rest = n - out.len().min(n);
+            let rest = n - out.len();
             if rest > 0 {
                 let residual = &mut work.residual;
                 residual.clear();
                 residual.extend(weights.iter().map(|w| nf * w - (nf * w).floor()));
                 let total: f64 = residual.iter().sum();
-                for r in residual.iter_mut() {
-                    *r /= total;
+                if total > 0.0 {
+                    for r in residual.iter_mut() {
+                        *r /= total;
+                    }
+                    points.extend((0..rest).map(|_| rng.random::<f64>()));
+                    points.sort_by(f64::total_cmp);
+                    select(residual, points, out);
+                } else {
+                    // Every N wᵢ was an integer up to rounding: the floors fell short of N only by
+                    // that rounding, and the heaviest particle takes the rest.
+                    let heaviest = weights
+                        .iter()
+                        .enumerate()
+                        .max_by(|a, b| a.1.total_cmp(b.1))
+                        .map_or(0, |(i, _)| i);
+                    out.extend(std::iter::repeat_n(heaviest, rest));
                 }
-                points.extend((0..rest).map(|_| rng.random::<f64>()));
-                points.sort_by(f64::total_cmp);
-                select(residual, points, out);
                 out.sort_unstable();
             }
-            out.truncate(n);
         }
     }
 }
 
-/// For sorted points in [0, 1), appends the index whose cumulative-weight interval holds each point.
+/// For sorted points in [0, 1), appends the index whose cumulative-weight interval holds each point;
+/// a point past the rounded total goes to the last particle of positive weight, never to a trailing
+/// particle of weight zero.
 fn select(weights: &[f64], sorted_points: &[f64], out: &mut Vec<usize>) {
+    let last = weights.iter().rposition(|w| *w > 0.0).unwrap_or(0);
     let mut cumulative = weights[0];
     let mut i = 0;
     for &p in sorted_points {
-        while p >= cumulative && i + 1 < weights.len() {
+        while p >= cumulative && i < last {
             i += 1;
             cumulative += weights[i];
         }

@@ -3,7 +3,7 @@
 //! * The closed-form family is the densities crate's [`HarmonicGaussian`]: `p(y)` a generalised von
 //!   Mises of order 2 and `p(x | y) = N(B φ(y), Σ)` with the features `φ(y) = (1, cos y, sin y)` and Σ
 //!   the same for every y. This module holds its exact steps: linear processes and two kinds of
-//!   measurement keep the form (see below); seed 000's seven-number azimuth filter is the special case
+//!   measurement keep the form (see below); the seven-number azimuth-alignment filter is the special case
 //!   `B = [a, c, −c^×]`, `Σ = σ² I`, η₂ = 0.
 //! * [`condition_marginalized`]: the marginalized particle filter, the general fallback, particles for
 //!   y each carrying its own exactly conditioned density of x, weighted by that density's log evidence.
@@ -23,11 +23,16 @@
 //!   trigonometric polynomial of order 2 in y. When `H Σ Hᵀ` is not isotropic, Σ⁺ depends on y and the
 //!   family is not closed: the step refuses with [`OperatorError::NotClosed`].
 //!
+//! A conditioning step whose angle would be more concentrated than the generalised von Mises family
+//! allows (`κ₁ + 4κ₂` up to [`GenVonMises2::MAX_CONCENTRATION`] = 1e16) is refused with the density's
+//! error, and the composite is left as it was.
+//!
 //! Each conditioning returns the exact log evidence
 //! `ln p(z) = constant + ln Z(η⁺) − ln Z(η)` with Z the [`GenVonMises2`] normaliser, and reports `()`.
 
 use crate::error::all_finite;
 use crate::kalman::{LinearMeasurement, LinearProcess, joseph};
+use crate::numerics::symmetric_part;
 use crate::particle::ParticleSet;
 use crate::{Condition, Conditioned, OperatorError, Propagate};
 use liebayes_densities::{Density, GenVonMises2, HarmonicGaussian};
@@ -63,18 +68,20 @@ pub struct RotatedMeasurement<const N: usize> {
 }
 
 impl<const N: usize> RotatedMeasurement<N> {
-    /// The measurement with matrix H (2 × N) and noise standard deviation σ_m > 0.
+    /// The measurement with matrix H (2 × N) and noise standard deviation σ_m, in
+    /// [1.5e-154, 1.3e154] so that σ_m² is a positive normal number (a σ_m² that underflows to zero
+    /// or a subnormal would make the innovation variance lose its meaning).
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite H, [`OperatorError::OutOfRange`] unless σ_m is
-    /// finite and positive.
+    /// [`OperatorError::NonFinite`] for a non-finite H, [`OperatorError::OutOfRange`] for σ_m
+    /// outside that range.
     pub fn new(matrix: SMatrix<f64, 2, N>, sigma: f64) -> Result<Self, OperatorError> {
         all_finite("rotated measurement matrix H", matrix.iter())?;
-        if !(sigma.is_finite() && sigma > 0.0) {
+        if !(sigma > 0.0 && (sigma * sigma).is_normal()) {
             return Err(OperatorError::OutOfRange {
                 what: "rotated measurement noise standard deviation sigma_m",
                 value: sigma,
-                range: "(0, infinity)",
+                range: "[1.5e-154, 1.3e154] (sigma_m^2 must be a positive normal number)",
             });
         }
         Ok(Self {
@@ -138,10 +145,9 @@ fn linear_step<const N: usize, const M: usize>(
     all_finite("measurement z", z.iter())?;
     let h = model.matrix();
     let s = h * density.covariance() * h.transpose() + model.noise();
-    let factor =
-        Cholesky::new((s + s.transpose()) * 0.5).ok_or(OperatorError::NotPositiveDefinite {
-            what: "innovation covariance H Sigma H^T + R (make R positive definite)",
-        })?;
+    let factor = Cholesky::new(symmetric_part(&s)).ok_or(OperatorError::NotPositiveDefinite {
+        what: "innovation covariance H Sigma H^T + R (make R positive definite)",
+    })?;
     let g_matrix = h * density.features();
     let w = g_matrix.transpose() * factor.solve(&g_matrix);
     let s_inv_z = factor.solve(z);
@@ -200,6 +206,23 @@ fn rotated_step<const N: usize>(
     Ok((harmonics, s))
 }
 
+/// The composite a step returns, if every number in it is finite (a product that overflows is
+/// refused, not carried on).
+fn checked<const N: usize>(
+    g: Result<HarmonicGaussian<N>, liebayes_densities::DensityError>,
+) -> Result<HarmonicGaussian<N>, OperatorError> {
+    let g = g?;
+    all_finite(
+        "composite after the step (its features B or covariance Sigma overflow)",
+        g.features()
+            .iter()
+            .chain(g.covariance().iter())
+            .chain(g.angle().eta1().iter())
+            .chain(g.angle().eta2().iter()),
+    )?;
+    Ok(g)
+}
+
 /// p(y) multiplied by `exp(harmonics)`, and the log evidence `constant + ln Z(η⁺) − ln Z(η)`.
 fn reweighted_angle(
     prior: &GenVonMises2,
@@ -207,6 +230,11 @@ fn reweighted_angle(
 ) -> Result<(GenVonMises2, f64), OperatorError> {
     let angle = GenVonMises2::new(prior.eta1() + h.eta1, prior.eta2() + h.eta2)?;
     let log_evidence = h.constant + angle.log_normalizer() - prior.log_normalizer();
+    all_finite(
+        "log evidence of the composite's measurement (it overflows: the measurement is too far \
+         from its prediction for the noise)",
+        [log_evidence].iter(),
+    )?;
     Ok((angle, log_evidence))
 }
 
@@ -223,11 +251,11 @@ impl<const N: usize> Propagate<LinearProcess<N>> for HarmonicGaussian<N> {
         let f = model.transition();
         let mut features = f * self.features();
         features.set_column(0, &(features.column(0) + u));
-        Ok(Self::new(
+        checked(Self::new(
             self.angle().clone(),
             features,
-            f * self.covariance() * f.transpose() + model.noise(),
-        )?)
+            symmetric_part(&(f * self.covariance() * f.transpose() + model.noise())),
+        ))
     }
 }
 
@@ -247,7 +275,7 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Harm
         features.set_column(0, &(features.column(0) + gain * z));
         let covariance = joseph(self.covariance(), &gain, model.matrix(), model.noise());
         Ok(Conditioned {
-            posterior: Self::new(angle, features, covariance)?,
+            posterior: checked(Self::new(angle, features, symmetric_part(&covariance)))?,
             log_evidence,
             report: (),
         })
@@ -273,7 +301,7 @@ impl<const N: usize> Condition<RotatedMeasurement<N>> for HarmonicGaussian<N> {
         let features = self.features() + sigma_ht * (rotated_z - model.matrix * self.features());
         let covariance = sigma - sigma_ht * model.matrix * sigma;
         Ok(Conditioned {
-            posterior: Self::new(angle, features, covariance)?,
+            posterior: checked(Self::new(angle, features, symmetric_part(&covariance)))?,
             log_evidence,
             report: (),
         })

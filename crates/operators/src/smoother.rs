@@ -28,7 +28,8 @@
 //! Per step the recorder pushes one record (amortised allocation of its two vectors, none with
 //! [`RtsSmoother::with_capacity`]); the backward pass allocates its result once.
 
-use crate::numerics::checked_gaussian;
+use crate::error::{check_size, reserve, with_capacity};
+use crate::numerics::{Produced, checked_gaussian};
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
@@ -62,6 +63,9 @@ pub trait GaussianTransition<X: Manifold<D, Scalar = f64>, const D: usize> {
     ) -> Result<Prediction<X, D>, OperatorError>;
 }
 
+/// What a smoother names when its record cannot grow.
+const RECORDS: &str = "number of smoother records";
+
 /// One transition `k → k+1` of the forward pass.
 #[derive(Clone, Debug)]
 struct Transition<X, const D: usize> {
@@ -87,7 +91,7 @@ struct Transition<X, const D: usize> {
 /// );
 /// let compass = MeasurementFn::new(|x: &So2<f64>| Vector1::new(x.angle()), |_| Matrix1::new(0.01));
 /// let prior = ManifoldGaussian::new(So2::from_angle_unchecked(0.0), Matrix1::new(1.0)).unwrap();
-/// let mut rts = RtsSmoother::with_capacity(prior, 3);
+/// let mut rts = RtsSmoother::with_capacity(prior, 3).unwrap();
 /// for (rate, reading) in [(0.1, 0.12), (0.1, 0.19), (0.1, 0.33)] {
 ///     rts.propagate(&Ekf(&gyro), &rate).unwrap();
 ///     let step = rts.condition(&Ekf(&compass), &Vector1::new(reading)).unwrap();
@@ -109,18 +113,29 @@ pub struct RtsSmoother<X, const D: usize> {
 impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
     /// The recorder at epoch 0, holding the prior.
     pub fn new(prior: ManifoldGaussian<X, D>) -> Self {
-        Self::with_capacity(prior, 0)
+        Self {
+            filtered: vec![prior],
+            transitions: Vec::new(),
+        }
     }
 
     /// The recorder with room for `steps` propagations reserved, so that recording them allocates
     /// nothing.
-    pub fn with_capacity(prior: ManifoldGaussian<X, D>, steps: usize) -> Self {
-        let mut filtered = Vec::with_capacity(steps + 1);
+    ///
+    /// # Errors
+    /// [`OperatorError::TooLarge`] for more than [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) steps or
+    /// when their records cannot be allocated.
+    pub fn with_capacity(
+        prior: ManifoldGaussian<X, D>,
+        steps: usize,
+    ) -> Result<Self, OperatorError> {
+        check_size(RECORDS, steps)?;
+        let mut filtered = with_capacity(RECORDS, steps + 1)?;
         filtered.push(prior);
-        Self {
+        Ok(Self {
             filtered,
-            transitions: Vec::with_capacity(steps),
-        }
+            transitions: with_capacity(RECORDS, steps)?,
+        })
     }
 
     /// The current filtered density (the last epoch's).
@@ -142,12 +157,15 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
     /// (`&Ekf(&model)` or `&Ukf::new(&model)`), recording the prediction and its cross-covariance.
     ///
     /// # Errors
-    /// The prediction's; the recorder is then unchanged.
+    /// The prediction's, or [`OperatorError::TooLarge`] when the record is full
+    /// ([`MAX_ELEMENTS`](crate::MAX_ELEMENTS) epochs) or cannot grow; the recorder is then unchanged.
     pub fn propagate<W>(&mut self, model: &W, input: &W::Input) -> Result<(), OperatorError>
     where
         W: GaussianTransition<X, D>,
     {
         let step = model.predict_with_cross(self.current(), input)?;
+        reserve(&mut self.filtered, RECORDS, 1)?;
+        reserve(&mut self.transitions, RECORDS, 1)?;
         self.filtered.push(step.density.clone());
         self.transitions.push(Transition {
             predicted: step.density,
@@ -204,7 +222,11 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
             let previous = checked_gaussian(
                 mean,
                 &covariance,
-                "smoothed covariance P_f + G (P_s - P_p) G^T (rounding on an ill-conditioned model)",
+                Produced {
+                    mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
+                    covariance: "smoothed covariance P_f + G (P_s - P_p) G^T (rounding on an \
+                                 ill-conditioned model)",
+                },
             )?;
             smoothed.push(std::mem::replace(&mut next, previous));
         }

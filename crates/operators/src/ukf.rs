@@ -6,26 +6,41 @@
 //! unscented transform).
 //!
 //! * **propagate**: `Yᵢ = f(χᵢ, u)`; the mean m is the weighted mean *on the manifold*, the fixed point
-//!   of `m ← m ⊞ Σ wᵢᵐ (Yᵢ ⊟ m)` (Gauss-Newton, never an average of coordinates, so sigma points on both
-//!   sides of ±π average correctly); `P′ = Σ wᵢᶜ (Yᵢ ⊟ m)(Yᵢ ⊟ m)ᵀ + Q`; for the
+//!   of `m ← m ⊞ Σ wᵢᵐ (Yᵢ ⊟ m)` ([`weighted_mean`] from Y₀, never an average of coordinates, so sigma
+//!   points on both sides of ±π average correctly); `P′ = Σ wᵢᶜ (Yᵢ ⊟ m)(Yᵢ ⊟ m)ᵀ + Q`; for the
 //!   [smoother](crate::smoother), the cross-covariance `C = Σ wᵢᶜ dᵢ (Yᵢ ⊟ m)ᵀ` with dᵢ the sigma
 //!   offsets.
-//! * **condition**: `Zᵢ = h(χᵢ)`, ẑ the fixed point of `ẑ ← ẑ + Σ wᵢᵐ (Zᵢ ⊟ ẑ)` (with the model's residual,
-//!   which may wrap), `S = Σ wᵢᶜ rᵢ rᵢᵀ + R`, `C = Σ wᵢᶜ dᵢ rᵢᵀ` with dᵢ the sigma offsets,
-//!   `K = C S⁻¹`, `μ⁺ = μ ⊞ K (z ⊟ ẑ)`, `P⁺ = P − K S Kᵀ`; log evidence `ln N(z ⊟ ẑ; 0, S)`; the
-//!   report is the [`Innovation`] (ν, S, K, NIS).
+//! * **condition**: `Zᵢ = h(χᵢ)`, ẑ the fixed point of `ẑ ← ẑ + Σ wᵢᵐ (Zᵢ ⊟ ẑ)` (the same
+//!   [`weighted_mean`], with the model's residual, which may wrap, as ⊟), `S = Σ wᵢᶜ rᵢ rᵢᵀ + R`,
+//!   `C = Σ wᵢᶜ dᵢ rᵢᵀ` with dᵢ the sigma offsets, `K = C S⁻¹`, `μ⁺ = μ ⊞ K (z ⊟ ẑ)`,
+//!   `P⁺ = P − K S Kᵀ`; log evidence `ln N(z ⊟ ẑ; 0, S)`; the report is the [`Innovation`] (ν, S, K,
+//!   NIS).
+//!
+//! Every image Yᵢ and Zᵢ is checked with [`Manifold::is_finite`] before it is averaged, and a mean that
+//! does not converge (sigma points spread over more than half the injectivity radius) is an
+//! [`OperatorError::Manifold`]: the step is refused, and the density it was applied to is untouched.
 //!
 //! Exact for linear models on Rⁿ (it then equals the Kalman filter). Nothing is allocated: the sigma
 //! points live in arrays of size D.
 
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{MEAN_ITERATIONS, MEAN_TOLERANCE, checked_gaussian, manifold_mean};
+use crate::numerics::{Produced, checked_gaussian};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
-use liebayes_manifolds::Manifold;
+use liebayes_manifolds::{Manifold, MeanSettings, weighted_mean};
 use nalgebra::{SMatrix, SVector};
+use std::fmt;
 use std::iter::once;
+use std::marker::PhantomData;
+
+/// The ranges of the scaling parameters (see [`Ukf::with_scaling`]).
+const ALPHA_RANGE: (f64, f64) = (1e-6, 1e6);
+const KAPPA_MAX: f64 = 1e6;
+const BETA_MAX: f64 = 1e6;
+/// The smallest `α² (1 + κ)`: the spread `D + λ = α² (D + κ)` of the sigma points at D = 1, below
+/// which the weights `1/(2(D + λ))` exceed 5e11 and the mean is lost to cancellation.
+const MIN_SPREAD: f64 = 1e-12;
 
 /// A model to be used through the unscented transform: `density.propagate(&Ukf::new(process), &u)`,
 /// `density.condition(&Ukf::new(measurement), &z)`. M, the measurement dimension, is inferred from z
@@ -50,11 +65,17 @@ impl<Model, const M: usize> Ukf<Model, M> {
         }
     }
 
-    /// The scaling parameters α (spread, 0 < α ≤ 1 usually), β (2 is optimal for Gaussians) and κ.
+    /// The scaling parameters α (spread of the sigma points, γ = α √(D + κ) standard deviations),
+    /// β (2 is optimal for Gaussians) and κ.
+    ///
+    /// Valid ranges: α in [1e-6, 1e6], κ in (−1, 1e6], β in [−1e6, 1e6], and `α² (1 + κ) ≥ 1e-12`.
+    /// Then for every dimension D the spread `D + λ = α² (D + κ)` is at least 1e-12 and finite, so the
+    /// weights `1/(2(D + λ))` and `w₀ᵐ = 1 − D/(α² (D + κ))` are finite (the usual choices, α from
+    /// 1e-3 to 1, κ = 0 or 3 − D, β = 2, are well inside).
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] unless α > 0 and `α² (D + κ) > 0` for every D ≥ 1 (κ > −1), all
-    /// finite.
+    /// [`OperatorError::NonFinite`] for a NaN or infinite parameter, [`OperatorError::OutOfRange`]
+    /// outside the ranges above, naming the parameter.
     pub fn with_scaling(
         model: Model,
         alpha: f64,
@@ -65,12 +86,24 @@ impl<Model, const M: usize> Ukf<Model, M> {
             "unscented scaling (alpha, beta, kappa)",
             [alpha, beta, kappa].iter(),
         )?;
-        if alpha <= 0.0 || kappa <= -1.0 {
-            return Err(OperatorError::OutOfRange {
-                what: "unscented scaling alpha (with kappa)",
-                value: alpha,
-                range: "alpha > 0 and kappa > -1",
-            });
+        let out_of_range =
+            |what, value, range| Err(OperatorError::OutOfRange { what, value, range });
+        if !(ALPHA_RANGE.0..=ALPHA_RANGE.1).contains(&alpha) {
+            return out_of_range("unscented scaling alpha", alpha, "[1e-6, 1e6]");
+        }
+        if !(kappa > -1.0 && kappa <= KAPPA_MAX) {
+            return out_of_range("unscented scaling kappa", kappa, "(-1, 1e6]");
+        }
+        if beta.abs() > BETA_MAX {
+            return out_of_range("unscented scaling beta", beta, "[-1e6, 1e6]");
+        }
+        let spread = alpha * alpha * (1.0 + kappa);
+        if spread < MIN_SPREAD {
+            return out_of_range(
+                "unscented spread alpha^2 (1 + kappa)",
+                spread,
+                "[1e-12, infinity): raise alpha or kappa",
+            );
         }
         Ok(Self {
             model,
@@ -131,10 +164,20 @@ where
         let centre = self.model.transition(mu, input);
         let plus = offsets.map(|d| self.model.transition(&mu.retract(&d), input));
         let minus = offsets.map(|d| self.model.transition(&mu.retract(&-d), input));
-        let mean = manifold_mean(
+        if !(centre.is_finite() && plus.iter().chain(&minus).all(Manifold::is_finite)) {
+            return Err(OperatorError::NonFinitePoint {
+                what: "a sigma point's image f(chi, u) under the process model",
+            });
+        }
+        let mean = weighted_mean(
             &centre,
-            &once((w0m, &centre)).chain(plus.iter().chain(&minus).map(|y| (w, y))),
-        );
+            once((&centre, w0m)).chain(plus.iter().chain(&minus).map(|y| (y, w))),
+            MeanSettings::default(),
+        )
+        .map_err(|source| OperatorError::Manifold {
+            what: "the mean of the propagated sigma points",
+            source,
+        })?;
         let e0 = mean.local(&centre);
         let mut covariance = e0 * e0.transpose() * w0c + self.model.noise(mu, input);
         let mut cross = SMatrix::<f64, D, D>::zeros();
@@ -146,7 +189,10 @@ where
         let density = checked_gaussian(
             mean,
             &covariance,
-            "predicted covariance (sigma points plus Q; check the process noise Q)",
+            Produced {
+                mean: "the mean of the propagated sigma points",
+                covariance: "predicted covariance (sigma points plus Q; check the process noise Q)",
+            },
         )?;
         Ok(Prediction {
             density,
@@ -184,43 +230,97 @@ where
         let (gamma, w0m, w0c, w) = ukf.weights(D);
         let offsets = sigma_offsets(self, gamma);
         let (mu, h) = (self.mean(), &ukf.model);
-        let centre = h.predict(mu);
-        let plus = offsets.map(|d| h.predict(&mu.retract(&d)));
-        let minus = offsets.map(|d| h.predict(&mu.retract(&-d)));
-        // ẑ by the same fixed point as the state mean (and its iteration limits), with the model's
-        // residual in place of `local`.
-        let mut predicted = centre;
-        for _ in 0..MEAN_ITERATIONS {
-            let step = h.residual(&centre, &predicted) * w0m
-                + plus
-                    .iter()
-                    .chain(&minus)
-                    .map(|y| h.residual(y, &predicted) * w)
-                    .sum::<SVector<f64, M>>();
-            predicted += step;
-            if step.norm() < MEAN_TOLERANCE * (1.0 + predicted.norm()) {
-                break;
-            }
+        let centre = Measured::new(h.predict(mu), h);
+        let plus = offsets.map(|d| Measured::new(h.predict(&mu.retract(&d)), h));
+        let minus = offsets.map(|d| Measured::new(h.predict(&mu.retract(&-d)), h));
+        if !(centre.is_finite() && plus.iter().chain(&minus).all(Manifold::is_finite)) {
+            return Err(OperatorError::NonFinitePoint {
+                what: "a sigma point's predicted measurement h(chi)",
+            });
         }
-        let r0 = h.residual(&centre, &predicted);
+        let predicted = weighted_mean(
+            &centre,
+            once((&centre, w0m)).chain(plus.iter().chain(&minus).map(|y| (y, w))),
+            MeanSettings::default(),
+        )
+        .map_err(|source| OperatorError::Manifold {
+            what: "the mean of the sigma points' predicted measurements",
+            source,
+        })?;
+        let r0 = predicted.local(&centre);
         let mut s = r0 * r0.transpose() * w0c + h.noise(mu);
         let mut cross = SMatrix::<f64, D, M>::zeros();
         for (d, (zp, zm)) in offsets.iter().zip(plus.iter().zip(&minus)) {
-            let (rp, rm) = (h.residual(zp, &predicted), h.residual(zm, &predicted));
+            let (rp, rm) = (predicted.local(zp), predicted.local(zm));
             s += (rp * rp.transpose() + rm * rm.transpose()) * w;
             cross += d * (rp - rm).transpose() * w;
         }
+        let predicted = predicted.z;
         let (report, log_evidence) = Innovation::new(h.residual(z, &predicted), &s, &cross)?;
         let gain = report.gain();
         let posterior = checked_gaussian(
             mu.retract(&report.correction()),
             &(self.covariance() - gain * report.covariance() * gain.transpose()),
-            "posterior covariance P - K S K^T (it lost positive definiteness; check R)",
+            Produced {
+                mean: "the posterior mean mu ⊞ K nu",
+                covariance: "posterior covariance P - K S K^T (it lost positive definiteness; check R)",
+            },
         )?;
         Ok(Conditioned {
             posterior,
             log_evidence,
             report,
         })
+    }
+}
+
+/// A predicted measurement with the model's residual as its ⊟, `ẑ′ ⊟ ẑ = residual(ẑ′, ẑ)`, and
+/// `ẑ ⊞ v = ẑ + v`: the measurement space as a manifold, so that the UKF's ẑ is the same
+/// [`weighted_mean`] as its state mean.
+struct Measured<'a, H, X, const D: usize, const M: usize> {
+    z: SVector<f64, M>,
+    model: &'a H,
+    state: PhantomData<fn(&X)>,
+}
+
+impl<'a, H, X, const D: usize, const M: usize> Measured<'a, H, X, D, M> {
+    fn new(z: SVector<f64, M>, model: &'a H) -> Self {
+        Self {
+            z,
+            model,
+            state: PhantomData,
+        }
+    }
+}
+
+impl<H, X, const D: usize, const M: usize> Clone for Measured<'_, H, X, D, M> {
+    fn clone(&self) -> Self {
+        Self::new(self.z, self.model)
+    }
+}
+
+impl<H, X, const D: usize, const M: usize> fmt::Debug for Measured<'_, H, X, D, M> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_tuple("Measured").field(&self.z).finish()
+    }
+}
+
+impl<H, X, const D: usize, const M: usize> Manifold<M> for Measured<'_, H, X, D, M>
+where
+    X: Manifold<D, Scalar = f64>,
+    H: MeasurementModel<X, D, M>,
+{
+    type Scalar = f64;
+
+    fn retract(&self, v: &SVector<f64, M>) -> Self {
+        Self::new(self.z + v, self.model)
+    }
+
+    fn local(&self, other: &Self) -> SVector<f64, M> {
+        self.model.residual(&other.z, &self.z)
+    }
+
+    fn is_finite(&self) -> bool {
+        self.z.iter().all(|v| v.is_finite())
     }
 }

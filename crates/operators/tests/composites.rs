@@ -3,7 +3,7 @@
 //! `HarmonicGaussian` is checked against a bank of exact Kalman filters on a grid of angles, cell by
 //! cell: each cell's Kalman log evidence must equal the composite's harmonics at that angle, and each
 //! cell's posterior must equal the composite's conditional at that angle. The priors have random
-//! feature matrices B, so the second harmonics are excited (unlike seed 000's special case).
+//! feature matrices B, so the second harmonics are excited (unlike the azimuth filter's special case).
 
 use liebayes_densities::special;
 use liebayes_densities::{

@@ -43,8 +43,8 @@ const Z_9995: f64 = 3.290_526_731_491_894;
 fn band(dim: usize, count: usize) -> (f64, f64) {
     let dof = (dim * count) as f64;
     (
-        chi_square_quantile(-Z_9995, dof) / count as f64,
-        chi_square_quantile(Z_9995, dof) / count as f64,
+        chi_square_quantile(-Z_9995, dof).unwrap() / count as f64,
+        chi_square_quantile(Z_9995, dof).unwrap() / count as f64,
     )
 }
 
@@ -91,10 +91,13 @@ fn kalman_nis_is_in_its_band() {
                 let z = h * truth + measurement_noise.sample(&mut rng);
                 filter = filter.propagate(&process, &Vector2::zeros()).unwrap();
                 let step = filter.condition(&measurement, &z).unwrap();
-                averages.nis.add(step.report.nis());
+                averages.nis.add(step.report.nis()).unwrap();
                 filter = step.posterior;
             }
-            averages.nees.add(filter.mahalanobis_squared(&truth));
+            averages
+                .nees
+                .add(filter.mahalanobis_squared(&truth))
+                .unwrap();
         }
         check(name, &averages.nis, band(1, runs * steps), consistent);
         if consistent {
@@ -157,10 +160,13 @@ where
                     .and_then(|d| d.condition(&Ukf::new(measurement), &z)),
             }
             .unwrap();
-            averages.nis.add(step.report.nis());
+            averages.nis.add(step.report.nis()).unwrap();
             density = step.posterior;
         }
-        averages.nees.add(density.mahalanobis_squared(&truth));
+        averages
+            .nees
+            .add(density.mahalanobis_squared(&truth))
+            .unwrap();
     }
     averages
 }

@@ -31,7 +31,7 @@ fn every_scheme_is_unbiased() {
     for scheme in SCHEMES {
         let mut counts = [0usize; 5];
         for _ in 0..repetitions {
-            let indices = resample_indices(&weights, n, scheme, &mut rng);
+            let indices = resample_indices(&weights, n, scheme, &mut rng).unwrap();
             assert_eq!(indices.len(), n, "{scheme:?}");
             for i in indices {
                 counts[i] += 1;
@@ -56,7 +56,7 @@ fn systematic_and_residual_keep_the_floor_of_n_w() {
     let mut rng = ChaCha8Rng::seed_from_u64(4);
     for scheme in [Resampling::Systematic, Resampling::Residual] {
         for _ in 0..200 {
-            let indices = resample_indices(&weights, n, scheme, &mut rng);
+            let indices = resample_indices(&weights, n, scheme, &mut rng).unwrap();
             for (i, w) in weights.iter().enumerate() {
                 let copies = indices.iter().filter(|&&j| j == i).count() as f64;
                 assert!(copies >= (n as f64 * w).floor(), "{scheme:?} {i}");
@@ -110,15 +110,25 @@ fn reweighting_matches_the_kalman_filter() {
 fn impossible_measurements_and_empty_sets_are_errors() {
     assert!(ParticleSet::<f64>::from_samples(vec![]).is_err());
     let mut rng = ChaCha8Rng::seed_from_u64(2);
-    assert!(resample_indices(&[], 5, Resampling::Systematic, &mut rng).is_empty());
-    assert!(resample_indices(&[1.0], 0, Resampling::Residual, &mut rng).is_empty());
+    assert!(resample_indices(&[], 5, Resampling::Systematic, &mut rng).is_err());
+    assert!(
+        resample_indices(&[1.0], 0, Resampling::Residual, &mut rng)
+            .unwrap()
+            .is_empty()
+    );
     let mut set = ParticleSet::from_samples(vec![1.0, 2.0]).unwrap();
     assert!(set.condition(|_| f64::NEG_INFINITY).is_err());
     assert!(set.condition(|_| f64::NAN).is_err());
     // The failed updates left the weights as they were.
     assert_eq!(set.weights(), vec![0.5, 0.5]);
     let mut rng = ChaCha8Rng::seed_from_u64(1);
-    set.propagate(&mut rng, |x, _| x + 1.0);
+    let mut points =
+        ParticleSet::from_samples(vec![Rn::new_unchecked(Vector1::new(1.0)); 2]).unwrap();
+    points
+        .propagate(&mut rng, |x, _| x.retract(&Vector1::new(1.0)))
+        .unwrap();
+    assert_eq!(points.particles()[1].coords()[0], 2.0);
+    set.try_propagate(|x| Ok(x + 1.0)).unwrap();
     assert_eq!(set.particles(), &[2.0, 3.0]);
 }
 
@@ -242,7 +252,12 @@ fn the_mean_is_taken_on_the_manifold() {
     )
     .unwrap();
     // Unwrapped: 0.5 (π − 0.1) + 0.25 (π + 0.3) + 0.25 (π − 0.2) = π − 0.025.
-    assert!(set.mean().distance(&So2::from_angle_unchecked(PI - 0.025)) < 1e-12);
+    assert!(
+        set.mean()
+            .unwrap()
+            .distance(&So2::from_angle_unchecked(PI - 0.025))
+            < 1e-12
+    );
     let points = [
         Vector2::new(1.0, 2.0),
         Vector2::new(-3.0, 0.5),
@@ -255,7 +270,7 @@ fn the_mean_is_taken_on_the_manifold() {
     )
     .unwrap();
     let expected: Vector2<f64> = points.iter().zip(weights).map(|(p, w)| p * w).sum();
-    assert!((set.mean().coords() - expected).amax() < 1e-12 * expected.amax());
+    assert!((set.mean().unwrap().coords() - expected).amax() < 1e-12 * expected.amax());
     let centre = So3::exp(&Vector3::new(0.3, -2.0, 1.0));
     let offsets = [Vector3::new(0.4, 0.1, -0.2), Vector3::new(-0.1, 0.3, 0.5)];
     let set = ParticleSet::from_samples(
@@ -265,5 +280,5 @@ fn the_mean_is_taken_on_the_manifold() {
             .collect(),
     )
     .unwrap();
-    assert!(set.mean().distance(&centre) < 1e-12);
+    assert!(set.mean().unwrap().distance(&centre) < 1e-12);
 }

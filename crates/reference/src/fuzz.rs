@@ -284,3 +284,30 @@ pub fn checked<T: Valid, E: std::fmt::Display>(name: &str, result: Result<T, E>)
         }
     }
 }
+
+/// Runs one case of a property through [`call`] (own thread, time limit), for properties written
+/// with proptest's `prop_assert!`: a panic, a hang or a failed assertion fails the test, named.
+///
+/// # Panics
+/// Where the case panics, hangs or returns a failed assertion.
+pub fn case(
+    name: &'static str,
+    case: impl FnOnce() -> Result<(), proptest::test_runner::TestCaseError> + Send + 'static,
+) {
+    if let Err(failure) = call(name, case) {
+        panic!("{name}: {failure}");
+    }
+}
+
+/// The value of a fallible call whose value the caller checks itself (state unchanged, weights
+/// normalised, …): an error is counted like in [`checked`] (its message must say something) and
+/// gives `None`.
+///
+/// # Panics
+/// Where the error message is empty.
+pub fn counted<T, E: std::fmt::Display>(result: Result<T, E>) -> Option<T> {
+    match result {
+        Ok(value) => Some(value),
+        Err(error) => checked::<(), E>("a call", Err(error)).and(None),
+    }
+}

@@ -1,26 +1,27 @@
 //! The baselines the exact filter is compared with, all built from the operators crate, behind one
 //! interface ([`AzimuthFilter`]) so that the Monte Carlo study runs any of them on the same data:
 //!
-//! * [`GaussianBaseline`]: the EKF or the UKF on the state `[r, A]` ∈ R² × SO(2) ([`PositionAzimuth`]),
-//!   from the prior `A ~ N(0, π²/3)` (the uniform's variance);
-//! * [`ParticleBaseline`]: the bootstrap particle filter on `(r, A)`;
+//! * [`GaussianBaseline`]: the EKF or the UKF on the state `[r, A]` ∈ R² × SO(2) ([`PositionAzimuth`],
+//!   the manifolds crate's product of Rn and So2), from the prior `A ~ N(0, π²/3)` (the uniform's
+//!   variance);
+//! * [`ParticleBaseline`]: the bootstrap particle filter on the same state;
 //! * [`GridReference`]: the grid filter, a Kalman filter for r at each of n azimuths;
 //! * [`MarginalizedBaseline`]: the marginalized particle filter, particles for A each with a Kalman
 //!   filter for r.
 
-use super::density::check_measurement;
+use super::density::{check_measurement, variance_of};
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use super::scenario::normal2;
 use super::{AzimuthDensity, GridReference};
 use liebayes_densities::{Gaussian, ManifoldGaussian, special};
-use liebayes_manifolds::{Manifold, So2};
+use liebayes_manifolds::{ProductManifold, Rn, So2};
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::particle::{ParticleSet, Resampling};
 use liebayes_operators::rao_blackwell::condition_marginalized;
 use liebayes_operators::{
-    Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
+    Condition, Ekf, MAX_ELEMENTS, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
 };
-use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2};
 use rand::{Rng, RngCore};
 use std::f64::consts::PI;
 
@@ -53,6 +54,28 @@ impl Estimate {
             cov_r,
         }
     }
+
+    /// The estimate if every number in it is finite.
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] otherwise (moments that overflow: positions beyond about 1e154).
+    fn checked(self) -> Result<Self, OperatorError> {
+        match self
+            .mean_r
+            .iter()
+            .chain(self.cov_r.iter())
+            .chain(std::iter::once(&self.rho))
+            .chain(self.azimuth.iter())
+            .find(|v| !v.is_finite())
+        {
+            Some(&value) => Err(OperatorError::NonFinite {
+                what: "azimuth filter estimate (E r or Cov r overflow: the positions are too \
+                       large for their second moments)",
+                value,
+            }),
+            None => Ok(self),
+        }
+    }
 }
 
 /// A filter for azimuth alignment: the exact one or a baseline. Randomised filters draw from `rng`.
@@ -81,7 +104,11 @@ pub trait AzimuthFilter: Send {
     ) -> Result<(), OperatorError>;
 
     /// The current estimate.
-    fn estimate(&self) -> Estimate;
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] when a moment overflows (the exact filter's never do: its
+    /// parameters are bounded).
+    fn estimate(&self) -> Result<Estimate, OperatorError>;
 }
 
 impl AzimuthFilter for AzimuthDensity {
@@ -103,7 +130,7 @@ impl AzimuthFilter for AzimuthDensity {
         AzimuthDensity::update(self, measurement, z)
     }
 
-    fn estimate(&self) -> Estimate {
+    fn estimate(&self) -> Result<Estimate, OperatorError> {
         let e = self.estimates();
         Estimate {
             azimuth: e.mode,
@@ -112,36 +139,17 @@ impl AzimuthFilter for AzimuthDensity {
             mean_r: e.mean_r,
             cov_r: e.cov_r,
         }
+        .checked()
     }
 }
 
-/// The state `[r, A]` ∈ R² × SO(2) of the Gaussian baselines: `x ⊞ δ = (r + δ_r, A ⊞ δ_A)`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PositionAzimuth {
-    /// r, platform axes.
-    pub r: Vector2<f64>,
-    /// A.
-    pub azimuth: So2<f64>,
-}
+/// The state `[r, A]` ∈ R² × SO(2) of the Gaussian and particle baselines: r (platform axes) the first
+/// factor, A the second, tangent `[δr; δA]`, `x ⊞ δ = (r + δr, A ⊞ δA)`.
+pub type PositionAzimuth = ProductManifold<Rn<f64, 2>, So2<f64>, 2, 1, 3>;
 
-impl Manifold<3> for PositionAzimuth {
-    type Scalar = f64;
-
-    fn retract(&self, v: &Vector3<f64>) -> Self {
-        Self {
-            r: self.r + Vector2::new(v.x, v.y),
-            azimuth: self.azimuth.retract(&nalgebra::Vector1::new(v.z)),
-        }
-    }
-
-    fn local(&self, other: &Self) -> Vector3<f64> {
-        let d = other.r - self.r;
-        Vector3::new(d.x, d.y, self.azimuth.local(&other.azimuth)[0])
-    }
-
-    fn is_finite(&self) -> bool {
-        self.r.iter().all(|v| v.is_finite()) && self.azimuth.is_finite()
-    }
+/// The state with position r and azimuth A (r finite: the callers pass validated or finite values).
+fn state(r: Vector2<f64>, azimuth: So2<f64>) -> PositionAzimuth {
+    PositionAzimuth::new(Rn::new_unchecked(r), azimuth)
 }
 
 /// `r′ = r + v dt + w`, `A′ = A`, as a manifold process model (F = I).
@@ -151,10 +159,7 @@ impl ProcessModel<PositionAzimuth, 3> for Motion {
     type Input = VelocityInput;
 
     fn transition(&self, x: &PositionAzimuth, input: &VelocityInput) -> PositionAzimuth {
-        PositionAzimuth {
-            r: x.r + input.velocity * input.dt,
-            azimuth: x.azimuth,
-        }
+        state(x.first().coords() + input.velocity * input.dt, *x.second())
     }
 
     fn noise(&self, _: &PositionAzimuth, input: &VelocityInput) -> Matrix3<f64> {
@@ -172,7 +177,7 @@ struct Observation(PositionMeasurement);
 
 impl MeasurementModel<PositionAzimuth, 3, 2> for Observation {
     fn predict(&self, x: &PositionAzimuth) -> Vector2<f64> {
-        x.azimuth.to_matrix() * x.r
+        x.second().to_matrix() * x.first().coords()
     }
 
     fn noise(&self, _: &PositionAzimuth) -> Matrix2<f64> {
@@ -180,8 +185,9 @@ impl MeasurementModel<PositionAzimuth, 3, 2> for Observation {
     }
 
     fn jacobian(&self, x: &PositionAzimuth) -> Matrix2x3<f64> {
-        let rotation = x.azimuth.to_matrix();
-        let turned = rotation * Vector2::new(-x.r.y, x.r.x);
+        let rotation = x.second().to_matrix();
+        let r = x.first().coords();
+        let turned = rotation * Vector2::new(-r.y, r.x);
         let mut h = Matrix2x3::zeros();
         h.fixed_view_mut::<2, 2>(0, 0).copy_from(&rotation);
         h.set_column(2, &turned);
@@ -215,23 +221,19 @@ impl GaussianBaseline {
     /// The prior `r ~ N(r₀, σ₀² I)`, `A ~ N(0, π²/3)` (the variance of the uniform azimuth).
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite r₀, [`OperatorError::Density`] for a σ₀ that
-    /// does not give a positive definite covariance.
+    /// [`OperatorError::NonFinite`] for a non-finite r₀, [`OperatorError::OutOfRange`] for σ₀
+    /// outside [1.5e-154, 1e150].
     pub fn new(kind: Linearisation, r0: Vector2<f64>, sigma0: f64) -> Result<Self, OperatorError> {
+        let s2 = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
         if let Some(&value) = r0.iter().find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
                 what: "initial position r_0",
                 value,
             });
         }
-        let s2 = sigma0 * sigma0;
-        let state = PositionAzimuth {
-            r: r0,
-            azimuth: So2::from_angle_unchecked(0.0),
-        };
         Ok(Self {
             density: ManifoldGaussian::new(
-                state,
+                state(r0, So2::from_angle_unchecked(0.0)),
                 Matrix3::new(s2, 0.0, 0.0, 0.0, s2, 0.0, 0.0, 0.0, PI * PI / 3.0),
             )?,
             kind,
@@ -276,14 +278,15 @@ impl AzimuthFilter for GaussianBaseline {
     }
 
     /// A wrapped normal for A: ρ = exp(−P_AA / 2).
-    fn estimate(&self) -> Estimate {
-        let p = self.density.covariance();
+    fn estimate(&self) -> Result<Estimate, OperatorError> {
+        let (p, mean) = (self.density.covariance(), self.density.mean());
         Estimate {
-            azimuth: Some(self.density.mean().azimuth.angle()),
+            azimuth: Some(mean.second().angle()),
             rho: (-0.5 * p[(2, 2)]).exp(),
-            mean_r: self.density.mean().r,
+            mean_r: *mean.first().coords(),
             cov_r: p.fixed_view::<2, 2>(0, 0).into_owned(),
         }
+        .checked()
     }
 }
 
@@ -292,31 +295,70 @@ fn unscented<Model, const M: usize>(model: Model) -> Result<Ukf<Model, M>, Opera
     Ukf::with_scaling(model, 0.1, 2.0, 0.0)
 }
 
-/// The bootstrap particle filter on `(r, A)`: particles from the prior `N(r₀, σ₀² I) × U[0, 2π)`, moved
-/// by the process with sampled noise, reweighted by `N(z; R(A) r, σ_m² I)` and resampled systematically
-/// when the effective sample size falls below half. A is constant, so after resampling its particles
-/// only lose diversity: the filter can collapse on a wrong azimuth when too few particles start near
-/// the truth.
+/// The bootstrap particle filter on `[r, A]` ([`PositionAzimuth`]): particles from the prior
+/// `N(r₀, σ₀² I) × U[0, 2π)`, moved by the process with sampled noise, reweighted by
+/// `N(z; R(A) r, σ_m² I)` and resampled systematically when the effective sample size falls below
+/// half. A is constant, so after resampling its particles only lose diversity: the filter can collapse
+/// on a wrong azimuth when too few particles start near the truth.
 #[derive(Clone, Debug)]
 pub struct ParticleBaseline {
-    set: ParticleSet<(Vector2<f64>, f64)>,
+    set: ParticleSet<PositionAzimuth>,
+}
+
+/// Checks a particle count before any particle is drawn.
+fn check_count(n: usize) -> Result<(), OperatorError> {
+    if n == 0 {
+        return Err(OperatorError::OutOfRange {
+            what: "number of particles",
+            value: 0.0,
+            range: "at least 1",
+        });
+    }
+    if n > MAX_ELEMENTS {
+        return Err(OperatorError::TooLarge {
+            what: "number of particles",
+            value: n,
+            max: MAX_ELEMENTS,
+        });
+    }
+    Ok(())
+}
+
+/// n draws of `draw`, the count checked and the memory reserved first.
+fn draws<T>(n: usize, mut draw: impl FnMut() -> T) -> Result<Vec<T>, OperatorError> {
+    check_count(n)?;
+    let mut particles = Vec::new();
+    particles
+        .try_reserve_exact(n)
+        .map_err(|_| OperatorError::TooLarge {
+            what: "number of particles (their memory cannot be allocated)",
+            value: n,
+            max: MAX_ELEMENTS,
+        })?;
+    particles.extend((0..n).map(|_| draw()));
+    Ok(particles)
 }
 
 impl ParticleBaseline {
     /// n particles from the prior.
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] for n = 0 or σ₀ not finite and positive.
+    /// [`OperatorError::OutOfRange`] for n = 0 or σ₀ outside [1.5e-154, 1e150],
+    /// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`] or more than the memory holds,
+    /// [`OperatorError::NonFinite`] for a non-finite r₀; all checked before any particle is drawn.
     pub fn new<R: Rng + ?Sized>(
         n: usize,
         r0: Vector2<f64>,
         sigma0: f64,
         rng: &mut R,
     ) -> Result<Self, OperatorError> {
-        check_sigma0(sigma0)?;
-        let particles = (0..n)
-            .map(|_| (r0 + normal2(rng) * sigma0, rng.random::<f64>() * 2.0 * PI))
-            .collect();
+        check_prior(r0, sigma0)?;
+        let particles = draws(n, || {
+            state(
+                r0 + normal2(rng) * sigma0,
+                So2::from_angle_unchecked(rng.random::<f64>() * 2.0 * PI),
+            )
+        })?;
         Ok(Self {
             set: ParticleSet::from_samples(particles)?,
         })
@@ -325,7 +367,8 @@ impl ParticleBaseline {
     /// Moves every particle by `v dt` plus a draw of `N(0, q² dt I)`.
     ///
     /// # Errors
-    /// As [`VelocityInput::validate`].
+    /// As [`VelocityInput::validate`], or [`OperatorError::NonFinitePoint`] when a moved particle
+    /// overflows; the particles are then unchanged.
     pub fn predict<R: Rng + ?Sized>(
         &mut self,
         model: &VelocityProcess,
@@ -334,10 +377,12 @@ impl ParticleBaseline {
     ) -> Result<(), OperatorError> {
         input.validate()?;
         let step = (model.noise_density() * input.dt).sqrt();
-        self.set.propagate(rng, |(r, a), rng| {
-            (r + input.velocity * input.dt + normal2(rng) * step, *a)
-        });
-        Ok(())
+        self.set.propagate(rng, |x, rng| {
+            state(
+                x.first().coords() + input.velocity * input.dt + normal2(rng) * step,
+                *x.second(),
+            )
+        })
     }
 
     /// Reweights by the measurement likelihood and resamples if degenerate; returns the log evidence
@@ -353,9 +398,8 @@ impl ParticleBaseline {
     ) -> Result<f64, OperatorError> {
         check_measurement(z)?;
         let variance = model.variance();
-        let log_evidence = self.set.condition(|(r, a)| {
-            let (s, c) = a.sin_cos();
-            let predicted = Vector2::new(c * r.x - s * r.y, s * r.x + c * r.y);
+        let log_evidence = self.set.condition(|x| {
+            let predicted = x.second().to_matrix() * x.first().coords();
             -(z - predicted).norm_squared() / (2.0 * variance)
         })? - (2.0 * PI * variance).ln();
         self.set
@@ -363,18 +407,22 @@ impl ParticleBaseline {
         Ok(log_evidence)
     }
 
-    /// The circular mean of A (`atan2` of the weighted mean of (cos A, sin A)).
+    /// The circular mean of A (`atan2` of the weighted mean of (cos A, sin A); 0 when that mean is
+    /// zero).
     pub fn azimuth_mean(&self) -> f64 {
-        let m = self
-            .set
-            .expectation(|(_, a)| Vector2::new(a.cos(), a.sin()));
+        let m = self.set.expectation(|x| azimuth_moment(x.second()));
         m.y.atan2(m.x)
     }
 
     /// The particles.
-    pub fn particles(&self) -> &ParticleSet<(Vector2<f64>, f64)> {
+    pub fn particles(&self) -> &ParticleSet<PositionAzimuth> {
         &self.set
     }
+}
+
+/// `(cos A, sin A)`.
+fn azimuth_moment(a: &So2<f64>) -> Vector2<f64> {
+    Vector2::new(a.cos(), a.sin())
 }
 
 impl AzimuthFilter for ParticleBaseline {
@@ -396,15 +444,14 @@ impl AzimuthFilter for ParticleBaseline {
         ParticleBaseline::update(self, measurement, z, &mut rng).map(|_| ())
     }
 
-    fn estimate(&self) -> Estimate {
-        let moment = self
-            .set
-            .expectation(|(_, a)| Vector2::new(a.cos(), a.sin()));
-        let mean_r = self.set.expectation(|(r, _)| *r);
-        let cov_r = self
-            .set
-            .expectation(|(r, _)| (r - mean_r) * (r - mean_r).transpose());
-        Estimate::from_moment(moment, mean_r, cov_r)
+    fn estimate(&self) -> Result<Estimate, OperatorError> {
+        let moment = self.set.expectation(|x| azimuth_moment(x.second()));
+        let mean_r = self.set.expectation(|x| *x.first().coords());
+        let cov_r = self.set.expectation(|x| {
+            let d = x.first().coords() - mean_r;
+            d * d.transpose()
+        });
+        Estimate::from_moment(moment, mean_r, cov_r).checked()
     }
 }
 
@@ -427,9 +474,9 @@ impl AzimuthFilter for GridReference {
         GridReference::update(self, measurement, z)
     }
 
-    fn estimate(&self) -> Estimate {
+    fn estimate(&self) -> Result<Estimate, OperatorError> {
         let (mean_r, cov_r) = self.moments();
-        Estimate::from_moment(self.grid().first_moment(), mean_r, cov_r)
+        Estimate::from_moment(self.grid().first_moment(), mean_r, cov_r).checked()
     }
 }
 
@@ -439,25 +486,28 @@ impl AzimuthFilter for GridReference {
 /// degenerates like the bootstrap filter, only later.
 #[derive(Clone, Debug)]
 pub struct MarginalizedBaseline {
-    set: ParticleSet<(f64, Gaussian<2>)>,
+    set: ParticleSet<(So2<f64>, Gaussian<2>)>,
 }
 
 impl MarginalizedBaseline {
     /// n particles, A uniform, each with the prior `N(r₀, σ₀² I)`.
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] for n = 0, the Gaussian's errors for r₀ and σ₀.
+    /// As [`ParticleBaseline::new`], all checked before any particle is drawn.
     pub fn new<R: Rng + ?Sized>(
         n: usize,
         r0: Vector2<f64>,
         sigma0: f64,
         rng: &mut R,
     ) -> Result<Self, OperatorError> {
-        check_sigma0(sigma0)?;
+        check_prior(r0, sigma0)?;
         let prior = Gaussian::new(r0, Matrix2::identity() * (sigma0 * sigma0))?;
-        let particles = (0..n)
-            .map(|_| (rng.random::<f64>() * 2.0 * PI, prior.clone()))
-            .collect();
+        let particles = draws(n, || {
+            (
+                So2::from_angle_unchecked(rng.random::<f64>() * 2.0 * PI),
+                prior.clone(),
+            )
+        })?;
         Ok(Self {
             set: ParticleSet::from_samples(particles)?,
         })
@@ -477,6 +527,7 @@ impl AzimuthFilter for MarginalizedBaseline {
             Matrix2::identity() * (process.noise_density() * input.dt),
         )?;
         let offset = input.velocity * input.dt;
+        // The angle is copied and the Gaussian validates itself: nothing else to check.
         self.set
             .try_propagate(|(a, density)| Ok((*a, density.propagate(&model, &offset)?)))
     }
@@ -490,7 +541,7 @@ impl AzimuthFilter for MarginalizedBaseline {
         let noise = Matrix2::identity() * measurement.variance();
         condition_marginalized(
             &mut self.set,
-            |a| LinearMeasurement::new(So2::from_angle_unchecked(*a).to_matrix(), noise),
+            |a| LinearMeasurement::new(a.to_matrix(), noise),
             z,
         )?;
         self.set
@@ -498,27 +549,25 @@ impl AzimuthFilter for MarginalizedBaseline {
         Ok(())
     }
 
-    fn estimate(&self) -> Estimate {
-        let moment = self
-            .set
-            .expectation(|(a, _)| Vector2::new(a.cos(), a.sin()));
+    fn estimate(&self) -> Result<Estimate, OperatorError> {
+        let moment = self.set.expectation(|(a, _)| azimuth_moment(a));
         let mean_r = self.set.expectation(|(_, g)| *g.mean());
         let cov_r = self.set.expectation(|(_, g)| {
             let d = g.mean() - mean_r;
             g.covariance() + d * d.transpose()
         });
-        Estimate::from_moment(moment, mean_r, cov_r)
+        Estimate::from_moment(moment, mean_r, cov_r).checked()
     }
 }
 
-fn check_sigma0(sigma0: f64) -> Result<(), OperatorError> {
-    if sigma0.is_finite() && sigma0 > 0.0 {
-        Ok(())
-    } else {
-        Err(OperatorError::OutOfRange {
-            what: "initial position standard deviation sigma_0",
-            value: sigma0,
-            range: "(0, infinity)",
-        })
+/// Checks the prior of the particle baselines: r₀ finite, σ₀ in [1.5e-154, 1e150].
+fn check_prior(r0: Vector2<f64>, sigma0: f64) -> Result<(), OperatorError> {
+    variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
+    match r0.iter().find(|v| !v.is_finite()) {
+        Some(&value) => Err(OperatorError::NonFinite {
+            what: "initial position r_0",
+            value,
+        }),
+        None => Ok(()),
     }
 }

@@ -14,22 +14,38 @@ use std::f64::consts::PI;
 /// position is `a + R(−A) c`: a known offset plus a vector fixed in the world frame, seen in the
 /// platform frame. That is why the family is closed (see `docs/filters/azimuth.md`):
 ///
-/// * **update** with z, `S = σ² + σ_m²`, `k = σ²/S`: `p(z | A) = N(z; R(A) a + c, S I)`, so
-///   `η⁺ = η + (a · (z − c), a × (z − c)) / S` (no second harmonics), `a⁺ = (1 − k) a`,
+/// * **update** with z, `S = σ² + σ_m²`, `k = σ²/S`, `1 − k = σ_m²/S`: `p(z | A) = N(z; R(A) a + c, S I)`,
+///   so `η⁺ = η + (a · (z − c), a × (z − c)) / S` (no second harmonics), `a⁺ = (1 − k) a`,
 ///   `c⁺ = (1 − k) c + k z`, `σ²⁺ = (1 − k) σ²`; log evidence
 ///   `ln p(z) = −ln(2πS) − (|z − c|² + |a|²)/(2S) + ln I₀(|η⁺|) − ln I₀(|η|)`;
 /// * **propagation** over dt with velocity v: `a += v dt`, `σ² += q² dt`; η and c unchanged.
 ///
 /// Both steps cost a few nanoseconds and allocate nothing; the log evidence adds two ln I₀. `a × b = a_x b_y − a_y b_x`.
+///
+/// **Valid range**, kept by every constructor and step: η with a norm κ = |η| up to
+/// [`CONCENTRATION_LIMIT`] = 1e300, the components of a and c within
+/// ±[`POSITION_LIMIT`] = ±1e150 m and σ² in [2.2e-308, [`VARIANCE_LIMIT`] = 1e300] m² (a positive
+/// normal number), so that every moment of [`estimates`](Self::estimates), which holds |c|², is
+/// finite. A step whose result would leave the range (an overflow, a variance that underflows) is
+/// refused with an error and leaves the density as it was.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AzimuthDensity {
-    eta: Vector2<f64>,
+    angle: VonMises,
     a: Vector2<f64>,
     c: Vector2<f64>,
     sigma2: f64,
 }
 
-/// Point estimates of an [`AzimuthDensity`] (seed 000's).
+/// The largest magnitude of a component of a or c (m): their squares stay finite.
+pub const POSITION_LIMIT: f64 = 1e150;
+
+/// The largest concentration κ = |η| of the azimuth, the von Mises family's limit.
+pub const CONCENTRATION_LIMIT: f64 = 1e300;
+
+/// The largest conditional variance σ² (m²).
+pub const VARIANCE_LIMIT: f64 = 1e300;
+
+/// Point estimates of an [`AzimuthDensity`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AzimuthEstimates {
     /// κ = |η|, the azimuth's concentration; 0 when it is unobservable so far.
@@ -41,7 +57,7 @@ pub struct AzimuthEstimates {
     pub sigma_a: Option<f64>,
     /// `E r` in platform axes.
     pub mean_r: Vector2<f64>,
-    /// `Cov r`.
+    /// `Cov r`, positive definite (its eigenvalues are at least σ²).
     pub cov_r: Matrix2<f64>,
 }
 
@@ -66,51 +82,139 @@ fn cross(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
     a.x * b.y - a.y * b.x
 }
 
+/// Which operation built a density, for the messages of [`AzimuthDensity::validated`].
+#[derive(Clone, Copy)]
+enum Origin {
+    Parts,
+    Update,
+    Prediction,
+}
+
+impl Origin {
+    /// What to name for (η, a or c, σ²).
+    fn names(self) -> [&'static str; 3] {
+        match self {
+            Origin::Parts => [
+                "azimuth density parameter eta",
+                "azimuth density parameter a or c (m)",
+                "conditional position variance sigma^2 (m^2)",
+            ],
+            Origin::Update => [
+                "eta after the update (it overflows: the measurement is too far from the \
+                 prediction for the noise)",
+                "a or c after the update (m; the measurement is too large)",
+                "sigma^2 after the update (m^2; the measurement noise is too small against the \
+                 variance)",
+            ],
+            Origin::Prediction => [
+                "eta after the prediction",
+                "a after the prediction (m; the velocity times dt is too large)",
+                "sigma^2 after the prediction (m^2; q^2 dt is too large)",
+            ],
+        }
+    }
+}
+
+/// The variance σ² of a standard deviation σ given to a constructor: σ in [1.5e-154, 1e150], so
+/// that σ² is a positive normal number no larger than [`VARIANCE_LIMIT`].
+///
+/// # Errors
+/// [`OperatorError::OutOfRange`] otherwise, naming `what`.
+pub(super) fn variance_of(what: &'static str, sigma: f64) -> Result<f64, OperatorError> {
+    let variance = sigma * sigma;
+    if sigma > 0.0 && variance.is_normal() && variance <= VARIANCE_LIMIT {
+        Ok(variance)
+    } else {
+        Err(OperatorError::OutOfRange {
+            what,
+            value: sigma,
+            range: "[1.5e-154, 1e150] (its square must be a positive normal number up to 1e300)",
+        })
+    }
+}
+
 impl AzimuthDensity {
     /// The prior: uniform azimuth (η = 0) and `r ~ N(r₀, σ₀² I)` whatever the azimuth (a = r₀, c = 0).
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite r₀, [`OperatorError::OutOfRange`] unless σ₀ is
-    /// finite and positive.
+    /// [`OperatorError::OutOfRange`] for σ₀ outside [1.5e-154, 1e150] (negative, zero, or with a
+    /// square that underflows or exceeds 1e300) or components of r₀ beyond ±1e150;
+    /// [`OperatorError::NonFinite`] for a non-finite r₀.
     pub fn new(r0: Vector2<f64>, sigma0: f64) -> Result<Self, OperatorError> {
-        Self::from_parts(Vector2::zeros(), r0, Vector2::zeros(), sigma0 * sigma0)
+        let sigma2 = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
+        Self::from_parts(Vector2::zeros(), r0, Vector2::zeros(), sigma2)
     }
 
     /// The density with the given seven numbers.
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for non-finite vectors, [`OperatorError::OutOfRange`] unless σ² is
-    /// finite and positive.
+    /// [`OperatorError::NonFinite`] for non-finite vectors, [`OperatorError::OutOfRange`] outside the
+    /// valid range (see the type docs).
     pub fn from_parts(
         eta: Vector2<f64>,
         a: Vector2<f64>,
         c: Vector2<f64>,
         sigma2: f64,
     ) -> Result<Self, OperatorError> {
-        if let Some(&value) = eta
-            .iter()
-            .chain(a.iter())
-            .chain(c.iter())
-            .find(|v| !v.is_finite())
-        {
+        Self::validated(eta, a, c, sigma2, Origin::Parts)
+    }
+
+    /// The density if the numbers are in the valid range.
+    fn validated(
+        eta: Vector2<f64>,
+        a: Vector2<f64>,
+        c: Vector2<f64>,
+        sigma2: f64,
+        origin: Origin,
+    ) -> Result<Self, OperatorError> {
+        let [eta_name, position_name, variance_name] = origin.names();
+        if let Some(&value) = eta.iter().find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
-                what: "azimuth density parameter (eta, a or c)",
+                what: eta_name,
                 value,
             });
         }
-        if !(sigma2.is_finite() && sigma2 > 0.0) {
+        // κ = |η| must be in range too (η = (MAX, MAX) has finite components and κ = ∞).
+        let kappa = eta.x.hypot(eta.y);
+        if kappa > CONCENTRATION_LIMIT {
             return Err(OperatorError::OutOfRange {
-                what: "conditional position variance sigma^2",
-                value: sigma2,
-                range: "(0, infinity)",
+                what: eta_name,
+                value: kappa,
+                range: "concentration kappa = |eta| in [0, 1e300]",
             });
         }
-        Ok(Self { eta, a, c, sigma2 })
+        let angle = VonMises::new(eta)?;
+        if let Some(&value) = a.iter().chain(c.iter()).find(|v| !v.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: position_name,
+                value,
+            });
+        }
+        if let Some(&value) = a.iter().chain(c.iter()).find(|v| v.abs() > POSITION_LIMIT) {
+            return Err(OperatorError::OutOfRange {
+                what: position_name,
+                value,
+                range: "[-1e150, 1e150] per component",
+            });
+        }
+        if !(sigma2.is_normal() && sigma2 > 0.0 && sigma2 <= VARIANCE_LIMIT) {
+            return Err(OperatorError::OutOfRange {
+                what: variance_name,
+                value: sigma2,
+                range: "[2.2e-308, 1e300] (a positive normal number)",
+            });
+        }
+        Ok(Self {
+            angle,
+            a,
+            c,
+            sigma2,
+        })
     }
 
     /// η, the von Mises natural parameter of p(A).
     pub fn eta(&self) -> &Vector2<f64> {
-        &self.eta
+        self.angle.eta()
     }
 
     /// a, the azimuth-independent part of the conditional mean of r.
@@ -134,51 +238,63 @@ impl AzimuthDensity {
     /// that composite with the linear process and conditioning it on the rotated measurement
     /// `z = R(A) r + n` gives this filter's seven numbers again, with η₂ = 0 at every step
     /// (`tests/azimuth.rs` checks it at every epoch): this type is the composite's specialisation to
-    /// the seed's prior, stored in seven numbers instead of eleven and updated in a few nanoseconds.
+    /// the blog post's prior, stored in seven numbers instead of eleven and updated in a few nanoseconds.
     ///
     /// # Errors
-    /// Never for a valid density; the composite's constructor errors otherwise.
+    /// [`DensityError::OutOfRange`] for κ above the generalised von Mises family's
+    /// [`GenVonMises2::MAX_CONCENTRATION`] (1e16); the composite's constructor errors otherwise.
     pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, DensityError> {
         HarmonicGaussian::new(
-            GenVonMises2::new(self.eta, Vector2::zeros())?,
+            GenVonMises2::new(*self.eta(), Vector2::zeros())?,
             Matrix2x3::from_columns(&[self.a, self.c, -perp(&self.c)]),
             Matrix2::identity() * self.sigma2,
         )
     }
 
     /// The marginal p(A).
-    ///
-    /// # Panics
-    /// Never: η is finite by construction and every update keeps it so.
     pub fn azimuth(&self) -> VonMises {
-        VonMises::new(self.eta).expect("eta is finite by construction")
+        self.angle
     }
 
-    /// `E[r | A] = a + c cos A − c^× sin A`.
-    pub fn conditional_mean(&self, azimuth: f64) -> Vector2<f64> {
-        let (s, c) = azimuth.sin_cos();
-        self.a + self.c * c - perp(&self.c) * s
+    /// `E[r | A] = a + c cos A − c^× sin A` (finite: a and c are in the valid range).
+    pub fn conditional_mean(&self, azimuth: &So2<f64>) -> Vector2<f64> {
+        self.a + self.c * azimuth.cos() - perp(&self.c) * azimuth.sin()
     }
 
     /// Conditions on a position measurement in place (the seven-number recursion, no special
     /// functions: this is the per-step hot path). [`Condition::condition`] also returns the log
     /// evidence; [`log_evidence`](Self::log_evidence) gives it alone.
     ///
+    /// `1 − k` is computed as `σ_m²/S` and σ²⁺ as the smaller variance times a factor in [½, 1], so
+    /// that a measurement far more precise than the prior (σ_m² below ε σ²) still gives σ²⁺ ≈ σ_m²
+    /// instead of rounding it to zero.
+    ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite z (the density is left unchanged).
+    /// [`OperatorError::NonFinite`] for a non-finite z, and [`OperatorError::NonFinite`] or
+    /// [`OperatorError::OutOfRange`] when the result would leave the valid range (see the type docs);
+    /// the density is then unchanged.
     pub fn update(
         &mut self,
         model: &PositionMeasurement,
         z: &Vector2<f64>,
     ) -> Result<(), OperatorError> {
         check_measurement(z)?;
-        let s = self.sigma2 + model.variance();
-        let k = self.sigma2 / s;
+        let r = model.variance();
+        let s = self.sigma2 + r;
+        let (k, keep) = (self.sigma2 / s, r / s);
         let w = z - self.c;
-        self.eta += Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s;
-        self.a *= 1.0 - k;
-        self.c = self.c * (1.0 - k) + z * k;
-        self.sigma2 *= 1.0 - k;
+        let sigma2 = if self.sigma2 <= r {
+            self.sigma2 * keep
+        } else {
+            r * k
+        };
+        *self = Self::validated(
+            self.eta() + Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s,
+            self.a * keep,
+            self.c * keep + z * k,
+            sigma2,
+            Origin::Update,
+        )?;
         Ok(())
     }
 
@@ -187,7 +303,8 @@ impl AzimuthDensity {
     /// `p(z | A) = N(z; R(A) a + c, S I)` integrated against the von Mises.
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite z.
+    /// [`OperatorError::NonFinite`] for a non-finite z, or when the log evidence overflows (a
+    /// measurement too far from the prediction for the noise).
     pub fn log_evidence(
         &self,
         model: &PositionMeasurement,
@@ -196,77 +313,100 @@ impl AzimuthDensity {
         check_measurement(z)?;
         let s = self.sigma2 + model.variance();
         let w = z - self.c;
-        let eta = self.eta + Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s;
+        let eta = self.eta() + Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s;
         // hypot, not norm: |η| near 1e-300 must not underflow.
-        Ok(
-            -(2.0 * PI * s).ln() - (w.norm_squared() + self.a.norm_squared()) / (2.0 * s)
-                + special::log_i0(eta.x.hypot(eta.y))?
-                - special::log_i0(self.eta.x.hypot(self.eta.y))?,
-        )
+        let value = -(2.0 * PI * s).ln() - (w.norm_squared() + self.a.norm_squared()) / (2.0 * s)
+            + special::log_i0(eta.x.hypot(eta.y))?
+            - special::log_i0(self.eta().x.hypot(self.eta().y))?;
+        if !value.is_finite() {
+            return Err(OperatorError::NonFinite {
+                what: "log evidence of the measurement (it overflows: the measurement is too far \
+                       from the prediction for the noise)",
+                value,
+            });
+        }
+        Ok(value)
     }
 
     /// Propagates in place over one step of the velocity process.
     ///
     /// # Errors
-    /// As [`VelocityInput::validate`] (the density is left unchanged).
+    /// As [`VelocityInput::validate`], or [`OperatorError::OutOfRange`] when the result would leave
+    /// the valid range (`v dt` or `q² dt` too large); the density is then unchanged.
     pub fn predict(
         &mut self,
         model: &VelocityProcess,
         input: &VelocityInput,
     ) -> Result<(), OperatorError> {
         input.validate()?;
-        self.a += input.velocity * input.dt;
-        self.sigma2 += model.noise_density() * input.dt;
+        *self = Self::validated(
+            *self.eta(),
+            self.a + input.velocity * input.dt,
+            self.c,
+            self.sigma2 + model.noise_density() * input.dt,
+            Origin::Prediction,
+        )?;
         Ok(())
     }
 
-    /// The point estimates (seed 000), from the first and second circular moments of p(A):
+    /// The point estimates, from the first and second circular moments of p(A):
     ///
-    /// `E r = a + c C₁ − c^× S₁`, `Cov r = σ² I + B Cov(cos A, sin A) Bᵀ`, `B = [c, −c^×]`, where
-    /// `C₁ + i S₁ = ρ₁ e^(iμ)`. `Cov(cos A, sin A)` is formed in the frame of the mean direction μ as
-    /// `diag(A′(κ), ρ₁/κ)` (= `((1 + ρ₂)/2 − ρ₁², (1 − ρ₂)/2)` by the Bessel recurrence) rotated by μ,
-    /// so its small perpendicular variance at large κ is not a difference of numbers near ½.
+    /// `E r = a + ρ b₁`, `Cov r = σ² I + A′(κ) b₁ b₁ᵀ + (ρ/κ) b₂ b₂ᵀ`, with ρ = A(κ) = I₁(κ)/I₀(κ),
+    /// μ the mean direction and `b₁ = c cos μ − c^× sin μ`, `b₂ = −c sin μ − c^× cos μ` (the columns
+    /// of `[c, −c^×]` turned by μ). The coefficients are the variances of `cos(A − μ)` and
+    /// `sin(A − μ)`, `A′(κ) = (1 + A₂)/2 − ρ²` and `(1 − A₂)/2 = ρ/κ` (Bessel recurrence), ½ each at
+    /// κ = 0; the covariance of the two is zero. So Cov r is σ² I plus two positive semi-definite
+    /// terms with non-negative coefficients, **positive definite at every κ by construction**: no
+    /// difference of numbers near ½ is formed (A′ is taken at least 0, since it is positive for every
+    /// κ and only its rounding could make it negative), and its eigenvalues are at least σ².
+    ///
+    /// `σ_A² = −2 ln ρ` uses, where ρ has lost the digits of 1 − ρ, the expansions
+    /// `−2 ln A(κ) = 1/κ + 1/(2κ²) + 11/(24κ³) + O(κ⁻⁴)` for κ ≥ 1e6 and
+    /// `−2 ln A(κ) = 2 ln 2 − 2 ln κ + O(κ²)` for κ ≤ 1e-8 (relative error below 1e-18 and 1e-16),
+    /// so σ_A is accurate and finite from κ = 5e-324 to κ = 1e300. The mean direction of a subnormal η
+    /// is its direction after scaling by its largest component.
     pub fn estimates(&self) -> AzimuthEstimates {
+        let eta = self.eta();
         // hypot, not norm: |η| = 1e-300 must not underflow to an unobservable azimuth.
-        let kappa = self.eta.x.hypot(self.eta.y);
-        // κ is the hypot of finite numbers: the functions refuse it only where it overflowed to +∞,
-        // where their limits are A = 1, 1 − A = 0, A′ = 0.
+        let kappa = eta.x.hypot(eta.y);
+        // κ is the hypot of finite numbers, finite by the valid range: the functions cannot refuse it
+        // (their limits at +∞, A = 1 and A′ = 0, are the fallbacks).
         let rho = special::a1(kappa).unwrap_or(1.0);
-        let (mode, sigma_a, along, across) = if kappa > 0.0 {
-            let mu = self.eta.y.atan2(self.eta.x);
-            // −2 ln A, as −2 ln(1 − (1 − A)) where A > ½ so that it keeps its digits at large κ.
-            let log_rho = if rho > 0.5 {
-                (-special::one_minus_a1(kappa).unwrap_or(0.0)).ln_1p()
-            } else {
-                rho.ln()
-            };
-            let sigma_a = (-2.0 * log_rho).sqrt();
-            (
-                Some(mu),
-                Some(sigma_a),
-                special::a1_derivative(kappa).unwrap_or(0.0),
-                rho / kappa,
-            )
-        } else {
-            (None, None, 0.5, 0.5)
-        };
-        let direction = self.eta / kappa.max(f64::MIN_POSITIVE);
-        let (cos_mu, sin_mu) = if kappa > 0.0 {
-            (direction.x, direction.y)
-        } else {
-            (1.0, 0.0)
-        };
-        let rotation = Matrix2::new(cos_mu, -sin_mu, sin_mu, cos_mu);
-        let moments = rotation * Matrix2::new(along, 0.0, 0.0, across) * rotation.transpose();
         let b = Matrix2::from_columns(&[self.c, -perp(&self.c)]);
-        let cov_r = Matrix2::identity() * self.sigma2 + b * moments * b.transpose();
+        let sigma_r = Matrix2::identity() * self.sigma2;
+        if kappa == 0.0 {
+            return AzimuthEstimates {
+                kappa,
+                mode: None,
+                sigma_a: None,
+                mean_r: self.a,
+                cov_r: sigma_r + b * b.transpose() * 0.5,
+            };
+        }
+        let scaled = eta / eta.amax();
+        let direction = scaled / scaled.norm();
+        let (b1, b2) = (b * direction, b * Vector2::new(-direction.y, direction.x));
+        let along = special::a1_derivative(kappa).unwrap_or(0.0).max(0.0);
+        let across = rho / kappa;
         AzimuthEstimates {
             kappa,
-            mode,
-            sigma_a,
-            mean_r: self.a + b * Vector2::new(rho * cos_mu, rho * sin_mu),
-            cov_r: (cov_r + cov_r.transpose()) * 0.5,
+            mode: Some(eta.y.atan2(eta.x)),
+            sigma_a: Some(circular_variance(kappa, rho).sqrt()),
+            mean_r: self.a + b1 * rho,
+            cov_r: sigma_r + b1 * b1.transpose() * along + b2 * b2.transpose() * across,
         }
+    }
+}
+
+/// `−2 ln A(κ)` for κ > 0 and ρ = A(κ) (see [`AzimuthDensity::estimates`]).
+fn circular_variance(kappa: f64, rho: f64) -> f64 {
+    if kappa >= 1e6 {
+        let x = 1.0 / kappa;
+        x * (1.0 + x * (0.5 + x * (11.0 / 24.0)))
+    } else if kappa <= 1e-8 {
+        2.0 * (std::f64::consts::LN_2 - kappa.ln())
+    } else {
+        -2.0 * rho.ln()
     }
 }
 

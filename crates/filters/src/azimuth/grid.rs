@@ -1,8 +1,10 @@
 //! [`GridReference`]: the brute-force posterior of azimuth alignment, a bank of exact Kalman filters on
 //! the operators crate's [`CircularGrid`].
 
+use super::density::variance_of;
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use liebayes_densities::Gaussian;
+use liebayes_manifolds::So2;
 use liebayes_operators::OperatorError;
 use liebayes_operators::grid::CircularGrid;
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
@@ -25,19 +27,16 @@ pub struct GridReference {
     log_evidence: f64,
 }
 
-/// `R(A) = [[cos A, −sin A], [sin A, cos A]]`.
-fn rotation(angle: f64) -> Matrix2<f64> {
-    let (s, c) = angle.sin_cos();
-    Matrix2::new(c, -s, s, c)
-}
-
 impl GridReference {
     /// n filters, each with prior `N(r₀, σ₀² I)`, and the uniform azimuth prior.
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] for n = 0, or the Gaussian's errors for r₀ and σ₀.
+    /// [`OperatorError::OutOfRange`] for n = 0 or σ₀ outside [1.5e-154, 1e150],
+    /// [`OperatorError::TooLarge`] for n above
+    /// [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS), or the Gaussian's errors for r₀.
     pub fn new(n: usize, r0: Vector2<f64>, sigma0: f64) -> Result<Self, OperatorError> {
-        let prior = Gaussian::new(r0, Matrix2::identity() * (sigma0 * sigma0))?;
+        let variance = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
+        let prior = Gaussian::new(r0, Matrix2::identity() * variance)?;
         Ok(Self {
             grid: CircularGrid::uniform(n, prior)?,
             log_evidence: 0.0,
@@ -70,9 +69,10 @@ impl GridReference {
         z: &Vector2<f64>,
     ) -> Result<(), OperatorError> {
         let noise = Matrix2::identity() * model.variance();
-        self.log_evidence += self
-            .grid
-            .condition_cells(|angle| LinearMeasurement::new(rotation(angle), noise), z)?;
+        self.log_evidence += self.grid.condition_cells(
+            |angle| LinearMeasurement::new(So2::from_angle_unchecked(angle).to_matrix(), noise),
+            z,
+        )?;
         Ok(())
     }
 

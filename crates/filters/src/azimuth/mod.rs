@@ -1,4 +1,4 @@
-//! Azimuth alignment (seed 000): a platform moves in the plane; its velocity is known in its own axes,
+//! Azimuth alignment, after the blog post "Exact finite-state filter for azimuth alignment": a platform moves in the plane; its velocity is known in its own axes,
 //! its position is measured in world axes, and the two frames differ by an unknown constant azimuth A:
 //!
 //! `ṙ = v + w` (r in platform axes, `w` white with PSD `q² I`), `z = R(A) r + n`, `n ~ N(0, σ_m² I)`,
@@ -9,7 +9,7 @@
 //! [`AzimuthDensity`]. It is checked against [`GridReference`], a bank of exact Kalman filters over a
 //! grid of azimuths built from the operators crate, and against the reference vectors `azimuth_vectors.json`.
 //! The baselines (EKF, UKF, particle, grid and marginalized particle filters) share the
-//! [`AzimuthFilter`] interface with it. [`scenario`] simulates the seed's three scenarios and [`study()`]
+//! [`AzimuthFilter`] interface with it. [`scenario`] simulates the blog post's three scenarios and [`study()`]
 //! runs the Monte Carlo summary of any [`Method`]. The math is in `docs/filters/azimuth.md`.
 
 mod baselines;
@@ -25,7 +25,9 @@ pub use baselines::{
     AzimuthFilter, Estimate, GaussianBaseline, Linearisation, MarginalizedBaseline,
     ParticleBaseline, PositionAzimuth,
 };
-pub use density::{AzimuthDensity, AzimuthEstimates};
+pub use density::{
+    AzimuthDensity, AzimuthEstimates, CONCENTRATION_LIMIT, POSITION_LIMIT, VARIANCE_LIMIT,
+};
 pub use grid::GridReference;
 pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
 pub use study::{Method, Summary, study};

@@ -1,5 +1,6 @@
 //! The process and measurement models of azimuth alignment, validated once at construction.
 
+use super::density::{VARIANCE_LIMIT, variance_of};
 use liebayes_operators::OperatorError;
 use nalgebra::Vector2;
 
@@ -11,19 +12,21 @@ pub struct VelocityProcess {
 }
 
 impl VelocityProcess {
-    /// The process with noise density q (m/√s, q ≥ 0).
+    /// The process with noise density q in [0, 1e150] m/√s, so that q² is at most 1e300 (a q whose
+    /// square underflows is a deterministic process, as q = 0).
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] unless q is finite and non-negative.
+    /// [`OperatorError::OutOfRange`] for q negative, NaN or above 1e150.
     pub fn new(q: f64) -> Result<Self, OperatorError> {
-        if !(q.is_finite() && q >= 0.0) {
+        let q2 = q * q;
+        if !(q >= 0.0 && q2 <= VARIANCE_LIMIT) {
             return Err(OperatorError::OutOfRange {
                 what: "velocity noise density q (m/sqrt(s))",
                 value: q,
-                range: "[0, infinity)",
+                range: "[0, 1e150] (q^2 must be at most 1e300)",
             });
         }
-        Ok(Self { q2: q * q })
+        Ok(Self { q2 })
     }
 
     /// q².
@@ -72,20 +75,15 @@ pub struct PositionMeasurement {
 }
 
 impl PositionMeasurement {
-    /// The measurement with noise standard deviation σ_m > 0 (m).
+    /// The measurement with noise standard deviation σ_m in [1.5e-154, 1e150] m, so that σ_m² is a
+    /// positive normal number up to 1e300 (σ_m = 1e-200 would square to zero: a measurement claiming
+    /// to be exact, which the recursion cannot divide by).
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] unless σ_m is finite and positive.
+    /// [`OperatorError::OutOfRange`] for σ_m outside that range (zero, negative, NaN, infinite).
     pub fn new(sigma_m: f64) -> Result<Self, OperatorError> {
-        if !(sigma_m.is_finite() && sigma_m > 0.0) {
-            return Err(OperatorError::OutOfRange {
-                what: "position noise standard deviation sigma_m (m)",
-                value: sigma_m,
-                range: "(0, infinity)",
-            });
-        }
         Ok(Self {
-            sigma_m2: sigma_m * sigma_m,
+            sigma_m2: variance_of("position noise standard deviation sigma_m (m)", sigma_m)?,
         })
     }
 
@@ -103,7 +101,9 @@ impl PositionMeasurement {
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] for non-finite entries, [`OperatorError::OutOfRange`] unless `R_m`
-    /// is symmetric with a positive largest eigenvalue.
+    /// is symmetric (to 1e-12 of its largest entry) and positive semi-definite (its smallest
+    /// eigenvalue at least −1e-12 times its largest entry), or when `√λ_max` is outside the range of
+    /// [`new`](Self::new).
     pub fn isotropic_bound(noise: &nalgebra::Matrix2<f64>) -> Result<Self, OperatorError> {
         if let Some(&value) = noise.iter().find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
@@ -111,15 +111,31 @@ impl PositionMeasurement {
                 value,
             });
         }
+        let scale = noise.amax();
         let asymmetry = (noise[(0, 1)] - noise[(1, 0)]).abs();
-        if asymmetry > 1e-12 * noise.amax() {
+        if asymmetry > 1e-12 * scale {
             return Err(OperatorError::OutOfRange {
                 what: "position noise covariance R_m (the value is |R_01 - R_10|)",
                 value: asymmetry,
                 range: "symmetric matrices",
             });
         }
-        let largest = noise.symmetric_eigenvalues().max();
-        Self::new(largest.sqrt())
+        // The eigenvalues (m ± h) of the symmetric part, in closed form on the matrix scaled to
+        // unit size so that nothing overflows: m = (p + r)/2, h = hypot((p − r)/2, q).
+        let unit = if scale > 0.0 { noise / scale } else { *noise };
+        let (p, r, q) = (
+            unit[(0, 0)],
+            unit[(1, 1)],
+            0.5 * (unit[(0, 1)] + unit[(1, 0)]),
+        );
+        let (m, h) = (0.5 * (p + r), (0.5 * (p - r)).hypot(q));
+        if m - h < -1e-12 {
+            return Err(OperatorError::OutOfRange {
+                what: "position noise covariance R_m (the value is its smallest eigenvalue)",
+                value: (m - h) * scale,
+                range: "positive semi-definite matrices",
+            });
+        }
+        Self::new(((m + h) * scale).sqrt())
     }
 }

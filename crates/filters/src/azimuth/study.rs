@@ -8,9 +8,10 @@ use super::baselines::{
 };
 use super::scenario::{Config, Scenario, simulate};
 use super::{AzimuthDensity, GridReference, PositionMeasurement, VelocityInput, VelocityProcess};
+use liebayes_manifolds::So2;
 use liebayes_operators::OperatorError;
 use liebayes_operators::evaluation::{
-    MeanEstimate, MonteCarlo, Series, angle_difference, average_nees_band, circular_consistency,
+    MeanEstimate, MonteCarlo, Series, average_nees_band, circular_consistency, estimation_error,
     nees,
 };
 use nalgebra::Vector2;
@@ -54,7 +55,8 @@ impl Method {
     /// The filter with the scenario's prior (`r ~ N(0, σ₀² I)`, A uniform).
     ///
     /// # Errors
-    /// [`OperatorError`] for an invalid σ₀ or a zero particle or cell count.
+    /// [`OperatorError`] for an invalid σ₀, or a particle or cell count that is zero or above
+    /// [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS).
     pub fn build(
         self,
         config: &Config,
@@ -120,7 +122,7 @@ pub fn run_once(
 ) -> Result<Run, OperatorError> {
     let process = VelocityProcess::new(config.q)?;
     let measurement = PositionMeasurement::new(config.sigma_m)?;
-    let sim = simulate(scenario, config, &mut ChaCha8Rng::seed_from_u64(seed));
+    let sim = simulate(scenario, config, &mut ChaCha8Rng::seed_from_u64(seed))?;
     let mut rng = ChaCha8Rng::seed_from_u64(!seed);
     let mut filter = method.build(config, &mut rng)?;
     let mut epochs = Vec::with_capacity(sim.measurements.iter().flatten().count());
@@ -137,7 +139,7 @@ pub fn run_once(
                 let clock = Instant::now();
                 epochs.push(epoch(
                     k as f64 * config.dt,
-                    &filter.estimate(),
+                    &filter.estimate()?,
                     sim.true_azimuth,
                     &sim.positions[k],
                 ));
@@ -165,16 +167,21 @@ pub fn run_once(
     })
 }
 
+/// The epoch's errors, through the manifolds: `estimate ⊟ truth` on SO(2) for the azimuth (wrapped to
+/// (−π, π]) and on R² for the position.
 fn epoch(t: f64, estimate: &Estimate, true_azimuth: f64, position: &Vector2<f64>) -> Epoch {
+    let truth = So2::from_angle_unchecked(true_azimuth);
     let error = estimate.mean_r - position;
     Epoch {
         t,
-        azimuth_error: estimate.azimuth.map(|a| angle_difference(a, true_azimuth)),
+        azimuth_error: estimate
+            .azimuth
+            .map(|a| estimation_error(&truth, &So2::from_angle_unchecked(a))[0]),
         sigma_a: estimate.sigma_a(),
         rho: estimate.rho,
         position_error: error,
         position_sigma: estimate.cov_r.diagonal().map(|v| v.max(0.0).sqrt()),
-        nees: nees(&error, &estimate.cov_r),
+        nees: nees(&error, &estimate.cov_r).ok(),
     }
 }
 
@@ -223,7 +230,8 @@ pub struct Summary {
 /// summarises the final epoch and the errors over time.
 ///
 /// # Errors
-/// [`OperatorError`] for an invalid configuration, or `runs == 0`.
+/// [`OperatorError`] for an invalid configuration, `runs == 0` or runs above
+/// [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS), or per-epoch sums that overflow.
 pub fn study(
     method: Method,
     scenario: Scenario,
@@ -239,9 +247,10 @@ pub fn study(
         });
     }
     let label = format!("{} {}", method.label(), scenario.name());
+    config.validate()?;
     let results = MonteCarlo::new(label).run(runs, |i| {
         run_once(method, scenario, config, seed.wrapping_add(i as u64))
-    });
+    })?;
     let results = results.into_iter().collect::<Result<Vec<Run>, _>>()?;
     let first_run = results.first().cloned().ok_or(OperatorError::OutOfRange {
         what: "number of Monte Carlo runs",
@@ -257,7 +266,7 @@ pub fn study(
         azimuth_rmse: None,
         mean_sigma_a: None,
         average_nees: 0.0,
-        nees_band: average_nees_band(2, runs),
+        nees_band: average_nees_band(2, runs)?,
         circular: MeanEstimate::default(),
         divergence_rate: None,
         ns_per_step: 0.0,
@@ -273,13 +282,15 @@ pub fn study(
         steps += run.steps;
         for (k, e) in run.epochs.iter().enumerate() {
             if let (Some(error), Some(s)) = (e.azimuth_error, e.sigma_a) {
-                summary.azimuth_mse.add(k, error * error);
-                summary.mean_sigma_a2.add(k, s * s);
+                summary.azimuth_mse.add(k, error * error)?;
+                summary.mean_sigma_a2.add(k, s * s)?;
             }
-            summary.position_mse.add(k, e.position_error.norm_squared());
+            summary
+                .position_mse
+                .add(k, e.position_error.norm_squared())?;
             summary
                 .mean_position_variance
-                .add(k, e.position_sigma.norm_squared());
+                .add(k, e.position_sigma.norm_squared())?;
         }
         let last = run.epochs.last();
         if run.failure.is_some() || last.is_none() {
@@ -296,7 +307,7 @@ pub fn study(
             reported += 1;
             diverged += usize::from(error.abs() > DIVERGENCE_THRESHOLD);
             if let Some(c) = circular_consistency(error, last.rho) {
-                summary.circular.add(c);
+                summary.circular.add(c)?;
             }
         }
     }
