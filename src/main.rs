@@ -1,6 +1,6 @@
 //! The `liebayes` command-line program.
 //!
-//! With no arguments: the azimuth study on all three scenarios (every filter, the seed's settings), its
+//! With no arguments: the azimuth study on all three scenarios (every filter, the blog post's settings), its
 //! CSV and SVG files in `out/azimuth/`, then short demonstrations of the manifolds and densities.
 //! `liebayes azimuth --help` lists the study's options; `liebayes particles` finds the particle count at
 //! which the bootstrap particle filter matches the exact filter's azimuth RMSE.
@@ -53,7 +53,7 @@ impl ScenarioArg {
     }
 }
 
-/// The simulation settings (the seed's by default).
+/// The simulation settings (by default those of the blog post that proposed the filter).
 #[derive(clap::Args, Debug, Clone)]
 struct Simulation {
     /// Simulated time (s).

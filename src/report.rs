@@ -167,7 +167,7 @@ fn symmetric_range(values: impl Iterator<Item = f64>, floor: f64) -> std::ops::R
     -m..m
 }
 
-/// The seed's figure: the first run's azimuth and position errors with the filter's ±1σ bounds.
+/// The blog post's figure: the first run's azimuth and position errors with the filter's ±1σ bounds.
 fn plot_first_run(path: &Path, summary: &Summary) -> Result<()> {
     let run: &Run = &summary.first_run;
     let root = SVGBackend::new(path, (900, 900)).into_drawing_area();
