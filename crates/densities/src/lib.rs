@@ -50,6 +50,6 @@ pub use harmonic_gaussian::{HarmonicGaussian, harmonic_features};
 pub use heat_kernel::HeatKernelSo3;
 pub use liebayes_manifolds as manifolds;
 pub use manifold_gaussian::ManifoldGaussian;
-pub use traits::{Convolve, Density, Entropy, KlDivergence, Product};
+pub use traits::{Convolve, Density, Entropy, KlDivergence, Product, Rotate};
 pub use von_mises::VonMises;
 pub use von_mises_fisher::VonMisesFisher;

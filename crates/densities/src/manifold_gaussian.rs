@@ -2,7 +2,7 @@
 //! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
 
 use crate::error::DensityError;
-use crate::traits::{Density, Entropy};
+use crate::traits::{Density, Entropy, Rotate};
 use liebayes_manifolds::{Jacobian, LieGroup, Manifold};
 use nalgebra::{Cholesky, SMatrix, SVector};
 use rand::Rng;
@@ -56,7 +56,7 @@ const SYMMETRY_TOLERANCE: f64 = 1e-12;
 /// assert!((g.mahalanobis_squared(&x) - 1.0).abs() < 1e-12);
 /// assert!(g.log_pdf(&x) < g.log_pdf(g.mean()));
 /// ```
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ManifoldGaussian<X, const D: usize> {
     mean: X,
     covariance: SMatrix<f64, D, D>,
@@ -263,6 +263,74 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> ManifoldGaussian<G, D> {
         let ja = self.mean.j_compose_self(&other.mean);
         let covariance = self.propagated_covariance(&ja) + other.covariance();
         Self::new(self.mean.compose(&other.mean), covariance)
+    }
+}
+
+/// A lower-triangular L′ with `L′ L′ᵀ = A Aᵀ` (an LQ factorisation `A = L′ Q`), by Givens rotations
+/// of the columns, with a non-negative diagonal: exact orthogonal steps that cannot fail.
+fn lower_factor<const D: usize>(mut a: SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+    for i in 0..D {
+        for j in (i + 1)..D {
+            let (x, y) = (a[(i, i)], a[(i, j)]);
+            if y == 0.0 {
+                continue;
+            }
+            let r = x.hypot(y);
+            let (c, s) = (x / r, y / r);
+            for k in i..D {
+                let (p, q) = (a[(k, i)], a[(k, j)]);
+                a[(k, i)] = c * p + s * q;
+                a[(k, j)] = c * q - s * p;
+            }
+            a[(i, j)] = 0.0;
+        }
+        if a[(i, i)] < 0.0 {
+            for k in i..D {
+                a[(k, i)] = -a[(k, i)];
+            }
+        }
+    }
+    a
+}
+
+impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussian<G, D> {
+    /// Left translation, exact: `g (μ ⊞ δ) = (g μ) ⊞ J δ` with `J = j_compose_other(g, μ)`, so the
+    /// mean is `g μ` and the covariance `J P Jᵀ`. For the right perturbation `x · exp(δ)` J is the
+    /// identity and P is kept as it is; with world-frame errors (`Left<G>`) J = Ad(g), and the factor
+    /// of `J P Jᵀ` is `J L` made lower-triangular by Givens rotations (no factorisation that could
+    /// fail).
+    fn rotated(&self, g: &G) -> Self {
+        let j = g.j_compose_other(&self.mean);
+        let mean = g.compose(&self.mean);
+        if j == SMatrix::<f64, D, D>::identity() {
+            return Self {
+                mean,
+                ..self.clone()
+            };
+        }
+        let covariance = self.propagated_covariance(&j);
+        let cholesky = lower_factor(j * self.cholesky);
+        let (_, log_det) = inverse_trace_and_log_det(&cholesky);
+        Self {
+            mean,
+            covariance,
+            cholesky,
+            log_det,
+        }
+    }
+
+    /// `g x`.
+    fn act(g: &G, x: &G) -> G {
+        g.compose(x)
+    }
+}
+
+impl<X: Manifold<D, Scalar = f64>, const D: usize> rand::distr::Distribution<X>
+    for ManifoldGaussian<X, D>
+{
+    /// One draw, by [`Density::sample`].
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> X {
+        Density::sample(self, rng)
     }
 }
 
