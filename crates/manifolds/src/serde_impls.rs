@@ -88,39 +88,29 @@ struct Pose<R, V> {
     translation: V,
 }
 
-impl<T: Real + Serialize> Serialize for Se2<T> {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        Pose {
-            rotation: self.rotation(),
-            translation: self.translation(),
+/// `Se2` and `Se3`: rotation and translation, read back through `new`.
+macro_rules! pose_serde {
+    ($ty:ident, $rotation:ident, $translation:ident) => {
+        impl<T: Real + Serialize> Serialize for $ty<T> {
+            fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+                Pose {
+                    rotation: self.rotation(),
+                    translation: self.translation(),
+                }
+                .serialize(serializer)
+            }
         }
-        .serialize(serializer)
-    }
-}
 
-impl<'de, T: Real + Deserialize<'de>> Deserialize<'de> for Se2<T> {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        let pose = Pose::<So2<T>, Vector2<T>>::deserialize(deserializer)?;
-        Se2::new(pose.rotation, pose.translation).map_err(D::Error::custom)
-    }
-}
-
-impl<T: Real + Serialize> Serialize for Se3<T> {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        Pose {
-            rotation: self.rotation(),
-            translation: self.translation(),
+        impl<'de, T: Real + Deserialize<'de>> Deserialize<'de> for $ty<T> {
+            fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+                let pose = Pose::<$rotation<T>, $translation<T>>::deserialize(deserializer)?;
+                $ty::new(pose.rotation, pose.translation).map_err(D::Error::custom)
+            }
         }
-        .serialize(serializer)
-    }
+    };
 }
-
-impl<'de, T: Real + Deserialize<'de>> Deserialize<'de> for Se3<T> {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        let pose = Pose::<So3<T>, Vector3<T>>::deserialize(deserializer)?;
-        Se3::new(pose.rotation, pose.translation).map_err(D::Error::custom)
-    }
-}
+pose_serde!(Se2, So2, Vector2);
+pose_serde!(Se3, So3, Vector3);
 
 impl<G: Serialize> Serialize for Left<G> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {

@@ -3,8 +3,8 @@
 //! numbers), a per-call wrapper that runs each call on its own thread under a time limit, and the
 //! checks a result must pass (an error, or a finite value).
 //!
-//! It depends only on `proptest` and `nalgebra`, so another crate's tests can include the file with
-//! `#[path]` or copy it. Environment:
+//! Every crate's `bad_input` tests use it, so one command runs the whole library's harness (see
+//! the reliability page of the docs). Environment:
 //!
 //! * `LIEBAYES_FUZZ_CASES`: proptest cases per test (default 64, sized for CI);
 //! * `LIEBAYES_FUZZ_SEED`: the seed of the input generator (default 0, so CI runs are reproducible);
@@ -96,6 +96,20 @@ pub fn magnitude() -> impl Strategy<Value = f64> {
     value().prop_map(f64::abs)
 }
 
+/// A size a user might pass to a constructor whose largest accepted size is `maximum`: small ones
+/// (built for real), `maximum + 1`, huge ones and `usize::MAX` (to be refused before any
+/// allocation). Sizes just below `maximum` are not drawn: accepting them is correct and allocates
+/// gigabytes.
+pub fn size(maximum: usize) -> impl Strategy<Value = usize> {
+    prop_oneof![
+        4 => 0..40_usize,
+        1 => Just(maximum.saturating_add(1)),
+        1 => Just(1_usize << 40),
+        1 => Just(usize::MAX / 2),
+        1 => Just(usize::MAX),
+    ]
+}
+
 /// Runs a property over `strategy` for [`cases`] cases (no persistence, no forking), then prints the
 /// [`summary`] under `name`.
 ///
@@ -175,7 +189,10 @@ pub fn call<T: Send + 'static>(name: &str, f: impl FnOnce() -> T + Send + 'stati
 /// What a returned value must satisfy: finite numbers, points on their manifold, densities with a
 /// finite normaliser. Returns a description of the violation.
 pub trait Valid {
-    /// `Err(description)` where the value is not acceptable.
+    /// Whether the value is acceptable.
+    ///
+    /// # Errors
+    /// A description of the violation where it is not.
     fn valid(&self) -> Result<(), String>;
 }
 
