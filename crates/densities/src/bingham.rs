@@ -2,7 +2,9 @@
 
 use crate::bingham_normalizer::log_normalizer_and_moments;
 use crate::error::{DensityError, finite};
-use crate::traits::{Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density};
+use crate::traits::{
+    Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
+};
 use liebayes_manifolds::{LieGroup, Su2};
 use nalgebra::{Matrix3, Matrix4, Quaternion, SymmetricEigen, Vector3, Vector4};
 use rand::Rng;
@@ -337,7 +339,6 @@ impl Bingham {
     pub fn log_normalizer_surface(&self) -> f64 {
         self.log_normalizer() + (2.0 * std::f64::consts::PI * std::f64::consts::PI).ln()
     }
-
 }
 
 impl Rotate<Su2<f64>> for Bingham {

@@ -574,7 +574,9 @@ impl Rotate<So2<f64>> for GenVonMises2 {
         Self {
             eta1: rotate(&self.eta1, g.cos(), g.sin()),
             eta2: rotate(&self.eta2, doubled.cos(), doubled.sin()),
-            reference: g.compose(&So2::from_angle_unchecked(self.reference)).angle(),
+            reference: g
+                .compose(&So2::from_angle_unchecked(self.reference))
+                .angle(),
             log_normalizer_offset: self.log_normalizer_offset,
         }
     }

@@ -25,8 +25,7 @@ pub fn harmonic_features(y: f64) -> Vector3<f64> {
 /// The family is closed under linear processes of x and under two kinds of measurement (linear ones
 /// independent of y, and measurements of x in a frame turned by y when `H Σ Hᵀ` is isotropic): the
 /// operators crate's `rao_blackwell` module propagates and conditions it exactly, with the log evidence
-/// (derivations in `docs/operators/rao_blackwell.md`). Seed 000's seven-number azimuth filter is the
-/// The azimuth filter's seven-number posterior (an angle and a 2-D drift with a von Mises marginal) is
+/// (derivations in `docs/operators/rao_blackwell.md`). The azimuth-alignment filter's seven-number posterior (an angle and a 2-D drift with a von Mises marginal) is
 /// the special case `B = [a, c, −c^×]`, `Σ = σ² I`, η₂ = 0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HarmonicGaussian<const N: usize> {
@@ -199,7 +198,9 @@ impl<const N: usize> Density for HarmonicGaussian<N> {
     }
 }
 
-impl<const N: usize> rand::distr::Distribution<(So2<f64>, SVector<f64, N>)> for HarmonicGaussian<N> {
+impl<const N: usize> rand::distr::Distribution<(So2<f64>, SVector<f64, N>)>
+    for HarmonicGaussian<N>
+{
     /// One draw, by [`Density::sample`].
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> (So2<f64>, SVector<f64, N>) {
         Density::sample(self, rng)

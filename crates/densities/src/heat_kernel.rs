@@ -2,7 +2,9 @@
 
 use crate::error::{DensityError, finite};
 use crate::quadrature;
-use crate::traits::{Convolve, Density, Entropy, KlDivergence, Rotate, distribution_through_density};
+use crate::traits::{
+    Convolve, Density, Entropy, KlDivergence, Rotate, distribution_through_density,
+};
 use liebayes_manifolds::{LieGroup, So3};
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
@@ -394,7 +396,11 @@ impl KlDivergence for HeatKernelSo3 {
             };
             // The cut locus of q's centre, where t′ = π and |·| has a kink (and ln f₂ its largest
             // curvature): the panels meet there.
-            let kink = if sd * st > 0.0 { cd * ct / (sd * st) } else { f64::INFINITY };
+            let kink = if sd * st > 0.0 {
+                cd * ct / (sd * st)
+            } else {
+                f64::INFINITY
+            };
             let inner = if kink.abs() < 1.0 {
                 quadrature::integrate(integrand, -1.0, kink, 2)
                     + quadrature::integrate(integrand, kink, 1.0, 2)

@@ -17,8 +17,9 @@ const SAME_MEAN_MAHALANOBIS_SQUARED: f64 = 1e-12;
 const SYMMETRY_TOLERANCE: f64 = 1e-12;
 
 /// The distribution of `x = μ ⊞ δ`, `δ ~ N(0, P)`: a mean μ on a D-dimensional manifold X and a
-/// covariance P in the tangent space at μ (right perturbation, `μ ⊞ δ = μ · exp(δ)` on a group, the
-/// convention of the whole library).
+/// covariance P in the tangent space at μ of X's own retraction `⊞`. The frame of the errors is the
+/// type's: on a Lie group `G` itself `μ ⊞ δ = μ · exp(δ)` (body-frame errors), on
+/// [`Left<G>`](liebayes_manifolds::Left) `μ ⊞ δ = exp(δ) · μ` (world-frame errors).
 ///
 /// # Base measure
 /// `log_pdf(x)` is the Gaussian log density of the tangent vector `δ = x ⊟ μ`: a density with respect
@@ -98,13 +99,20 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// The distribution `μ ⊞ N(0, P)`.
     ///
     /// # Errors
-    /// [`DensityError::NonFinite`] for NaN or infinite entries, [`DensityError::OutOfRange`] for a P
-    /// that is not symmetric (to 1e-12 relative) or not positive definite (its Cholesky factorisation
+    /// [`DensityError::NonFinite`] for a mean with a NaN or infinite coordinate
+    /// ([`Manifold::is_finite`]) and for NaN or infinite entries of P, [`DensityError::OutOfRange`]
+    /// for a P that is not symmetric (to 1e-12 relative) or not positive definite (its Cholesky factorisation
     /// fails), and when P⁻¹ is not representable: its trace `tr P⁻¹ = ‖L⁻¹‖²_F` overflows
     /// (eigenvalues of P below about 1e-308), so that Mahalanobis distances and divergences would be
     /// infinite for every point.
     pub fn new(mean: X, covariance: SMatrix<f64, D, D>) -> Result<Self, DensityError> {
         const WHAT: &str = "tangent covariance P";
+        if !mean.is_finite() {
+            return Err(DensityError::NonFinite {
+                what: "mean (a coordinate of the point on the manifold)",
+                value: f64::NAN,
+            });
+        }
         // One pass: finiteness, the largest magnitude, the largest asymmetry.
         let (mut scale, mut asymmetry) = (0.0_f64, 0.0_f64);
         for j in 0..D {

@@ -108,8 +108,15 @@ mod tests {
             let rule = legendre_rule(n);
             for k in 0..2 * n {
                 let got: f64 = rule.iter().map(|(x, w)| w * x.powi(k as i32)).sum();
-                let expected = if k % 2 == 0 { 2.0 / (k as f64 + 1.0) } else { 0.0 };
-                assert!((got - expected).abs() < 1e-14, "Legendre n {n}, x^{k}: {got}");
+                let expected = if k % 2 == 0 {
+                    2.0 / (k as f64 + 1.0)
+                } else {
+                    0.0
+                };
+                assert!(
+                    (got - expected).abs() < 1e-14,
+                    "Legendre n {n}, x^{k}: {got}"
+                );
             }
         }
         for n in [1, 3, 8, 16] {
@@ -124,7 +131,10 @@ mod tests {
                 // Odd moments vanish by symmetry, to the rounding of E|x|^k; the weights of the
                 // outer nodes carry relative errors of a few hundred ε.
                 let scale: f64 = rule.iter().map(|(x, w)| w * x.abs().powi(k as i32)).sum();
-                assert!((got - expected).abs() < 1e-12 * (1.0 + scale), "Hermite n {n}, x^{k}: {got}");
+                assert!(
+                    (got - expected).abs() < 1e-12 * (1.0 + scale),
+                    "Hermite n {n}, x^{k}: {got}"
+                );
             }
         }
     }

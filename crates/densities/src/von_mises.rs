@@ -3,7 +3,9 @@
 use crate::error::{DensityError, finite};
 use crate::scaled_bessel;
 use crate::special;
-use crate::traits::{Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density};
+use crate::traits::{
+    Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
+};
 use liebayes_manifolds::{LieGroup, So2};
 use nalgebra::Vector2;
 use rand::Rng;
@@ -368,7 +370,10 @@ impl Rotate<So2<f64>> for VonMises {
     fn rotated(&self, g: &So2<f64>) -> Self {
         let (c, s) = (g.cos(), g.sin());
         Self {
-            eta: Vector2::new(c * self.eta.x - s * self.eta.y, s * self.eta.x + c * self.eta.y),
+            eta: Vector2::new(
+                c * self.eta.x - s * self.eta.y,
+                s * self.eta.x + c * self.eta.y,
+            ),
         }
     }
 

@@ -2,7 +2,9 @@
 
 use crate::error::{DensityError, finite};
 use crate::special;
-use crate::traits::{Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density};
+use crate::traits::{
+    Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
+};
 use crate::von_mises::check_concentration;
 use liebayes_manifolds::{GroupAction, S2, So3};
 use nalgebra::Vector3;

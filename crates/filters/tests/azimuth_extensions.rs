@@ -52,7 +52,7 @@ struct Pair<const N: usize> {
 
 impl<const N: usize> Pair<N> {
     fn new(prior: Gaussian<N>) -> Self {
-        let uniform = GenVonMises2::new(Vector2::zeros(), Vector2::zeros()).unwrap();
+        let uniform = GenVonMises2::from_natural(Vector2::zeros(), Vector2::zeros()).unwrap();
         Self {
             composite: HarmonicGaussian::independent(uniform, &prior).unwrap(),
             grid: CircularGrid::uniform(CELLS, prior).unwrap(),
@@ -283,7 +283,7 @@ fn three_dimensional_with_known_roll_and_pitch_is_exact() {
 #[test]
 fn non_isotropic_noise_with_the_isotropic_bound_is_conservative() {
     let anisotropic = HarmonicGaussian::independent(
-        GenVonMises2::new(Vector2::new(1.0, 0.0), Vector2::zeros()).unwrap(),
+        GenVonMises2::from_natural(Vector2::new(1.0, 0.0), Vector2::zeros()).unwrap(),
         &Gaussian::new(Vector2::zeros(), Matrix2::new(1.0, 0.0, 0.0, 0.3)).unwrap(),
     )
     .unwrap();

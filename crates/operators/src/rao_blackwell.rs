@@ -205,7 +205,8 @@ fn reweighted_angle(
     prior: &GenVonMises2,
     h: &Harmonics,
 ) -> Result<(GenVonMises2, f64), OperatorError> {
-    let angle = GenVonMises2::new(prior.eta1() + h.eta1, prior.eta2() + h.eta2)?;
+    let (eta1, eta2) = prior.natural();
+    let angle = GenVonMises2::from_natural(eta1 + h.eta1, eta2 + h.eta2)?;
     let log_evidence = h.constant + angle.log_normalizer() - prior.log_normalizer();
     Ok((angle, log_evidence))
 }

@@ -112,8 +112,8 @@ pub fn sphere(axis: &S2<f64>, width: f64) -> Vec<(S2<f64>, f64)> {
         let radius = (t * (2.0 - t)).max(0.0).sqrt();
         for k in 0..SPHERE_AZIMUTH_POINTS {
             let (s, c) = (h * k as f64).sin_cos();
-            let x = axis.as_vector() * (1.0 - t)
-                + (basis.column(0) * c + basis.column(1) * s) * radius;
+            let x =
+                axis.as_vector() * (1.0 - t) + (basis.column(0) * c + basis.column(1) * s) * radius;
             nodes.push((S2::new_unchecked(x.normalize()), wt * h));
         }
     }
@@ -152,13 +152,7 @@ fn ball<G: LieGroup<3, Scalar = f64>>(center: &G, spread: &Matrix3<f64>) -> Vec<
             for (r, wr) in peaked(1.0, r_max, PANEL_POINTS) {
                 let xi: Tangent<f64, 3> = direction * r;
                 let theta = length * r;
-                let weight = wc
-                    * h
-                    * wr
-                    * determinant
-                    * r
-                    * r
-                    * half_angle_sinc_squared(theta)
+                let weight = wc * h * wr * determinant * r * r * half_angle_sinc_squared(theta)
                     / (8.0 * PI * PI);
                 nodes.push((center.compose(&G::exp(&xi)), weight));
             }
@@ -392,7 +386,10 @@ mod tests {
             let expected = 2.0 * PI * (1.0 + q);
             let nodes = circle(1.0 / (1.0 + kappa).sqrt());
             let got = integral(&nodes, |x| (kappa * x.cos()).exp());
-            assert!(relative(got, expected) < 1e-14, "κ {kappa}: {got} vs {expected}");
+            assert!(
+                relative(got, expected) < 1e-14,
+                "κ {kappa}: {got} vs {expected}"
+            );
         }
         // Concentrated: the mass of e^(κ (cos θ − 1)) is √(2π/κ) (1 + 1/(8κ) + 9/(128κ²) + …).
         let kappa = 1e6_f64;
@@ -400,7 +397,8 @@ mod tests {
         let got = integral(&circle(1.0 / kappa.sqrt()), |x| {
             (-2.0 * kappa * (0.5 * x.angle()).sin().powi(2)).exp()
         });
-        let expected = (2.0 * PI / kappa).sqrt() * (1.0 + 1.0 / (8.0 * kappa) + 9.0 / (128.0 * kappa * kappa));
+        let expected =
+            (2.0 * PI / kappa).sqrt() * (1.0 + 1.0 / (8.0 * kappa) + 9.0 / (128.0 * kappa * kappa));
         assert!(relative(got, expected) < 1e-13, "{got} vs {expected}");
     }
 
@@ -417,7 +415,10 @@ mod tests {
             let got = integral(&sphere(&axis, 1.0 / (1.0 + kappa)), |x| {
                 (-0.5 * kappa * (x.as_vector() - axis.as_vector()).norm_squared()).exp()
             });
-            assert!(relative(got, expected) < 1e-13, "κ {kappa}: {got} vs {expected}");
+            assert!(
+                relative(got, expected) < 1e-13,
+                "κ {kappa}: {got} vs {expected}"
+            );
         }
         // A smooth non-isotropic integrand: ∫ x₁² dS = 4π/3 whatever the axis.
         let got = integral(&sphere(&axis, 1.0), |x| x.as_vector().x.powi(2));
@@ -435,8 +436,9 @@ mod tests {
             let nodes = so3(&center, &spread);
             let total = integral(&nodes, |_| 1.0);
             assert!((total - 1.0).abs() < 1e-13, "{spread}: ∫1 = {total}");
-            let character =
-                integral(&nodes, |x| 1.0 + 2.0 * center.inverse().compose(x).angle().cos());
+            let character = integral(&nodes, |x| {
+                1.0 + 2.0 * center.inverse().compose(x).angle().cos()
+            });
             assert!(character.abs() < 1e-13, "{spread}: ∫χ₁ = {character}");
         }
         let (s, c) = 0.9_f64.sin_cos();
@@ -448,8 +450,12 @@ mod tests {
         let rule = gauss_legendre(20);
         let axis: Vec<(f64, f64)> = (0..6)
             .flat_map(|panel| {
-                let (a, b) = (-12.0 + 4.0 * f64::from(panel), -8.0 + 4.0 * f64::from(panel));
-                rule.iter().map(move |(x, w)| (0.5 * (a + b) + 0.5 * (b - a) * x, 0.5 * (b - a) * w))
+                let (a, b) = (
+                    -12.0 + 4.0 * f64::from(panel),
+                    -8.0 + 4.0 * f64::from(panel),
+                );
+                rule.iter()
+                    .map(move |(x, w)| (0.5 * (a + b) + 0.5 * (b - a) * x, 0.5 * (b - a) * w))
             })
             .collect();
         let mut tensor = 0.0;
@@ -462,8 +468,13 @@ mod tests {
             }
         }
         tensor *= spread.determinant().abs();
-        let got = integral(&so3(&center, &spread), |x| kernel(&center.inverse().compose(x).log()));
-        assert!(relative(got, tensor) < 1e-12, "anisotropic: {got} vs {tensor}");
+        let got = integral(&so3(&center, &spread), |x| {
+            kernel(&center.inverse().compose(x).log())
+        });
+        assert!(
+            relative(got, tensor) < 1e-12,
+            "anisotropic: {got} vs {tensor}"
+        );
         for s in [1e-6, 1e-3, 0.1] {
             let n = 200_000;
             let h = PI / f64::from(n);
@@ -520,7 +531,9 @@ mod tests {
     #[test]
     fn s3_integrates_bingham_kernels() {
         let (s, c) = 0.3_f64.sin_cos();
-        let frame = Matrix4::new(c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, c, s, 0.0, 0.0, -s, c);
+        let frame = Matrix4::new(
+            c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, c, s, 0.0, 0.0, -s, c,
+        );
         let coordinate = |x: &Su2<f64>, k: usize| {
             let [w, a, b, d] = x.to_quaternion_wxyz();
             frame.column(k).dot(&nalgebra::Vector4::new(w, a, b, d))
@@ -534,20 +547,29 @@ mod tests {
             let nodes = s3(&frame, &[10.0, 10.0, width]);
             let got = integral(&nodes, |x| (-a * coordinate(x, 3).powi(2)).exp());
             let expected = one_coordinate(|u, _| (-a * u * u).exp());
-            assert!(relative(got, expected) < 1e-11, "one axis, a {a}: {got} vs {expected}");
+            assert!(
+                relative(got, expected) < 1e-11,
+                "one axis, a {a}: {got} vs {expected}"
+            );
             let nodes = s3(&frame, &[width, width, width]);
             // 1 − u₀² as u₁² + u₂² + u₃², and cos²θ, which keep their digits near the peak.
             let got = integral(&nodes, |x| {
                 (-a * (1..4).map(|k| coordinate(x, k).powi(2)).sum::<f64>()).exp()
             });
             let expected = one_coordinate(|_, c| (-a * c * c).exp());
-            assert!(relative(got, expected) < 1e-11, "three axes, a {a}: {got} vs {expected}");
+            assert!(
+                relative(got, expected) < 1e-11,
+                "three axes, a {a}: {got} vs {expected}"
+            );
             let nodes = s3(&frame, &[10.0, width, width]);
             let got = integral(&nodes, |x| {
                 (-a * (coordinate(x, 2).powi(2) + coordinate(x, 3).powi(2))).exp()
             });
             let expected = -(-a).exp_m1() / a;
-            assert!(relative(got, expected) < 1e-11, "circle, a {a}: {got} vs {expected}");
+            assert!(
+                relative(got, expected) < 1e-11,
+                "circle, a {a}: {got} vs {expected}"
+            );
         }
     }
 

@@ -77,8 +77,9 @@ pub fn standard_deviation() -> impl Strategy<Value = f64> + Clone {
 /// # Panics
 /// Never for concentrations in the accepted range [0, 1e300].
 pub fn von_mises(kappa: impl Strategy<Value = f64>) -> impl Strategy<Value = VonMises> {
-    (manifold::so2::<f64>(), kappa)
-        .prop_map(|(mean, kappa)| VonMises::new(mean, kappa).expect("strategy parameters are valid"))
+    (manifold::so2::<f64>(), kappa).prop_map(|(mean, kappa)| {
+        VonMises::new(mean, kappa).expect("strategy parameters are valid")
+    })
 }
 
 /// Von Mises-Fisher distributions: any mean direction (including the poles), concentrations from
@@ -86,7 +87,9 @@ pub fn von_mises(kappa: impl Strategy<Value = f64>) -> impl Strategy<Value = Von
 ///
 /// # Panics
 /// Never for concentrations in the accepted range [0, 1e300].
-pub fn von_mises_fisher(kappa: impl Strategy<Value = f64>) -> impl Strategy<Value = VonMisesFisher> {
+pub fn von_mises_fisher(
+    kappa: impl Strategy<Value = f64>,
+) -> impl Strategy<Value = VonMisesFisher> {
     (manifold::s2::<f64>(), kappa).prop_map(|(mean, kappa)| {
         VonMisesFisher::new(mean, kappa).expect("strategy parameters are valid")
     })
@@ -101,9 +104,8 @@ pub fn von_mises_fisher(kappa: impl Strategy<Value = f64>) -> impl Strategy<Valu
 pub fn gen_von_mises2(
     kappa: impl Strategy<Value = f64> + Clone,
 ) -> impl Strategy<Value = GenVonMises2> {
-    let harmonic = move || {
-        (manifold::so2::<f64>(), kappa.clone()).prop_map(|(mean, k)| (mean, k.min(1e3)))
-    };
+    let harmonic =
+        move || (manifold::so2::<f64>(), kappa.clone()).prop_map(|(mean, k)| (mean, k.min(1e3)));
     (harmonic(), harmonic(), 0..6_u8).prop_map(|((m1, k1), (m2, k2), case)| {
         let (k1, k2) = match case {
             0 => (k1, 0.0),
@@ -118,7 +120,9 @@ pub fn gen_von_mises2(
 ///
 /// # Panics
 /// Never for variances in the accepted range [1e-300, f64::MAX].
-pub fn heat_kernel_so3(variance: impl Strategy<Value = f64>) -> impl Strategy<Value = HeatKernelSo3> {
+pub fn heat_kernel_so3(
+    variance: impl Strategy<Value = f64>,
+) -> impl Strategy<Value = HeatKernelSo3> {
     (manifold::so3::<f64>(), variance)
         .prop_map(|(mean, s)| HeatKernelSo3::new(mean, s).expect("s in [1e-300, f64::MAX]"))
 }
@@ -168,13 +172,12 @@ pub fn covariance<const D: usize>(
     )
         .prop_map(|(entries, sigmas)| {
             let rotation = orthogonal::<D>(&entries);
-            let diagonal = SMatrix::<f64, D, D>::from_fn(|i, j| {
-                if i == j {
-                    sigmas[i] * sigmas[i]
-                } else {
-                    0.0
-                }
-            });
+            let diagonal =
+                SMatrix::<f64, D, D>::from_fn(
+                    |i, j| {
+                        if i == j { sigmas[i] * sigmas[i] } else { 0.0 }
+                    },
+                );
             let c = rotation * diagonal * rotation.transpose();
             (c + c.transpose()) * 0.5
         })

@@ -53,7 +53,10 @@ fn first_and_second<const N: usize>(v: &SVector<f64, N>) -> Vec<f64> {
 }
 
 /// The entries of a mean m and of a second moment `S` on and above the diagonal.
-fn mean_and_second<const N: usize>(mean: &SVector<f64, N>, second: &SMatrix<f64, N, N>) -> Vec<f64> {
+fn mean_and_second<const N: usize>(
+    mean: &SVector<f64, N>,
+    second: &SMatrix<f64, N, N>,
+) -> Vec<f64> {
     let mut t: Vec<f64> = mean.iter().copied().collect();
     for i in 0..N {
         for j in i..N {
@@ -76,8 +79,8 @@ fn smallest_deviation<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
 /// `2 N cond(L) = 2 N √(λ_max/λ_min)`, the growth of the relative rounding of a Mahalanobis term
 /// computed by a triangular solve with the Cholesky factor L of a covariance.
 fn mahalanobis_condition<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
-    let eigenvalues = nalgebra::DMatrix::from_column_slice(N, N, covariance.as_slice())
-        .symmetric_eigenvalues();
+    let eigenvalues =
+        nalgebra::DMatrix::from_column_slice(N, N, covariance.as_slice()).symmetric_eigenvalues();
     2.0 * N as f64 * (eigenvalues.max() / eigenvalues.min()).sqrt()
 }
 
@@ -109,8 +112,12 @@ impl DensitySubject for VonMises {
 
     /// The first two trigonometric moments `Aₙ(κ) u(nμ)`.
     fn exact_moments(&self) -> Vec<f64> {
-        let one = self.trigonometric_moment(1).unwrap_or_else(|_| nalgebra::Vector2::zeros());
-        let two = self.trigonometric_moment(2).unwrap_or_else(|_| nalgebra::Vector2::zeros());
+        let one = self
+            .trigonometric_moment(1)
+            .unwrap_or_else(|_| nalgebra::Vector2::zeros());
+        let two = self
+            .trigonometric_moment(2)
+            .unwrap_or_else(|_| nalgebra::Vector2::zeros());
         vec![one.x, one.y, two.x, two.y]
     }
 
@@ -157,7 +164,9 @@ impl DensitySubject for VonMisesFisher {
     /// The sphere rule about the mean direction (the z axis for the uniform distribution), width
     /// `1/(1 + κ)` in `t = 1 − μ · x`.
     fn quadrature(&self) -> Vec<(S2<f64>, f64)> {
-        let axis = self.mean().unwrap_or_else(|| S2::new_unchecked(Vector3::z()));
+        let axis = self
+            .mean()
+            .unwrap_or_else(|| S2::new_unchecked(Vector3::z()));
         quadrature::sphere(&axis, 1.0 / (1.0 + self.concentration()))
     }
 
@@ -187,7 +196,11 @@ fn bingham_widths(p: &Bingham) -> [f64; 3] {
     let z = p.eigenvalues();
     std::array::from_fn(|k| {
         let a = z[0] - z[k + 1];
-        if a > 0.005 { (0.5 / a).sqrt().min(10.0) } else { 10.0 }
+        if a > 0.005 {
+            (0.5 / a).sqrt().min(10.0)
+        } else {
+            10.0
+        }
     })
 }
 
@@ -280,7 +293,11 @@ fn heat_kernel_pair_quadrature(p: &HeatKernelSo3, q: &HeatKernelSo3) -> Vec<(So3
     let delta = d.norm();
     let m = if delta > 0.0 { d / delta } else { Vector3::z() };
     // An orthonormal frame (e₁, e₂, m).
-    let helper = if m.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let helper = if m.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
     let e1 = m.cross(&helper).normalize();
     let e2 = m.cross(&e1);
     let (sd, cd) = (0.5 * delta).sin_cos();
@@ -290,7 +307,11 @@ fn heat_kernel_pair_quadrature(p: &HeatKernelSo3, q: &HeatKernelSo3) -> Vec<(So3
     let mut nodes = Vec::new();
     for (t, wt) in quadrature::peaked(p.variance().sqrt().min(1.0), PI, 16) {
         let (st, ct) = (0.5 * t).sin_cos();
-        let kink = if sd * st > 0.0 { cd * ct / (sd * st) } else { f64::INFINITY };
+        let kink = if sd * st > 0.0 {
+            cd * ct / (sd * st)
+        } else {
+            f64::INFINITY
+        };
         let panels: Vec<(f64, f64)> = if kink.abs() < 1.0 {
             vec![(-1.0, kink), (kink, 1.0)]
         } else {
@@ -440,7 +461,10 @@ impl<const N: usize> DensitySubject for HarmonicGaussian<N> {
     fn exact_moments(&self) -> Vec<f64> {
         let mut t = self.angle().exact_moments();
         let (mean, covariance) = self.marginal_moments();
-        t.extend(mean_and_second(&mean, &(covariance + mean * mean.transpose())));
+        t.extend(mean_and_second(
+            &mean,
+            &(covariance + mean * mean.transpose()),
+        ));
         t
     }
 

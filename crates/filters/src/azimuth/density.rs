@@ -140,7 +140,7 @@ impl AzimuthDensity {
     /// Never for a valid density; the composite's constructor errors otherwise.
     pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, DensityError> {
         HarmonicGaussian::new(
-            GenVonMises2::new(self.eta, Vector2::zeros())?,
+            GenVonMises2::from_natural(self.eta, Vector2::zeros())?,
             Matrix2x3::from_columns(&[self.a, self.c, -perp(&self.c)]),
             Matrix2::identity() * self.sigma2,
         )
@@ -151,7 +151,7 @@ impl AzimuthDensity {
     /// # Panics
     /// Never: η is finite by construction and every update keeps it so.
     pub fn azimuth(&self) -> VonMises {
-        VonMises::new(self.eta).expect("eta is finite by construction")
+        VonMises::from_natural(self.eta).expect("eta is finite by construction")
     }
 
     /// `E[r | A] = a + c cos A − c^× sin A`.
