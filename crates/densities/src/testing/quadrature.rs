@@ -322,7 +322,13 @@ fn tangent_nodes<const N: usize>(
 ) -> Vec<(SVector<f64, N>, f64)> {
     // Points per axis so that points^N ≤ MAX_NODES.
     let mut per_axis = points.max(1);
-    while N > 0 && (per_axis as f64).powi(N as i32) > MAX_NODES as f64 {
+    let exponent = u32::try_from(N).unwrap_or(u32::MAX);
+    // Ends: 1^N = 1 ≤ MAX_NODES.
+    while per_axis > 1
+        && per_axis
+            .checked_pow(exponent)
+            .is_none_or(|count| count > MAX_NODES)
+    {
         per_axis -= 1;
     }
     let rule = gauss_hermite(per_axis);
@@ -331,7 +337,7 @@ fn tangent_nodes<const N: usize>(
     let vectors = SMatrix::<f64, N, N>::from_column_slice(eigen.eigenvectors.as_slice());
     let scale = SVector::<f64, N>::from_fn(|i, _| eigen.eigenvalues[i].max(0.0).sqrt());
     let log_volume = 0.5 * N as f64 * (2.0 * PI).ln() + scale.iter().map(|s| s.ln()).sum::<f64>();
-    let count = per_axis.pow(N as u32);
+    let count = per_axis.checked_pow(exponent).unwrap_or(MAX_NODES);
     (0..count)
         .map(|index| {
             let mut rest = index;
