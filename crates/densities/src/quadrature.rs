@@ -107,7 +107,10 @@ mod tests {
         for n in [1, 2, 5, 20, 40] {
             let rule = legendre_rule(n);
             for k in 0..2 * n {
-                let got: f64 = rule.iter().map(|(x, w)| w * x.powi(k as i32)).sum();
+                let got: f64 = rule
+                    .iter()
+                    .map(|(x, w)| w * x.powi(i32::try_from(k).unwrap()))
+                    .sum();
                 let expected = if k % 2 == 0 {
                     2.0 / (k as f64 + 1.0)
                 } else {
@@ -122,7 +125,10 @@ mod tests {
         for n in [1, 3, 8, 16] {
             let rule = hermite_rule(n);
             for k in 0..2 * n {
-                let got: f64 = rule.iter().map(|(x, w)| w * x.powi(k as i32)).sum();
+                let got: f64 = rule
+                    .iter()
+                    .map(|(x, w)| w * x.powi(i32::try_from(k).unwrap()))
+                    .sum();
                 let expected = if k % 2 == 0 {
                     (1..k).step_by(2).map(|j| j as f64).product::<f64>()
                 } else {
@@ -130,7 +136,10 @@ mod tests {
                 };
                 // Odd moments vanish by symmetry, to the rounding of E|x|^k; the weights of the
                 // outer nodes carry relative errors of a few hundred ε.
-                let scale: f64 = rule.iter().map(|(x, w)| w * x.abs().powi(k as i32)).sum();
+                let scale: f64 = rule
+                    .iter()
+                    .map(|(x, w)| w * x.abs().powi(i32::try_from(k).unwrap()))
+                    .sum();
                 assert!(
                     (got - expected).abs() < 1e-12 * (1.0 + scale),
                     "Hermite n {n}, x^{k}: {got}"
