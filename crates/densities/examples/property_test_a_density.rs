@@ -110,6 +110,7 @@ impl DensitySubject for WrappedCauchy {
 }
 
 /// ρ from 0 to 0.99, log-uniform in 1 − ρ, and exactly 0.
+#[cfg(test)]
 fn wrapped_cauchy() -> impl Strategy<Value = WrappedCauchy> {
     let rho = prop_oneof![Just(0.0), (-2.0..0.0_f64).prop_map(|e| 1.0 - 10f64.powf(e))];
     (ms::so2::<f64>(), rho).prop_map(|(mean, rho)| WrappedCauchy { mean, rho })
