@@ -14,8 +14,10 @@
 
 use liebayes_densities::testing::{DensitySubject, manifold_neighbours, quadrature};
 use liebayes_densities::{Density, Entropy, Rotate, density_laws};
+#[cfg(test)]
 use liebayes_manifolds::testing::strategies as ms;
 use liebayes_manifolds::{LieGroup, So2};
+#[cfg(test)]
 use proptest::prelude::*;
 use rand::Rng;
 use std::f64::consts::PI;
