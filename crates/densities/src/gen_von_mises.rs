@@ -3,7 +3,9 @@
 use crate::error::{DensityError, finite};
 use crate::quadrature;
 use crate::scaled_bessel;
-use crate::traits::{Density, Entropy, KlDivergence, Product, Rotate};
+use crate::traits::{
+    Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
+};
 use crate::von_mises::{check_concentration, sample_offset, scaled_cos_minus_one};
 use liebayes_manifolds::{LieGroup, So2};
 use nalgebra::Vector2;
@@ -495,6 +497,8 @@ impl CellEnvelope {
         d
     }
 }
+
+distribution_through_density!(GenVonMises2);
 
 impl rand::distr::Distribution<So2<f64>> for GenVonMises2Sampler {
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {

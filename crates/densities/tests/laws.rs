@@ -25,12 +25,9 @@ density_laws!(
     finite(st::von_mises(st::extreme_concentration()))
 );
 
-// Concentrations to 100: beyond, the sampler law fails (for η₂ = (1000, 0) the sample mean of cos θ
-// lies 22 standard errors from the exact moment), a defect of the sampler or of the moments that is
-// still open.
 density_laws!(
     gen_von_mises2,
-    st::gen_von_mises2(0.0..100.0_f64),
+    st::gen_von_mises2(st::concentration()),
     product,
     kl,
     entropy,
@@ -47,12 +44,9 @@ density_laws!(
     finite(st::von_mises_fisher(st::extreme_concentration()))
 );
 
-// Eigenvalue spreads to 10 only: from spreads of about 50 on, normalisation, moments, entropy and
-// product miss their quadrature by 5e-10 to 1.4e-9 (against 1e-10), whether from the S³ rule or the
-// normaliser is still open.
 density_laws!(
     bingham,
-    st::bingham(10.0),
+    st::bingham(1e4),
     product,
     kl,
     entropy,
@@ -60,11 +54,10 @@ density_laws!(
     finite(st::bingham(liebayes_densities::Bingham::MAX_SPREAD))
 );
 
-// No `kl` yet: for s = 1 against s = 0.17 the closed form and the pair quadrature differ by 4e-9
-// relative (against 1e-10), and by 1e-6 for s = 6e-5; which side is wrong is still open.
 density_laws!(
     heat_kernel_so3,
     st::heat_kernel_so3(st::variance()),
+    kl,
     entropy,
     rotated(ms::so3::<f64>()),
     finite(st::heat_kernel_so3(st::extreme_variance()))
@@ -72,9 +65,7 @@ density_laws!(
 
 density_laws!(gaussian_1, st::gaussian::<1>(), product, kl, entropy);
 
-// No `product` yet for N = 3: the strategy's product of two drawn Gaussians can leave the accepted
-// range and panics in the strategy (strategies.rs), still open.
-density_laws!(gaussian_3, st::gaussian::<3>(), kl, entropy);
+density_laws!(gaussian_3, st::gaussian::<3>(), product, kl, entropy);
 
 density_laws!(
     manifold_gaussian_so2,

@@ -215,8 +215,9 @@ const DISK_ANGLES: usize = 32;
 /// measure `dα d²y / (2π²)`. In α: the trapezoid rule on `16 + ⌈9/wₐ⌉` angles when `wₐ ≥ 0.1`, else
 /// [`peaked_symmetric`] about α = 0 and α = π (the two antipodal peaks). On the disk: when
 /// `w_b ≤ 0.1`, whitened polar coordinates `y = (w_b ρ cos γ, w_c ρ sin γ)`, ρ ≤ min(12, edge) on the
-/// panels of [`peaked`] × 32 angles γ; otherwise `y_b = sin θ` (the panels of [`peaked`] from both
-/// ends ±π/2, of width w_c, where the inner integral saturates) and `y_c = cos θ · v`
+/// panels of [`peaked`] × 32 angles γ; otherwise `y_b = sin θ` (|θ| ≤ π/4: the panels of [`peaked`]
+/// from the peak at θ = 0, of width w_b; π/4 ≤ |θ| ≤ π/2: those from the ends ±π/2, of width w_c,
+/// where the inner integral saturates) and `y_c = cos θ · v`
 /// ([`peaked_symmetric`] of width `w_c / cos θ` on [−1, 1]), `d²y = cos²θ dθ dv`. Every circle of maxima (repeated largest eigenvalues) lies along α, so it is
 /// integrated by the trapezoid rule exactly.
 pub fn s3(frame: &Matrix4<f64>, widths: &[f64; 3]) -> Vec<(Su2<f64>, f64)> {
@@ -255,10 +256,16 @@ pub fn s3(frame: &Matrix4<f64>, widths: &[f64; 3]) -> Vec<(Su2<f64>, f64)> {
         }
         nodes
     } else {
-        // θ from both ends, where cos θ falls below w_c and the v-integral saturates.
+        // θ on [0, π/4] from the peak at 0 (width w_b), and on [π/4, π/2] from the end, where cos θ
+        // falls below w_c and the v-integral saturates; mirrored.
+        let quarter = 0.25 * PI;
+        let inner = peaked(wb.min(1.0), quarter, 12);
+        let outer = peaked(wc.min(1.0), quarter, 12)
+            .into_iter()
+            .map(|(tau, w)| (0.5 * PI - tau, w));
         let mut nodes = Vec::new();
-        for (tau, wt) in peaked(wc.min(1.0), 0.5 * PI, 12) {
-            for theta in [0.5 * PI - tau, tau - 0.5 * PI] {
+        for (t, wt) in inner.into_iter().chain(outer) {
+            for theta in [t, -t] {
                 let (s, co) = theta.sin_cos();
                 for (v, wv) in peaked_symmetric((wc / co).min(1.0), 1.0, 12) {
                     nodes.push(((s, co * v), co * co * wt * wv));
