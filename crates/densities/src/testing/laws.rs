@@ -341,6 +341,7 @@ pub fn check_product<P: DensitySubject + Product>(p: &P, q: &P) -> Result<(), Te
         let tolerance = rounding(scale)
             + term_rounding(lp, p.log_condition())
             + term_rounding(lq, q.log_condition())
+            + term_rounding(lpq, p.log_condition().max(q.log_condition()))
             + term_rounding(l, pq.log_condition().max(qp.log_condition()));
         prop_assert!(
             (lp + lq - lpq - l).abs() <= tolerance,

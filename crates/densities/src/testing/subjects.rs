@@ -271,7 +271,8 @@ impl DensitySubject for HeatKernelSo3 {
         self.first_moment().iter().copied().collect()
     }
 
-    /// p's SO(3) rule in spherical form, `c_p exp(t n)`, with the directions' polar axis along
+    /// p's SO(3) rule in spherical form, `c_p exp(t n)`, the angles t on the panels of
+    /// `angle_panels`, with the directions' polar axis along
     /// m, the axis of `c_q⁻¹ c_p`, and the polar panels split where the point crosses the cut locus
     /// of q's centre (`m · n = cot(δ/2) cot(t/2)`, δ the angle of `c_q⁻¹ c_p`), along which q's log
     /// density has a kink of slope up to π/s_q.
@@ -301,34 +302,69 @@ fn heat_kernel_pair_quadrature(p: &HeatKernelSo3, q: &HeatKernelSo3) -> Vec<(So3
     let e1 = m.cross(&helper).normalize();
     let e2 = m.cross(&e1);
     let (sd, cd) = (0.5 * delta).sin_cos();
-    let polar = quadrature::gauss_legendre(16);
+    // 32 Gauss-Legendre points on [−1, 1] where no kink is in range.
+    let polar = quadrature::gauss_legendre(32);
     let azimuths = 8;
     let h = 2.0 * PI / f64::from(azimuths);
     let mut nodes = Vec::new();
-    for (t, wt) in quadrature::peaked(p.variance().sqrt().min(1.0), PI, 16) {
+    for (t, wt) in angle_panels(p.variance(), q.variance(), delta) {
         let (st, ct) = (0.5 * t).sin_cos();
         let kink = if sd * st > 0.0 {
             cd * ct / (sd * st)
         } else {
             f64::INFINITY
         };
-        let panels: Vec<(f64, f64)> = if kink.abs() < 1.0 {
-            vec![(-1.0, kink), (kink, 1.0)]
+        // (c, weight): graded from the kink, where q's log density turns over an angle of s_q/π,
+        // `dt′ ≈ 2 sin(δ/2) sin(t/2) dc`.
+        let directions: Vec<(f64, f64)> = if kink.abs() < 1.0 {
+            let width = (q.variance() / (2.0 * PI * sd * st)).min(1.0);
+            let below = quadrature::peaked(width, kink + 1.0, 16);
+            let above = quadrature::peaked(width, 1.0 - kink, 16);
+            below
+                .into_iter()
+                .map(|(x, w)| (kink - x, w))
+                .chain(above.into_iter().map(|(x, w)| (kink + x, w)))
+                .collect()
         } else {
-            vec![(-1.0, 0.0), (0.0, 1.0)]
+            polar.iter().map(|&(x, w)| (x, w)).collect()
         };
         let haar = t * t * half_angle_sinc(t).powi(2) / (8.0 * PI * PI);
-        for (lo, hi) in panels {
-            for (x, wx) in &polar {
-                let c = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x;
-                let sine = (1.0 - c * c).max(0.0).sqrt();
-                for k in 0..azimuths {
-                    let (s, co) = (h * f64::from(k)).sin_cos();
-                    let n = m * c + (e1 * co + e2 * s) * sine;
-                    let weight = wt * 0.5 * (hi - lo) * wx * h * haar;
-                    nodes.push((p.mean().compose(&So3::exp(&(n * t))), weight));
-                }
+        for &(c, wc) in &directions {
+            let sine = (1.0 - c * c).max(0.0).sqrt();
+            for k in 0..azimuths {
+                let (s, co) = (h * f64::from(k)).sin_cos();
+                let n = m * c + (e1 * co + e2 * s) * sine;
+                nodes.push((p.mean().compose(&So3::exp(&(n * t))), wt * wc * h * haar));
             }
+        }
+    }
+    nodes
+}
+
+/// Nodes in the rotation angle t ∈ [0, π] of `c_p⁻¹ R` for the KL law: split at `π − δ`, where the
+/// cut locus of q's centre enters the directions (and the inner integral stops being smooth in t),
+/// and at π; each piece is covered from both ends by [`peaked`](quadrature::peaked) panels, of
+/// width `√s_p` at 0 (p's mass) and `s_q/π` at the splits (q's log density turns over an angle of
+/// about s_q/π there, where its two nearest images meet).
+fn angle_panels(s_p: f64, s_q: f64, delta: f64) -> Vec<(f64, f64)> {
+    use std::f64::consts::PI;
+    let (w_p, w_q) = (s_p.sqrt().min(1.0), (s_q / PI).min(1.0));
+    let split = PI - delta;
+    let mut pieces = Vec::new();
+    if split > 0.0 && split < PI {
+        pieces.push((0.0, split, w_p, w_q));
+        pieces.push((split, PI, w_q, w_q));
+    } else {
+        pieces.push((0.0, PI, w_p, w_q));
+    }
+    let mut nodes = Vec::new();
+    for (a, b, wa, wb) in pieces {
+        let half = 0.5 * (b - a);
+        for (x, w) in quadrature::peaked(wa, half, 16) {
+            nodes.push((a + x, w));
+        }
+        for (x, w) in quadrature::peaked(wb, half, 16) {
+            nodes.push((b - x, w));
         }
     }
     nodes
