@@ -358,7 +358,9 @@ fn densities_demo() {
         "   posterior mean {:.9} rad, kappa {:.3}, log evidence {:.6}",
         posterior.mean().map_or(f64::NAN, |m| m.angle()),
         posterior.concentration(),
-        prior.log_product_integral(&likelihood)
+        prior
+            .log_product_integral(&likelihood)
+            .expect("finite for von Mises densities")
     );
     let gyro_noise = HeatKernelSo3::new(So3::identity(), 1e-4).expect("valid");
     let after_1000_steps = (1..1000).fold(gyro_noise, |acc, _| {
@@ -368,7 +370,7 @@ fn densities_demo() {
         "7. SO(3) heat kernel: 1000 gyro steps of sigma^2 = 1e-4 convolve exactly to sigma^2 = {:.4}; \
          density at the centre {:.3e}",
         after_1000_steps.variance(),
-        after_1000_steps.log_pdf(after_1000_steps.mean()).exp()
+        after_1000_steps.log_pdf(&after_1000_steps.mean()).exp()
     );
 }
 

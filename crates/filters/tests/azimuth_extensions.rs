@@ -196,13 +196,14 @@ fn velocity_matching_is_exact() {
     let mode = pair
         .composite
         .angle()
-        .eta1()
+        .natural()
+        .0
         .y
-        .atan2(pair.composite.angle().eta1().x);
+        .atan2(pair.composite.angle().natural().0.x);
     eprintln!(
         "velocity matching: worst {:.1e}, |eta2| {:.2e}, heading error {:.3} deg",
         pair.worst,
-        pair.composite.angle().eta2().norm(),
+        pair.composite.angle().natural().1.norm(),
         angle_difference(mode, azimuth).to_degrees()
     );
     assert!(angle_difference(mode, azimuth).abs() < 5f64.to_radians());
@@ -266,7 +267,7 @@ fn three_dimensional_with_known_roll_and_pitch_is_exact() {
         truth += levelled * dt + normal::<3>(&mut rng) * (q * dt.sqrt());
         pair.propagate(&process, &(levelled * dt));
     }
-    let eta = pair.composite.angle().eta1();
+    let eta = pair.composite.angle().natural().0;
     let error = angle_difference(eta.y.atan2(eta.x), azimuth);
     eprintln!(
         "3-D known roll/pitch: worst {:.1e}, heading error {:.3} deg",

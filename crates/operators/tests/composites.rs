@@ -227,7 +227,7 @@ fn grid_bayes_and_diffusion_match_the_von_mises_algebra() {
     let evidence = grid
         .condition(|t| likelihood.log_pdf(&So2::from_angle_unchecked(t)))
         .unwrap();
-    let eta = prior.eta() + likelihood.eta();
+    let eta = prior.natural() + likelihood.natural();
     let kappa = eta.norm();
     let exact_evidence = special::log_i0(kappa).unwrap()
         - special::log_i0(3.0).unwrap()
