@@ -16,7 +16,7 @@ impl HeatKernelSo3 {
     /// `E[R]`, the same centre and the same `E[tr R]` = 3e^(−s)). About the centre the heat kernel's quaternion
     /// has `E[w²] = E[(1 + cos t)/2] = (1 + 3e^(−s))/4` and `E[x²] = E[y²] = E[z²] = (1 − e^(−s))/4`
     /// exactly; [`Bingham::from_second_moment`] matches them. The Bingham's eigenvalue is about
-    /// −2/s − 3/2 for small s (to leading order E[x²] ≈ s/4 matches the Bingham's −1/(2z)), so s should stay
+    /// −2/s − 3/2 for small s (to leading order `E[x²] ≈ s/4` matches the Bingham's `−1/(2z)`), so s should stay
     /// above about 2e-4 for it to lie in the range the Bingham normaliser is verified on (eigenvalues
     /// down to −1e4).
     ///

@@ -205,7 +205,8 @@ fn bingham_widths(p: &Bingham) -> [f64; 3] {
 }
 
 impl DensitySubject for Bingham {
-    /// The S³ rule in the eigenvector frame with [`bingham_widths`].
+    /// The S³ rule in the eigenvector frame, with the standard deviations `1/√(2aₖ)` of the
+    /// coordinates `vₖ · q` (`aₖ = z₀ − zₖ`; 10, diffuse, for small aₖ).
     fn quadrature(&self) -> Vec<(Su2<f64>, f64)> {
         quadrature::s3(self.orientation(), &bingham_widths(self))
     }
