@@ -386,8 +386,7 @@ impl KlDivergence for HeatKernelSo3 {
     ///
     /// In t the integrand is smooth except where the cut locus enters, at `t = π − δ` and at π:
     /// there ln f₂ turns over an angle of about `s₂/π` (its two nearest images meet), so the t-panels
-    /// start that fine at both ends of `[0, π − δ]` and `[π − δ, min(π, 12√s₁)]` and double up to
-    /// `√s₁/2` (uniform panels of that width only lost 5e-10 relative for s₁ = 1, s₂ = 2.5e-4).
+    /// start that fine at π − δ and π and grow fourfold up to `√s₁/2` (uniform panels of that width only lost 5e-10 relative for s₁ = 1, s₂ = 2.5e-4).
     fn kl_divergence(&self, other: &Self) -> f64 {
         let d = other.mean.inverse().compose(&self.mean);
         let delta = d.angle();
@@ -396,10 +395,12 @@ impl KlDivergence for HeatKernelSo3 {
         let end = (12.0 * root).min(PI);
         let (fine, coarse) = (other.s / (4.0 * PI), 0.5 * root);
         let split = PI - delta;
-        let pieces: &[(f64, f64)] = if split > 0.0 && split < end {
-            &[(0.0, split), (split, end)]
+        // (start, stop, grade at start, grade at stop): towards π − δ and π, never towards 0.
+        let at_pi = end >= PI;
+        let pieces: &[(f64, f64, bool, bool)] = if split > 0.0 && split < end {
+            &[(0.0, split, false, true), (split, end, true, at_pi)]
         } else {
-            &[(0.0, end)]
+            &[(0.0, end, false, at_pi)]
         };
         let outer = |t: f64| {
             let (st, ct) = (t / 2.0).sin_cos();
@@ -419,8 +420,8 @@ impl KlDivergence for HeatKernelSo3 {
             let inner = if kink.abs() < 1.0 {
                 // ln f₂ turns over an angle of s₂/π at the kink, `dt′ ≈ 2 sin(δ/2) sin(t/2) dc`.
                 let fine = other.s / (2.0 * PI * sd * st);
-                graded_integral(&integrand, -1.0, kink, fine, 0.5)
-                    + graded_integral(&integrand, kink, 1.0, fine, 0.5)
+                graded_integral(&integrand, -1.0, kink, [false, true], fine, 0.5)
+                    + graded_integral(&integrand, kink, 1.0, [true, false], fine, 0.5)
             } else {
                 quadrature::integrate(integrand, -1.0, 1.0, 4)
             };
@@ -428,28 +429,43 @@ impl KlDivergence for HeatKernelSo3 {
         };
         pieces
             .iter()
-            .map(|&(a, b)| graded_integral(&outer, a, b, fine, coarse))
+            .map(|&(a, b, from_a, from_b)| {
+                graded_integral(&outer, a, b, [from_a, from_b], fine, coarse)
+            })
             .sum()
     }
 }
 
-/// `∫_a^b f` by 20-point Gauss-Legendre on panels of width `fine` at both ends, doubling towards the
-/// middle (at most 64 times) until they reach `coarse`, and panels of about `coarse` between (at
-/// most 64: the callers' ranges are at most 24 coarse widths).
-fn graded_integral(f: &impl Fn(f64) -> f64, a: f64, b: f64, fine: f64, coarse: f64) -> f64 {
-    let (mut lo, mut hi, mut width) = (a, b, fine.max((b - a) * 1e-18));
+/// `∫_a^b f` by 20-point Gauss-Legendre on panels graded towards the ends flagged in `graded`
+/// (`[at a, at b]`): from width `fine` (at least `coarse · 1e-8`: a feature narrower than that
+/// carries a negligible share of the integrand's mass) growing fourfold, at most 14 times, until they
+/// reach `coarse`; then panels of about `coarse` between (at most 64: the callers' ranges are at most
+/// 24 coarse widths).
+fn graded_integral(
+    f: &impl Fn(f64) -> f64,
+    a: f64,
+    b: f64,
+    graded: [bool; 2],
+    fine: f64,
+    coarse: f64,
+) -> f64 {
+    let (mut lo, mut hi, mut width) = (a, b, fine.max(coarse * 1e-8));
     let mut total = 0.0;
-    for _ in 0..64 {
-        if width >= coarse || hi - lo <= 4.0 * width {
+    for _ in 0..14 {
+        if width >= coarse || hi - lo <= 8.0 * width {
             break;
         }
-        total += quadrature::integrate(f, lo, lo + width, 1)
-            + quadrature::integrate(f, hi - width, hi, 1);
-        lo += width;
-        hi -= width;
-        width *= 2.0;
+        if graded[0] {
+            total += quadrature::integrate(f, lo, lo + width, 1);
+            lo += width;
+        }
+        if graded[1] {
+            total += quadrature::integrate(f, hi - width, hi, 1);
+            hi -= width;
+        }
+        width *= 4.0;
     }
-    // (hi − lo)/coarse is at most 24 + 4 here, a non-negative integer after ceil.
+    // (hi − lo)/coarse is at most 24 here, a non-negative integer after ceil.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let panels = ((hi - lo) / coarse).ceil().clamp(1.0, 64.0) as usize;
     total + quadrature::integrate(f, lo, hi, panels)

@@ -345,11 +345,13 @@ fn heat_kernel_pair_quadrature(p: &HeatKernelSo3, q: &HeatKernelSo3) -> Vec<(So3
 /// Nodes in the rotation angle t ∈ [0, π] of `c_p⁻¹ R` for the KL law: split at `π − δ`, where the
 /// cut locus of q's centre enters the directions (and the inner integral stops being smooth in t),
 /// and at π; each piece is covered from both ends by [`peaked`](quadrature::peaked) panels, of
-/// width `√s_p` at 0 (p's mass) and `s_q/π` at the splits (q's log density turns over an angle of
-/// about s_q/π there, where its two nearest images meet).
+/// width `√s_p` at 0 (p's mass) and `min(s_q/π, √s_p)` at the splits (q's log density turns over
+/// an angle of about s_q/π there, where its two nearest images meet; p's mass may lie there too).
 fn angle_panels(s_p: f64, s_q: f64, delta: f64) -> Vec<(f64, f64)> {
     use std::f64::consts::PI;
-    let (w_p, w_q) = (s_p.sqrt().min(1.0), (s_q / PI).min(1.0));
+    // At the splits q's turning width, or p's width where p is narrower (its mass may lie there).
+    let w_p = s_p.sqrt().min(1.0);
+    let w_q = (s_q / PI).min(w_p);
     let split = PI - delta;
     let mut pieces = Vec::new();
     if split > 0.0 && split < PI {
