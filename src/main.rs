@@ -336,19 +336,19 @@ fn particles(args: &ParticleArgs) -> Result<(), String> {
 fn densities_demo() {
     use liebayes::densities::{Convolve, Density, HeatKernelSo3, Product, VonMises};
     use liebayes::manifolds::So2;
-    let prior =
-        VonMises::from_mean_concentration(So2::from_angle_unchecked(0.5), 4.0).expect("valid");
-    let likelihood =
-        VonMises::from_mean_concentration(So2::from_angle_unchecked(1.2), 1e6).expect("valid");
+    let prior = VonMises::new(So2::from_angle_unchecked(0.5), 4.0).expect("valid");
+    let likelihood = VonMises::new(So2::from_angle_unchecked(1.2), 1e6).expect("valid");
     let posterior = prior
         .product(&likelihood)
         .expect("von Mises products are exact");
     println!("\n6. Von Mises Bayes (prior kappa 4, likelihood kappa 1e6, no overflow):");
     println!(
         "   posterior mean {:.9} rad, kappa {:.3}, log evidence {:.6}",
-        posterior.mean_direction().map_or(f64::NAN, |m| m.angle()),
+        posterior.mean().map_or(f64::NAN, |m| m.angle()),
         posterior.concentration(),
-        prior.log_product_integral(&likelihood)
+        prior
+            .log_product_integral(&likelihood)
+            .expect("finite for von Mises densities")
     );
     let gyro_noise = HeatKernelSo3::new(So3::identity(), 1e-4).expect("valid");
     let after_1000_steps = (1..1000).fold(gyro_noise, |acc, _| {
@@ -358,7 +358,7 @@ fn densities_demo() {
         "7. SO(3) heat kernel: 1000 gyro steps of sigma^2 = 1e-4 convolve exactly to sigma^2 = {:.4}; \
          density at the centre {:.3e}",
         after_1000_steps.variance(),
-        after_1000_steps.log_pdf(after_1000_steps.center()).exp()
+        after_1000_steps.log_pdf(&after_1000_steps.mean()).exp()
     );
 }
 

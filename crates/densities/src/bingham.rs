@@ -2,8 +2,10 @@
 
 use crate::bingham_normalizer::log_normalizer_and_moments;
 use crate::error::{DensityError, finite};
-use crate::traits::{Density, Entropy, KlDivergence, Product};
-use liebayes_manifolds::Su2;
+use crate::traits::{
+    Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
+};
+use liebayes_manifolds::{LieGroup, Su2};
 use nalgebra::{Matrix3, Matrix4, Quaternion, SymmetricEigen, Vector3, Vector4};
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -61,7 +63,7 @@ pub(crate) fn check_spread(z: &[f64; 4]) -> Result<(), DensityError> {
         return Err(DensityError::OutOfRange {
             what: "Bingham eigenvalue spread max z - min z",
             value: spread,
-            range: "[0, 1e6]; beyond it (angular spreads below 0.05 degrees) use a TangentGaussian",
+            range: "[0, 1e6]; beyond it (angular spreads below 0.05 degrees) use a ManifoldGaussian",
         });
     }
     Ok(())
@@ -81,7 +83,7 @@ pub(crate) fn check_spread(z: &[f64; 4]) -> Result<(), DensityError> {
 /// with its gradient, the second moments `E[(vₖ · q)²] = ∂ ln K / ∂zₖ`. Normaliser: a one-dimensional
 /// Bessel integral by tanh-sinh quadrature, accurate to 7e-13 (ln K) and 3e-13 (moments) for eigenvalue
 /// spreads from 0 to 1e4 (see `docs/densities/bingham.md`).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Bingham {
     orientation: Matrix4<f64>,
     eigenvalues: Vector4<f64>,
@@ -92,7 +94,7 @@ pub struct Bingham {
 }
 
 /// The angular central Gaussian envelope of the sampler, fixed by the eigenvalues.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 struct Envelope {
     /// `aₖ = z₀ − zₖ ≥ 0`.
     a: Vector4<f64>,
@@ -131,17 +133,45 @@ impl Envelope {
 impl Bingham {
     /// The largest accepted eigenvalue spread `z_max − z_min`: the range over which the normaliser is
     /// verified to 1e-12 (`docs/densities/bingham.md`). It corresponds to angular standard deviations
-    /// down to about 1/√(2·10⁶) rad ≈ 0.04°; tighter distributions are tangent Gaussians to
+    /// down to about 1/√(2·10⁶) rad ≈ 0.04°; tighter distributions are `ManifoldGaussian`s to
     /// within 1e-12.
     pub const MAX_SPREAD: f64 = 1e6;
 
+    /// The Bingham distribution `V diag(z) Vᵀ` from an orthogonal `orientation` V (columns are the
+    /// eigenvectors, in quaternion coordinates, the first of the largest eigenvalue being the mode)
+    /// and the eigenvalues (concentrations) z, in any order: they are sorted descending, the columns
+    /// with them. Only differences of eigenvalues matter.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`], or [`DensityError::OutOfRange`] when V is not orthogonal (to
+    /// 1e-10), an eigenvalue lies beyond ±1e300 or their spread beyond [`Self::MAX_SPREAD`].
+    pub fn new(orientation: Matrix4<f64>, eigenvalues: Vector4<f64>) -> Result<Self, DensityError> {
+        for &v in orientation.iter().chain(eigenvalues.iter()) {
+            finite("Bingham orientation or eigenvalue", v)?;
+        }
+        let deviation = (orientation.transpose() * orientation - Matrix4::identity()).amax();
+        if deviation > TOLERANCE {
+            return Err(DensityError::OutOfRange {
+                what: "deviation of the Bingham orientation from orthogonality",
+                value: deviation,
+                range: "orthogonal matrices (|V^T V - I| <= 1e-10)",
+            });
+        }
+        let mut order = [0usize, 1, 2, 3];
+        order.sort_by(|&i, &j| eigenvalues[j].total_cmp(&eigenvalues[i]));
+        Self::from_sorted_eigen(
+            Matrix4::from_fn(|r, c| orientation[(r, order[c])]),
+            Vector4::from_fn(|k, _| eigenvalues[order[k]]),
+        )
+    }
+
     /// The Bingham distribution with parameter matrix `m` (symmetric; its quadratic form is in the
-    /// quaternion's (w, x, y, z) coordinates).
+    /// quaternion's (w, x, y, z) coordinates), the natural parameter.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`], or [`DensityError::OutOfRange`] for an asymmetric matrix, an
     /// eigenvalue beyond ±1e300 or an eigenvalue spread beyond [`Self::MAX_SPREAD`].
-    pub fn new(m: &Matrix4<f64>) -> Result<Self, DensityError> {
+    pub fn from_natural(m: Matrix4<f64>) -> Result<Self, DensityError> {
         for &v in m.iter() {
             finite("Bingham parameter matrix", v)?;
         }
@@ -162,32 +192,14 @@ impl Bingham {
         Self::from_sorted_eigen(orientation, eigenvalues)
     }
 
-    /// The Bingham distribution `V diag(z) Vᵀ` from an orthogonal `orientation` V (columns are the
-    /// eigenvectors, in quaternion coordinates) and the eigenvalues z, in any order.
-    ///
-    /// # Errors
-    /// [`DensityError::NonFinite`], or [`DensityError::OutOfRange`] when V is not orthogonal or as
-    /// [`Bingham::new`].
-    pub fn from_orientation(
-        orientation: &Matrix4<f64>,
-        eigenvalues: &Vector4<f64>,
-    ) -> Result<Self, DensityError> {
-        for &v in orientation.iter().chain(eigenvalues.iter()) {
-            finite("Bingham orientation or eigenvalue", v)?;
-        }
-        let deviation = (orientation.transpose() * orientation - Matrix4::identity()).amax();
-        if deviation > TOLERANCE {
-            return Err(DensityError::OutOfRange {
-                what: "deviation of the Bingham orientation from orthogonality",
-                value: deviation,
-                range: "orthogonal matrices (|V^T V - I| <= 1e-10)",
-            });
-        }
-        check_spread(&(*eigenvalues).into())?;
-        Self::new(&(orientation * Matrix4::from_diagonal(eigenvalues) * orientation.transpose()))
+    /// The uniform distribution on S³ (all eigenvalues 0), density 1 against the uniform probability
+    /// measure.
+    pub fn uniform() -> Self {
+        Self::assemble(Matrix4::identity(), Vector4::zeros())
     }
 
-    /// The maximum-likelihood Bingham for a scatter matrix `S = (1/n) Σ qᵢ qᵢᵀ` (normalised to trace 1):
+    /// The maximum-likelihood Bingham for a second-moment (scatter) matrix `S = (1/n) Σ qᵢ qᵢᵀ`
+    /// (normalised to trace 1), the inverse of [`second_moment`](Self::second_moment):
     /// eigenvectors of S, and eigenvalues z (largest 0) solving `E_z[uₖ²] = sₖ` for the eigenvalues
     /// sₖ of S. The equations are solved by damped Newton's method from `zₖ = 1/(2s₀) − 1/(2sₖ)` (the
     /// concentrated limit), with the Jacobian by central differences of the accurate gradient, to a
@@ -199,7 +211,7 @@ impl Bingham {
     /// semi-definite with a positive finite trace, when an eigenvalue of S is zero (infinite
     /// concentration: all samples on a lower-dimensional sphere), or when the fitted eigenvalue spread
     /// exceeds [`Self::MAX_SPREAD`] (an eigenvalue of S below about 1/(2·10⁶) of the largest).
-    pub fn fit(scatter: &Matrix4<f64>) -> Result<Self, DensityError> {
+    pub fn from_second_moment(scatter: Matrix4<f64>) -> Result<Self, DensityError> {
         for &v in scatter.iter() {
             finite("scatter matrix", v)?;
         }
@@ -283,24 +295,29 @@ impl Bingham {
             finite("Bingham eigenvalue", v)?;
         }
         check_spread(&eigenvalues.into())?;
+        Ok(Self::assemble(orientation, eigenvalues))
+    }
+
+    /// The density of validated, sorted eigen parameters: the normaliser, moments and envelope.
+    fn assemble(orientation: Matrix4<f64>, eigenvalues: Vector4<f64>) -> Self {
         let (log_normalizer_minus_max, moments) = log_normalizer_and_moments(&eigenvalues.into());
-        Ok(Self {
+        Self {
             orientation,
             eigenvalues,
             log_normalizer_minus_max,
             moments: Vector4::from(moments),
             envelope: Envelope::new(&eigenvalues),
-        })
+        }
     }
 
-    /// The parameter matrix `M = V diag(z) Vᵀ`.
-    pub fn parameter_matrix(&self) -> Matrix4<f64> {
+    /// The natural parameter, the parameter matrix `M = V diag(z) Vᵀ`.
+    pub fn natural(&self) -> Matrix4<f64> {
         self.orientation * Matrix4::from_diagonal(&self.eigenvalues) * self.orientation.transpose()
     }
 
-    /// The eigenvalues z, descending.
-    pub fn eigenvalues(&self) -> &Vector4<f64> {
-        &self.eigenvalues
+    /// The eigenvalues (concentrations) z, descending.
+    pub fn eigenvalues(&self) -> Vector4<f64> {
+        self.eigenvalues
     }
 
     /// The orthogonal matrix V of eigenvectors (column k belongs to eigenvalue k).
@@ -309,12 +326,12 @@ impl Bingham {
     }
 
     /// The second moments along the eigenvectors, `E[(vₖ · q)²] = ∂ ln K / ∂zₖ` (they sum to 1).
-    pub fn eigen_moments(&self) -> &Vector4<f64> {
-        &self.moments
+    pub fn eigen_moments(&self) -> Vector4<f64> {
+        self.moments
     }
 
     /// The second-moment matrix `E[q qᵀ] = V diag(E[(vₖ · q)²]) Vᵀ`.
-    pub fn second_moment_matrix(&self) -> Matrix4<f64> {
+    pub fn second_moment(&self) -> Matrix4<f64> {
         self.orientation * Matrix4::from_diagonal(&self.moments) * self.orientation.transpose()
     }
 
@@ -322,19 +339,28 @@ impl Bingham {
     pub fn log_normalizer_surface(&self) -> f64 {
         self.log_normalizer() + (2.0 * std::f64::consts::PI * std::f64::consts::PI).ln()
     }
+}
 
-    /// The distribution of `g q` (left multiplication by a unit quaternion) for q drawn from this one.
-    #[must_use]
-    pub fn rotated_left(&self, g: &Su2<f64>) -> Self {
+impl Rotate<Su2<f64>> for Bingham {
+    /// The eigenvectors turned by the left multiplication `q ↦ g q` (orthogonal for unit g), the same
+    /// eigenvalues.
+    fn rotated(&self, g: &Su2<f64>) -> Self {
         let [w, x, y, z] = g.to_quaternion_wxyz();
-        // Left multiplication g q as a matrix acting on (w, x, y, z): orthogonal for unit g.
+        // Left multiplication g q as a matrix acting on (w, x, y, z).
         let left = Matrix4::new(w, -x, -y, -z, x, w, -z, y, y, z, w, -x, z, -y, x, w);
         Self {
             orientation: left * self.orientation,
             ..self.clone()
         }
     }
+
+    /// `g q`.
+    fn act(g: &Su2<f64>, q: &Su2<f64>) -> Su2<f64> {
+        g.compose(q)
+    }
 }
+
+distribution_through_density!(Bingham);
 
 fn coordinates(q: &Su2<f64>) -> Vector4<f64> {
     let [w, x, y, z] = q.to_quaternion_wxyz();
@@ -405,16 +431,21 @@ impl Density for Bingham {
 
 impl Product for Bingham {
     /// `M = M₁ + M₂` (exact).
+    ///
+    /// # Errors
+    /// As [`from_natural`](Bingham::from_natural), where the sum's eigenvalue spread exceeds
+    /// [`Bingham::MAX_SPREAD`].
     fn product(&self, other: &Self) -> Result<Self, DensityError> {
-        Self::new(&(self.parameter_matrix() + other.parameter_matrix()))
+        Self::from_natural(self.natural() + other.natural())
     }
 
-    /// `ln K(M₁ + M₂) − ln K(M₁) − ln K(M₂)`; `−∞` where the sum leaves the accepted range (its
-    /// spread beyond [`Bingham::MAX_SPREAD`]).
-    fn log_product_integral(&self, other: &Self) -> f64 {
-        self.product(other).map_or(f64::NEG_INFINITY, |joint| {
-            joint.log_normalizer() - self.log_normalizer() - other.log_normalizer()
-        })
+    /// `ln K(M₁ + M₂) − ln K(M₁) − ln K(M₂)`.
+    ///
+    /// # Errors
+    /// As [`product`](Product::product).
+    fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
+        let joint = self.product(other)?;
+        Ok(joint.log_normalizer() - self.log_normalizer() - other.log_normalizer())
     }
 }
 
@@ -431,7 +462,7 @@ impl KlDivergence for Bingham {
     /// of both: `(ln K_q − z_q0) − (ln K_p − z_p0) − Σ a_pk E_p[(v_pk · q)²] + Σ a_qk E_p[(v_qk · q)²]`,
     /// `a = z₀ − z`.
     fn kl_divergence(&self, other: &Self) -> f64 {
-        let second = self.second_moment_matrix();
+        let second = self.second_moment();
         let along_other = Vector4::from_fn(|k, _| {
             let v = other.orientation.column(k);
             v.dot(&(second * v))

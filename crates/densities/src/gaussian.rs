@@ -24,7 +24,7 @@ const MAX_SCALE: f64 = 1e100;
 /// is accepted, however ill-conditioned, as long as its Cholesky factorisation exists in f64 and the
 /// entries of μ, Σ and Σ⁻¹ are at most 1e100 in magnitude (so covariances from about 1e-100 to 1e100
 /// in every direction); near-singular covariances are refused with an error, never repaired silently.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Gaussian<const N: usize> {
     mean: SVector<f64, N>,
     covariance: SMatrix<f64, N, N>,
@@ -117,18 +117,22 @@ impl<const N: usize> Gaussian<N> {
         })
     }
 
-    /// The Gaussian with information matrix `Λ = Σ⁻¹` and information vector `h = Σ⁻¹ μ`.
+    /// The Gaussian with natural parameters in information form, `p(x) ∝ exp(hᵀx − ½ xᵀ Λ x)`: the
+    /// information vector `h = Σ⁻¹ μ` and the information matrix `Λ = Σ⁻¹`.
     ///
     /// # Errors
-    /// As [`new`](Self::new), for Λ.
-    pub fn from_information(
-        information_vector: &SVector<f64, N>,
-        information_matrix: &SMatrix<f64, N, N>,
+    /// As [`new`](Self::new), for Λ (and for the Σ and μ it gives).
+    pub fn from_natural(
+        information_vector: SVector<f64, N>,
+        information_matrix: SMatrix<f64, N, N>,
     ) -> Result<Self, DensityError> {
-        let l = spd_cholesky("information matrix", information_matrix)?;
+        for &v in information_vector.iter() {
+            finite("information vector", v)?;
+        }
+        let l = spd_cholesky("information matrix", &information_matrix)?;
         let chol = Cholesky::pack_dirty(l);
         let covariance = chol.inverse();
-        let mean = chol.solve(information_vector);
+        let mean = chol.solve(&information_vector);
         Self::new(mean, covariance * 0.5 + covariance.transpose() * 0.5)
     }
 
@@ -147,9 +151,10 @@ impl<const N: usize> Gaussian<N> {
         &self.cholesky
     }
 
-    /// The information matrix Σ⁻¹ (by the Cholesky factor, computed once at construction).
-    pub fn information_matrix(&self) -> SMatrix<f64, N, N> {
-        self.information
+    /// The natural parameters in information form, `(h, Λ) = (Σ⁻¹ μ, Σ⁻¹)` (Λ by the Cholesky
+    /// factor, computed once at construction).
+    pub fn natural(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+        (self.information * self.mean, self.information)
     }
 
     /// The squared Mahalanobis distance `(x − μ)ᵀ Σ⁻¹ (x − μ)`, by one triangular solve on the
@@ -206,6 +211,13 @@ impl<const N: usize> Density for Gaussian<N> {
     }
 }
 
+impl<const N: usize> rand::distr::Distribution<SVector<f64, N>> for Gaussian<N> {
+    /// One draw, by [`Density::sample`].
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> SVector<f64, N> {
+        Density::sample(self, rng)
+    }
+}
+
 impl<const N: usize> Convolve for Gaussian<N> {
     /// The distribution of x + y: means and covariances add (exact).
     fn convolve(&self, other: &Self) -> Result<Self, DensityError> {
@@ -217,14 +229,25 @@ impl<const N: usize> Product for Gaussian<N> {
     /// Information forms add: `Λ = Λ₁ + Λ₂`, `h = h₁ + h₂`.
     fn product(&self, other: &Self) -> Result<Self, DensityError> {
         let (l1, l2) = (&self.information, &other.information);
-        Self::from_information(&(l1 * self.mean + l2 * other.mean), &(l1 + l2))
+        Self::from_natural(l1 * self.mean + l2 * other.mean, l1 + l2)
     }
 
     /// `ln ∫ p₁ p₂ = ln N(μ₁; μ₂, Σ₁ + Σ₂)`.
-    fn log_product_integral(&self, other: &Self) -> f64 {
-        match Self::new(other.mean, self.covariance + other.covariance) {
-            Ok(joint) => joint.log_pdf(&self.mean),
-            Err(_) => f64::NEG_INFINITY,
+    ///
+    /// # Errors
+    /// As [`new`](Gaussian::new) for `N(μ₂, Σ₁ + Σ₂)`, and [`DensityError::OutOfRange`] where the
+    /// value is not finite (a Mahalanobis distance beyond the f64 range).
+    fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
+        let joint = Self::new(other.mean, self.covariance + other.covariance)?;
+        let value = joint.log_pdf(&self.mean);
+        if value.is_finite() {
+            Ok(value)
+        } else {
+            Err(DensityError::OutOfRange {
+                what: "log evidence ln N(mu1; mu2, Sigma1 + Sigma2)",
+                value,
+                range: "finite values: the means are too far apart for the covariances",
+            })
         }
     }
 }

@@ -3,8 +3,10 @@
 use crate::error::{DensityError, finite};
 use crate::quadrature;
 use crate::scaled_bessel;
-use crate::traits::{Density, Entropy, KlDivergence, Product};
-use crate::von_mises::{sample_offset, scaled_cos_minus_one};
+use crate::traits::{
+    Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
+};
+use crate::von_mises::{check_concentration, sample_offset, scaled_cos_minus_one};
 use liebayes_manifolds::{LieGroup, So2};
 use nalgebra::Vector2;
 use rand::Rng;
@@ -260,12 +262,35 @@ impl GenVonMises2 {
     /// the origin of its offsets, has no such limit.
     pub const MAX_CONCENTRATION: f64 = 1e16;
 
+    /// The distribution `exp(κ₁ cos(θ − μ₁) + κ₂ cos 2(θ − μ₂)) / Z` with the location `μ₁` and
+    /// concentration `κ₁ ≥ 0` of the first harmonic and those of the second (μ₂ matters modulo π),
+    /// the parametrisation of Gatto and Jammalamadaka, *The generalized von Mises distribution*
+    /// (Statistical Methodology, 2007): `η₁ = κ₁ u(μ₁)`, `η₂ = κ₂ u(2μ₂)`.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] for a negative or non-finite
+    /// concentration, and as [`from_natural`](Self::from_natural) when `κ₁ + 4κ₂` exceeds 1e16.
+    pub fn new(
+        mean1: So2<f64>,
+        concentration1: f64,
+        mean2: So2<f64>,
+        concentration2: f64,
+    ) -> Result<Self, DensityError> {
+        let k1 = check_concentration("first-harmonic concentration kappa1", concentration1)?;
+        let k2 = check_concentration("second-harmonic concentration kappa2", concentration2)?;
+        let doubled = mean2.compose(&mean2);
+        Self::from_natural(
+            Vector2::new(mean1.cos(), mean1.sin()) * k1,
+            Vector2::new(doubled.cos(), doubled.sin()) * k2,
+        )
+    }
+
     /// The distribution with first- and second-harmonic natural parameters η₁, η₂.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] for NaN or infinite components, [`DensityError::OutOfRange`] when
     /// `κ₁ + 4κ₂` exceeds 1e16 (see [`MAX_CONCENTRATION`](Self::MAX_CONCENTRATION)).
-    pub fn new(eta1: Vector2<f64>, eta2: Vector2<f64>) -> Result<Self, DensityError> {
+    pub fn from_natural(eta1: Vector2<f64>, eta2: Vector2<f64>) -> Result<Self, DensityError> {
         for &v in eta1.iter().chain(eta2.iter()) {
             finite("harmonic parameter", v)?;
         }
@@ -274,8 +299,11 @@ impl GenVonMises2 {
             return Err(DensityError::OutOfRange {
                 what: "combined concentration |eta1| + 4 |eta2|",
                 value: combined,
-                range: "[0, 1e16]; beyond it use VonMises (no second harmonic) or a tangent Gaussian",
+                range: "[0, 1e16]; beyond it use VonMises (no second harmonic) or a ManifoldGaussian",
             });
+        }
+        if combined == 0.0 {
+            return Ok(Self::uniform());
         }
         let reference = global_maximum(&eta1, &eta2);
         let offsets = Offsets::new(&eta1, &eta2, reference);
@@ -287,14 +315,20 @@ impl GenVonMises2 {
         })
     }
 
-    /// The first-harmonic parameter η₁.
-    pub fn eta1(&self) -> &Vector2<f64> {
-        &self.eta1
+    /// The uniform distribution, `1/(2π)` (what [`from_natural`](Self::from_natural) returns for
+    /// η₁ = η₂ = 0).
+    pub fn uniform() -> Self {
+        Self {
+            eta1: Vector2::zeros(),
+            eta2: Vector2::zeros(),
+            reference: 0.0,
+            log_normalizer_offset: (2.0 * PI).ln(),
+        }
     }
 
-    /// The second-harmonic parameter η₂.
-    pub fn eta2(&self) -> &Vector2<f64> {
-        &self.eta2
+    /// The natural parameters `(η₁, η₂)` of the first and second harmonics.
+    pub fn natural(&self) -> (Vector2<f64>, Vector2<f64>) {
+        (self.eta1, self.eta2)
     }
 
     fn offsets(&self) -> Offsets {
@@ -354,9 +388,10 @@ impl Density for GenVonMises2 {
 
     /// The global maximum of the exponent (the reference angle): every local maximum of a 64-point grid
     /// (an order-2 trigonometric polynomial has at most two) refined by Newton's method, the best
-    /// kept; `None` for the uniform distribution.
+    /// kept; `None` where the maximum is not unique: for the uniform distribution, and for η₁ = 0,
+    /// where the density has period π and its maxima are μ₂ and μ₂ + π.
     fn mode(&self) -> Option<So2<f64>> {
-        if self.eta1.norm() + self.eta2.norm() == 0.0 {
+        if self.eta1 == Vector2::zeros() {
             return None;
         }
         Some(So2::from_angle_unchecked(self.reference))
@@ -463,6 +498,8 @@ impl CellEnvelope {
     }
 }
 
+distribution_through_density!(GenVonMises2);
+
 impl rand::distr::Distribution<So2<f64>> for GenVonMises2Sampler {
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
         let p = &self.density;
@@ -516,15 +553,41 @@ fn von_mises_draw<R: Rng + ?Sized>(eta: &Vector2<f64>, kappa: f64, rng: &mut R) 
 
 impl Product for GenVonMises2 {
     /// Natural parameters add (exact).
+    ///
+    /// # Errors
+    /// As [`from_natural`](GenVonMises2::from_natural), where `κ₁ + 4κ₂` of the sum exceeds 1e16.
     fn product(&self, other: &Self) -> Result<Self, DensityError> {
-        Self::new(self.eta1 + other.eta1, self.eta2 + other.eta2)
+        Self::from_natural(self.eta1 + other.eta1, self.eta2 + other.eta2)
     }
 
-    /// `ln Z(η₁ + η₁′, η₂ + η₂′) − ln Z − ln Z′`; `−∞` where the product leaves the accepted range.
-    fn log_product_integral(&self, other: &Self) -> f64 {
-        self.product(other).map_or(f64::NEG_INFINITY, |joint| {
-            joint.log_normalizer() - self.log_normalizer() - other.log_normalizer()
-        })
+    /// `ln Z(η₁ + η₁′, η₂ + η₂′) − ln Z − ln Z′`.
+    ///
+    /// # Errors
+    /// As [`product`](Product::product).
+    fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
+        let joint = self.product(other)?;
+        Ok(joint.log_normalizer() - self.log_normalizer() - other.log_normalizer())
+    }
+}
+
+impl Rotate<So2<f64>> for GenVonMises2 {
+    /// The harmonics turned by g and 2g, `η₁ ← R(g) η₁`, `η₂ ← R(2g) η₂`; the mode turns by g and the
+    /// normaliser is unchanged, so nothing is recomputed.
+    fn rotated(&self, g: &So2<f64>) -> Self {
+        let doubled = g.compose(g);
+        Self {
+            eta1: rotate(&self.eta1, g.cos(), g.sin()),
+            eta2: rotate(&self.eta2, doubled.cos(), doubled.sin()),
+            reference: g
+                .compose(&So2::from_angle_unchecked(self.reference))
+                .angle(),
+            log_normalizer_offset: self.log_normalizer_offset,
+        }
+    }
+
+    /// `g x`.
+    fn act(g: &So2<f64>, x: &So2<f64>) -> So2<f64> {
+        g.compose(x)
     }
 }
 

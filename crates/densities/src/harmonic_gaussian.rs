@@ -4,7 +4,12 @@
 use crate::error::DensityError;
 use crate::gaussian::Gaussian;
 use crate::gen_von_mises::GenVonMises2;
-use nalgebra::{Cholesky, SMatrix, SVector, Vector3};
+use crate::traits::{Density, Entropy, KlDivergence};
+use liebayes_manifolds::So2;
+use nalgebra::{Cholesky, Matrix3, SMatrix, SVector, Vector3};
+use rand::Rng;
+use rand_distr::StandardNormal;
+use std::f64::consts::PI;
 
 /// The features of the conditional mean, `φ(y) = (1, cos y, sin y)`.
 pub fn harmonic_features(y: f64) -> Vector3<f64> {
@@ -14,18 +19,23 @@ pub fn harmonic_features(y: f64) -> Vector3<f64> {
 
 /// `p(y, x) = GVM₂(y; η₁, η₂) · N(x; B φ(y), Σ)` over an angle y and a vector x ∈ Rᴺ, with
 /// `φ(y) = (1, cos y, sin y)` ([`harmonic_features`]), B an N × 3 feature matrix and Σ the same for
-/// every y. The base measure is `dy dx` (dy over the circle, total 2π).
+/// every y. The base measure is `dy dx` (dy over the circle, total 2π); a point is the pair
+/// `(y, x)`.
 ///
 /// The family is closed under linear processes of x and under two kinds of measurement (linear ones
 /// independent of y, and measurements of x in a frame turned by y when `H Σ Hᵀ` is isotropic): the
 /// operators crate's `rao_blackwell` module propagates and conditions it exactly, with the log evidence
-/// (derivations in `docs/operators/rao_blackwell.md`). Seed 000's seven-number azimuth filter is the
-/// special case `B = [a, c, −c^×]`, `Σ = σ² I`, η₂ = 0.
+/// (derivations in `docs/operators/rao_blackwell.md`). The azimuth-alignment filter's seven-number posterior (an angle and a 2-D drift with a von Mises marginal) is
+/// the special case `B = [a, c, −c^×]`, `Σ = σ² I`, η₂ = 0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HarmonicGaussian<const N: usize> {
     angle: GenVonMises2,
     features: SMatrix<f64, N, 3>,
     covariance: SMatrix<f64, N, N>,
+    /// L, lower triangular, `Σ = L Lᵀ`.
+    cholesky: SMatrix<f64, N, N>,
+    /// `ln det Σ`.
+    log_det: f64,
 }
 
 impl<const N: usize> HarmonicGaussian<N> {
@@ -53,17 +63,28 @@ impl<const N: usize> HarmonicGaussian<N> {
             });
         }
         let covariance = (covariance + covariance.transpose()) * 0.5;
-        if Cholesky::new(covariance).is_none() {
+        let Some(factor) = Cholesky::new(covariance) else {
             return Err(DensityError::OutOfRange {
                 what: "conditional covariance Sigma (value: its smallest diagonal entry)",
                 value: covariance.diagonal().min(),
                 range: "symmetric positive definite matrices",
+            });
+        };
+        let cholesky = factor.unpack();
+        let log_det = 2.0 * cholesky.diagonal().iter().map(|d| d.ln()).sum::<f64>();
+        if !log_det.is_finite() {
+            return Err(DensityError::OutOfRange {
+                what: "log-determinant of the conditional covariance Sigma",
+                value: log_det,
+                range: "finite values (eigenvalues of Sigma between about 1e-300 and 1e300)",
             });
         }
         Ok(Self {
             angle,
             features,
             covariance,
+            cholesky,
+            log_det,
         })
     }
 
@@ -97,13 +118,16 @@ impl<const N: usize> HarmonicGaussian<N> {
         self.features * harmonic_features(y)
     }
 
-    /// The marginal moments of x: `E x = B E φ`, `Cov x = Σ + B Cov(φ) Bᵀ`, with the first and second
-    /// trigonometric moments of p(y).
-    pub fn marginal_moments(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+    /// The lower Cholesky factor L with `Σ = L Lᵀ` (computed once, at construction).
+    pub fn cholesky_factor(&self) -> &SMatrix<f64, N, N> {
+        &self.cholesky
+    }
+
+    /// `E φ(y)` and `E φ(y) φ(y)ᵀ` under p(y), from its first and second trigonometric moments:
+    /// `E cos² = (1 + E cos 2y)/2`, `E sin² = (1 − E cos 2y)/2`, `E cos sin = E sin 2y / 2`.
+    fn feature_moments(&self) -> (Vector3<f64>, Matrix3<f64>) {
         let (m1, m2) = self.angle.trigonometric_moments();
-        let mean_phi = Vector3::new(1.0, m1.x, m1.y);
-        // E φ φᵀ: E cos² = (1 + E cos 2y)/2, E sin² = (1 − E cos 2y)/2, E cos sin = E sin 2y / 2.
-        let second = SMatrix::<f64, 3, 3>::new(
+        let second = Matrix3::new(
             1.0,
             m1.x,
             m1.y,
@@ -114,8 +138,99 @@ impl<const N: usize> HarmonicGaussian<N> {
             0.5 * m2.y,
             0.5 * (1.0 - m2.x),
         );
+        (Vector3::new(1.0, m1.x, m1.y), second)
+    }
+
+    /// The marginal moments of x: `E x = B E φ`, `Cov x = Σ + B Cov(φ) Bᵀ`, with the first and second
+    /// trigonometric moments of p(y).
+    pub fn marginal_moments(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+        let (mean_phi, second) = self.feature_moments();
         let cov_phi = second - mean_phi * mean_phi.transpose();
         let cov = self.covariance + self.features * cov_phi * self.features.transpose();
         (self.features * mean_phi, (cov + cov.transpose()) * 0.5)
+    }
+
+    /// `(x − B φ(y))ᵀ Σ⁻¹ (x − B φ(y))`, by one triangular solve.
+    fn conditional_mahalanobis_squared(&self, y: &So2<f64>, x: &SVector<f64, N>) -> f64 {
+        let residual = x - self.conditional_mean(y.angle());
+        // The factor of a successful Cholesky decomposition has a positive diagonal.
+        self.cholesky
+            .solve_lower_triangular_unchecked(&residual)
+            .norm_squared()
+    }
+
+    /// `½ (N ln 2π + ln det Σ)`, the conditional Gaussian's log normaliser.
+    fn gaussian_log_normalizer(&self) -> f64 {
+        0.5 * (N as f64 * (2.0 * PI).ln() + self.log_det)
+    }
+}
+
+impl<const N: usize> Density for HarmonicGaussian<N> {
+    type Point = (So2<f64>, SVector<f64, N>);
+
+    /// `ln GVM₂(y) − ½ (N ln 2π + ln det Σ + (x − B φ(y))ᵀ Σ⁻¹ (x − B φ(y)))`, against dy dx.
+    fn log_pdf(&self, (y, x): &Self::Point) -> f64 {
+        self.angle.log_pdf(y)
+            - 0.5 * self.conditional_mahalanobis_squared(y, x)
+            - self.gaussian_log_normalizer()
+    }
+
+    /// `ln Z_angle + ½ (N ln 2π + ln det Σ)`.
+    fn log_normalizer(&self) -> f64 {
+        self.angle.log_normalizer() + self.gaussian_log_normalizer()
+    }
+
+    /// y from the angle marginal (see [`GenVonMises2`]'s sampler), then `x = B φ(y) + L z`, z standard
+    /// normal.
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> Self::Point {
+        let y = self.angle.sample(rng);
+        let z = SVector::<f64, N>::from_fn(|_, _| rng.sample(StandardNormal));
+        let x = self.conditional_mean(y.angle()) + self.cholesky * z;
+        (y, x)
+    }
+
+    /// `(y*, B φ(y*))` with y* the angle marginal's mode: `p(y, x) ≤ p(y) N(0; 0, Σ)` with equality
+    /// at `x = B φ(y)`; `None` where the angle has no unique mode.
+    fn mode(&self) -> Option<Self::Point> {
+        self.angle
+            .mode()
+            .map(|y| (y, self.conditional_mean(y.angle())))
+    }
+}
+
+impl<const N: usize> rand::distr::Distribution<(So2<f64>, SVector<f64, N>)>
+    for HarmonicGaussian<N>
+{
+    /// One draw, by [`Density::sample`].
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> (So2<f64>, SVector<f64, N>) {
+        Density::sample(self, rng)
+    }
+}
+
+impl<const N: usize> Entropy for HarmonicGaussian<N> {
+    /// `H(y) + H(x | y) = H_GVM₂ + ½ (N (1 + ln 2π) + ln det Σ)` (the conditional entropy does not
+    /// depend on y).
+    fn entropy(&self) -> f64 {
+        self.angle.entropy() + 0.5 * (N as f64 * (1.0 + (2.0 * PI).ln()) + self.log_det)
+    }
+}
+
+impl<const N: usize> KlDivergence for HarmonicGaussian<N> {
+    /// The chain rule, `KL(p(y) ‖ q(y)) + E_p(y)[KL(p(x|y) ‖ q(x|y))]`, with the Gaussian term
+    /// `½ (tr(Σ_q⁻¹ Σ_p) − N + ln det Σ_q − ln det Σ_p + tr(ΔBᵀ Σ_q⁻¹ ΔB E_p[φ φᵀ]))`, `ΔB = B_p − B_q`
+    /// (the mean gap `ΔB φ(y)` averaged over p(y) through its trigonometric moments).
+    fn kl_divergence(&self, other: &Self) -> f64 {
+        let (_, second) = self.feature_moments();
+        // L_q⁻¹ L_p and L_q⁻¹ ΔB: tr(Σ_q⁻¹ Σ_p) = ‖L_q⁻¹ L_p‖²_F, ΔBᵀ Σ_q⁻¹ ΔB = Wᵀ W.
+        let trace = other
+            .cholesky
+            .solve_lower_triangular_unchecked(&self.cholesky)
+            .norm_squared();
+        let w = other
+            .cholesky
+            .solve_lower_triangular_unchecked(&(self.features - other.features));
+        let gap = (w.transpose() * w).component_mul(&second).sum();
+        self.angle.kl_divergence(&other.angle)
+            + 0.5 * (trace - N as f64 + other.log_det - self.log_det + gap)
     }
 }

@@ -21,7 +21,46 @@
 //!   `docs/densities/`.
 //! * [`special`]: ln I₀, ln I₁, Bessel ratios Iₙ/I₀, A⁻¹ and the von Mises-Fisher functions, accurate to
 //!   a few ulp from κ = 0 to 1e6.
-//! * With the `proptest` feature, [`testing`] exports strategies for every family.
+//! * With the `proptest` feature, [`testing`] exports strategies for every family, quadrature on
+//!   every space, and the density law suite ([`density_laws!`]) that a family of your own can run in
+//!   one line.
+//! * With the `serde` feature, every density serializes as its defining parameters and deserializes
+//!   through its validated constructor: a file with a negative concentration or a covariance that is
+//!   not positive definite is an error, never an invalid density.
+//! * Every family's sampler is a [`rand::distr::Distribution`] of its points (`rng.sample(&p)`,
+//!   `p.sample_iter(rng)`), the same draws as [`Density::sample`].
+//!
+//! # Naming contract
+//!
+//! Every family follows the same names, so that code written for one reads the same for another:
+//!
+//! * `new` takes the parameters users think in: a **location** (a point of the space, or an
+//!   orientation) and a **spread** (a concentration, a variance or a covariance), validated, with a
+//!   typed [`DensityError`] naming the valid range.
+//! * `from_natural` builds the family from its exponential-family natural parameters and `natural`
+//!   returns them (by value), for the families that are exponential families.
+//! * `mean` is the location: the mean on the space (`Option` where the uniform member has none);
+//!   `first_moment` / `second_moment` are the moments of the embedded point; `from_first_moment` /
+//!   `from_second_moment` are the moment-matching inverses.
+//! * [`Density::mode`] is the point of highest density, `None` where it is not unique.
+//! * [`Rotate::rotated`] transports the density along the group that acts on its space.
+//!
+//! | family | `new` | `from_natural` / `natural` | `mean` | `Rotate` |
+//! |---|---|---|---|---|
+//! | [`VonMises`] | `(mean: So2, concentration κ)` | η = κ u(μ) | `Option<So2>` | `So2` |
+//! | [`GenVonMises2`] | `(mean1, κ₁, mean2, κ₂)` | (η₁, η₂) | none (moments: `trigonometric_moments`) | `So2` |
+//! | [`VonMisesFisher`] | `(mean: S2, concentration κ)` | η = κ μ | `Option<S2>` | `So3` |
+//! | [`Bingham`] | `(orientation V, eigenvalues z)` | M = V diag(z) Vᵀ | none (antipodal; `second_moment`) | `Su2` |
+//! | [`HeatKernelSo3`] | `(mean: So3, variance s)` | not an exponential family | `So3` | `So3` |
+//! | [`Gaussian`] | `(mean, covariance)` | (h = Σ⁻¹μ, Λ = Σ⁻¹) | `&SVector` | none |
+//! | [`ManifoldGaussian`] | `(mean, tangent covariance)` | not an exponential family | `&X` | left translation on a group |
+//! | [`HarmonicGaussian`] | `(angle marginal, features B, covariance Σ)` | not offered | none (`marginal_moments`) | none |
+//!
+//! Laws that do not apply to a family are stated, not skipped silently: only the exponential
+//! families with a conjugate self-product implement [`Product`] (the heat kernel, the manifold
+//! Gaussian and the harmonic Gaussian do not: their pointwise products leave the family); the
+//! manifold Gaussian has a closed KL only for equal means, so it offers
+//! [`ManifoldGaussian::kl_divergence`] as a fallible method, not [`KlDivergence`].
 
 mod bingham;
 mod bingham_normalizer;
@@ -35,6 +74,8 @@ mod moment_matching;
 mod quadrature;
 mod scaled_bessel;
 mod scaled_bessel_coefficients;
+#[cfg(feature = "serde")]
+mod serde_impls;
 pub mod special;
 #[cfg(feature = "proptest")]
 pub mod testing;
@@ -50,6 +91,6 @@ pub use harmonic_gaussian::{HarmonicGaussian, harmonic_features};
 pub use heat_kernel::HeatKernelSo3;
 pub use liebayes_manifolds as manifolds;
 pub use manifold_gaussian::ManifoldGaussian;
-pub use traits::{Convolve, Density, Entropy, KlDivergence, Product};
+pub use traits::{Convolve, Density, Entropy, KlDivergence, Product, Rotate};
 pub use von_mises::VonMises;
 pub use von_mises_fisher::VonMisesFisher;

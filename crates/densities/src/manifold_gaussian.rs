@@ -2,7 +2,7 @@
 //! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
 
 use crate::error::DensityError;
-use crate::traits::{Density, Entropy};
+use crate::traits::{Density, Entropy, Rotate};
 use liebayes_manifolds::{Jacobian, LieGroup, Manifold};
 use nalgebra::{Cholesky, SMatrix, SVector};
 use rand::Rng;
@@ -17,8 +17,9 @@ const SAME_MEAN_MAHALANOBIS_SQUARED: f64 = 1e-12;
 const SYMMETRY_TOLERANCE: f64 = 1e-12;
 
 /// The distribution of `x = μ ⊞ δ`, `δ ~ N(0, P)`: a mean μ on a D-dimensional manifold X and a
-/// covariance P in the tangent space at μ (right perturbation, `μ ⊞ δ = μ · exp(δ)` on a group, the
-/// convention of the whole library).
+/// covariance P in the tangent space at μ of X's own retraction `⊞`. The frame of the errors is the
+/// type's: on a Lie group `G` itself `μ ⊞ δ = μ · exp(δ)` (body-frame errors), on
+/// [`Left<G>`](liebayes_manifolds::Left) `μ ⊞ δ = exp(δ) · μ` (world-frame errors).
 ///
 /// # Base measure
 /// `log_pdf(x)` is the Gaussian log density of the tangent vector `δ = x ⊟ μ`: a density with respect
@@ -56,7 +57,7 @@ const SYMMETRY_TOLERANCE: f64 = 1e-12;
 /// assert!((g.mahalanobis_squared(&x) - 1.0).abs() < 1e-12);
 /// assert!(g.log_pdf(&x) < g.log_pdf(g.mean()));
 /// ```
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ManifoldGaussian<X, const D: usize> {
     mean: X,
     covariance: SMatrix<f64, D, D>,
@@ -98,13 +99,20 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// The distribution `μ ⊞ N(0, P)`.
     ///
     /// # Errors
-    /// [`DensityError::NonFinite`] for NaN or infinite entries, [`DensityError::OutOfRange`] for a P
-    /// that is not symmetric (to 1e-12 relative) or not positive definite (its Cholesky factorisation
+    /// [`DensityError::NonFinite`] for a mean with a NaN or infinite coordinate
+    /// ([`Manifold::is_finite`]) and for NaN or infinite entries of P, [`DensityError::OutOfRange`]
+    /// for a P that is not symmetric (to 1e-12 relative) or not positive definite (its Cholesky factorisation
     /// fails), and when P⁻¹ is not representable: its trace `tr P⁻¹ = ‖L⁻¹‖²_F` overflows
     /// (eigenvalues of P below about 1e-308), so that Mahalanobis distances and divergences would be
     /// infinite for every point.
     pub fn new(mean: X, covariance: SMatrix<f64, D, D>) -> Result<Self, DensityError> {
         const WHAT: &str = "tangent covariance P";
+        if !mean.is_finite() {
+            return Err(DensityError::NonFinite {
+                what: "mean (a coordinate of the point on the manifold)",
+                value: f64::NAN,
+            });
+        }
         // One pass: finiteness, the largest magnitude, the largest asymmetry.
         let (mut scale, mut asymmetry) = (0.0_f64, 0.0_f64);
         for j in 0..D {
@@ -263,6 +271,74 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> ManifoldGaussian<G, D> {
         let ja = self.mean.j_compose_self(&other.mean);
         let covariance = self.propagated_covariance(&ja) + other.covariance();
         Self::new(self.mean.compose(&other.mean), covariance)
+    }
+}
+
+/// A lower-triangular L′ with `L′ L′ᵀ = A Aᵀ` (an LQ factorisation `A = L′ Q`), by Givens rotations
+/// of the columns, with a non-negative diagonal: exact orthogonal steps that cannot fail.
+fn lower_factor<const D: usize>(mut a: SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+    for i in 0..D {
+        for j in (i + 1)..D {
+            let (x, y) = (a[(i, i)], a[(i, j)]);
+            if y == 0.0 {
+                continue;
+            }
+            let r = x.hypot(y);
+            let (c, s) = (x / r, y / r);
+            for k in i..D {
+                let (p, q) = (a[(k, i)], a[(k, j)]);
+                a[(k, i)] = c * p + s * q;
+                a[(k, j)] = c * q - s * p;
+            }
+            a[(i, j)] = 0.0;
+        }
+        if a[(i, i)] < 0.0 {
+            for k in i..D {
+                a[(k, i)] = -a[(k, i)];
+            }
+        }
+    }
+    a
+}
+
+impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussian<G, D> {
+    /// Left translation, exact: `g (μ ⊞ δ) = (g μ) ⊞ J δ` with `J = j_compose_other(g, μ)`, so the
+    /// mean is `g μ` and the covariance `J P Jᵀ`. For the right perturbation `x · exp(δ)` J is the
+    /// identity and P is kept as it is; with world-frame errors (`Left<G>`) J = Ad(g), and the factor
+    /// of `J P Jᵀ` is `J L` made lower-triangular by Givens rotations (no factorisation that could
+    /// fail).
+    fn rotated(&self, g: &G) -> Self {
+        let j = g.j_compose_other(&self.mean);
+        let mean = g.compose(&self.mean);
+        if j == SMatrix::<f64, D, D>::identity() {
+            return Self {
+                mean,
+                ..self.clone()
+            };
+        }
+        let covariance = self.propagated_covariance(&j);
+        let cholesky = lower_factor(j * self.cholesky);
+        let (_, log_det) = inverse_trace_and_log_det(&cholesky);
+        Self {
+            mean,
+            covariance,
+            cholesky,
+            log_det,
+        }
+    }
+
+    /// `g x`.
+    fn act(g: &G, x: &G) -> G {
+        g.compose(x)
+    }
+}
+
+impl<X: Manifold<D, Scalar = f64>, const D: usize> rand::distr::Distribution<X>
+    for ManifoldGaussian<X, D>
+{
+    /// One draw, by [`Density::sample`].
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> X {
+        Density::sample(self, rng)
     }
 }
 

@@ -6,7 +6,7 @@ use crate::error::DensityError;
 use crate::heat_kernel::HeatKernelSo3;
 use crate::manifold_gaussian::ManifoldGaussian;
 use crate::quadrature;
-use crate::traits::Density;
+use crate::traits::{Density, Rotate};
 use liebayes_manifolds::{LieGroup, So3, Su2};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use nalgebra::{Matrix4, Vector4};
@@ -15,18 +15,20 @@ impl HeatKernelSo3 {
     /// **Approximation**: the Bingham distribution with the same second moments `E[q qᵀ]` (so the same
     /// `E[R]`, the same centre and the same `E[tr R]` = 3e^(−s)). About the centre the heat kernel's quaternion
     /// has `E[w²] = E[(1 + cos t)/2] = (1 + 3e^(−s))/4` and `E[x²] = E[y²] = E[z²] = (1 − e^(−s))/4`
-    /// exactly; [`Bingham::fit`] matches them. The Bingham's eigenvalue is about −2/s − 3/2 for small s
-    /// (ERRATA.md), so s should stay above about 2e-4 for it to lie in the range the Bingham normaliser is
-    /// verified on (eigenvalues down to −1e4).
+    /// exactly; [`Bingham::from_second_moment`] matches them. The Bingham's eigenvalue is about
+    /// −2/s − 3/2 for small s (to leading order `E[x²] ≈ s/4` matches the Bingham's `−1/(2z)`), so s should stay
+    /// above about 2e-4 for it to lie in the range the Bingham normaliser is verified on (eigenvalues
+    /// down to −1e4).
     ///
     /// # Errors
-    /// Those of [`Bingham::fit`] (never for finite s > 0 in practice).
+    /// Those of [`Bingham::from_second_moment`] (never for finite s > 0 in practice).
     pub fn to_bingham_moment_matched(&self) -> Result<Bingham, DensityError> {
         let decay = (-self.variance()).exp();
         let w2 = (1.0 + 3.0 * decay) / 4.0;
         let v2 = (-self.variance()).exp_m1() / -4.0; // (1 − e^(−s))/4 without cancellation
-        let about_identity = Bingham::fit(&Matrix4::from_diagonal(&Vector4::new(w2, v2, v2, v2)))?;
-        Ok(about_identity.rotated_left(&self.center().to_su2()))
+        let about_identity =
+            Bingham::from_second_moment(Matrix4::from_diagonal(&Vector4::new(w2, v2, v2, v2)))?;
+        Ok(about_identity.rotated(&self.mean().to_su2()))
     }
 }
 
@@ -86,14 +88,16 @@ fn vector_block(moments: &Matrix4<f64>) -> Matrix3<f64> {
 
 impl ManifoldGaussian<So3<f64>, 3> {
     /// **Approximation**: the Bingham with the same second moments `E[q qᵀ]` as `q = μ exp(ξ)`,
-    /// `ξ ~ N(0, Σ)` (computed by Gauss-Hermite cubature), fitted with [`Bingham::fit`]. The measured
-    /// KL is in `docs/densities/bingham.md`.
+    /// `ξ ~ N(0, Σ)` (computed by Gauss-Hermite cubature), fitted with
+    /// [`Bingham::from_second_moment`]. The measured KL is in `docs/densities/bingham.md`.
     ///
     /// # Errors
-    /// Those of [`Bingham::fit`].
+    /// Those of [`Bingham::from_second_moment`].
     pub fn to_bingham_moment_matched(&self) -> Result<Bingham, DensityError> {
-        Ok(Bingham::fit(&quaternion_moments(self.covariance()))?
-            .rotated_left(&self.mean().to_su2()))
+        Ok(
+            Bingham::from_second_moment(quaternion_moments(self.covariance()))?
+                .rotated(&self.mean().to_su2()),
+        )
     }
 }
 
@@ -116,7 +120,7 @@ impl Bingham {
             value: self.eigenvalues()[0] - self.eigenvalues()[1],
             range: "(0, infinity): a manifold Gaussian needs a unique mode",
         })?;
-        let target = vector_block(&self.rotated_left(&mode.inverse()).second_moment_matrix());
+        let target = vector_block(&self.rotated(&mode.inverse()).second_moment());
         let mut covariance = target * 4.0;
         for _ in 0..50 {
             let residual = target - vector_block(&quaternion_moments(&covariance));

@@ -7,6 +7,12 @@ use crate::error::DensityError;
 use rand::Rng;
 
 /// A normalised probability density on a space of points.
+///
+/// Every family also implements [`rand::distr::Distribution`] for its points (on the density itself,
+/// or on a sampler it builds, as [`GenVonMises2::sampler`](crate::GenVonMises2::sampler)), through
+/// this trait's [`sample`](Density::sample): `rng.sample(&p)` and `p.sample_iter(rng)` draw the same
+/// values as `Density::sample(&p, rng)`. With both traits in scope, `p.sample(rng)` is ambiguous:
+/// write `rng.sample(&p)` or `Density::sample(&p, rng)`.
 pub trait Density {
     /// The points the density lives on.
     type Point;
@@ -30,12 +36,17 @@ pub trait Product: Density + Sized {
     /// The normalised product `p q / ∫ p q`.
     ///
     /// # Errors
-    /// Where the product is not a proper density (for example two Gaussians in information form whose
-    /// summed precision is singular).
+    /// Where the product is not a proper density of the family's accepted range (for example two
+    /// Binghams whose summed eigenvalue spread exceeds the verified range).
     fn product(&self, other: &Self) -> Result<Self, DensityError>;
 
     /// `ln ∫ p q` with respect to the base measure: the log evidence of `other` seen as a likelihood.
-    fn log_product_integral(&self, other: &Self) -> f64;
+    /// Finite whenever it is `Ok`.
+    ///
+    /// # Errors
+    /// Exactly where [`product`](Product::product) fails (the normaliser of the product is then not
+    /// available), and where the value is not a finite number.
+    fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError>;
 }
 
 /// Closed-form entropy `−∫ p ln p` with respect to the base measure.
@@ -61,3 +72,33 @@ pub trait Convolve: Density + Sized {
     /// Where the result overflows the representable range.
     fn convolve(&self, other: &Self) -> Result<Self, DensityError>;
 }
+
+/// A density transported by a group acting on its space: [`rotated`](Rotate::rotated) is the
+/// distribution of `g · x` for `x` drawn from `self`, exactly, in the same family.
+///
+/// The action is [`act`](Rotate::act): rotation of the circle by `So2`, of the sphere by `So3`,
+/// left multiplication of unit quaternions by `Su2`, left composition on a group (left translation).
+pub trait Rotate<G>: Density + Sized {
+    /// The distribution of `g · x`, `x ~ self`: `rotated(g).log_pdf(act(g, x)) = log_pdf(x)`.
+    #[must_use]
+    fn rotated(&self, g: &G) -> Self;
+
+    /// The action `g · x` on points that [`rotated`](Rotate::rotated) transports the density along.
+    fn act(g: &G, x: &Self::Point) -> Self::Point;
+}
+
+/// `rand::distr::Distribution` for densities whose draws need nothing built beforehand: each calls
+/// [`Density::sample`], so the two are one implementation.
+macro_rules! distribution_through_density {
+    ($($ty:ty),* $(,)?) => {
+        $(
+            impl rand::distr::Distribution<<$ty as Density>::Point> for $ty {
+                /// One draw, by [`Density::sample`].
+                fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> <$ty as Density>::Point {
+                    Density::sample(self, rng)
+                }
+            }
+        )*
+    };
+}
+pub(crate) use distribution_through_density;

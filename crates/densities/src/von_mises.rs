@@ -3,7 +3,9 @@
 use crate::error::{DensityError, finite};
 use crate::scaled_bessel;
 use crate::special;
-use crate::traits::{Density, Entropy, KlDivergence, Product};
+use crate::traits::{
+    Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
+};
 use liebayes_manifolds::{LieGroup, So2};
 use nalgebra::Vector2;
 use rand::Rng;
@@ -121,27 +123,38 @@ pub struct VonMises {
 }
 
 impl VonMises {
+    /// The distribution with mean direction `mean` and concentration `concentration ≥ 0`:
+    /// `η = κ (cos μ, sin μ)`.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] for κ outside [0, 1e300].
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::{Density, VonMises};
+    /// use liebayes_densities::manifolds::So2;
+    ///
+    /// let p = VonMises::new(So2::from_angle_unchecked(0.5), 4.0).unwrap();
+    /// assert_eq!(p.concentration(), 4.0);
+    /// assert!(p.log_pdf(&So2::from_angle_unchecked(0.5)) > p.log_pdf(&So2::from_angle_unchecked(2.0)));
+    /// ```
+    pub fn new(mean: So2<f64>, concentration: f64) -> Result<Self, DensityError> {
+        let kappa = check_concentration("concentration kappa", concentration)?;
+        Ok(Self {
+            eta: Vector2::new(mean.cos(), mean.sin()) * kappa,
+        })
+    }
+
     /// The distribution with natural parameter `η = κ (cos μ, sin μ)`.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] for NaN or infinite components, [`DensityError::OutOfRange`] when
     /// κ = |η| exceeds 1e300.
-    pub fn new(eta: Vector2<f64>) -> Result<Self, DensityError> {
+    pub fn from_natural(eta: Vector2<f64>) -> Result<Self, DensityError> {
         finite("eta.x", eta.x)?;
         finite("eta.y", eta.y)?;
         check_concentration("concentration |eta|", eta.x.hypot(eta.y))?;
         Ok(Self { eta })
-    }
-
-    /// The distribution with mean direction `mean` and concentration `kappa ≥ 0`.
-    ///
-    /// # Errors
-    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] for κ outside [0, 1e300].
-    pub fn from_mean_concentration(mean: So2<f64>, kappa: f64) -> Result<Self, DensityError> {
-        let kappa = check_concentration("concentration kappa", kappa)?;
-        Ok(Self {
-            eta: Vector2::new(mean.cos(), mean.sin()) * kappa,
-        })
     }
 
     /// The uniform distribution, `1/(2π)`.
@@ -157,7 +170,7 @@ impl VonMises {
     /// # Errors
     /// [`DensityError::OutOfRange`] unless `|m| < 1` (NaN included). Every |m| < 1 gives a finite κ
     /// (at most 4.5e15).
-    pub fn from_first_moment(m: &Vector2<f64>) -> Result<Self, DensityError> {
+    pub fn from_first_moment(m: Vector2<f64>) -> Result<Self, DensityError> {
         let r = m.x.hypot(m.y);
         let kappa = special::a1_inverse(r)?;
         Ok(Self {
@@ -170,8 +183,8 @@ impl VonMises {
     }
 
     /// The natural parameter η.
-    pub fn eta(&self) -> &Vector2<f64> {
-        &self.eta
+    pub fn natural(&self) -> Vector2<f64> {
+        self.eta
     }
 
     /// The concentration κ = |η|.
@@ -179,9 +192,10 @@ impl VonMises {
         self.eta.x.hypot(self.eta.y)
     }
 
-    /// The mean direction μ = arg η, or `None` for the uniform distribution (κ = 0). Defined for every
-    /// κ > 0, including κ = 1e-300 (by atan2, which needs no normalisation).
-    pub fn mean_direction(&self) -> Option<So2<f64>> {
+    /// The mean direction μ = arg η (the circular mean, also the mode), or `None` for the uniform
+    /// distribution (κ = 0). Defined for every κ > 0, including κ = 1e-300 (by atan2, which needs no
+    /// normalisation).
+    pub fn mean(&self) -> Option<So2<f64>> {
         (self.concentration() > 0.0)
             .then(|| So2::from_angle_unchecked(self.eta.y.atan2(self.eta.x)))
     }
@@ -199,7 +213,7 @@ impl VonMises {
     /// [`Self::trigonometric_moment`] for a valid order.
     fn first_moments_of_order(&self, n: u32) -> Vector2<f64> {
         let kappa = self.concentration();
-        match self.mean_direction() {
+        match self.mean() {
             None => Vector2::zeros(),
             Some(mu) => {
                 let (s, c) = (f64::from(n) * mu.angle()).sin_cos();
@@ -227,7 +241,7 @@ impl VonMises {
     #[must_use]
     pub fn convolve_moment_matched(&self, other: &Self) -> Self {
         let (k1, k2) = (self.concentration(), other.concentration());
-        let (Some(mu1), Some(mu2)) = (self.mean_direction(), other.mean_direction()) else {
+        let (Some(mu1), Some(mu2)) = (self.mean(), other.mean()) else {
             return Self::uniform(); // convolving with the uniform distribution gives the uniform
         };
         let (d1, d2) = (
@@ -281,7 +295,7 @@ impl Density for VonMises {
     /// A draw makes at most 200 proposals and, were all rejected (probability below 1e-86), keeps the
     /// last one.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
-        let Some(mu) = self.mean_direction() else {
+        let Some(mu) = self.mean() else {
             return So2::from_angle_unchecked(rng.random_range(-PI..PI));
         };
         let offset = sample_offset(self.concentration(), rng);
@@ -290,7 +304,7 @@ impl Density for VonMises {
 
     /// The mean direction (none for κ = 0).
     fn mode(&self) -> Option<So2<f64>> {
-        self.mean_direction()
+        self.mean()
     }
 }
 
@@ -305,8 +319,8 @@ impl Product for VonMises {
     /// `ln ∫ p₁ p₂ dθ = ln Z(η₁ + η₂) − ln Z(η₁) − ln Z(η₂)`, evaluated as
     /// `ℓ(κ₁₂) − ℓ(κ₁) − ℓ(κ₂) − ln 2π + (κ₁₂ − κ₁ − κ₂)` with `ℓ(κ) = ln I₀(κ) − κ` and
     /// `κ₁₂ − κ₁ − κ₂ = −κ₁ κ₂ |μ̂₁ − μ̂₂|² / (κ₁₂ + κ₁ + κ₂)` (unit mean vectors μ̂), so nothing of
-    /// size κ cancels. Finite for all accepted parameters (κ₁₂ ≤ 2e300).
-    fn log_product_integral(&self, other: &Self) -> f64 {
+    /// size κ cancels. Finite for all accepted parameters (κ₁₂ ≤ 2e300), so never an error.
+    fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
         let (k1, k2) = (self.concentration(), other.concentration());
         let joint = self.eta + other.eta;
         let k12 = joint.x.hypot(joint.y);
@@ -316,11 +330,11 @@ impl Product for VonMises {
             let gap = self.eta / k1 - other.eta / k2;
             -(k1 / (k12 + k1 + k2)) * k2 * gap.norm_squared()
         };
-        scaled_bessel::log_scaled_i0(k12)
+        Ok(scaled_bessel::log_scaled_i0(k12)
             - scaled_bessel::log_scaled_i0(k1)
             - scaled_bessel::log_scaled_i0(k2)
             - (2.0 * PI).ln()
-            + excess
+            + excess)
     }
 }
 
@@ -350,6 +364,26 @@ impl KlDivergence for VonMises {
             + scaled_bessel::one_minus_a1(kp) * (kq * cos_delta - kp)
     }
 }
+
+impl Rotate<So2<f64>> for VonMises {
+    /// Mean direction `g μ`, the same κ: η turned by g (exact up to the rounding of one rotation).
+    fn rotated(&self, g: &So2<f64>) -> Self {
+        let (c, s) = (g.cos(), g.sin());
+        Self {
+            eta: Vector2::new(
+                c * self.eta.x - s * self.eta.y,
+                s * self.eta.x + c * self.eta.y,
+            ),
+        }
+    }
+
+    /// `g x`.
+    fn act(g: &So2<f64>, x: &So2<f64>) -> So2<f64> {
+        g.compose(x)
+    }
+}
+
+distribution_through_density!(VonMises);
 
 /// `η / κ`, or the x axis for κ = 0 (any unit vector serves there: the terms it enters vanish).
 fn unit_or_x(eta: &Vector2<f64>, kappa: f64) -> Vector2<f64> {

@@ -2,7 +2,9 @@
 
 use crate::error::{DensityError, finite};
 use crate::special;
-use crate::traits::{Density, Entropy, KlDivergence, Product};
+use crate::traits::{
+    Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
+};
 use crate::von_mises::check_concentration;
 use liebayes_manifolds::{GroupAction, S2, So3};
 use nalgebra::Vector3;
@@ -31,12 +33,12 @@ pub struct VonMisesFisher {
 }
 
 impl VonMisesFisher {
-    /// The distribution with mean direction `mean` and concentration `kappa ≥ 0`.
+    /// The distribution with mean direction `mean` and concentration `concentration ≥ 0`.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] for κ outside [0, 1e300].
-    pub fn new(mean: S2<f64>, kappa: f64) -> Result<Self, DensityError> {
-        let kappa = check_concentration("concentration kappa", kappa)?;
+    pub fn new(mean: S2<f64>, concentration: f64) -> Result<Self, DensityError> {
+        let kappa = check_concentration("concentration kappa", concentration)?;
         Ok(if kappa == 0.0 {
             Self::uniform()
         } else {
@@ -51,7 +53,7 @@ impl VonMisesFisher {
     /// # Errors
     /// [`DensityError::NonFinite`] for NaN or infinite components, [`DensityError::OutOfRange`] when
     /// κ = |η| exceeds 1e300.
-    pub fn from_natural(eta: &Vector3<f64>) -> Result<Self, DensityError> {
+    pub fn from_natural(eta: Vector3<f64>) -> Result<Self, DensityError> {
         for &v in eta.iter() {
             finite("eta component", v)?;
         }
@@ -77,7 +79,7 @@ impl VonMisesFisher {
     }
 
     /// The natural parameter `η = κ μ`.
-    pub fn eta(&self) -> Vector3<f64> {
+    pub fn natural(&self) -> Vector3<f64> {
         self.mean.as_vector() * self.kappa
     }
 
@@ -86,25 +88,34 @@ impl VonMisesFisher {
         self.kappa
     }
 
-    /// The mean direction μ, or `None` for the uniform distribution.
-    pub fn mean_direction(&self) -> Option<S2<f64>> {
+    /// The mean direction μ (the mode), or `None` for the uniform distribution.
+    pub fn mean(&self) -> Option<S2<f64>> {
         (self.kappa > 0.0).then_some(self.mean)
     }
 
-    /// The mean vector `E[x] = (coth κ − 1/κ) μ`.
-    pub fn mean_vector(&self) -> Vector3<f64> {
+    /// The first moment of the embedded point, `E[x] = (coth κ − 1/κ) μ` (the mean resultant
+    /// vector).
+    pub fn first_moment(&self) -> Vector3<f64> {
         self.mean.as_vector() * special::vmf_mean_resultant_valid(self.kappa)
     }
+}
 
-    /// The distribution of `R x` for `x` drawn from this one: mean `R μ`, same κ.
-    #[must_use]
-    pub fn rotated(&self, r: &So3<f64>) -> Self {
+impl Rotate<So3<f64>> for VonMisesFisher {
+    /// Mean `R μ`, the same κ.
+    fn rotated(&self, r: &So3<f64>) -> Self {
         Self {
-            mean: S2::new_unchecked(r.act(self.mean.as_vector())),
+            mean: Self::act(r, &self.mean),
             kappa: self.kappa,
         }
     }
+
+    /// `R x`, renormalised (a rotation keeps the norm to rounding).
+    fn act(r: &So3<f64>, x: &S2<f64>) -> S2<f64> {
+        S2::new_unchecked(r.act(x.as_vector()).normalize())
+    }
 }
+
+distribution_through_density!(VonMisesFisher);
 
 impl Density for VonMisesFisher {
     type Point = S2<f64>;
@@ -145,33 +156,36 @@ impl Density for VonMisesFisher {
 
     /// The mean direction (none for κ = 0).
     fn mode(&self) -> Option<S2<f64>> {
-        self.mean_direction()
+        self.mean()
     }
 }
 
 impl Product for VonMisesFisher {
     /// `η = η₁ + η₂` (exact).
     fn product(&self, other: &Self) -> Result<Self, DensityError> {
-        Self::from_natural(&(self.eta() + other.eta()))
+        Self::from_natural(self.natural() + other.natural())
     }
 
     /// `ln ∫ p₁ p₂ dS = ln Z(η₁ + η₂) − ln Z(η₁) − ln Z(η₂)`, evaluated as
     /// `P(κ₁) + P(κ₂) − P(κ₁₂) + (κ₁₂ − κ₁ − κ₂)` with `P(κ) = ln C(κ) + κ` and
-    /// `κ₁₂ − κ₁ − κ₂ = −κ₁ κ₂ |μ₁ − μ₂|² / (κ₁₂ + κ₁ + κ₂)`: nothing of size κ cancels.
-    fn log_product_integral(&self, other: &Self) -> f64 {
+    /// `κ₁₂ − κ₁ − κ₂ = −κ₁ κ₂ |μ₁ − μ₂|² / (κ₁₂ + κ₁ + κ₂)`: nothing of size κ cancels. Finite for
+    /// all accepted parameters, so never an error.
+    fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
         let (k1, k2) = (self.kappa, other.kappa);
         // Scaled by the larger κ: |η₁ + η₂|² overflows past 1.3e154.
         let scale = k1.max(k2).max(f64::MIN_POSITIVE);
-        let k12 = scale * (self.eta() / scale + other.eta() / scale).norm();
+        let k12 = scale * (self.natural() / scale + other.natural() / scale).norm();
         let gap = (self.mean.as_vector() - other.mean.as_vector()).norm_squared();
         let excess = if k1 == 0.0 || k2 == 0.0 {
             0.0
         } else {
             -(k1 / (k12 + k1 + k2)) * k2 * gap
         };
-        special::vmf_log_normalizer_plus_kappa(k1) + special::vmf_log_normalizer_plus_kappa(k2)
-            - special::vmf_log_normalizer_plus_kappa(k12)
-            + excess
+        Ok(
+            special::vmf_log_normalizer_plus_kappa(k1) + special::vmf_log_normalizer_plus_kappa(k2)
+                - special::vmf_log_normalizer_plus_kappa(k12)
+                + excess,
+        )
     }
 }
 

@@ -101,7 +101,7 @@ fn von_mises() {
     let mut log_pdf = Ulps::new("von Mises log_pdf", 3.0);
     for row in rows(&data, "von_mises") {
         let (kappa, d) = (num(&row["kappa"]), num(&row["d"]));
-        let p = VonMises::new(Vector2::new(kappa, 0.0)).unwrap();
+        let p = VonMises::from_natural(Vector2::new(kappa, 0.0)).unwrap();
         let got = p.log_pdf(&So2::from_angle(d).unwrap());
         let half = (0.5 * d).sin();
         let scale = 2.0 * kappa * half * half + (2.0 * PI).ln() + log_scaled_i0(kappa).abs();
@@ -115,7 +115,7 @@ fn von_mises() {
     let mut entropy = Ulps::new("von Mises entropy", 3.0);
     for row in rows(&data, "von_mises_entropy") {
         let kappa = num(&row["kappa"]);
-        let p = VonMises::new(Vector2::new(kappa, 0.0)).unwrap();
+        let p = VonMises::from_natural(Vector2::new(kappa, 0.0)).unwrap();
         let scale = (2.0 * PI).ln() + log_scaled_i0(kappa).abs() + 0.5;
         entropy.check(
             p.entropy(),
@@ -131,8 +131,8 @@ fn von_mises() {
             num(&row["kappa_q"]),
             num(&row["delta"]),
         );
-        let p = VonMises::new(Vector2::new(kp, 0.0)).unwrap();
-        let q = VonMises::from_mean_concentration(So2::from_angle(delta).unwrap(), kq).unwrap();
+        let p = VonMises::from_natural(Vector2::new(kp, 0.0)).unwrap();
+        let q = VonMises::new(So2::from_angle(delta).unwrap(), kq).unwrap();
         let one_minus = special::one_minus_a1(kp).unwrap();
         let scale = log_scaled_i0(kp).abs()
             + log_scaled_i0(kq).abs()
@@ -209,7 +209,8 @@ fn gen_von_mises2() {
     let mut normaliser = Ulps::new("GenVonMises2 ln Z", 3.0);
     for row in rows(&data, "gen_von_mises2") {
         let (e1, e2) = (nums(&row["eta1"]), nums(&row["eta2"]));
-        let p = GenVonMises2::new(Vector2::new(e1[0], e1[1]), Vector2::new(e2[0], e2[1])).unwrap();
+        let p = GenVonMises2::from_natural(Vector2::new(e1[0], e1[1]), Vector2::new(e2[0], e2[1]))
+            .unwrap();
         let angle = num(&row["angle"]);
         let case = format!("η₁ {e1:?}, η₂ {e2:?}, θ {angle}");
         let expected_z = num(&row["log_normalizer"]);
@@ -244,8 +245,7 @@ fn bingham() {
     for row in rows(&data, "bingham") {
         let z = nums(&row["z"]);
         let q = nums(&row["q"]);
-        let p = Bingham::from_orientation(&Matrix4::identity(), &Vector4::from_column_slice(&z))
-            .unwrap();
+        let p = Bingham::new(Matrix4::identity(), Vector4::from_column_slice(&z)).unwrap();
         let case = format!("z {z:?}, q {q:?}");
         let expected_k = num(&row["log_normalizer"]);
         let top = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);

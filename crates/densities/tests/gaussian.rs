@@ -76,7 +76,7 @@ proptest! {
     fn product_is_the_normalised_pointwise_product(p in gaussian2(), q in gaussian2(), x in proptest::array::uniform2(-1e3..1e3_f64)) {
         let x = Vector2::new(x[0], x[1]);
         let pq = p.product(&q).unwrap();
-        let lhs = p.log_pdf(&x) + q.log_pdf(&x) - p.log_product_integral(&q);
+        let lhs = p.log_pdf(&x) + q.log_pdf(&x) - p.log_product_integral(&q).unwrap();
         let rhs = pq.log_pdf(&x);
         // Rounding grows with the Mahalanobis terms (each ≤ κ(Σ) |x|²/λ_min in size).
         let scale = 1.0 + p.mahalanobis_squared(&x) + q.mahalanobis_squared(&x) + p.log_normalizer().abs();

@@ -94,7 +94,7 @@ fn fourier_coefficients_are_the_character_expectations() {
             (trace - 3.0 * h.fourier_coefficient(1)).abs() <= 1e-12,
             "s = {s}: E[tr R] = {trace}"
         );
-        assert!((h.mean_matrix().trace() - trace).abs() <= 1e-12);
+        assert!((h.first_moment().trace() - trace).abs() <= 1e-12);
     }
 }
 
@@ -127,7 +127,7 @@ proptest! {
         let (p, q) = (HeatKernelSo3::new(a, s1).unwrap(), HeatKernelSo3::new(b, s2).unwrap());
         let pq = p.convolve(&q).unwrap();
         prop_assert!((pq.variance() - (s1 + s2)).abs() <= 1e-15 * (s1 + s2));
-        prop_assert!(pq.center().distance(&a.compose(&b)) < 1e-14);
+        prop_assert!(pq.mean().distance(&a.compose(&b)) < 1e-14);
         let product = p.fourier_coefficient(l) * q.fourier_coefficient(l);
         prop_assert!((pq.fourier_coefficient(l) - product).abs() <= 1e-14);
     }

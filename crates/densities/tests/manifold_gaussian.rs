@@ -8,7 +8,7 @@
 mod common;
 
 use common::quadrature::gauss_legendre;
-use liebayes_densities::testing::gaussian;
+use liebayes_densities::testing::strategies::gaussian;
 use liebayes_densities::{Density, Entropy, Gaussian, KlDivergence, ManifoldGaussian};
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{LieGroup, Manifold, Rn, So2, So3};

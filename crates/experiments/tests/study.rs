@@ -107,7 +107,10 @@ fn study(runs: u64, shard: Shard, sigma: f64) -> Summary {
 fn in_band(summary: &Summary, metric: &str, dof: usize) -> (f64, (f64, f64)) {
     let pooled = summary.series(metric).unwrap().pooled();
     let count = usize::try_from(pooled.count()).unwrap();
-    (pooled.mean().unwrap(), average_nees_band(dof, count).unwrap())
+    (
+        pooled.mean().unwrap(),
+        average_nees_band(dof, count).unwrap(),
+    )
 }
 
 #[test]

@@ -519,8 +519,8 @@ fn exact_filter_is_the_general_composite_specialised() {
                 let errors = [
                     (composite.features() - expected.features()).amax() / scale,
                     (composite.covariance() - expected.covariance()).amax() / exact.sigma2(),
-                    (composite.angle().eta1() - exact.eta()).amax() / eta_scale,
-                    composite.angle().eta2().amax() / eta_scale,
+                    (composite.angle().natural().0 - exact.eta()).amax() / eta_scale,
+                    composite.angle().natural().1.amax() / eta_scale,
                     (c.log_evidence - e.log_evidence).abs() / (1.0 + e.log_evidence.abs()),
                 ];
                 let error = errors.iter().copied().fold(0.0, f64::max);

@@ -61,7 +61,7 @@ struct Pair<const N: usize> {
 
 impl<const N: usize> Pair<N> {
     fn new(prior: Gaussian<N>) -> Self {
-        let uniform = GenVonMises2::new(Vector2::zeros(), Vector2::zeros()).unwrap();
+        let uniform = GenVonMises2::from_natural(Vector2::zeros(), Vector2::zeros()).unwrap();
         Self {
             composite: HarmonicGaussian::independent(uniform, &prior).unwrap(),
             grid: CircularGrid::uniform(CELLS, prior).unwrap(),
@@ -205,13 +205,14 @@ fn velocity_matching_is_exact() {
     let mode = pair
         .composite
         .angle()
-        .eta1()
+        .natural()
+        .0
         .y
-        .atan2(pair.composite.angle().eta1().x);
+        .atan2(pair.composite.angle().natural().0.x);
     eprintln!(
         "velocity matching: worst {:.1e}, |eta2| {:.2e}, heading error {:.3} deg",
         pair.worst,
-        pair.composite.angle().eta2().norm(),
+        pair.composite.angle().natural().1.norm(),
         heading_error(mode, azimuth).to_degrees()
     );
     assert!(heading_error(mode, azimuth).abs() < 5f64.to_radians());
@@ -275,7 +276,7 @@ fn three_dimensional_with_known_roll_and_pitch_is_exact() {
         truth += levelled * dt + normal::<3>(&mut rng) * (q * dt.sqrt());
         pair.propagate(&process, &(levelled * dt));
     }
-    let eta = pair.composite.angle().eta1();
+    let eta = pair.composite.angle().natural().0;
     let error = heading_error(eta.y.atan2(eta.x), azimuth);
     eprintln!(
         "3-D known roll/pitch: worst {:.1e}, heading error {:.3} deg",
@@ -292,7 +293,7 @@ fn three_dimensional_with_known_roll_and_pitch_is_exact() {
 #[test]
 fn non_isotropic_noise_with_the_isotropic_bound_is_conservative() {
     let anisotropic = HarmonicGaussian::independent(
-        GenVonMises2::new(Vector2::new(1.0, 0.0), Vector2::zeros()).unwrap(),
+        GenVonMises2::from_natural(Vector2::new(1.0, 0.0), Vector2::zeros()).unwrap(),
         &Gaussian::new(Vector2::zeros(), Matrix2::new(1.0, 0.0, 0.0, 0.3)).unwrap(),
     )
     .unwrap();

@@ -212,13 +212,14 @@ fn checked<const N: usize>(
     g: Result<HarmonicGaussian<N>, liebayes_densities::DensityError>,
 ) -> Result<HarmonicGaussian<N>, OperatorError> {
     let g = g?;
+    let (eta1, eta2) = g.angle().natural();
     all_finite(
         "composite after the step (its features B or covariance Sigma overflow)",
         g.features()
             .iter()
             .chain(g.covariance().iter())
-            .chain(g.angle().eta1().iter())
-            .chain(g.angle().eta2().iter()),
+            .chain(eta1.iter())
+            .chain(eta2.iter()),
     )?;
     Ok(g)
 }
@@ -228,7 +229,8 @@ fn reweighted_angle(
     prior: &GenVonMises2,
     h: &Harmonics,
 ) -> Result<(GenVonMises2, f64), OperatorError> {
-    let angle = GenVonMises2::new(prior.eta1() + h.eta1, prior.eta2() + h.eta2)?;
+    let (eta1, eta2) = prior.natural();
+    let angle = GenVonMises2::from_natural(eta1 + h.eta1, eta2 + h.eta2)?;
     let log_evidence = h.constant + angle.log_normalizer() - prior.log_normalizer();
     all_finite(
         "log evidence of the composite's measurement (it overflows: the measurement is too far \

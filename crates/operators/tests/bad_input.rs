@@ -375,14 +375,15 @@ fn composites() {
         |(h, sigma, f, q, r, z, u)| {
             fuzz::case("composites", move || -> Result<(), TestCaseError> {
                 let prior = HarmonicGaussian::new(
-                    GenVonMises2::new(Vector2::new(0.5, 1.0), Vector2::zeros()).unwrap(),
+                    GenVonMises2::from_natural(Vector2::new(0.5, 1.0), Vector2::zeros()).unwrap(),
                     Matrix2x3::new(1.0, 0.5, 0.0, -1.0, 0.0, 0.5),
                     Matrix2::identity() * 0.3,
                 )
                 .unwrap();
                 let finite_composite = |g: &HarmonicGaussian<2>| {
-                    finite(g.angle().eta1().iter())
-                        && finite(g.angle().eta2().iter())
+                    let (eta1, eta2) = g.angle().natural();
+                    finite(eta1.iter())
+                        && finite(eta2.iter())
                         && finite(g.features().iter())
                         && finite(g.covariance().iter())
                 };

@@ -97,9 +97,11 @@ fn composite() -> impl Strategy<Value = HarmonicGaussian<2>> {
         proptest::array::uniform3(-1.0..1.0f64),
     )
         .prop_map(|(eta, b, l)| {
-            let angle =
-                GenVonMises2::new(Vector2::new(eta[0], eta[1]), Vector2::new(eta[2], eta[3]))
-                    .unwrap();
+            let angle = GenVonMises2::from_natural(
+                Vector2::new(eta[0], eta[1]),
+                Vector2::new(eta[2], eta[3]),
+            )
+            .unwrap();
             let lower = Matrix2::new(1.0 + l[0].abs(), 0.0, l[1], 0.8 + l[2].abs());
             HarmonicGaussian::new(
                 angle,
@@ -147,7 +149,8 @@ proptest! {
 
 #[test]
 fn propagation_is_the_per_angle_kalman_propagation() {
-    let angle = GenVonMises2::new(Vector2::new(1.0, 0.5), Vector2::new(-0.3, 0.2)).unwrap();
+    let angle =
+        GenVonMises2::from_natural(Vector2::new(1.0, 0.5), Vector2::new(-0.3, 0.2)).unwrap();
     let prior = HarmonicGaussian::new(
         angle,
         Matrix2x3::new(1.0, 2.0, -1.0, 0.5, 0.0, 3.0),
@@ -172,7 +175,7 @@ fn propagation_is_the_per_angle_kalman_propagation() {
 #[test]
 fn anisotropic_rotated_measurements_are_refused() {
     let prior = HarmonicGaussian::independent(
-        GenVonMises2::new(Vector2::zeros(), Vector2::zeros()).unwrap(),
+        GenVonMises2::from_natural(Vector2::zeros(), Vector2::zeros()).unwrap(),
         &Gaussian::new(Vector2::zeros(), Matrix2::new(1.0, 0.0, 0.0, 2.0)).unwrap(),
     )
     .unwrap();
@@ -213,9 +216,8 @@ fn marginalized_particles_on_the_grid_points_equal_the_grid() {
 #[test]
 fn grid_bayes_and_diffusion_match_the_von_mises_algebra() {
     // Prior VM(0.5, 3) times likelihood VM(2.0, 5): the product's first moment and evidence are known.
-    let prior = VonMises::from_mean_concentration(So2::from_angle_unchecked(0.5), 3.0).unwrap();
-    let likelihood =
-        VonMises::from_mean_concentration(So2::from_angle_unchecked(2.0), 5.0).unwrap();
+    let prior = VonMises::new(So2::from_angle_unchecked(0.5), 3.0).unwrap();
+    let likelihood = VonMises::new(So2::from_angle_unchecked(2.0), 5.0).unwrap();
     let mut grid = CircularGrid::from_log_density(
         256,
         |t| prior.log_pdf(&So2::from_angle_unchecked(t)),
@@ -225,7 +227,7 @@ fn grid_bayes_and_diffusion_match_the_von_mises_algebra() {
     let evidence = grid
         .condition(|t| likelihood.log_pdf(&So2::from_angle_unchecked(t)))
         .unwrap();
-    let eta = prior.eta() + likelihood.eta();
+    let eta = prior.natural() + likelihood.natural();
     let kappa = eta.norm();
     let exact_evidence = special::log_i0(kappa).unwrap()
         - special::log_i0(3.0).unwrap()
@@ -239,7 +241,7 @@ fn grid_bayes_and_diffusion_match_the_von_mises_algebra() {
     assert!((grid.first_moment() - exact_moment).amax() < 1e-12);
 
     // Diffusion by a von Mises kernel of concentration 4 multiplies the first moment by A₁(4).
-    let kernel = VonMises::from_mean_concentration(So2::from_angle_unchecked(0.0), 4.0).unwrap();
+    let kernel = VonMises::new(So2::from_angle_unchecked(0.0), 4.0).unwrap();
     grid.diffuse(|t| kernel.log_pdf(&So2::from_angle_unchecked(t)).exp())
         .unwrap();
     assert!((grid.first_moment() - exact_moment * special::a1(4.0).unwrap()).amax() < 1e-12);

@@ -183,7 +183,7 @@ impl AzimuthDensity {
                 range: "concentration kappa = |eta| in [0, 1e300]",
             });
         }
-        let angle = VonMises::new(eta)?;
+        let angle = VonMises::from_natural(eta)?;
         if let Some(&value) = a.iter().chain(c.iter()).find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
                 what: position_name,
@@ -213,8 +213,8 @@ impl AzimuthDensity {
     }
 
     /// η, the von Mises natural parameter of p(A).
-    pub fn eta(&self) -> &Vector2<f64> {
-        self.angle.eta()
+    pub fn eta(&self) -> Vector2<f64> {
+        self.angle.natural()
     }
 
     /// a, the azimuth-independent part of the conditional mean of r.
@@ -245,7 +245,7 @@ impl AzimuthDensity {
     /// [`GenVonMises2::MAX_CONCENTRATION`] (1e16); the composite's constructor errors otherwise.
     pub fn to_composite(&self) -> Result<HarmonicGaussian<2>, DensityError> {
         HarmonicGaussian::new(
-            GenVonMises2::new(*self.eta(), Vector2::zeros())?,
+            GenVonMises2::from_natural(self.eta(), Vector2::zeros())?,
             Matrix2x3::from_columns(&[self.a, self.c, -perp(&self.c)]),
             Matrix2::identity() * self.sigma2,
         )
@@ -340,7 +340,7 @@ impl AzimuthDensity {
     ) -> Result<(), OperatorError> {
         input.validate()?;
         *self = Self::validated(
-            *self.eta(),
+            self.eta(),
             self.a + input.velocity * input.dt,
             self.c,
             self.sigma2 + model.noise_density() * input.dt,

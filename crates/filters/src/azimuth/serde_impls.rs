@@ -12,7 +12,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 impl Serialize for AzimuthDensity {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let mut state = serializer.serialize_struct("AzimuthDensity", 4)?;
-        state.serialize_field("eta", self.eta())?;
+        state.serialize_field("eta", &self.eta())?;
         state.serialize_field("a", self.a())?;
         state.serialize_field("c", self.c())?;
         state.serialize_field("sigma2", &self.sigma2())?;

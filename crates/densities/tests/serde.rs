@@ -1,0 +1,98 @@
+//! serde (feature `serde`): every family written with serde_json (`float_roundtrip`) reads back
+//! bit for bit, and a file with an invalid parameter is an error, never an invalid density.
+
+use liebayes_densities::testing::strategies as st;
+use liebayes_densities::{
+    Bingham, Gaussian, GenVonMises2, HarmonicGaussian, HeatKernelSo3, ManifoldGaussian, VonMises,
+    VonMisesFisher,
+};
+use liebayes_manifolds::So3;
+use liebayes_manifolds::testing::strategies as ms;
+use proptest::prelude::*;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use std::fmt::Debug;
+
+/// Written and read back: equal (PartialEq compares every stored f64) and written identically again.
+fn round_trip<T: Serialize + DeserializeOwned + PartialEq + Debug>(
+    p: &T,
+) -> Result<(), TestCaseError> {
+    let text = serde_json::to_string(p).unwrap();
+    let back: T = serde_json::from_str(&text).unwrap();
+    prop_assert_eq!(&back, p, "{}", text);
+    prop_assert_eq!(serde_json::to_string(&back).unwrap(), text);
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    #[test]
+    fn von_mises(p in st::von_mises(st::concentration())) { round_trip(&p)?; }
+
+    #[test]
+    fn gen_von_mises2(p in st::gen_von_mises2(st::concentration())) { round_trip(&p)?; }
+
+    #[test]
+    fn von_mises_fisher(p in st::von_mises_fisher(st::concentration())) { round_trip(&p)?; }
+
+    #[test]
+    fn bingham(p in st::bingham(1e4)) { round_trip(&p)?; }
+
+    #[test]
+    fn heat_kernel(p in st::heat_kernel_so3(st::variance())) { round_trip(&p)?; }
+
+    #[test]
+    fn gaussian(p in st::gaussian::<3>()) { round_trip(&p)?; }
+
+    #[test]
+    fn manifold_gaussian(p in st::manifold_gaussian::<_, 3>(ms::so3::<f64>(), st::standard_deviation())) {
+        round_trip(&p)?;
+    }
+
+    #[test]
+    fn harmonic_gaussian(p in st::harmonic_gaussian::<2>(st::concentration())) { round_trip(&p)?; }
+}
+
+#[test]
+fn invalid_files_are_errors() {
+    let errors = [
+        serde_json::from_str::<VonMisesFisher>(r#"{"mean":[0.0,0.0,1.0],"concentration":-1.0}"#)
+            .map(drop)
+            .unwrap_err(),
+        serde_json::from_str::<HeatKernelSo3>(r#"{"mean":[1.0,0.0,0.0,0.0],"variance":-0.5}"#)
+            .map(drop)
+            .unwrap_err(),
+        serde_json::from_str::<Gaussian<2>>(r#"{"mean":[0.0,0.0],"covariance":[1.0,0.0,0.0,-1.0]}"#)
+            .map(drop)
+            .unwrap_err(),
+        serde_json::from_str::<ManifoldGaussian<So3<f64>, 3>>(
+            r#"{"mean":[1.0,0.0,0.0,0.0],"covariance":[1.0,2.0,0.0,2.0,1.0,0.0,0.0,0.0,1.0]}"#,
+        )
+        .map(drop)
+        .unwrap_err(),
+        serde_json::from_str::<Bingham>(
+            r#"{"orientation":[2,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1],"eigenvalues":[0,-1,-2,-3]}"#,
+        )
+        .map(drop)
+        .unwrap_err(),
+        // A quaternion that is not unit is refused by the manifolds crate.
+        serde_json::from_str::<HeatKernelSo3>(r#"{"mean":[2.0,0.0,0.0,0.0],"variance":0.5}"#)
+            .map(drop)
+            .unwrap_err(),
+        serde_json::from_str::<VonMises>(r#"{"natural":[1e301,1e301]}"#).map(drop).unwrap_err(),
+        serde_json::from_str::<GenVonMises2>(r#"{"eta1":[1e16,0.0],"eta2":[1e16,0.0]}"#)
+            .map(drop)
+            .unwrap_err(),
+        serde_json::from_str::<HarmonicGaussian<1>>(
+            r#"{"angle":{"eta1":[1.0,0.0],"eta2":[0.0,0.0]},"features":[0,0,0],"covariance":[-1.0]}"#,
+        )
+        .map(drop)
+        .unwrap_err(),
+    ];
+    for e in &errors {
+        assert!(!e.to_string().is_empty());
+    }
+    // An unknown field is refused too.
+    assert!(serde_json::from_str::<VonMises>(r#"{"natural":[1.0,0.0],"kappa":1.0}"#).is_err());
+}
