@@ -50,7 +50,11 @@ pub(crate) fn nearest_rotation<T: Real>(m: &Matrix3<T>) -> Result<Matrix3<T>, Ma
     let sigma = Vector3::from_fn(|i, _| stable_norm(&w.column(i).into_owned()));
     let (a, b, c) = order(&sigma);
     let u_a = unit(&w.column(a).into_owned());
+    // A column of subnormal size carries fewer significant bits, so its direction is orthogonal to
+    // u_a only to its own precision (about 1e-11 for entries near 1e-312); projecting it off u_a
+    // once, now that both are of order one, makes Q orthogonal to rounding.
     let u_b = unit(&w.column(b).into_owned());
+    let u_b = unit(&(u_b - u_a * u_a.dot(&u_b)));
     let u_c = u_a.cross(&u_b);
     let (v_a, v_b) = (v.column(a).into_owned(), v.column(b).into_owned());
     let v_c = v_a.cross(&v_b);
