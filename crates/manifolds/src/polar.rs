@@ -190,9 +190,12 @@ impl<T: Real> Rotation<T> {
             (t, t * large)
         } else {
             let denominator = T::one() + T::one().hypot(inverse_zeta);
+            // `small` enters last: 2γ · small first would be a subnormal product with a few
+            // significant bits when both columns are subnormal and nearly orthogonal, and the
+            // rotation then misses by more than it corrects (the sweeps never end).
             (
                 inverse_zeta / denominator,
-                twice_gamma * small / one_minus_rho2 / denominator,
+                twice_gamma / one_minus_rho2 / denominator * small,
             )
         };
         let sign = if (beta >= alpha) == (gamma > T::zero()) {

@@ -466,6 +466,24 @@ fn orthonormalized_subnormal_rotation_with_a_huge_entry() {
     check_orthonormalized(&m).unwrap();
 }
 
+/// A rotation scaled to f64::MIN_POSITIVE with its middle entry f64::MAX, found by the long run: the
+/// two subnormal columns, nearly orthogonal and of nearly equal norms, were rotated by an angle
+/// computed from a subnormal product of a few bits, which missed by more than it corrected, and the
+/// Jacobi sweeps reached their bound. Now it converges to the nearest rotation.
+#[test]
+fn orthonormalized_subnormal_columns_beside_a_huge_entry_converge() {
+    let r = So3::from_quaternion_wxyz(
+        -0.999_584_562_276_204_2,
+        0.002_743_944_715_748_482_5,
+        -0.028_244_642_830_538_715,
+        0.005_041_207_976_419_799,
+    )
+    .unwrap();
+    let mut m = r.to_matrix() * f64::MIN_POSITIVE;
+    m[4] = f64::MAX;
+    check_orthonormalized(&m).unwrap();
+}
+
 /// Uniformly scaled rotations of any finite scale, and rotations with columns or rows of different
 /// scales (`R D` and `D R` have the nearest rotation R), orthonormalise to R.
 #[test]
