@@ -101,9 +101,11 @@ proptest! {
     // `LIEBAYES_FUZZ_CASES` scales for the long run.
     // The finite-only inputs filter out about one draw in eight; the reject budget grows with the
     // case count (proptest's default, 65 536, would end a long run).
+    // The generator is seeded by `LIEBAYES_FUZZ_SEED` like the other suites, so a failure reproduces.
     #![proptest_config(ProptestConfig {
         cases: 32 * fuzz::cases(),
         max_local_rejects: 32 * fuzz::cases(),
+        rng_seed: proptest::test_runner::RngSeed::Fixed(fuzz::seed()),
         ..ProptestConfig::default()
     })]
 
@@ -337,7 +339,10 @@ proptest! {
         prop_assert!(on_sphere(&s.exp_at(&w)), "exp_at({w:?})");
         for (a, b) in [(s, t), (s, moved), (s, s)] {
             let l = a.log_at(&b);
-            prop_assert!(all_finite(l.iter().copied()) && l.norm() <= std::f64::consts::PI + 1e-15);
+            // |log| = θ |d| with θ ≤ π and a unit direction d: the rounding of d's normalisation and
+            // of the norm itself allow π (1 + 4ε) (the long run met π + 3 ulp near the antipode).
+            let bound = std::f64::consts::PI * (1.0 + 4.0 * f64::EPSILON);
+            prop_assert!(all_finite(l.iter().copied()) && l.norm() <= bound, "|log| = {:e}", l.norm());
             prop_assert!(all_finite(a.local(&b).iter().copied()));
             prop_assert!(a.distance(&b).is_finite());
         }
