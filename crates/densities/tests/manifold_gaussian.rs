@@ -179,6 +179,19 @@ fn kl_needs_a_common_mean() {
     assert!(message.contains("common mean"), "{message}");
 }
 
+/// A mean with a NaN or infinite coordinate (built with an unchecked constructor) is refused before
+/// the covariance is looked at.
+#[test]
+fn a_non_finite_mean_is_refused() {
+    for bad in [f64::NAN, f64::INFINITY] {
+        let mean = Rn::new_unchecked(Vector2::new(1.0, bad));
+        let error = ManifoldGaussian::new(mean, Matrix2::identity()).unwrap_err();
+        assert!(error.to_string().contains("mean"), "{error}");
+        let angle = So2::from_angle_unchecked(bad);
+        assert!(ManifoldGaussian::new(angle, Matrix1::new(1.0)).is_err());
+    }
+}
+
 #[test]
 fn bad_covariances_are_refused_with_a_message() {
     let x = So2::from_angle_unchecked(1.0);
