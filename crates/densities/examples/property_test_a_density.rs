@@ -40,10 +40,13 @@ impl Density for WrappedCauchy {
     type Point = So2<f64>;
 
     fn log_pdf(&self, x: &So2<f64>) -> f64 {
-        let c = self.mean.inverse().compose(x).cos();
+        let d = self.mean.inverse().compose(x);
+        let (c, s) = (d.cos(), d.sin());
         let r = self.rho;
-        // 1 + ρ² − 2ρc = (1 − ρ)² + 2ρ(1 − c): no cancellation near the mode.
-        let denominator = (1.0 - r).powi(2) + 2.0 * r * (1.0 - c);
+        // 1 + ρ² − 2ρc = (1 − ρ)² + 2ρ(1 − c), and 1 − c = s²/(1 + c) near the mode (c > 0), so
+        // neither difference cancels: the log density keeps its relative accuracy at any ρ < 1.
+        let one_minus_c = if c > 0.0 { s * s / (1.0 + c) } else { 1.0 - c };
+        let denominator = (1.0 - r).powi(2) + 2.0 * r * one_minus_c;
         (1.0 - r * r).ln() - denominator.ln() - self.log_normalizer()
     }
 

@@ -51,7 +51,11 @@ proptest! {
         let likelihood = Gaussian::new(h * x, r).unwrap().log_pdf(&z);
         let identity = likelihood + prior.log_pdf(&x) - step.posterior.log_pdf(&x);
         let terms = [likelihood, prior.log_pdf(&x), step.posterior.log_pdf(&x)];
-        prop_assert!((step.log_evidence - identity).abs() <= 1e-12 * scale(&terms) * condition,
+        // Each log density rounds in proportion to its own condition number: the posterior's too,
+        // which a precise measurement makes far larger than the prior's.
+        let posterior = step.posterior.covariance().norm() * step.posterior.natural().1.norm();
+        prop_assert!(
+            (step.log_evidence - identity).abs() <= 1e-12 * scale(&terms) * condition.max(posterior),
             "{} vs {}", step.log_evidence, identity);
     }
 
