@@ -330,29 +330,28 @@ pub(crate) fn a1_inverse_valid(r: f64) -> f64 {
     if r >= 0.5 {
         return a1_inverse_of_complement(1.0 - r);
     }
-    let mut kappa = r * (2.0 - r * r) / (1.0 - r * r);
-    for _ in 0..60 {
-        let step = (mean_resultant(kappa) - r) / scaled_bessel::a1_derivative(kappa);
-        let next = newton_next(kappa, step);
-        let done = (next - kappa).abs() <= 2.0 * f64::EPSILON * next;
-        kappa = next;
-        if done {
-            break;
-        }
-    }
-    kappa
+    newton(r * (2.0 - r * r) / (1.0 - r * r), |kappa| {
+        (mean_resultant(kappa) - r) / scaled_bessel::a1_derivative(kappa)
+    })
 }
 
 /// The κ with `1 − A(κ) = d`, for d in (0, ½]: Newton's method on the nearly linear `1/(1 − A(κ))`
 /// from `1/(r d (2 + d))`, r = 1 − d (Best and Fisher's approximation), at most 60 steps.
 pub(crate) fn a1_inverse_of_complement(d: f64) -> f64 {
     let r = 1.0 - d;
-    let mut kappa = 1.0 / (r * d * (2.0 + d));
-    for _ in 0..60 {
+    newton(1.0 / (r * d * (2.0 + d)), |kappa| {
         // h(κ) = 1/D(κ) with D = 1 − A, h′ = A′/D²: the step (h − 1/d)/h′ = D (d − D)/(d A′).
         let big_d = scaled_bessel::one_minus_a1(kappa);
-        let step = big_d * (d - big_d) / (d * scaled_bessel::a1_derivative(kappa));
-        let next = newton_next(kappa, step);
+        big_d * (d - big_d) / (d * scaled_bessel::a1_derivative(kappa))
+    })
+}
+
+/// Newton's method on a positive κ from `start`, `κ ← κ − step(κ)` (kept positive by
+/// [`newton_next`]), until a step changes κ by at most 2ε relative, at most 60 steps.
+fn newton(start: f64, step: impl Fn(f64) -> f64) -> f64 {
+    let mut kappa = start;
+    for _ in 0..60 {
+        let next = newton_next(kappa, step(kappa));
         let done = (next - kappa).abs() <= 2.0 * f64::EPSILON * next;
         kappa = next;
         if done {
