@@ -13,7 +13,7 @@
 //!   failure with where and why.
 //! * [`Scorer`]: named metrics of an estimate against the truth; [`ManifoldScorer`] scores a
 //!   Gaussian on any manifold through `local` (squared error, NEES).
-//! * [`Study`]: runs of a scenario and a filter, each from its own stream [`run_rng`], over one
+//! * [`Study`]: runs of a scenario and a filter, each from its own stream [`run_rngs`], over one
 //!   [`Shard`] of the runs, in parallel with the `rayon` feature, into a [`Summary`] (per-epoch
 //!   [`MetricSeries`], per-run statistics, failures by reason, timing) that merges exactly: shards
 //!   run on different machines combine to one study's figures, bit for bit.
@@ -36,9 +36,11 @@ mod summary;
 pub use error::ExperimentError;
 pub use exact_sum::ExactSum;
 pub use filter::{Recursive, RecursiveFilter};
-pub use replay::{Scenario, Step, Trajectory, replay};
-pub use score::{ManifoldScorer, Scorer};
-pub use shard::{Shard, run_rng};
+pub use replay::{RunFailure, RunScores, Scenario, Step, StepOf, Trajectory, replay};
+pub use score::{ManifoldScorer, Metric, Reduction, Scorer};
+pub use shard::{Shard, run_rngs};
 pub use statistics::RunningStats;
 pub use study::Study;
-pub use summary::{MAX_EPOCHS, MAX_FAILURE_REASONS, MetricSeries, Summary};
+pub use summary::{
+    MAX_EPOCHS, MAX_FAILURE_REASONS, MetricSeries, StudyLabel, Summary, SummaryMetric, Trace,
+};

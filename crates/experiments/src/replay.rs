@@ -2,7 +2,7 @@
 //! generator, and [`replay`] runs a filter through it, scoring each measurement epoch.
 
 use crate::filter::RecursiveFilter;
-use crate::score::Scorer;
+use crate::score::{Metric, Reduction, Scorer};
 use crate::{ExperimentError, MAX_EPOCHS};
 use liebayes_operators::OperatorError;
 use rand_chacha::ChaCha8Rng;
@@ -22,14 +22,15 @@ pub struct Step<T, U, Z> {
     pub measurement: Option<Z>,
 }
 
-/// A simulated run: its steps in order.
+/// A simulated run recorded: its steps in order (a [`Scenario`] may also stream its steps).
 pub type Trajectory<T, U, Z> = Vec<Step<T, U, Z>>;
 
-/// The trajectory type of a scenario.
-pub type TrajectoryOf<S> =
-    Trajectory<<S as Scenario>::Truth, <S as Scenario>::Input, <S as Scenario>::Measurement>;
+/// The step type of a scenario.
+pub type StepOf<S> =
+    Step<<S as Scenario>::Truth, <S as Scenario>::Input, <S as Scenario>::Measurement>;
 
-/// What an application simulates: trajectories of true states, inputs and measurements.
+/// What an application simulates: trajectories of true states, inputs and measurements, streamed
+/// step by step from the run's generator (so that a run of 10⁸ steps takes no memory).
 pub trait Scenario: Sync {
     /// The true state.
     type Truth;
@@ -37,27 +38,33 @@ pub trait Scenario: Sync {
     type Input;
     /// A measurement.
     type Measurement;
+    /// The steps of one run, in order.
+    type Steps<'s>: Iterator<Item = StepOf<Self>>
+    where
+        Self: 's;
 
-    /// The number of measurement epochs of every trajectory (the length of the per-epoch series).
+    /// The number of measurement epochs of every trajectory (the length of the per-epoch series),
+    /// at most [`MAX_EPOCHS`].
     fn epochs(&self) -> usize;
 
-    /// Simulates one run from `rng` (the run's own stream).
+    /// Starts one run, drawing from `rng` (the run's simulation stream).
     ///
     /// # Errors
     /// When the scenario's settings cannot be simulated (the message says which).
-    fn simulate(&self, rng: &mut ChaCha8Rng) -> Result<TrajectoryOf<Self>, ExperimentError>;
+    fn simulate<'s>(&'s self, rng: &'s mut ChaCha8Rng) -> Result<Self::Steps<'s>, ExperimentError>;
 }
 
-/// A run's scores: per measurement epoch, the scorer's metrics then the log evidence and the NIS
-/// (NaN where the filter has none); and the filter's time.
+/// A run's scores: per measurement epoch, its time, the scorer's metrics then the log evidence and
+/// the NIS (NaN where the filter has none); and the filter's time.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunScores {
-    /// The metric names, the scorer's followed by `log_evidence` and `nis`.
-    pub names: Vec<&'static str>,
-    /// `values[k * names.len() + j]`: metric j at measurement epoch k.
+    /// The metrics, the scorer's followed by `log_evidence` and `nis` (χ² with the
+    /// measurement's dimension; dimension 0 when the filter reports no NIS).
+    pub metrics: Vec<Metric>,
+    /// The time of each scored epoch (s).
+    pub times: Vec<f64>,
+    /// `values[k * metrics.len() + j]`: metric j at measurement epoch k.
     pub values: Vec<f64>,
-    /// The NIS degrees of freedom of the updates (0 where the filter reports none).
-    pub nis_dof: usize,
     /// Filter time per step (s), scoring and simulation excluded.
     pub seconds_per_step: f64,
 }
@@ -65,13 +72,13 @@ pub struct RunScores {
 impl RunScores {
     /// The number of measurement epochs scored.
     pub fn epochs(&self) -> usize {
-        self.values.len() / self.names.len().max(1)
+        self.times.len()
     }
 
     /// Metric `name` at epoch k.
     pub fn get(&self, name: &str, k: usize) -> Option<f64> {
-        let j = self.names.iter().position(|n| *n == name)?;
-        self.values.get(k * self.names.len() + j).copied()
+        let j = self.metrics.iter().position(|m| m.name == name)?;
+        self.values.get(k * self.metrics.len() + j).copied()
     }
 }
 
@@ -87,15 +94,16 @@ pub struct RunFailure {
     pub error: OperatorError,
 }
 
-/// Runs `filter` through `trajectory`: at each step a predict with its input, then, where there is a
-/// measurement, an update and the scores of the estimate against the truth. The scores are kept
-/// only if every step succeeds; the first failure stops the run and is returned.
+/// Runs `filter` through the steps of a trajectory: at each step a predict with its input, then,
+/// where there is a measurement, an update and the scores of the estimate against the truth. The
+/// first [`MAX_EPOCHS`] epochs are scored (the filter runs on after them). The scores are kept only
+/// if every step succeeds; the first failure stops the run and is returned.
 ///
 /// # Errors
 /// [`RunFailure`] at the first step, update or estimate that fails.
 pub fn replay<F, T, Sc>(
     filter: &mut F,
-    trajectory: &[Step<T, F::Input, F::Measurement>],
+    steps: impl IntoIterator<Item = Step<T, F::Input, F::Measurement>>,
     scorer: &Sc,
 ) -> Result<RunScores, RunFailure>
 where
@@ -104,18 +112,18 @@ where
     F::Measurement: Sized,
     Sc: Scorer<T, F::Estimate> + ?Sized,
 {
-    let mut names: Vec<&'static str> = scorer.names().to_vec();
-    names.extend(["log_evidence", "nis"]);
-    let width = names.len();
-    let epochs = trajectory
-        .iter()
-        .filter(|s| s.measurement.is_some())
-        .count()
-        .min(MAX_EPOCHS);
-    let mut values = Vec::with_capacity(epochs * width);
-    let mut nis_dof = 0;
+    let mut metrics = scorer.metrics();
+    let scored = metrics.len();
+    metrics.extend([
+        Metric::new("log_evidence", Reduction::Mean, ""),
+        Metric::new("nis", Reduction::ChiSquare { dof: 0 }, ""),
+    ]);
+    let width = metrics.len();
+    let (mut times, mut values) = (Vec::new(), Vec::new());
     let mut filtering = std::time::Duration::ZERO;
-    for (index, step) in trajectory.iter().enumerate() {
+    let mut count = 0usize;
+    for (index, step) in steps.into_iter().enumerate() {
+        count += 1;
         let fail = |error| RunFailure {
             step: index,
             time: step.time,
@@ -129,27 +137,24 @@ where
         };
         let update = filter.update(z).map_err(fail)?;
         filtering += clock.elapsed();
-        if values.len() >= epochs * width {
+        if times.len() >= MAX_EPOCHS {
             continue;
         }
         let estimate = filter.estimate().map_err(fail)?;
         let start = values.len();
         values.resize(start + width, f64::NAN);
-        scorer.score(
-            &step.truth,
-            &estimate,
-            &mut values[start..start + width - 2],
-        );
-        values[start + width - 2] = update.log_evidence;
+        scorer.score(&step.truth, &estimate, &mut values[start..start + scored]);
+        values[start + scored] = update.log_evidence;
         if let Some(nis) = update.nis {
-            values[start + width - 1] = nis.value;
-            nis_dof = nis.dof;
+            values[start + scored + 1] = nis.value;
+            metrics[scored + 1].reduction = Reduction::ChiSquare { dof: nis.dof };
         }
+        times.push(step.time);
     }
     Ok(RunScores {
-        names,
+        metrics,
+        times,
         values,
-        nis_dof,
-        seconds_per_step: filtering.as_secs_f64() / trajectory.len().max(1) as f64,
+        seconds_per_step: filtering.as_secs_f64() / count.max(1) as f64,
     })
 }

@@ -1,22 +1,65 @@
 //! Scoring an estimate against the truth, through the manifold: named metrics written into a slice
-//! (no allocation per epoch).
+//! (no allocation per epoch), each with the rule that summarises it over runs.
 
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
+use serde::{Deserialize, Serialize};
+
+/// How the values of a metric over the runs of a study are summarised at an epoch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Reduction {
+    /// An error (signed, or a norm) or a reported standard deviation: its root mean square over
+    /// runs `√(Σ xᵢ² / n)`, the RMSE.
+    RootMeanSquare,
+    /// Its mean, with the 95 % band of the mean from the sample variance, `x̄ ± 1.96 s / √n`.
+    Mean,
+    /// A normalised squared error (NEES, NIS) with `dof` degrees of freedom: its mean, beside the
+    /// 95 % band of the mean of n independent χ²(dof) values (where a consistent filter's mean
+    /// falls).
+    ChiSquare {
+        /// The degrees of freedom.
+        dof: usize,
+    },
+    /// An indicator (0 or 1): its mean, as a rate.
+    Rate,
+}
+
+/// A named metric with its summary rule and its unit (for tables and plots).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Metric {
+    /// The name, unique within a scorer: a CSV column and a key of the summary.
+    pub name: &'static str,
+    /// How it is summarised over runs.
+    pub reduction: Reduction,
+    /// Its unit (`"deg"`, `"m"`, `""` for a pure number).
+    pub unit: &'static str,
+}
+
+impl Metric {
+    /// A metric.
+    pub const fn new(name: &'static str, reduction: Reduction, unit: &'static str) -> Self {
+        Self {
+            name,
+            reduction,
+            unit,
+        }
+    }
+}
 
 /// Named metrics of an estimate `E` against a true state `T`.
 pub trait Scorer<T, E>: Sync {
-    /// The metric names, in the order [`score`](Self::score) writes them.
-    fn names(&self) -> &'static [&'static str];
+    /// The metrics, in the order [`score`](Self::score) writes them (asked once per run).
+    fn metrics(&self) -> Vec<Metric>;
 
-    /// Writes one value per name into `values` (whose length is `names().len()`).
+    /// Writes one value per metric into `values` (whose length is `metrics().len()`); NaN for a
+    /// value the estimate does not have (it is then left out of that metric's statistics).
     fn score(&self, truth: &T, estimate: &E, values: &mut [f64]);
 }
 
 /// The scores of a Gaussian on a manifold against a true point x, through the manifold's `local`:
-/// the error `e = x ⊟ μ` (the truth seen from the estimate, in the estimate's tangent space),
+/// the error `e = μ ⊟ x` seen from the estimate (`local(μ, x)`, in the estimate's tangent space),
 ///
-/// * `squared_error`: `|e|²`, whose mean over runs at an epoch is the squared RMSE;
+/// * `error`: `|e|`, summarised as its root mean square, the RMSE;
 /// * `nees`: `eᵀ P⁻¹ e`, χ² with D degrees of freedom for a consistent filter.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ManifoldScorer;
@@ -24,12 +67,15 @@ pub struct ManifoldScorer;
 impl<X: Manifold<D, Scalar = f64>, const D: usize> Scorer<X, ManifoldGaussian<X, D>>
     for ManifoldScorer
 {
-    fn names(&self) -> &'static [&'static str] {
-        &["squared_error", "nees"]
+    fn metrics(&self) -> Vec<Metric> {
+        vec![
+            Metric::new("error", Reduction::RootMeanSquare, ""),
+            Metric::new("nees", Reduction::ChiSquare { dof: D }, ""),
+        ]
     }
 
     fn score(&self, truth: &X, estimate: &ManifoldGaussian<X, D>, values: &mut [f64]) {
-        values[0] = estimate.mean().local(truth).norm_squared();
+        values[0] = estimate.mean().local(truth).norm();
         values[1] = estimate.mahalanobis_squared(truth);
     }
 }

@@ -68,11 +68,20 @@ impl std::fmt::Display for Shard {
     }
 }
 
-/// The random number generator of run `run` of a study seeded with `seed`: ChaCha8 keyed by the
-/// seed, on stream `run` (2⁶⁴ independent streams of 2⁶⁸ bytes each), so a run's randomness depends
-/// on the seed and its index only, not on which shard, thread or order ran it.
-pub fn run_rng(seed: u64, run: u64) -> ChaCha8Rng {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream(run);
-    rng
+/// The two random number generators of run `run` of a study seeded with `seed`: ChaCha8 keyed by
+/// the seed, on stream `2·run` for the simulation and `2·run + 1` for the filter's own randomness
+/// (2⁶⁴ independent streams of 2⁶⁸ bytes each). A run's randomness depends on the seed and its
+/// index only, not on which shard, thread or order ran it, and the filter's draws do not depend on
+/// how many the simulation took.
+pub fn run_rngs(seed: u64, run: u64) -> (ChaCha8Rng, ChaCha8Rng) {
+    let stream = |s: u64| {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(s);
+        rng
+    };
+    // run < 2^40 in a study; wrapping keeps any u64 well defined.
+    (
+        stream(run.wrapping_mul(2)),
+        stream(run.wrapping_mul(2).wrapping_add(1)),
+    )
 }

@@ -4,7 +4,8 @@
 use crate::filter::RecursiveFilter;
 use crate::replay::{Scenario, replay};
 use crate::score::Scorer;
-use crate::{ExperimentError, Shard, Summary, run_rng};
+use crate::summary::StudyLabel;
+use crate::{ExperimentError, Shard, Summary, run_rngs};
 use liebayes_operators::OperatorError;
 use rand_chacha::ChaCha8Rng;
 
@@ -16,19 +17,26 @@ pub const MAX_RUNS: u64 = 1 << 40;
 const BLOCK: u64 = 64;
 
 /// What a study runs: how many runs, from which seed, and which shard of them here.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Study {
+    name: String,
     runs: u64,
     seed: u64,
     shard: Shard,
 }
 
 impl Study {
-    /// `runs` runs from `seed`, of which this process runs `shard`.
+    /// The study `name` (the filter and scenario, as the summary is to be labelled) of `runs` runs
+    /// from `seed`, of which this process runs `shard`.
     ///
     /// # Errors
     /// [`ExperimentError::OutOfRange`] for no runs or more than [`MAX_RUNS`].
-    pub fn new(runs: u64, seed: u64, shard: Shard) -> Result<Self, ExperimentError> {
+    pub fn new(
+        name: impl Into<String>,
+        runs: u64,
+        seed: u64,
+        shard: Shard,
+    ) -> Result<Self, ExperimentError> {
         if runs == 0 || runs > MAX_RUNS {
             return Err(ExperimentError::OutOfRange {
                 what: "number of runs",
@@ -36,7 +44,12 @@ impl Study {
                 range: "[1, 2^40]",
             });
         }
-        Ok(Self { runs, seed, shard })
+        Ok(Self {
+            name: name.into(),
+            runs,
+            seed,
+            shard,
+        })
     }
 
     /// The total number of runs (all shards).
@@ -54,12 +67,21 @@ impl Study {
         self.shard
     }
 
-    /// Runs this shard: run k simulates `scenario` and builds its filter with `build` from the
-    /// generator [`run_rng`]`(seed, k)` (simulation first, then the filter's own randomness), replays
-    /// it, and records its scores in the summary: per measurement epoch, every metric of `scorer`,
-    /// the log evidence and the NIS (where the filter reports one); per run, the filter time. A
-    /// run that fails is counted under its reason and contributes nothing else. `progress` is called
-    /// with the number of runs done so far after each block of runs.
+    /// The label its summaries carry.
+    pub fn label(&self) -> StudyLabel {
+        StudyLabel {
+            name: self.name.clone(),
+            seed: self.seed,
+            runs: self.runs,
+        }
+    }
+
+    /// Runs this shard: run k simulates `scenario` from its simulation stream and builds its filter
+    /// with `build` from its filter stream ([`run_rngs`]`(seed, k)`), replays it, and records its
+    /// scores in the summary: per measurement epoch, every metric of `scorer`, the log evidence and
+    /// the NIS (where the filter reports one); per run, the filter time. A run that fails is
+    /// counted under its reason and contributes nothing else. `progress` is called with the number
+    /// of runs done so far after each block of runs. Memory does not grow with the number of runs.
     ///
     /// # Errors
     /// [`ExperimentError`] when the scenario cannot be simulated (a setting out of range); filter
@@ -82,7 +104,7 @@ impl Study {
         let block = |b: u64| -> Result<Summary, ExperimentError> {
             let start = range.start + b * BLOCK;
             let end = (start + BLOCK).min(range.end);
-            let mut summary = Summary::new(start..end);
+            let mut summary = Summary::new(self.label(), start..end);
             for run in start..end {
                 self.record(run, scenario, build, scorer, &mut summary)?;
             }
@@ -90,7 +112,7 @@ impl Study {
             progress(so_far + end - start);
             Ok(summary)
         };
-        let mut summary = Summary::new(range.start..range.start);
+        let mut summary = Summary::new(self.label(), range.start..range.start);
         for part in map_blocks(blocks, &block) {
             summary.merge(&part?)?;
         }
@@ -111,34 +133,22 @@ impl Study {
         F: RecursiveFilter<Input = S::Input, Measurement = S::Measurement>,
         Sc: Scorer<S::Truth, F::Estimate>,
     {
-        let mut rng = run_rng(self.seed, run);
-        let trajectory = scenario.simulate(&mut rng)?;
-        let mut filter = match build(&mut rng) {
+        let (mut simulation, mut randomness) = run_rngs(self.seed, run);
+        let steps = scenario.simulate(&mut simulation)?;
+        let mut filter = match build(&mut randomness) {
             Ok(filter) => filter,
             Err(error) => {
                 summary.add_failure(&format!("building the filter: {error}"));
                 return Ok(());
             }
         };
-        let scores = match replay(&mut filter, &trajectory, scorer) {
-            Ok(scores) => scores,
+        match replay(&mut filter, steps, scorer) {
+            Ok(scores) => summary.add_run(run, &scores),
             Err(failure) => {
                 summary.add_failure(&failure.error.to_string());
-                return Ok(());
-            }
-        };
-        for k in 0..scores.epochs() {
-            for (j, name) in scores.names.iter().enumerate() {
-                let value = scores.values[k * scores.names.len() + j];
-                // A filter without an innovation covariance has no NIS: nothing to record.
-                if *name == "nis" && value.is_nan() {
-                    continue;
-                }
-                summary.add_epoch(name, k, value)?;
+                Ok(())
             }
         }
-        summary.add_timing(scores.seconds_per_step);
-        Ok(())
     }
 }
 

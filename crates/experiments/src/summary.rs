@@ -2,6 +2,8 @@
 //! and the run ranges it covers. Summaries of disjoint run ranges merge exactly, so shards of a
 //! study run on different machines combine to the summary of one run over all of them, bit for bit.
 
+use crate::replay::RunScores;
+use crate::score::Reduction;
 use crate::{ExperimentError, RunningStats};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -70,27 +72,71 @@ impl MetricSeries {
     }
 }
 
-/// The summary of a study over some run ranges: per-epoch series and per-run scalars (a final error)
-/// by metric name, the failed runs counted by reason, and the filters' time per step.
+/// A metric of a summary: its name, how it is summarised over runs, its unit, and its statistics
+/// at each epoch.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SummaryMetric {
+    /// The metric's name.
+    pub name: String,
+    /// How it is summarised over runs.
+    pub reduction: Reduction,
+    /// Its unit.
+    pub unit: String,
+    /// Its statistics over runs at each epoch.
+    pub series: MetricSeries,
+}
+
+/// One run's scores kept whole (the study's first run, for plots of a single run): the epoch times
+/// and, per epoch, the value of every metric in the summary's order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Trace {
+    /// The run's index.
+    pub run: u64,
+    /// The time of each epoch (s).
+    pub times: Vec<f64>,
+    /// `values[k * metrics + j]`: metric j of the summary at epoch k (NaN where it has none).
+    pub values: Vec<f64>,
+}
+
+/// Which study a summary belongs to: summaries merge only when these agree.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyLabel {
+    /// The filter and scenario, as the application names them (`"exact, circle"`).
+    pub name: String,
+    /// The study's seed.
+    pub seed: u64,
+    /// The study's number of runs (all shards).
+    pub runs: u64,
+}
+
+/// The summary of a study over some run ranges: per-epoch statistics of every metric (in the
+/// scorer's order) and of the epoch times, the failed runs counted by reason, the first run's
+/// scores, and the filter's time per step.
 ///
 /// Everything but the timing is determined by the study's seed and runs: two summaries of the same
-/// runs have equal series, scalars and failures bit for bit, however they were sharded. The timing
-/// is measured, so it differs from one execution to the next; it is kept apart for that reason.
+/// runs are equal bit for bit, however they were sharded. The timing is measured, so it differs
+/// from one execution to the next; it is kept apart for that reason.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Summary {
+    label: StudyLabel,
     /// Disjoint, sorted, with adjacent ranges joined.
     runs: Vec<Range<u64>>,
-    series: BTreeMap<String, MetricSeries>,
-    scalars: BTreeMap<String, RunningStats>,
+    metrics: Vec<SummaryMetric>,
+    times: MetricSeries,
     failures: BTreeMap<String, u64>,
+    trace: Option<Trace>,
     timing: RunningStats,
 }
 
 impl Summary {
-    /// The empty summary of the runs `runs` (nothing recorded yet).
-    pub fn new(runs: Range<u64>) -> Self {
+    /// The empty summary of the runs `runs` of the study `label` (nothing recorded yet).
+    pub fn new(label: StudyLabel, runs: Range<u64>) -> Self {
         Self {
+            label,
             runs: if runs.is_empty() {
                 Vec::new()
             } else {
@@ -98,6 +144,11 @@ impl Summary {
             },
             ..Self::default()
         }
+    }
+
+    /// The study this summary belongs to.
+    pub fn label(&self) -> &StudyLabel {
+        &self.label
     }
 
     /// The run ranges covered, disjoint and sorted.
@@ -110,23 +161,96 @@ impl Summary {
         self.runs.iter().map(|r| r.end - r.start).sum()
     }
 
-    /// Records a run's value of a per-epoch metric.
+    /// Records one run's scores: per epoch its time and the value of every metric (a NIS column
+    /// of a filter that reports none, degrees of freedom 0, is left out). The first run of the
+    /// study (run 0) is also kept whole as the [`trace`](Self::trace).
     ///
     /// # Errors
-    /// As [`MetricSeries::add`].
-    pub fn add_epoch(&mut self, metric: &str, k: usize, value: f64) -> Result<(), ExperimentError> {
-        self.series
-            .entry(metric.to_owned())
-            .or_default()
-            .add(k, value)
+    /// [`ExperimentError::OutOfRange`] for more than [`MAX_EPOCHS`] epochs,
+    /// [`ExperimentError::Incompatible`] when a metric's summary rule or unit differs from the
+    /// one already recorded under its name. Nothing is recorded then.
+    pub fn add_run(&mut self, run: u64, scores: &RunScores) -> Result<(), ExperimentError> {
+        let epochs = scores.epochs();
+        if epochs > MAX_EPOCHS {
+            return Err(ExperimentError::OutOfRange {
+                what: "number of epochs",
+                value: epochs.to_string(),
+                range: "[0, 2^24]",
+            });
+        }
+        let kept = (0..scores.metrics.len())
+            .filter(|&j| scores.metrics[j].reduction != Reduction::ChiSquare { dof: 0 });
+        for j in kept.clone() {
+            let m = &scores.metrics[j];
+            self.slot(m.name, m.reduction, m.unit)?;
+        }
+        // Checked: nothing below can fail, so the run is recorded whole or not at all.
+        let mut columns = Vec::with_capacity(scores.metrics.len());
+        for j in kept {
+            let m = &scores.metrics[j];
+            let index = self.find(m.name).unwrap_or_else(|| {
+                self.metrics.push(SummaryMetric {
+                    name: m.name.to_owned(),
+                    reduction: m.reduction,
+                    unit: m.unit.to_owned(),
+                    series: MetricSeries::default(),
+                });
+                self.metrics.len() - 1
+            });
+            columns.push((j, index));
+        }
+        let width = scores.metrics.len();
+        for &(j, index) in &columns {
+            for k in 0..epochs {
+                self.metrics[index]
+                    .series
+                    .add(k, scores.values[k * width + j])?;
+            }
+        }
+        for (k, &t) in scores.times.iter().enumerate() {
+            self.times.add(k, t)?;
+        }
+        if run == 0 {
+            let n = self.metrics.len();
+            let mut values = vec![f64::NAN; epochs * n];
+            for &(j, index) in &columns {
+                for k in 0..epochs {
+                    values[k * n + index] = scores.values[k * width + j];
+                }
+            }
+            self.trace = Some(Trace {
+                run,
+                times: scores.times.clone(),
+                values,
+            });
+        }
+        self.timing.add(scores.seconds_per_step);
+        Ok(())
     }
 
-    /// Records a run's value of a per-run metric.
-    pub fn add_scalar(&mut self, metric: &str, value: f64) {
-        self.scalars
-            .entry(metric.to_owned())
-            .or_default()
-            .add(value);
+    /// The index of metric `name`, if recorded.
+    fn find(&self, name: &str) -> Option<usize> {
+        self.metrics.iter().position(|m| m.name == name)
+    }
+
+    /// Where metric `name` is recorded (`None`: not yet), checking that its rule and unit agree.
+    fn slot(
+        &self,
+        name: &str,
+        reduction: Reduction,
+        unit: &str,
+    ) -> Result<Option<usize>, ExperimentError> {
+        let Some(index) = self.find(name) else {
+            return Ok(None);
+        };
+        let m = &self.metrics[index];
+        if m.reduction != reduction || m.unit != unit {
+            return Err(ExperimentError::Incompatible(format!(
+                "metric {name} is summarised as {:?} in {} here and as {reduction:?} in {unit} there",
+                m.reduction, m.unit
+            )));
+        }
+        Ok(Some(index))
     }
 
     /// Records a failed run and why (the error's message); beyond [`MAX_FAILURE_REASONS`] distinct
@@ -145,29 +269,24 @@ impl Summary {
         *self.failures.entry(key.to_owned()).or_default() += count;
     }
 
+    /// The metrics, in the order the scorer gave them.
+    pub fn metrics(&self) -> &[SummaryMetric] {
+        &self.metrics
+    }
+
     /// The per-epoch series of a metric.
     pub fn series(&self, metric: &str) -> Option<&MetricSeries> {
-        self.series.get(metric)
+        self.find(metric).map(|i| &self.metrics[i].series)
     }
 
-    /// Every per-epoch series, by name.
-    pub fn all_series(&self) -> &BTreeMap<String, MetricSeries> {
-        &self.series
+    /// The epoch times (their statistics over runs: equal in every run for a fixed schedule).
+    pub fn times(&self) -> &MetricSeries {
+        &self.times
     }
 
-    /// The per-run statistics of a metric.
-    pub fn scalar(&self, metric: &str) -> Option<&RunningStats> {
-        self.scalars.get(metric)
-    }
-
-    /// Every per-run metric, by name.
-    pub fn scalars(&self) -> &BTreeMap<String, RunningStats> {
-        &self.scalars
-    }
-
-    /// Records a run's filter time per step (s).
-    pub fn add_timing(&mut self, seconds_per_step: f64) {
-        self.timing.add(seconds_per_step);
+    /// The first run's scores (run 0 of the study), if this summary covers it and it succeeded.
+    pub fn trace(&self) -> Option<&Trace> {
+        self.trace.as_ref()
     }
 
     /// The filter time per step (s) over the successful runs: measured, so not reproducible.
@@ -180,12 +299,31 @@ impl Summary {
         &self.failures
     }
 
-    /// Adds the summary of other runs; the result is the same in any order of merging.
+    /// The number of failed runs.
+    pub fn failure_count(&self) -> u64 {
+        self.failures.values().sum()
+    }
+
+    /// Adds the summary of other runs of the same study; the result is the same in any order of
+    /// merging. An empty summary (`Summary::default()`) takes the label of the first one merged.
     ///
     /// # Errors
-    /// [`ExperimentError::Incompatible`] when the two cover a run in common (the same shard merged
-    /// twice); `self` is then unchanged.
+    /// [`ExperimentError::Incompatible`] when the two belong to different studies (label, seed or
+    /// run count), cover a run in common (the same shard merged twice), or summarise a metric
+    /// differently; `self` is then unchanged.
     pub fn merge(&mut self, other: &Summary) -> Result<(), ExperimentError> {
+        let blank = |s: &Summary| s.runs.is_empty() && s.label == StudyLabel::default();
+        if self.label != other.label && !blank(self) && !blank(other) {
+            return Err(ExperimentError::Incompatible(format!(
+                "they are of different studies ({:?} and {:?})",
+                self.label, other.label
+            )));
+        }
+        let label = if blank(self) {
+            other.label.clone()
+        } else {
+            self.label.clone()
+        };
         let mut runs: Vec<Range<u64>> = self.runs.iter().chain(&other.runs).cloned().collect();
         runs.sort_by_key(|r| r.start);
         let mut joined: Vec<Range<u64>> = Vec::with_capacity(runs.len());
@@ -202,15 +340,23 @@ impl Summary {
                 _ => joined.push(r),
             }
         }
+        for m in &other.metrics {
+            self.slot(&m.name, m.reduction, &m.unit)?;
+        }
+        self.label = label;
         self.runs = joined;
-        for (name, series) in &other.series {
-            self.series.entry(name.clone()).or_default().merge(series);
+        for m in &other.metrics {
+            match self.find(&m.name) {
+                Some(i) => self.metrics[i].series.merge(&m.series),
+                None => self.metrics.push(m.clone()),
+            }
         }
-        for (name, stats) in &other.scalars {
-            self.scalars.entry(name.clone()).or_default().merge(stats);
-        }
+        self.times.merge(&other.times);
         for (reason, &count) in &other.failures {
             self.count_failures(reason, count);
+        }
+        if self.trace.is_none() {
+            self.trace.clone_from(&other.trace);
         }
         self.timing.merge(&other.timing);
         Ok(())

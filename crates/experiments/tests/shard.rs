@@ -1,6 +1,6 @@
 //! Shards partition the runs; run generators depend only on the seed and the run index.
 
-use liebayes_experiments::{Shard, run_rng};
+use liebayes_experiments::{Shard, run_rngs};
 use proptest::prelude::*;
 use rand::Rng;
 
@@ -44,7 +44,7 @@ fn shards_parse_and_refuse_what_is_not_k_of_n() {
 
 #[test]
 fn a_runs_randomness_depends_on_the_seed_and_its_index_only() {
-    let draw = |seed, run| run_rng(seed, run).random::<u64>();
+    let draw = |seed, run| run_rngs(seed, run).0.random::<u64>();
     assert_eq!(draw(7, 3), draw(7, 3));
     assert_ne!(draw(7, 3), draw(7, 4));
     assert_ne!(draw(7, 3), draw(8, 3));

@@ -6,7 +6,7 @@
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{
     ExperimentError, ManifoldScorer, Recursive, RecursiveFilter, Scenario, Shard, Step, Study,
-    Summary, Trajectory, replay,
+    Summary, replay,
 };
 use liebayes_manifolds::{Manifold, So2};
 use liebayes_operators::evaluation::average_nees_band;
@@ -33,14 +33,13 @@ impl Scenario for Heading {
     type Input = ();
     type Measurement = Vector2<f64>;
 
+    type Steps<'s> = std::vec::IntoIter<Step<So2<f64>, (), Vector2<f64>>>;
+
     fn epochs(&self) -> usize {
         self.steps / 2
     }
 
-    fn simulate(
-        &self,
-        rng: &mut ChaCha8Rng,
-    ) -> Result<Trajectory<So2<f64>, (), Vector2<f64>>, ExperimentError> {
+    fn simulate<'s>(&'s self, rng: &'s mut ChaCha8Rng) -> Result<Self::Steps<'s>, ExperimentError> {
         let normal = |rng: &mut ChaCha8Rng| rng.sample::<f64, _>(StandardNormal);
         let mut x = So2::from_angle_unchecked(PRIOR_MEAN + PRIOR_VARIANCE.sqrt() * normal(rng));
         let mut steps = Vec::with_capacity(self.steps);
@@ -57,7 +56,7 @@ impl Scenario for Heading {
                 measurement,
             });
         }
-        Ok(steps)
+        Ok(steps.into_iter())
     }
 }
 
@@ -92,7 +91,7 @@ fn filter(
 }
 
 fn study(runs: u64, shard: Shard, sigma: f64) -> Summary {
-    Study::new(runs, 11, shard)
+    Study::new("EKF, heading", runs, 11, shard)
         .unwrap()
         .run(
             &Heading { steps: 40 },
@@ -153,9 +152,11 @@ fn three_shards_merged_equal_one_study_bit_for_bit() {
         merged.merge(&serde_json::from_str(&text).unwrap()).unwrap();
     }
     assert_eq!(merged.runs(), whole.runs());
-    assert_eq!(merged.all_series(), whole.all_series());
+    assert_eq!(merged.metrics(), whole.metrics());
     assert_eq!(merged.failures(), whole.failures());
-    let text = |s: &Summary| serde_json::to_string(s.all_series()).unwrap();
+    assert_eq!(merged.trace(), whole.trace());
+    assert!(whole.trace().is_some());
+    let text = |s: &Summary| serde_json::to_string(s.metrics()).unwrap();
     assert_eq!(text(&merged), text(&whole));
     assert_eq!(merged.timing().count(), 200);
 }
@@ -163,7 +164,7 @@ fn three_shards_merged_equal_one_study_bit_for_bit() {
 #[test]
 fn failing_runs_are_counted_by_reason_and_left_out() {
     // Runs whose filter cannot be built (here: every one with an odd first draw) are failures.
-    let summary = Study::new(50, 3, Shard::WHOLE)
+    let summary = Study::new("EKF, heading", 50, 3, Shard::WHOLE)
         .unwrap()
         .run(
             &Heading { steps: 10 },
@@ -190,10 +191,10 @@ fn failing_runs_are_counted_by_reason_and_left_out() {
 
 #[test]
 fn replay_stops_at_the_first_failure_and_says_where() {
-    let mut rng = liebayes_experiments::run_rng(0, 0);
-    let mut trajectory = Heading { steps: 10 }.simulate(&mut rng).unwrap();
+    let mut rng = liebayes_experiments::run_rngs(0, 0).0;
+    let mut trajectory: Vec<_> = Heading { steps: 10 }.simulate(&mut rng).unwrap().collect();
     trajectory[5].measurement = Some(Vector2::new(f64::NAN, 0.0));
-    let failure = replay(&mut filter(SIGMA).unwrap(), &trajectory, &ManifoldScorer).unwrap_err();
+    let failure = replay(&mut filter(SIGMA).unwrap(), trajectory, &ManifoldScorer).unwrap_err();
     assert_eq!(failure.step, 5);
     assert!(
         failure.to_string().starts_with("step 5 (t = 6 s)"),

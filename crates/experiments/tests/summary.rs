@@ -1,16 +1,39 @@
 //! Summaries of shards merge to the summary of one study over all runs, bit for bit, in any order and
 //! through a file; overlapping shards are refused.
 
-use liebayes_experiments::{ExperimentError, MAX_EPOCHS, Shard, Summary, run_rng};
+use liebayes_experiments::{
+    ExperimentError, MAX_EPOCHS, Metric, Reduction, RunScores, Shard, StudyLabel, Summary, run_rngs,
+};
 use rand::Rng;
 
-/// A stand-in study: run k draws its per-epoch errors, a final value and sometimes a failure from its
-/// own stream; values span twelve decades, so a floating-point sum would depend on the order.
+fn label(seed: u64, runs: u64) -> StudyLabel {
+    StudyLabel {
+        name: "stand-in".into(),
+        seed,
+        runs,
+    }
+}
+
+/// A run's scores with the given values of `error` and `nees` at each epoch.
+fn scores(values: Vec<f64>) -> RunScores {
+    RunScores {
+        metrics: vec![
+            Metric::new("error", Reduction::RootMeanSquare, "m"),
+            Metric::new("nees", Reduction::ChiSquare { dof: 2 }, ""),
+        ],
+        times: (0..values.len() / 2).map(|k| k as f64).collect(),
+        values,
+        seconds_per_step: 1e-6,
+    }
+}
+
+/// A stand-in study: run k draws its per-epoch errors and sometimes a failure from its own stream;
+/// values span twelve decades, so a floating-point sum would depend on the order.
 fn study(seed: u64, shard: Shard, runs: u64) -> Summary {
     let range = shard.runs(runs);
-    let mut summary = Summary::new(range.clone());
+    let mut summary = Summary::new(label(seed, runs), range.clone());
     for run in range {
-        let mut rng = run_rng(seed, run);
+        let mut rng = run_rngs(seed, run).0;
         if rng.random_bool(0.05) {
             summary.add_failure(if rng.random_bool(0.5) {
                 "diverged"
@@ -19,16 +42,13 @@ fn study(seed: u64, shard: Shard, runs: u64) -> Summary {
             });
             continue;
         }
-        for k in 0..40 {
+        let mut values = Vec::new();
+        for _ in 0..40 {
             let scale = 10f64.powi(rng.random_range(-6..6));
-            summary
-                .add_epoch("error", k, rng.random_range(-1.0..1.0) * scale)
-                .unwrap();
-            summary
-                .add_epoch("nees", k, rng.random::<f64>() * 6.0)
-                .unwrap();
+            values.push(rng.random_range(-1.0..1.0) * scale);
+            values.push(rng.random::<f64>() * 6.0);
         }
-        summary.add_scalar("seconds", rng.random::<f64>() * 1e-3);
+        summary.add_run(run, &scores(values)).unwrap();
     }
     summary
 }
@@ -84,14 +104,24 @@ fn a_shard_merged_twice_is_refused_and_changes_nothing() {
 
 #[test]
 fn epochs_beyond_the_limit_and_bad_files_are_errors() {
-    let mut summary = Summary::new(0..1);
-    assert!(summary.add_epoch("error", MAX_EPOCHS, 1.0).is_err());
-    assert!(summary.add_epoch("error", usize::MAX, 1.0).is_err());
-    assert!(
-        summary
-            .series("error")
-            .is_none_or(|s| s.epochs().is_empty())
-    );
+    let mut summary = Summary::new(label(0, 1), 0..1);
+    let mut series = liebayes_experiments::MetricSeries::default();
+    assert!(series.add(MAX_EPOCHS, 1.0).is_err());
+    assert!(series.add(usize::MAX, 1.0).is_err());
+    assert!(series.epochs().is_empty());
+    // A metric summarised one way cannot be merged with the same name summarised another way.
+    summary.add_run(0, &scores(vec![1.0, 2.0])).unwrap();
+    let mut other = scores(vec![1.0, 2.0]);
+    other.metrics[1].reduction = Reduction::Mean;
+    let before = summary.clone();
+    assert!(matches!(
+        summary.add_run(1, &other),
+        Err(ExperimentError::Incompatible(_))
+    ));
+    assert_eq!(summary, before);
+    // Summaries of different studies are not merged.
+    let mut different = Summary::new(label(1, 1), 0..1);
+    assert!(different.merge(&summary).is_err());
     for bad in [
         r#"{"runs": [], "series": {}, "scalars": {}, "failures": {}, "timing": {"count": 0, "non_finite": 0, "sum": {"limbs": [], "nan": false, "positive_infinity": false, "negative_infinity": false}, "sum_of_squares": {"limbs": [], "nan": false, "positive_infinity": false, "negative_infinity": false}, "min": null, "max": null}, "extra": 1}"#,
         r#"{"runs": [], "series": {"e": {"epochs": [{"count": 1, "non_finite": 0, "sum": {"limbs": [1], "nan": false, "positive_infinity": false, "negative_infinity": false}, "sum_of_squares": {"limbs": [1], "nan": false, "positive_infinity": false, "negative_infinity": false}, "min": 1.0, "max": 1.0}]}}, "scalars": {}, "failures": {}}"#,
@@ -102,7 +132,7 @@ fn epochs_beyond_the_limit_and_bad_files_are_errors() {
 
 #[test]
 fn failure_reasons_are_bounded() {
-    let mut summary = Summary::new(0..1000);
+    let mut summary = Summary::new(label(0, 1000), 0..1000);
     for i in 0..1000 {
         summary.add_failure(&format!("reason {i}"));
     }
