@@ -4,10 +4,10 @@ use liebayes_densities::DensityError;
 use liebayes_manifolds::ManifoldError;
 
 /// The largest number of elements any container of the crate holds: particles, grid cells,
-/// resampled draws, recorded smoother steps, epochs of a [`Series`](crate::evaluation::Series) and
-/// Monte Carlo runs. 2³⁰ = 1 073 741 824; a size above it is refused with
-/// [`OperatorError::TooLarge`] before anything is allocated, and a size below it whose buffers cannot
-/// be allocated is refused the same way (the allocation is tried, never assumed).
+/// resampled draws, recorded smoother steps, and the degrees of freedom of an average-NEES band.
+/// 2³⁰ = 1 073 741 824; a size above it is refused with [`OperatorError::TooLarge`] before anything
+/// is allocated, and a size below it whose buffers cannot be allocated is refused the same way (the
+/// allocation is tried, never assumed).
 pub const MAX_ELEMENTS: usize = 1 << 30;
 
 /// Why a propagation or a conditioning step could not be carried out.
@@ -71,6 +71,13 @@ pub enum OperatorError {
         value: usize,
         /// The largest accepted.
         max: usize,
+    },
+    /// A model's state was in use by another step: a process that steps a container through the
+    /// model it is itself part of (re-entrantly).
+    #[error("{what} is already in use by a step: give the inner step its own model")]
+    InUse {
+        /// What was in use.
+        what: &'static str,
     },
     /// A computation on the manifold failed, with what the step was computing: a weighted mean that
     /// did not converge (sigma points or particles spread over more than half the injectivity radius)

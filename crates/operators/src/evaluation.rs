@@ -1,7 +1,6 @@
-//! Evaluation for any filter: a Monte Carlo runner and the metrics that tell a filter is right.
+//! Evaluation for any filter: the metrics that tell a filter is right. Running the studies (seeded
+//! runs, per-epoch series, summaries) is the experiment layer's job; these are the numbers it computes.
 //!
-//! * [`MonteCarlo`]: independent runs, each seeded from its index so that results do not depend on
-//!   the thread schedule; parallel with the `rayon` feature, with a progress bar with `progress`.
 //! * [`estimation_error`]: the error of an estimate on its manifold, `estimate ⊟ truth` (an angle
 //!   error wraps through SO(2), never by hand).
 //! * NEES and NIS: for a consistent filter the normalised error squared `eᵀ P⁻¹ e` of a d-dimensional
@@ -9,14 +8,13 @@
 //!   runs, `N · mean` is χ² with N d degrees of freedom when the posterior is Gaussian, which gives the
 //!   95 % band of [`average_nees_band`].
 //! * [`circular_consistency`]: the same question for an angle, without a Gaussian assumption.
-//! * [`Series`]: a per-epoch accumulator, for RMSE over time.
 //! * [`MeanEstimate`]: a running mean with its 95 % confidence band (divergence rates, ratios).
 //!
 //! Every accumulator refuses a value that is not finite, or that would make its sums overflow, with
 //! an error, and is then unchanged.
 
-use crate::error::{all_finite, check_size, reserve, with_capacity};
-use crate::{MAX_ELEMENTS, OperatorError};
+use crate::OperatorError;
+use crate::error::{all_finite, check_size};
 use liebayes_manifolds::Manifold;
 use nalgebra::{Cholesky, SMatrix, SVector};
 
@@ -121,7 +119,7 @@ pub const Z_975: f64 = 1.959_963_984_540_054;
 ///
 /// # Errors
 /// [`OperatorError::OutOfRange`] for `dim` or `runs` zero, [`OperatorError::TooLarge`] when
-/// `dim · runs` exceeds [`MAX_ELEMENTS`].
+/// `dim · runs` exceeds [`MAX_ELEMENTS`](crate::MAX_ELEMENTS).
 pub fn average_nees_band(dim: usize, runs: usize) -> Result<(f64, f64), OperatorError> {
     if dim == 0 || runs == 0 {
         return Err(OperatorError::OutOfRange {
@@ -203,173 +201,6 @@ impl MeanEstimate {
     }
 }
 
-/// Per-epoch sums over runs: add values at epoch k from each run, read the mean per epoch (for RMSE over
-/// time, add squared errors and take the square root of the mean). At most
-/// [`MAX_ELEMENTS`] epochs.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Series {
-    sums: Vec<f64>,
-    counts: Vec<usize>,
-}
-
-/// What a series names when it cannot grow.
-const EPOCHS: &str = "number of epochs of a series";
-
-impl Series {
-    /// Adds `value` at epoch k.
-    ///
-    /// # Errors
-    /// [`OperatorError::TooLarge`] for k at or above [`MAX_ELEMENTS`] (checked before growing) or
-    /// when the series cannot grow to k + 1 epochs; [`OperatorError::NonFinite`] for a value that is
-    /// not finite or would make the epoch's sum overflow. The series is then unchanged.
-    pub fn add(&mut self, k: usize, value: f64) -> Result<(), OperatorError> {
-        if k >= MAX_ELEMENTS {
-            return Err(OperatorError::TooLarge {
-                what: "epoch index of a series",
-                value: k,
-                max: MAX_ELEMENTS - 1,
-            });
-        }
-        all_finite("value added to a series", [value].iter())?;
-        let sum = self.sums.get(k).copied().unwrap_or(0.0) + value;
-        all_finite(
-            "sum of a series' epoch (the values are too large: rescale them)",
-            [sum].iter(),
-        )?;
-        self.grow(k + 1)?;
-        self.sums[k] = sum;
-        self.counts[k] += 1;
-        Ok(())
-    }
-
-    /// Grows to at least `len` epochs (len ≤ [`MAX_ELEMENTS`]).
-    fn grow(&mut self, len: usize) -> Result<(), OperatorError> {
-        if self.sums.len() < len {
-            let more = len - self.sums.len();
-            reserve(&mut self.sums, EPOCHS, more)?;
-            reserve(&mut self.counts, EPOCHS, more)?;
-            self.sums.resize(len, 0.0);
-            self.counts.resize(len, 0);
-        }
-        Ok(())
-    }
-
-    /// Merges another series (from other runs).
-    ///
-    /// # Errors
-    /// [`OperatorError::NonFinite`] when a merged sum would overflow, [`OperatorError::TooLarge`]
-    /// when the series cannot grow to the other's length; the series is then unchanged.
-    pub fn merge(&mut self, other: &Series) -> Result<(), OperatorError> {
-        if let Some(value) = self
-            .sums
-            .iter()
-            .zip(&other.sums)
-            .map(|(a, b)| a + b)
-            .find(|v| !v.is_finite())
-        {
-            return Err(OperatorError::NonFinite {
-                what: "sum of a series' epoch after merging (the values are too large: rescale them)",
-                value,
-            });
-        }
-        self.grow(other.sums.len())?;
-        for (k, (s, c)) in other.sums.iter().zip(&other.counts).enumerate() {
-            self.sums[k] += s;
-            self.counts[k] += c;
-        }
-        Ok(())
-    }
-
-    /// The mean per epoch (NaN-free: epochs with no value are `None`).
-    pub fn means(&self) -> Vec<Option<f64>> {
-        self.sums
-            .iter()
-            .zip(&self.counts)
-            .map(|(s, &c)| (c > 0).then(|| s / c as f64))
-            .collect()
-    }
-}
-
-/// Runs independent Monte Carlo replications. Run i is given its index; the job seeds its own random
-/// number generator from it (for example `ChaCha8Rng::seed_from_u64(seed + i)`), so the results are the
-/// same whatever the number of threads. With the `rayon` feature the runs are spread over all cores;
-/// with `progress` a bar on standard error counts them (hidden when standard error is not a terminal).
-#[derive(Clone, Debug)]
-pub struct MonteCarlo {
-    // Read only by the progress bar (feature `progress`).
-    #[cfg_attr(not(feature = "progress"), allow(dead_code))]
-    label: String,
-    #[cfg_attr(not(feature = "progress"), allow(dead_code))]
-    progress: bool,
-}
-
-impl MonteCarlo {
-    /// A study named `label` (shown beside the progress bar).
-    pub fn new(label: impl Into<String>) -> Self {
-        Self {
-            label: label.into(),
-            progress: true,
-        }
-    }
-
-    /// Turns the progress bar off (it is on by default where the `progress` feature is).
-    #[must_use]
-    pub fn quiet(mut self) -> Self {
-        self.progress = false;
-        self
-    }
-
-    /// The results of `job(i)` for i in 0..runs, in order.
-    ///
-    /// # Errors
-    /// [`OperatorError::TooLarge`] for more than [`MAX_ELEMENTS`] runs or when their results cannot
-    /// be allocated (checked before any run starts).
-    pub fn run<T: Send>(
-        &self,
-        runs: usize,
-        job: impl Fn(usize) -> T + Sync + Send,
-    ) -> Result<Vec<T>, OperatorError> {
-        let mut results = with_capacity("number of Monte Carlo runs", runs)?;
-        #[cfg(feature = "progress")]
-        {
-            use indicatif::{
-                ParallelProgressIterator, ProgressBar, ProgressDrawTarget, ProgressStyle,
-            };
-            use rayon::prelude::*;
-            let bar = if self.progress {
-                ProgressBar::with_draw_target(Some(runs as u64), ProgressDrawTarget::stderr())
-            } else {
-                ProgressBar::hidden()
-            };
-            if let Ok(style) =
-                ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} runs, {elapsed}")
-            {
-                bar.set_style(style.progress_chars("=> "));
-            }
-            bar.set_message(self.label.clone());
-            (0..runs)
-                .into_par_iter()
-                .progress_with(bar.clone())
-                .map(job)
-                .collect_into_vec(&mut results);
-            bar.finish_and_clear();
-        }
-        #[cfg(all(feature = "rayon", not(feature = "progress")))]
-        {
-            use rayon::prelude::*;
-            (0..runs)
-                .into_par_iter()
-                .map(job)
-                .collect_into_vec(&mut results);
-        }
-        #[cfg(not(feature = "rayon"))]
-        {
-            results.extend((0..runs).map(job));
-        }
-        Ok(results)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -398,14 +229,7 @@ mod tests {
     }
 
     #[test]
-    fn series_and_means() {
-        let mut a = Series::default();
-        a.add(0, 1.0).unwrap();
-        a.add(2, 4.0).unwrap();
-        let mut b = Series::default();
-        b.add(0, 3.0).unwrap();
-        a.merge(&b).unwrap();
-        assert_eq!(a.means(), vec![Some(2.0), None, Some(4.0)]);
+    fn means_and_circular_consistency() {
         let mut m = MeanEstimate::default();
         assert_eq!(m.mean(), None);
         for x in [1.0, 2.0, 3.0, 4.0] {
@@ -417,12 +241,6 @@ mod tests {
         assert!((low - (2.5 - half)).abs() < 1e-12 && (high - (2.5 + half)).abs() < 1e-12);
         assert_eq!(circular_consistency(0.3, 1.0), None);
         assert!((circular_consistency(PI, 0.0).unwrap() - 2.0).abs() < 1e-15);
-    }
-
-    #[test]
-    fn monte_carlo_runs_in_order() {
-        let out = MonteCarlo::new("test").quiet().run(100, |i| i * i).unwrap();
-        assert_eq!(out, (0..100).map(|i| i * i).collect::<Vec<_>>());
     }
 
     #[test]

@@ -5,20 +5,27 @@
 //! Cell j sits at `θⱼ = 2πj/n` and holds a log weight `ln wⱼ` (the posterior mass of the cell,
 //! normalised so that `Σ wⱼ = 1`) and a payload `Xⱼ`, the density of the other states given `θ = θⱼ`:
 //!
-//! * **condition** on z: each payload is conditioned with the model of its angle, returning
-//!   `p(z | θⱼ, past)`; `ln wⱼ += ln p(z | θⱼ, past)`; the log evidence is
+//! * **condition** with [`Given`]: each payload is conditioned with the model of its cell's rotation,
+//!   returning `p(z | θⱼ, past)`; `ln wⱼ += ln p(z | θⱼ, past)`; the log evidence is
 //!   `ln p(z | past) = ln Σⱼ wⱼ p(z | θⱼ, past)` (the trapezoid rule over the circle, exponentially
 //!   accurate for smooth periodic integrands while the grid resolves the posterior, and a point-mass
 //!   approximation once the posterior is narrower than the spacing 2π/n);
-//! * **propagate**: each payload through its angle's process (the angle itself constant), or, for a
-//!   payload-free grid, the angle diffused by a circular convolution with a kernel.
+//! * **condition** with [`Reweight`]: a likelihood of the angle alone, `ln wⱼ += ln p(z | θⱼ)`, the
+//!   payloads unchanged;
+//! * **propagate** with [`Given`]: each payload through its cell's process (the angle itself
+//!   constant), or with [`Diffusion`], for a payload-free grid, the angle diffused by a circular
+//!   convolution with a kernel.
 //!
-//! Costs n payload steps per step. The reference for anything angular: with enough cells it is exact
-//! wherever the payload steps are.
+//! Every step is all or nothing and allocates nothing through the in-place methods (the first
+//! diffusion allocates its workspace, kept for the next). Costs n payload steps per step. The
+//! reference for anything angular: with enough cells it is exact wherever the payload steps are.
 
 use crate::error::{reserve, with_capacity};
 use crate::numerics::LogWeights;
-use crate::{Condition, OperatorError, Propagate};
+use crate::particle::{Given, Likelihood, Reweight};
+use crate::traits::{condition_clone, propagate_clone};
+use crate::{Condition, Conditioned, Evidence, OperatorError, Propagate};
+use liebayes_manifolds::So2;
 use nalgebra::Vector2;
 use std::f64::consts::PI;
 
@@ -40,6 +47,11 @@ const CELLS: &str = "number of grid cells";
 /// `θⱼ = 2πj/n`.
 fn cell_angle(j: usize, n: usize) -> f64 {
     2.0 * PI * j as f64 / n as f64
+}
+
+/// The rotation by `θⱼ`.
+fn rotation_of(j: usize, n: usize) -> So2<f64> {
+    So2::from_angle_unchecked(cell_angle(j, n))
 }
 
 impl<X: Clone> CircularGrid<X> {
@@ -133,6 +145,12 @@ impl<X> CircularGrid<X> {
         cell_angle(j, self.len())
     }
 
+    /// The rotation of cell j, by the angle `2πj/n`: what [`Given`] and [`Reweight`] give their
+    /// models.
+    pub fn rotation(&self, j: usize) -> So2<f64> {
+        rotation_of(j, self.len())
+    }
+
     /// The normalised log weights `ln wⱼ` (posterior cell masses).
     pub fn log_weights(&self) -> &[f64] {
         self.weights.values()
@@ -165,93 +183,159 @@ impl<X> CircularGrid<X> {
             Vector2::new(c, s)
         })
     }
+}
 
-    /// Bayes with a per-cell step: `step(θⱼ, Xⱼ)` returns the cell's conditioned payload and
-    /// `ln p(z | θⱼ, past)`; returns `ln p(z | past)`.
-    ///
-    /// # Errors
-    /// The first error of `step`, [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, when
-    /// every cell has likelihood zero or when the log evidence is below −f64::MAX; the grid is then
-    /// unchanged.
-    pub fn condition_with(
-        &mut self,
-        mut step: impl FnMut(f64, &X) -> Result<(X, f64), OperatorError>,
-    ) -> Result<f64, OperatorError> {
-        let n = self.len();
-        self.spare.clear();
-        let pending = self.weights.pending();
-        pending.clear();
-        for (j, x) in self.cells.iter().enumerate() {
-            let (next, ll) = step(cell_angle(j, n), x)?;
-            self.spare.push(next);
-            pending.push(ll);
-        }
-        let evidence = self.weights.add_pending("grid cell log-likelihood")?;
-        std::mem::swap(&mut self.cells, &mut self.spare);
-        Ok(evidence)
+/// What a failed Bayes step of a grid names.
+const CELL_LIKELIHOOD: &str = "grid cell log-likelihood";
+
+impl<X, F, M> Propagate<Given<F>> for CircularGrid<X>
+where
+    X: Propagate<M> + Clone,
+    F: Fn(&So2<f64>) -> Result<M, OperatorError>,
+{
+    type Input = X::Input;
+
+    /// A clone of the grid, propagated in place.
+    fn propagate(&self, model: &Given<F>, input: &X::Input) -> Result<Self, OperatorError> {
+        propagate_clone(self, model, input)
     }
 
-    /// Bayes for payload densities with an exact conditioning operator: each cell conditions its payload
-    /// with `model_at(θⱼ)` and is reweighted by the payload's log evidence (the Rao-Blackwellized grid).
-    /// `model_at` may fail (a model built from validated parts for each angle).
+    /// Each payload through the process `F(rotation(j))` of its cell, into the spare buffer; the
+    /// angle itself is constant, so the weights are unchanged.
     ///
     /// # Errors
-    /// As [`condition_with`](Self::condition_with).
-    pub fn condition_cells<M>(
+    /// The first error of `F` or of a payload's step; the grid is then unchanged.
+    fn propagate_in_place(
         &mut self,
-        model_at: impl Fn(f64) -> Result<M, OperatorError>,
-        z: &X::Measurement,
-    ) -> Result<f64, OperatorError>
-    where
-        X: Condition<M>,
-    {
-        self.condition_with(|theta, x| {
-            let step = x.condition(&model_at(theta)?, z)?;
-            Ok((step.posterior, step.log_evidence))
-        })
-    }
-
-    /// Propagates each payload through `model_at(θⱼ)` (the angle itself is constant).
-    ///
-    /// # Errors
-    /// The first payload step's error; the grid is then unchanged.
-    pub fn propagate_cells<M>(
-        &mut self,
-        model_at: impl Fn(f64) -> Result<M, OperatorError>,
+        model: &Given<F>,
         input: &X::Input,
-    ) -> Result<(), OperatorError>
-    where
-        X: Propagate<M>,
-    {
+    ) -> Result<(), OperatorError> {
         let n = self.len();
         self.spare.clear();
         for (j, x) in self.cells.iter().enumerate() {
-            self.spare
-                .push(x.propagate(&model_at(cell_angle(j, n))?, input)?);
+            let process = (model.0)(&rotation_of(j, n))?;
+            self.spare.push(x.propagate(&process, input)?);
         }
         std::mem::swap(&mut self.cells, &mut self.spare);
         Ok(())
     }
 }
 
-impl CircularGrid<()> {
-    /// Bayes with a log-likelihood of the angle; returns the log evidence.
+impl<X, F, M> Condition<Given<F>> for CircularGrid<X>
+where
+    X: Condition<M> + Clone,
+    F: Fn(&So2<f64>) -> Result<M, OperatorError>,
+{
+    type Measurement = X::Measurement;
+    type Report = ();
+
+    /// A clone of the grid, conditioned in place.
+    fn condition(
+        &self,
+        model: &Given<F>,
+        z: &X::Measurement,
+    ) -> Result<Conditioned<Self>, OperatorError> {
+        condition_clone(self, model, z)
+    }
+
+    /// The Rao-Blackwellized grid's Bayes step: each payload conditioned with the model
+    /// `F(rotation(j))` of its cell, `ln wⱼ += ln p(z | θⱼ, past)` (that conditioning's log
+    /// evidence), normalised; returns `ln p(z | past) = ln Σⱼ wⱼ p(z | θⱼ, past)`. The payloads'
+    /// reports are not kept.
+    ///
+    /// # Errors
+    /// The first error of `F` or of a payload's conditioning, [`OperatorError::NonFinite`] for a
+    /// NaN or +∞ log evidence, when every cell has likelihood zero or when the log evidence is
+    /// below −f64::MAX; the grid is then unchanged.
+    fn condition_in_place(
+        &mut self,
+        model: &Given<F>,
+        z: &X::Measurement,
+    ) -> Result<Evidence, OperatorError> {
+        let n = self.len();
+        self.spare.clear();
+        let pending = self.weights.pending();
+        pending.clear();
+        for (j, x) in self.cells.iter().enumerate() {
+            let step = x.condition(&(model.0)(&rotation_of(j, n))?, z)?;
+            self.spare.push(step.posterior);
+            pending.push(step.log_evidence);
+        }
+        let log_evidence = self.weights.add_pending(CELL_LIKELIHOOD)?;
+        std::mem::swap(&mut self.cells, &mut self.spare);
+        Ok(Evidence {
+            log_evidence,
+            report: (),
+        })
+    }
+}
+
+impl<X, L> Condition<Reweight<L>> for CircularGrid<X>
+where
+    X: Clone,
+    L: Likelihood<So2<f64>>,
+{
+    type Measurement = L::Measurement;
+    type Report = ();
+
+    /// A clone of the grid, conditioned in place.
+    fn condition(
+        &self,
+        model: &Reweight<L>,
+        z: &L::Measurement,
+    ) -> Result<Conditioned<Self>, OperatorError> {
+        condition_clone(self, model, z)
+    }
+
+    /// Bayes with a likelihood of the angle alone: `ln wⱼ += ln p(z | θⱼ)` with the cell's
+    /// rotation, normalised, the payloads unchanged; returns `ln p(z) = ln Σⱼ wⱼ p(z | θⱼ)`.
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] for a NaN or +∞ log-likelihood, when every cell has likelihood
     /// zero or when the log evidence is below −f64::MAX; the grid is then unchanged.
-    pub fn condition(&mut self, log_likelihood: impl Fn(f64) -> f64) -> Result<f64, OperatorError> {
-        self.condition_with(|theta, ()| Ok(((), log_likelihood(theta))))
+    fn condition_in_place(
+        &mut self,
+        model: &Reweight<L>,
+        z: &L::Measurement,
+    ) -> Result<Evidence, OperatorError> {
+        let n = self.len();
+        let pending = self.weights.pending();
+        pending.clear();
+        pending.extend((0..n).map(|j| model.0.log_likelihood(&rotation_of(j, n), z)));
+        Ok(Evidence {
+            log_evidence: self.weights.add_pending(CELL_LIKELIHOOD)?,
+            report: (),
+        })
+    }
+}
+
+/// The angle diffused, `θ′ = θ + w`, w with the density `k(w)` on the circle (a von Mises, a wrapped
+/// normal …), the process model of a payload-free [`CircularGrid`]. The kernel is evaluated at the
+/// grid's n increments, the rotations by `2πk/n`, and need not be normalised: any finite,
+/// non-negative values that are not all zero.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Diffusion<K>(pub K);
+
+impl<K> Propagate<Diffusion<K>> for CircularGrid<()>
+where
+    K: Fn(&So2<f64>) -> f64,
+{
+    type Input = ();
+
+    /// A clone of the grid, propagated in place.
+    fn propagate(&self, model: &Diffusion<K>, input: &()) -> Result<Self, OperatorError> {
+        propagate_clone(self, model, input)
     }
 
     /// Chapman-Kolmogorov for `θ′ = θ + w`: the circular convolution
-    /// `w′ᵢ = Σⱼ wⱼ k(θᵢ − θⱼ) / Σⱼ k(θⱼ)` with a kernel density k (von Mises, wrapped normal, …,
-    /// evaluated by the caller). O(n²); the kernel's weights are computed once per call.
+    /// `w′ᵢ = Σⱼ wⱼ k(θᵢ − θⱼ) / Σⱼ k(θⱼ)`. O(n²); the kernel's values are computed once per step,
+    /// into a workspace allocated at the first diffusion and kept.
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] when the kernel is negative, NaN or infinite somewhere, or zero
-    /// everywhere; [`OperatorError::TooLarge`] when its workspace cannot be allocated (first call).
-    pub fn diffuse(&mut self, kernel: impl Fn(f64) -> f64) -> Result<(), OperatorError> {
+    /// everywhere; [`OperatorError::TooLarge`] when its workspace cannot be allocated (first
+    /// step). The grid is then unchanged.
+    fn propagate_in_place(&mut self, model: &Diffusion<K>, (): &()) -> Result<(), OperatorError> {
         let n = self.len();
         self.workspace.clear();
         // n ≤ MAX_ELEMENTS = 2³⁰, so 2n does not overflow.
@@ -261,7 +345,7 @@ impl CircularGrid<()> {
             2 * n,
         )?;
         self.workspace
-            .extend((0..n).map(|j| kernel(cell_angle(j, n))));
+            .extend((0..n).map(|j| (model.0)(&rotation_of(j, n))));
         let total: f64 = self.workspace.iter().sum();
         if !(total.is_finite() && total > 0.0)
             || self.workspace.iter().any(|v| *v < 0.0 || !v.is_finite())

@@ -9,8 +9,11 @@
 //!   can be compared and models selected on the same data, and the algorithm's report (the Kalman
 //!   filters' [`Innovation`]: ν, S, K and the NIS).
 //!
-//! Every step is all or nothing: it returns a new density or a typed [`OperatorError`], and the
-//! containers that step in place (particle set, grid, smoother) are unchanged by a failed step.
+//! Each trait has a by-value step and an in-place one ([`Propagate::propagate_in_place`],
+//! [`Condition::condition_in_place`], which returns the [`Evidence`]): a filter loop calls the
+//! in-place form, which the particle set and the grid implement without allocating. Every step is
+//! all or nothing: it returns a new density or a typed [`OperatorError`], and a density stepped in
+//! place (particle set, grid, smoother) is unchanged by a failed step.
 //!
 //! The algorithms, each checked against an exact computation in the tests:
 //!
@@ -23,13 +26,16 @@
 //!   reference, or written from closures with [`ProcessFn`] and [`MeasurementFn`]);
 //! * [`smoother`]: the Rauch-Tung-Striebel smoother for that Gaussian (EKF or UKF linearisation);
 //! * [`particle`]: the particle filter over any state type (log weights, four resampling schemes, ESS
-//!   threshold, parallel weighting with the `rayon` feature);
-//! * [`grid`]: the grid filter on the circle, optionally carrying a density per cell;
+//!   threshold), propagated by sampling a [`SampledProcess`] ([`Sampled`]), conditioned by a
+//!   [`Likelihood`] ([`Reweight`], in parallel with the `rayon` feature) or, for particles carrying
+//!   a density, by the payload's exact step given the particle's label ([`Given`]: the marginalized
+//!   particle filter);
+//! * [`grid`]: the grid filter on the circle, optionally carrying a density per cell (stepped with
+//!   [`Given`]), a plain angle density stepped with [`Reweight`] and [`Diffusion`];
 //! * [`rao_blackwell`]: the exact steps of the closed-form composite of an angle and a conditionally
-//!   Gaussian vector ([`HarmonicGaussian`](liebayes_densities::HarmonicGaussian)), and the
-//!   marginalized particle filter's step;
-//! * [`evaluation`]: a seeded, parallel Monte Carlo runner (progress bar with the `progress` feature)
-//!   and the consistency metrics (NEES, NIS, their χ² bands, a circular consistency statistic).
+//!   Gaussian vector ([`HarmonicGaussian`](liebayes_densities::HarmonicGaussian));
+//! * [`evaluation`]: the consistency metrics (NEES, NIS, their χ² bands, a circular consistency
+//!   statistic) and the estimation error on a manifold.
 //!
 //! The math of each is in `docs/operators/`; the filters crate composes them into applications.
 
@@ -51,9 +57,11 @@ pub mod ukf;
 
 pub use ekf::Ekf;
 pub use error::{MAX_ELEMENTS, OperatorError};
+pub use grid::Diffusion;
 pub use innovation::Innovation;
 pub use models::{MeasurementFn, MeasurementModel, ProcessFn, ProcessModel};
-pub use traits::{Condition, Conditioned, Propagate};
+pub use particle::{Given, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess};
+pub use traits::{Condition, Conditioned, Evidence, Propagate};
 pub use ukf::Ukf;
 
 pub use liebayes_densities as densities;

@@ -1,36 +1,48 @@
-//! The particle filter, generic over the state space: weighted samples with log weights, Bayes by
-//! reweighting (with the log evidence), propagation by sampling, and four resampling schemes.
+//! The particle filter, generic over the state space: weighted samples with log weights, stepped
+//! through [`Propagate`] and [`Condition`] like every density of the crate.
+//!
+//! * **propagate** with [`Sampled`] (a [`SampledProcess`] with its generator and resampling rule):
+//!   the set is resampled first when its effective sample size is below the rule's threshold, then
+//!   every particle moves to a draw of `x′ ~ p(x′ | x, u)`;
+//! * **condition** with [`Reweight`] (a [`Likelihood`]): `ln wᵢ += ln p(z | xᵢ)`, normalised, with
+//!   the log evidence estimate `ln Σ wᵢ p(z | xᵢ)`; in parallel with the `rayon` feature from
+//!   [`PARALLEL_MIN_PARTICLES`] particles;
+//! * **condition** with [`Given`] for particles `(y, p(x | y))` that carry a density (the
+//!   marginalized particle filter): each payload conditioned exactly with the model of its label,
+//!   reweighted by that conditioning's log evidence;
+//! * four resampling schemes ([`Resampling`]), by hand with [`ParticleSet::resample`] or as part of
+//!   a propagation; [`resample_indices`] for weights held elsewhere.
+//!
+//! Every step is all or nothing (a failed step leaves particles and weights as they were) and,
+//! through the in-place methods, allocates nothing: the set keeps its buffers between steps.
 
-use crate::OperatorError;
-use crate::error::{check_size, reserve, with_capacity};
+mod models;
+mod resampling;
+
+pub use models::{
+    Given, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess, finite_point,
+};
+pub use resampling::{Resampling, resample_indices};
+
+use crate::error::with_capacity;
 use crate::numerics::LogWeights;
+use crate::traits::{condition_clone, propagate_clone};
+use crate::{Condition, Conditioned, Evidence, OperatorError, Propagate};
 use liebayes_manifolds::{Manifold, MeanSettings, weighted_mean};
-use rand::Rng;
+use rand::{Rng, RngCore};
+use resampling::{Workspace, resample_into};
 
 /// What a failed Bayes step of a particle set names.
 const LIKELIHOOD: &str = "particle log-likelihood";
 /// What a particle count names.
 const PARTICLES: &str = "number of particles";
 
-/// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
-/// expected number of copies is N wᵢ); they differ in variance and cost:
-///
-/// * `Multinomial`: N independent draws; the highest variance.
-/// * `Stratified`: one uniform draw in each of the N strata [k/N, (k+1)/N).
-/// * `Systematic`: one uniform offset u, points (k + u)/N; each particle gets ⌊N wᵢ⌋ or ⌈N wᵢ⌉ copies.
-/// * `Residual`: ⌊N wᵢ⌋ copies each, then the remainder multinomially from the residual weights.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub enum Resampling {
-    /// Independent draws.
-    Multinomial,
-    /// One draw per stratum.
-    Stratified,
-    /// One offset for all strata.
-    Systematic,
-    /// Deterministic floors, then multinomial on the residuals.
-    Residual,
-}
+/// With the `rayon` feature, [`Reweight`] evaluates the likelihoods of a set of at least this many
+/// particles in parallel (fewer are evaluated serially, where the threads would cost more than
+/// they save). The weights and the log evidence are the same bit for bit either way: the
+/// likelihoods are computed in parallel, the normalisation serially.
+#[cfg(feature = "rayon")]
+pub const PARALLEL_MIN_PARTICLES: usize = 4096;
 
 /// Weighted particles `Σ wᵢ δ(x − xᵢ)`, weights kept as logarithms so that no likelihood underflows.
 #[derive(Clone, Debug)]
@@ -66,7 +78,7 @@ impl<X: Clone> ParticleSet<X> {
         Ok(Self {
             weights: LogWeights::uniform(PARTICLES, n)?,
             indices: with_capacity(PARTICLES, n)?,
-            work: Workspace::default(),
+            work: Workspace::for_particles(PARTICLES, n)?,
             spare: with_capacity(PARTICLES, n)?,
             particles,
         })
@@ -157,114 +169,19 @@ impl<X: Clone> ParticleSet<X> {
             .sum::<f64>()
     }
 
-    /// Chapman-Kolmogorov by sampling: each particle moves to a draw of `transition(x, rng)`, checked
-    /// with [`Manifold::is_finite`].
-    ///
-    /// # Errors
-    /// [`OperatorError::NonFinitePoint`] when a moved particle is not finite; the set is then
-    /// unchanged (the draws already taken from `rng` are not given back).
-    pub fn propagate<R: Rng + ?Sized, const D: usize>(
-        &mut self,
-        rng: &mut R,
-        mut transition: impl FnMut(&X, &mut R) -> X,
-    ) -> Result<(), OperatorError>
-    where
-        X: Manifold<D>,
-    {
-        self.spare.clear();
-        for x in &self.particles {
-            let moved = transition(x, rng);
-            if !moved.is_finite() {
-                return Err(OperatorError::NonFinitePoint {
-                    what: "a particle moved by the transition",
-                });
-            }
-            self.spare.push(moved);
-        }
-        std::mem::swap(&mut self.particles, &mut self.spare);
-        Ok(())
-    }
-
-    /// Propagation where each particle carries a density of its own (the marginalized particle filter):
-    /// `step(x)` returns the moved particle and may fail. For particles that are not points of a
-    /// manifold the step is where they are validated (a density payload checks itself when it is
-    /// built); points of a manifold move with [`propagate`](Self::propagate), which checks them.
-    ///
-    /// # Errors
-    /// The first error of `step`; the set is then unchanged.
-    pub fn try_propagate(
-        &mut self,
-        mut step: impl FnMut(&X) -> Result<X, OperatorError>,
-    ) -> Result<(), OperatorError> {
-        self.spare.clear();
-        for x in &self.particles {
-            self.spare.push(step(x)?);
-        }
-        std::mem::swap(&mut self.particles, &mut self.spare);
-        Ok(())
-    }
-
-    /// Bayes by reweighting: `ln wᵢ += ln p(z | xᵢ)`, then normalisation. Returns the log evidence
-    /// estimate `ln Σ wᵢ p(z | xᵢ)` (wᵢ normalised before the update), unbiased for p(z) in the linear
-    /// domain.
-    ///
-    /// # Errors
-    /// [`OperatorError::NonFinite`] when a log-likelihood is NaN or +∞, or when every particle has
-    /// likelihood zero (the measurement is impossible under the particles: resample from a wider prior),
-    /// or when the log evidence is below −f64::MAX. The weights are then left unchanged.
-    pub fn condition(&mut self, log_likelihood: impl Fn(&X) -> f64) -> Result<f64, OperatorError> {
-        let pending = self.weights.pending();
-        pending.clear();
-        pending.extend(self.particles.iter().map(log_likelihood));
-        self.weights.add_pending(LIKELIHOOD)
-    }
-
-    /// Bayes for particles that carry a density of their own (the marginalized particle filter):
-    /// `step(x)` returns the particle's conditioned payload and its log-likelihood, typically the log
-    /// evidence of an exact conditioning (see [`crate::rao_blackwell::condition_marginalized`]).
-    ///
-    /// # Errors
-    /// The first error of `step`, or as [`condition`](Self::condition); the set is then unchanged.
-    pub fn condition_with(
-        &mut self,
-        mut step: impl FnMut(&X) -> Result<(X, f64), OperatorError>,
-    ) -> Result<f64, OperatorError> {
-        self.spare.clear();
-        let pending = self.weights.pending();
-        pending.clear();
-        for x in &self.particles {
-            let (next, ll) = step(x)?;
-            self.spare.push(next);
-            pending.push(ll);
-        }
-        let evidence = self.weights.add_pending(LIKELIHOOD)?;
-        std::mem::swap(&mut self.particles, &mut self.spare);
-        Ok(evidence)
-    }
-
-    /// [`condition`](Self::condition) with the likelihoods evaluated in parallel by rayon (feature
-    /// `rayon`); worth it from a few thousand particles or for costly likelihoods.
-    ///
-    /// # Errors
-    /// As [`condition`](Self::condition).
-    #[cfg(feature = "rayon")]
-    pub fn condition_parallel(
-        &mut self,
-        log_likelihood: impl Fn(&X) -> f64 + Sync + Send,
-    ) -> Result<f64, OperatorError>
-    where
-        X: Sync,
-    {
-        use rayon::prelude::*;
-        self.particles
-            .par_iter()
-            .map(log_likelihood)
-            .collect_into_vec(self.weights.pending());
-        self.weights.add_pending(LIKELIHOOD)
-    }
-
-    /// Resamples to N equally weighted particles with `scheme`.
+    /// Resamples to N equally weighted particles with `scheme`, by hand (a propagation with
+    /// [`Sampled`] resamples by its own rule). Allocates nothing.
     pub fn resample<R: Rng + ?Sized>(&mut self, scheme: Resampling, rng: &mut R) {
+        self.draw_indices(scheme, rng);
+        self.spare.clear();
+        self.spare
+            .extend(self.indices.iter().map(|&i| self.particles[i].clone()));
+        std::mem::swap(&mut self.particles, &mut self.spare);
+        self.weights.reset_uniform();
+    }
+
+    /// The indices of a resampling with `scheme` into `self.indices`, the particles untouched.
+    fn draw_indices<R: Rng + ?Sized>(&mut self, scheme: Resampling, rng: &mut R) {
         let n = self.particles.len();
         // The weights are normalised, finite and not all zero (kept so by every step), and the
         // buffers have room for n: nothing here can fail.
@@ -276,26 +193,6 @@ impl<X: Clone> ParticleSet<X> {
             &mut self.work,
             &mut self.indices,
         );
-        self.spare.clear();
-        self.spare
-            .extend(self.indices.iter().map(|&i| self.particles[i].clone()));
-        std::mem::swap(&mut self.particles, &mut self.spare);
-        self.weights.reset_uniform();
-    }
-
-    /// Resamples when the effective sample size falls below `fraction · N` (0.5 is the usual choice);
-    /// returns whether it did (never for a NaN fraction).
-    pub fn resample_if_degenerate<R: Rng + ?Sized>(
-        &mut self,
-        fraction: f64,
-        scheme: Resampling,
-        rng: &mut R,
-    ) -> bool {
-        let degenerate = self.effective_sample_size() < fraction * self.particles.len() as f64;
-        if degenerate {
-            self.resample(scheme, rng);
-        }
-        degenerate
     }
 
     /// `Σ wᵢ f(xᵢ)`.
@@ -346,168 +243,239 @@ impl<X> ParticleSet<X> {
     }
 }
 
-/// The indices of n draws from `weights` by `scheme`, in increasing order (empty for n = 0). The
-/// weights need not be normalised: they are divided by their largest value and then by their sum
-/// before anything is drawn, so that any finite non-negative weights with a positive sum (1e300,
-/// subnormals) give draws in proportion to them. Allocates its result;
-/// [`ParticleSet::resample`] reuses buffers instead.
-///
-/// # Errors
-/// [`OperatorError::OutOfRange`] for no weights (with n > 0) or a negative weight,
-/// [`OperatorError::NonFinite`] for a NaN or infinite weight or weights that are all zero,
-/// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the result
-/// cannot be allocated; all checked before anything is allocated.
-pub fn resample_indices<R: Rng + ?Sized>(
-    weights: &[f64],
-    n: usize,
-    scheme: Resampling,
-    rng: &mut R,
-) -> Result<Vec<usize>, OperatorError> {
-    const DRAWS: &str = "number of resampled draws";
-    check_size(DRAWS, n)?;
-    if n == 0 {
-        return Ok(Vec::new());
-    }
-    if weights.is_empty() {
-        return Err(OperatorError::OutOfRange {
-            what: "number of weights to resample from",
-            value: 0.0,
-            range: "at least 1",
-        });
-    }
-    if let Some(&w) = weights.iter().find(|w| !w.is_finite()) {
-        return Err(OperatorError::NonFinite {
-            what: "resampling weight",
-            value: w,
-        });
-    }
-    if let Some(&w) = weights.iter().find(|w| **w < 0.0) {
-        return Err(OperatorError::OutOfRange {
-            what: "resampling weight",
-            value: w,
-            range: "[0, infinity)",
-        });
-    }
-    let largest = weights.iter().copied().fold(0.0, f64::max);
-    if largest == 0.0 {
-        return Err(OperatorError::NonFinite {
-            what: "total resampling weight (every weight is zero)",
-            value: 0.0,
-        });
-    }
-    let mut work = Workspace::default();
-    reserve(
-        &mut work.normalised,
-        "number of weights to resample from",
-        weights.len(),
-    )?;
-    work.normalised.extend(weights.iter().map(|w| w / largest));
-    let total: f64 = work.normalised.iter().sum();
-    for w in &mut work.normalised {
-        *w /= total;
-    }
-    let mut indices = with_capacity(DRAWS, n)?;
-    reserve(&mut work.points, DRAWS, n)?;
-    reserve(
-        &mut work.residual,
-        "number of weights to resample from",
-        weights.len(),
-    )?;
-    let normalised = std::mem::take(&mut work.normalised);
-    resample_into(&normalised, n, scheme, rng, &mut work, &mut indices);
-    Ok(indices)
-}
+impl<X, P, R> Propagate<Sampled<P, R>> for ParticleSet<X>
+where
+    X: Clone,
+    P: SampledProcess<X>,
+    R: RngCore,
+{
+    type Input = P::Input;
 
-/// Buffers reused from one resampling to the next.
-#[derive(Clone, Debug, Default)]
-struct Workspace {
-    points: Vec<f64>,
-    residual: Vec<f64>,
-    /// The weights of [`resample_indices`], normalised.
-    normalised: Vec<f64>,
-}
-
-/// n draws from normalised, finite, non-negative `weights` (at least one, not all zero) into `out`
-/// (cleared first), with the workspace's buffers.
-fn resample_into<R: Rng + ?Sized>(
-    weights: &[f64],
-    n: usize,
-    scheme: Resampling,
-    rng: &mut R,
-    work: &mut Workspace,
-    out: &mut Vec<usize>,
-) {
-    out.clear();
-    if n == 0 {
-        return;
+    /// A clone of the set, propagated in place.
+    fn propagate(&self, model: &Sampled<P, R>, input: &P::Input) -> Result<Self, OperatorError> {
+        propagate_clone(self, model, input)
     }
-    let nf = n as f64;
-    let points = &mut work.points;
-    points.clear();
-    match scheme {
-        Resampling::Multinomial => {
-            points.extend((0..n).map(|_| rng.random::<f64>()));
-            points.sort_by(f64::total_cmp);
-            select(weights, points, out);
+
+    /// Chapman-Kolmogorov by sampling. When the effective sample size is below the model's
+    /// threshold, the resampled indices are drawn first (the particles untouched); then each
+    /// particle (each resampled one) moves to a draw `x′ ~ p(x′ | x, u)` written into the spare
+    /// buffer. Only when every draw succeeded do the particles change, and after a resampling the
+    /// weights become uniform.
+    ///
+    /// # Errors
+    /// The first error of the process; the set is then unchanged (the draws already taken from the
+    /// generator are not given back). [`OperatorError::InUse`] when the process steps a set
+    /// through this same model.
+    fn propagate_in_place(
+        &mut self,
+        model: &Sampled<P, R>,
+        input: &P::Input,
+    ) -> Result<(), OperatorError> {
+        let mut rng = model.rng()?;
+        let rng: &mut R = &mut rng;
+        let (fraction, scheme) = model.resampling();
+        let resample = self.effective_sample_size() < fraction * self.particles.len() as f64;
+        if resample {
+            self.draw_indices(scheme, rng);
         }
-        Resampling::Stratified => {
-            points.extend((0..n).map(|k| (k as f64 + rng.random::<f64>()) / nf));
-            select(weights, points, out);
-        }
-        Resampling::Systematic => {
-            let u = rng.random::<f64>();
-            points.extend((0..n).map(|k| (k as f64 + u) / nf));
-            select(weights, points, out);
-        }
-        Resampling::Residual => {
-            // With normalised weights ⌊N wᵢ⌋ ≤ N wᵢ, so the floors sum to at most N (up to the
-            // rounding of N wᵢ, which the bound below absorbs).
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            for (i, w) in weights.iter().enumerate() {
-                let copies = ((nf * w).floor() as usize).min(n - out.len());
-                out.extend(std::iter::repeat_n(i, copies));
+        let process = model.process();
+        self.spare.clear();
+        if resample {
+            for &i in &self.indices {
+                self.spare
+                    .push(process.sample(&self.particles[i], input, rng)?);
             }
-            let rest = n - out.len();
-            if rest > 0 {
-                let residual = &mut work.residual;
-                residual.clear();
-                residual.extend(weights.iter().map(|w| nf * w - (nf * w).floor()));
-                let total: f64 = residual.iter().sum();
-                if total > 0.0 {
-                    for r in residual.iter_mut() {
-                        *r /= total;
-                    }
-                    points.extend((0..rest).map(|_| rng.random::<f64>()));
-                    points.sort_by(f64::total_cmp);
-                    select(residual, points, out);
+        } else {
+            for x in &self.particles {
+                self.spare.push(process.sample(x, input, rng)?);
+            }
+        }
+        std::mem::swap(&mut self.particles, &mut self.spare);
+        if resample {
+            self.weights.reset_uniform();
+        }
+        Ok(())
+    }
+}
+
+/// The one [`Condition<Reweight<L>>`] impl, with `Sync` bounds on the particles, the likelihood and
+/// the measurement when the `rayon` feature evaluates the likelihoods in parallel.
+macro_rules! impl_reweight {
+    ($($sync:ident)?) => {
+        impl<X, L> Condition<Reweight<L>> for ParticleSet<X>
+        where
+            X: Clone $(+ $sync)?,
+            L: Likelihood<X> $(+ $sync)?,
+            L::Measurement: $($sync)?,
+        {
+            type Measurement = L::Measurement;
+            type Report = ();
+
+            /// A clone of the set, conditioned in place.
+            fn condition(
+                &self,
+                model: &Reweight<L>,
+                z: &L::Measurement,
+            ) -> Result<Conditioned<Self>, OperatorError> {
+                condition_clone(self, model, z)
+            }
+
+            /// Bayes by reweighting: `ln wᵢ += ln p(z | xᵢ)`, then normalisation, the particles
+            /// unchanged. Returns the log evidence estimate `ln Σ wᵢ p(z | xᵢ)` (wᵢ normalised
+            /// before the update), unbiased for p(z) in the linear domain. With the `rayon`
+            /// feature the likelihoods of [`PARALLEL_MIN_PARTICLES`] or more particles are
+            /// evaluated in parallel (which needs X, L and the measurement to be `Sync`), with the
+            /// same result bit for bit.
+            ///
+            /// # Errors
+            /// [`OperatorError::NonFinite`] when a log-likelihood is NaN or +∞, when every particle
+            /// has likelihood zero (the measurement is impossible under the particles: start from
+            /// a wider prior), or when the log evidence is below −f64::MAX. The weights are then
+            /// unchanged.
+            fn condition_in_place(
+                &mut self,
+                model: &Reweight<L>,
+                z: &L::Measurement,
+            ) -> Result<Evidence, OperatorError> {
+                #[cfg(feature = "rayon")]
+                if self.particles.len() >= PARALLEL_MIN_PARTICLES {
+                    self.parallel_log_likelihoods(&model.0, z);
                 } else {
-                    // Every N wᵢ was an integer up to rounding: the floors fell short of N only by
-                    // that rounding, and the heaviest particle takes the rest.
-                    let heaviest = weights
-                        .iter()
-                        .enumerate()
-                        .max_by(|a, b| a.1.total_cmp(b.1))
-                        .map_or(0, |(i, _)| i);
-                    out.extend(std::iter::repeat_n(heaviest, rest));
+                    self.log_likelihoods(&model.0, z);
                 }
-                out.sort_unstable();
+                #[cfg(not(feature = "rayon"))]
+                self.log_likelihoods(&model.0, z);
+                Ok(Evidence {
+                    log_evidence: self.weights.add_pending(LIKELIHOOD)?,
+                    report: (),
+                })
             }
         }
+    };
+}
+
+#[cfg(feature = "rayon")]
+impl_reweight!(Sync);
+#[cfg(not(feature = "rayon"))]
+impl_reweight!();
+
+impl<X> ParticleSet<X> {
+    /// `ln p(z | xᵢ)` into the pending buffer (whose capacity is N: nothing is allocated).
+    fn log_likelihoods<L: Likelihood<X>>(&mut self, likelihood: &L, z: &L::Measurement) {
+        let pending = self.weights.pending();
+        pending.clear();
+        pending.extend(
+            self.particles
+                .iter()
+                .map(|x| likelihood.log_likelihood(x, z)),
+        );
+    }
+
+    /// [`log_likelihoods`](Self::log_likelihoods) evaluated in parallel by rayon, each value the
+    /// same as the serial one.
+    #[cfg(feature = "rayon")]
+    fn parallel_log_likelihoods<L>(&mut self, likelihood: &L, z: &L::Measurement)
+    where
+        X: Sync,
+        L: Likelihood<X> + Sync,
+        L::Measurement: Sync,
+    {
+        use rayon::prelude::*;
+        self.particles
+            .par_iter()
+            .map(|x| likelihood.log_likelihood(x, z))
+            .collect_into_vec(self.weights.pending());
     }
 }
 
-/// For sorted points in [0, 1), appends the index whose cumulative-weight interval holds each point;
-/// a point past the rounded total goes to the last particle of positive weight, never to a trailing
-/// particle of weight zero.
-fn select(weights: &[f64], sorted_points: &[f64], out: &mut Vec<usize>) {
-    let last = weights.iter().rposition(|w| *w > 0.0).unwrap_or(0);
-    let mut cumulative = weights[0];
-    let mut i = 0;
-    for &p in sorted_points {
-        while p >= cumulative && i < last {
-            i += 1;
-            cumulative += weights[i];
+impl<Y, G, F, M> Condition<Given<F>> for ParticleSet<(Y, G)>
+where
+    Y: Clone,
+    G: Condition<M> + Clone,
+    F: Fn(&Y) -> Result<M, OperatorError>,
+{
+    type Measurement = G::Measurement;
+    type Report = ();
+
+    /// A clone of the set, conditioned in place.
+    fn condition(
+        &self,
+        model: &Given<F>,
+        z: &G::Measurement,
+    ) -> Result<Conditioned<Self>, OperatorError> {
+        condition_clone(self, model, z)
+    }
+
+    /// The marginalized particle filter's Bayes step: each particle `(yᵢ, p(x | yᵢ))` conditions
+    /// its density with the model `F(yᵢ)`, giving `p(x | yᵢ, z)` and `p(z | yᵢ, past)` (exact given
+    /// yᵢ), and is reweighted by it, `ln wᵢ += ln p(z | yᵢ, past)`. Returns the log evidence estimate
+    /// `ln Σ wᵢ p(z | yᵢ, past)`. The payloads' reports are not kept.
+    ///
+    /// # Errors
+    /// The first error of `F` or of a payload's conditioning, or as [`Reweight`]'s step; the set is
+    /// then unchanged.
+    fn condition_in_place(
+        &mut self,
+        model: &Given<F>,
+        z: &G::Measurement,
+    ) -> Result<Evidence, OperatorError> {
+        self.spare.clear();
+        let pending = self.weights.pending();
+        pending.clear();
+        for (y, payload) in &self.particles {
+            let step = payload.condition(&(model.0)(y)?, z)?;
+            self.spare.push((y.clone(), step.posterior));
+            pending.push(step.log_evidence);
         }
-        out.push(i);
+        let log_evidence = self.weights.add_pending(LIKELIHOOD)?;
+        std::mem::swap(&mut self.particles, &mut self.spare);
+        Ok(Evidence {
+            log_evidence,
+            report: (),
+        })
+    }
+}
+
+#[cfg(all(test, feature = "rayon"))]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    /// The parallel reweighting (above the threshold) equals the serial evaluation of the same
+    /// likelihoods followed by the same normalisation, bit for bit, weights and log evidence; and a
+    /// NaN found by a worker thread is the same error, with the weights unchanged.
+    #[test]
+    fn parallel_reweighting_equals_serial_bit_for_bit() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let samples: Vec<f64> = (0..2 * PARALLEL_MIN_PARTICLES)
+            .map(|_| rng.random::<f64>() * 10.0)
+            .collect();
+        let weights: Vec<f64> = (0..samples.len()).map(|_| rng.random::<f64>()).collect();
+        let prior = ParticleSet::from_weighted_samples(samples, &weights).unwrap();
+        let likelihood = LikelihoodFn::new(|x: &f64, z: &f64| -0.5 * (x - z) * (x - z) + x.sin());
+        let mut parallel = prior.clone();
+        let mut serial = prior.clone();
+        let step = parallel
+            .condition_in_place(&Reweight(&likelihood), &3.0)
+            .unwrap();
+        serial.log_likelihoods(&likelihood, &3.0);
+        let serial_evidence = serial.weights.add_pending(LIKELIHOOD).unwrap();
+        assert_eq!(step.log_evidence.to_bits(), serial_evidence.to_bits());
+        assert!(
+            parallel
+                .log_weights()
+                .iter()
+                .zip(serial.log_weights())
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
+        let last = parallel.particles()[parallel.particles().len() - 1];
+        let nan_at_last =
+            LikelihoodFn::new(|x: &f64, (): &()| if *x == last { f64::NAN } else { 0.0 });
+        let before = parallel.log_weights().to_vec();
+        assert!(matches!(
+            parallel.condition_in_place(&Reweight(nan_at_last), &()),
+            Err(OperatorError::NonFinite { .. })
+        ));
+        assert_eq!(parallel.log_weights(), &before[..]);
     }
 }

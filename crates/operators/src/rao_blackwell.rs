@@ -5,8 +5,11 @@
 //!   the same for every y. This module holds its exact steps: linear processes and two kinds of
 //!   measurement keep the form (see below); the seven-number azimuth-alignment filter is the special case
 //!   `B = [a, c, −c^×]`, `Σ = σ² I`, η₂ = 0.
-//! * [`condition_marginalized`]: the marginalized particle filter, the general fallback, particles for
-//!   y each carrying its own exactly conditioned density of x, weighted by that density's log evidence.
+//! * The general fallback is the marginalized particle filter: a
+//!   [`ParticleSet`](crate::particle::ParticleSet) of `(y, p(x | y))` conditioned with
+//!   [`Given`](crate::particle::Given), each density of x conditioned exactly with the model of its
+//!   particle's angle and weighted by that conditioning's log evidence (and the grid of
+//!   [`CircularGrid`](crate::grid::CircularGrid) the same way, at fixed angles).
 //!
 //! The exact operations on a [`HarmonicGaussian`] (derivations in `docs/operators/rao_blackwell.md`):
 //!
@@ -33,7 +36,6 @@
 use crate::error::all_finite;
 use crate::kalman::{LinearMeasurement, LinearProcess, joseph};
 use crate::numerics::symmetric_part;
-use crate::particle::ParticleSet;
 use crate::{Condition, Conditioned, OperatorError, Propagate};
 use liebayes_densities::{Density, GenVonMises2, HarmonicGaussian};
 use nalgebra::{Cholesky, SMatrix, SVector, Vector2};
@@ -308,25 +310,4 @@ impl<const N: usize> Condition<RotatedMeasurement<N>> for HarmonicGaussian<N> {
             report: (),
         })
     }
-}
-
-/// The marginalized particle filter's Bayes step: each particle `(y, p(x | y))` conditions its density
-/// with `model_at(y)` and is reweighted by that density's log evidence `p(z | y, past)`, exact given
-/// y. Returns the log evidence estimate `ln Σ wᵢ p(z | yᵢ, past)`.
-///
-/// # Errors
-/// A conditioning error, or as [`ParticleSet::condition`].
-pub fn condition_marginalized<Y, G, M>(
-    set: &mut ParticleSet<(Y, G)>,
-    model_at: impl Fn(&Y) -> Result<M, OperatorError>,
-    z: &G::Measurement,
-) -> Result<f64, OperatorError>
-where
-    Y: Clone,
-    G: Clone + Condition<M>,
-{
-    set.condition_with(|(y, density)| {
-        let step = density.condition(&model_at(y)?, z)?;
-        Ok(((y.clone(), step.posterior), step.log_evidence))
-    })
 }

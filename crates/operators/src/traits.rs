@@ -19,6 +19,16 @@ pub struct Conditioned<D, R = ()> {
     pub report: R,
 }
 
+/// What an in-place conditioning step returns beside the posterior it wrote into the density: the
+/// log evidence `ln p(z)` and the algorithm's report (see [`Conditioned`], the by-value form).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Evidence<R = ()> {
+    /// `ln p(z) = ln ∫ p(z | x) p(x) dx`.
+    pub log_evidence: f64,
+    /// The algorithm's by-products (see [`Condition::Report`]).
+    pub report: R,
+}
+
 /// Chapman-Kolmogorov: the density of the state after the process `Model` acts with an input.
 pub trait Propagate<Model: ?Sized>: Sized {
     /// What drives the process besides the state (a control, a measured velocity and a time step …).
@@ -30,6 +40,23 @@ pub trait Propagate<Model: ?Sized>: Sized {
     /// When the model or the input is invalid (non-finite, out of range) or the result is not a valid
     /// density.
     fn propagate(&self, model: &Model, input: &Self::Input) -> Result<Self, OperatorError>;
+
+    /// [`propagate`](Self::propagate) written into `self`: the form a filter loop calls at every
+    /// step. All or nothing: on an error `self` is unchanged. The default replaces `self` by the
+    /// by-value result; containers whose by-value step would clone their buffers (the particle set,
+    /// the grid) override it to step in place without allocating, and implement the by-value form
+    /// as a clone followed by this.
+    ///
+    /// # Errors
+    /// As [`propagate`](Self::propagate).
+    fn propagate_in_place(
+        &mut self,
+        model: &Model,
+        input: &Self::Input,
+    ) -> Result<(), OperatorError> {
+        *self = self.propagate(model, input)?;
+        Ok(())
+    }
 }
 
 /// Bayes: the density of the state given a measurement under the measurement `Model`.
@@ -52,4 +79,65 @@ pub trait Condition<Model: ?Sized>: Sized {
         model: &Model,
         z: &Self::Measurement,
     ) -> Result<Conditioned<Self, Self::Report>, OperatorError>;
+
+    /// [`condition`](Self::condition) written into `self`: `self` becomes `p(x | z)`, and the log
+    /// evidence and the report are returned. All or nothing: on an error `self` is unchanged. The
+    /// default replaces `self` by the by-value posterior; the particle set and the grid override it
+    /// to reweight in place without allocating.
+    ///
+    /// # Errors
+    /// As [`condition`](Self::condition).
+    fn condition_in_place(
+        &mut self,
+        model: &Model,
+        z: &Self::Measurement,
+    ) -> Result<Evidence<Self::Report>, OperatorError> {
+        let Conditioned {
+            posterior,
+            log_evidence,
+            report,
+        } = self.condition(model, z)?;
+        *self = posterior;
+        Ok(Evidence {
+            log_evidence,
+            report,
+        })
+    }
+}
+
+/// The by-value propagation of a container that steps in place: a clone, propagated in place.
+pub(crate) fn propagate_clone<D, M>(
+    density: &D,
+    model: &M,
+    input: &D::Input,
+) -> Result<D, OperatorError>
+where
+    D: Clone + Propagate<M>,
+    M: ?Sized,
+{
+    let mut next = density.clone();
+    next.propagate_in_place(model, input)?;
+    Ok(next)
+}
+
+/// The by-value conditioning of a container that steps in place: a clone, conditioned in place.
+pub(crate) fn condition_clone<D, M>(
+    density: &D,
+    model: &M,
+    z: &D::Measurement,
+) -> Result<Conditioned<D, D::Report>, OperatorError>
+where
+    D: Clone + Condition<M>,
+    M: ?Sized,
+{
+    let mut posterior = density.clone();
+    let Evidence {
+        log_evidence,
+        report,
+    } = posterior.condition_in_place(model, z)?;
+    Ok(Conditioned {
+        posterior,
+        log_evidence,
+        report,
+    })
 }

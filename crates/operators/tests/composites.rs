@@ -11,10 +11,11 @@ use liebayes_densities::{
 };
 use liebayes_manifolds::So2;
 use liebayes_operators::grid::CircularGrid;
+use liebayes_operators::grid::Diffusion;
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
-use liebayes_operators::particle::ParticleSet;
+use liebayes_operators::particle::{Given, LikelihoodFn, ParticleSet, Reweight};
 use liebayes_operators::rao_blackwell::{
-    Harmonics, RotatedMeasurement, condition_marginalized, linear_harmonics, rotated_harmonics,
+    Harmonics, RotatedMeasurement, linear_harmonics, rotated_harmonics,
 };
 use liebayes_operators::{Condition, OperatorError, Propagate};
 use nalgebra::{Matrix2, Matrix2x3, Vector2, Vector3};
@@ -22,8 +23,9 @@ use proptest::prelude::*;
 
 const CELLS: usize = 512;
 
-fn rotation(y: f64) -> Matrix2<f64> {
-    let (s, c) = y.sin_cos();
+/// The matrix of a rotation, written out (not by the manifolds crate).
+fn rotation(y: &So2<f64>) -> Matrix2<f64> {
+    let (s, c) = y.angle().sin_cos();
     Matrix2::new(c, -s, s, c)
 }
 
@@ -41,26 +43,26 @@ fn grid_of(prior: &HarmonicGaussian<2>) -> CircularGrid<Gaussian<2>> {
     .unwrap()
 }
 
-/// The composite's grid conditioned cell by cell with `model_at(y)`, checking each cell's Kalman log
-/// evidence against the composite's harmonics at y; returns the grid and its log evidence.
+/// The composite's grid conditioned with `Given(model_at)`, after checking each cell's Kalman log
+/// evidence against the composite's harmonics at its angle; returns the grid and its log evidence.
 fn conditioned_grid(
     prior: &HarmonicGaussian<2>,
     harmonics: &Harmonics,
-    model_at: impl Fn(f64) -> Result<LinearMeasurement<2, 2>, OperatorError>,
+    model_at: impl Fn(&So2<f64>) -> Result<LinearMeasurement<2, 2>, OperatorError>,
     z: &Vector2<f64>,
 ) -> Result<(CircularGrid<Gaussian<2>>, f64), TestCaseError> {
     let mut grid = grid_of(prior);
     let mut worst = 0.0_f64;
-    let evidence = grid
-        .condition_with(|y, x| {
-            let step = x.condition(&model_at(y)?, z)?;
-            let l = step.log_evidence;
-            worst = worst.max((l - harmonics.at(y)).abs() / (1.0 + l.abs()));
-            Ok((step.posterior, l))
-        })
-        .unwrap();
+    for (j, cell) in grid.cells().iter().enumerate() {
+        let l = cell
+            .condition(&model_at(&grid.rotation(j)).unwrap(), z)
+            .unwrap()
+            .log_evidence;
+        worst = worst.max((l - harmonics.at(grid.angle(j))).abs() / (1.0 + l.abs()));
+    }
     prop_assert!(worst < 1e-9, "per-angle log evidence off by {worst:e}");
-    Ok((grid, evidence))
+    let evidence = grid.condition_in_place(&Given(model_at), z).unwrap();
+    Ok((grid, evidence.log_evidence))
 }
 
 /// Checks a conditioned composite against the conditioned grid, cell by cell and in total.
@@ -125,7 +127,7 @@ proptest! {
         let z = Vector2::from(z);
         let step = prior.condition(&model, &z).unwrap();
         let harmonics = linear_harmonics(&prior, &model, &z).unwrap();
-        let (grid, grid_evidence) = conditioned_grid(&prior, &harmonics, |_| Ok(model.clone()), &z)?;
+        let (grid, grid_evidence) = conditioned_grid(&prior, &harmonics, |_: &So2<f64>| Ok(model.clone()), &z)?;
         agree(&step.posterior, step.log_evidence, &grid, grid_evidence)?;
     }
 
@@ -142,7 +144,7 @@ proptest! {
         let harmonics = rotated_harmonics(&prior, &model, &z).unwrap();
         let noise = Matrix2::identity() * model.variance();
         let (grid, grid_evidence) =
-            conditioned_grid(&prior, &harmonics, |y| LinearMeasurement::new(rotation(y), noise), &z)?;
+            conditioned_grid(&prior, &harmonics, |y: &So2<f64>| LinearMeasurement::new(rotation(y), noise), &z)?;
         agree(&step.posterior, step.log_evidence, &grid, grid_evidence)?;
     }
 }
@@ -193,23 +195,143 @@ fn anisotropic_rotated_measurements_are_refused() {
 
 #[test]
 fn marginalized_particles_on_the_grid_points_equal_the_grid() {
-    // Equally weighted particles at the cell angles carry the same numbers as a uniform grid.
+    // Equally weighted particles at the cell rotations carry the same numbers as a uniform grid.
     let prior = Gaussian::new(Vector2::new(1.0, -2.0), Matrix2::identity() * 2.0).unwrap();
     let mut grid = CircularGrid::uniform(64, prior.clone()).unwrap();
     let mut particles =
-        ParticleSet::from_samples((0..64).map(|j| (grid.angle(j), prior.clone())).collect())
+        ParticleSet::from_samples((0..64).map(|j| (grid.rotation(j), prior.clone())).collect())
             .unwrap();
     let z = Vector2::new(0.5, 2.0);
-    let model_at = |y: f64| LinearMeasurement::new(rotation(y), Matrix2::identity());
-    let from_grid = grid.condition_cells(model_at, &z).unwrap();
-    let from_particles =
-        condition_marginalized(&mut particles, |y: &f64| model_at(*y), &z).unwrap();
+    let model = Given(|y: &So2<f64>| LinearMeasurement::new(rotation(y), Matrix2::identity()));
+    let from_grid = grid.condition_in_place(&model, &z).unwrap().log_evidence;
+    let from_particles = particles
+        .condition_in_place(&model, &z)
+        .unwrap()
+        .log_evidence;
+    assert_eq!(from_grid, from_particles);
+    assert_eq!(particles.log_weights(), grid.log_weights());
+    for ((_, p), g) in particles.particles().iter().zip(grid.cells()) {
+        assert_eq!((p.mean(), p.covariance()), (g.mean(), g.covariance()));
+    }
+}
+
+/// The marginalized particle filter's step against its definition, computed independently: each
+/// particle's Gaussian conditioned by the Kalman filter with its label's model, the weights
+/// `wᵢ p(z | yᵢ) / Σⱼ wⱼ p(z | yⱼ)` and the log evidence `ln Σⱼ wⱼ p(z | yⱼ)` by direct sums.
+#[test]
+fn marginalized_particles_are_per_particle_kalman_filters() {
+    let labels = [0.3, 2.0, -1.0, 2.9, -2.5];
+    let weights = [0.1, 0.4, 0.2, 0.25, 0.05];
+    let payload = |k: usize| {
+        let k = k as f64;
+        Gaussian::new(
+            Vector2::new(1.0 - k, 0.5 * k),
+            Matrix2::new(1.0 + k, 0.3, 0.3, 2.0),
+        )
+        .unwrap()
+    };
+    let model_at = |y: &f64| {
+        LinearMeasurement::new(
+            rotation(&So2::from_angle_unchecked(*y)) * 2.0,
+            Matrix2::new(0.5, 0.1, 0.1, 0.7),
+        )
+    };
+    let z = Vector2::new(1.5, -0.5);
+    let mut set = ParticleSet::from_weighted_samples(
+        labels
+            .iter()
+            .enumerate()
+            .map(|(k, y)| (*y, payload(k)))
+            .collect(),
+        &weights,
+    )
+    .unwrap();
+    let step = set.condition_in_place(&Given(model_at), &z).unwrap();
+    let kalman: Vec<_> = labels
+        .iter()
+        .enumerate()
+        .map(|(k, y)| payload(k).condition(&model_at(y).unwrap(), &z).unwrap())
+        .collect();
+    let total: f64 = kalman
+        .iter()
+        .zip(weights)
+        .map(|(k, w)| w * k.log_evidence.exp())
+        .sum();
     assert!(
-        (from_grid - from_particles).abs() < 1e-13,
-        "{from_grid} vs {from_particles}"
+        (step.log_evidence - total.ln()).abs() < 1e-14 * total.ln().abs(),
+        "{} vs {}",
+        step.log_evidence,
+        total.ln()
     );
-    for (w, l) in particles.weights().iter().zip(grid.log_weights()) {
-        assert!((w.ln() - l).abs() < 1e-12);
+    for (((y, g), k), (w, l)) in set
+        .particles()
+        .iter()
+        .zip(&kalman)
+        .zip(weights.iter().zip(set.log_weights()))
+    {
+        assert!(labels.contains(y));
+        assert_eq!(
+            (g.mean(), g.covariance()),
+            (k.posterior.mean(), k.posterior.covariance())
+        );
+        let expected = w * k.log_evidence.exp() / total;
+        assert!(
+            (l.exp() - expected).abs() < 1e-15,
+            "{} vs {expected}",
+            l.exp()
+        );
+    }
+    // The labels stay in order, each with its own posterior.
+    let order: Vec<f64> = set.particles().iter().map(|(y, _)| *y).collect();
+    assert_eq!(order, labels);
+}
+
+/// The bank of Kalman filters on a grid: propagated with each cell's process and conditioned with
+/// each cell's measurement through `Given`, against a loop over the cells with the Kalman filter and
+/// the normalisation written out.
+#[test]
+fn a_grid_of_kalman_filters_is_a_loop_over_its_cells() {
+    let n = 12;
+    let prior = |t: f64| Gaussian::new(Vector2::new(t.cos(), 1.0), Matrix2::identity()).unwrap();
+    let log_density = |t: f64| 0.7 * (t - 0.4).cos();
+    let mut grid = CircularGrid::from_log_density(n, log_density, prior).unwrap();
+    let process_at = |y: &So2<f64>| {
+        LinearProcess::new(
+            Matrix2::new(1.0, 0.1 * y.angle().sin(), 0.0, 0.9),
+            Matrix2::identity() * (0.1 + 0.05 * y.angle().cos()),
+        )
+    };
+    let measurement_at =
+        |y: &So2<f64>| LinearMeasurement::new(rotation(y), Matrix2::identity() * 0.4);
+    let (u, z) = (Vector2::new(0.2, -0.1), Vector2::new(0.8, 0.6));
+    grid.propagate_in_place(&Given(process_at), &u).unwrap();
+    let step = grid.condition_in_place(&Given(measurement_at), &z).unwrap();
+
+    let angles: Vec<f64> = (0..n)
+        .map(|j| 2.0 * std::f64::consts::PI * j as f64 / n as f64)
+        .collect();
+    let prior_weights: Vec<f64> = angles.iter().map(|t| log_density(*t).exp()).collect();
+    let prior_total: f64 = prior_weights.iter().sum();
+    let mut cells = Vec::new();
+    let mut joint = Vec::new();
+    for (t, w) in angles.iter().zip(&prior_weights) {
+        let r = So2::from_angle_unchecked(*t);
+        let moved = prior(*t).propagate(&process_at(&r).unwrap(), &u).unwrap();
+        let updated = moved.condition(&measurement_at(&r).unwrap(), &z).unwrap();
+        joint.push(w / prior_total * updated.log_evidence.exp());
+        cells.push(updated.posterior);
+    }
+    let evidence: f64 = joint.iter().sum();
+    assert!((step.log_evidence - evidence.ln()).abs() < 1e-14 * (1.0 + evidence.ln().abs()));
+    for ((cell, expected), (l, p)) in grid
+        .cells()
+        .iter()
+        .zip(&cells)
+        .zip(grid.log_weights().iter().zip(&joint))
+    {
+        assert!((cell.mean() - expected.mean()).amax() < 1e-15);
+        assert!((cell.covariance() - expected.covariance()).amax() < 1e-15);
+        assert!((l.exp() - p / evidence).abs() < 1e-15);
     }
 }
 
@@ -224,9 +346,11 @@ fn grid_bayes_and_diffusion_match_the_von_mises_algebra() {
         |_| (),
     )
     .unwrap();
+    let bearing = Reweight(LikelihoodFn::new(|t: &So2<f64>, l: &VonMises| l.log_pdf(t)));
     let evidence = grid
-        .condition(|t| likelihood.log_pdf(&So2::from_angle_unchecked(t)))
-        .unwrap();
+        .condition_in_place(&bearing, &likelihood)
+        .unwrap()
+        .log_evidence;
     let eta = prior.natural() + likelihood.natural();
     let kappa = eta.norm();
     let exact_evidence = special::log_i0(kappa).unwrap()
@@ -242,13 +366,19 @@ fn grid_bayes_and_diffusion_match_the_von_mises_algebra() {
 
     // Diffusion by a von Mises kernel of concentration 4 multiplies the first moment by A₁(4).
     let kernel = VonMises::new(So2::from_angle_unchecked(0.0), 4.0).unwrap();
-    grid.diffuse(|t| kernel.log_pdf(&So2::from_angle_unchecked(t)).exp())
-        .unwrap();
+    let diffusion = Diffusion(|w: &So2<f64>| kernel.log_pdf(w).exp());
+    let by_value = grid.propagate(&diffusion, &()).unwrap();
+    grid.propagate_in_place(&diffusion, &()).unwrap();
+    assert_eq!(by_value.log_weights(), grid.log_weights());
     assert!((grid.first_moment() - exact_moment * special::a1(4.0).unwrap()).amax() < 1e-12);
 
     assert!(CircularGrid::uniform(0, ()).is_err());
-    assert!(grid.condition(|_| f64::NAN).is_err());
-    assert!(grid.diffuse(|_| -1.0).is_err());
+    let nan = Reweight(LikelihoodFn::new(|_: &So2<f64>, (): &()| f64::NAN));
+    assert!(grid.condition_in_place(&nan, &()).is_err());
+    assert!(
+        grid.propagate_in_place(&Diffusion(|_: &So2<f64>| -1.0), &())
+            .is_err()
+    );
     let (s, c) = 0.5_f64.sin_cos();
     assert_eq!(harmonic_features(0.5), Vector3::new(1.0, c, s));
 }
@@ -259,31 +389,33 @@ fn failed_grid_steps_leave_the_grid_unchanged() {
     let prior = Gaussian::new(Vector2::new(1.0, 0.0), Matrix2::identity()).unwrap();
     let mut grid = CircularGrid::uniform(16, prior).unwrap();
     let z = Vector2::new(0.5, 1.0);
-    grid.condition_cells(
-        |y| LinearMeasurement::new(rotation(y), Matrix2::identity()),
-        &z,
-    )
-    .unwrap();
+    let measurement =
+        Given(|y: &So2<f64>| LinearMeasurement::new(rotation(y), Matrix2::identity()));
+    grid.condition_in_place(&measurement, &z).unwrap();
     let (weights, cells) = (grid.log_weights().to_vec(), grid.cells().to_vec());
-    // A model that fails half-way round the circle.
-    let failing = |y: f64| {
-        if y > 3.0 {
+    // Models that fail half-way round the circle.
+    let failing = Given(|y: &So2<f64>| {
+        if y.angle() < 0.0 {
             LinearMeasurement::new(rotation(y), Matrix2::new(f64::NAN, 0.0, 0.0, 1.0))
         } else {
             LinearMeasurement::new(rotation(y), Matrix2::identity())
         }
-    };
-    assert!(grid.condition_cells(failing, &z).is_err());
-    let failing_process = |y: f64| {
+    });
+    assert!(grid.condition_in_place(&failing, &z).is_err());
+    let failing_process = Given(|y: &So2<f64>| {
         LinearProcess::new(
             Matrix2::identity(),
-            Matrix2::identity() * if y > 3.0 { -1.0 } else { 1.0 },
+            Matrix2::identity() * if y.angle() < 0.0 { -1.0 } else { 1.0 },
         )
-    };
+    });
     assert!(
-        grid.propagate_cells(failing_process, &Vector2::zeros())
+        grid.propagate_in_place(&failing_process, &Vector2::zeros())
             .is_err()
     );
+    let nan_half = Reweight(LikelihoodFn::new(|y: &So2<f64>, (): &()| {
+        if y.angle() < 0.0 { f64::NAN } else { 0.0 }
+    }));
+    assert!(grid.condition_in_place(&nan_half, &()).is_err());
     assert_eq!(grid.log_weights(), &weights[..]);
     for (a, b) in grid.cells().iter().zip(&cells) {
         assert_eq!((a.mean(), a.covariance()), (b.mean(), b.covariance()));

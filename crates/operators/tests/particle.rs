@@ -1,16 +1,21 @@
 //! The particle filter: resampling schemes unbiased (and systematic/residual within one copy of N wᵢ),
-//! the log evidence and posterior mean against the exact Kalman filter on a conjugate problem, sets
-//! from weighted samples, and the weighted mean on a manifold.
+//! the log evidence and posterior mean against the exact Kalman filter on a conjugate problem and
+//! over a run of a bootstrap filter, propagation with resampling all or nothing, sets from weighted
+//! samples, and the weighted mean on a manifold.
 
 use liebayes_densities::Gaussian;
 use liebayes_manifolds::{LieGroup, Manifold, Rn, So2, So3};
-use liebayes_operators::kalman::LinearMeasurement;
-use liebayes_operators::particle::{ParticleSet, Resampling, resample_indices};
-use liebayes_operators::{Condition, OperatorError};
+use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
+use liebayes_operators::particle::{
+    LikelihoodFn, ParticleSet, Resampling, Reweight, SampleFn, Sampled, finite_point,
+    resample_indices,
+};
+use liebayes_operators::{Condition, OperatorError, Propagate};
 use nalgebra::{Matrix1, Vector1, Vector2, Vector3};
-use rand::SeedableRng;
+use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
+use std::cell::Cell;
 use std::f64::consts::PI;
 
 const SCHEMES: [Resampling; 4] = [
@@ -83,7 +88,11 @@ fn reweighting_matches_the_kalman_filter() {
         })
         .collect();
     let mut set = ParticleSet::from_samples(samples).unwrap();
-    let log_evidence = set.condition(|x| -0.5 * (3.0 - x) * (3.0 - x)).unwrap()
+    let likelihood = LikelihoodFn::new(|x: &f64, z: &f64| -0.5 * (z - x) * (z - x));
+    let log_evidence = set
+        .condition_in_place(&Reweight(likelihood), &3.0)
+        .unwrap()
+        .log_evidence
         - 0.5 * (2.0 * std::f64::consts::PI).ln();
     assert!(
         (log_evidence - exact.log_evidence).abs() < 0.02,
@@ -96,7 +105,7 @@ fn reweighting_matches_the_kalman_filter() {
     assert!(ess > 5000.0 && ess < 20_000.0, "{ess}");
     for scheme in SCHEMES {
         let mut copy = set.clone();
-        assert!(copy.resample_if_degenerate(0.9, scheme, &mut rng));
+        copy.resample(scheme, &mut rng);
         assert!((copy.effective_sample_size() - 20_000.0).abs() < 1e-6);
         let resampled_mean = copy.expectation(|x| *x);
         assert!(
@@ -117,69 +126,176 @@ fn impossible_measurements_and_empty_sets_are_errors() {
             .is_empty()
     );
     let mut set = ParticleSet::from_samples(vec![1.0, 2.0]).unwrap();
-    assert!(set.condition(|_| f64::NEG_INFINITY).is_err());
-    assert!(set.condition(|_| f64::NAN).is_err());
+    let constant = |value: f64| Reweight(LikelihoodFn::new(move |_: &f64, (): &()| value));
+    for value in [f64::NEG_INFINITY, f64::NAN, f64::INFINITY] {
+        let error = set.condition_in_place(&constant(value), &()).unwrap_err();
+        assert!(matches!(error, OperatorError::NonFinite { .. }), "{error}");
+        assert!(set.condition(&constant(value), &()).is_err());
+    }
     // The failed updates left the weights as they were.
     assert_eq!(set.weights(), vec![0.5, 0.5]);
-    let mut rng = ChaCha8Rng::seed_from_u64(1);
-    let mut points =
-        ParticleSet::from_samples(vec![Rn::new_unchecked(Vector1::new(1.0)); 2]).unwrap();
-    points
-        .propagate(&mut rng, |x, _| x.retract(&Vector1::new(1.0)))
-        .unwrap();
-    assert_eq!(points.particles()[1].coords()[0], 2.0);
-    set.try_propagate(|x| Ok(x + 1.0)).unwrap();
-    assert_eq!(set.particles(), &[2.0, 3.0]);
+    let step = SampleFn::new(|x: &Rn<f64, 1>, (): &(), _: &mut dyn RngCore| {
+        finite_point(x.retract(&Vector1::new(1.0)))
+    });
+    let model = Sampled::new(&step, ChaCha8Rng::seed_from_u64(1));
+    let points = ParticleSet::from_samples(vec![Rn::new_unchecked(Vector1::new(1.0)); 2]).unwrap();
+    let moved = points.propagate(&model, &()).unwrap();
+    assert_eq!(moved.particles()[1].coords()[0], 2.0);
+    // The by-value step left the set as it was.
+    assert_eq!(points.particles()[1].coords()[0], 1.0);
+    assert!(
+        Sampled::with_resampling(
+            &step,
+            ChaCha8Rng::seed_from_u64(1),
+            f64::NAN,
+            Resampling::Residual
+        )
+        .is_err()
+    );
+    for fraction in [-0.1, 1.5, f64::INFINITY] {
+        let refused = Sampled::with_resampling(
+            &step,
+            ChaCha8Rng::seed_from_u64(1),
+            fraction,
+            Resampling::Residual,
+        );
+        let message = refused.err().map(|e| e.to_string());
+        assert!(message.is_some_and(|m| m.contains("[0, 1]")), "{fraction}");
+    }
 }
 
-/// The parallel weighting (feature `rayon`) gives the same weights and log evidence as the serial one.
-#[cfg(feature = "rayon")]
-#[test]
-fn parallel_weighting_equals_serial() {
-    let mut rng = ChaCha8Rng::seed_from_u64(9);
-    let samples: Vec<f64> = (0..5000)
-        .map(|_| rand::Rng::random::<f64>(&mut rng) * 10.0)
-        .collect();
-    let mut serial = ParticleSet::from_samples(samples.clone()).unwrap();
-    let mut parallel = ParticleSet::from_samples(samples).unwrap();
-    let likelihood = |x: &f64| -0.5 * (x - 3.0) * (x - 3.0);
-    let a = serial.condition(likelihood).unwrap();
-    let b = parallel.condition_parallel(likelihood).unwrap();
-    assert_eq!(a, b);
-    assert_eq!(serial.log_weights(), parallel.log_weights());
-    assert!(parallel.condition_parallel(|_| f64::NAN).is_err());
+/// A process that fails at its `fail_at`-th draw (counting from 1), moving x to x + 10 otherwise.
+fn failing_at(
+    fail_at: usize,
+) -> impl Fn(&f64, &(), &mut dyn RngCore) -> Result<f64, OperatorError> {
+    let draws = Cell::new(0);
+    move |x, (), _| {
+        draws.set(draws.get() + 1);
+        if draws.get() == fail_at {
+            Err(OperatorError::NonFinitePoint { what: "test draw" })
+        } else {
+            Ok(x + 10.0)
+        }
+    }
 }
 
-/// A failed step leaves the set exactly as it was: weights and particles.
+/// A failed step leaves the set exactly as it was, weights and particles: a NaN likelihood, and a
+/// propagation whose process fails after the resampling indices were drawn (the resampling is part of
+/// the step, so it is undone too).
 #[test]
 fn failed_steps_leave_the_set_unchanged() {
-    let mut set = ParticleSet::from_samples(vec![1.0, 2.0, 3.0]).unwrap();
-    set.condition(|x| -x).unwrap();
+    let mut set = ParticleSet::from_samples(vec![1.0, 2.0, 3.0, 4.0]).unwrap();
+    // Weights ∝ e^(−4x): ESS ≈ 1.04 < 0.5 · 4, so the next propagation resamples.
+    let steep = Reweight(LikelihoodFn::new(|x: &f64, (): &()| -4.0 * x));
+    set.condition_in_place(&steep, &()).unwrap();
+    assert!(set.effective_sample_size() < 2.0);
     let (weights, particles) = (set.log_weights().to_vec(), set.particles().to_vec());
-    let fail_at_two = |x: &f64| {
-        if *x == 2.0 {
-            Err(liebayes_operators::OperatorError::NonFinite {
-                what: "test",
-                value: f64::NAN,
-            })
-        } else {
-            Ok((x + 10.0, 0.0))
-        }
-    };
-    assert!(set.condition_with(fail_at_two).is_err());
-    assert!(
-        set.try_propagate(|x| fail_at_two(x).map(|(y, _)| y))
-            .is_err()
-    );
-    assert!(
-        set.condition(|x| if *x == 3.0 { f64::NAN } else { 0.0 })
-            .is_err()
-    );
-    assert_eq!(set.log_weights(), &weights[..]);
-    assert_eq!(set.particles(), &particles[..]);
-    // And a successful one replaces both.
-    set.condition_with(|x| Ok((x + 10.0, 0.0))).unwrap();
-    assert_eq!(set.particles(), &[11.0, 12.0, 13.0]);
+    let nan_at_three = Reweight(LikelihoodFn::new(
+        |x: &f64, (): &()| {
+            if *x == 3.0 { f64::NAN } else { 0.0 }
+        },
+    ));
+    assert!(set.condition_in_place(&nan_at_three, &()).is_err());
+    for fail_at in 1..=4 {
+        let model = Sampled::new(
+            SampleFn::new(failing_at(fail_at)),
+            ChaCha8Rng::seed_from_u64(5),
+        );
+        let error = set.propagate_in_place(&model, &()).unwrap_err();
+        assert!(
+            matches!(error, OperatorError::NonFinitePoint { .. }),
+            "{error}"
+        );
+        assert_eq!(set.log_weights(), &weights[..]);
+        assert_eq!(set.particles(), &particles[..]);
+    }
+    // The same step that succeeds: resampled (uniform weights), then moved.
+    let model = Sampled::new(SampleFn::new(failing_at(0)), ChaCha8Rng::seed_from_u64(5));
+    set.propagate_in_place(&model, &()).unwrap();
+    assert!(set.log_weights().iter().all(|l| *l == -(4.0_f64).ln()));
+    // Resampled from weights 0.98, 0.018, 3e-4, 6e-6: systematically, 4 copies of the first.
+    assert_eq!(set.particles(), &[11.0; 4]);
+    // Below the threshold nothing is resampled: weights kept, every particle moved.
+    let mut kept = ParticleSet::from_weighted_samples(vec![1.0, 2.0], &[0.3, 0.7]).unwrap();
+    let never = Sampled::with_resampling(
+        SampleFn::new(failing_at(0)),
+        ChaCha8Rng::seed_from_u64(5),
+        0.0,
+        Resampling::Multinomial,
+    )
+    .unwrap();
+    kept.propagate_in_place(&never, &()).unwrap();
+    assert_eq!(kept.particles(), &[11.0, 12.0]);
+    assert!((kept.weights()[1] - 0.7).abs() < 1e-15);
+}
+
+/// The bootstrap filter on `x′ = 0.9 x + w`, `w ~ N(0, 0.5)`, `z = x + n`, `n ~ N(0, 0.3)`, from
+/// `x₀ ~ N(1, 2)`, against the Kalman filter over 10 steps: at each step the weighted mean and
+/// variance, and the accumulated log evidence, agree within 5 standard errors.
+///
+/// The standard errors come from the sample size: with ESS the effective sample size after the
+/// update, the weighted mean of N particles has variance about `P (1/ESS + 1/N)` (the update's own
+/// error, plus that of the N particles the prediction drew), and the weighted variance about
+/// `2 P² (1/ESS + 1/N)`. The estimate `p̂(z) = Σ wᵢ p(z | xᵢ)` has relative variance
+/// `1/ESS − 1/N` (the spread of the likelihood over the predicted particles), so the log evidence
+/// accumulated over the steps has variance about `Σₜ (1/ESSₜ − 1/N) + 1/N` per step.
+#[test]
+fn a_bootstrap_filter_matches_the_kalman_filter() {
+    let (a, q, r) = (0.9, 0.5, 0.3);
+    let n: u32 = 20_000;
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut exact = Gaussian::new(Vector1::new(1.0), Matrix1::new(2.0)).unwrap();
+    let process = LinearProcess::new(Matrix1::new(a), Matrix1::new(q)).unwrap();
+    let measurement = LinearMeasurement::new(Matrix1::new(1.0), Matrix1::new(r)).unwrap();
+    let samples = (0..n)
+        .map(|_| {
+            let e: f64 = StandardNormal.sample(&mut rng);
+            1.0 + 2.0_f64.sqrt() * e
+        })
+        .collect();
+    let mut set = ParticleSet::from_samples(samples).unwrap();
+    let draw = SampleFn::new(move |x: &f64, (): &(), rng: &mut dyn RngCore| {
+        let w: f64 = StandardNormal.sample(rng);
+        Ok(a * x + q.sqrt() * w)
+    });
+    let sampled = Sampled::new(draw, ChaCha8Rng::seed_from_u64(12));
+    let gauss = Reweight(LikelihoodFn::new(move |x: &f64, z: &f64| {
+        -0.5 * ((z - x) * (z - x) / r + (2.0 * PI * r).ln())
+    }));
+    let (mut truth, mut exact_evidence, mut evidence, mut evidence_variance) = (0.4, 0.0, 0.0, 0.0);
+    let nf = f64::from(n);
+    for step in 0..10 {
+        let (w, e): (f64, f64) = (
+            StandardNormal.sample(&mut rng),
+            StandardNormal.sample(&mut rng),
+        );
+        truth = a * truth + q.sqrt() * w;
+        let z = truth + r.sqrt() * e;
+        exact = exact.propagate(&process, &Vector1::zeros()).unwrap();
+        let update = exact.condition(&measurement, &Vector1::new(z)).unwrap();
+        exact = update.posterior;
+        exact_evidence += update.log_evidence;
+        set.propagate_in_place(&sampled, &()).unwrap();
+        evidence += set.condition_in_place(&gauss, &z).unwrap().log_evidence;
+        let ess = set.effective_sample_size();
+        evidence_variance += 1.0 / ess;
+        let (p, m) = (exact.covariance()[0], exact.mean()[0]);
+        let inflation = 1.0 / ess + 1.0 / nf;
+        let mean = set.expectation(|x| *x);
+        let variance = set.expectation(|x| (x - mean) * (x - mean));
+        assert!(
+            (mean - m).abs() < 5.0 * (p * inflation).sqrt(),
+            "step {step}: mean {mean} vs {m} (ESS {ess})"
+        );
+        assert!(
+            (variance - p).abs() < 5.0 * p * (2.0 * inflation).sqrt(),
+            "step {step}: variance {variance} vs {p} (ESS {ess})"
+        );
+        assert!(
+            (evidence - exact_evidence).abs() < 5.0 * evidence_variance.sqrt(),
+            "step {step}: log evidence {evidence} vs {exact_evidence}"
+        );
+    }
 }
 
 /// Weighted samples: linear and log weights give the set that reweighting equal samples gives, and
@@ -190,7 +306,8 @@ fn weighted_samples_equal_reweighted_samples() {
     let weights = [0.5, 2.0, 0.0, 1.5];
     let from_linear = ParticleSet::from_weighted_samples(particles.clone(), &weights).unwrap();
     let mut reweighted = ParticleSet::from_samples(particles.clone()).unwrap();
-    reweighted.condition(|x| weights[*x].ln()).unwrap();
+    let table = Reweight(LikelihoodFn::new(|x: &usize, (): &()| weights[*x].ln()));
+    reweighted.condition_in_place(&table, &()).unwrap();
     for (a, b) in from_linear
         .log_weights()
         .iter()

@@ -1,0 +1,206 @@
+//! The four resampling schemes, on normalised weights, with buffers kept between calls.
+
+use crate::OperatorError;
+use crate::error::{check_size, reserve, with_capacity};
+use rand::Rng;
+
+/// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
+/// expected number of copies is N wᵢ); they differ in variance and cost:
+///
+/// * `Multinomial`: N independent draws; the highest variance.
+/// * `Stratified`: one uniform draw in each of the N strata [k/N, (k+1)/N).
+/// * `Systematic`: one uniform offset u, points (k + u)/N; each particle gets ⌊N wᵢ⌋ or ⌈N wᵢ⌉ copies.
+/// * `Residual`: ⌊N wᵢ⌋ copies each, then the remainder multinomially from the residual weights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum Resampling {
+    /// Independent draws.
+    Multinomial,
+    /// One draw per stratum.
+    Stratified,
+    /// One offset for all strata.
+    Systematic,
+    /// Deterministic floors, then multinomial on the residuals.
+    Residual,
+}
+
+/// The indices of n draws from `weights` by `scheme`, in increasing order (empty for n = 0). The
+/// weights need not be normalised: they are divided by their largest value and then by their sum
+/// before anything is drawn, so that any finite non-negative weights with a positive sum (1e300,
+/// subnormals) give draws in proportion to them. Allocates its result;
+/// [`ParticleSet::resample`](super::ParticleSet::resample) reuses buffers instead.
+///
+/// # Errors
+/// [`OperatorError::OutOfRange`] for no weights (with n > 0) or a negative weight,
+/// [`OperatorError::NonFinite`] for a NaN or infinite weight or weights that are all zero,
+/// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the result
+/// cannot be allocated; all checked before anything is allocated.
+pub fn resample_indices<R: Rng + ?Sized>(
+    weights: &[f64],
+    n: usize,
+    scheme: Resampling,
+    rng: &mut R,
+) -> Result<Vec<usize>, OperatorError> {
+    const DRAWS: &str = "number of resampled draws";
+    check_size(DRAWS, n)?;
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    if weights.is_empty() {
+        return Err(OperatorError::OutOfRange {
+            what: "number of weights to resample from",
+            value: 0.0,
+            range: "at least 1",
+        });
+    }
+    if let Some(&w) = weights.iter().find(|w| !w.is_finite()) {
+        return Err(OperatorError::NonFinite {
+            what: "resampling weight",
+            value: w,
+        });
+    }
+    if let Some(&w) = weights.iter().find(|w| **w < 0.0) {
+        return Err(OperatorError::OutOfRange {
+            what: "resampling weight",
+            value: w,
+            range: "[0, infinity)",
+        });
+    }
+    let largest = weights.iter().copied().fold(0.0, f64::max);
+    if largest == 0.0 {
+        return Err(OperatorError::NonFinite {
+            what: "total resampling weight (every weight is zero)",
+            value: 0.0,
+        });
+    }
+    let mut work = Workspace::default();
+    reserve(
+        &mut work.normalised,
+        "number of weights to resample from",
+        weights.len(),
+    )?;
+    work.normalised.extend(weights.iter().map(|w| w / largest));
+    let total: f64 = work.normalised.iter().sum();
+    for w in &mut work.normalised {
+        *w /= total;
+    }
+    let mut indices = with_capacity(DRAWS, n)?;
+    reserve(&mut work.points, DRAWS, n)?;
+    reserve(
+        &mut work.residual,
+        "number of weights to resample from",
+        weights.len(),
+    )?;
+    let normalised = std::mem::take(&mut work.normalised);
+    resample_into(&normalised, n, scheme, rng, &mut work, &mut indices);
+    Ok(indices)
+}
+
+/// Buffers reused from one resampling to the next.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Workspace {
+    points: Vec<f64>,
+    residual: Vec<f64>,
+    /// The weights of [`resample_indices`], normalised.
+    normalised: Vec<f64>,
+}
+
+impl Workspace {
+    /// The buffers for resampling n particles (the draws and the residuals), allocated once, so
+    /// that no resampling of a set of n particles allocates.
+    ///
+    /// # Errors
+    /// [`OperatorError::TooLarge`] when they cannot be allocated.
+    pub(super) fn for_particles(what: &'static str, n: usize) -> Result<Self, OperatorError> {
+        Ok(Self {
+            points: with_capacity(what, n)?,
+            residual: with_capacity(what, n)?,
+            normalised: Vec::new(),
+        })
+    }
+}
+
+/// n draws from normalised, finite, non-negative `weights` (at least one, not all zero) into `out`
+/// (cleared first), with the workspace's buffers.
+pub(super) fn resample_into<R: Rng + ?Sized>(
+    weights: &[f64],
+    n: usize,
+    scheme: Resampling,
+    rng: &mut R,
+    work: &mut Workspace,
+    out: &mut Vec<usize>,
+) {
+    out.clear();
+    if n == 0 {
+        return;
+    }
+    let nf = n as f64;
+    let points = &mut work.points;
+    points.clear();
+    match scheme {
+        Resampling::Multinomial => {
+            points.extend((0..n).map(|_| rng.random::<f64>()));
+            points.sort_by(f64::total_cmp);
+            select(weights, points, out);
+        }
+        Resampling::Stratified => {
+            points.extend((0..n).map(|k| (k as f64 + rng.random::<f64>()) / nf));
+            select(weights, points, out);
+        }
+        Resampling::Systematic => {
+            let u = rng.random::<f64>();
+            points.extend((0..n).map(|k| (k as f64 + u) / nf));
+            select(weights, points, out);
+        }
+        Resampling::Residual => {
+            // With normalised weights ⌊N wᵢ⌋ ≤ N wᵢ, so the floors sum to at most N (up to the
+            // rounding of N wᵢ, which the bound below absorbs).
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            for (i, w) in weights.iter().enumerate() {
+                let copies = ((nf * w).floor() as usize).min(n - out.len());
+                out.extend(std::iter::repeat_n(i, copies));
+            }
+            let rest = n - out.len();
+            if rest > 0 {
+                let residual = &mut work.residual;
+                residual.clear();
+                residual.extend(weights.iter().map(|w| nf * w - (nf * w).floor()));
+                let total: f64 = residual.iter().sum();
+                if total > 0.0 {
+                    for r in residual.iter_mut() {
+                        *r /= total;
+                    }
+                    points.extend((0..rest).map(|_| rng.random::<f64>()));
+                    points.sort_by(f64::total_cmp);
+                    select(residual, points, out);
+                } else {
+                    // Every N wᵢ was an integer up to rounding: the floors fell short of N only by
+                    // that rounding, and the heaviest particle takes the rest.
+                    let heaviest = weights
+                        .iter()
+                        .enumerate()
+                        .max_by(|a, b| a.1.total_cmp(b.1))
+                        .map_or(0, |(i, _)| i);
+                    out.extend(std::iter::repeat_n(heaviest, rest));
+                }
+                out.sort_unstable();
+            }
+        }
+    }
+}
+
+/// For sorted points in [0, 1), appends the index whose cumulative-weight interval holds each point;
+/// a point past the rounded total goes to the last particle of positive weight, never to a trailing
+/// particle of weight zero.
+fn select(weights: &[f64], sorted_points: &[f64], out: &mut Vec<usize>) {
+    let last = weights.iter().rposition(|w| *w > 0.0).unwrap_or(0);
+    let mut cumulative = weights[0];
+    let mut i = 0;
+    for &p in sorted_points {
+        while p >= cumulative && i < last {
+            i += 1;
+            cumulative += weights[i];
+        }
+        out.push(i);
+    }
+}

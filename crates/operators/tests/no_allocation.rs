@@ -1,0 +1,136 @@
+//! The in-place steps of the weighted containers run without touching the heap: a counting global
+//! allocator sees zero allocations across propagations (with and without resampling) and
+//! reweightings of a particle set, the marginalized particle filter's step, and the grid's payload
+//! steps, reweighting and diffusion (after the first diffusion, which allocates its workspace).
+#![allow(unsafe_code)] // implementing GlobalAlloc is unsafe by definition; this wrapper only counts.
+
+use liebayes_densities::Gaussian;
+use liebayes_manifolds::So2;
+use liebayes_operators::grid::{CircularGrid, Diffusion};
+use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
+use liebayes_operators::particle::{
+    Given, LikelihoodFn, ParticleSet, Resampling, Reweight, SampleFn, Sampled,
+};
+use liebayes_operators::{Condition, OperatorError, Propagate};
+use nalgebra::{Matrix2, Vector2};
+use rand::{Rng, RngCore, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::hint::black_box;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// The number of allocations `f` makes.
+fn allocations(f: impl FnOnce()) -> usize {
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    f();
+    ALLOCATIONS.load(Ordering::SeqCst) - before
+}
+
+fn rotation(y: &So2<f64>) -> Matrix2<f64> {
+    let (s, c) = y.angle().sin_cos();
+    Matrix2::new(c, -s, s, c)
+}
+
+/// One test, so that no other test's thread allocates while the counter is read.
+#[test]
+fn in_place_steps_do_not_allocate() {
+    let walk = SampleFn::new(|x: &f64, u: &f64, rng: &mut dyn RngCore| {
+        Ok(x + u + rng.random::<f64>() - 0.5)
+    });
+    let likelihood = Reweight(LikelihoodFn::new(|x: &f64, z: &f64| -(x - z) * (x - z)));
+    let mut set = ParticleSet::from_samples((0..500).map(f64::from).collect()).unwrap();
+    for scheme in [
+        Resampling::Multinomial,
+        Resampling::Stratified,
+        Resampling::Systematic,
+        Resampling::Residual,
+    ] {
+        // Fraction 1: every propagation after a reweighting resamples.
+        let sampled =
+            Sampled::with_resampling(&walk, ChaCha8Rng::seed_from_u64(1), 1.0, scheme).unwrap();
+        let count = allocations(|| {
+            for z in [10.0, 200.0, 300.0] {
+                black_box(set.condition_in_place(&likelihood, &z).unwrap());
+                set.propagate_in_place(&sampled, &0.1).unwrap();
+            }
+        });
+        assert_eq!(count, 0, "{scheme:?}");
+        // The last propagation resampled: the weights are uniform again.
+        assert!(set.log_weights().iter().all(|l| *l == -(500.0_f64).ln()));
+    }
+    // The harness counts: the by-value step clones the set's buffers.
+    assert!(allocations(|| drop(black_box(set.condition(&likelihood, &1.0).unwrap()))) > 0);
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    assert_eq!(
+        allocations(|| set.resample(Resampling::Residual, &mut rng)),
+        0
+    );
+
+    let prior = Gaussian::new(Vector2::new(1.0, 0.0), Matrix2::identity()).unwrap();
+    let measurement =
+        Given(|y: &So2<f64>| LinearMeasurement::new(rotation(y), Matrix2::identity()));
+    let process = Given(|y: &So2<f64>| {
+        LinearProcess::new(Matrix2::identity() * y.angle().cos(), Matrix2::identity())
+    });
+    let z = Vector2::new(0.5, 1.0);
+    let mut marginalized = ParticleSet::from_samples(
+        (0..64)
+            .map(|j| (So2::from_angle_unchecked(f64::from(j) * 0.1), prior.clone()))
+            .collect(),
+    )
+    .unwrap();
+    let mut grid = CircularGrid::uniform(64, prior).unwrap();
+    let count = allocations(|| {
+        for _ in 0..3 {
+            black_box(marginalized.condition_in_place(&measurement, &z).unwrap());
+            grid.propagate_in_place(&process, &Vector2::zeros())
+                .unwrap();
+            black_box(grid.condition_in_place(&measurement, &z).unwrap());
+        }
+    });
+    assert_eq!(count, 0);
+
+    let mut angle = CircularGrid::uniform(128, ()).unwrap();
+    let bearing = Reweight(LikelihoodFn::new(|t: &So2<f64>, z: &f64| {
+        2.0 * (t.angle() - z).cos()
+    }));
+    let diffusion = Diffusion(|w: &So2<f64>| (3.0 * w.angle().cos()).exp());
+    angle.propagate_in_place(&diffusion, &()).unwrap();
+    let count = allocations(|| {
+        for z in [0.5, 1.0, -2.0] {
+            black_box(angle.condition_in_place(&bearing, &z).unwrap());
+            angle.propagate_in_place(&diffusion, &()).unwrap();
+        }
+    });
+    assert_eq!(count, 0);
+
+    // A failed step does not allocate either.
+    let failing = Given(
+        |_: &So2<f64>| -> Result<LinearMeasurement<2, 2>, OperatorError> {
+            Err(OperatorError::NonFinitePoint { what: "test" })
+        },
+    );
+    assert_eq!(
+        allocations(|| assert!(grid.condition_in_place(&failing, &z).is_err())),
+        0
+    );
+}
