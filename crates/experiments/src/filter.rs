@@ -6,8 +6,6 @@
 //! density with its process and measurement models and steps it with
 //! [`Propagate`] and [`Condition`]: no second stepping API.
 
-use liebayes_densities::{Gaussian, ManifoldGaussian};
-use liebayes_manifolds::Manifold;
 use liebayes_operators::{Condition, Innovation, OperatorError, Propagate};
 
 /// The normalised innovation squared of one update, with its degrees of freedom (the measurement's
@@ -80,88 +78,106 @@ impl<const N: usize, const M: usize> StepReport for Innovation<N, M> {
     }
 }
 
-/// A density's point estimate with its uncertainty, as a study scores it.
-pub trait PointEstimate {
+/// How a filter's density becomes the estimate a study scores: the density itself for a Gaussian
+/// ([`AsIs`]), or the moments an application reads off a particle set or a grid (its own type
+/// implementing this trait for each density it uses).
+pub trait Estimator<Density> {
     /// The estimate's type.
     type Estimate;
 
-    /// The estimate.
+    /// The estimate of `density`.
     ///
     /// # Errors
-    /// When the density has no representable estimate.
-    fn point_estimate(&self) -> Result<Self::Estimate, OperatorError>;
+    /// When the density has no representable estimate (a moment that overflows).
+    fn estimate(&self, density: &Density) -> Result<Self::Estimate, OperatorError>;
 }
 
-impl<X: Manifold<D, Scalar = f64> + Clone, const D: usize> PointEstimate
-    for ManifoldGaussian<X, D>
-{
-    type Estimate = Self;
+/// The density is its own estimate (a Gaussian: its mean and covariance; any density, to inspect
+/// it after each update).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AsIs;
 
-    /// The Gaussian itself: mean on the manifold, covariance in its tangent space.
-    fn point_estimate(&self) -> Result<Self, OperatorError> {
-        Ok(self.clone())
+impl<D: Clone> Estimator<D> for AsIs {
+    type Estimate = D;
+
+    fn estimate(&self, density: &D) -> Result<D, OperatorError> {
+        Ok(density.clone())
     }
 }
 
-impl<const N: usize> PointEstimate for Gaussian<N> {
-    type Estimate = Self;
-
-    /// The Gaussian itself.
-    fn point_estimate(&self) -> Result<Self, OperatorError> {
-        Ok(self.clone())
-    }
-}
-
-/// A density with its process model `P` and measurement model `M`, stepped by the operator traits:
-/// `predict` is [`Propagate::propagate`], `update` is [`Condition::condition`].
+/// A density with its process model `P`, its measurement model `M` and its [`Estimator`] `E`,
+/// stepped by the operator traits: `predict` is [`Propagate::propagate_in_place`], `update` is
+/// [`Condition::condition_in_place`] (particle sets and grids step without copying their buffers).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Recursive<Density, P, M> {
+pub struct Recursive<Density, P, M, E = AsIs> {
     density: Density,
     process: P,
     measurement: M,
+    estimator: E,
 }
 
 impl<Density, P, M> Recursive<Density, P, M> {
-    /// The filter starting from the prior `density`.
+    /// The filter starting from the prior `density`, its own estimate ([`AsIs`]).
     pub fn new(density: Density, process: P, measurement: M) -> Self {
+        Self::with_estimator(density, process, measurement, AsIs)
+    }
+}
+
+impl<Density, P, M, E> Recursive<Density, P, M, E> {
+    /// The filter starting from the prior `density`, estimated by `estimator`.
+    pub fn with_estimator(density: Density, process: P, measurement: M, estimator: E) -> Self {
         Self {
             density,
             process,
             measurement,
+            estimator,
         }
+    }
+
+    /// The same filter with another estimator (to inspect the density itself, say: `AsIs`).
+    pub fn estimated_by<E2>(self, estimator: E2) -> Recursive<Density, P, M, E2> {
+        Recursive::with_estimator(self.density, self.process, self.measurement, estimator)
     }
 
     /// The current density.
     pub fn density(&self) -> &Density {
         &self.density
     }
+
+    /// The process model.
+    pub fn process(&self) -> &P {
+        &self.process
+    }
+
+    /// The measurement model.
+    pub fn measurement(&self) -> &M {
+        &self.measurement
+    }
 }
 
-impl<Density, P, M> RecursiveFilter for Recursive<Density, P, M>
+impl<Density, P, M, E> RecursiveFilter for Recursive<Density, P, M, E>
 where
-    Density: Propagate<P> + Condition<M> + PointEstimate,
+    Density: Propagate<P> + Condition<M>,
     <Density as Condition<M>>::Report: StepReport,
+    E: Estimator<Density>,
 {
     type Input = <Density as Propagate<P>>::Input;
     type Measurement = <Density as Condition<M>>::Measurement;
-    type Estimate = <Density as PointEstimate>::Estimate;
+    type Estimate = E::Estimate;
 
     fn predict(&mut self, input: &Self::Input) -> Result<(), OperatorError> {
-        self.density = self.density.propagate(&self.process, input)?;
-        Ok(())
+        self.density.propagate_in_place(&self.process, input)
     }
 
     fn update(&mut self, z: &Self::Measurement) -> Result<Update, OperatorError> {
-        let step = self.density.condition(&self.measurement, z)?;
-        let update = Update {
+        let step = self.density.condition_in_place(&self.measurement, z)?;
+        Ok(Update {
             log_evidence: step.log_evidence,
             nis: step.report.nis(),
-        };
-        self.density = step.posterior;
-        Ok(update)
+        })
     }
 
     fn estimate(&self) -> Result<Self::Estimate, OperatorError> {
-        self.density.point_estimate()
+        self.estimator.estimate(&self.density)
     }
 }

@@ -8,6 +8,8 @@
 //!   measurement returning its log evidence and NIS, an estimate with its uncertainty).
 //!   [`Recursive`] gives it to any density that steps through the operators' `Propagate` and
 //!   `Condition` (the Kalman filters on a manifold, the linear Kalman filter).
+//! * [`Paired`]: two filters on the same data, to compare an approximation with a reference at
+//!   every epoch.
 //! * [`Scenario`] simulates a [`Trajectory`] of [`Step`]s from a run's generator; [`replay()`] is the
 //!   one loop that runs a filter through it and scores each measurement epoch, stopping at the first
 //!   failure with where and why.
@@ -25,6 +27,7 @@
 mod error;
 mod exact_sum;
 pub mod filter;
+mod paired;
 pub mod replay;
 pub mod score;
 pub mod search;
@@ -35,12 +38,13 @@ mod summary;
 
 pub use error::ExperimentError;
 pub use exact_sum::ExactSum;
-pub use filter::{Recursive, RecursiveFilter};
+pub use filter::{AsIs, Estimator, Nis, Recursive, RecursiveFilter, StepReport, Update};
+pub use paired::{Paired, PairedEstimate};
 pub use replay::{RunFailure, RunScores, Scenario, Step, StepOf, Trajectory, replay};
 pub use score::{ManifoldScorer, Metric, Reduction, Scorer};
 pub use shard::{Shard, run_rngs};
 pub use statistics::RunningStats;
-pub use study::Study;
+pub use study::{MAX_RUNS, MAX_STUDY_EPOCHS, Study};
 pub use summary::{
     MAX_EPOCHS, MAX_FAILURE_REASONS, MetricSeries, StudyLabel, Summary, SummaryMetric, Trace,
 };

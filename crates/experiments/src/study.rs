@@ -12,6 +12,11 @@ use rand_chacha::ChaCha8Rng;
 /// The most runs a study may have.
 pub const MAX_RUNS: u64 = 1 << 40;
 
+/// The most measurement epochs of a study's scenario: a summary keeps exact statistics (about
+/// 1 KB) per metric and epoch, so 16 384 epochs of a dozen metrics take about 200 MB per summary in
+/// flight. Longer runs are replayed with [`replay`] directly, or scored at fewer epochs.
+pub const MAX_STUDY_EPOCHS: usize = 1 << 14;
+
 /// Runs handed to a worker at a time: each such block is summarised on its own, and the blocks'
 /// summaries merged (exactly, so the block size does not change any figure).
 const BLOCK: u64 = 64;
@@ -84,7 +89,8 @@ impl Study {
     /// of runs done so far after each block of runs. Memory does not grow with the number of runs.
     ///
     /// # Errors
-    /// [`ExperimentError`] when the scenario cannot be simulated (a setting out of range); filter
+    /// [`ExperimentError::OutOfRange`] for a scenario of more than [`MAX_STUDY_EPOCHS`] epochs
+    /// (before any run), [`ExperimentError`] when the scenario cannot be simulated; filter
     /// failures are recorded in the summary instead.
     pub fn run<S, F, Sc>(
         &self,
@@ -98,6 +104,13 @@ impl Study {
         F: RecursiveFilter<Input = S::Input, Measurement = S::Measurement>,
         Sc: Scorer<S::Truth, F::Estimate>,
     {
+        if scenario.epochs() > MAX_STUDY_EPOCHS {
+            return Err(ExperimentError::OutOfRange {
+                what: "number of measurement epochs of the scenario",
+                value: scenario.epochs().to_string(),
+                range: "[0, 16384] (a study keeps exact statistics per epoch)",
+            });
+        }
         let range = self.shard.runs(self.runs);
         let blocks = (range.end - range.start).div_ceil(BLOCK);
         let done = std::sync::atomic::AtomicU64::new(0);
@@ -112,11 +125,11 @@ impl Study {
             progress(so_far + end - start);
             Ok(summary)
         };
-        let mut summary = Summary::new(self.label(), range.start..range.start);
-        for part in map_blocks(blocks, &block) {
-            summary.merge(&part?)?;
-        }
-        Ok(summary)
+        // Merging is exact, so the blocks may be combined in any order: memory stays at a few
+        // summaries whatever the number of runs.
+        reduce_blocks(blocks, &block, &|| {
+            Summary::new(self.label(), range.start..range.start)
+        })
     }
 
     /// One run into `summary`.
@@ -152,15 +165,33 @@ impl Study {
     }
 }
 
-/// `f` over the blocks `0..blocks`, in parallel with the `rayon` feature.
+/// Merges `f` over the blocks `0..blocks`, in parallel with the `rayon` feature.
 #[cfg(feature = "rayon")]
-fn map_blocks<T: Send>(blocks: u64, f: &(impl Fn(u64) -> T + Sync)) -> Vec<T> {
+fn reduce_blocks(
+    blocks: u64,
+    f: &(impl Fn(u64) -> Result<Summary, ExperimentError> + Sync),
+    empty: &(impl Fn() -> Summary + Sync),
+) -> Result<Summary, ExperimentError> {
     use rayon::prelude::*;
-    (0..blocks).into_par_iter().map(f).collect()
+    (0..blocks)
+        .into_par_iter()
+        .map(f)
+        .try_reduce(empty, |mut a, b| {
+            a.merge(&b)?;
+            Ok(a)
+        })
 }
 
-/// `f` over the blocks `0..blocks`.
+/// Merges `f` over the blocks `0..blocks`.
 #[cfg(not(feature = "rayon"))]
-fn map_blocks<T>(blocks: u64, f: &impl Fn(u64) -> T) -> Vec<T> {
-    (0..blocks).map(f).collect()
+fn reduce_blocks(
+    blocks: u64,
+    f: &impl Fn(u64) -> Result<Summary, ExperimentError>,
+    empty: &impl Fn() -> Summary,
+) -> Result<Summary, ExperimentError> {
+    let mut summary = empty();
+    for b in 0..blocks {
+        summary.merge(&f(b)?)?;
+    }
+    Ok(summary)
 }

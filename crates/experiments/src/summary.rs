@@ -9,8 +9,8 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::ops::Range;
 
-/// The most epochs a metric series holds: a study's length is checked against it before anything
-/// is allocated.
+/// The most epochs a metric series or a replay holds (a replay scores the first this many epochs
+/// of a run and filters on after them).
 pub const MAX_EPOCHS: usize = 1 << 24;
 
 /// The most distinct failure reasons kept; further reasons are counted under one entry.

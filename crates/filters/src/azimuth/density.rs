@@ -1,7 +1,9 @@
 //! [`AzimuthDensity`]: the exact seven-number posterior of azimuth alignment.
 
+use super::estimate::{AzimuthEstimate, AzimuthMoments};
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use liebayes_densities::{DensityError, GenVonMises2, HarmonicGaussian, VonMises, special};
+use liebayes_experiments::Estimator;
 use liebayes_manifolds::So2;
 use liebayes_operators::{Condition, Conditioned, OperatorError, Propagate};
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
@@ -25,7 +27,7 @@ use std::f64::consts::PI;
 /// **Valid range**, kept by every constructor and step: η with a norm κ = |η| up to
 /// [`CONCENTRATION_LIMIT`] = 1e300, the components of a and c within
 /// ±[`POSITION_LIMIT`] = ±1e150 m and σ² in [2.2e-308, [`VARIANCE_LIMIT`] = 1e300] m² (a positive
-/// normal number), so that every moment of [`estimates`](Self::estimates), which holds |c|², is
+/// normal number), so that every moment of [`estimate`](Self::estimate), which holds |c|², is
 /// finite. A step whose result would leave the range (an overflow, a variance that underflows) is
 /// refused with an error and leaves the density as it was.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,22 +46,6 @@ pub const CONCENTRATION_LIMIT: f64 = 1e300;
 
 /// The largest conditional variance σ² (m²).
 pub const VARIANCE_LIMIT: f64 = 1e300;
-
-/// Point estimates of an [`AzimuthDensity`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AzimuthEstimates {
-    /// κ = |η|, the azimuth's concentration; 0 when it is unobservable so far.
-    pub kappa: f64,
-    /// The azimuth's mode (= its circular mean) in (−π, π], `None` when κ = 0 (uniform azimuth).
-    pub mode: Option<f64>,
-    /// `σ_A = √(−2 ln ρ)` with ρ = I₁(κ)/I₀(κ), the circular standard deviation (a standard deviation in
-    /// the usual sense for κ ≳ 5); `None` when κ = 0 (it is infinite).
-    pub sigma_a: Option<f64>,
-    /// `E r` in platform axes.
-    pub mean_r: Vector2<f64>,
-    /// `Cov r`, positive definite (its eigenvalues are at least σ²).
-    pub cov_r: Matrix2<f64>,
-}
 
 /// Refuses a non-finite measurement.
 pub(super) fn check_measurement(z: &Vector2<f64>) -> Result<(), OperatorError> {
@@ -261,9 +247,8 @@ impl AzimuthDensity {
         self.a + self.c * azimuth.cos() - perp(&self.c) * azimuth.sin()
     }
 
-    /// Conditions on a position measurement in place (the seven-number recursion, no special
-    /// functions: this is the per-step hot path). [`Condition::condition`] also returns the log
-    /// evidence; [`log_evidence`](Self::log_evidence) gives it alone.
+    /// The density conditioned on a position measurement (the seven-number recursion, no special
+    /// functions: the per-step hot path; [`Condition::condition`] adds the log evidence).
     ///
     /// `1 − k` is computed as `σ_m²/S` and σ²⁺ as the smaller variance times a factor in [½, 1], so
     /// that a measurement far more precise than the prior (σ_m² below ε σ²) still gives σ²⁺ ≈ σ_m²
@@ -271,13 +256,12 @@ impl AzimuthDensity {
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] for a non-finite z, and [`OperatorError::NonFinite`] or
-    /// [`OperatorError::OutOfRange`] when the result would leave the valid range (see the type docs);
-    /// the density is then unchanged.
-    pub fn update(
-        &mut self,
+    /// [`OperatorError::OutOfRange`] when the result would leave the valid range (see the type docs).
+    pub fn conditioned(
+        &self,
         model: &PositionMeasurement,
         z: &Vector2<f64>,
-    ) -> Result<(), OperatorError> {
+    ) -> Result<Self, OperatorError> {
         check_measurement(z)?;
         let r = model.variance();
         let s = self.sigma2 + r;
@@ -288,14 +272,13 @@ impl AzimuthDensity {
         } else {
             r * k
         };
-        *self = Self::validated(
+        Self::validated(
             self.eta() + Vector2::new(self.a.dot(&w), cross(&self.a, &w)) / s,
             self.a * keep,
             self.c * keep + z * k,
             sigma2,
             Origin::Update,
-        )?;
-        Ok(())
+        )
     }
 
     /// The log evidence of a measurement under this density (before conditioning on it):
@@ -328,27 +311,6 @@ impl AzimuthDensity {
         Ok(value)
     }
 
-    /// Propagates in place over one step of the velocity process.
-    ///
-    /// # Errors
-    /// As [`VelocityInput::validate`], or [`OperatorError::OutOfRange`] when the result would leave
-    /// the valid range (`v dt` or `q² dt` too large); the density is then unchanged.
-    pub fn predict(
-        &mut self,
-        model: &VelocityProcess,
-        input: &VelocityInput,
-    ) -> Result<(), OperatorError> {
-        input.validate()?;
-        *self = Self::validated(
-            self.eta(),
-            self.a + input.velocity * input.dt,
-            self.c,
-            self.sigma2 + model.noise_density() * input.dt,
-            Origin::Prediction,
-        )?;
-        Ok(())
-    }
-
     /// The point estimates, from the first and second circular moments of p(A):
     ///
     /// `E r = a + ρ b₁`, `Cov r = σ² I + A′(κ) b₁ b₁ᵀ + (ρ/κ) b₂ b₂ᵀ`, with ρ = A(κ) = I₁(κ)/I₀(κ),
@@ -365,7 +327,7 @@ impl AzimuthDensity {
     /// `−2 ln A(κ) = 2 ln 2 − 2 ln κ + O(κ²)` for κ ≤ 1e-8 (relative error below 1e-18 and 1e-16),
     /// so σ_A is accurate and finite from κ = 5e-324 to κ = 1e300. The mean direction of a subnormal η
     /// is its direction after scaling by its largest component.
-    pub fn estimates(&self) -> AzimuthEstimates {
+    pub fn estimate(&self) -> AzimuthEstimate {
         let eta = self.eta();
         // hypot, not norm: |η| = 1e-300 must not underflow to an unobservable azimuth.
         let kappa = eta.x.hypot(eta.y);
@@ -375,10 +337,10 @@ impl AzimuthDensity {
         let b = Matrix2::from_columns(&[self.c, -perp(&self.c)]);
         let sigma_r = Matrix2::identity() * self.sigma2;
         if kappa == 0.0 {
-            return AzimuthEstimates {
-                kappa,
-                mode: None,
-                sigma_a: None,
+            return AzimuthEstimate {
+                azimuth: None,
+                rho: 0.0,
+                circular_variance: f64::INFINITY,
                 mean_r: self.a,
                 cov_r: sigma_r + b * b.transpose() * 0.5,
             };
@@ -388,17 +350,17 @@ impl AzimuthDensity {
         let (b1, b2) = (b * direction, b * Vector2::new(-direction.y, direction.x));
         let along = special::a1_derivative(kappa).unwrap_or(0.0).max(0.0);
         let across = rho / kappa;
-        AzimuthEstimates {
-            kappa,
-            mode: Some(eta.y.atan2(eta.x)),
-            sigma_a: Some(circular_variance(kappa, rho).sqrt()),
+        AzimuthEstimate {
+            azimuth: Some(So2::from_angle_unchecked(eta.y.atan2(eta.x))),
+            rho,
+            circular_variance: circular_variance(kappa, rho),
             mean_r: self.a + b1 * rho,
             cov_r: sigma_r + b1 * b1.transpose() * along + b2 * b2.transpose() * across,
         }
     }
 }
 
-/// `−2 ln A(κ)` for κ > 0 and ρ = A(κ) (see [`AzimuthDensity::estimates`]).
+/// `−2 ln A(κ)` for κ > 0 and ρ = A(κ) (see [`AzimuthDensity::estimate`]).
 fn circular_variance(kappa: f64, rho: f64) -> f64 {
     if kappa >= 1e6 {
         let x = 1.0 / kappa;
@@ -413,15 +375,24 @@ fn circular_variance(kappa: f64, rho: f64) -> f64 {
 impl Propagate<VelocityProcess> for AzimuthDensity {
     type Input = VelocityInput;
 
-    /// See [`AzimuthDensity::predict`].
+    /// Over one step of the velocity process: `a += v dt`, `σ² += q² dt`; η and c unchanged.
+    ///
+    /// # Errors
+    /// As [`VelocityInput::validate`], or [`OperatorError::OutOfRange`] when the result would leave
+    /// the valid range (`v dt` or `q² dt` too large).
     fn propagate(
         &self,
         model: &VelocityProcess,
         input: &VelocityInput,
     ) -> Result<Self, OperatorError> {
-        let mut next = *self;
-        next.predict(model, input)?;
-        Ok(next)
+        input.validate()?;
+        Self::validated(
+            self.eta(),
+            self.a + input.velocity * input.dt,
+            self.c,
+            self.sigma2 + model.noise_density() * input.dt,
+            Origin::Prediction,
+        )
     }
 }
 
@@ -429,27 +400,26 @@ impl Condition<PositionMeasurement> for AzimuthDensity {
     type Measurement = Vector2<f64>;
     type Report = ();
 
-    /// See [`AzimuthDensity::update`].
+    /// [`conditioned`](AzimuthDensity::conditioned) with its
+    /// [`log_evidence`](AzimuthDensity::log_evidence).
     fn condition(
         &self,
         model: &PositionMeasurement,
         z: &Vector2<f64>,
     ) -> Result<Conditioned<Self>, OperatorError> {
-        let log_evidence = self.log_evidence(model, z)?;
-        let mut posterior = *self;
-        posterior.update(model, z)?;
         Ok(Conditioned {
-            posterior,
-            log_evidence,
+            log_evidence: self.log_evidence(model, z)?,
+            posterior: self.conditioned(model, z)?,
             report: (),
         })
     }
 }
 
-/// The azimuth as a point of SO(2), for callers that work on the group.
-impl AzimuthEstimates {
-    /// The mode as an [`So2`], `None` when κ = 0.
-    pub fn mode_rotation(&self) -> Option<So2<f64>> {
-        self.mode.map(So2::from_angle_unchecked)
+impl Estimator<AzimuthDensity> for AzimuthMoments {
+    type Estimate = AzimuthEstimate;
+
+    /// [`AzimuthDensity::estimate`], checked.
+    fn estimate(&self, density: &AzimuthDensity) -> Result<AzimuthEstimate, OperatorError> {
+        density.estimate().checked()
     }
 }

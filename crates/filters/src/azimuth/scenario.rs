@@ -1,18 +1,21 @@
-//! The three motion scenarios of the azimuth-alignment blog post, and a seeded simulator of truth and measurements: recorded
-//! ([`simulate`]) or streamed step by step ([`trajectory`], for runs too long to record).
+//! The three motion scenarios of the azimuth-alignment blog post, as an experiment-layer
+//! [`Scenario`]: the truth `[r, A]`, the velocity inputs and the position measurements of a run,
+//! streamed step by step from the run's generator (a run of 10⁸ steps takes no memory).
 
 use super::density::variance_of;
-use super::{PositionMeasurement, VelocityProcess};
-use liebayes_manifolds::So2;
+use super::{PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess};
+use liebayes_experiments::{ExperimentError, MAX_EPOCHS, Scenario, Step};
+use liebayes_manifolds::{Rn, So2};
 use liebayes_operators::{MAX_ELEMENTS, OperatorError};
 use nalgebra::{Matrix2, Vector2};
 use rand::Rng;
+use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::PI;
 
 /// How the platform moves (velocity in its own axes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Scenario {
+pub enum Motion {
     /// `v = 0`: the azimuth is unobservable.
     Static,
     /// `v = 0.5 (cos(2πt/10), sin(2πt/10))`: bounded circles around the origin.
@@ -21,28 +24,28 @@ pub enum Scenario {
     Line,
 }
 
-impl Scenario {
+impl Motion {
     /// All three, in the blog post's order.
-    pub const ALL: [Scenario; 3] = [Scenario::Static, Scenario::Circle, Scenario::Line];
+    pub const ALL: [Motion; 3] = [Motion::Static, Motion::Circle, Motion::Line];
 
     /// The velocity at time t.
     pub fn velocity(self, t: f64) -> Vector2<f64> {
         match self {
-            Scenario::Static => Vector2::zeros(),
-            Scenario::Circle => {
+            Motion::Static => Vector2::zeros(),
+            Motion::Circle => {
                 let (s, c) = (2.0 * PI * t / 10.0).sin_cos();
                 Vector2::new(c, s) * 0.5
             }
-            Scenario::Line => Vector2::new(-1.0, 2.0),
+            Motion::Line => Vector2::new(-1.0, 2.0),
         }
     }
 
     /// Its name on the command line: `static`, `circle` or `line`.
     pub fn name(self) -> &'static str {
         match self {
-            Scenario::Static => "static",
-            Scenario::Circle => "circle",
-            Scenario::Line => "line",
+            Motion::Static => "static",
+            Motion::Circle => "circle",
+            Motion::Line => "line",
         }
     }
 }
@@ -172,146 +175,132 @@ impl Config {
     }
 }
 
-/// One simulated run. At step k: if `k % measure_every == 0` the platform is measured at
-/// `positions[k]` (`measurements[k]` is `Some`); then it moves with `velocities[k]` over dt plus noise.
-#[derive(Clone, Debug)]
-pub struct Simulation {
-    /// The true azimuth A, uniform on [0, 2π).
-    pub true_azimuth: f64,
-    /// The velocity input of every step (platform axes).
-    pub velocities: Vec<Vector2<f64>>,
-    /// The true position at every step, before the step's motion (platform axes).
-    pub positions: Vec<Vector2<f64>>,
-    /// `z = R(A) r + n` where a measurement is taken.
-    pub measurements: Vec<Option<Vector2<f64>>>,
-}
-
 /// A draw of `N(0, I₂)`.
 pub(crate) fn normal2<R: Rng + ?Sized>(rng: &mut R) -> Vector2<f64> {
     Vector2::new(StandardNormal.sample(rng), StandardNormal.sample(rng))
 }
 
-/// Step k of a [`Trajectory`]: the true position before the step's motion, the measurement taken
-/// there (if k is a measurement step) and the velocity of the step.
+/// The azimuth-alignment scenario: a motion and its settings, checked at construction.
+///
+/// A run draws the true azimuth A uniform on [0, 2π) and the initial position from
+/// `N(0, σ₀² I)` (the filters' prior). Step 0 is the start (an input of dt = 0, the platform
+/// measured where it starts); step k ≥ 1 moves the platform over dt with the velocity of time
+/// `(k − 1) dt` plus `N(0, q² dt I)`, and measures `z = R(A) r + n` when k is a multiple of
+/// `measure_every`. So a run has `steps` steps and `⌈steps / measure_every⌉` measurement epochs,
+/// at times `0, n dt, 2n dt, …`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Step {
-    /// The true position (platform axes).
-    pub position: Vector2<f64>,
-    /// `z = R(A) r + n`, at steps 0, n, 2n, … (n = `measure_every`).
-    pub measurement: Option<Vector2<f64>>,
-    /// The velocity input (platform axes).
-    pub velocity: Vector2<f64>,
+pub struct AzimuthScenario {
+    motion: Motion,
+    config: Config,
 }
 
-/// A run streamed step by step: the same draws, in the same order, as [`simulate`], without storing
-/// them, so that runs of 10⁸ steps take no memory. An iterator over the configured number of steps.
+impl AzimuthScenario {
+    /// The scenario.
+    ///
+    /// # Errors
+    /// As [`Config::validate`].
+    pub fn new(motion: Motion, config: Config) -> Result<Self, OperatorError> {
+        config.validate()?;
+        Ok(Self { motion, config })
+    }
+
+    /// The motion.
+    pub fn motion(&self) -> Motion {
+        self.motion
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+}
+
+/// The steps of one run of an [`AzimuthScenario`], drawn as they are taken.
 #[derive(Debug)]
-pub struct Trajectory<'r, R: ?Sized> {
-    scenario: Scenario,
-    config: Config,
-    true_azimuth: f64,
+pub struct AzimuthSteps<'s> {
+    scenario: &'s AzimuthScenario,
+    azimuth: So2<f64>,
     world_from_platform: Matrix2<f64>,
     position: Vector2<f64>,
     step: usize,
-    rng: &'r mut R,
+    rng: &'s mut ChaCha8Rng,
 }
 
-/// Starts a run: the true azimuth uniform on [0, 2π), the initial position from `N(0, σ₀² I)` (the
-/// filters' prior).
-///
-/// # Errors
-/// As [`Config::validate`].
-pub fn trajectory<'r, R: Rng + ?Sized>(
-    scenario: Scenario,
-    config: &Config,
-    rng: &'r mut R,
-) -> Result<Trajectory<'r, R>, OperatorError> {
-    config.validate()?;
-    let true_azimuth = rng.random::<f64>() * 2.0 * PI;
-    let position = normal2(rng) * config.sigma0;
-    Ok(Trajectory {
-        scenario,
-        config: *config,
-        true_azimuth,
-        world_from_platform: So2::from_angle_unchecked(true_azimuth).to_matrix(),
-        position,
-        step: 0,
-        rng,
-    })
-}
+impl Iterator for AzimuthSteps<'_> {
+    type Item = Step<PositionAzimuth, VelocityInput, Vector2<f64>>;
 
-impl<R: ?Sized> Trajectory<'_, R> {
-    /// The true azimuth A (rad).
-    pub fn true_azimuth(&self) -> f64 {
-        self.true_azimuth
-    }
-}
-
-impl<R: Rng + ?Sized> Iterator for Trajectory<'_, R> {
-    type Item = Step;
-
-    fn next(&mut self) -> Option<Step> {
-        let config = &self.config;
-        if self.step >= config.steps {
+    fn next(&mut self) -> Option<Self::Item> {
+        let config = &self.scenario.config;
+        let k = self.step;
+        if k >= config.steps {
             return None;
         }
-        let k = self.step;
+        let input = if k == 0 {
+            VelocityInput {
+                velocity: Vector2::zeros(),
+                dt: 0.0,
+            }
+        } else {
+            let velocity = self.scenario.motion.velocity((k - 1) as f64 * config.dt);
+            self.position +=
+                velocity * config.dt + normal2(self.rng) * (config.q * config.dt.sqrt());
+            VelocityInput {
+                velocity,
+                dt: config.dt,
+            }
+        };
         let measurement = (k % config.measure_every == 0)
             .then(|| self.world_from_platform * self.position + normal2(self.rng) * config.sigma_m);
-        let velocity = self.scenario.velocity(k as f64 * config.dt);
-        let step = Step {
-            position: self.position,
-            measurement,
-            velocity,
-        };
-        self.position += velocity * config.dt + normal2(self.rng) * (config.q * config.dt.sqrt());
         self.step += 1;
-        Some(step)
+        Some(Step {
+            time: k as f64 * config.dt,
+            input,
+            truth: PositionAzimuth::new(Rn::new_unchecked(self.position), self.azimuth),
+            measurement,
+        })
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
-        let left = self.config.steps - self.step;
+        let left = self.scenario.config.steps - self.step;
         (left, Some(left))
     }
 }
 
-/// Simulates and records a run (see [`trajectory`]).
-///
-/// # Errors
-/// As [`Config::validate`], or [`OperatorError::TooLarge`] when the record cannot be allocated.
-pub fn simulate<R: Rng + ?Sized>(
-    scenario: Scenario,
-    config: &Config,
-    rng: &mut R,
-) -> Result<Simulation, OperatorError> {
-    let run = trajectory(scenario, config, rng)?;
-    let too_large = |_| OperatorError::TooLarge {
-        what: "number of recorded steps (their memory cannot be allocated)",
-        value: config.steps,
-        max: MAX_ELEMENTS,
-    };
-    let mut simulation = Simulation {
-        true_azimuth: run.true_azimuth(),
-        velocities: Vec::new(),
-        positions: Vec::new(),
-        measurements: Vec::new(),
-    };
-    simulation
-        .velocities
-        .try_reserve_exact(config.steps)
-        .map_err(too_large)?;
-    simulation
-        .positions
-        .try_reserve_exact(config.steps)
-        .map_err(too_large)?;
-    simulation
-        .measurements
-        .try_reserve_exact(config.steps)
-        .map_err(too_large)?;
-    for step in run {
-        simulation.positions.push(step.position);
-        simulation.measurements.push(step.measurement);
-        simulation.velocities.push(step.velocity);
+impl Scenario for AzimuthScenario {
+    type Truth = PositionAzimuth;
+    type Input = VelocityInput;
+    type Measurement = Vector2<f64>;
+    type Steps<'s> = AzimuthSteps<'s>;
+
+    fn epochs(&self) -> usize {
+        self.config.steps.div_ceil(self.config.measure_every)
     }
-    Ok(simulation)
+
+    /// Starts a run: the true azimuth, then the initial position, from `rng`.
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] when the run would have more than [`MAX_EPOCHS`]
+    /// measurement epochs.
+    fn simulate<'s>(
+        &'s self,
+        rng: &'s mut ChaCha8Rng,
+    ) -> Result<AzimuthSteps<'s>, ExperimentError> {
+        if self.epochs() > MAX_EPOCHS {
+            return Err(ExperimentError::OutOfRange {
+                what: "number of measurement epochs steps / measure_every",
+                value: self.epochs().to_string(),
+                range: "[1, 2^24]",
+            });
+        }
+        let azimuth = So2::from_angle_unchecked(rng.random::<f64>() * 2.0 * PI);
+        let position = normal2(rng) * self.config.sigma0;
+        Ok(AzimuthSteps {
+            scenario: self,
+            azimuth,
+            world_from_platform: azimuth.to_matrix(),
+            position,
+            step: 0,
+            rng,
+        })
+    }
 }

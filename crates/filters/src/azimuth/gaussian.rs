@@ -1,0 +1,154 @@
+//! The EKF and UKF baselines: a Gaussian on the state `[r, A]` ∈ R² × SO(2) ([`PositionAzimuth`]),
+//! stepped by the operators crate's manifold Kalman filters.
+
+use super::PositionAzimuth;
+use super::density::variance_of;
+use super::estimate::{AzimuthEstimate, AzimuthMoments};
+use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
+use liebayes_densities::ManifoldGaussian;
+use liebayes_experiments::{Estimator, Recursive};
+use liebayes_manifolds::{Rn, So2};
+use liebayes_operators::{Ekf, MeasurementModel, OperatorError, ProcessModel, Ukf};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2};
+use std::f64::consts::PI;
+
+/// The EKF on `[r, A]`.
+pub type AzimuthEkf = Recursive<
+    ManifoldGaussian<PositionAzimuth, 3>,
+    Ekf<VelocityProcess>,
+    Ekf<PositionMeasurement, 2>,
+    AzimuthMoments,
+>;
+
+/// The UKF on `[r, A]` (α = 0.1, β = 2, κ = 0; see [`ukf`]).
+pub type AzimuthUkf = Recursive<
+    ManifoldGaussian<PositionAzimuth, 3>,
+    Ukf<VelocityProcess>,
+    Ukf<PositionMeasurement, 2>,
+    AzimuthMoments,
+>;
+
+/// The state with position r and azimuth A (r finite: the callers pass validated or finite values).
+pub(super) fn state(r: Vector2<f64>, azimuth: So2<f64>) -> PositionAzimuth {
+    PositionAzimuth::new(Rn::new_unchecked(r), azimuth)
+}
+
+/// `r′ = r + v dt + w`, `A′ = A`, as a manifold process model (F = I, `Q = diag(q² dt, q² dt, 0)`).
+impl ProcessModel<PositionAzimuth, 3> for VelocityProcess {
+    type Input = VelocityInput;
+
+    fn transition(&self, x: &PositionAzimuth, input: &VelocityInput) -> PositionAzimuth {
+        state(x.first().coords() + input.velocity * input.dt, *x.second())
+    }
+
+    fn noise(&self, _: &PositionAzimuth, input: &VelocityInput) -> Matrix3<f64> {
+        let q = self.noise_density() * input.dt;
+        Matrix3::new(q, 0.0, 0.0, 0.0, q, 0.0, 0.0, 0.0, 0.0)
+    }
+
+    fn jacobian(&self, _: &PositionAzimuth, _: &VelocityInput) -> Matrix3<f64> {
+        Matrix3::identity()
+    }
+}
+
+/// `z = R(A) r + n`, with `H = [R(A), R(A) r^×]` (∂R(A)/∂A = R(A) J, J r = r^×).
+impl MeasurementModel<PositionAzimuth, 3, 2> for PositionMeasurement {
+    fn predict(&self, x: &PositionAzimuth) -> Vector2<f64> {
+        x.second().to_matrix() * x.first().coords()
+    }
+
+    fn noise(&self, _: &PositionAzimuth) -> Matrix2<f64> {
+        Matrix2::identity() * self.variance()
+    }
+
+    fn jacobian(&self, x: &PositionAzimuth) -> Matrix2x3<f64> {
+        let rotation = x.second().to_matrix();
+        let r = x.first().coords();
+        let mut h = Matrix2x3::zeros();
+        h.fixed_view_mut::<2, 2>(0, 0).copy_from(&rotation);
+        h.set_column(2, &(rotation * Vector2::new(-r.y, r.x)));
+        h
+    }
+}
+
+/// The prior `r ~ N(r₀, σ₀² I)`, `A ~ N(0, π²/3)` (the variance of the uniform azimuth).
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] for a non-finite r₀, [`OperatorError::OutOfRange`] for σ₀ outside
+/// [1.5e-154, 1e150].
+fn prior(
+    r0: Vector2<f64>,
+    sigma0: f64,
+) -> Result<ManifoldGaussian<PositionAzimuth, 3>, OperatorError> {
+    let s2 = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
+    if let Some(&value) = r0.iter().find(|v| !v.is_finite()) {
+        return Err(OperatorError::NonFinite {
+            what: "initial position r_0",
+            value,
+        });
+    }
+    Ok(ManifoldGaussian::new(
+        state(r0, So2::from_angle_unchecked(0.0)),
+        Matrix3::new(s2, 0.0, 0.0, 0.0, s2, 0.0, 0.0, 0.0, PI * PI / 3.0),
+    )?)
+}
+
+/// The EKF from the prior `r ~ N(r₀, σ₀² I)`, `A ~ N(0, π²/3)`.
+///
+/// # Errors
+/// As the prior: a non-finite r₀, σ₀ outside [1.5e-154, 1e150].
+pub fn ekf(
+    process: VelocityProcess,
+    measurement: PositionMeasurement,
+    r0: Vector2<f64>,
+    sigma0: f64,
+) -> Result<AzimuthEkf, OperatorError> {
+    Ok(Recursive::with_estimator(
+        prior(r0, sigma0)?,
+        Ekf(process),
+        Ekf(measurement),
+        AzimuthMoments,
+    ))
+}
+
+/// The UKF from the same prior as [`ekf`], with α = 0.1 (β = 2, κ = 0). With the default α = 1 the
+/// sigma points of the prior `σ_A = π/√3` sit at `A ± √3 σ_A = A ± π`, the same rotation, so the
+/// measurement sigma points carry no information on A and it is never corrected. α = 0.1 puts them
+/// at ±18°; of the values measured (docs/filters/azimuth.md) it is the best over the three
+/// scenarios, and wider spreads (α = 0.5) leave early errors that the constant azimuth never sheds.
+///
+/// # Errors
+/// As [`ekf`].
+pub fn ukf(
+    process: VelocityProcess,
+    measurement: PositionMeasurement,
+    r0: Vector2<f64>,
+    sigma0: f64,
+) -> Result<AzimuthUkf, OperatorError> {
+    Ok(Recursive::with_estimator(
+        prior(r0, sigma0)?,
+        Ukf::with_scaling(process, 0.1, 2.0, 0.0)?,
+        Ukf::with_scaling(measurement, 0.1, 2.0, 0.0)?,
+        AzimuthMoments,
+    ))
+}
+
+/// A wrapped normal for A: `ρ = exp(−P_AA / 2)`, circular variance P_AA.
+impl Estimator<ManifoldGaussian<PositionAzimuth, 3>> for AzimuthMoments {
+    type Estimate = AzimuthEstimate;
+
+    fn estimate(
+        &self,
+        density: &ManifoldGaussian<PositionAzimuth, 3>,
+    ) -> Result<AzimuthEstimate, OperatorError> {
+        let (p, mean) = (density.covariance(), density.mean());
+        AzimuthEstimate {
+            azimuth: Some(*mean.second()),
+            rho: (-0.5 * p[(2, 2)]).exp(),
+            circular_variance: p[(2, 2)],
+            mean_r: *mean.first().coords(),
+            cov_r: p.fixed_view::<2, 2>(0, 0).into_owned(),
+        }
+        .checked()
+    }
+}
