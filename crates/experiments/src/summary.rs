@@ -88,8 +88,9 @@ pub struct SummaryMetric {
 }
 
 /// One run's scores kept whole (the study's first run, for plots of a single run): the epoch times
-/// and, per epoch, the value of every metric in the summary's order.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// and, per epoch, the value of every metric in the summary's order. Two traces are equal when
+/// their numbers are equal bit for bit (so a NaN, a value the estimate did not have, equals itself).
+#[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Trace {
     /// The run's index.
@@ -98,6 +99,15 @@ pub struct Trace {
     pub times: Vec<f64>,
     /// `values[k * metrics + j]`: metric j of the summary at epoch k (NaN where it has none).
     pub values: Vec<f64>,
+}
+
+impl PartialEq for Trace {
+    fn eq(&self, other: &Self) -> bool {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        self.run == other.run
+            && bits(&self.times) == bits(&other.times)
+            && bits(&self.values) == bits(&other.values)
+    }
 }
 
 /// Which study a summary belongs to: summaries merge only when these agree.

@@ -1,15 +1,18 @@
-//! The baselines and the Monte Carlo study: each baseline runs through the common interface, the grid
-//! filter with a fine grid reproduces the exact filter's estimates, the Gaussian baselines report their
-//! wrapped-normal ρ, and the study is reproducible and finds the exact filter consistent.
+//! The baselines and the Monte Carlo study on the experiment layer: every method runs a study, the
+//! grid filter with a fine grid reproduces the exact filter's estimates, the Gaussian baselines
+//! report their wrapped-normal ρ, the study is reproducible and finds the exact filter consistent,
+//! and the particle-count search finds a count that matches the exact filter.
 
-use liebayes_filters::azimuth::scenario::{Config, Scenario, simulate};
-use liebayes_filters::azimuth::study::{Method, run_once};
-use liebayes_filters::azimuth::{
-    AzimuthDensity, AzimuthFilter, GaussianBaseline, GridReference, Linearisation,
-    PositionMeasurement, VelocityInput, VelocityProcess, study,
+use liebayes_experiments::{
+    Metric, Paired, PairedEstimate, RecursiveFilter, Reduction, Scenario, Scorer, Shard, Study,
+    Summary, replay,
 };
-use liebayes_manifolds::So2;
-use liebayes_operators::evaluation::estimation_error;
+use liebayes_filters::azimuth::{
+    AzimuthEstimate, AzimuthScenario, Config, Method, Motion, PositionAzimuth, PositionMeasurement,
+    VelocityProcess, ekf, exact, final_azimuth_rmse, grid_filter, particles_to_match, ukf,
+};
+use liebayes_manifolds::Manifold;
+use liebayes_operators::evaluation::average_nees_band;
 use nalgebra::{Matrix2, Vector2};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -23,8 +26,25 @@ fn short(seconds: f64) -> Config {
     }
 }
 
-/// Every method runs 100 s of the line scenario without a failed step; those that do not lose their
-/// azimuth particles end within 3° of the truth on this seed.
+fn study(method: Method, motion: Motion, config: &Config, runs: u64, seed: u64) -> Summary {
+    let scenario = AzimuthScenario::new(motion, *config).unwrap();
+    let study = Study::new(method.label(), runs, seed, Shard::WHOLE).unwrap();
+    method.study(&scenario, &study, &|_| {}).unwrap()
+}
+
+/// The final epoch's statistics of a metric.
+fn last(summary: &Summary, metric: &str) -> liebayes_experiments::RunningStats {
+    summary
+        .series(metric)
+        .unwrap()
+        .epochs()
+        .last()
+        .unwrap()
+        .clone()
+}
+
+/// Every method runs 100 s of the line scenario without a failed step; those that do not lose
+/// their azimuth particles end within 3° of the truth on this seed.
 #[test]
 fn every_method_runs_and_the_sound_ones_find_the_azimuth() {
     let config = short(100.0);
@@ -36,118 +56,190 @@ fn every_method_runs_and_the_sound_ones_find_the_azimuth() {
         Method::Grid(720),
         Method::Marginalized(720),
     ] {
-        let run = run_once(method, Scenario::Line, &config, 3).unwrap();
+        let summary = study(method, Motion::Line, &config, 1, 3);
         assert!(
-            run.failure.is_none(),
+            summary.failures().is_empty(),
             "{}: {:?}",
             method.label(),
-            run.failure
+            summary.failures()
         );
-        assert_eq!(run.steps, 1000);
-        assert_eq!(run.epochs.len(), 100);
-        let last = run.epochs.last().unwrap();
-        let error = last.azimuth_error.unwrap();
-        eprintln!(
-            "{}: final azimuth error {:.3} deg",
-            method.label(),
-            error.to_degrees()
-        );
+        assert_eq!(summary.series("azimuth_error").unwrap().epochs().len(), 100);
+        let error = final_azimuth_rmse(&summary).unwrap();
+        eprintln!("{}: final azimuth error {error:.3} deg", method.label());
         if matches!(
             method,
             Method::Exact | Method::Ekf | Method::Grid(_) | Method::Marginalized(_)
         ) {
-            assert!(
-                error.abs() < 3f64.to_radians(),
-                "{}: {error}",
-                method.label()
-            );
+            assert!(error < 3.0, "{}: {error}", method.label());
         }
     }
 }
 
+/// Two azimuth estimates against each other.
+struct EstimateAgreement;
+
+impl Scorer<PositionAzimuth, PairedEstimate<AzimuthEstimate, AzimuthEstimate>>
+    for EstimateAgreement
+{
+    fn metrics(&self) -> Vec<Metric> {
+        ["rho", "azimuth", "mean", "covariance"]
+            .map(|name| Metric::new(name, Reduction::Mean, ""))
+            .to_vec()
+    }
+
+    fn score(
+        &self,
+        _: &PositionAzimuth,
+        pair: &PairedEstimate<AzimuthEstimate, AzimuthEstimate>,
+        values: &mut [f64],
+    ) {
+        let (e, g) = (&pair.first, &pair.second);
+        let scale = 1.0 + e.cov_r.amax();
+        values[0] = (e.rho - g.rho).abs();
+        // The azimuth difference, scaled to a tolerance of 1e-8 / ρ (its precision falls with ρ;
+        // where one filter holds A uniform the other's ρ is zero to rounding, checked above).
+        values[1] = match (e.azimuth, g.azimuth) {
+            (Some(a), Some(b)) => b.local(&a)[0].abs() * e.rho.max(1e-3) * 0.1,
+            _ => 0.0,
+        };
+        values[2] = (e.mean_r - g.mean_r).amax() / scale;
+        values[3] = (e.cov_r - g.cov_r).amax() / scale;
+    }
+}
+
 /// While a 2880-cell grid resolves the posterior (the first 60 s of the circle scenario), the grid
-/// filter's estimate through the common interface equals the exact filter's: azimuth, ρ, E r, Cov r.
+/// filter's estimate equals the exact filter's: azimuth, ρ, E r, Cov r.
 #[test]
 fn fine_grid_filter_estimates_equal_the_exact_ones() {
     let config = short(60.0);
     let process = VelocityProcess::new(config.q).unwrap();
     let measurement = PositionMeasurement::new(config.sigma_m).unwrap();
-    let sim = simulate(Scenario::Circle, &config, &mut ChaCha8Rng::seed_from_u64(4)).unwrap();
-    let mut exact = AzimuthDensity::new(Vector2::zeros(), 1.0).unwrap();
-    let mut grid = GridReference::new(2880, Vector2::zeros(), 1.0).unwrap();
-    let mut rng = ChaCha8Rng::seed_from_u64(0);
-    for (k, v) in sim.velocities.iter().enumerate() {
-        if let Some(z) = sim.measurements[k] {
-            AzimuthFilter::update(&mut exact, &measurement, &z, &mut rng).unwrap();
-            AzimuthFilter::update(&mut grid, &measurement, &z, &mut rng).unwrap();
-            let (e, g) = (exact.estimate().unwrap(), grid.estimate().unwrap());
-            assert!(
-                (e.rho - g.rho).abs() < 1e-9,
-                "{k}: rho {} vs {}",
-                e.rho,
-                g.rho
-            );
-            if let (Some(a), Some(b)) = (e.azimuth, g.azimuth) {
-                let difference =
-                    estimation_error(&So2::from_angle_unchecked(b), &So2::from_angle_unchecked(a))
-                        [0];
-                assert!(difference.abs() < 1e-8 / e.rho.max(1e-3), "{k}");
-            }
-            let scale = 1.0 + e.cov_r.amax();
-            assert!((e.mean_r - g.mean_r).amax() < 1e-9 * scale, "{k}");
-            assert!((e.cov_r - g.cov_r).amax() < 1e-9 * scale, "{k}");
+    let scenario = AzimuthScenario::new(Motion::Circle, config).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let steps = scenario.simulate(&mut rng).unwrap();
+    let mut pair = Paired::new(
+        exact(process, measurement, Vector2::zeros(), 1.0).unwrap(),
+        grid_filter(2880, process, measurement, Vector2::zeros(), 1.0).unwrap(),
+    );
+    let scores = replay(&mut pair, steps, &EstimateAgreement).unwrap();
+    assert_eq!(scores.epochs(), 60);
+    for name in ["rho", "azimuth", "mean", "covariance"] {
+        for k in 0..scores.epochs() {
+            let error = scores.get(name, k).unwrap();
+            assert!(error < 1e-9, "epoch {k}: {name} {error:e}");
         }
-        let input = VelocityInput {
-            velocity: *v,
-            dt: config.dt,
-        };
-        AzimuthFilter::predict(&mut exact, &process, &input, &mut rng).unwrap();
-        AzimuthFilter::predict(&mut grid, &process, &input, &mut rng).unwrap();
     }
 }
 
 #[test]
 fn gaussian_baselines_report_a_wrapped_normal() {
-    for kind in [Linearisation::Extended, Linearisation::Unscented] {
-        let filter = GaussianBaseline::new(kind, Vector2::new(1.0, 2.0), 0.5).unwrap();
-        let e = filter.estimate().unwrap();
-        let variance = std::f64::consts::PI.powi(2) / 3.0;
+    let process = VelocityProcess::new(0.1).unwrap();
+    let measurement = PositionMeasurement::new(1.0).unwrap();
+    let variance = std::f64::consts::PI.powi(2) / 3.0;
+    let check = |e: AzimuthEstimate| {
         assert!((e.rho - (-variance / 2.0).exp()).abs() < 1e-15);
         assert!((e.sigma_a().unwrap() - variance.sqrt()).abs() < 1e-12);
         assert_eq!(e.mean_r, Vector2::new(1.0, 2.0));
         assert_eq!(e.cov_r, Matrix2::identity() * 0.25);
-        assert!(GaussianBaseline::new(kind, Vector2::zeros(), 0.0).is_err());
-        assert!(GaussianBaseline::new(kind, Vector2::new(f64::NAN, 0.0), 1.0).is_err());
-    }
+    };
+    check(
+        ekf(process, measurement, Vector2::new(1.0, 2.0), 0.5)
+            .unwrap()
+            .estimate()
+            .unwrap(),
+    );
+    check(
+        ukf(process, measurement, Vector2::new(1.0, 2.0), 0.5)
+            .unwrap()
+            .estimate()
+            .unwrap(),
+    );
+    assert!(ekf(process, measurement, Vector2::zeros(), 0.0).is_err());
+    assert!(ukf(process, measurement, Vector2::new(f64::NAN, 0.0), 1.0).is_err());
 }
 
 /// The study is the same on a second call (the timing aside), and over 300 runs of 200 s the exact
-/// filter's average NEES of r lies in its 95 % band and its circular consistency band holds 1.
+/// filter's final NEES of r lies in its 95 % band and its circular consistency's band holds 1.
 #[test]
 fn study_is_reproducible_and_the_exact_filter_is_consistent() {
     let config = short(200.0);
-    for scenario in [Scenario::Circle, Scenario::Line] {
-        let a = study(Method::Exact, scenario, &config, 300, 77).unwrap();
-        let b = study(Method::Exact, scenario, &config, 300, 77).unwrap();
-        assert_eq!(a.azimuth_rmse, b.azimuth_rmse);
-        assert_eq!(a.average_nees, b.average_nees);
-        assert_eq!(a.first_run.epochs, b.first_run.epochs);
-        let (low, high) = a.nees_band;
+    for motion in [Motion::Circle, Motion::Line] {
+        let a = study(Method::Exact, motion, &config, 300, 77);
+        let b = study(Method::Exact, motion, &config, 300, 77);
+        assert_eq!(a.metrics(), b.metrics());
+        assert_eq!(a.trace(), b.trace());
+        assert!(a.failures().is_empty());
+        let nees = last(&a, "nees_position");
+        let (low, high) = average_nees_band(2, usize::try_from(nees.count()).unwrap()).unwrap();
+        let mean = nees.mean().unwrap();
         assert!(
-            (low..=high).contains(&a.average_nees),
-            "{}: NEES {} outside [{low}, {high}]",
-            scenario.name(),
-            a.average_nees
+            (low..=high).contains(&mean),
+            "{}: NEES {mean} outside [{low}, {high}]",
+            motion.name()
         );
-        let (c_low, c_high) = a.circular.band().unwrap();
+        let circular = last(&a, "circular_consistency");
+        let half = 1.96 * (circular.variance().unwrap() / circular.count() as f64).sqrt();
+        let m = circular.mean().unwrap();
         assert!(
-            (c_low..=c_high).contains(&1.0),
-            "{}: circular [{c_low}, {c_high}]",
-            scenario.name()
+            (m - half..=m + half).contains(&1.0),
+            "{}: circular {m} ± {half}",
+            motion.name()
         );
-        assert_eq!(a.failures, 0);
-        assert!(a.divergence_rate.is_some());
+        assert!(last(&a, "diverged").mean().is_some());
     }
-    assert!(study(Method::Exact, Scenario::Line, &config, 0, 1).is_err());
-    assert!(study(Method::Particle(0), Scenario::Line, &config, 1, 1).is_err());
+    assert!(Study::new("exact", 0, 1, Shard::WHOLE).is_err());
+    let scenario = AzimuthScenario::new(Motion::Line, config).unwrap();
+    let one = Study::new("PF 0", 1, 1, Shard::WHOLE).unwrap();
+    assert!(Method::Particle(0).study(&scenario, &one, &|_| {}).is_err());
+}
+
+/// The particle-count search on a short circle study: the count it returns passes (its RMSE within
+/// 20 % of the exact filter's on the same runs, no failed run), the largest count it tried below
+/// that did not, and the figures it reports are those of independent studies at those counts.
+#[test]
+fn the_particle_count_search_finds_a_count_that_matches_the_exact_filter() {
+    let config = short(30.0);
+    let scenario = AzimuthScenario::new(Motion::Circle, config).unwrap();
+    let runs = Study::new("search", 40, 5, Shard::WHOLE).unwrap();
+    let search = particles_to_match(&scenario, &runs, 0.2, (25, 6400), 0.25, &|_| {}).unwrap();
+    eprintln!("particle search: {search:?}");
+    let count = search.count.expect("6400 particles match the exact filter");
+    let target = search.exact_rmse * 1.2;
+    let rmse_at = |n: u64| {
+        let summary = study(
+            Method::Particle(usize::try_from(n).unwrap()),
+            Motion::Circle,
+            &config,
+            40,
+            5,
+        );
+        (
+            final_azimuth_rmse(&summary).unwrap(),
+            summary.failure_count(),
+        )
+    };
+    let (rmse, failures) = rmse_at(count);
+    assert!(
+        rmse <= target && failures == 0,
+        "{count}: {rmse} vs {target}"
+    );
+    let below = search
+        .tried
+        .iter()
+        .filter(|t| t.0 < count)
+        .map(|t| t.0)
+        .max();
+    if let Some(n) = below {
+        let (rmse, failures) = rmse_at(n);
+        assert!(
+            rmse > target || failures > 0,
+            "{n} passes too: {rmse} vs {target}"
+        );
+    }
+    let exact_rmse =
+        final_azimuth_rmse(&study(Method::Exact, Motion::Circle, &config, 40, 5)).unwrap();
+    assert_eq!(exact_rmse, search.exact_rmse);
+    assert!(particles_to_match(&scenario, &runs, f64::NAN, (25, 100), 0.25, &|_| {}).is_err());
+    let still = AzimuthScenario::new(Motion::Static, config).unwrap();
+    assert!(particles_to_match(&still, &runs, 0.2, (25, 100), 0.25, &|_| {}).is_err());
 }

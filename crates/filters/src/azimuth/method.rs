@@ -142,3 +142,86 @@ pub fn exact(
         super::AzimuthMoments,
     ))
 }
+
+/// The root mean square of the final azimuth error (deg) over the runs of a study, `None` when no
+/// run reported an azimuth (an unobservable scenario, or every run failed).
+pub fn final_azimuth_rmse(summary: &Summary) -> Option<f64> {
+    summary
+        .series("azimuth_error")?
+        .epochs()
+        .last()?
+        .mean_square()
+        .map(f64::sqrt)
+}
+
+/// What [`particles_to_match`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParticleSearch {
+    /// The exact filter's final azimuth RMSE (deg), the target.
+    pub exact_rmse: f64,
+    /// Every particle count tried, with its final azimuth RMSE (deg; +∞ when no run reported one)
+    /// and its number of failed runs, in the order tried.
+    pub tried: Vec<(u64, f64, u64)>,
+    /// The smallest count found whose RMSE is within the tolerance, `None` if `high` is not.
+    pub count: Option<u64>,
+}
+
+/// The smallest particle count in `[low, high]` at which the bootstrap particle filter's final
+/// azimuth RMSE on `scenario` is at most `(1 + tolerance)` times the exact filter's over the same
+/// runs, with no failed run (the exact posterior is optimal, so a particle filter approaches its
+/// RMSE from above), to
+/// the relative `resolution`, by doubling then bisection
+/// ([`smallest_passing`](liebayes_experiments::search::smallest_passing)): about
+/// `log₂(high/low) + log₂(1/resolution) + 2` studies of `study`'s runs.
+///
+/// # Errors
+/// [`ExperimentError::OutOfRange`] for a tolerance outside (0, 10] (NaN included), for
+/// `low`/`high`/`resolution` outside the search's ranges or a `high` above
+/// [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS), and when the scenario leaves the azimuth
+/// unobservable (no target); the studies' errors otherwise.
+pub fn particles_to_match(
+    scenario: &AzimuthScenario,
+    study: &Study,
+    tolerance: f64,
+    (low, high): (u64, u64),
+    resolution: f64,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<ParticleSearch, ExperimentError> {
+    if !(tolerance > 0.0 && tolerance <= 10.0) {
+        return Err(ExperimentError::OutOfRange {
+            what: "RMSE tolerance",
+            value: tolerance.to_string(),
+            range: "(0, 10]",
+        });
+    }
+    let limit = u64::try_from(liebayes_operators::MAX_ELEMENTS).unwrap_or(u64::MAX);
+    if high > limit {
+        return Err(ExperimentError::OutOfRange {
+            what: "largest particle count",
+            value: high.to_string(),
+            range: "at most 2^30",
+        });
+    }
+    let exact = Method::Exact.study(scenario, study, progress)?;
+    let exact_rmse = final_azimuth_rmse(&exact).ok_or(ExperimentError::OutOfRange {
+        what: "scenario",
+        value: scenario.motion().name().to_owned(),
+        range: "a scenario where the azimuth is observable (circle, line)",
+    })?;
+    let mut tried = Vec::new();
+    let count = liebayes_experiments::search::smallest_passing(low, high, resolution, |n| {
+        // n ≤ high ≤ 2^30: it fits a usize.
+        let particles = usize::try_from(n).unwrap_or(usize::MAX);
+        let summary = Method::Particle(particles).study(scenario, study, progress)?;
+        let rmse = final_azimuth_rmse(&summary).unwrap_or(f64::INFINITY);
+        tried.push((n, rmse, summary.failure_count()));
+        Ok::<_, ExperimentError>(
+            summary.failure_count() == 0 && rmse <= exact_rmse * (1.0 + tolerance),
+        )
+    })?;
+    Ok(ParticleSearch {
+        exact_rmse,
+        tried,
+        count,
+    })
+}
