@@ -1,67 +1,85 @@
 //! The exact azimuth-alignment filter on one simulated run of the circle scenario, beside the
 //! EKF on [r, A]: `cargo run --release --example azimuth`.
 //!
-//! The platform's velocity is known in its own axes, its position is measured in world axes, and the two
-//! frames differ by an unknown azimuth. The exact filter holds the posterior in seven numbers.
+//! The platform's velocity is known in its own axes, its position is measured in world axes, and
+//! the two frames differ by an unknown azimuth. The exact filter holds the posterior in seven
+//! numbers. Both filters run through the experiment layer: one scenario, one `replay`, the two
+//! filters side by side with `Paired`, and a scorer that reads their azimuth errors.
 
-use liebayes::filters::azimuth::scenario::{Config, Scenario, simulate};
-use liebayes::filters::azimuth::{
-    AzimuthDensity, AzimuthFilter, GaussianBaseline, Linearisation, PositionMeasurement,
-    VelocityInput, VelocityProcess,
+use liebayes::experiments::{
+    Metric, Paired, PairedEstimate, Reduction, RecursiveFilter, Scenario, Scorer, replay,
 };
-use liebayes::manifolds::So2;
-use liebayes::operators::OperatorError;
-use liebayes::operators::evaluation::estimation_error;
+use liebayes::filters::azimuth::{
+    AzimuthEstimate, AzimuthScenario, Config, Motion, PositionAzimuth, PositionMeasurement,
+    VelocityProcess, ekf, exact,
+};
+use liebayes::manifolds::Manifold;
 use nalgebra::Vector2;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-fn main() -> Result<(), OperatorError> {
+/// Each filter's azimuth error `estimate ⊟ truth` on SO(2) and its σ_A (deg).
+struct SideBySide;
+
+impl Scorer<PositionAzimuth, PairedEstimate<AzimuthEstimate, AzimuthEstimate>> for SideBySide {
+    fn metrics(&self) -> Vec<Metric> {
+        ["exact_error", "exact_sigma", "ekf_error", "ekf_sigma"]
+            .map(|name| Metric::new(name, Reduction::RootMeanSquare, "deg"))
+            .to_vec()
+    }
+
+    fn score(
+        &self,
+        truth: &PositionAzimuth,
+        pair: &PairedEstimate<AzimuthEstimate, AzimuthEstimate>,
+        values: &mut [f64],
+    ) {
+        for (i, e) in [&pair.first, &pair.second].into_iter().enumerate() {
+            let error = e.azimuth.map(|a| truth.second().local(&a)[0]);
+            values[2 * i] = error.map_or(f64::NAN, f64::to_degrees);
+            values[2 * i + 1] = e.sigma_a().map_or(f64::NAN, f64::to_degrees);
+        }
+    }
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     let config = Config::default();
-    let sim = simulate(Scenario::Circle, &config, &mut ChaCha8Rng::seed_from_u64(2))?;
-    let truth = So2::from_angle_unchecked(sim.true_azimuth);
-    // The azimuth error `estimate ⊟ truth`, wrapped by SO(2).
-    let error = |a: f64| estimation_error(&truth, &So2::from_angle_unchecked(a))[0];
+    let scenario = AzimuthScenario::new(Motion::Circle, config)?;
     let process = VelocityProcess::new(config.q)?;
     let measurement = PositionMeasurement::new(config.sigma_m)?;
-    let mut exact = AzimuthDensity::new(Vector2::zeros(), config.sigma0)?;
-    let mut ekf = GaussianBaseline::new(Linearisation::Extended, Vector2::zeros(), config.sigma0)?;
-    let mut rng = ChaCha8Rng::seed_from_u64(3);
-    println!("true azimuth {:.2} deg", sim.true_azimuth.to_degrees());
-    println!("   t   exact: error  sigma_A     EKF: error  sigma_A   (deg)");
-    for (k, v) in sim.velocities.iter().enumerate() {
-        if let Some(z) = sim.measurements[k] {
-            exact.update(&measurement, &z)?;
-            AzimuthFilter::update(&mut ekf, &measurement, &z, &mut rng)?;
-            if k % 1000 == 0 {
-                let (e, b) = (exact.estimate()?, ekf.estimate()?);
-                let show = |x: Option<f64>| {
-                    x.map_or("   -   ".into(), |x| format!("{:8.3}", x.to_degrees()))
-                };
-                println!(
-                    "{:4.0}   {} {}    {} {}",
-                    k as f64 * config.dt,
-                    show(e.azimuth.map(error)),
-                    show(e.sigma_a()),
-                    show(b.azimuth.map(error)),
-                    show(b.sigma_a()),
-                );
-            }
+    let mut filters = Paired::new(
+        exact(process, measurement, Vector2::zeros(), config.sigma0)?,
+        ekf(process, measurement, Vector2::zeros(), config.sigma0)?,
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    let scores = replay(&mut filters, scenario.simulate(&mut rng)?, &SideBySide)?;
+    let show = |x: f64| {
+        if x.is_nan() {
+            "   -   ".into()
+        } else {
+            format!("{x:8.3}")
         }
-        let input = VelocityInput {
-            velocity: *v,
-            dt: config.dt,
-        };
-        exact.predict(&process, &input)?;
-        AzimuthFilter::predict(&mut ekf, &process, &input, &mut rng)?;
+    };
+    println!("   t   exact: error  sigma_A     EKF: error  sigma_A   (deg)");
+    for k in (0..scores.epochs()).step_by(100) {
+        let at = |name| show(scores.get(name, k).unwrap_or(f64::NAN));
+        println!(
+            "{:4.0}   {} {}    {} {}",
+            scores.times[k],
+            at("exact_error"),
+            at("exact_sigma"),
+            at("ekf_error"),
+            at("ekf_sigma")
+        );
     }
-    let final_state = exact.estimates();
+    let density = filters.first().density();
+    let estimate = filters.first().estimate()?;
     println!(
         "\nexact filter: kappa {:.1}, E r = ({:.2}, {:.2}) m, log evidence of one more measurement {:.3}",
-        final_state.kappa,
-        final_state.mean_r.x,
-        final_state.mean_r.y,
-        exact.log_evidence(&measurement, &Vector2::new(1.0, 0.0))?
+        density.azimuth().concentration(),
+        estimate.mean_r.x,
+        estimate.mean_r.y,
+        density.log_evidence(&measurement, &Vector2::new(1.0, 0.0))?
     );
     Ok(())
 }
