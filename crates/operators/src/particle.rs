@@ -40,8 +40,9 @@ const PARTICLES: &str = "number of particles";
 /// With the `rayon` feature, [`Reweight`] evaluates the likelihoods of a set of at least this many
 /// particles in parallel (fewer are evaluated serially, where the threads would cost more than
 /// they save). The weights and the log evidence are the same bit for bit either way: the
-/// likelihoods are computed in parallel, the normalisation serially.
-#[cfg(feature = "rayon")]
+/// likelihoods are computed in parallel, the normalisation serially. Chosen where the threads
+/// start to pay for a cheap likelihood (the Gaussian log density of a scalar) on two cores; a
+/// costly likelihood would gain from fewer. Without the feature every set is evaluated serially.
 pub const PARALLEL_MIN_PARTICLES: usize = 4096;
 
 /// Weighted particles `Σ wᵢ δ(x − xᵢ)`, weights kept as logarithms so that no likelihood underflows.

@@ -80,6 +80,23 @@ pub struct SampleFn<F, U: ?Sized> {
     input: PhantomData<fn(&U)>,
 }
 
+impl<F: Clone, U: ?Sized> Clone for SampleFn<F, U> {
+    fn clone(&self) -> Self {
+        Self {
+            sample: self.sample.clone(),
+            input: PhantomData,
+        }
+    }
+}
+
+impl<F: Copy, U: ?Sized> Copy for SampleFn<F, U> {}
+
+impl<F, U: ?Sized> std::fmt::Debug for SampleFn<F, U> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SampleFn").finish_non_exhaustive()
+    }
+}
+
 impl<F, U: ?Sized> SampleFn<F, U> {
     /// The process that draws with `sample`.
     pub fn new<X>(sample: F) -> Self
@@ -137,7 +154,7 @@ impl<P, R> Sampled<P, R> {
 
     /// The process with its generator, resampling with `scheme` when the effective sample size is
     /// below `fraction · N`, fraction in [0, 1]: 0 never resamples, 1 resamples at every step
-    /// whose weights are not exactly uniform.
+    /// (uniform weights may be resampled too, by rounding, which changes nothing in distribution).
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] for a fraction outside [0, 1] or NaN.
@@ -221,6 +238,23 @@ impl<X, L: Likelihood<X> + ?Sized> Likelihood<X> for &L {
 pub struct LikelihoodFn<F, Z: ?Sized> {
     log_likelihood: F,
     measurement: PhantomData<fn(&Z)>,
+}
+
+impl<F: Clone, Z: ?Sized> Clone for LikelihoodFn<F, Z> {
+    fn clone(&self) -> Self {
+        Self {
+            log_likelihood: self.log_likelihood.clone(),
+            measurement: PhantomData,
+        }
+    }
+}
+
+impl<F: Copy, Z: ?Sized> Copy for LikelihoodFn<F, Z> {}
+
+impl<F, Z: ?Sized> std::fmt::Debug for LikelihoodFn<F, Z> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LikelihoodFn").finish_non_exhaustive()
+    }
 }
 
 impl<F, Z: ?Sized> LikelihoodFn<F, Z> {
