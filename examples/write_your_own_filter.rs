@@ -10,7 +10,8 @@
 
 use liebayes::densities::ManifoldGaussian;
 use liebayes::manifolds::{Manifold, So2};
-use liebayes::operators::grid::CircularGrid;
+use liebayes::operators::grid::{CircularGrid, Diffusion};
+use liebayes::operators::particle::{LikelihoodFn, Reweight};
 use liebayes::operators::{
     Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
 };
@@ -72,21 +73,25 @@ fn main() -> Result<(), OperatorError> {
     // The models, wrapped once: by reference, `Ekf(&gyro)` is as good as `Ekf(gyro)`.
     let (ekf_gyro, ukf_gyro) = (Ekf(&gyro), Ukf::new(&gyro));
     let (ekf_compass, ukf_compass) = (Ekf(&compass), Ukf::new(&compass));
+    // The grid's measurement: the compass likelihood at each cell's heading.
+    let grid_compass = Reweight(LikelihoodFn::new(|t: &So2<f64>, z: &Vector1<f64>| {
+        -0.5 * wrapped(z[0], t.angle()).powi(2) / compass.variance
+            - 0.5 * (2.0 * std::f64::consts::PI * compass.variance).ln()
+    }));
     for (rate, reading) in [(0.1, -3.05), (0.1, -2.95), (0.0, -3.0), (0.2, -2.8)] {
         let step = (rate, 1.0);
         ekf = ekf.propagate(&ekf_gyro, &step)?;
         ukf = ukf.propagate(&ukf_gyro, &step)?;
         // The grid's propagation: the circular convolution with the step's density, θ′ − θ ~ N(ω dt, q² dt)
-        // (one wrap of the normal suffices at this spread).
-        grid.diffuse(|d| (-0.5 * wrapped(d, rate).powi(2) / gyro.q2).exp())?;
+        // (one wrap of the normal suffices at this spread). Stepped in place: no copy of the cells.
+        let gyro_kernel =
+            Diffusion(|d: &So2<f64>| (-0.5 * wrapped(d.angle(), rate).powi(2) / gyro.q2).exp());
+        grid.propagate_in_place(&gyro_kernel, &())?;
 
         let z = Vector1::new(reading);
         let e = ekf.condition(&ekf_compass, &z)?;
         let u = ukf.condition(&ukf_compass, &z)?;
-        let evidence = grid.condition(|t| {
-            -0.5 * wrapped(reading, t).powi(2) / compass.variance
-                - 0.5 * (2.0 * std::f64::consts::PI * compass.variance).ln()
-        })?;
+        let evidence = grid.condition_in_place(&grid_compass, &z)?.log_evidence;
         ekf = e.posterior;
         ukf = u.posterior;
         let m = grid.first_moment();

@@ -31,7 +31,7 @@ mod marginalized;
 mod method;
 mod model;
 mod particle;
-pub mod scenario;
+mod scenario;
 #[cfg(feature = "serde")]
 mod serde_impls;
 
