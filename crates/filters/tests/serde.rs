@@ -63,7 +63,11 @@ fn a_state_saved_mid_run_continues_exactly() {
     let original = replay(&mut filter, second.iter().cloned(), &SevenNumbers).unwrap();
     let continued = replay(&mut restored, second.iter().cloned(), &SevenNumbers).unwrap();
     assert_eq!(original.epochs(), 20);
-    assert_eq!(bits(&continued), bits(&original), "the epochs after the save");
+    assert_eq!(
+        bits(&continued),
+        bits(&original),
+        "the epochs after the save"
+    );
     assert_eq!(restored.density(), filter.density());
 
     let input = VelocityInput {
