@@ -6,20 +6,26 @@
 //! cases at the end are the regressions of reported failures (`LIEBAYES_FUZZ_CASES` runs the
 //! properties long).
 
-use liebayes_filters::azimuth::scenario::{Config, Scenario, simulate, trajectory};
-use liebayes_filters::azimuth::study::run_once;
-use liebayes_filters::azimuth::{
-    AzimuthDensity, AzimuthFilter, GaussianBaseline, GridReference, Linearisation,
-    MarginalizedBaseline, Method, ParticleBaseline, PositionMeasurement, VelocityInput,
-    VelocityProcess, study,
+use liebayes_densities::ManifoldGaussian;
+use liebayes_experiments::{
+    Estimator, ExperimentError, MAX_EPOCHS, MAX_RUNS, MAX_STUDY_EPOCHS, Recursive, RecursiveFilter,
+    Scenario, Shard, StepOf, StepReport, Study, replay,
 };
-use liebayes_operators::{MAX_ELEMENTS, OperatorError};
+use liebayes_filters::azimuth::{
+    AzimuthDensity, AzimuthEstimate, AzimuthMoments, AzimuthScenario, AzimuthScorer, Config,
+    Method, Motion, PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess, ekf,
+    exact, grid_filter, marginalized_filter, particle_filter, ukf,
+};
+use liebayes_operators::grid::CircularGrid;
+use liebayes_operators::particle::ParticleSet;
+use liebayes_operators::{Condition, MAX_ELEMENTS, OperatorError, Propagate};
 use liebayes_reference::fuzz::{self, size, value};
 use nalgebra::{Cholesky, Matrix2, Vector2};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use std::fmt::Debug;
 
 fn vector() -> impl Strategy<Value = Vector2<f64>> {
     (value(), value()).prop_map(|(x, y)| Vector2::new(x, y))
@@ -48,14 +54,26 @@ fn finite<'a>(values: impl IntoIterator<Item = &'a f64>) -> bool {
     values.into_iter().all(|v| v.is_finite())
 }
 
-/// The exact filter's estimates are finite and Cov r symmetric with eigenvalues at least σ² up to
+/// The models of a case: the fuzzed ones where they are valid, ordinary ones otherwise.
+fn case_models(q: f64, sigma_m: f64) -> (VelocityProcess, PositionMeasurement) {
+    (
+        VelocityProcess::new(q).unwrap_or(VelocityProcess::new(0.1).unwrap()),
+        PositionMeasurement::new(sigma_m).unwrap_or(PositionMeasurement::new(1.0).unwrap()),
+    )
+}
+
+/// The exact filter's estimate is finite and Cov r symmetric with eigenvalues at least σ² up to
 /// the rounding of its entries (`m ± h` in closed form, on the matrix scaled to unit size); it is
-/// then positive definite in floating point too wherever its condition number is below 1e12.
+/// then positive definite in floating point too wherever its condition number is below 1e12. The
+/// filter's estimator, which refuses moments that overflow, accepts it.
 fn sound(density: &AzimuthDensity) -> Result<(), TestCaseError> {
-    let e = density.estimates();
-    prop_assert!(e.kappa.is_finite());
-    prop_assert!(e.mode.is_none_or(f64::is_finite));
-    prop_assert!(e.sigma_a.is_none_or(|s| s.is_finite() && s >= 0.0));
+    let eta = density.eta();
+    prop_assert!(eta.x.hypot(eta.y).is_finite());
+    let e = density.estimate();
+    prop_assert!(e.azimuth.is_none_or(|a| a.angle().is_finite()));
+    prop_assert!((0.0..=1.0).contains(&e.rho));
+    prop_assert!(e.circular_variance >= 0.0);
+    prop_assert!(e.sigma_a().is_none_or(|s| s.is_finite() && s >= 0.0));
     prop_assert!(finite(e.mean_r.iter()) && finite(e.cov_r.iter()));
     let cov = e.cov_r;
     prop_assert_eq!(cov[(0, 1)], cov[(1, 0)]);
@@ -74,35 +92,118 @@ fn sound(density: &AzimuthDensity) -> Result<(), TestCaseError> {
     if scale <= 1e12 * sigma2 {
         prop_assert!(Cholesky::new(cov).is_some(), "Cov r {cov:?}");
     }
+    prop_assert!(AzimuthMoments.estimate(density).is_ok());
     let _ = density.azimuth();
     Ok(())
 }
 
-/// A step through the common interface: unchanged after an error, finite estimate (or an error)
-/// after success.
-fn step_filter(
-    filter: &mut dyn AzimuthFilter,
-    process: VelocityProcess,
+/// The state of a filter's density as text, to compare it before and after a step that failed
+/// (text, because a NaN would not equal itself): the numbers it holds, not its scratch buffers.
+trait Snapshot {
+    fn snapshot(&self) -> String;
+}
+
+impl Snapshot for AzimuthDensity {
+    fn snapshot(&self) -> String {
+        format!("{self:?}")
+    }
+}
+
+impl Snapshot for ManifoldGaussian<PositionAzimuth, 3> {
+    fn snapshot(&self) -> String {
+        format!("{self:?}")
+    }
+}
+
+impl<X: Clone + Debug> Snapshot for ParticleSet<X> {
+    fn snapshot(&self) -> String {
+        format!("{:?} {:?}", self.particles(), self.log_weights())
+    }
+}
+
+impl<X: Debug> Snapshot for CircularGrid<X> {
+    fn snapshot(&self) -> String {
+        format!("{:?} {:?}", self.log_weights(), self.cells())
+    }
+}
+
+/// A filter built from nasty parameters (`Err(TooLarge)` only if its size is not small), then
+/// updated with each z and propagated with `input` after it: a failed step leaves the density as
+/// it was; a successful update has a finite log evidence and NIS; an estimate is finite (or an
+/// error).
+fn exercise<D, P, M, E>(
+    filter: Result<Recursive<D, P, M, E>, OperatorError>,
+    small: bool,
     input: &VelocityInput,
-    measurement: PositionMeasurement,
-    z: &Vector2<f64>,
-) -> Result<(), TestCaseError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(1);
-    // Compared as text: an estimate that overflows is an error holding NaN, which is not equal to
-    // itself.
-    let estimate = |f: &dyn AzimuthFilter| format!("{:?}", f.estimate());
-    let before = estimate(filter);
-    if filter.update(&measurement, z, &mut rng).is_err() {
-        prop_assert_eq!(&before, &estimate(filter));
+    zs: &[Vector2<f64>],
+) -> Result<(), TestCaseError>
+where
+    D: Propagate<P, Input = VelocityInput> + Condition<M, Measurement = Vector2<f64>> + Snapshot,
+    <D as Condition<M>>::Report: StepReport,
+    E: Estimator<D, Estimate = AzimuthEstimate>,
+{
+    if let Err(OperatorError::TooLarge { .. }) = &filter {
+        prop_assert!(!small);
     }
-    let before = estimate(filter);
-    if filter.predict(&process, input, &mut rng).is_err() {
-        prop_assert_eq!(&before, &estimate(filter));
+    let Some(mut filter) = fuzz::counted(filter) else {
+        return Ok(());
+    };
+    for z in zs {
+        let before = filter.density().snapshot();
+        if let Some(update) = fuzz::counted(filter.update(z)) {
+            prop_assert!(update.log_evidence.is_finite());
+            prop_assert!(
+                update
+                    .nis
+                    .is_none_or(|n| n.value.is_finite() && n.value >= 0.0)
+            );
+        } else {
+            prop_assert_eq!(&before, &filter.density().snapshot());
+        }
+        let before = filter.density().snapshot();
+        if fuzz::counted(filter.predict(input)).is_none() {
+            prop_assert_eq!(&before, &filter.density().snapshot());
+        }
+        if let Some(e) = fuzz::counted(filter.estimate()) {
+            prop_assert!(finite(e.mean_r.iter()) && finite(e.cov_r.iter()));
+            prop_assert!((0.0..=1.0).contains(&e.rho));
+            prop_assert!(e.azimuth.is_none_or(|a| a.angle().is_finite()));
+        }
     }
-    if let Some(e) = fuzz::counted(filter.estimate()) {
-        prop_assert!(finite(e.mean_r.iter()) && finite(e.cov_r.iter()));
-        prop_assert!(e.rho.is_finite() && (0.0..=1.0).contains(&e.rho));
-        prop_assert!(e.azimuth.is_none_or(f64::is_finite));
+    Ok(())
+}
+
+/// Replays a filter through a simulated trajectory, scored by [`AzimuthScorer`]: where it runs to
+/// the end, every epoch is scored and its position errors are finite.
+fn replayed<F>(
+    filter: Result<F, OperatorError>,
+    trajectory: &[StepOf<AzimuthScenario>],
+    epochs: usize,
+) -> Result<(), TestCaseError>
+where
+    F: RecursiveFilter<
+            Input = VelocityInput,
+            Measurement = Vector2<f64>,
+            Estimate = AzimuthEstimate,
+        >,
+{
+    let Some(mut filter) = fuzz::counted(filter) else {
+        return Ok(());
+    };
+    if let Some(scores) = fuzz::counted(replay(
+        &mut filter,
+        trajectory.iter().cloned(),
+        &AzimuthScorer,
+    )) {
+        prop_assert_eq!(scores.epochs(), epochs);
+        for k in 0..epochs {
+            for metric in ["x_error", "y_error"] {
+                prop_assert!(
+                    scores.get(metric, k).is_some_and(f64::is_finite),
+                    "{metric} at {k}"
+                );
+            }
+        }
     }
     Ok(())
 }
@@ -135,7 +236,9 @@ fn models() {
     );
 }
 
-/// The exact filter from nasty parameters, stepped with nasty models and data.
+/// The exact filter from nasty parameters, stepped with nasty models and data: by value
+/// (`log_evidence`, `conditioned`) and in place (`condition_in_place`, `propagate_in_place`, the
+/// steps of its `Recursive` filter), which must agree.
 #[test]
 fn exact_filter() {
     fuzz::run(
@@ -164,15 +267,19 @@ fn exact_filter() {
                     return Ok(());
                 };
                 sound(&density)?;
-                let process = VelocityProcess::new(q).unwrap_or(VelocityProcess::new(0.1).unwrap());
-                let measurement = PositionMeasurement::new(sigma_m)
-                    .unwrap_or(PositionMeasurement::new(1.0).unwrap());
+                let (process, measurement) = case_models(q, sigma_m);
                 for ((z, v), dt) in zs.iter().zip(&velocities).zip(&dts) {
-                    if let Some(value) = fuzz::counted(density.log_evidence(&measurement, z)) {
-                        prop_assert!(value.is_finite());
+                    let evidence = fuzz::counted(density.log_evidence(&measurement, z));
+                    prop_assert!(evidence.is_none_or(f64::is_finite));
+                    let posterior = fuzz::counted(density.conditioned(&measurement, z));
+                    if let Some(posterior) = &posterior {
+                        sound(posterior)?;
                     }
                     let before = density;
-                    if density.update(&measurement, z).is_err() {
+                    if let Some(step) = fuzz::counted(density.condition_in_place(&measurement, z)) {
+                        prop_assert_eq!(Some(step.log_evidence), evidence);
+                        prop_assert_eq!(Some(density), posterior);
+                    } else {
                         prop_assert_eq!(before, density);
                     }
                     sound(&density)?;
@@ -181,7 +288,7 @@ fn exact_filter() {
                         velocity: *v,
                         dt: *dt,
                     };
-                    if density.predict(&process, &input).is_err() {
+                    if fuzz::counted(density.propagate_in_place(&process, &input)).is_none() {
                         prop_assert_eq!(before, density);
                     }
                     sound(&density)?;
@@ -195,7 +302,7 @@ fn exact_filter() {
     );
 }
 
-/// Every baseline from a nasty prior, stepped with nasty data through the common interface.
+/// Every filter from a nasty prior and nasty models, stepped with nasty data.
 #[test]
 fn baselines() {
     fuzz::run(
@@ -212,44 +319,36 @@ fn baselines() {
         ),
         |(n, r0, sigma0, z, v, dt, q, sigma_m)| {
             fuzz::case("baselines", move || -> Result<(), TestCaseError> {
-                let mut rng = ChaCha8Rng::seed_from_u64(2);
+                let rng = ChaCha8Rng::seed_from_u64(2);
                 let small = (1..=40).contains(&n);
-                let mut filters: Vec<Box<dyn AzimuthFilter>> = Vec::new();
-                match ParticleBaseline::new(n, r0, sigma0, &mut rng) {
-                    Ok(f) => filters.push(Box::new(f)),
-                    Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
-                    Err(_) => {}
-                }
-                match MarginalizedBaseline::new(n, r0, sigma0, &mut rng) {
-                    Ok(f) => filters.push(Box::new(f)),
-                    Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
-                    Err(_) => {}
-                }
-                match GridReference::new(n, r0, sigma0) {
-                    Ok(f) => filters.push(Box::new(f)),
-                    Err(OperatorError::TooLarge { .. }) => prop_assert!(!small),
-                    Err(_) => {}
-                }
-                for kind in [Linearisation::Extended, Linearisation::Unscented] {
-                    if let Some(f) = fuzz::counted(GaussianBaseline::new(kind, r0, sigma0)) {
-                        filters.push(Box::new(f));
-                    }
-                }
-                if let Some(f) = fuzz::counted(AzimuthDensity::new(r0, sigma0)) {
-                    filters.push(Box::new(f));
-                }
-                let process = VelocityProcess::new(q).unwrap_or(VelocityProcess::new(0.1).unwrap());
-                let measurement = PositionMeasurement::new(sigma_m)
-                    .unwrap_or(PositionMeasurement::new(1.0).unwrap());
+                let (p, m) = case_models(q, sigma_m);
                 let input = VelocityInput { velocity: v, dt };
-                for filter in &mut filters {
-                    step_filter(filter.as_mut(), process, &input, measurement, &z)?;
-                    step_filter(filter.as_mut(), process, &input, measurement, &(z * 0.5))?;
-                }
-                Ok(())
+                let zs = [z, z * 0.5];
+                exercise(
+                    particle_filter(n, p, m, r0, sigma0, rng.clone()),
+                    small,
+                    &input,
+                    &zs,
+                )?;
+                exercise(
+                    marginalized_filter(n, p, m, r0, sigma0, rng),
+                    small,
+                    &input,
+                    &zs,
+                )?;
+                exercise(grid_filter(n, p, m, r0, sigma0), small, &input, &zs)?;
+                exercise(ekf(p, m, r0, sigma0), true, &input, &zs)?;
+                exercise(ukf(p, m, r0, sigma0), true, &input, &zs)?;
+                exercise(exact(p, m, r0, sigma0), true, &input, &zs)
             });
         },
     );
+}
+
+/// A shard of a few runs of a study of `runs` runs: a study of up to 2⁴⁰ runs is accepted, and
+/// run here one shard at a time.
+fn a_few_of(runs: u64) -> Shard {
+    Shard::new(1, runs.div_ceil(8).max(1)).unwrap()
 }
 
 #[test]
@@ -282,37 +381,53 @@ fn scenarios_and_studies() {
                         steps,
                     };
                     let valid = config.validate().is_ok();
+                    let circle = fuzz::counted(AzimuthScenario::new(Motion::Circle, config));
+                    prop_assert_eq!(circle.is_some(), valid);
+                    let Some(line) = fuzz::counted(AzimuthScenario::new(Motion::Line, config))
+                    else {
+                        prop_assert!(!valid);
+                        return Ok(());
+                    };
+                    prop_assert!(valid);
                     let mut rng = ChaCha8Rng::seed_from_u64(3);
-                    match simulate(Scenario::Line, &config, &mut rng) {
-                        Ok(sim) => {
-                            prop_assert!(valid && sim.positions.len() == steps);
-                            prop_assert!(sim.true_azimuth.is_finite());
-                            prop_assert!(sim.positions.iter().all(|p| finite(p.iter())));
-                            prop_assert!(
-                                sim.measurements.iter().flatten().all(|z| finite(z.iter()))
-                            );
-                        }
-                        Err(_) => prop_assert!(!valid),
+                    let mut count = 0;
+                    for step in line.simulate(&mut rng).unwrap() {
+                        count += 1;
+                        prop_assert!(step.truth.second().angle().is_finite());
+                        prop_assert!(finite(step.truth.first().coords().iter()));
+                        prop_assert!(step.input.validate().is_ok());
+                        prop_assert!(step.measurement.is_none_or(|z| finite(z.iter())));
                     }
-                    prop_assert_eq!(
-                        trajectory(Scenario::Circle, &config, &mut rng).is_ok(),
-                        valid
+                    prop_assert_eq!(count, steps);
+
+                    let Some(circle) = circle else {
+                        return Ok(());
+                    };
+                    let trajectory: Vec<_> = circle.simulate(&mut rng).unwrap().collect();
+                    let (process, measurement) = (
+                        VelocityProcess::new(q).unwrap(),
+                        PositionMeasurement::new(sigma_m).unwrap(),
                     );
-                    for method in [Method::Exact, Method::Ekf, Method::Particle(5)] {
-                        if let Some(run) =
-                            fuzz::counted(run_once(method, Scenario::Circle, &config, 4))
-                        {
-                            prop_assert!(valid);
-                            prop_assert!(
-                                run.epochs.iter().all(|e| finite(e.position_error.iter()))
-                            );
-                        }
-                    }
+                    let (r0, epochs) = (Vector2::zeros(), circle.epochs());
+                    replayed(exact(process, measurement, r0, sigma0), &trajectory, epochs)?;
+                    replayed(ekf(process, measurement, r0, sigma0), &trajectory, epochs)?;
+                    let pf = particle_filter(5, process, measurement, r0, sigma0, rng);
+                    replayed(pf, &trajectory, epochs)?;
+
+                    let runs = u64::try_from(runs).unwrap_or(u64::MAX);
+                    let Some(study) =
+                        fuzz::counted(Study::new("exact, line", runs, 5, a_few_of(runs)))
+                    else {
+                        prop_assert!(runs == 0 || runs > MAX_RUNS);
+                        return Ok(());
+                    };
                     if let Some(summary) =
-                        fuzz::counted(study(Method::Exact, Scenario::Line, &config, runs, 5))
+                        fuzz::counted(Method::Exact.study(&line, &study, &|_| {}))
                     {
-                        prop_assert!(valid && summary.runs == runs);
-                        prop_assert!(summary.ns_per_step.is_finite());
+                        let covered = study.shard().runs(runs);
+                        prop_assert_eq!(summary.run_count(), covered.end - covered.start);
+                        prop_assert_eq!(summary.label().runs, runs);
+                        prop_assert!(summary.timing().mean().is_none_or(f64::is_finite));
                     }
                     Ok(())
                 },
@@ -338,10 +453,14 @@ fn a_measurement_noise_that_squares_to_zero_is_refused() {
     for _ in 0..3 {
         // Each step either succeeds with a density in range or fails and changes nothing.
         let before = density;
-        if fuzz::quick("update", || density.update(&tiny, &Vector2::new(3.0, 4.0))).is_err() {
+        if fuzz::quick("update", || {
+            density.condition_in_place(&tiny, &Vector2::new(3.0, 4.0))
+        })
+        .is_err()
+        {
             assert_eq!(before, density);
         }
-        let e = fuzz::quick("estimates", || density.estimates());
+        let e = fuzz::quick("estimates", || density.estimate());
         assert!(e.cov_r.iter().all(|v| v.is_finite()));
         let _ = fuzz::quick("azimuth", || density.azimuth());
     }
@@ -353,15 +472,19 @@ fn a_measurement_noise_that_squares_to_zero_is_refused() {
 fn a_precise_measurement_keeps_a_positive_variance() {
     let precise = PositionMeasurement::new(1e-9).unwrap();
     let mut density = AzimuthDensity::new(Vector2::new(1.0, 2.0), 1.0).unwrap();
-    density.update(&precise, &Vector2::new(3.0, 4.0)).unwrap();
+    density
+        .condition_in_place(&precise, &Vector2::new(3.0, 4.0))
+        .unwrap();
     let expected = 1e-18 / (1.0 + 1e-18);
     assert!(
         (density.sigma2() / expected - 1.0).abs() < 1e-15,
         "{}",
         density.sigma2()
     );
-    density.update(&precise, &Vector2::new(3.0, 4.0)).unwrap();
-    assert!(Cholesky::new(density.estimates().cov_r).is_some());
+    density
+        .condition_in_place(&precise, &Vector2::new(3.0, 4.0))
+        .unwrap();
+    assert!(Cholesky::new(density.estimate().cov_r).is_some());
 }
 
 #[test]
@@ -382,47 +505,79 @@ fn constructors_refuse_derived_quantities_that_overflow() {
     );
     assert!(AzimuthDensity::new(Vector2::zeros(), 1e-200).is_err());
     assert!(AzimuthDensity::new(Vector2::new(1e200, 0.0), 1.0).is_err());
-    assert!(GaussianBaseline::new(Linearisation::Extended, Vector2::zeros(), -1.0).is_err());
-    assert!(GridReference::new(4, Vector2::zeros(), -1.0).is_err());
+    let (p, m, r0) = (
+        VelocityProcess::new(0.1).unwrap(),
+        PositionMeasurement::new(1.0).unwrap(),
+        Vector2::zeros(),
+    );
+    let rng = ChaCha8Rng::seed_from_u64(5);
+    assert!(exact(p, m, r0, -1.0).is_err());
+    assert!(ekf(p, m, r0, -1.0).is_err());
+    assert!(ukf(p, m, r0, -1.0).is_err());
+    assert!(grid_filter(4, p, m, r0, -1.0).is_err());
+    assert!(particle_filter(4, p, m, r0, -1.0, rng.clone()).is_err());
+    assert!(marginalized_filter(4, p, m, r0, -1.0, rng).is_err());
     let indefinite = Matrix2::new(1.0, 2.0, 2.0, 1.0);
     assert!(PositionMeasurement::isotropic_bound(&indefinite).is_err());
 }
 
 #[test]
 fn baselines_refuse_huge_counts_before_drawing() {
-    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    let rng = ChaCha8Rng::seed_from_u64(6);
+    let (p, m, r0) = (
+        VelocityProcess::new(0.1).unwrap(),
+        PositionMeasurement::new(1.0).unwrap(),
+        Vector2::zeros(),
+    );
     for n in [usize::MAX, liebayes_operators::MAX_ELEMENTS + 1] {
         assert!(matches!(
-            fuzz::quick("MarginalizedBaseline::new(huge)", || {
-                MarginalizedBaseline::new(n, Vector2::zeros(), 1.0, &mut rng)
+            fuzz::quick("marginalized_filter(huge)", || {
+                marginalized_filter(n, p, m, r0, 1.0, rng.clone())
             }),
             Err(OperatorError::TooLarge { .. })
         ));
         assert!(matches!(
-            ParticleBaseline::new(n, Vector2::zeros(), 1.0, &mut rng),
+            particle_filter(n, p, m, r0, 1.0, rng.clone()),
             Err(OperatorError::TooLarge { .. })
         ));
         assert!(matches!(
-            GridReference::new(n, Vector2::zeros(), 1.0),
+            grid_filter(n, p, m, r0, 1.0),
             Err(OperatorError::TooLarge { .. })
         ));
+        for method in [
+            Method::Particle(n),
+            Method::Grid(n),
+            Method::Marginalized(n),
+        ] {
+            assert!(matches!(
+                method.validate(),
+                Err(OperatorError::TooLarge { .. })
+            ));
+        }
     }
+    // A study of a method of that size is refused before any run.
+    let scenario = AzimuthScenario::new(Motion::Line, Config::default()).unwrap();
+    let study = Study::new("PF huge, line", 4, 6, Shard::WHOLE).unwrap();
+    assert!(
+        fuzz::quick("Method::study(PF huge)", || Method::Particle(usize::MAX)
+            .study(&scenario, &study, &|_| {}))
+        .is_err()
+    );
 }
 
-/// `steps` from a saturated cast used to reach `Vec::with_capacity(usize::MAX)`.
+/// `steps` from a saturated cast used to reach `Vec::with_capacity(usize::MAX)`. Runs are streamed
+/// now; the sizes are still refused before anything is drawn: the steps by the scenario, the
+/// epochs of a run beyond what a replay scores, and beyond what a study summarises.
 #[test]
 fn simulations_refuse_sizes_before_allocating() {
     let config = Config {
         steps: usize::MAX,
         ..Config::default()
     };
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
     assert!(matches!(
-        fuzz::quick("simulate(steps = usize::MAX)", || simulate(
-            Scenario::Line,
-            &config,
-            &mut rng
-        )),
+        fuzz::quick("AzimuthScenario::new(steps = usize::MAX)", || {
+            AzimuthScenario::new(Motion::Line, config)
+        }),
         Err(OperatorError::TooLarge { .. })
     ));
     assert!(matches!(
@@ -440,6 +595,35 @@ fn simulations_refuse_sizes_before_allocating() {
         .validate()
         .is_err()
     );
+    let every_step = |steps| {
+        AzimuthScenario::new(
+            Motion::Line,
+            Config {
+                steps,
+                measure_every: 1,
+                ..Config::default()
+            },
+        )
+        .unwrap()
+    };
+    let longest = every_step(MAX_ELEMENTS);
+    assert!(longest.epochs() > MAX_EPOCHS);
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    assert!(matches!(
+        fuzz::quick("simulate(epochs > MAX_EPOCHS)", || longest
+            .simulate(&mut rng)
+            .map(|_| ())),
+        Err(ExperimentError::OutOfRange { .. })
+    ));
+    let study = Study::new("exact, line", 4, 7, Shard::WHOLE).unwrap();
+    assert!(matches!(
+        fuzz::quick("study(epochs > MAX_STUDY_EPOCHS)", || Method::Exact.study(
+            &every_step(MAX_STUDY_EPOCHS + 1),
+            &study,
+            &|_| {}
+        )),
+        Err(ExperimentError::OutOfRange { .. })
+    ));
 }
 
 /// η = (MAX, MAX) has finite components but κ = |η| = ∞: it was accepted, and every estimate was
@@ -462,12 +646,13 @@ fn a_concentration_that_overflows_is_refused() {
         1.0,
     )
     .unwrap();
-    let e = largest.estimates();
-    assert!((e.kappa / 1e300 - 1.0).abs() < 1e-15 && e.sigma_a.unwrap() > 0.0);
+    let kappa = largest.eta().x.hypot(largest.eta().y);
+    let e = largest.estimate();
+    assert!((kappa / 1e300 - 1.0).abs() < 1e-15 && e.sigma_a().unwrap() > 0.0);
 }
 
 /// A case the harness found: a prior at 1e300 m, a step of 1e300 s and a subnormal velocity, through
-/// every baseline. Each step now fails with an error and leaves the filter as it was, or gives a
+/// every filter. Each step now fails with an error and leaves the filter as it was, or gives a
 /// finite estimate.
 #[test]
 fn baselines_survive_a_prior_far_away_and_a_huge_step() {
@@ -475,36 +660,30 @@ fn baselines_survive_a_prior_far_away_and_a_huge_step() {
         Vector2::new(f64::MIN_POSITIVE, 1e300),
         1.835_701_760_938_207_8,
     );
-    let mut rng = ChaCha8Rng::seed_from_u64(8);
-    let mut filters: Vec<Box<dyn AzimuthFilter>> = Vec::new();
-    for filter in [
-        ParticleBaseline::new(6, r0, sigma0, &mut rng)
-            .map(|f| Box::new(f) as Box<dyn AzimuthFilter>),
-        MarginalizedBaseline::new(6, r0, sigma0, &mut rng).map(|f| Box::new(f) as _),
-        GridReference::new(6, r0, sigma0).map(|f| Box::new(f) as _),
-        GaussianBaseline::new(Linearisation::Extended, r0, sigma0).map(|f| Box::new(f) as _),
-        GaussianBaseline::new(Linearisation::Unscented, r0, sigma0).map(|f| Box::new(f) as _),
-        AzimuthDensity::new(r0, sigma0).map(|f| Box::new(f) as _),
-    ] {
-        match filter {
-            Ok(f) => filters.push(f),
-            Err(e) => assert!(!e.to_string().is_empty()),
-        }
-    }
-    let process = VelocityProcess::new(8.002_486_246_475_813).unwrap();
-    let measurement = PositionMeasurement::new(1.0).unwrap();
+    let rng = ChaCha8Rng::seed_from_u64(8);
+    let p = VelocityProcess::new(8.002_486_246_475_813).unwrap();
+    let m = PositionMeasurement::new(1.0).unwrap();
     let input = VelocityInput {
         velocity: Vector2::new(1e-160, 0.0),
         dt: 1e300,
     };
-    for filter in &mut filters {
-        step_filter(
-            filter.as_mut(),
-            process,
-            &input,
-            measurement,
-            &Vector2::zeros(),
-        )
-        .unwrap();
-    }
+    let zs = [Vector2::zeros()];
+    exercise(
+        particle_filter(6, p, m, r0, sigma0, rng.clone()),
+        true,
+        &input,
+        &zs,
+    )
+    .unwrap();
+    exercise(
+        marginalized_filter(6, p, m, r0, sigma0, rng),
+        true,
+        &input,
+        &zs,
+    )
+    .unwrap();
+    exercise(grid_filter(6, p, m, r0, sigma0), true, &input, &zs).unwrap();
+    exercise(ekf(p, m, r0, sigma0), true, &input, &zs).unwrap();
+    exercise(ukf(p, m, r0, sigma0), true, &input, &zs).unwrap();
+    exercise(exact(p, m, r0, sigma0), true, &input, &zs).unwrap();
 }
