@@ -21,7 +21,12 @@ use std::time::Duration;
 /// filter's on the circle scenario over 300 runs (`liebayes particles`, docs/filters/azimuth.md).
 const MATCHING_PARTICLES: usize = 20_000;
 
-fn models() -> (VelocityProcess, PositionMeasurement, VelocityInput, Vector2<f64>) {
+fn models() -> (
+    VelocityProcess,
+    PositionMeasurement,
+    VelocityInput,
+    Vector2<f64>,
+) {
     (
         VelocityProcess::new(0.1).unwrap(),
         PositionMeasurement::new(1.0).unwrap(),
@@ -46,7 +51,10 @@ fn exact_filter(c: &mut Criterion) {
     g.bench_function("predict + update with its log evidence (Condition)", |b| {
         b.iter(|| {
             density = density.propagate(&process, black_box(&input)).unwrap();
-            density = density.condition(&measurement, black_box(&z)).unwrap().posterior;
+            density = density
+                .condition(&measurement, black_box(&z))
+                .unwrap()
+                .posterior;
         });
     });
     g.bench_function("log evidence of a measurement", |b| {
@@ -58,7 +66,11 @@ fn exact_filter(c: &mut Criterion) {
     });
     let density = AzimuthDensity::new(Vector2::zeros(), 1.0).unwrap();
     g.bench_function("predict", |b| {
-        b.iter(|| black_box(&density).propagate(&process, black_box(&input)).unwrap());
+        b.iter(|| {
+            black_box(&density)
+                .propagate(&process, black_box(&input))
+                .unwrap()
+        });
     });
     g.bench_function("point estimate", |b| {
         b.iter(|| black_box(&density).estimate());
@@ -95,8 +107,16 @@ fn baselines(c: &mut Criterion) {
     step(&mut g, "EKF", ekf(p, m, r0, 1.0).unwrap());
     step(&mut g, "UKF", ukf(p, m, r0, 1.0).unwrap());
     step(&mut g, "grid 360", grid_filter(360, p, m, r0, 1.0).unwrap());
-    step(&mut g, "MPF 360", marginalized_filter(360, p, m, r0, 1.0, rng()).unwrap());
-    step(&mut g, "PF 1000", particle_filter(1000, p, m, r0, 1.0, rng()).unwrap());
+    step(
+        &mut g,
+        "MPF 360",
+        marginalized_filter(360, p, m, r0, 1.0, rng()).unwrap(),
+    );
+    step(
+        &mut g,
+        "PF 1000",
+        particle_filter(1000, p, m, r0, 1.0, rng()).unwrap(),
+    );
     step(
         &mut g,
         &format!("PF {MATCHING_PARTICLES}"),

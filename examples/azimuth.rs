@@ -7,7 +7,7 @@
 //! filters side by side with `Paired`, and a scorer that reads their azimuth errors.
 
 use liebayes::experiments::{
-    Metric, Paired, PairedEstimate, Reduction, RecursiveFilter, Scenario, Scorer, replay,
+    Metric, Paired, PairedEstimate, RecursiveFilter, Reduction, Scenario, Scorer, replay,
 };
 use liebayes::filters::azimuth::{
     AzimuthEstimate, AzimuthScenario, Config, Motion, PositionAzimuth, PositionMeasurement,

@@ -77,7 +77,9 @@ fn op_ukf_step(filter: &mut AzimuthUkf) {
     filter_step(filter);
 }
 
-fn filter_step(filter: &mut impl RecursiveFilter<Input = VelocityInput, Measurement = Vector2<f64>>) {
+fn filter_step(
+    filter: &mut impl RecursiveFilter<Input = VelocityInput, Measurement = Vector2<f64>>,
+) {
     let input = VelocityInput {
         velocity: Vector2::zeros(),
         dt: 0.1,

@@ -19,7 +19,7 @@ use liebayes_experiments::{
     ExperimentError, Metric, Paired, PairedEstimate, Recursive, Reduction, RunScores, Scenario,
     Scorer, Shard, Step, StepOf, Study, replay,
 };
-use liebayes_filters::azimuth::scenario::AzimuthSteps;
+use liebayes_filters::azimuth::AzimuthSteps;
 use liebayes_filters::azimuth::{
     AzimuthScenario, AzimuthScorer, Config, Motion, PositionMeasurement, VelocityProcess, exact,
 };

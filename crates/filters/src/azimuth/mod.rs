@@ -3,7 +3,7 @@
 //! world axes, and the two frames differ by an unknown constant azimuth A:
 //!
 //! `ṙ = v + w` (r in platform axes, `w` white with PSD `q² I`), `z = R(A) r + n`,
-//! `n ~ N(0, σ_m² I)`, `R(A)` the rotation of [`So2`](liebayes_manifolds::So2).
+//! `n ~ N(0, σ_m² I)`, `R(A)` the rotation by A, an [`So2`].
 //!
 //! The joint posterior is exactly `p(r, A) = p(A) p(r | A)` with p(A) von Mises and
 //! `p(r | A) = N(a + c cos A − c^× sin A, σ² I)`, `u^× = (−u_y, u_x)`: seven numbers (η, a, c, σ²),
@@ -43,7 +43,7 @@ pub use marginalized::{AzimuthMarginalized, marginalized_filter};
 pub use method::{Method, ParticleSearch, exact, final_azimuth_rmse, particles_to_match};
 pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
 pub use particle::{AzimuthParticleFilter, particle_filter};
-pub use scenario::{AzimuthScenario, Config, Motion};
+pub use scenario::{AzimuthScenario, AzimuthSteps, Config, MAX_DT, Motion};
 
 use liebayes_manifolds::{ProductManifold, Rn, So2};
 
