@@ -22,7 +22,7 @@
 
 use crate::error::{reserve, with_capacity};
 use crate::numerics::LogWeights;
-use crate::particle::{Given, Likelihood, Reweight};
+use crate::particle::{Given, LabelModel, Likelihood, Reweight};
 use crate::traits::{condition_clone, propagate_clone};
 use crate::{Condition, Conditioned, Evidence, OperatorError, Propagate};
 use liebayes_manifolds::So2;
@@ -188,10 +188,10 @@ impl<X> CircularGrid<X> {
 /// What a failed Bayes step of a grid names.
 const CELL_LIKELIHOOD: &str = "grid cell log-likelihood";
 
-impl<X, F, M> Propagate<Given<F>> for CircularGrid<X>
+impl<X, F> Propagate<Given<F>> for CircularGrid<X>
 where
-    X: Propagate<M> + Clone,
-    F: Fn(&So2<f64>) -> Result<M, OperatorError>,
+    F: LabelModel<So2<f64>>,
+    X: Propagate<F::Model> + Clone,
 {
     type Input = X::Input;
 
@@ -213,7 +213,7 @@ where
         let n = self.len();
         self.spare.clear();
         for (j, x) in self.cells.iter().enumerate() {
-            let process = (model.0)(&rotation_of(j, n))?;
+            let process = model.0.at(&rotation_of(j, n))?;
             self.spare.push(x.propagate(&process, input)?);
         }
         std::mem::swap(&mut self.cells, &mut self.spare);
@@ -221,10 +221,10 @@ where
     }
 }
 
-impl<X, F, M> Condition<Given<F>> for CircularGrid<X>
+impl<X, F> Condition<Given<F>> for CircularGrid<X>
 where
-    X: Condition<M> + Clone,
-    F: Fn(&So2<f64>) -> Result<M, OperatorError>,
+    F: LabelModel<So2<f64>>,
+    X: Condition<F::Model> + Clone,
 {
     type Measurement = X::Measurement;
     type Report = ();
@@ -257,7 +257,7 @@ where
         let pending = self.weights.pending();
         pending.clear();
         for (j, x) in self.cells.iter().enumerate() {
-            let step = x.condition(&(model.0)(&rotation_of(j, n))?, z)?;
+            let step = x.condition(&model.0.at(&rotation_of(j, n))?, z)?;
             self.spare.push(step.posterior);
             pending.push(step.log_evidence);
         }

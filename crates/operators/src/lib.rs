@@ -60,7 +60,9 @@ pub use error::{MAX_ELEMENTS, OperatorError};
 pub use grid::Diffusion;
 pub use innovation::Innovation;
 pub use models::{MeasurementFn, MeasurementModel, ProcessFn, ProcessModel};
-pub use particle::{Given, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess};
+pub use particle::{
+    Given, LabelModel, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess,
+};
 pub use traits::{Condition, Conditioned, Evidence, Propagate};
 pub use ukf::Ukf;
 

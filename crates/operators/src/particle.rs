@@ -20,7 +20,8 @@ mod models;
 mod resampling;
 
 pub use models::{
-    Given, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess, finite_point,
+    Given, LabelModel, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess,
+    finite_point,
 };
 pub use resampling::{Resampling, resample_indices};
 
@@ -389,11 +390,11 @@ impl<X> ParticleSet<X> {
     }
 }
 
-impl<Y, G, F, M> Condition<Given<F>> for ParticleSet<(Y, G)>
+impl<Y, G, F> Condition<Given<F>> for ParticleSet<(Y, G)>
 where
     Y: Clone,
-    G: Condition<M> + Clone,
-    F: Fn(&Y) -> Result<M, OperatorError>,
+    F: LabelModel<Y>,
+    G: Condition<F::Model> + Clone,
 {
     type Measurement = G::Measurement;
     type Report = ();
@@ -424,7 +425,7 @@ where
         let pending = self.weights.pending();
         pending.clear();
         for (y, payload) in &self.particles {
-            let step = payload.condition(&(model.0)(y)?, z)?;
+            let step = payload.condition(&model.0.at(y)?, z)?;
             self.spare.push((y.clone(), step.posterior));
             pending.push(step.log_evidence);
         }

@@ -9,7 +9,7 @@ use liebayes_experiments::{Estimator, Recursive};
 use liebayes_manifolds::So2;
 use liebayes_operators::grid::CircularGrid;
 use liebayes_operators::kalman::LinearMeasurement;
-use liebayes_operators::particle::Given;
+use liebayes_operators::particle::{Given, LabelModel};
 use liebayes_operators::{OperatorError, Propagate};
 use nalgebra::{Matrix2, Vector2};
 
@@ -34,24 +34,25 @@ impl Propagate<VelocityProcess> for Gaussian<2> {
     }
 }
 
-/// The model of r's Kalman filter at azimuth A: `z = R(A) r + n`, `n ~ N(0, σ_m² I)`.
-fn rotated(
-    measurement: PositionMeasurement,
-    azimuth: &So2<f64>,
-) -> Result<LinearMeasurement<2, 2>, OperatorError> {
-    LinearMeasurement::new(
-        azimuth.to_matrix(),
-        Matrix2::identity() * measurement.variance(),
-    )
+/// Given the azimuth A, r's Kalman filter is conditioned with `z = R(A) r + n`,
+/// `n ~ N(0, σ_m² I)`: the measurement model of each cell of the grid and each particle of the
+/// marginalized filter.
+impl LabelModel<So2<f64>> for PositionMeasurement {
+    type Model = LinearMeasurement<2, 2>;
+
+    fn at(&self, azimuth: &So2<f64>) -> Result<LinearMeasurement<2, 2>, OperatorError> {
+        LinearMeasurement::new(azimuth.to_matrix(), Matrix2::identity() * self.variance())
+    }
 }
 
-/// The measurement models of the Kalman filters at each azimuth.
-pub(super) fn per_azimuth(measurement: PositionMeasurement) -> PerAzimuth<LinearMeasurement<2, 2>> {
-    Given(Box::new(move |a: &So2<f64>| rotated(measurement, a)))
-}
+/// The velocity process moves r the same way whatever the azimuth.
+impl LabelModel<So2<f64>> for VelocityProcess {
+    type Model = VelocityProcess;
 
-/// Models per azimuth: the model of a cell's (or a particle's) Kalman filter given its azimuth.
-pub type PerAzimuth<M> = Given<Box<dyn Fn(&So2<f64>) -> Result<M, OperatorError>>>;
+    fn at(&self, _: &So2<f64>) -> Result<VelocityProcess, OperatorError> {
+        Ok(*self)
+    }
+}
 
 /// The azimuth posterior evaluated exactly at the n angles `Aⱼ = 2πj/n`: given A the model is
 /// linear and Gaussian, so one Kalman filter per angle carries `p(r | Aⱼ, z₁..ₖ)` exactly, and the
@@ -64,8 +65,8 @@ pub type PerAzimuth<M> = Given<Box<dyn Fn(&So2<f64>) -> Result<M, OperatorError>
 /// point-mass approximation once it does not. Costs n Kalman steps per step.
 pub type AzimuthGrid = Recursive<
     CircularGrid<Gaussian<2>>,
-    PerAzimuth<VelocityProcess>,
-    PerAzimuth<LinearMeasurement<2, 2>>,
+    Given<VelocityProcess>,
+    Given<PositionMeasurement>,
     AzimuthMoments,
 >;
 
@@ -86,8 +87,8 @@ pub fn grid_filter(
     let prior = Gaussian::new(r0, Matrix2::identity() * variance)?;
     Ok(Recursive::with_estimator(
         CircularGrid::uniform(n, prior)?,
-        Given(Box::new(move |_: &So2<f64>| Ok(process))),
-        per_azimuth(measurement),
+        Given(process),
+        Given(measurement),
         AzimuthMoments,
     ))
 }

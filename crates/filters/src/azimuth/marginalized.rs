@@ -2,14 +2,12 @@
 //! Kalman filter for r.
 
 use super::estimate::{AzimuthEstimate, AzimuthMoments, azimuth_moment};
-use super::grid::{PerAzimuth, per_azimuth};
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use super::particle::{check_count, check_prior, draws};
 use liebayes_densities::Gaussian;
 use liebayes_experiments::{Estimator, Recursive};
 use liebayes_manifolds::So2;
-use liebayes_operators::kalman::LinearMeasurement;
-use liebayes_operators::particle::{ParticleSet, Sampled, SampledProcess};
+use liebayes_operators::particle::{Given, ParticleSet, Sampled, SampledProcess};
 use liebayes_operators::{OperatorError, Propagate};
 use nalgebra::{Matrix2, Vector2};
 use rand::{Rng, RngCore};
@@ -24,7 +22,7 @@ use std::f64::consts::PI;
 pub type AzimuthMarginalized = Recursive<
     ParticleSet<(So2<f64>, Gaussian<2>)>,
     Sampled<VelocityProcess, ChaCha8Rng>,
-    PerAzimuth<LinearMeasurement<2, 2>>,
+    Given<PositionMeasurement>,
     AzimuthMoments,
 >;
 
@@ -68,7 +66,7 @@ pub fn marginalized_filter(
     Ok(Recursive::with_estimator(
         ParticleSet::from_samples(particles)?,
         Sampled::new(process, rng),
-        per_azimuth(measurement),
+        Given(measurement),
         AzimuthMoments,
     ))
 }

@@ -38,7 +38,7 @@ mod serde_impls;
 pub use density::{AzimuthDensity, CONCENTRATION_LIMIT, POSITION_LIMIT, VARIANCE_LIMIT};
 pub use estimate::{AzimuthEstimate, AzimuthMoments, AzimuthScorer, DIVERGENCE_THRESHOLD};
 pub use gaussian::{AzimuthEkf, AzimuthUkf, ekf, ukf};
-pub use grid::{AzimuthGrid, PerAzimuth, grid_filter, log_joint};
+pub use grid::{AzimuthGrid, grid_filter, log_joint};
 pub use marginalized::{AzimuthMarginalized, marginalized_filter};
 pub use method::{Method, ParticleSearch, exact, final_azimuth_rmse, particles_to_match};
 pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};

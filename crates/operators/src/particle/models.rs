@@ -132,7 +132,7 @@ where
 ///
 /// The generator is held in a [`RefCell`], because the stepping traits take the model by shared
 /// reference: one `Sampled` is one random stream, shared by whatever it propagates.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Sampled<P, R> {
     process: P,
     rng: RefCell<R>,
@@ -288,8 +288,32 @@ where
 pub struct Reweight<L>(pub L);
 
 /// The payload's model given the label: for weighted pairs `(label, payload density)` (a particle
-/// set of `(y, p(x | y))`, or a grid whose labels are its cells' rotations), `F(label)` builds the
-/// model the payload is stepped with, `Fn(&Y) -> Result<M, OperatorError>`. The marginalized
-/// (Rao-Blackwellized) particle filter and the bank of filters on a grid are this model.
+/// set of `(y, p(x | y))`, or a grid whose labels are its cells' rotations), `F::at(label)` builds
+/// the model the payload is stepped with ([`LabelModel`]: a closure `Fn(&Y) -> Result<M,
+/// OperatorError>`, or a model type of the application's). The marginalized (Rao-Blackwellized)
+/// particle filter and the bank of filters on a grid are this model.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Given<F>(pub F);
+
+/// The model of a payload given its label y (a particle's label, a grid cell's rotation): what
+/// [`Given`] steps each payload with. Closures `Fn(&Y) -> Result<M, OperatorError>` are label
+/// models; an application's own model type can be one too (a named, cloneable type, where a closure
+/// cannot be named).
+pub trait LabelModel<Y: ?Sized> {
+    /// The payload's model.
+    type Model;
+
+    /// The model at label y.
+    ///
+    /// # Errors
+    /// When no valid model exists at y.
+    fn at(&self, y: &Y) -> Result<Self::Model, OperatorError>;
+}
+
+impl<Y: ?Sized, M, F: Fn(&Y) -> Result<M, OperatorError>> LabelModel<Y> for F {
+    type Model = M;
+
+    fn at(&self, y: &Y) -> Result<M, OperatorError> {
+        self(y)
+    }
+}
