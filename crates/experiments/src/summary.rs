@@ -97,8 +97,26 @@ pub struct Trace {
     pub run: u64,
     /// The time of each epoch (s).
     pub times: Vec<f64>,
-    /// `values[k * metrics + j]`: metric j of the summary at epoch k (NaN where it has none).
+    /// `values[k * metrics + j]`: metric j of the summary at epoch k (NaN where it has none,
+    /// written `null` in a file and read back as NaN).
+    #[serde(with = "missing_as_null")]
     pub values: Vec<f64>,
+}
+
+/// Values where NaN (no value) is written as `null`, the form JSON has for it, and read back.
+mod missing_as_null {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub(super) fn serialize<S: Serializer>(values: &[f64], s: S) -> Result<S::Ok, S::Error> {
+        let present: Vec<Option<f64>> =
+            values.iter().map(|v| (!v.is_nan()).then_some(*v)).collect();
+        present.serialize(s)
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        let present = Vec::<Option<f64>>::deserialize(d)?;
+        Ok(present.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect())
+    }
 }
 
 impl PartialEq for Trace {

@@ -139,3 +139,16 @@ fn failure_reasons_are_bounded() {
     assert_eq!(summary.failures().len(), 65);
     assert_eq!(summary.failures()["other reasons"], 1000 - 64);
 }
+
+#[test]
+fn a_trace_with_missing_values_survives_its_file() {
+    let mut summary = Summary::new(label(0, 1), 0..1);
+    summary
+        .add_run(0, &scores(vec![f64::NAN, 2.0, 1.5, f64::NAN]))
+        .unwrap();
+    let text = serde_json::to_string(&summary).unwrap();
+    assert!(text.contains("null"), "{text}");
+    let back: Summary = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, summary);
+    assert!(back.trace().unwrap().values[0].is_nan());
+}
