@@ -11,7 +11,6 @@ use liebayes::experiments::{
     MAX_EPOCHS, Metric, Reduction, RunScores, Shard, StudyLabel, Summary, run_rngs,
 };
 use liebayes::rand::Rng as _;
-use std::path::PathBuf;
 
 /// Azimuth alignment (placeholder: synthetic scores, no filter runs).
 #[derive(clap::Args, Debug, Clone)]
@@ -34,7 +33,7 @@ pub struct Args {
 }
 
 impl Args {
-    /// The settings of `cargo run --release`.
+    /// The settings of `cargo run --release` (the binary sets the output folder).
     pub fn main_job() -> Args {
         Args {
             runs: 500,
@@ -42,7 +41,7 @@ impl Args {
             seed: 1,
             duration: 500.0,
             output: OutputArgs {
-                out: Some(PathBuf::from("out/azimuth")),
+                out: None,
                 shard: Shard::WHOLE,
             },
         }

@@ -11,6 +11,7 @@ mod progress;
 mod report;
 
 use clap::{Parser, Subcommand};
+use liebayes::experiments::Shard;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -65,7 +66,12 @@ fn main() -> ExitCode {
                 "liebayes {}: Bayesian state estimation on Lie groups",
                 env!("CARGO_PKG_VERSION")
             ));
-            let done = study(&azimuth::Args::main_job());
+            let mut args = azimuth::Args::main_job();
+            args.output = output::OutputArgs {
+                out: Some(PathBuf::from("out/azimuth")),
+                shard: Shard::WHOLE,
+            };
+            let done = study(&args);
             if done.is_ok() {
                 report::print(
                     "\nThe manifolds and densities at work: cargo run --release --example tour",
@@ -103,7 +109,7 @@ fn merge(args: &MergeArgs) -> Result<(), String> {
     report::check_merge_folders(&args.dirs, &args.out)?;
     let settings = output::OutputArgs {
         out: Some(args.out.clone()),
-        shard: liebayes::experiments::Shard::WHOLE,
+        shard: Shard::WHOLE,
     };
     let output = output::prepare(&settings)?;
     let tables = report::merge(&args.dirs)?;

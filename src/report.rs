@@ -37,6 +37,9 @@ pub const MAX_PLOTTED_EPOCHS: usize = 2000;
 /// sampled at evenly spaced epochs (the JSON summary keeps them all).
 pub const MAX_CSV_EPOCHS: usize = 100_000;
 
+/// The most panels of a plot (pairs `<x>_error`, `<x>_sigma`); further pairs are left out.
+pub const MAX_PANELS: usize = 12;
+
 /// The largest JSON summary `liebayes merge` reads (256 MiB).
 pub const MAX_JSON_BYTES: u64 = 256 << 20;
 
@@ -802,6 +805,7 @@ fn pairs(s: &Summary) -> Vec<(String, usize, usize)> {
             let j = metrics.iter().position(|m| m.name == sigma)?;
             Some((x.to_owned(), i, j))
         })
+        .take(MAX_PANELS)
         .collect()
 }
 
@@ -821,7 +825,7 @@ fn axis_label(s: &Summary, index: usize, what: &str) -> String {
 }
 
 /// `<name>_first_run.svg`: the trace of the first row that has one, a panel per `_error`/`_sigma`
-/// pair, the error and ±1 σ. `None` when no row has a trace with such a pair.
+/// pair (at most [`MAX_PANELS`]), the error and ±1 σ. `None` when no row has a trace with such a pair.
 fn plot_first_run(table: &Table) -> Plot<Option<String>> {
     let Some((s, trace)) = table
         .summaries
@@ -922,12 +926,12 @@ fn rms_curve(s: &Summary, index: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// `<name>_over_time.svg`: a panel per `_error`/`_sigma` pair, each row's RMSE over time (solid)
+/// `<name>_over_time.svg`: a panel per `_error`/`_sigma` pair (at most [`MAX_PANELS`]), each row's RMSE over time (solid)
 /// beside the first row's RMS σ (dashed), on a log axis. `None` without such a pair.
 fn plot_over_time(table: &Table) -> Plot<Option<String>> {
     let mut quantities: Vec<String> = Vec::new();
     for (x, _, _) in table.summaries.iter().flat_map(pairs) {
-        if !quantities.contains(&x) {
+        if !quantities.contains(&x) && quantities.len() < MAX_PANELS {
             quantities.push(x);
         }
     }
