@@ -17,10 +17,9 @@
 //!
 //! | feature | default | what it adds |
 //! |---|---|---|
-//! | `cli` | yes | the `liebayes` command-line program (clap, SVG plots) |
+//! | `cli` | yes | the `liebayes` command-line program (clap, progress bars, SVG plots, JSON summaries; implies `rayon`) |
 //! | `proptest` | no | proptest strategies for every space and density, and the law suites |
-//! | `rayon` | no | parallel particle weighting and parallel Monte Carlo runs |
-//! | `progress` | no | a terminal progress bar for Monte Carlo studies (implies `rayon`) |
+//! | `rayon` | no | parallel particle weighting and parallel runs of a study |
 //! | `serde` | no | `Serialize`/`Deserialize` for points, densities and filter states, read back through the validated constructors |
 
 pub use liebayes_densities as densities;

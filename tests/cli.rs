@@ -1,83 +1,280 @@
-//! The command-line program end to end: a short azimuth study writes its table, CSV files and SVG plots,
-//! and bad arguments fail with a message and a non-zero exit code.
+//! The command-line program end to end: a study writes its table and files, bad settings and
+//! unwritable folders fail at once with one line and write nothing, and the shards of a study merge
+//! to the whole run's summary.
 
-use std::path::PathBuf;
-use std::process::Command;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
-fn liebayes(args: &[&str]) -> std::process::Output {
+fn liebayes(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_liebayes"))
         .args(args)
         .output()
         .expect("the binary runs")
 }
 
-#[test]
-fn azimuth_study_writes_the_table_and_the_files() {
-    let dir = std::env::temp_dir().join(format!("liebayes-cli-{}", std::process::id()));
+/// A fresh, empty folder for one test.
+fn folder(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("liebayes-cli-{test}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let out = liebayes(&[
-        "azimuth",
-        "--scenario",
-        "line",
-        "--runs",
-        "4",
-        "--baseline-runs",
-        "2",
-        "--duration",
-        "30",
-        "--particles",
-        "100",
-        "--cells",
-        "36",
-        "--mpf-particles",
-        "36",
-        "--seed",
-        "5",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// The file names of a folder, sorted (none if it does not exist).
+fn files(dir: &Path) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut names: Vec<String> = entries
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// A failure: exit code 1, nothing on stdout, one line `liebayes: ...` on stderr containing
+/// `needle`.
+fn assert_fails(out: &Output, needle: &str) {
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(out.stdout.is_empty(), "{}", text(&out.stdout));
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        stderr.starts_with("liebayes: ") && stderr.contains(needle),
+        "{needle:?} not in {stderr}"
     );
-    let stdout = String::from_utf8_lossy(&out.stdout);
+}
+
+/// A small study of the azimuth command.
+const SMALL: [&str; 7] = [
+    "azimuth",
+    "--runs",
+    "12",
+    "--baseline-runs",
+    "5",
+    "--duration",
+    "8",
+];
+
+fn small(extra: &[&str]) -> Output {
+    let args: Vec<&str> = SMALL.iter().chain(extra).copied().collect();
+    liebayes(&args)
+}
+
+#[test]
+fn a_study_writes_the_table_and_the_files() {
+    let dir = folder("study");
+    let out = small(&["--seed", "5", "--out", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
     for label in [
-        "exact", "EKF", "UKF", "PF 100", "grid 36", "MPF 36", "seed 5",
+        "exact",
+        "EKF",
+        "PF 1000",
+        "seed 5",
+        "runs failed",
+        "wrote 12 files",
     ] {
         assert!(stdout.contains(label), "{label} missing from\n{stdout}");
     }
-    let file = |name: &str| -> PathBuf { dir.join(name) };
-    let summary = std::fs::read_to_string(file("azimuth_line_summary.csv")).unwrap();
-    assert_eq!(summary.lines().count(), 7, "{summary}");
-    assert!(summary.starts_with("method,runs,failures,azimuth_rmse_deg"));
-    let run = std::fs::read_to_string(file("azimuth_line_first_run.csv")).unwrap();
-    // 30 measurements per method, six methods, one header.
-    assert_eq!(run.lines().count(), 1 + 6 * 30);
-    for plot in ["azimuth_line_first_run.svg", "azimuth_line_rmse.svg"] {
-        let svg = std::fs::read_to_string(file(plot)).unwrap();
+    let mut expected = Vec::new();
+    for table in ["azimuth_circle", "azimuth_line"] {
+        for file in [
+            ".summary.json",
+            "_first_run.csv",
+            "_first_run.svg",
+            "_over_time.csv",
+            "_over_time.svg",
+            "_summary.csv",
+        ] {
+            expected.push(format!("{table}{file}"));
+        }
+    }
+    assert_eq!(files(&dir), expected);
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap();
+    // A heading and one line per row.
+    assert_eq!(read("azimuth_line_summary.csv").lines().count(), 4);
+    // A heading and 8 epochs per row.
+    assert_eq!(
+        read("azimuth_line_over_time.csv").lines().count(),
+        1 + 3 * 8
+    );
+    for plot in ["azimuth_line_first_run.svg", "azimuth_line_over_time.svg"] {
+        let svg = read(plot);
         assert!(svg.starts_with("<svg") && svg.contains("azimuth"), "{plot}");
     }
-    assert!(file("azimuth_line_over_time.csv").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
-fn bad_arguments_fail_with_a_reason() {
+fn bad_settings_fail_with_a_reason_and_write_nothing() {
+    let dir = folder("settings");
+    let out_dir = dir.join("out");
+    let out = out_dir.to_str().unwrap();
+    assert_fails(
+        &liebayes(&["azimuth", "--runs", "0", "--out", out]),
+        "--runs is 0",
+    );
+    assert_fails(
+        &liebayes(&["azimuth", "--duration", "-1", "--out", out]),
+        "--duration is -1",
+    );
+    assert_fails(&small(&["--shard", "4/3", "--out", out]), "4/3");
+    assert_fails(&small(&["--shard", "2/3"]), "needs --out");
+    assert_fails(&liebayes(&["azimuth", "--nowhere"]), "--nowhere");
+    assert_fails(&liebayes(&["merge", "--out", out]), "<DIR>");
+    assert!(!out_dir.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Runs the command, killing it if it has not ended by the deadline (a bounded wait, so that a
+/// command that starts its runs is caught rather than waited for).
+fn within(args: &[&str], deadline: Duration) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_liebayes"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the binary runs");
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > deadline {
+            child.kill().unwrap();
+            panic!("{args:?} still running after {deadline:?}: it started the study");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn an_unwritable_folder_fails_before_any_run() {
+    let dir = folder("unwritable");
+    let file = dir.join("a-file");
+    std::fs::write(&file, b"").unwrap();
+    // 10^9 runs would take hours: the folder is checked first.
+    let huge = ["azimuth", "--runs", "1000000000", "--out"];
+    let below = file.join("out");
+    let args: Vec<&str> = huge
+        .iter()
+        .copied()
+        .chain([below.to_str().unwrap()])
+        .collect();
+    let out = within(&args, Duration::from_secs(20));
+    assert_fails(&out, "cannot create the output folder");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt as _;
+        let locked = dir.join("locked");
+        std::fs::create_dir(&locked).unwrap();
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+        // Root writes into read-only folders: then there is nothing to check.
+        if std::fs::write(locked.join("probe"), b"").is_err() {
+            let args: Vec<&str> = huge
+                .iter()
+                .copied()
+                .chain([locked.to_str().unwrap()])
+                .collect();
+            let out = within(&args, Duration::from_secs(20));
+            assert_fails(&out, "cannot write into the output folder");
+            assert!(files(&locked).is_empty());
+        }
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    assert_eq!(files(&dir), ["a-file", "locked"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The JSON summaries of a folder, parsed, with the measured timing of every row removed.
+fn summaries(dir: &Path) -> Vec<(String, serde_json::Value)> {
+    files(dir)
+        .into_iter()
+        .filter(|f| f.ends_with(".summary.json"))
+        .map(|f| {
+            let text = std::fs::read_to_string(dir.join(&f)).unwrap();
+            let mut table: serde_json::Value = serde_json::from_str(&text).unwrap();
+            for row in table["summaries"].as_array_mut().unwrap() {
+                assert!(row.as_object_mut().unwrap().remove("timing").is_some());
+            }
+            (f, table)
+        })
+        .collect()
+}
+
+#[test]
+fn shards_merge_to_the_whole_run() {
+    let dir = folder("merge");
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    let out = small(&["--out", &path("whole")]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    for k in 1..=3 {
+        let shard = format!("{k}/3");
+        let out = small(&["--shard", &shard, "--out", &path(&format!("part-{k}"))]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        assert!(
+            text(&out.stdout).contains(&format!("shard {k}/3 of 12 and 5 runs: partial summary")),
+            "{}",
+            text(&out.stdout)
+        );
+        assert_eq!(
+            files(&dir.join(format!("part-{k}"))),
+            ["azimuth_circle.summary.json", "azimuth_line.summary.json"]
+        );
+    }
+    // Two of three shards: the missing runs are named and only the summaries written.
     let out = liebayes(&[
-        "azimuth",
-        "--runs",
-        "2",
-        "--baseline-runs",
-        "0",
-        "--sigma-m",
-        "-1",
+        "merge",
+        &path("part-1"),
+        &path("part-3"),
+        "--out",
+        &path("some"),
     ]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("sigma_m"));
-    let out = liebayes(&["azimuth", "--scenario", "nowhere"]);
-    assert!(!out.status.success());
-    let out = liebayes(&["azimuth", "--duration", "0"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("duration"));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("azimuth_circle exact: runs 4..8 of 12"));
+    assert_eq!(files(&dir.join("some")).len(), 2);
+    // All three, in any order: the whole run's files, and its summaries but for the timing.
+    let out = liebayes(&[
+        "merge",
+        &path("part-3"),
+        &path("part-1"),
+        &path("part-2"),
+        "--out",
+        &path("merged"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(files(&dir.join("merged")), files(&dir.join("whole")));
+    assert_eq!(
+        summaries(&dir.join("merged")),
+        summaries(&dir.join("whole"))
+    );
+    let read = |d: &str, f: &str| std::fs::read_to_string(dir.join(d).join(f)).unwrap();
+    assert_eq!(
+        read("merged", "azimuth_line_first_run.csv"),
+        read("whole", "azimuth_line_first_run.csv")
+    );
+    // The same shard twice: one line, nothing written.
+    let twice = liebayes(&[
+        "merge",
+        &path("part-1"),
+        &path("part-2"),
+        &path("part-1"),
+        "--out",
+        &path("twice"),
+    ]);
+    assert_fails(&twice, "merged twice");
+    assert!(files(&dir.join("twice")).is_empty());
+    assert_fails(
+        &liebayes(&["merge", &path("part-1"), "--out", &path("part-1")]),
+        "one of the folders to merge",
+    );
+    assert_fails(
+        &liebayes(&["merge", &path("nowhere"), "--out", &path("x")]),
+        "cannot read the folder",
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1,0 +1,242 @@
+//! Where a command's files go, written all or nothing: every file goes under a temporary name in
+//! the output folder and is renamed into place only when the whole command has succeeded.
+
+use liebayes::experiments::Shard;
+use std::fs;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The output settings every command shares.
+#[derive(clap::Args, Debug, Clone)]
+pub struct OutputArgs {
+    /// Folder for the tables, plots and JSON summary (created if needed; nothing is written without
+    /// it).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Run only shard K of N of every study (1 <= K <= N; the runs split into N contiguous
+    /// ranges). A partial shard saves only its JSON summary, for `liebayes merge`.
+    #[arg(long, value_name = "K/N", default_value = "1/1")]
+    pub shard: Shard,
+}
+
+/// The longest file name accepted (bytes), well below every file system's limit of 255.
+const MAX_NAME: usize = 120;
+
+/// A command's files, pending until [`commit`](Self::commit): each is written under a temporary
+/// name beside its final one, and dropping the value uncommitted removes them all.
+#[derive(Debug)]
+pub struct Output {
+    dir: Option<PathBuf>,
+    /// (temporary, final) paths of the files written so far.
+    pending: Vec<(PathBuf, PathBuf)>,
+}
+
+/// Checks `--shard` against `--out`, creates the output folder if needed and proves it writable
+/// (a probe file created and removed), before any work is done.
+///
+/// # Errors
+/// A shard other than 1/1 without `--out` (its partial summary would be lost), or a folder that
+/// cannot be created or written; the message names the folder and the reason.
+pub fn prepare(args: &OutputArgs) -> Result<Output, String> {
+    let Some(dir) = &args.out else {
+        if args.shard != Shard::WHOLE {
+            return Err(format!(
+                "--shard {} needs --out DIR: a partial study is only useful saved, for `liebayes merge`",
+                args.shard
+            ));
+        }
+        return Ok(Output {
+            dir: None,
+            pending: Vec::new(),
+        });
+    };
+    let cannot = |what: &str, e: std::io::Error| {
+        format!(
+            "cannot {what} the output folder {}: {e} (choose a writable --out DIR)",
+            dir.display()
+        )
+    };
+    fs::create_dir_all(dir).map_err(|e| cannot("create", e))?;
+    let probe = dir.join(format!(".liebayes-probe-{}", std::process::id()));
+    fs::File::create(&probe).map_err(|e| cannot("write into", e))?;
+    fs::remove_file(&probe).map_err(|e| cannot("write into", e))?;
+    Ok(Output {
+        dir: Some(dir.clone()),
+        pending: Vec::new(),
+    })
+}
+
+impl Output {
+    /// The output folder, if files are to be written.
+    pub fn dir(&self) -> Option<&Path> {
+        self.dir.as_deref()
+    }
+
+    /// Writes `bytes` as the file `name` of the output folder, under a temporary name until
+    /// [`commit`](Self::commit). `name` is a plain file name: at most 120 bytes of ASCII letters,
+    /// digits, `_`, `-` and `.`, not starting with `.`, written once per command.
+    ///
+    /// # Errors
+    /// No output folder, a bad or repeated name, or a failed write (the temporary is removed).
+    pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), String> {
+        let Some(dir) = &self.dir else {
+            return Err(format!("internal: {name} written without an output folder"));
+        };
+        check_name(name)?;
+        let target = dir.join(name);
+        if self.pending.iter().any(|(_, t)| *t == target) {
+            return Err(format!(
+                "internal: {name} written twice by one command (two tables of the same name?)"
+            ));
+        }
+        let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        let written = fs::File::create(&temporary).and_then(|mut file| {
+            file.write_all(bytes)?;
+            file.sync_all()
+        });
+        if let Err(e) = written {
+            let _ = fs::remove_file(&temporary);
+            return Err(format!("writing {}: {e}", target.display()));
+        }
+        self.pending.push((temporary, target));
+        Ok(())
+    }
+
+    /// Renames every pending file into place, in the order written, and returns their paths. Each
+    /// rename is atomic, so a reader sees a file whole or its earlier version, never half of one.
+    ///
+    /// # Errors
+    /// A rename that fails (the files not yet renamed are removed; those before it are in place).
+    pub fn commit(mut self) -> Result<Vec<PathBuf>, String> {
+        let mut done = Vec::with_capacity(self.pending.len());
+        let pending = std::mem::take(&mut self.pending);
+        let mut rest = pending.into_iter();
+        for (temporary, target) in rest.by_ref() {
+            if let Err(e) = fs::rename(&temporary, &target) {
+                let _ = fs::remove_file(&temporary);
+                self.pending = rest.collect();
+                return Err(format!(
+                    "moving {} into place: {e} ({} of the command's files were already in place)",
+                    target.display(),
+                    done.len()
+                ));
+            }
+            done.push(target);
+        }
+        Ok(done)
+    }
+}
+
+impl Drop for Output {
+    /// Removes the temporaries of an uncommitted output: a failed command leaves nothing behind.
+    fn drop(&mut self) {
+        for (temporary, _) in &self.pending {
+            let _ = fs::remove_file(temporary);
+        }
+    }
+}
+
+/// Refuses names that are not plain, portable file names (see [`Output::write`]).
+///
+/// # Errors
+/// The name and the rule it breaks.
+pub fn check_name(name: &str) -> Result<(), String> {
+    let plain = name
+        .bytes()
+        .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-' || b == b'.');
+    if name.is_empty() || name.len() > MAX_NAME || name.starts_with('.') || !plain {
+        return Err(format!(
+            "file name {name:?} is not a plain name (1 to {MAX_NAME} ASCII letters, digits, '_', '-' or \
+             '.', not starting with '.')"
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh, empty folder for one test.
+    fn folder(test: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("liebayes-output-{test}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        dir
+    }
+
+    fn files(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    fn args(dir: &Path) -> OutputArgs {
+        OutputArgs {
+            out: Some(dir.to_path_buf()),
+            shard: Shard::WHOLE,
+        }
+    }
+
+    #[test]
+    fn nothing_is_visible_before_the_commit_and_everything_after() {
+        let dir = folder("commit");
+        let mut output = prepare(&args(&dir)).unwrap();
+        output.write("a.csv", b"1\n").unwrap();
+        output.write("b.svg", b"<svg/>").unwrap();
+        assert!(!dir.join("a.csv").exists() && !dir.join("b.svg").exists());
+        let written = output.commit().unwrap();
+        assert_eq!(written, vec![dir.join("a.csv"), dir.join("b.svg")]);
+        assert_eq!(files(&dir), ["a.csv", "b.svg"]);
+        assert_eq!(fs::read(dir.join("a.csv")).unwrap(), b"1\n");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_failing_write_leaves_no_file_and_keeps_the_earlier_ones() {
+        let dir = folder("failing");
+        fs::create_dir_all(&dir).unwrap();
+        fs::write(dir.join("a.csv"), b"earlier").unwrap();
+        let mut output = prepare(&args(&dir)).unwrap();
+        output.write("a.csv", b"new").unwrap();
+        // A folder of that temporary name makes the write fail.
+        fs::create_dir(dir.join(format!(".b.csv.{}.tmp", std::process::id()))).unwrap();
+        assert!(output.write("b.csv", b"x").is_err());
+        assert!(output.write("../escape", b"x").is_err());
+        assert!(output.write("a.csv", b"twice").is_err());
+        drop(output);
+        fs::remove_dir(dir.join(format!(".b.csv.{}.tmp", std::process::id()))).unwrap();
+        assert_eq!(files(&dir), ["a.csv"]);
+        assert_eq!(fs::read(dir.join("a.csv")).unwrap(), b"earlier");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_folder_is_checked_before_any_work() {
+        let dir = folder("checked");
+        fs::create_dir_all(&dir).unwrap();
+        fs::write(dir.join("file"), b"").unwrap();
+        let error = prepare(&args(&dir.join("file").join("below"))).unwrap_err();
+        assert!(error.contains("cannot create the output folder"), "{error}");
+        let partial = OutputArgs {
+            out: None,
+            shard: Shard::new(2, 3).unwrap(),
+        };
+        assert!(
+            prepare(&partial)
+                .unwrap_err()
+                .contains("--shard 2/3 needs --out")
+        );
+        let mut none = prepare(&OutputArgs {
+            out: None,
+            shard: Shard::WHOLE,
+        })
+        .unwrap();
+        assert!(none.dir().is_none() && none.write("a.csv", b"").is_err());
+        assert_eq!(files(&dir), ["file"]);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+}
