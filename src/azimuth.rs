@@ -1,45 +1,158 @@
-//! PLACEHOLDER for the azimuth application module (replaced by the real one when the branches are
-//! merged). It implements the interface every application module gives the binary (`Args`,
-//! `Args::main_job`, `Plan::new`, `Plan::run`) with synthetic studies: the scores of each run are
-//! drawn from the run's own stream, so that sharding and merging behave as for a real study, but no
-//! filter runs.
+//! `liebayes azimuth`: the azimuth-alignment study's settings, checked before any run, and the
+//! studies it runs (every filter on every chosen scenario), as tables for the report.
 
 use crate::output::OutputArgs;
-use crate::report::Table;
-use liebayes::experiments::study::MAX_RUNS;
-use liebayes::experiments::{
-    MAX_EPOCHS, Metric, Reduction, RunScores, Shard, StudyLabel, Summary, run_rngs,
-};
-use liebayes::rand::Rng as _;
+use crate::progress;
+use crate::report::{Table, print};
+use clap::ValueEnum;
+use liebayes::experiments::{MAX_RUNS, MAX_STUDY_EPOCHS, Shard, Study};
+use liebayes::filters::azimuth::{AzimuthScenario, Config, Method, Motion, particles_to_match};
 
-/// Azimuth alignment (placeholder: synthetic scores, no filter runs).
+/// The largest particle or cell count a study may use: a study runs one filter per core, and
+/// 10⁷ particles take about a gigabyte.
+const MAX_FILTER_SIZE: usize = 10_000_000;
+
+/// Which scenarios.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Scenarios {
+    /// The platform at rest: the azimuth is unobservable.
+    Static,
+    /// Bounded circles.
+    Circle,
+    /// A straight line at constant velocity.
+    Line,
+    /// All three.
+    All,
+}
+
+impl Scenarios {
+    fn motions(self) -> &'static [Motion] {
+        match self {
+            Scenarios::Static => &[Motion::Static],
+            Scenarios::Circle => &[Motion::Circle],
+            Scenarios::Line => &[Motion::Line],
+            Scenarios::All => &Motion::ALL,
+        }
+    }
+}
+
+/// The blog post's settings.
+const DURATION: f64 = 500.0;
+
+/// The simulation settings (by default those of the blog post that proposed the filter).
+#[derive(clap::Args, Debug, Clone)]
+#[command(allow_negative_numbers = true)]
+pub struct Simulation {
+    /// Simulated time (s).
+    #[arg(long, default_value_t = DURATION)]
+    pub duration: f64,
+    /// Position measurement noise sigma_m (m).
+    #[arg(long, default_value_t = Config::default().sigma_m)]
+    pub sigma_m: f64,
+    /// Initial position standard deviation sigma_0 (m).
+    #[arg(long, default_value_t = Config::default().sigma0)]
+    pub sigma0: f64,
+    /// Velocity noise density q (m/sqrt(s)).
+    #[arg(long, default_value_t = Config::default().q)]
+    pub q: f64,
+    /// Propagation step (s).
+    #[arg(long, default_value_t = Config::default().dt)]
+    pub dt: f64,
+    /// A position measurement every this many steps.
+    #[arg(long, default_value_t = Config::default().measure_every)]
+    pub measure_every: usize,
+}
+
+impl Default for Simulation {
+    fn default() -> Self {
+        let c = Config::default();
+        Self {
+            duration: DURATION,
+            sigma_m: c.sigma_m,
+            sigma0: c.sigma0,
+            q: c.q,
+            dt: c.dt,
+            measure_every: c.measure_every,
+        }
+    }
+}
+
+impl Simulation {
+    /// The library's configuration, checked by the library, with a number of measurement epochs a
+    /// study can summarise.
+    fn config(&self) -> Result<Config, String> {
+        let config = Config {
+            sigma0: self.sigma0,
+            sigma_m: self.sigma_m,
+            q: self.q,
+            dt: self.dt,
+            measure_every: self.measure_every,
+            steps: Config::steps_for(self.duration, self.dt).map_err(|e| e.to_string())?,
+        };
+        config.validate().map_err(|e| e.to_string())?;
+        let epochs = config.steps.div_ceil(config.measure_every);
+        if epochs > MAX_STUDY_EPOCHS {
+            return Err(format!(
+                "{epochs} measurement epochs (duration / dt / measure-every) is more than a study \
+                 summarises ({MAX_STUDY_EPOCHS}): shorten --duration or raise --measure-every"
+            ));
+        }
+        Ok(config)
+    }
+
+    fn describe(&self, config: &Config) -> String {
+        format!(
+            "{} s, dt {} s, a measurement every {} steps, sigma_0 {} m, sigma_m {} m, q {} m/sqrt(s)",
+            self.duration, config.dt, config.measure_every, config.sigma0, config.sigma_m, config.q
+        )
+    }
+}
+
+/// Azimuth alignment: the exact seven-number filter and its baselines, Monte Carlo over runs.
 #[derive(clap::Args, Debug, Clone)]
 #[command(allow_negative_numbers = true)]
 pub struct Args {
-    /// Runs of the exact filter and the EKF.
+    /// Which scenario.
+    #[arg(long, value_enum, default_value_t = Scenarios::All)]
+    pub scenario: Scenarios,
+    /// Monte Carlo runs of the exact filter, the EKF and the UKF.
     #[arg(long, default_value_t = 500)]
     pub runs: u64,
-    /// Runs of the particle filter (0: leave it out).
+    /// Runs of the particle, grid and marginalized particle filters (their cost is 1000 times more;
+    /// 0 leaves them out).
     #[arg(long, default_value_t = 100)]
     pub baseline_runs: u64,
-    /// Seed of the study (run k draws from stream k of it).
+    /// The study's seed (run k draws from its own streams of it, whatever the shard).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Simulated time (s), one measurement per second.
-    #[arg(long, default_value_t = 500.0)]
-    pub duration: f64,
+    /// Particles of the bootstrap particle filter.
+    #[arg(long, default_value_t = 1000)]
+    pub particles: usize,
+    /// Azimuths of the grid filter.
+    #[arg(long, default_value_t = 360)]
+    pub cells: usize,
+    /// Azimuth particles of the marginalized particle filter.
+    #[arg(long, default_value_t = 360)]
+    pub mpf_particles: usize,
+    #[command(flatten)]
+    pub simulation: Simulation,
     #[command(flatten)]
     pub output: OutputArgs,
 }
 
 impl Args {
-    /// The settings of `cargo run --release` (the binary sets the output folder).
+    /// The settings of `cargo run --release`: every filter on every scenario (the binary sets the
+    /// output folder).
     pub fn main_job() -> Args {
         Args {
+            scenario: Scenarios::All,
             runs: 500,
             baseline_runs: 100,
             seed: 1,
-            duration: 500.0,
+            particles: 1000,
+            cells: 360,
+            mpf_particles: 360,
+            simulation: Simulation::default(),
             output: OutputArgs {
                 out: None,
                 shard: Shard::WHOLE,
@@ -48,146 +161,225 @@ impl Args {
     }
 }
 
-/// Validated settings.
-#[derive(Debug, Clone)]
-pub struct Plan {
-    runs: u64,
-    baseline_runs: u64,
-    seed: u64,
-    epochs: usize,
+/// Checks a run count.
+fn runs(what: &str, runs: u64, zero_allowed: bool) -> Result<u64, String> {
+    if (runs == 0 && !zero_allowed) || runs > MAX_RUNS {
+        return Err(format!(
+            "{what} is {runs}: it must be from {} to 2^40",
+            u8::from(!zero_allowed)
+        ));
+    }
+    Ok(runs)
 }
 
-/// The rows of each table: label, and whether it is a Kalman filter (with a NIS).
-const ROWS: [(&str, bool); 3] = [("exact", true), ("EKF", true), ("PF 1000", false)];
+/// Checks a filter size: the library's range, and at most [`MAX_FILTER_SIZE`].
+fn size(method: Method, what: &str, n: usize) -> Result<Method, String> {
+    method.validate().map_err(|e| format!("{what}: {e}"))?;
+    if n > MAX_FILTER_SIZE {
+        return Err(format!(
+            "{what} is {n}: at most {MAX_FILTER_SIZE} (a study holds one filter per core)"
+        ));
+    }
+    Ok(method)
+}
+
+/// The studies of `liebayes azimuth`, every setting checked.
+#[derive(Debug)]
+pub struct Plan {
+    scenarios: Vec<AzimuthScenario>,
+    methods: Vec<(Method, u64)>,
+    seed: u64,
+    settings: String,
+}
 
 impl Plan {
-    /// Checks every setting; does no work.
+    /// Checks every setting; runs nothing.
     ///
     /// # Errors
-    /// A run count outside [1, 2^40] (baseline runs: [0, 2^40]) or a duration outside [1, 2^24] s.
+    /// The first setting out of range, in one line that names it.
     pub fn new(args: &Args) -> Result<Plan, String> {
-        if args.runs == 0 || args.runs > MAX_RUNS {
-            return Err(format!("--runs is {}, outside [1, 2^40]", args.runs));
+        let config = args.simulation.config()?;
+        let runs = runs("--runs", args.runs, false)?;
+        let baseline = runs_checked(args.baseline_runs)?;
+        let mut methods = vec![
+            (Method::Exact, runs),
+            (Method::Ekf, runs),
+            (Method::Ukf, runs),
+        ];
+        if baseline > 0 {
+            methods.extend([
+                (
+                    size(
+                        Method::Particle(args.particles),
+                        "--particles",
+                        args.particles,
+                    )?,
+                    baseline,
+                ),
+                (
+                    size(Method::Grid(args.cells), "--cells", args.cells)?,
+                    baseline,
+                ),
+                (
+                    size(
+                        Method::Marginalized(args.mpf_particles),
+                        "--mpf-particles",
+                        args.mpf_particles,
+                    )?,
+                    baseline,
+                ),
+            ]);
         }
-        if args.baseline_runs > MAX_RUNS {
-            return Err(format!(
-                "--baseline-runs is {}, outside [0, 2^40]",
-                args.baseline_runs
-            ));
-        }
-        if !(1.0..=MAX_EPOCHS as f64).contains(&args.duration) {
-            return Err(format!(
-                "--duration is {} s, outside [1, 2^24] s",
-                args.duration
-            ));
-        }
+        let scenarios = args
+            .scenario
+            .motions()
+            .iter()
+            .map(|&m| AzimuthScenario::new(m, config).map_err(|e| e.to_string()))
+            .collect::<Result<_, _>>()?;
         Ok(Plan {
-            runs: args.runs,
-            baseline_runs: args.baseline_runs,
+            scenarios,
+            methods,
             seed: args.seed,
-            // In [1, 2^24]: the cast is exact.
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            epochs: args.duration.floor() as usize,
+            settings: format!("{}; seed {}", args.simulation.describe(&config), args.seed),
         })
     }
 
-    /// Runs shard `shard` of every study: two tables (two scenarios), three rows each. (No
-    /// unobservable scenario: a trace holding NaN does not yet survive its JSON round trip.)
+    /// Runs shard `shard` of every study: one table per scenario, one row per filter.
     ///
     /// # Errors
-    /// Never, in this placeholder (a synthetic run cannot fail to be recorded).
+    /// A study that cannot run (the message names the filter and the scenario).
     pub fn run(&self, shard: Shard) -> Result<Vec<Table>, String> {
-        let mut tables = Vec::new();
-        for scenario in ["circle", "line"] {
-            let mut summaries = Vec::new();
-            for (row, kalman) in ROWS {
-                let runs = if kalman {
-                    self.runs
-                } else {
-                    self.baseline_runs
-                };
-                if runs == 0 {
-                    continue;
-                }
-                let label = StudyLabel {
-                    name: row.to_owned(),
-                    seed: self.seed,
-                    runs,
-                };
+        let mut tables = Vec::with_capacity(self.scenarios.len());
+        for scenario in &self.scenarios {
+            let name = scenario.motion().name();
+            let mut summaries = Vec::with_capacity(self.methods.len());
+            for &(method, runs) in &self.methods {
+                let label = method.label();
+                let study = Study::new(label.clone(), runs, self.seed, shard)
+                    .map_err(|e| format!("{label} on {name}: {e}"))?;
                 let range = shard.runs(runs);
-                let progress =
-                    crate::progress::bar(&format!("{row}, {scenario}"), range.end - range.start);
-                let mut summary = Summary::new(label, range.clone());
-                for run in range.clone() {
-                    if row == "EKF" && run % 10 == 7 {
-                        summary.add_failure("step 12 (t = 1.2 s): synthetic failure");
-                        continue;
-                    }
-                    let scores = self.scores(run, kalman);
-                    summary.add_run(run, &scores).map_err(|e| e.to_string())?;
-                    progress(run + 1 - range.start);
-                }
-                summaries.push(summary);
+                let bar = progress::bar(&format!("{label} {name}"), range.end - range.start);
+                summaries.push(
+                    method
+                        .study(scenario, &study, &bar)
+                        .map_err(|e| format!("{label} on {name}: {e}"))?,
+                );
             }
             tables.push(Table {
-                name: format!("azimuth_{scenario}"),
-                title: format!(
-                    "Azimuth alignment (placeholder), {scenario} scenario: {} epochs; seed {}",
-                    self.epochs, self.seed
-                ),
+                name: format!("azimuth_{name}"),
+                title: format!("Azimuth alignment, {name} scenario: {}", self.settings),
                 summaries,
             });
         }
         Ok(tables)
     }
+}
 
-    /// Synthetic scores of one run: errors uniform with standard deviation σ(t) = 1/√t.
-    fn scores(&self, run: u64, kalman: bool) -> RunScores {
-        let metrics = vec![
-            Metric::new("azimuth_error", Reduction::RootMeanSquare, "deg"),
-            Metric::new("azimuth_sigma", Reduction::RootMeanSquare, "deg"),
-            Metric::new("x_error", Reduction::RootMeanSquare, "m"),
-            Metric::new("x_sigma", Reduction::RootMeanSquare, "m"),
-            Metric::new("nees_position", Reduction::ChiSquare { dof: 2 }, ""),
-            Metric::new("diverged", Reduction::Rate, ""),
-            Metric::new("log_evidence", Reduction::Mean, ""),
-            Metric::new(
-                "nis",
-                Reduction::ChiSquare {
-                    dof: usize::from(kalman),
-                },
-                "",
-            ),
-        ];
-        let (mut rng, _) = run_rngs(self.seed, run);
-        let mut values = Vec::with_capacity(self.epochs * metrics.len());
-        let mut times = Vec::with_capacity(self.epochs);
-        for k in 0..self.epochs {
-            let t = (k + 1) as f64;
-            let sigma = 1.0 / t.sqrt();
-            let mut draw = || sigma * 3.0_f64.sqrt() * (2.0 * rng.random::<f64>() - 1.0);
-            let (a, x, y) = (draw(), draw(), draw());
-            values.extend([
-                a,
-                sigma,
-                x,
-                sigma,
-                (x * x + y * y) / (sigma * sigma),
-                f64::from(u8::from(a.abs() > 3.0 * sigma)),
-                -0.5 * (x / sigma).powi(2),
-                if kalman {
-                    (y / sigma).powi(2)
-                } else {
-                    f64::NAN
-                },
-            ]);
-            times.push(t);
-        }
-        RunScores {
-            metrics,
-            times,
-            values,
-            seconds_per_step: 1e-8,
-        }
+/// `--baseline-runs`, which may be 0 (no baselines).
+fn runs_checked(n: u64) -> Result<u64, String> {
+    runs("--baseline-runs", n, true)
+}
+
+/// The particle count of the bootstrap particle filter that matches the exact filter's final
+/// azimuth RMSE on the same runs.
+#[derive(clap::Args, Debug, Clone)]
+#[command(allow_negative_numbers = true)]
+pub struct ParticleArgs {
+    /// Which scenario (static has no azimuth to match).
+    #[arg(long, value_enum, default_value_t = Scenarios::Circle)]
+    pub scenario: Scenarios,
+    /// Runs per study (the particle filter's error is dominated by rare divergent runs: 100 are
+    /// too few to decide within 5 %).
+    #[arg(long, default_value_t = 300)]
+    pub runs: u64,
+    /// The study's seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// How close counts as matching: RMSE at most (1 + tolerance) times the exact filter's, in
+    /// (0, 10].
+    #[arg(long, default_value_t = 0.05)]
+    pub tolerance: f64,
+    /// The smallest particle count tried.
+    #[arg(long, default_value_t = 1000)]
+    pub low: u64,
+    /// The largest particle count tried (at most 10^7).
+    #[arg(long, default_value_t = 100_000)]
+    pub high: u64,
+    /// The search stops when the bracket is within this relative width, in (0, 1].
+    #[arg(long, default_value_t = 0.1)]
+    pub resolution: f64,
+    #[command(flatten)]
+    pub simulation: Simulation,
+}
+
+/// `liebayes particles`: the particle-count search on each chosen scenario, printed.
+///
+/// # Errors
+/// A setting out of range (before any run), or a study that cannot run.
+pub fn particles(args: &ParticleArgs) -> Result<(), String> {
+    let config = args.simulation.config()?;
+    let runs = runs("--runs", args.runs, false)?;
+    if !(args.tolerance > 0.0 && args.tolerance <= 10.0) {
+        return Err(format!(
+            "--tolerance is {}: it must be in (0, 10]",
+            args.tolerance
+        ));
     }
+    if !(args.resolution > 0.0 && args.resolution <= 1.0) {
+        return Err(format!(
+            "--resolution is {}: it must be in (0, 1]",
+            args.resolution
+        ));
+    }
+    let limit = MAX_FILTER_SIZE as u64;
+    if args.low == 0 || args.low > args.high || args.high > limit {
+        return Err(format!(
+            "--low {} and --high {}: they must satisfy 1 <= low <= high <= {limit}",
+            args.low, args.high
+        ));
+    }
+    let scenarios: Vec<AzimuthScenario> = args
+        .scenario
+        .motions()
+        .iter()
+        .filter(|&&m| m != Motion::Static)
+        .map(|&m| AzimuthScenario::new(m, config).map_err(|e| e.to_string()))
+        .collect::<Result<_, _>>()?;
+    if scenarios.is_empty() {
+        return Err(
+            "--scenario static: the azimuth is unobservable there, nothing to match".into(),
+        );
+    }
+    for scenario in &scenarios {
+        let name = scenario.motion().name();
+        let study = Study::new("particle search", runs, args.seed, Shard::WHOLE)
+            .map_err(|e| e.to_string())?;
+        let bar = progress::bar(&format!("search {name}"), runs);
+        let found = particles_to_match(
+            scenario,
+            &study,
+            args.tolerance,
+            (args.low, args.high),
+            args.resolution,
+            &bar,
+        )
+        .map_err(|e| format!("{name}: {e}"))?;
+        print(&format!(
+            "{name}: exact filter final azimuth RMSE {:.4} deg over {runs} runs",
+            found.exact_rmse
+        ));
+        for (n, rmse, failures) in &found.tried {
+            print(&format!(
+                "  {n:>8} particles: RMSE {rmse:.4} deg, {failures} failed runs"
+            ));
+        }
+        print(&match found.count {
+            Some(n) => format!(
+                "  -> {n} particles reach the exact filter's RMSE within {:.0} %",
+                100.0 * args.tolerance
+            ),
+            None => format!("  -> {} particles do not reach it", args.high),
+        });
+    }
+    Ok(())
 }

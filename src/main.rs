@@ -3,7 +3,8 @@
 //!
 //! With no arguments: the main job, the azimuth study with its files in `out/azimuth/`.
 //! `liebayes azimuth --help` lists the study's settings; `--shard K/N --out DIR` runs one part of
-//! it, and `liebayes merge DIR... --out DIR` combines the parts exactly.
+//! it, and `liebayes merge DIR... --out DIR` combines the parts exactly. `liebayes particles`
+//! searches the particle count at which the particle filter matches the exact filter.
 
 mod azimuth;
 mod output;
@@ -27,6 +28,8 @@ struct Cli {
 enum Command {
     /// Azimuth alignment: the exact filter and its baselines, Monte Carlo over runs.
     Azimuth(azimuth::Args),
+    /// The bootstrap particle filter's particle count that matches the exact filter's azimuth RMSE.
+    Particles(azimuth::ParticleArgs),
     /// Combines the partial summaries of shards (the --out folders of `--shard K/N` runs) into the
     /// whole study's tables, CSV files, plots and summary.
     Merge(MergeArgs),
@@ -80,6 +83,7 @@ fn main() -> ExitCode {
             done
         }
         Some(Command::Azimuth(args)) => study(&args),
+        Some(Command::Particles(args)) => azimuth::particles(&args),
         Some(Command::Merge(args)) => merge(&args),
     };
     match result {

@@ -50,8 +50,8 @@ fn assert_fails(out: &Output, needle: &str) {
     );
 }
 
-/// A small study of the azimuth command.
-const SMALL: [&str; 7] = [
+/// A small study of the azimuth command: every filter on every scenario, 8 s, small filters.
+const SMALL: [&str; 13] = [
     "azimuth",
     "--runs",
     "12",
@@ -59,7 +59,16 @@ const SMALL: [&str; 7] = [
     "5",
     "--duration",
     "8",
+    "--particles",
+    "200",
+    "--cells",
+    "36",
+    "--mpf-particles",
+    "36",
 ];
+
+/// The tables of every scenario.
+const TABLES: [&str; 3] = ["azimuth_circle", "azimuth_line", "azimuth_static"];
 
 fn small(extra: &[&str]) -> Output {
     let args: Vec<&str> = SMALL.iter().chain(extra).copied().collect();
@@ -75,15 +84,18 @@ fn a_study_writes_the_table_and_the_files() {
     for label in [
         "exact",
         "EKF",
-        "PF 1000",
+        "UKF",
+        "PF 200",
+        "grid 36",
+        "MPF 36",
         "seed 5",
-        "runs failed",
-        "wrote 12 files",
+        "nees_position",
+        "wrote 18 files",
     ] {
         assert!(stdout.contains(label), "{label} missing from\n{stdout}");
     }
     let mut expected = Vec::new();
-    for table in ["azimuth_circle", "azimuth_line"] {
+    for table in TABLES {
         for file in [
             ".summary.json",
             "_first_run.csv",
@@ -97,12 +109,12 @@ fn a_study_writes_the_table_and_the_files() {
     }
     assert_eq!(files(&dir), expected);
     let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap();
-    // A heading and one line per row.
-    assert_eq!(read("azimuth_line_summary.csv").lines().count(), 4);
-    // A heading and 8 epochs per row.
+    // A heading and one line per filter.
+    assert_eq!(read("azimuth_line_summary.csv").lines().count(), 7);
+    // A heading and 8 epochs per filter (measurements at t = 0, 1, …, 7 s).
     assert_eq!(
         read("azimuth_line_over_time.csv").lines().count(),
-        1 + 3 * 8
+        1 + 6 * 8
     );
     for plot in ["azimuth_line_first_run.svg", "azimuth_line_over_time.svg"] {
         let svg = read(plot);
@@ -122,7 +134,43 @@ fn bad_settings_fail_with_a_reason_and_write_nothing() {
     );
     assert_fails(
         &liebayes(&["azimuth", "--duration", "-1", "--out", out]),
-        "--duration is -1",
+        "duration (s) is -1",
+    );
+    // The settings that used to panic, abort, hang or run on silently: each refused at once, in
+    // one line that names it, before any run and without a file.
+    for (args, needle) in [
+        (&["--dt", "1e-300"][..], "propagation steps"),
+        (&["--duration", "1e300"], "propagation steps"),
+        (&["--duration", "1e12"], "propagation steps"),
+        (&["--particles", "18446744073709551615"], "--particles"),
+        (&["--particles", "100000000"], "--particles"),
+        (&["--cells", "1099511627776"], "--cells"),
+        (&["--mpf-particles", "0"], "--mpf-particles"),
+        (&["--q", "1e200"], "q"),
+        (&["--sigma-m", "1e-200"], "sigma_m"),
+        (&["--sigma0", "nan"], "sigma_0"),
+        (&["--measure-every", "0"], "measure_every"),
+        (&["--duration", "100000"], "measurement epochs"),
+        (&["--runs", "2000000000000"], "--runs"),
+    ] {
+        let mut all = vec!["azimuth"];
+        all.extend_from_slice(args);
+        all.extend(["--out", out]);
+        let start = Instant::now();
+        assert_fails(&liebayes(&all), needle);
+        assert!(
+            start.elapsed() < Duration::from_secs(5),
+            "{args:?} took {:?}",
+            start.elapsed()
+        );
+    }
+    assert_fails(
+        &liebayes(&["particles", "--tolerance", "NaN"]),
+        "--tolerance is NaN",
+    );
+    assert_fails(
+        &liebayes(&["particles", "--scenario", "static"]),
+        "unobservable",
     );
     assert_fails(&small(&["--shard", "4/3", "--out", out]), "4/3");
     assert_fails(&small(&["--shard", "2/3"]), "needs --out");
@@ -223,7 +271,7 @@ fn shards_merge_to_the_whole_run() {
         );
         assert_eq!(
             files(&dir.join(format!("part-{k}"))),
-            ["azimuth_circle.summary.json", "azimuth_line.summary.json"]
+            TABLES.map(|t| format!("{t}.summary.json"))
         );
     }
     // Two of three shards: the missing runs are named and only the summaries written.
@@ -236,7 +284,7 @@ fn shards_merge_to_the_whole_run() {
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(text(&out.stdout).contains("azimuth_circle exact: runs 4..8 of 12"));
-    assert_eq!(files(&dir.join("some")).len(), 2);
+    assert_eq!(files(&dir.join("some")).len(), 3);
     // All three, in any order: the whole run's files, and its summaries but for the timing.
     let out = liebayes(&[
         "merge",

@@ -1,13 +1,14 @@
 //! The error type of the densities crate.
 
 use liebayes_manifolds::ManifoldError;
+use liebayes_manifolds::Readable;
 
 /// Why parameters or arguments do not define a density or a value.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum DensityError {
     /// A parameter is NaN or infinite.
-    #[error("{what} is {}: it must be a finite number", shown(*.value))]
+    #[error("{what} is {}: it must be a finite number", Readable(*.value))]
     NonFinite {
         /// The parameter.
         what: &'static str,
@@ -15,7 +16,7 @@ pub enum DensityError {
         value: f64,
     },
     /// A parameter lies outside the range where the density or function is defined.
-    #[error("{what} is {}, outside its range {range}", shown(*.value))]
+    #[error("{what} is {}, outside its range {range}", Readable(*.value))]
     OutOfRange {
         /// The parameter.
         what: &'static str,
@@ -27,16 +28,6 @@ pub enum DensityError {
     /// A point or parameter on a manifold was invalid.
     #[error(transparent)]
     Manifold(#[from] ManifoldError),
-}
-
-/// A value for a message: plain for moderate magnitudes, in exponent form otherwise (f64::MAX would
-/// print 309 digits).
-fn shown(value: f64) -> String {
-    if value == 0.0 || (1e-4..1e6).contains(&value.abs()) || !value.is_finite() {
-        format!("{value}")
-    } else {
-        format!("{value:e}")
-    }
 }
 
 /// Checks that `value` is finite.

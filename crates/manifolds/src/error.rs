@@ -3,6 +3,23 @@
 use crate::real::Real;
 use nalgebra::{SMatrix, SVector};
 
+/// A number as the library's messages show it: plainly from 1e-4 to 1e6 in magnitude (and 0),
+/// in scientific notation outside (so that 1e200 reads `1e200`, not 201 digits). Every crate's error
+/// messages format their values with it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Readable(pub f64);
+
+impl std::fmt::Display for Readable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = self.0;
+        if v == 0.0 || !v.is_finite() || (1e-4..1e6).contains(&v.abs()) {
+            write!(f, "{v}")
+        } else {
+            write!(f, "{v:e}")
+        }
+    }
+}
+
 /// Why raw numbers do not describe a point of a manifold.
 ///
 /// Every message says what is wrong and by how much, and what to do about it.
@@ -10,7 +27,7 @@ use nalgebra::{SMatrix, SVector};
 #[non_exhaustive]
 pub enum ManifoldError {
     /// A component is NaN or infinite.
-    #[error("{what} has a non-finite component ({value}): every component must be a finite number")]
+    #[error("{what} has a non-finite component ({}): every component must be a finite number", Readable(*.value))]
     NonFinite {
         /// What was being constructed.
         what: &'static str,
@@ -98,7 +115,7 @@ pub enum ManifoldError {
         sweeps: usize,
     },
     /// A setting is outside its valid range.
-    #[error("{what} is {value}, outside its valid range {range}")]
+    #[error("{what} is {}, outside its valid range {range}", Readable(*.value))]
     OutOfRange {
         /// The setting.
         what: &'static str,

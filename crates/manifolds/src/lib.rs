@@ -87,7 +87,7 @@ mod su2;
 #[cfg(feature = "proptest")]
 pub mod testing;
 
-pub use error::ManifoldError;
+pub use error::{ManifoldError, Readable};
 pub use left::Left;
 pub use lie_group::{GroupAction, LieGroup};
 pub use manifold::{Jacobian, Manifold, Tangent};

@@ -2,6 +2,7 @@
 
 use liebayes_densities::DensityError;
 use liebayes_manifolds::ManifoldError;
+use liebayes_manifolds::Readable;
 
 /// The largest number of elements any container of the crate holds: particles, grid cells,
 /// resampled draws, recorded smoother steps, and the degrees of freedom of an average-NEES band.
@@ -15,7 +16,7 @@ pub const MAX_ELEMENTS: usize = 1 << 30;
 #[non_exhaustive]
 pub enum OperatorError {
     /// A model parameter or an input is NaN or infinite.
-    #[error("{what} is {value}: it must be a finite number")]
+    #[error("{what} is {}: it must be a finite number", Readable(*.value))]
     NonFinite {
         /// The parameter or input.
         what: &'static str,
@@ -23,7 +24,7 @@ pub enum OperatorError {
         value: f64,
     },
     /// A model parameter lies outside its range.
-    #[error("{what} is {value}, outside its range {range}")]
+    #[error("{what} is {}, outside its range {range}", Readable(*.value))]
     OutOfRange {
         /// The parameter.
         what: &'static str,
@@ -39,7 +40,7 @@ pub enum OperatorError {
         what: &'static str,
     },
     /// An exact closed-form step was asked of a model under which the family is not closed.
-    #[error("not closed: {what} (measure of the violation: {value})")]
+    #[error("not closed: {what} (measure of the violation: {})", Readable(*.value))]
     NotClosed {
         /// Why, and what to use instead.
         what: &'static str,

@@ -55,7 +55,7 @@ pub fn marginalized_filter(
     sigma0: f64,
     mut rng: ChaCha8Rng,
 ) -> Result<AzimuthMarginalized, OperatorError> {
-    check_count(n)?;
+    check_count("number of particles", n)?;
     let prior = Gaussian::new(r0, Matrix2::identity() * check_prior(r0, sigma0)?)?;
     let particles = draws(n, || {
         (

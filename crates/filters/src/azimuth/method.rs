@@ -49,9 +49,10 @@ impl Method {
     pub fn validate(self) -> Result<(), OperatorError> {
         match self {
             Method::Exact | Method::Ekf | Method::Ukf => Ok(()),
-            Method::Particle(n) | Method::Grid(n) | Method::Marginalized(n) => {
-                super::particle::check_count(n)
+            Method::Particle(n) | Method::Marginalized(n) => {
+                super::particle::check_count("number of particles", n)
             }
+            Method::Grid(n) => super::particle::check_count("number of grid cells", n),
         }
     }
 

@@ -66,18 +66,18 @@ impl Likelihood<PositionAzimuth> for PositionMeasurement {
     }
 }
 
-/// Checks a particle count before any particle is drawn.
-pub(super) fn check_count(n: usize) -> Result<(), OperatorError> {
+/// Checks a count of particles (or cells, named by `what`) before anything is drawn.
+pub(super) fn check_count(what: &'static str, n: usize) -> Result<(), OperatorError> {
     if n == 0 {
         return Err(OperatorError::OutOfRange {
-            what: "number of particles",
+            what,
             value: 0.0,
             range: "at least 1",
         });
     }
     if n > MAX_ELEMENTS {
         return Err(OperatorError::TooLarge {
-            what: "number of particles",
+            what,
             value: n,
             max: MAX_ELEMENTS,
         });
@@ -99,7 +99,7 @@ pub(super) fn check_prior(r0: Vector2<f64>, sigma0: f64) -> Result<f64, Operator
 
 /// n draws of `draw`, the count checked and the memory reserved first.
 pub(super) fn draws<T>(n: usize, mut draw: impl FnMut() -> T) -> Result<Vec<T>, OperatorError> {
-    check_count(n)?;
+    check_count("number of particles", n)?;
     let mut particles = Vec::new();
     particles
         .try_reserve_exact(n)

@@ -137,7 +137,7 @@ impl Config {
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] unless duration and dt are finite and positive with dt at most
-    /// [`MAX_DT`]; [`OperatorError::TooLarge`] for more than [`MAX_ELEMENTS`] steps, or for a
+    /// [`MAX_DT`], for more than [`MAX_ELEMENTS`] steps, or for a
     /// duration shorter than half a step (zero steps).
     pub fn steps_for(duration: f64, dt: f64) -> Result<usize, OperatorError> {
         if !(duration > 0.0 && duration.is_finite()) {
@@ -156,10 +156,10 @@ impl Config {
         }
         let steps = (duration / dt).round();
         if steps > MAX_ELEMENTS as f64 {
-            return Err(OperatorError::TooLarge {
+            return Err(OperatorError::OutOfRange {
                 what: "number of propagation steps duration / dt",
-                value: usize::MAX,
-                max: MAX_ELEMENTS,
+                value: steps,
+                range: "[1, 2^30]: a shorter duration or a longer dt",
             });
         }
         if steps < 1.0 {
