@@ -165,21 +165,57 @@ impl Study {
     }
 }
 
-/// Merges `f` over the blocks `0..blocks`, in parallel with the `rayon` feature.
+/// Merges `f` over the blocks `0..blocks`, in parallel with the `rayon` feature: one worker per
+/// thread of rayon's pool, each taking the next block from a shared counter and merging it into
+/// its own summary, then the workers' summaries merged. So the memory is a few summaries per thread
+/// whatever the number of blocks (a divide-and-conquer reduction would hold a summary per level of
+/// its tree).
 #[cfg(feature = "rayon")]
 fn reduce_blocks(
     blocks: u64,
     f: &(impl Fn(u64) -> Result<Summary, ExperimentError> + Sync),
     empty: &(impl Fn() -> Summary + Sync),
 ) -> Result<Summary, ExperimentError> {
-    use rayon::prelude::*;
-    (0..blocks)
-        .into_par_iter()
-        .map(f)
-        .try_reduce(empty, |mut a, b| {
-            a.merge(&b)?;
-            Ok(a)
-        })
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let next = AtomicU64::new(0);
+    let workers = u64::try_from(rayon::current_num_threads())
+        .unwrap_or(1)
+        .clamp(1, blocks.max(1));
+    let parts = Mutex::new(Vec::new());
+    rayon::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|_| {
+                let work = || -> Result<Summary, ExperimentError> {
+                    let mut summary = empty();
+                    loop {
+                        let b = next.fetch_add(1, Ordering::Relaxed);
+                        if b >= blocks {
+                            return Ok(summary);
+                        }
+                        summary.merge(&f(b)?)?;
+                    }
+                };
+                let part = work();
+                if part.is_err() {
+                    // The other workers stop at their next block.
+                    next.store(blocks, Ordering::Relaxed);
+                }
+                parts
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner)
+                    .push(part);
+            });
+        }
+    });
+    let mut summary = empty();
+    for part in parts
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+    {
+        summary.merge(&part?)?;
+    }
+    Ok(summary)
 }
 
 /// Merges `f` over the blocks `0..blocks`.

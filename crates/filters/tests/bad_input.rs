@@ -584,7 +584,7 @@ fn simulations_refuse_sizes_before_allocating() {
         fuzz::quick("steps_for(1e300, 1e-300)", || Config::steps_for(
             1e300, 1e-300
         )),
-        Err(OperatorError::TooLarge { .. })
+        Err(OperatorError::OutOfRange { .. })
     ));
     assert!(Config::steps_for(500.0, 0.1) == Ok(5000));
     assert!(
