@@ -153,7 +153,10 @@ impl VonMises {
     pub fn from_natural(eta: Vector2<f64>) -> Result<Self, DensityError> {
         finite("eta.x", eta.x)?;
         finite("eta.y", eta.y)?;
-        check_concentration("concentration |eta|", eta.x.hypot(eta.y))?;
+        // |η| ≤ √2 max(|η_x|, |η_y|): the norm (a slow hypot) is needed only near the limit.
+        if eta.x.abs().max(eta.y.abs()) > MAX_CONCENTRATION * std::f64::consts::FRAC_1_SQRT_2 {
+            check_concentration("concentration |eta|", eta.x.hypot(eta.y))?;
+        }
         Ok(Self { eta })
     }
 

@@ -27,7 +27,7 @@
 //! * [`smoother`]: the Rauch-Tung-Striebel smoother for that Gaussian (EKF or UKF linearisation);
 //! * [`particle`]: the particle filter over any state type (log weights, four resampling schemes, ESS
 //!   threshold), propagated by sampling a [`SampledProcess`] ([`Sampled`]), conditioned by a
-//!   [`Likelihood`] ([`Reweight`], in parallel with the `rayon` feature) or, for particles carrying
+//!   [`Likelihood`] ([`Reweight`]; `ReweightInParallel` with the `rayon` feature) or, for particles carrying
 //!   a density, by the payload's exact step given the particle's label ([`Given`]: the marginalized
 //!   particle filter);
 //! * [`grid`]: the grid filter on the circle, optionally carrying a density per cell (stepped with

@@ -91,6 +91,9 @@ impl LogSum {
 pub(crate) struct LogWeights {
     values: Vec<f64>,
     pending: Vec<f64>,
+    /// `1 / Σ exp(2 lᵢ)`, kept with the weights: a propagation asks for it at every step, and the
+    /// weights change only at a Bayes step or a reset.
+    effective_size: f64,
 }
 
 impl LogWeights {
@@ -105,12 +108,18 @@ impl LogWeights {
         Ok(Self {
             values,
             pending: with_capacity(what, n)?,
+            effective_size: n as f64,
         })
     }
 
     /// The normalised log weights.
     pub(crate) fn values(&self) -> &[f64] {
         &self.values
+    }
+
+    /// The effective sample size `1 / Σ wᵢ²` of the weights, in [1, N].
+    pub(crate) fn effective_size(&self) -> f64 {
+        self.effective_size
     }
 
     /// The pending buffer, to be filled with one value per weight before [`Self::add_pending`] or
@@ -130,6 +139,7 @@ impl LogWeights {
     pub(crate) fn reset_uniform(&mut self) {
         let n = self.values.len();
         self.values.fill(-(n as f64).ln());
+        self.effective_size = n as f64;
     }
 
     /// Bayes: `lᵢ += pendingᵢ`, then normalisation. Returns `ln Σ wᵢ exp(pendingᵢ)` (the log evidence,
@@ -189,6 +199,7 @@ impl LogWeights {
         for (l, p) in self.values.iter_mut().zip(&self.pending) {
             *l = sum.normalised(*p);
         }
+        self.effective_size = 1.0 / self.values.iter().map(|l| (2.0 * l).exp()).sum::<f64>();
     }
 }
 

@@ -153,23 +153,32 @@ impl AzimuthDensity {
         sigma2: f64,
         origin: Origin,
     ) -> Result<Self, OperatorError> {
-        let [eta_name, position_name, variance_name] = origin.names();
+        let [eta_name, _, _] = origin.names();
         if let Some(&value) = eta.iter().find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
                 what: eta_name,
                 value,
             });
         }
-        // κ = |η| must be in range too (η = (MAX, MAX) has finite components and κ = ∞).
-        let kappa = eta.x.hypot(eta.y);
-        if kappa > CONCENTRATION_LIMIT {
-            return Err(OperatorError::OutOfRange {
-                what: eta_name,
-                value: kappa,
-                range: "concentration kappa = |eta| in [0, 1e300]",
-            });
-        }
-        let angle = VonMises::from_natural(eta)?;
+        // κ = |η| must be in range too (η = (MAX, MAX) has finite components and κ = ∞): the von
+        // Mises family's limit is this filter's.
+        let angle = VonMises::from_natural(eta).map_err(|_| OperatorError::OutOfRange {
+            what: eta_name,
+            value: eta.x.hypot(eta.y),
+            range: "concentration kappa = |eta| in [0, 1e300]",
+        })?;
+        Self::with_angle(angle, a, c, sigma2, origin)
+    }
+
+    /// The density with a valid angle if a, c and σ² are in the valid range.
+    fn with_angle(
+        angle: VonMises,
+        a: Vector2<f64>,
+        c: Vector2<f64>,
+        sigma2: f64,
+        origin: Origin,
+    ) -> Result<Self, OperatorError> {
+        let [_, position_name, variance_name] = origin.names();
         if let Some(&value) = a.iter().chain(c.iter()).find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
                 what: position_name,
@@ -386,8 +395,9 @@ impl Propagate<VelocityProcess> for AzimuthDensity {
         input: &VelocityInput,
     ) -> Result<Self, OperatorError> {
         input.validate()?;
-        Self::validated(
-            self.eta(),
+        // η is unchanged: only a and σ² need checking.
+        Self::with_angle(
+            self.angle,
             self.a + input.velocity * input.dt,
             self.c,
             self.sigma2 + model.noise_density() * input.dt,

@@ -32,11 +32,11 @@ impl SampledProcess<(So2<f64>, Gaussian<2>)> for VelocityProcess {
 
     /// # Errors
     /// As the Gaussian propagation.
-    fn sample(
+    fn sample<G: RngCore>(
         &self,
         (azimuth, density): &(So2<f64>, Gaussian<2>),
         input: &VelocityInput,
-        _: &mut dyn RngCore,
+        _: &mut G,
     ) -> Result<(So2<f64>, Gaussian<2>), OperatorError> {
         Ok((*azimuth, density.propagate(self, input)?))
     }

@@ -72,6 +72,8 @@ impl VelocityInput {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PositionMeasurement {
     sigma_m2: f64,
+    /// `ln(2π σ_m²)`, the likelihood's normaliser.
+    log_normaliser: f64,
 }
 
 impl PositionMeasurement {
@@ -82,14 +84,21 @@ impl PositionMeasurement {
     /// # Errors
     /// [`OperatorError::OutOfRange`] for σ_m outside that range (zero, negative, NaN, infinite).
     pub fn new(sigma_m: f64) -> Result<Self, OperatorError> {
+        let sigma_m2 = variance_of("position noise standard deviation sigma_m (m)", sigma_m)?;
         Ok(Self {
-            sigma_m2: variance_of("position noise standard deviation sigma_m (m)", sigma_m)?,
+            sigma_m2,
+            log_normaliser: (2.0 * std::f64::consts::PI * sigma_m2).ln(),
         })
     }
 
     /// σ_m².
     pub fn variance(&self) -> f64 {
         self.sigma_m2
+    }
+
+    /// `ln(2π σ_m²)`: the log-likelihood of z is `−|z − R(A) r|² / (2σ_m²) − ln(2π σ_m²)`.
+    pub fn log_normaliser(&self) -> f64 {
+        self.log_normaliser
     }
 
     /// The isotropic bound of a non-isotropic noise covariance `R_m`: `σ_m² = λ_max(R_m)`.

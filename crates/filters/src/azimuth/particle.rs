@@ -36,11 +36,11 @@ impl SampledProcess<PositionAzimuth> for VelocityProcess {
     /// # Errors
     /// As [`VelocityInput::validate`], or [`OperatorError::NonFinite`] when the moved position
     /// overflows.
-    fn sample(
+    fn sample<G: RngCore>(
         &self,
         x: &PositionAzimuth,
         input: &VelocityInput,
-        rng: &mut dyn RngCore,
+        rng: &mut G,
     ) -> Result<PositionAzimuth, OperatorError> {
         input.validate()?;
         let step = (self.noise_density() * input.dt).sqrt();
@@ -60,9 +60,8 @@ impl Likelihood<PositionAzimuth> for PositionMeasurement {
     type Measurement = Vector2<f64>;
 
     fn log_likelihood(&self, x: &PositionAzimuth, z: &Vector2<f64>) -> f64 {
-        let variance = self.variance();
         let predicted = x.second().to_matrix() * x.first().coords();
-        -(z - predicted).norm_squared() / (2.0 * variance) - (2.0 * PI * variance).ln()
+        -(z - predicted).norm_squared() / (2.0 * self.variance()) - self.log_normaliser()
     }
 }
 

@@ -24,15 +24,19 @@ pub trait SampledProcess<X> {
     /// # Errors
     /// When the draw is not a valid state ([`OperatorError::NonFinitePoint`] for a point that is not
     /// finite) or the input is invalid.
-    fn sample(&self, x: &X, input: &Self::Input, rng: &mut dyn RngCore)
-    -> Result<X, OperatorError>;
+    fn sample<G: RngCore>(
+        &self,
+        x: &X,
+        input: &Self::Input,
+        rng: &mut G,
+    ) -> Result<X, OperatorError>;
 }
 
 /// A process used by reference is the process.
 impl<X, P: SampledProcess<X> + ?Sized> SampledProcess<X> for &P {
     type Input = P::Input;
 
-    fn sample(&self, x: &X, input: &P::Input, rng: &mut dyn RngCore) -> Result<X, OperatorError> {
+    fn sample<G: RngCore>(&self, x: &X, input: &P::Input, rng: &mut G) -> Result<X, OperatorError> {
         (**self).sample(x, input, rng)
     }
 }
@@ -116,7 +120,7 @@ where
 {
     type Input = U;
 
-    fn sample(&self, x: &X, input: &U, rng: &mut dyn RngCore) -> Result<X, OperatorError> {
+    fn sample<G: RngCore>(&self, x: &X, input: &U, rng: &mut G) -> Result<X, OperatorError> {
         (self.sample)(x, input, rng)
     }
 }
