@@ -79,9 +79,15 @@ fn smallest_deviation<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
 /// `2 N cond(L) = 2 N √(λ_max/λ_min)`, the growth of the relative rounding of a Mahalanobis term
 /// computed by a triangular solve with the Cholesky factor L of a covariance.
 fn mahalanobis_condition<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
+    2.0 * N as f64 * covariance_condition(covariance).sqrt()
+}
+
+/// `cond(P) = λ_max/λ_min`, the sensitivity of a Mahalanobis term to a relative perturbation of the
+/// covariance.
+fn covariance_condition<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
     let eigenvalues =
         nalgebra::DMatrix::from_column_slice(N, N, covariance.as_slice()).symmetric_eigenvalues();
-    2.0 * N as f64 * (eigenvalues.max() / eigenvalues.min()).sqrt()
+    eigenvalues.max() / eigenvalues.min()
 }
 
 /// Gauss-Hermite points per axis for a product rule in dimension n: 8 up to 3 dimensions, 4 up to 6,
@@ -303,9 +309,11 @@ fn heat_kernel_pair_quadrature(p: &HeatKernelSo3, q: &HeatKernelSo3) -> Vec<(So3
     let e1 = m.cross(&helper).normalize();
     let e2 = m.cross(&e1);
     let (sd, cd) = (0.5 * delta).sin_cos();
-    // 32 Gauss-Legendre points on [−1, 1] where no kink is in range.
-    let polar = quadrature::gauss_legendre(32);
-    let azimuths = 8;
+    // 64 Gauss-Legendre points on [−1, 1] where no kink is in range. The integrand does not depend
+    // on the azimuth about m (the angle of q's centre to R depends on t and m · n only), so one
+    // azimuth with weight 2π integrates it exactly.
+    let polar = quadrature::gauss_legendre(64);
+    let azimuths = 1;
     let h = 2.0 * PI / f64::from(azimuths);
     let mut nodes = Vec::new();
     for (t, wt) in angle_panels(p.variance(), q.variance(), delta) {
@@ -319,8 +327,8 @@ fn heat_kernel_pair_quadrature(p: &HeatKernelSo3, q: &HeatKernelSo3) -> Vec<(So3
         // `dt′ ≈ 2 sin(δ/2) sin(t/2) dc`.
         let directions: Vec<(f64, f64)> = if kink.abs() < 1.0 {
             let width = (q.variance() / (2.0 * PI * sd * st)).min(1.0);
-            let below = quadrature::peaked(width, kink + 1.0, 16);
-            let above = quadrature::peaked(width, 1.0 - kink, 16);
+            let below = quadrature::peaked(width, kink + 1.0, 32);
+            let above = quadrature::peaked(width, 1.0 - kink, 32);
             below
                 .into_iter()
                 .map(|(x, w)| (kink - x, w))
@@ -363,10 +371,10 @@ fn angle_panels(s_p: f64, s_q: f64, delta: f64) -> Vec<(f64, f64)> {
     let mut nodes = Vec::new();
     for (a, b, wa, wb) in pieces {
         let half = 0.5 * (b - a);
-        for (x, w) in quadrature::peaked(wa, half, 16) {
+        for (x, w) in quadrature::peaked(wa, half, 32) {
             nodes.push((a + x, w));
         }
-        for (x, w) in quadrature::peaked(wb, half, 16) {
+        for (x, w) in quadrature::peaked(wb, half, 32) {
             nodes.push((b - x, w));
         }
     }
@@ -418,6 +426,11 @@ impl<const N: usize> DensitySubject for Gaussian<N> {
     fn log_condition(&self) -> f64 {
         mahalanobis_condition(self.covariance())
     }
+
+    /// `cond(P)`.
+    fn parameter_condition(&self) -> f64 {
+        covariance_condition(self.covariance())
+    }
 }
 
 impl<X, const D: usize> DensitySubject for ManifoldGaussian<X, D>
@@ -454,6 +467,11 @@ where
     /// `2 D cond(L)`.
     fn log_condition(&self) -> f64 {
         mahalanobis_condition(self.covariance())
+    }
+
+    /// `cond(P)`.
+    fn parameter_condition(&self) -> f64 {
+        covariance_condition(self.covariance())
     }
 }
 
