@@ -8,6 +8,7 @@
 //! The IMU attitude filter (Bingham and heat kernel on SO(3)) and angle-of-arrival positioning (von
 //! Mises-Fisher) follow in their own issues.
 
+pub mod aoa;
 pub mod azimuth;
 
 pub use liebayes_operators as operators;

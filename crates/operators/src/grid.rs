@@ -235,7 +235,7 @@ where
         model: &Given<F>,
         z: &X::Measurement,
     ) -> Result<Conditioned<Self>, OperatorError> {
-        condition_clone(self, model, z)
+        condition_clone::<Self, Given<F>>(self, model, z)
     }
 
     /// The Rao-Blackwellized grid's Bayes step: each payload conditioned with the model
@@ -284,7 +284,7 @@ where
         model: &Reweight<L>,
         z: &L::Measurement,
     ) -> Result<Conditioned<Self>, OperatorError> {
-        condition_clone(self, model, z)
+        condition_clone::<Self, Reweight<L>>(self, model, z)
     }
 
     /// Bayes with a likelihood of the angle alone: `ln wⱼ += ln p(z | θⱼ)` with the cell's

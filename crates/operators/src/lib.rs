@@ -34,11 +34,14 @@
 //!   [`Given`]), a plain angle density stepped with [`Reweight`] and [`Diffusion`];
 //! * [`rao_blackwell`]: the exact steps of the closed-form composite of an angle and a conditionally
 //!   Gaussian vector ([`HarmonicGaussian`](liebayes_densities::HarmonicGaussian));
+//! * [`converted`]: a model whose readings are converted once per step into the measurement its
+//!   step takes (one data stream, several models of it);
 //! * [`evaluation`]: the consistency metrics (NEES, NIS, their χ² bands, a circular consistency
 //!   statistic) and the estimation error on a manifold.
 //!
 //! The math of each is in `docs/operators/`; the filters crate composes them into applications.
 
+pub mod converted;
 pub mod ekf;
 mod error;
 pub mod evaluation;
@@ -55,6 +58,7 @@ pub mod smoother;
 mod traits;
 pub mod ukf;
 
+pub use converted::{Conversion, Converted};
 pub use ekf::Ekf;
 pub use error::{MAX_ELEMENTS, OperatorError};
 pub use grid::Diffusion;

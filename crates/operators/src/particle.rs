@@ -311,7 +311,7 @@ where
         model: &Reweight<L>,
         z: &L::Measurement,
     ) -> Result<Conditioned<Self>, OperatorError> {
-        condition_clone(self, model, z)
+        condition_clone::<Self, Reweight<L>>(self, model, z)
     }
 
     /// Bayes by reweighting: `ln wᵢ += ln p(z | xᵢ)`, then normalisation, the particles unchanged.
@@ -362,7 +362,7 @@ where
         model: &ReweightInParallel<L>,
         z: &L::Measurement,
     ) -> Result<Conditioned<Self>, OperatorError> {
-        condition_clone(self, model, z)
+        condition_clone::<Self, ReweightInParallel<L>>(self, model, z)
     }
 
     /// As [`Reweight`]'s step, the likelihoods evaluated in parallel from
@@ -431,7 +431,7 @@ where
         model: &Given<F>,
         z: &G::Measurement,
     ) -> Result<Conditioned<Self>, OperatorError> {
-        condition_clone(self, model, z)
+        condition_clone::<Self, Given<F>>(self, model, z)
     }
 
     /// The marginalized particle filter's Bayes step: each particle `(yᵢ, p(x | yᵢ))` conditions

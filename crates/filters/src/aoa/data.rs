@@ -1,0 +1,79 @@
+//! [`DataModel`]: how simulated readings are drawn from the true directions (the paper's Model I
+//! and Model II).
+
+use super::direction::AzEl;
+use super::noise::{check_kappa, check_sigma};
+use liebayes_densities::{Density, VonMisesFisher};
+use liebayes_manifolds::S2;
+use liebayes_operators::OperatorError;
+use nalgebra::Vector3;
+use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// The distribution of a reading given the true direction (a unit vector in the anchor's axes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DataModel {
+    /// Model I: normal errors in azimuth and elevation, `(az₀ + σ_az n₁, el₀ + σ_el n₂)`, reduced
+    /// to one representation ([`AzEl::canonical`]: flipped over a pole).
+    NormalWithFlip {
+        /// σ_az (rad).
+        sigma_az: f64,
+        /// σ_el (rad).
+        sigma_el: f64,
+    },
+    /// Model II: the reading's unit vector drawn from `VMF(true direction, κ)`.
+    VonMisesFisher {
+        /// κ.
+        kappa: f64,
+    },
+}
+
+impl DataModel {
+    /// Checks the parameters (σ in [`SIGMA_RANGE`](super::SIGMA_RANGE), κ in
+    /// [`KAPPA_RANGE`](super::KAPPA_RANGE)).
+    ///
+    /// # Errors
+    /// As [`check_sigma`] and [`check_kappa`].
+    pub fn validate(&self) -> Result<(), OperatorError> {
+        match *self {
+            DataModel::NormalWithFlip { sigma_az, sigma_el } => {
+                check_sigma("data azimuth standard deviation sigma_az (rad)", sigma_az)?;
+                check_sigma("data elevation standard deviation sigma_el (rad)", sigma_el)?;
+            }
+            DataModel::VonMisesFisher { kappa } => {
+                check_kappa(kappa)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// `"Model I"` or `"Model II"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            DataModel::NormalWithFlip { .. } => "Model I",
+            DataModel::VonMisesFisher { .. } => "Model II",
+        }
+    }
+
+    /// A reading of the true unit direction `direction` (anchor axes), canonical. The parameters
+    /// are assumed valid ([`validate`](Self::validate)).
+    pub fn sample<R: Rng + ?Sized>(&self, direction: &Vector3<f64>, rng: &mut R) -> AzEl {
+        match *self {
+            DataModel::NormalWithFlip { sigma_az, sigma_el } => {
+                let truth = AzEl::of_vector(direction);
+                let (n1, n2): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
+                AzEl::new(
+                    truth.azimuth + sigma_az * n1,
+                    truth.elevation + sigma_el * n2,
+                )
+                .canonical()
+            }
+            DataModel::VonMisesFisher { kappa } => {
+                // κ was checked: the distribution exists.
+                let vmf = VonMisesFisher::new(S2::new_unchecked(*direction), kappa)
+                    .unwrap_or_else(|_| VonMisesFisher::uniform());
+                AzEl::of_vector(Density::sample(&vmf, rng).as_vector())
+            }
+        }
+    }
+}

@@ -1,0 +1,312 @@
+//! The angle-of-arrival filters: each of the two measurement models run by the particle filter
+//! (the paper's Algorithm 1), the EKF (Algorithm 2's Jacobian) and the UKF (λ = 0.5), as
+//! experiment-layer [`Recursive`] filters over the position with the estimate
+//! [`PositionEstimate`](super::PositionEstimate).
+
+use super::estimate::PositionMoments;
+use super::model::{
+    AzElModel, CheckedReadings, InWorldAxes, Position, StackedAngles, StackedUnitVectors,
+    UnitVectorModel,
+};
+use super::process::RandomWalk;
+use liebayes_densities::ManifoldGaussian;
+use liebayes_experiments::Recursive;
+use liebayes_operators::particle::{ParticleSet, Resampling, Reweight, Sampled};
+use liebayes_operators::{Converted, Ekf, MAX_ELEMENTS, OperatorError, Ukf};
+use nalgebra::{Matrix3, Vector3};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// The particle filter resamples when the effective sample size falls below this fraction of the
+/// particles (Algorithm 1: 0.1 N), at the start of the next propagation, so the estimate after an
+/// update is the weighted mean before resampling.
+pub const RESAMPLE_BELOW: f64 = 0.1;
+
+/// The UKF's λ = α²(D + κ) − D = 0.5 (α = 1, κ = 0.5, β = 0): seven sigma points of equal weight
+/// 1/7 in three dimensions, the paper's choice.
+pub const UKF_LAMBDA: f64 = 0.5;
+
+/// The largest prior standard deviation (m).
+pub const PRIOR_STD_LIMIT: f64 = 1e6;
+
+/// A Gaussian filter's density.
+pub type PositionGaussian = ManifoldGaussian<Position, 3>;
+
+/// The particle filter with the von Mises-Fisher likelihood (PF-VMF).
+pub type VmfParticleFilter<const N: usize> = Recursive<
+    ParticleSet<Position>,
+    Sampled<RandomWalk, ChaCha8Rng>,
+    Converted<Reweight<UnitVectorModel<N>>, InWorldAxes<N>>,
+    PositionMoments,
+>;
+
+/// The EKF with the unit-vector model (EKF-VMF), M = 3N.
+pub type VmfEkf<const N: usize, const M: usize> = Recursive<
+    PositionGaussian,
+    Ekf<RandomWalk>,
+    Converted<Ekf<UnitVectorModel<N>, M>, StackedUnitVectors<N, M>>,
+    PositionMoments,
+>;
+
+/// The UKF with the unit-vector model (UKF-VMF), M = 3N.
+pub type VmfUkf<const N: usize, const M: usize> = Recursive<
+    PositionGaussian,
+    Ukf<RandomWalk>,
+    Converted<Ukf<UnitVectorModel<N>, M>, StackedUnitVectors<N, M>>,
+    PositionMoments,
+>;
+
+/// The particle filter with the azimuth-elevation likelihood (PF-AE).
+pub type AngleParticleFilter<const N: usize> = Recursive<
+    ParticleSet<Position>,
+    Sampled<RandomWalk, ChaCha8Rng>,
+    Converted<Reweight<AzElModel<N>>, CheckedReadings<N>>,
+    PositionMoments,
+>;
+
+/// The EKF with the azimuth-elevation model (EKF-AE), M = 2N.
+pub type AngleEkf<const N: usize, const M: usize> = Recursive<
+    PositionGaussian,
+    Ekf<RandomWalk>,
+    Converted<Ekf<AzElModel<N>, M>, StackedAngles<N, M>>,
+    PositionMoments,
+>;
+
+/// The UKF with the azimuth-elevation model (UKF-AE), M = 2N.
+pub type AngleUkf<const N: usize, const M: usize> = Recursive<
+    PositionGaussian,
+    Ukf<RandomWalk>,
+    Converted<Ukf<AzElModel<N>, M>, StackedAngles<N, M>>,
+    PositionMoments,
+>;
+
+/// The prior `N(m₀, σ₀² I)` of every filter: m₀ finite, σ₀ in (0, 1e6] m.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prior {
+    mean: Vector3<f64>,
+    std: f64,
+}
+
+impl Prior {
+    /// The prior.
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for a non-finite mean, [`OperatorError::OutOfRange`] for σ₀
+    /// outside (0, 1e6].
+    pub fn new(mean: Vector3<f64>, std: f64) -> Result<Self, OperatorError> {
+        if let Some(&value) = mean.iter().find(|v| !v.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: "prior mean m_0 (m)",
+                value,
+            });
+        }
+        if !(std > 0.0 && std <= PRIOR_STD_LIMIT) {
+            return Err(OperatorError::OutOfRange {
+                what: "prior standard deviation (m)",
+                value: std,
+                range: "(0, 1e6]",
+            });
+        }
+        Ok(Self { mean, std })
+    }
+
+    /// m₀.
+    pub fn mean(&self) -> &Vector3<f64> {
+        &self.mean
+    }
+
+    /// σ₀.
+    pub fn std(&self) -> f64 {
+        self.std
+    }
+
+    /// The prior as a Gaussian density.
+    ///
+    /// # Errors
+    /// Only if σ₀² is not a valid variance (never for a checked prior).
+    pub fn gaussian(&self) -> Result<PositionGaussian, OperatorError> {
+        Ok(ManifoldGaussian::new(
+            Position::new_unchecked(self.mean),
+            Matrix3::identity() * (self.std * self.std),
+        )?)
+    }
+
+    /// n particles drawn from the prior with `rng`.
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for n = 0, [`OperatorError::TooLarge`] above
+    /// [`MAX_ELEMENTS`] or beyond the memory; checked before anything is drawn.
+    pub fn particles(
+        &self,
+        n: usize,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<ParticleSet<Position>, OperatorError> {
+        if n == 0 {
+            return Err(OperatorError::OutOfRange {
+                what: "number of particles",
+                value: 0.0,
+                range: "at least 1",
+            });
+        }
+        if n > MAX_ELEMENTS {
+            return Err(OperatorError::TooLarge {
+                what: "number of particles",
+                value: n,
+                max: MAX_ELEMENTS,
+            });
+        }
+        let mut particles = Vec::new();
+        particles
+            .try_reserve_exact(n)
+            .map_err(|_| OperatorError::TooLarge {
+                what: "number of particles (their memory cannot be allocated)",
+                value: n,
+                max: MAX_ELEMENTS,
+            })?;
+        particles.extend((0..n).map(|_| {
+            let draw = Vector3::from_fn(|_, _| StandardNormal.sample(&mut *rng));
+            Position::new_unchecked(self.mean + draw * self.std)
+        }));
+        ParticleSet::from_samples(particles)
+    }
+}
+
+/// The sampled random walk with Algorithm 1's resampling rule ([`RESAMPLE_BELOW`], systematic).
+fn sampled(
+    process: RandomWalk,
+    rng: ChaCha8Rng,
+) -> Result<Sampled<RandomWalk, ChaCha8Rng>, OperatorError> {
+    Sampled::with_resampling(process, rng, RESAMPLE_BELOW, Resampling::Systematic)
+}
+
+/// The UKF of a model with [`UKF_LAMBDA`].
+fn unscented<Model, const K: usize>(model: Model) -> Result<Ukf<Model, K>, OperatorError> {
+    Ukf::with_scaling(model, 1.0, 0.0, UKF_LAMBDA)
+}
+
+/// PF-VMF: n particles from the prior (drawn with `rng`, which the filter then keeps).
+///
+/// # Errors
+/// As [`Prior::particles`].
+pub fn vmf_particle_filter<const N: usize>(
+    model: UnitVectorModel<N>,
+    process: RandomWalk,
+    prior: &Prior,
+    n: usize,
+    mut rng: ChaCha8Rng,
+) -> Result<VmfParticleFilter<N>, OperatorError> {
+    let set = prior.particles(n, &mut rng)?;
+    let conversion = model.in_world_axes();
+    Ok(Recursive::with_estimator(
+        set,
+        sampled(process, rng)?,
+        Converted {
+            model: Reweight(model),
+            conversion,
+        },
+        PositionMoments,
+    ))
+}
+
+/// EKF-VMF.
+///
+/// # Errors
+/// As [`Prior::gaussian`].
+pub fn vmf_ekf<const N: usize, const M: usize>(
+    model: UnitVectorModel<N>,
+    process: RandomWalk,
+    prior: &Prior,
+) -> Result<VmfEkf<N, M>, OperatorError> {
+    Ok(Recursive::with_estimator(
+        prior.gaussian()?,
+        Ekf(process),
+        Converted {
+            model: Ekf(model),
+            conversion: StackedUnitVectors,
+        },
+        PositionMoments,
+    ))
+}
+
+/// UKF-VMF (λ = 0.5).
+///
+/// # Errors
+/// As [`Prior::gaussian`].
+pub fn vmf_ukf<const N: usize, const M: usize>(
+    model: UnitVectorModel<N>,
+    process: RandomWalk,
+    prior: &Prior,
+) -> Result<VmfUkf<N, M>, OperatorError> {
+    Ok(Recursive::with_estimator(
+        prior.gaussian()?,
+        unscented(process)?,
+        Converted {
+            model: unscented(model)?,
+            conversion: StackedUnitVectors,
+        },
+        PositionMoments,
+    ))
+}
+
+/// PF-AE: n particles from the prior (drawn with `rng`, which the filter then keeps).
+///
+/// # Errors
+/// As [`Prior::particles`].
+pub fn angle_particle_filter<const N: usize>(
+    model: AzElModel<N>,
+    process: RandomWalk,
+    prior: &Prior,
+    n: usize,
+    mut rng: ChaCha8Rng,
+) -> Result<AngleParticleFilter<N>, OperatorError> {
+    let set = prior.particles(n, &mut rng)?;
+    Ok(Recursive::with_estimator(
+        set,
+        sampled(process, rng)?,
+        Converted {
+            model: Reweight(model),
+            conversion: CheckedReadings,
+        },
+        PositionMoments,
+    ))
+}
+
+/// EKF-AE.
+///
+/// # Errors
+/// As [`Prior::gaussian`].
+pub fn angle_ekf<const N: usize, const M: usize>(
+    model: AzElModel<N>,
+    process: RandomWalk,
+    prior: &Prior,
+) -> Result<AngleEkf<N, M>, OperatorError> {
+    Ok(Recursive::with_estimator(
+        prior.gaussian()?,
+        Ekf(process),
+        Converted {
+            model: Ekf(model),
+            conversion: StackedAngles,
+        },
+        PositionMoments,
+    ))
+}
+
+/// UKF-AE (λ = 0.5; R at the mean).
+///
+/// # Errors
+/// As [`Prior::gaussian`].
+pub fn angle_ukf<const N: usize, const M: usize>(
+    model: AzElModel<N>,
+    process: RandomWalk,
+    prior: &Prior,
+) -> Result<AngleUkf<N, M>, OperatorError> {
+    Ok(Recursive::with_estimator(
+        prior.gaussian()?,
+        unscented(process)?,
+        Converted {
+            model: unscented(model)?,
+            conversion: StackedAngles,
+        },
+        PositionMoments,
+    ))
+}

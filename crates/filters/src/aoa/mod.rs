@@ -1,0 +1,46 @@
+//! Angle-of-arrival positioning, after "3D angle-of-arrival positioning using von Mises-Fisher
+//! distribution" (Nurminen, Suomalainen, Müller, Ali-Löytty, Piché): anchors at known positions and
+//! orientations measure the azimuth and elevation of a user, and filters estimate its position
+//! θ ∈ R³.
+//!
+//! * [`direction`]: readings ([`AzEl`]), unit vectors and the one-representation rule;
+//! * [`Anchor`]s and the square track's geometry ([`square_track_anchors`]);
+//! * the noise models ([`noise`]: von Mises-Fisher, normal in azimuth and elevation, the
+//!   conversion between them, the adaptive σ table) and the data they generate ([`DataModel`]);
+//! * the measurement models ([`UnitVectorModel`], [`AzElModel`]) for the particle filter, the EKF
+//!   and the UKF, and the filters built from them ([`vmf_particle_filter`], [`vmf_ekf`], …);
+//! * [`PositionEstimate`] and [`PositionScorer`], and the [`SquareTrack`] scenario.
+//!
+//! The math and the corrections to the paper are in `docs/filters/aoa.md`.
+
+mod anchor;
+mod data;
+pub mod direction;
+mod estimate;
+mod filter;
+mod method;
+mod model;
+pub mod noise;
+mod process;
+mod scenario;
+
+pub use anchor::{Anchor, POSITION_LIMIT, square_track_anchors};
+pub use data::DataModel;
+pub use direction::{AzEl, wrap};
+pub use estimate::{PositionEstimate, PositionMoments, PositionScorer};
+pub use filter::{
+    AngleEkf, AngleParticleFilter, AngleUkf, PRIOR_STD_LIMIT, PositionGaussian, Prior,
+    RESAMPLE_BELOW, UKF_LAMBDA, VmfEkf, VmfParticleFilter, VmfUkf, angle_ekf,
+    angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
+};
+pub use method::{Algorithm, ModelChoice, TrackFilter};
+pub use model::{
+    AngleNoise, AzElModel, CheckedReadings, InWorldAxes, Position, Readings, StackedAngles,
+    StackedUnitVectors, UnitVectorModel, WorldDirections,
+};
+pub use noise::{
+    AdaptiveSigmas, KAPPA_RANGE, SIGMA_RANGE, az_el_log_density, kappa_from_sigmas,
+    sigma_from_kappa,
+};
+pub use process::{DELTA_LIMIT, Q_LIMIT, RandomWalk};
+pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackSteps};
