@@ -269,6 +269,7 @@ impl Plan {
                 name: format!("azimuth_{name}"),
                 title: format!("Azimuth alignment, {name} scenario: {}", self.settings),
                 summaries,
+                reference: None,
             });
         }
         Ok(tables)

@@ -4,21 +4,27 @@
 //!
 //! A metric is reported by its [`Reduction`]: an RMS for `RootMeanSquare`, a mean with its 95 % band
 //! for `Mean` and `ChiSquare`, a percentage for `Rate`. A metric `<x>_error` with a matching
-//! `<x>_sigma` is plotted as the error against its reported standard deviation.
+//! `<x>_sigma` is plotted as the error against its reported standard deviation. A metric kept per
+//! run is reported by the quantiles of its run values over the runs, as they are or as percentage
+//! differences from the table's reference row on the same runs, and drawn as box plots.
 
 use crate::output::{Output, OutputArgs, check_name};
 use liebayes::experiments::study::MAX_RUNS;
-use liebayes::experiments::{Reduction, RunningStats, Shard, Summary};
+use liebayes::experiments::{
+    MAX_KEPT_RUNS, Reduction, RunningStats, Shard, Summary, quantiles, relative_differences,
+};
 use liebayes::operators::evaluation::{Z_975, average_nees_band};
+use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::io::Read as _;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-/// The studies of one report: a file stem (`azimuth_circle`), a title describing the settings, and
-/// one summary per row (row label: the summary's study name, for example `"EKF"`). Shards of a
-/// table merge only when their names, titles and row labels agree.
+/// The studies of one report: a file stem (`azimuth_circle`), a title describing the settings, one
+/// summary per row (row label: the summary's study name, for example `"EKF"`), and optionally the
+/// row the others are compared with run by run. Shards of a table merge only when their names,
+/// titles, row labels and reference rows agree.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Table {
@@ -28,6 +34,11 @@ pub struct Table {
     pub title: String,
     /// One summary per row.
     pub summaries: Vec<Summary>,
+    /// The row (an index into `summaries`) the other rows are compared with, run by run: for
+    /// each metric kept per run, the report gives the quantiles of every other row's percentage
+    /// difference from this row's value on the same run (same simulated data), `100 (v / v_ref −
+    /// 1)`. `None`: the quantiles of each row's run values themselves.
+    pub reference: Option<usize>,
 }
 
 /// The most epochs drawn in a plot; longer series are sampled at evenly spaced epochs.
@@ -52,12 +63,18 @@ const JSON_ENDING: &str = ".summary.json";
 /// Prints each table, then writes its files into the output folder, if there is one, all or
 /// nothing: for a study covering all its runs, `<name>_summary.csv`, `<name>_over_time.csv`,
 /// `<name>_first_run.csv`, `<name>_first_run.svg`, `<name>_over_time.svg` (the plots when some
-/// metric `<x>_error` has its `<x>_sigma`) and `<name>.summary.json`; for a partial study (a shard,
-/// or a merge that misses runs) only the JSON summary, and says what is missing.
+/// metric `<x>_error` has its `<x>_sigma`), for each metric `<m>` kept per run
+/// `<name>_<m>_relative.csv` and `<name>_<m>_relative.svg` (the quantiles and box plots of the
+/// rows' percentage differences from the reference row, run by run; when the table has a
+/// reference row that keeps `<m>`) or else `<name>_<m>_per_run.csv` and `<name>_<m>_per_run.svg`
+/// (of the rows' run values), and `<name>.summary.json`; for a partial study (a shard, or a merge
+/// that misses runs) only the JSON summary, and says what is missing. The per-run tables are
+/// printed for complete studies only.
 ///
 /// # Errors
-/// A table that is not well formed (a bad or repeated name, inconsistent run ranges or trace), or
-/// a file that cannot be written; nothing is written then.
+/// A table that is not well formed (a bad or repeated name, inconsistent run ranges or trace, a
+/// reference row that is not one of its rows), or a file that cannot be written; nothing is
+/// written then.
 pub fn emit(tables: &[Table], args: &OutputArgs, mut output: Output) -> Result<(), String> {
     for (i, table) in tables.iter().enumerate() {
         validate(table)?;
@@ -65,14 +82,19 @@ pub fn emit(tables: &[Table], args: &OutputArgs, mut output: Output) -> Result<(
             return Err(format!("internal: two tables are named {:?}", table.name));
         }
     }
+    let missing: Vec<String> = tables.iter().flat_map(missing_runs).collect();
+    let complete = args.shard == Shard::WHOLE && missing.is_empty();
     for table in tables {
         print(&render(table));
+        if complete {
+            for comparison in run_comparisons(table) {
+                print(&render_runs(table, &comparison));
+            }
+        }
     }
     let Some(dir) = output.dir().map(Path::to_path_buf) else {
         return Ok(());
     };
-    let missing: Vec<String> = tables.iter().flat_map(missing_runs).collect();
-    let complete = args.shard == Shard::WHOLE && missing.is_empty();
     for table in tables {
         let json = serde_json::to_string(table)
             .map_err(|e| format!("internal: table {} to JSON: {e}", table.name))?;
@@ -246,6 +268,12 @@ fn absorb(into: &mut Table, table: &Table) -> Result<(), String> {
             labels(into)
         ));
     }
+    if into.reference != table.reference {
+        return Err(format!(
+            "table {} has the reference row {:?} here and {:?} before",
+            table.name, table.reference, into.reference
+        ));
+    }
     let mut merged = into.summaries.clone();
     for (a, b) in merged.iter_mut().zip(&table.summaries) {
         a.merge(b)
@@ -256,11 +284,30 @@ fn absorb(into: &mut Table, table: &Table) -> Result<(), String> {
 }
 
 /// Checks what a table read from a file (or built by an application) must satisfy before it is
-/// reported: a plain name, run ranges sorted, disjoint and inside the study, a study of at most
+/// reported: a plain name, a reference row among its rows, metrics kept per run whose names make
+/// plain file names, run ranges sorted, disjoint and inside the study, a study of at most
 /// `MAX_RUNS` runs, and a trace with one value per metric and epoch.
 fn validate(table: &Table) -> Result<(), String> {
     check_name(&format!("{}{JSON_ENDING}", table.name))
         .map_err(|e| format!("table name {:?}: {e}", table.name))?;
+    if let Some(r) = table.reference
+        && r >= table.summaries.len()
+    {
+        return Err(format!(
+            "table {}: the reference row {r} is not one of its {} rows (0 to {})",
+            table.name,
+            table.summaries.len(),
+            table.summaries.len().saturating_sub(1)
+        ));
+    }
+    for metric in per_run_metrics(table) {
+        check_name(&run_file(table, &metric, "relative", "svg")).map_err(|e| {
+            format!(
+                "table {}: metric {metric:?} kept per run cannot name a file: {e}",
+                table.name
+            )
+        })?;
+    }
     for s in &table.summaries {
         let label = s.label();
         let bad = |what: String| Err(format!("table {}, row {}: {what}", table.name, label.name));
@@ -774,7 +821,211 @@ fn write_files(table: &Table, output: &mut Output) -> Result<(), String> {
     if let Some(svg) = plot_over_time(table).map_err(plot)? {
         output.write(&format!("{name}_over_time.svg"), svg.as_bytes())?;
     }
+    for comparison in run_comparisons(table) {
+        let kind = comparison.kind();
+        output.write(
+            &run_file(table, &comparison.metric, kind, "csv"),
+            runs_csv(&comparison).as_bytes(),
+        )?;
+        let svg = plot_runs(table, &comparison).map_err(plot)?;
+        output.write(
+            &run_file(table, &comparison.metric, kind, "svg"),
+            svg.as_bytes(),
+        )?;
+    }
     Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Per-run values
+
+/// The probabilities of the per-run quantiles: the smallest value, 5 %, the quartiles, the median,
+/// 95 % and the largest value.
+const RUN_PROBABILITIES: [f64; 7] = [0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0];
+
+/// The headings of the per-run quantiles.
+const RUN_HEADINGS: [&str; 7] = ["min", "p5", "p25", "median", "p75", "p95", "max"];
+
+/// The quantiles over the runs of one metric kept per run, for each row of a table: of the rows'
+/// run values, or of their percentage differences from the reference row's.
+#[derive(Clone, Debug, PartialEq)]
+struct RunComparison {
+    /// The metric's name.
+    metric: String,
+    /// Its unit (`"%"` for percentage differences).
+    unit: String,
+    /// The reference row's label, when the rows are compared with it.
+    reference: Option<String>,
+    /// Per row: its label, the quantiles at [`RUN_PROBABILITIES`] (NaN without a value) and the
+    /// number of finite values they are of.
+    rows: Vec<(String, [f64; 7], usize)>,
+}
+
+impl RunComparison {
+    /// `relative` for percentage differences, `per_run` for run values.
+    fn kind(&self) -> &'static str {
+        if self.reference.is_some() {
+            "relative"
+        } else {
+            "per_run"
+        }
+    }
+
+    /// What the quantiles are of, with the unit.
+    fn describe(&self) -> String {
+        match &self.reference {
+            Some(r) => format!(
+                "percentage difference of {} from {r}, per run (%)",
+                self.metric
+            ),
+            None if self.unit.is_empty() => format!("{} per run", self.metric),
+            None => format!("{} per run ({})", self.metric, self.unit),
+        }
+    }
+}
+
+/// The names of the metrics kept per run in some row, in the order first met.
+fn per_run_metrics(table: &Table) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for m in table.summaries.iter().flat_map(Summary::metrics) {
+        if m.per_run.is_some() && !out.contains(&m.name) {
+            out.push(m.name.clone());
+        }
+    }
+    out
+}
+
+/// `<name>_<metric>_<kind>.<ending>`.
+fn run_file(table: &Table, metric: &str, kind: &str, ending: &str) -> String {
+    format!("{}_{metric}_{kind}.{ending}", table.name)
+}
+
+/// The quantiles of `values` at [`RUN_PROBABILITIES`], with the number of finite values.
+fn run_quantiles(values: &[f64]) -> ([f64; 7], usize) {
+    let q = quantiles(values, &RUN_PROBABILITIES);
+    let mut out = [f64::NAN; 7];
+    out.copy_from_slice(&q);
+    (out, values.iter().filter(|v| v.is_finite()).count())
+}
+
+/// A comparison per metric kept per run: when the table's reference row keeps the metric, every
+/// other row that keeps it, by its percentage differences from the reference on the same runs;
+/// otherwise every row that keeps it, by its run values.
+fn run_comparisons(table: &Table) -> Vec<RunComparison> {
+    let mut out = Vec::new();
+    for metric in per_run_metrics(table) {
+        let reference = table.reference.and_then(|r| {
+            let s = table.summaries.get(r)?;
+            Some((r, s.label().name.clone(), s.run_values(&metric)?))
+        });
+        let unit = table
+            .summaries
+            .iter()
+            .flat_map(Summary::metrics)
+            .find(|m| m.name == metric)
+            .map(|m| m.unit.clone())
+            .unwrap_or_default();
+        let mut rows = Vec::new();
+        for (i, s) in table.summaries.iter().enumerate() {
+            let Some(values) = s.run_values(&metric) else {
+                continue;
+            };
+            let (q, n) = match &reference {
+                Some((r, _, _)) if *r == i => continue,
+                Some((_, _, base)) => run_quantiles(&relative_differences(base, values)),
+                None => run_quantiles(&values.values().iter().map(|v| v.1).collect::<Vec<_>>()),
+            };
+            rows.push((s.label().name.clone(), q, n));
+        }
+        out.push(RunComparison {
+            unit: if reference.is_some() {
+                "%".to_owned()
+            } else {
+                unit
+            },
+            reference: reference.map(|(_, label, _)| label),
+            metric,
+            rows,
+        });
+    }
+    out
+}
+
+/// A quantile for print: `-` for none.
+fn quantile_cell(q: f64) -> String {
+    compact(q.is_finite().then_some(q))
+}
+
+/// The printed per-run table: what it compares, then per row its quantiles and number of runs.
+fn render_runs(table: &Table, c: &RunComparison) -> String {
+    let mut heading = vec!["filter".to_owned()];
+    heading.extend(RUN_HEADINGS.iter().map(|h| (*h).to_owned()));
+    heading.push("runs".to_owned());
+    let mut rows = vec![heading];
+    for (label, q, n) in &c.rows {
+        let mut row = vec![label.clone()];
+        row.extend(q.iter().map(|&v| quantile_cell(v)));
+        row.push(n.to_string());
+        rows.push(row);
+    }
+    let widths: Vec<usize> = (0..rows[0].len())
+        .map(|j| rows.iter().map(|r| r[j].chars().count()).max().unwrap_or(0))
+        .collect();
+    let mut out = format!(
+        "
+{}: {}
+",
+        table.name,
+        c.describe()
+    );
+    if table
+        .summaries
+        .iter()
+        .any(|s| s.label().runs > MAX_KEPT_RUNS)
+    {
+        let _ = writeln!(
+            out,
+            "(the runs kept: the first {MAX_KEPT_RUNS} of each row)"
+        );
+    }
+    for row in &rows {
+        let cells: Vec<String> = row
+            .iter()
+            .zip(&widths)
+            .enumerate()
+            .map(|(j, (cell, &w))| {
+                if j == 0 {
+                    format!("{cell:<w$}")
+                } else {
+                    format!("{cell:>w$}")
+                }
+            })
+            .collect();
+        let _ = writeln!(out, "{}", cells.join("  ").trim_end());
+    }
+    out
+}
+
+/// `<name>_<metric>_relative.csv` or `_per_run.csv`: per row its quantiles over the runs and the
+/// number of runs.
+fn runs_csv(c: &RunComparison) -> String {
+    let unit = if c.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", c.unit)
+    };
+    let mut out = String::from("filter");
+    for h in RUN_HEADINGS {
+        let _ = write!(out, ",{}", field(&format!("{h}{unit}")));
+    }
+    out.push_str(",runs\n");
+    for (label, q, n) in &c.rows {
+        let mut cells = vec![field(label)];
+        cells.extend(q.iter().map(|&v| number(v.is_finite().then_some(v))));
+        cells.push(n.to_string());
+        let _ = writeln!(out, "{}", cells.join(","));
+    }
+    out
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1044,6 +1295,159 @@ fn rmse_panel(
     Ok(())
 }
 
+/// The value range of a box plot: every finite quantile (and 0 for percentage differences),
+/// padded by 5 % of the span (by 1 when all are equal); -1..1 without a finite value.
+fn box_range(c: &RunComparison) -> Range<f64> {
+    let zero = c.reference.is_some().then_some(0.0);
+    let (low, high) = c
+        .rows
+        .iter()
+        .flat_map(|r| r.1)
+        .filter(|v| v.is_finite())
+        .chain(zero)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+            (l.min(v), h.max(v))
+        });
+    let span = high - low;
+    let pad = if span > 0.0 { 0.05 * span } else { 1.0 };
+    let range = (low - pad)..(high + pad);
+    if range.start.is_finite() && range.end.is_finite() && range.start < range.end {
+        range
+    } else {
+        -1.0..1.0
+    }
+}
+
+/// The horizontal axis of a box plot: row i at x = i, the axis from -0.5 to n - 0.5, a tick and
+/// the row's label at each row.
+struct RowAxis {
+    labels: Vec<String>,
+}
+
+impl RowAxis {
+    /// The right end of the axis.
+    fn right(&self) -> f64 {
+        self.labels.len().max(1) as f64 - 0.5
+    }
+}
+
+impl Ranged for RowAxis {
+    type FormatOption = NoDefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        let fraction = (value + 0.5) / (self.right() + 0.5);
+        let pixel = f64::from(limit.0) + fraction * f64::from(limit.1 - limit.0);
+        // A pixel position within the drawing (or just beyond it), far inside i32.
+        #[allow(clippy::cast_possible_truncation)]
+        let pixel = pixel.round().clamp(-1e6, 1e6) as i32;
+        pixel
+    }
+
+    fn key_points<Hint: KeyPointHint>(&self, _hint: Hint) -> Vec<f64> {
+        (0..self.labels.len()).map(|i| i as f64).collect()
+    }
+
+    fn range(&self) -> Range<f64> {
+        -0.5..self.right()
+    }
+}
+
+impl ValueFormatter<f64> for RowAxis {
+    fn format(value: &f64) -> String {
+        compact(Some(*value))
+    }
+
+    fn format_ext(&self, value: &f64) -> String {
+        (0..self.labels.len())
+            .find(|&i| (i as f64 - value).abs() < 1e-6)
+            .map_or(String::new(), |i| self.labels[i].clone())
+    }
+}
+
+/// `<name>_<metric>_relative.svg` or `_per_run.svg`: a box per row, from the 25 % to the 75 %
+/// quantile with a line at the median, whiskers to the 5 % and 95 % quantiles, crosses at the
+/// smallest and largest values; a dashed zero line for percentage differences; the rows labelled
+/// on the horizontal axis; the table's title above.
+fn plot_runs(table: &Table, c: &RunComparison) -> Plot<String> {
+    let axis = RowAxis {
+        labels: c.rows.iter().map(|r| r.0.clone()).collect(),
+    };
+    let right = axis.right();
+    let rows = axis.labels.len();
+    let values = box_range(c);
+    let mut svg = String::new();
+    {
+        let width = u32::try_from(200 + 120 * rows)
+            .unwrap_or(u32::MAX)
+            .clamp(600, 2400);
+        let root = SVGBackend::with_string(&mut svg, (width, 500)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let root = root.titled(headline(&table.title), ("sans-serif", 18))?;
+        let mut chart = ChartBuilder::on(&root)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(80)
+            .build_cartesian_2d(axis, values.clone())?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .y_desc(c.describe())
+            .y_label_formatter(&|v| compact(Some(*v)))
+            .draw()?;
+        if c.reference.is_some() {
+            chart.draw_series(DashedLineSeries::new(
+                [(-0.5, 0.0), (right, 0.0)],
+                6,
+                4,
+                ShapeStyle::from(&COLOURS[0]),
+            ))?;
+        }
+        if c.rows.iter().all(|r| r.2 == 0) {
+            chart.draw_series(std::iter::once(Text::new(
+                "no finite values",
+                (-0.4, values.start + 0.5 * (values.end - values.start)),
+                ("sans-serif", 16),
+            )))?;
+        }
+        for (i, (_, q, n)) in c.rows.iter().enumerate() {
+            if *n == 0 {
+                continue;
+            }
+            let x = i as f64;
+            let colour = COLOURS[1 + i % (COLOURS.len() - 1)];
+            let [min, p5, p25, median, p75, p95, max] = *q;
+            let line = |points: Vec<(f64, f64)>, width: u32| {
+                PathElement::new(points, colour.stroke_width(width))
+            };
+            chart.draw_series([
+                line(
+                    vec![
+                        (x - 0.25, p25),
+                        (x + 0.25, p25),
+                        (x + 0.25, p75),
+                        (x - 0.25, p75),
+                        (x - 0.25, p25),
+                    ],
+                    2,
+                ),
+                line(vec![(x - 0.25, median), (x + 0.25, median)], 3),
+                line(vec![(x, p75), (x, p95)], 1),
+                line(vec![(x, p25), (x, p5)], 1),
+                line(vec![(x - 0.1, p95), (x + 0.1, p95)], 1),
+                line(vec![(x - 0.1, p5), (x + 0.1, p5)], 1),
+            ])?;
+            chart.draw_series(
+                [min, max]
+                    .into_iter()
+                    .map(|v| Cross::new((x, v), 5, colour.stroke_width(1))),
+            )?;
+        }
+        root.present()?;
+    }
+    Ok(svg)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1151,6 +1555,7 @@ mod tests {
             name: "synthetic".to_owned(),
             title: "Synthetic".to_owned(),
             summaries,
+            reference: None,
         }
     }
 
@@ -1201,7 +1606,6 @@ mod tests {
     }
 
     #[test]
-    #[ignore = "liebayes-experiments writes a trace's NaN as null and cannot read it back"]
     fn a_trace_with_missing_values_survives_its_json() {
         let mut s = Summary::new(summary("A", 0..0, 1).label().clone(), 0..1);
         let scores = RunScores {
@@ -1256,5 +1660,183 @@ mod tests {
                 .is_none()
         );
         assert!(plot_over_time(&table(vec![lone])).unwrap().is_none());
+    }
+
+    /// A summary of `runs` of a study with a per-run RMS error: run r scores `error(r)` at both
+    /// of its two epochs (so its run value is `error(r)`), and a mean that is not kept per run.
+    fn per_run_summary(
+        name: &str,
+        runs: Range<u64>,
+        total: u64,
+        error: impl Fn(u64) -> f64,
+    ) -> Summary {
+        let label = StudyLabel {
+            name: name.to_owned(),
+            seed: 7,
+            runs: total,
+        };
+        let mut s = Summary::new(label, runs.clone());
+        for r in runs {
+            let scores = RunScores {
+                metrics: vec![
+                    Metric::new("x_error", Reduction::RootMeanSquare, "m").per_run(),
+                    Metric::new("bias", Reduction::Mean, "m"),
+                ],
+                times: vec![1.0, 2.0],
+                values: vec![error(r), 0.5, -error(r), 0.5],
+                seconds_per_step: 1e-8,
+            };
+            s.add_run(r, &scores).unwrap();
+        }
+        s
+    }
+
+    /// Rows A (run r: error r + 1), B (1.5 times A's) and C ((r + 1)², so 100 r % above A), of
+    /// the runs `runs` of 10, compared with `reference`.
+    fn compared(runs: Range<u64>, reference: Option<usize>) -> Table {
+        let one = |r: u64| (r + 1) as f64;
+        Table {
+            reference,
+            ..table(vec![
+                per_run_summary("A", runs.clone(), 10, one),
+                per_run_summary("B", runs.clone(), 10, move |r| 1.5 * one(r)),
+                per_run_summary("C", runs, 10, move |r| one(r) * one(r)),
+            ])
+        }
+    }
+
+    #[test]
+    fn rows_are_compared_with_the_reference_run_by_run() {
+        let comparisons = run_comparisons(&compared(0..10, Some(0)));
+        assert_eq!(comparisons.len(), 1, "only x_error is kept per run");
+        let c = &comparisons[0];
+        assert_eq!((c.metric.as_str(), c.kind()), ("x_error", "relative"));
+        assert_eq!(c.reference.as_deref(), Some("A"));
+        assert_eq!(c.rows.len(), 2);
+        // B: 50 % above A on every run.
+        let (label, q, n) = &c.rows[0];
+        assert_eq!((label.as_str(), *n), ("B", 10));
+        assert!(q.iter().all(|v| (v - 50.0).abs() < 1e-12), "{q:?}");
+        // C: 0, 100, …, 900 %; type-7 quantiles at h = 9 p: 0, 45, 225, 450, 675, 855, 900.
+        let (label, q, n) = &c.rows[1];
+        assert_eq!((label.as_str(), *n), ("C", 10));
+        let expected = [0.0, 45.0, 225.0, 450.0, 675.0, 855.0, 900.0];
+        for (v, e) in q.iter().zip(expected) {
+            assert!((v - e).abs() < 1e-9, "{q:?}");
+        }
+        let text = render_runs(&compared(0..10, Some(0)), c);
+        assert!(
+            text.contains("percentage difference of x_error from A, per run (%)"),
+            "{text}"
+        );
+        assert!(text.contains("median") && text.contains("450.0"), "{text}");
+        let csv = runs_csv(c);
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(
+            lines[0],
+            "filter,min (%),p5 (%),p25 (%),median (%),p75 (%),p95 (%),max (%),runs"
+        );
+        assert_eq!(lines.len(), 3);
+        assert!(lines[2].starts_with("C,0e0,4.5e1,") && lines[2].ends_with(",9e2,10"));
+        // Without a reference: the run values themselves, every row.
+        let c = &run_comparisons(&compared(0..10, None))[0];
+        assert_eq!(
+            (c.kind(), c.unit.as_str(), c.rows.len()),
+            ("per_run", "m", 3)
+        );
+        // A's values 1, …, 10: median 5.5.
+        assert_eq!(c.rows[0].1[3], 5.5);
+        assert!(render_runs(&compared(0..10, None), c).contains("x_error per run (m)"));
+    }
+
+    #[test]
+    fn merged_shards_give_the_whole_runs_per_run_csv() {
+        let whole = compared(0..10, Some(1));
+        let mut merged = compared(6..10, Some(1));
+        absorb(&mut merged, &compared(0..3, Some(1))).unwrap();
+        absorb(&mut merged, &compared(3..6, Some(1))).unwrap();
+        assert!(missing_runs(&merged).is_empty());
+        let csv = |t: &Table| run_comparisons(t).iter().map(runs_csv).collect::<Vec<_>>();
+        assert_eq!(csv(&merged), csv(&whole));
+        // Through a file, with the reference row.
+        let text = serde_json::to_string(&merged).unwrap();
+        assert!(text.contains(r#""reference":1"#), "{text}");
+        let back: Table = serde_json::from_str(&text).unwrap();
+        assert_eq!(csv(&back), csv(&whole));
+        // Shards compared with different rows do not merge.
+        let mut other = compared(0..3, Some(0));
+        let before = other.clone();
+        let error = absorb(&mut other, &compared(3..6, Some(1))).unwrap_err();
+        assert!(error.contains("reference row"), "{error}");
+        assert_eq!(other, before);
+    }
+
+    #[test]
+    fn a_reference_outside_the_rows_is_refused_and_nothing_written() {
+        let dir = std::env::temp_dir().join(format!("liebayes-report-runs-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let args = OutputArgs {
+            out: Some(dir.clone()),
+            shard: Shard::WHOLE,
+        };
+        let bad = compared(0..10, Some(3));
+        let error = validate(&bad).unwrap_err();
+        assert!(error.contains("table synthetic") && error.contains("reference row 3"));
+        let output = crate::output::prepare(&args).unwrap();
+        assert!(emit(&[bad], &args, output).is_err());
+        let names = |dir: &Path| -> Vec<String> {
+            let mut names: Vec<String> = std::fs::read_dir(dir)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            names.sort();
+            names
+        };
+        assert!(names(&dir).is_empty());
+        // A good table writes the per-run files beside the others.
+        let output = crate::output::prepare(&args).unwrap();
+        emit(&[compared(0..10, Some(0))], &args, output).unwrap();
+        let written = names(&dir);
+        for file in [
+            "synthetic.summary.json",
+            "synthetic_x_error_relative.csv",
+            "synthetic_x_error_relative.svg",
+        ] {
+            assert!(
+                written.iter().any(|w| w == file),
+                "{file} not in {written:?}"
+            );
+        }
+        assert!(
+            !written.iter().any(|w| w.contains("per_run")),
+            "{written:?}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+        // A metric kept per run whose name cannot name a file is refused.
+        let mut json = serde_json::to_value(compared(0..10, None)).unwrap();
+        json["summaries"][0]["metrics"][0]["name"] = serde_json::json!("a/b");
+        let slash: Table = serde_json::from_value(json).unwrap();
+        assert!(validate(&slash).unwrap_err().contains("\"a/b\""));
+    }
+
+    #[test]
+    fn box_plots_label_every_row() {
+        let t = compared(0..10, Some(0));
+        let c = &run_comparisons(&t)[0];
+        let svg = plot_runs(&t, c).unwrap();
+        assert!(
+            svg.starts_with("<svg") && svg.contains("Synthetic"),
+            "{svg}"
+        );
+        for label in ["\nB\n</text>", "\nC\n</text>", "percentage difference"] {
+            assert!(svg.contains(label), "{label} missing");
+        }
+        // Rows without a finite value are drawn empty, not refused.
+        let empty = RunComparison {
+            rows: vec![("A".to_owned(), [f64::NAN; 7], 0)],
+            ..c.clone()
+        };
+        assert!(plot_runs(&t, &empty).unwrap().contains("no finite values"));
+        assert_eq!(box_range(&empty), -1.0..1.0);
     }
 }

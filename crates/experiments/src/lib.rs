@@ -19,6 +19,9 @@
 //!   [`Shard`] of the runs, in parallel with the `rayon` feature, into a [`Summary`] (per-epoch
 //!   [`MetricSeries`], per-run statistics, failures by reason, timing) that merges exactly: shards
 //!   run on different machines combine to one study's figures, bit for bit.
+//! * [`RunValues`]: each run's value of a metric marked [`Metric::per_run`] (its RMSE over the run,
+//!   say), kept for the first [`MAX_KEPT_RUNS`] runs, with their [`quantiles`] and their
+//!   [`relative_differences`] from a reference filter's values on the same runs.
 //! * [`search::smallest_passing`]: the smallest size (a particle count) at which a filter meets a
 //!   target, by doubling then bisection, in a bounded number of studies.
 //! * [`ExactSum`] and [`RunningStats`]: the exact, mergeable statistics beneath, in constant memory
@@ -29,6 +32,7 @@ mod exact_sum;
 pub mod filter;
 mod paired;
 pub mod replay;
+mod run_values;
 pub mod score;
 pub mod search;
 mod shard;
@@ -41,6 +45,7 @@ pub use exact_sum::ExactSum;
 pub use filter::{AsIs, Estimator, Nis, Recursive, RecursiveFilter, StepReport, Update};
 pub use paired::{Paired, PairedEstimate};
 pub use replay::{RunFailure, RunScores, Scenario, Step, StepOf, Trajectory, replay};
+pub use run_values::{MAX_KEPT_RUNS, RunValues, quantiles, relative_differences};
 pub use score::{ManifoldScorer, Metric, Reduction, Scorer};
 pub use shard::{Shard, run_rngs};
 pub use statistics::RunningStats;

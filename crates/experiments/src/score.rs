@@ -33,15 +33,34 @@ pub struct Metric {
     pub reduction: Reduction,
     /// Its unit (`"deg"`, `"m"`, `""` for a pure number).
     pub unit: &'static str,
+    /// Whether a summary keeps each run's value of this metric, its reduction over the run's
+    /// epochs (see [`per_run`](Self::per_run)).
+    pub per_run: bool,
 }
 
 impl Metric {
-    /// A metric.
+    /// A metric, summarised per epoch only.
     pub const fn new(name: &'static str, reduction: Reduction, unit: &'static str) -> Self {
         Self {
             name,
             reduction,
             unit,
+            per_run: false,
+        }
+    }
+
+    /// The same metric, with each run's value kept as well: a summary then keeps, for each of its
+    /// runs with index below [`MAX_KEPT_RUNS`](crate::MAX_KEPT_RUNS), the metric reduced over
+    /// that run's epochs with a finite value, the root mean square `√(Σₖ xₖ² / n)` for
+    /// [`Reduction::RootMeanSquare`] (the run's RMSE) and the mean `Σₖ xₖ / n` otherwise; NaN if
+    /// the run had no finite value ([`RunValues`](crate::RunValues)). For the quantiles of a
+    /// per-run error over the runs, or its per-run difference from a reference filter on the same
+    /// runs ([`relative_differences`](crate::relative_differences)).
+    #[must_use]
+    pub const fn per_run(self) -> Self {
+        Self {
+            per_run: true,
+            ..self
         }
     }
 }

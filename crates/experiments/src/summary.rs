@@ -1,8 +1,9 @@
-//! The summary of a study: per-epoch statistics of named metrics over runs, the failures by reason,
-//! and the run ranges it covers. Summaries of disjoint run ranges merge exactly, so shards of a
+//! The summary of a study: per-epoch statistics of named metrics over runs, the per-run values of
+//! the metrics that ask for them, the failures by reason, and the run ranges it covers. Summaries of disjoint run ranges merge exactly, so shards of a
 //! study run on different machines combine to the summary of one run over all of them, bit for bit.
 
 use crate::replay::RunScores;
+use crate::run_values::{MAX_KEPT_RUNS, RunValues, run_value};
 use crate::score::Reduction;
 use crate::{ExperimentError, RunningStats};
 use serde::{Deserialize, Serialize};
@@ -72,8 +73,8 @@ impl MetricSeries {
     }
 }
 
-/// A metric of a summary: its name, how it is summarised over runs, its unit, and its statistics
-/// at each epoch.
+/// A metric of a summary: its name, how it is summarised over runs, its unit, its statistics at
+/// each epoch and, for a metric recorded [`per_run`](crate::Metric::per_run), each run's value.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SummaryMetric {
@@ -85,6 +86,9 @@ pub struct SummaryMetric {
     pub unit: String,
     /// Its statistics over runs at each epoch.
     pub series: MetricSeries,
+    /// Each run's value (the runs with index below [`MAX_KEPT_RUNS`]) for a metric recorded per
+    /// run; `None` for a metric that is not.
+    pub per_run: Option<RunValues>,
 }
 
 /// One run's scores kept whole (the study's first run, for plots of a single run): the epoch times
@@ -141,8 +145,8 @@ pub struct StudyLabel {
 }
 
 /// The summary of a study over some run ranges: per-epoch statistics of every metric (in the
-/// scorer's order) and of the epoch times, the failed runs counted by reason, the first run's
-/// scores, and the filter's time per step.
+/// scorer's order) and of the epoch times, each run's value of the metrics recorded per run, the
+/// failed runs counted by reason, the first run's scores, and the filter's time per step.
 ///
 /// Everything but the timing is determined by the study's seed and runs: two summaries of the same
 /// runs are equal bit for bit, however they were sharded. The timing is measured, so it differs
@@ -190,13 +194,16 @@ impl Summary {
     }
 
     /// Records one run's scores: per epoch its time and the value of every metric (a NIS column
-    /// of a filter that reports none, degrees of freedom 0, is left out). The first run of the
-    /// study (run 0) is also kept whole as the [`trace`](Self::trace).
+    /// of a filter that reports none, degrees of freedom 0, is left out); for a metric recorded
+    /// [`per_run`](crate::Metric::per_run), and a run index below [`MAX_KEPT_RUNS`], the run's value
+    /// (its root mean square or mean over the run's finite values, see [`RunValues`]). The first
+    /// run of the study (run 0) is also kept whole as the [`trace`](Self::trace).
     ///
     /// # Errors
     /// [`ExperimentError::OutOfRange`] for more than [`MAX_EPOCHS`] epochs,
-    /// [`ExperimentError::Incompatible`] when a metric's summary rule or unit differs from the
-    /// one already recorded under its name. Nothing is recorded then.
+    /// [`ExperimentError::Incompatible`] when a metric's summary rule, unit or per-run flag
+    /// differs from the one already recorded under its name, or when the run's per-run values are
+    /// already recorded. Nothing is recorded then.
     pub fn add_run(&mut self, run: u64, scores: &RunScores) -> Result<(), ExperimentError> {
         let epochs = scores.epochs();
         if epochs > MAX_EPOCHS {
@@ -210,7 +217,16 @@ impl Summary {
             .filter(|&j| scores.metrics[j].reduction != Reduction::ChiSquare { dof: 0 });
         for j in kept.clone() {
             let m = &scores.metrics[j];
-            self.slot(m.name, m.reduction, m.unit)?;
+            let slot = self.slot(m.name, m.reduction, m.unit, m.per_run)?;
+            let recorded = slot
+                .and_then(|i| self.metrics[i].per_run.as_ref())
+                .is_some_and(|values| values.contains(run));
+            if recorded {
+                return Err(ExperimentError::Incompatible(format!(
+                    "run {run} of metric {} is already recorded",
+                    m.name
+                )));
+            }
         }
         // Checked: nothing below can fail, so the run is recorded whole or not at all.
         let mut columns = Vec::with_capacity(scores.metrics.len());
@@ -222,6 +238,7 @@ impl Summary {
                     reduction: m.reduction,
                     unit: m.unit.to_owned(),
                     series: MetricSeries::default(),
+                    per_run: m.per_run.then(RunValues::new),
                 });
                 self.metrics.len() - 1
             });
@@ -229,10 +246,15 @@ impl Summary {
         }
         let width = scores.metrics.len();
         for &(j, index) in &columns {
-            for k in 0..epochs {
-                self.metrics[index]
-                    .series
-                    .add(k, scores.values[k * width + j])?;
+            let column = (0..epochs).map(|k| scores.values[k * width + j]);
+            let metric = &mut self.metrics[index];
+            for (k, x) in column.clone().enumerate() {
+                metric.series.add(k, x)?;
+            }
+            if let Some(values) = &mut metric.per_run
+                && run < MAX_KEPT_RUNS
+            {
+                values.insert(run, run_value(metric.reduction, column));
             }
         }
         for (k, &t) in scores.times.iter().enumerate() {
@@ -261,12 +283,14 @@ impl Summary {
         self.metrics.iter().position(|m| m.name == name)
     }
 
-    /// Where metric `name` is recorded (`None`: not yet), checking that its rule and unit agree.
+    /// Where metric `name` is recorded (`None`: not yet), checking that its rule, unit and
+    /// per-run flag agree.
     fn slot(
         &self,
         name: &str,
         reduction: Reduction,
         unit: &str,
+        per_run: bool,
     ) -> Result<Option<usize>, ExperimentError> {
         let Some(index) = self.find(name) else {
             return Ok(None);
@@ -276,6 +300,14 @@ impl Summary {
             return Err(ExperimentError::Incompatible(format!(
                 "metric {name} is summarised as {:?} in {} here and as {reduction:?} in {unit} there",
                 m.reduction, m.unit
+            )));
+        }
+        if m.per_run.is_some() != per_run {
+            let kept = |yes: bool| if yes { "kept" } else { "not kept" };
+            return Err(ExperimentError::Incompatible(format!(
+                "metric {name} has its per-run values {} here and {} there",
+                kept(m.per_run.is_some()),
+                kept(per_run)
             )));
         }
         Ok(Some(index))
@@ -305,6 +337,13 @@ impl Summary {
     /// The per-epoch series of a metric.
     pub fn series(&self, metric: &str) -> Option<&MetricSeries> {
         self.find(metric).map(|i| &self.metrics[i].series)
+    }
+
+    /// Each run's value of a metric recorded [`per_run`](crate::Metric::per_run) (`None` for a metric
+    /// not recorded, or not per run).
+    pub fn run_values(&self, metric: &str) -> Option<&RunValues> {
+        self.find(metric)
+            .and_then(|i| self.metrics[i].per_run.as_ref())
     }
 
     /// The epoch times (their statistics over runs: equal in every run for a fixed schedule).
@@ -338,7 +377,7 @@ impl Summary {
     /// # Errors
     /// [`ExperimentError::Incompatible`] when the two belong to different studies (label, seed or
     /// run count), cover a run in common (the same shard merged twice), or summarise a metric
-    /// differently; `self` is then unchanged.
+    /// differently (its rule, unit or per-run flag); `self` is then unchanged.
     pub fn merge(&mut self, other: &Summary) -> Result<(), ExperimentError> {
         let blank = |s: &Summary| s.runs.is_empty() && s.label == StudyLabel::default();
         if self.label != other.label && !blank(self) && !blank(other) {
@@ -368,11 +407,21 @@ impl Summary {
                 _ => joined.push(r),
             }
         }
+        // The per-run values united first (a run in both is refused), so that nothing below fails.
+        let mut united = Vec::new();
         for m in &other.metrics {
-            self.slot(&m.name, m.reduction, &m.unit)?;
+            let slot = self.slot(&m.name, m.reduction, &m.unit, m.per_run.is_some())?;
+            if let (Some(i), Some(theirs)) = (slot, &m.per_run)
+                && let Some(ours) = &self.metrics[i].per_run
+            {
+                united.push((i, ours.united(theirs)?));
+            }
         }
         self.label = label;
         self.runs = joined;
+        for (i, values) in united {
+            self.metrics[i].per_run = Some(values);
+        }
         for m in &other.metrics {
             match self.find(&m.name) {
                 Some(i) => self.metrics[i].series.merge(&m.series),

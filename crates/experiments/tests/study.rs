@@ -5,8 +5,8 @@
 
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{
-    ExperimentError, ManifoldScorer, Recursive, RecursiveFilter, Scenario, Shard, Step, Study,
-    Summary, replay,
+    ExperimentError, ManifoldScorer, Metric, Recursive, RecursiveFilter, Scenario, Scorer, Shard,
+    Step, Study, Summary, replay, run_rngs,
 };
 use liebayes_manifolds::{Manifold, So2};
 use liebayes_operators::evaluation::average_nees_band;
@@ -90,13 +90,36 @@ fn filter(
     Ok(Recursive::new(prior, Ekf(process), Ekf(measurement)))
 }
 
+/// The manifold's scores, with each run's RMS error kept.
+struct PerRunError;
+
+impl Scorer<So2<f64>, ManifoldGaussian<So2<f64>, 1>> for PerRunError {
+    fn metrics(&self) -> Vec<Metric> {
+        let mut metrics =
+            <ManifoldScorer as Scorer<So2<f64>, ManifoldGaussian<So2<f64>, 1>>>::metrics(
+                &ManifoldScorer,
+            );
+        metrics[0] = metrics[0].per_run();
+        metrics
+    }
+
+    fn score(
+        &self,
+        truth: &So2<f64>,
+        estimate: &ManifoldGaussian<So2<f64>, 1>,
+        values: &mut [f64],
+    ) {
+        ManifoldScorer.score(truth, estimate, values);
+    }
+}
+
 fn study(runs: u64, shard: Shard, sigma: f64) -> Summary {
     Study::new("EKF, heading", runs, 11, shard)
         .unwrap()
         .run(
             &Heading { steps: 40 },
             &|_| filter(sigma),
-            &ManifoldScorer,
+            &PerRunError,
             &|_| {},
         )
         .unwrap()
@@ -159,6 +182,33 @@ fn three_shards_merged_equal_one_study_bit_for_bit() {
     let text = |s: &Summary| serde_json::to_string(s.metrics()).unwrap();
     assert_eq!(text(&merged), text(&whole));
     assert_eq!(merged.timing().count(), 200);
+    assert_eq!(merged.run_values("error"), whole.run_values("error"));
+    assert_eq!(whole.run_values("error").unwrap().len(), 200);
+}
+
+#[test]
+fn a_study_keeps_each_runs_error_as_its_replay_scores_it() {
+    let summary = study(20, Shard::WHOLE, SIGMA);
+    // The metrics the layer adds are not kept per run, nor the scorer's unmarked ones.
+    for metric in ["log_evidence", "nis", "nees"] {
+        assert!(summary.run_values(metric).is_none(), "{metric}");
+    }
+    let kept = summary.run_values("error").unwrap().values();
+    assert_eq!(kept.len(), 20);
+    for &(run, value) in kept {
+        // Run `run` replayed by hand from its own streams: the RMS of its errors.
+        let (mut simulation, _) = run_rngs(11, run);
+        let steps = Heading { steps: 40 }.simulate(&mut simulation).unwrap();
+        let scores = replay(&mut filter(SIGMA).unwrap(), steps, &PerRunError).unwrap();
+        let errors: Vec<f64> = (0..scores.epochs())
+            .map(|k| scores.get("error", k).unwrap())
+            .collect();
+        let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+        assert!(
+            (value - rms).abs() <= 1e-14 * rms,
+            "run {run}: {value} against {rms}"
+        );
+    }
 }
 
 #[test]

@@ -1,5 +1,5 @@
-//! Summaries of shards merge to the summary of one study over all runs, bit for bit, in any order and
-//! through a file; overlapping shards are refused.
+//! Summaries of shards merge to the summary of one study over all runs, bit for bit (per-run values
+//! included), in any order and through a file; overlapping shards are refused.
 
 use liebayes_experiments::{
     ExperimentError, MAX_EPOCHS, Metric, Reduction, RunScores, Shard, StudyLabel, Summary, run_rngs,
@@ -14,12 +14,12 @@ fn label(seed: u64, runs: u64) -> StudyLabel {
     }
 }
 
-/// A run's scores with the given values of `error` and `nees` at each epoch.
+/// A run's scores with the given values of `error` and `nees` at each epoch, both kept per run.
 fn scores(values: Vec<f64>) -> RunScores {
     RunScores {
         metrics: vec![
-            Metric::new("error", Reduction::RootMeanSquare, "m"),
-            Metric::new("nees", Reduction::ChiSquare { dof: 2 }, ""),
+            Metric::new("error", Reduction::RootMeanSquare, "m").per_run(),
+            Metric::new("nees", Reduction::ChiSquare { dof: 2 }, "").per_run(),
         ],
         times: (0..values.len() / 2).map(|k| k as f64).collect(),
         values,
@@ -76,6 +76,17 @@ fn three_shards_merged_equal_one_study_bit_for_bit() {
     assert_eq!(whole.runs(), std::slice::from_ref(&(0..1000)));
     let failures: u64 = whole.failures().values().sum();
     assert!((20..=80).contains(&failures), "{failures}");
+    // Every successful run's values are kept, in run order, whatever the shard that ran it.
+    for metric in ["error", "nees"] {
+        let runs = whole.run_values(metric).unwrap().values();
+        assert_eq!(runs.len() as u64, 1000 - failures);
+        assert!(runs.windows(2).all(|w| w[0].0 < w[1].0));
+    }
+    let shard_sizes: usize = shards
+        .iter()
+        .map(|s| s.run_values("error").unwrap().len())
+        .sum();
+    assert_eq!(shard_sizes as u64, 1000 - failures);
     let nees = whole.series("nees").unwrap().pooled();
     assert_eq!(nees.count(), 40 * (1000 - failures));
     // The mean of uniform [0, 6) values, to 4 standard errors.
