@@ -75,7 +75,7 @@ pub struct PositionScorer;
 impl Scorer<Position, PositionEstimate> for PositionScorer {
     fn metrics(&self) -> Vec<Metric> {
         vec![
-            Metric::new("position_error", Reduction::RootMeanSquare, "m"),
+            Metric::new("position_error", Reduction::RootMeanSquare, "m").per_run(),
             Metric::new("x_error", Reduction::RootMeanSquare, "m"),
             Metric::new("x_sigma", Reduction::RootMeanSquare, "m"),
             Metric::new("y_error", Reduction::RootMeanSquare, "m"),

@@ -43,4 +43,4 @@ pub use noise::{
     sigma_from_kappa,
 };
 pub use process::{DELTA_LIMIT, Q_LIMIT, RandomWalk};
-pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackSteps};
+pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackSteps, TruthModel};

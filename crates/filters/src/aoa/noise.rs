@@ -83,9 +83,16 @@ fn ln_normal(x: f64, sigma: f64) -> f64 {
     -0.5 * z * z - sigma.ln() - 0.5 * TAU.ln()
 }
 
-/// `ln [Φ(b) − Φ(a)]` for a ≤ b, from the side where it does not cancel.
+/// Beyond this many standard deviations the normal's tail mass (below 1.2e-19) is lost to rounding
+/// in `ln(1 − tail)`.
+const NEGLIGIBLE_TAIL: f64 = 9.0;
+
+/// `ln [Φ(b) − Φ(a)]` for a ≤ b, from the side where it does not cancel (0 when both bounds are
+/// beyond [`NEGLIGIBLE_TAIL`], without evaluating erf: the hot path of the particle filter).
 fn ln_normal_mass(a: f64, b: f64) -> f64 {
-    if a > 0.0 {
+    if a <= -NEGLIGIBLE_TAIL && b >= NEGLIGIBLE_TAIL {
+        0.0
+    } else if a > 0.0 {
         // Both in the upper tail: Φ(b) − Φ(a) = Φ(−a) − Φ(−b).
         (normal_cdf(-a) - normal_cdf(-b)).ln()
     } else if b < 0.0 {
@@ -108,7 +115,7 @@ pub fn az_el_log_density(y: &AzEl, predicted: &AzEl, sigma_az: f64, sigma_el: f6
         return f64::NEG_INFINITY;
     }
     let azimuth = ln_normal(wrap(y.azimuth - predicted.azimuth), sigma_az)
-        - libm::erf(PI / (sigma_az * SQRT_2)).ln();
+        - ln_normal_mass(-PI / sigma_az, PI / sigma_az);
     let el0 = predicted.elevation;
     let elevation = ln_normal(y.elevation - el0, sigma_el)
         - ln_normal_mass((-FRAC_PI_2 - el0) / sigma_el, (FRAC_PI_2 - el0) / sigma_el);

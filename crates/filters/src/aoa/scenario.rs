@@ -13,6 +13,19 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::PI;
 
+/// How the true position moves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TruthModel {
+    /// Along the square, counter-clockwise from the origin, each step of random length (the
+    /// paper's equation (12)): the filters' random walk (13) is then only an approximation of the
+    /// motion, so even the optimal filter under (13) is not consistent with this truth.
+    #[default]
+    Square,
+    /// The filters' own random walk (13) from the origin: the truth the filters assume, where a
+    /// consistent filter's NEES is χ²(3).
+    RandomWalk,
+}
+
 /// The track's settings; the default is the paper's: a 5 m square, q_xy = 0.5 m/√s, q_z = 0.1 m/√s,
 /// δ = 0.25 s, a prior standard deviation of 0.5 m, and 64 steps (one lap on average: the mean
 /// step of equation (12) is 0.313 m and the lap 20 m).
@@ -32,6 +45,8 @@ pub struct TrackConfig {
     pub prior_std: f64,
     /// The number of steps (measurement epochs) of a run.
     pub epochs: usize,
+    /// How the truth moves.
+    pub truth: TruthModel,
 }
 
 impl Default for TrackConfig {
@@ -43,6 +58,7 @@ impl Default for TrackConfig {
             delta: 0.25,
             prior_std: 0.5,
             epochs: 64,
+            truth: TruthModel::Square,
         }
     }
 }
@@ -130,8 +146,10 @@ impl TrackConfig {
 }
 
 /// The square track of the paper's Sec. 4.3: the user walks counter-clockwise around a square from
-/// the origin, each step of random length (12), and N anchors read its direction with noise from a
-/// [`DataModel`].
+/// the origin, each step of random length (12) (or, with [`TruthModel::RandomWalk`], follows the
+/// filters' random walk from the origin), and N anchors read its direction with noise from a
+/// [`DataModel`]. A reading of a position at an anchor (possible only for the random walk, with
+/// probability zero) is drawn about the anchor's z-axis.
 ///
 /// A run has [`TrackConfig::epochs`] steps; step k (time kδ) moves the user, gives the filters the
 /// input δ (their random walk (13)) and the readings of every anchor.
@@ -236,6 +254,7 @@ pub struct TrackSteps<'s, const N: usize> {
     track: &'s SquareTrack<N>,
     rng: &'s mut ChaCha8Rng,
     travelled: f64,
+    position: Vector3<f64>,
     k: usize,
 }
 
@@ -248,10 +267,20 @@ impl<const N: usize> Iterator for TrackSteps<'_, N> {
             return None;
         }
         self.k += 1;
-        let (mean, std) = config.step_length();
-        let n: f64 = StandardNormal.sample(&mut *self.rng);
-        self.travelled += mean + std * n;
-        let theta = config.point_at(self.travelled);
+        let theta = match config.truth {
+            TruthModel::Square => {
+                let (mean, std) = config.step_length();
+                let n: f64 = StandardNormal.sample(&mut *self.rng);
+                self.travelled += mean + std * n;
+                config.point_at(self.travelled)
+            }
+            TruthModel::RandomWalk => {
+                let scale = Vector3::new(config.q_xy, config.q_xy, config.q_z) * config.delta.sqrt();
+                let n = Vector3::from_fn(|_, _| StandardNormal.sample(&mut *self.rng));
+                self.position += scale.component_mul(&n);
+                self.position
+            }
+        };
         let readings = self.track.readings(&theta, &mut *self.rng);
         Some(Step {
             time: self.k as f64 * config.delta,
@@ -280,6 +309,7 @@ impl<const N: usize> Scenario for SquareTrack<N> {
             track: self,
             rng,
             travelled: 0.0,
+            position: Vector3::zeros(),
             k: 0,
         })
     }

@@ -1,0 +1,281 @@
+//! The angle-of-arrival application's laws and behaviour: the one-representation rule, the
+//! measurement models' Jacobians against central differences, the square track, the filters'
+//! consistency (NEES against its χ²(3) band) where the truth follows their model, the paper's
+//! ordering of the filters on the square track, and the all-or-nothing steps.
+
+use liebayes_experiments::{RecursiveFilter, Shard, Study, Summary, relative_differences};
+use liebayes_filters::aoa::{
+    Algorithm, Anchor, AngleNoise, AzEl, AzElModel, DataModel, ModelChoice, Position, Prior,
+    RandomWalk, SquareTrack, TrackConfig, TrackFilter, TruthModel, UnitVectorModel,
+    square_track_anchors, vmf_ekf, vmf_particle_filter, wrap,
+};
+use liebayes_experiments::Scenario;
+use liebayes_manifolds::So3;
+use liebayes_operators::MeasurementModel;
+use liebayes_operators::evaluation::average_nees_band;
+use nalgebra::{SMatrix, SVector, Vector3};
+use proptest::prelude::*;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::f64::consts::{FRAC_PI_2, PI};
+
+const SIGMA: f64 = 0.174_532_925_199_432_95; // 10°
+
+fn angle() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        -30.0..30.0_f64,
+        Just(FRAC_PI_2),
+        Just(-FRAC_PI_2),
+        Just(PI),
+        Just(-PI),
+        Just(0.0),
+        (-1e-9..1e-9_f64).prop_map(|e| FRAC_PI_2 + e),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// The reduced reading points the same way, lies in the canonical ranges, and is its own
+    /// reduction.
+    #[test]
+    fn canonical_readings_keep_their_direction(az in angle(), el in angle()) {
+        let raw = AzEl::new(az, el);
+        let c = raw.canonical();
+        prop_assert!((c.unit_vector() - raw.unit_vector()).amax() < 1e-13);
+        prop_assert!(c.elevation.abs() <= FRAC_PI_2 && (-PI..PI).contains(&c.azimuth));
+        let again = c.canonical();
+        prop_assert!((again.elevation - c.elevation).abs() < 1e-15);
+        prop_assert!(wrap(again.azimuth - c.azimuth).abs() < 1e-14);
+        // Away from the poles, the angles of the unit vector are the canonical reading.
+        if c.elevation.abs() < 1.5 {
+            let back = AzEl::of_vector(&raw.unit_vector());
+            prop_assert!((back.elevation - c.elevation).abs() < 1e-13);
+            prop_assert!(wrap(back.azimuth - c.azimuth).abs() < 1e-13);
+        }
+    }
+
+    /// Both models' analytic Jacobians (Algorithm 2's, and the azimuth-elevation one) against
+    /// central differences, with rotated anchors, away from the anchors and the poles.
+    #[test]
+    fn jacobians_match_central_differences(
+        x in -10.0..10.0_f64, y in -10.0..10.0_f64, z in -3.0..3.0_f64,
+        axis in proptest::array::uniform3(-1.0..1.0_f64), turn in 0.0..3.0_f64,
+    ) {
+        let rotation = So3::from_rotation_vector(&(Vector3::from(axis) * turn)).unwrap();
+        let anchors = [
+            Anchor::new(Vector3::new(1.0, -2.0, 0.5), rotation).unwrap(),
+            Anchor::at(Vector3::new(-3.0, 4.0, -1.0)).unwrap(),
+        ];
+        let theta = Vector3::new(x, y, z);
+        for anchor in &anchors {
+            let d = anchor.local_offset(&theta);
+            prop_assume!(d.norm() > 0.5 && d.x.hypot(d.y) > 0.05 * d.norm());
+        }
+        let at = |v: Vector3<f64>| Position::new_unchecked(v);
+        let numeric = |f: &dyn Fn(&Position) -> Vec<f64>| -> Vec<[f64; 3]> {
+            let h = 1e-6;
+            let columns: Vec<Vec<f64>> = (0..3)
+                .map(|i| {
+                    let mut e = Vector3::zeros();
+                    e[i] = h;
+                    let (p, m) = (f(&at(theta + e)), f(&at(theta - e)));
+                    p.iter().zip(&m).map(|(a, b)| (a - b) / (2.0 * h)).collect()
+                })
+                .collect();
+            (0..columns[0].len()).map(|r| [columns[0][r], columns[1][r], columns[2][r]]).collect()
+        };
+        let vmf = UnitVectorModel::new(anchors, 30.0).unwrap();
+        let analytic: SMatrix<f64, 6, 3> = MeasurementModel::<Position, 3, 6>::jacobian(&vmf, &at(theta));
+        let predict = |p: &Position| -> Vec<f64> {
+            let v: SVector<f64, 6> = MeasurementModel::<Position, 3, 6>::predict(&vmf, p);
+            v.iter().copied().collect()
+        };
+        for (r, row) in numeric(&predict).iter().enumerate() {
+            for c in 0..3 {
+                prop_assert!((analytic[(r, c)] - row[c]).abs() < 1e-6 * (1.0 + row[c].abs()));
+            }
+        }
+        let ae = AzElModel::new(anchors, AngleNoise::Fixed { sigma_az: 0.1, sigma_el: 0.1 }).unwrap();
+        let analytic: SMatrix<f64, 4, 3> = MeasurementModel::<Position, 3, 4>::jacobian(&ae, &at(theta));
+        let centre: SVector<f64, 4> = MeasurementModel::<Position, 3, 4>::predict(&ae, &at(theta));
+        // Azimuths are unwrapped against the centre's before differencing.
+        let predict = |p: &Position| -> Vec<f64> {
+            let v: SVector<f64, 4> = MeasurementModel::<Position, 3, 4>::predict(&ae, p);
+            MeasurementModel::<Position, 3, 4>::residual(&ae, &v, &centre).iter().copied().collect()
+        };
+        for (r, row) in numeric(&predict).iter().enumerate() {
+            for c in 0..3 {
+                prop_assert!(
+                    (analytic[(r, c)] - row[c]).abs() < 1e-5 * (1.0 + row[c].abs()),
+                    "row {r} col {c}: {} vs {}", analytic[(r, c)], row[c]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_square_track_walks_the_square_and_reads_canonical_directions() {
+    let data = DataModel::NormalWithFlip { sigma_az: SIGMA, sigma_el: SIGMA };
+    let track = SquareTrack::paper(data).unwrap();
+    let config = *track.config();
+    let (mean, std) = config.step_length();
+    // Equation (12): mean q √(2δ) Γ(1.5), variance 2 q² δ (1 − Γ(1.5)²).
+    assert!((mean - 0.5 * 0.5_f64.sqrt() * PI.sqrt() / 2.0).abs() < 1e-15);
+    assert!((std * std - 2.0 * 0.25 * 0.25 * (1.0 - PI / 4.0)).abs() < 1e-15);
+    let mut steps = 0;
+    let mut poles = 0;
+    for run in 0..50 {
+        let mut previous = Vector3::zeros();
+        let mut travelled = 0.0;
+        let mut sim = ChaCha8Rng::seed_from_u64(run);
+        for step in track.simulate(&mut sim).unwrap() {
+            let p = *step.truth.coords();
+            assert!(p.z == 0.0 && p.x >= 0.0 && p.x <= 5.0 && p.y >= 0.0 && p.y <= 5.0);
+            assert!(p.x == 0.0 || p.x == 5.0 || p.y == 0.0 || p.y == 5.0, "{p} off the square");
+            travelled += (p - previous).abs().sum();
+            previous = p;
+            for reading in step.measurement.unwrap() {
+                reading.check_canonical().unwrap();
+                poles += usize::from(reading.elevation.abs() > 1.3);
+            }
+            steps += 1;
+        }
+        assert!(travelled > 0.0);
+    }
+    assert_eq!(steps, 50 * config.epochs);
+    // Along the sides y = 0 and y = 5 the user passes through two anchors' poles.
+    assert!(poles > steps / 4, "{poles} readings near a pole in {steps} steps");
+    // The same seed gives the same run.
+    let a: Vec<_> = track.simulate(&mut ChaCha8Rng::seed_from_u64(9)).unwrap().collect();
+    let b: Vec<_> = track.simulate(&mut ChaCha8Rng::seed_from_u64(9)).unwrap().collect();
+    assert_eq!(a, b);
+}
+
+fn study(filter: &TrackFilter, track: &SquareTrack<4>, runs: u64) -> Summary {
+    let study = Study::new(filter.label(), runs, 11, Shard::WHOLE).unwrap();
+    filter.study(track, &study, &|_| {}).unwrap()
+}
+
+/// Where the truth follows the filters' random walk and the readings their von Mises-Fisher model,
+/// the final-epoch NEES of the EKF, the UKF and the particle filter lies in its χ²(3) band.
+#[test]
+fn vmf_filters_are_consistent_where_the_truth_follows_their_model() {
+    let kappa = 1.0 / (SIGMA * SIGMA);
+    let config = TrackConfig { truth: TruthModel::RandomWalk, epochs: 24, ..TrackConfig::default() };
+    let track =
+        SquareTrack::new(square_track_anchors(), DataModel::VonMisesFisher { kappa }, config).unwrap();
+    let runs = 300;
+    for algorithm in [Algorithm::Ekf, Algorithm::Ukf, Algorithm::Particle(4000)] {
+        let filter = TrackFilter { algorithm, model: ModelChoice::Vmf { kappa } };
+        let summary = study(&filter, &track, if matches!(algorithm, Algorithm::Particle(_)) { 150 } else { runs });
+        assert_eq!(summary.failure_count(), 0);
+        let series = summary.series("nees_position").unwrap();
+        let last = series.epochs().last().unwrap();
+        let n = usize::try_from(last.count()).unwrap();
+        let mean = last.mean().unwrap();
+        let (low, high) = average_nees_band(3, n).unwrap();
+        eprintln!("{}: final NEES {mean:.3} over {n} runs (95 % band [{low:.3}, {high:.3}])", filter.label());
+        assert!(mean > low && mean < high, "{}: NEES {mean}", filter.label());
+    }
+}
+
+/// The paper's Fig. 4 ordering on the square track, on a CI-sized study: the VMF EKF and UKF
+/// within a few percent of PF-VMF at the median, the AE-nominal filters far behind.
+#[test]
+fn the_vmf_filters_lead_on_the_square_track() {
+    let data = DataModel::VonMisesFisher { kappa: 1.0 / (SIGMA * SIGMA) };
+    let track = SquareTrack::paper(data).unwrap();
+    let models = ModelChoice::paper(&data, (0.34, 0.175)).unwrap();
+    let runs = 60;
+    let pf = study(&TrackFilter { algorithm: Algorithm::Particle(2000), model: models[0].clone() }, &track, runs);
+    let reference = pf.run_values("position_error").unwrap();
+    let median = |filter: TrackFilter| {
+        let summary = study(&filter, &track, runs);
+        let d = relative_differences(reference, summary.run_values("position_error").unwrap());
+        liebayes_experiments::quantiles(&d, &[0.5])[0]
+    };
+    for algorithm in [Algorithm::Ekf, Algorithm::Ukf] {
+        let vmf = median(TrackFilter { algorithm, model: models[0].clone() });
+        let ae = median(TrackFilter { algorithm, model: models[1].clone() });
+        eprintln!("{algorithm:?}: median RMSE difference from PF-VMF: VMF {vmf:.1} %, AE-nominal {ae:.1} %");
+        assert!(vmf.abs() < 5.0, "{algorithm:?}-VMF {vmf} %");
+        assert!(ae > 25.0, "{algorithm:?}-AE {ae} %");
+    }
+}
+
+/// A reading the conversion refuses (NaN, or an elevation beyond the pole for the angle models)
+/// leaves every filter as it was.
+#[test]
+fn refused_readings_leave_the_filters_untouched() {
+    let anchors = square_track_anchors();
+    let prior = Prior::new(Vector3::new(0.1, 0.2, 0.0), 0.5).unwrap();
+    let walk = RandomWalk::new(0.5, 0.1).unwrap();
+    let vmf = UnitVectorModel::new(anchors, 32.8).unwrap();
+    let good = [AzEl::new(0.1, 0.2); 4];
+    let mut nan = good;
+    nan[2].azimuth = f64::NAN;
+    let mut ekf = vmf_ekf::<4, 12>(vmf, walk, &prior).unwrap();
+    let before = ekf.clone();
+    assert!(ekf.update(&nan).is_err());
+    assert_eq!(ekf, before);
+    let mut pf = vmf_particle_filter(vmf, walk, &prior, 100, ChaCha8Rng::seed_from_u64(1)).unwrap();
+    let before = (pf.density().particles().to_vec(), pf.density().log_weights().to_vec());
+    assert!(pf.update(&nan).is_err());
+    assert_eq!(pf.density().particles(), &before.0[..]);
+    assert_eq!(pf.density().log_weights(), &before.1[..]);
+    pf.update(&good).unwrap();
+    // An angle filter refuses a non-canonical elevation, the unit-vector filter takes it.
+    let ae = AzElModel::new(anchors, AngleNoise::Fixed { sigma_az: SIGMA, sigma_el: SIGMA }).unwrap();
+    let mut beyond = good;
+    beyond[0].elevation = 2.0;
+    let mut angle = liebayes_filters::aoa::angle_ekf::<4, 8>(ae, walk, &prior).unwrap();
+    let before = angle.clone();
+    let error = angle.update(&beyond).unwrap_err().to_string();
+    assert!(error.contains("elevation"), "{error}");
+    assert_eq!(angle, before);
+    ekf.update(&beyond).unwrap();
+}
+
+#[test]
+fn settings_out_of_range_are_refused_with_their_name() {
+    let anchors = square_track_anchors();
+    for kappa in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e13] {
+        assert!(UnitVectorModel::new(anchors, kappa).is_err(), "kappa {kappa}");
+    }
+    for sigma in [0.0, -0.1, f64::NAN, 1e4] {
+        let e = AzElModel::new(anchors, AngleNoise::Fixed { sigma_az: sigma, sigma_el: 0.1 });
+        assert!(e.unwrap_err().to_string().contains("sigma_az"));
+    }
+    assert!(RandomWalk::new(-1.0, 0.1).is_err() && RandomWalk::new(0.1, f64::NAN).is_err());
+    assert!(Prior::new(Vector3::new(f64::NAN, 0.0, 0.0), 1.0).is_err());
+    assert!(Prior::new(Vector3::zeros(), 0.0).is_err());
+    let prior = Prior::new(Vector3::zeros(), 1.0).unwrap();
+    let vmf = UnitVectorModel::new(anchors, 32.8).unwrap();
+    let walk = RandomWalk::new(0.5, 0.1).unwrap();
+    for n in [0, usize::MAX] {
+        assert!(vmf_particle_filter(vmf, walk, &prior, n, ChaCha8Rng::seed_from_u64(0)).is_err());
+    }
+    // An anchor on the track.
+    let mut on_track = anchors;
+    on_track[1] = Anchor::at(Vector3::new(2.0, 0.0, 0.0)).unwrap();
+    let data = DataModel::VonMisesFisher { kappa: 32.8 };
+    let error = SquareTrack::new(on_track, data, TrackConfig::default()).unwrap_err();
+    assert!(error.to_string().contains("anchor"), "{error}");
+    for config in [
+        TrackConfig { side: 0.0, ..TrackConfig::default() },
+        TrackConfig { delta: f64::NAN, ..TrackConfig::default() },
+        TrackConfig { epochs: 0, ..TrackConfig::default() },
+        TrackConfig { prior_std: -1.0, ..TrackConfig::default() },
+    ] {
+        assert!(SquareTrack::new(anchors, data, config).is_err(), "{config:?}");
+    }
+    assert!(SquareTrack::paper(DataModel::NormalWithFlip { sigma_az: f64::NAN, sigma_el: 0.1 }).is_err());
+    assert!(Anchor::at(Vector3::new(f64::INFINITY, 0.0, 0.0)).is_err());
+    // A particle filter of zero particles is refused by the study before any run.
+    let filter = TrackFilter { algorithm: Algorithm::Particle(0), model: ModelChoice::Vmf { kappa: 32.8 } };
+    let track = SquareTrack::paper(data).unwrap();
+    let study = Study::new("x", 2, 1, Shard::WHOLE).unwrap();
+    assert!(filter.study(&track, &study, &|_| {}).is_err());
+}
