@@ -21,7 +21,7 @@
 //! reference for anything angular: with enough cells it is exact wherever the payload steps are.
 
 use crate::error::{reserve, with_capacity};
-use crate::numerics::LogWeights;
+use crate::numerics::{LogWeights, Passes};
 use crate::particle::{Given, LabelModel, Likelihood, Reweight};
 use crate::traits::{condition_clone, propagate_clone};
 use crate::{Condition, Conditioned, Evidence, OperatorError, Propagate};
@@ -261,7 +261,7 @@ where
             self.spare.push(step.posterior);
             pending.push(step.log_evidence);
         }
-        let log_evidence = self.weights.add_pending(CELL_LIKELIHOOD)?;
+        let log_evidence = self.weights.add_pending(CELL_LIKELIHOOD, Passes::Serial)?;
         std::mem::swap(&mut self.cells, &mut self.spare);
         Ok(Evidence {
             log_evidence,
@@ -303,7 +303,7 @@ where
         pending.clear();
         pending.extend((0..n).map(|j| model.0.log_likelihood(&rotation_of(j, n), z)));
         Ok(Evidence {
-            log_evidence: self.weights.add_pending(CELL_LIKELIHOOD)?,
+            log_evidence: self.weights.add_pending(CELL_LIKELIHOOD, Passes::Serial)?,
             report: (),
         })
     }

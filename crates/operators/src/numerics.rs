@@ -50,6 +50,126 @@ pub(crate) fn checked_gaussian<X: Manifold<D, Scalar = f64>, const D: usize>(
     })
 }
 
+/// The terms per chunk of the weights' sums. Serial and parallel steps add the same chunks in the
+/// same order, so they agree bit for bit.
+const SUM_CHUNK: usize = 4096;
+
+/// How the passes over the weights run: on this thread, or (feature `rayon`) split over the
+/// thread pool in chunks of [`SUM_CHUNK`], with the same result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Passes {
+    /// On this thread.
+    Serial,
+    /// On rayon's pool.
+    #[cfg(feature = "rayon")]
+    Parallel,
+}
+
+/// `(Σ eᵢ, Σ eᵢ²)` with `eᵢ = exp(lᵢ − m)` over one chunk: the normaliser and, from the same
+/// exponentials, the effective sample size.
+fn scaled_chunk_sums(chunk: &[f64], max: f64) -> (f64, f64) {
+    chunk.iter().fold((0.0, 0.0), |(s, q), l| {
+        let e = (l - max).exp();
+        (s + e, q + e * e)
+    })
+}
+
+/// Adds two chunks' sums.
+fn add_sums(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    (a.0 + b.0, a.1 + b.1)
+}
+
+impl Passes {
+    /// The first NaN or +∞ (in index order).
+    fn first_invalid(self, values: &[f64]) -> Option<f64> {
+        let invalid = |v: &f64| v.is_nan() || *v == f64::INFINITY;
+        match self {
+            Passes::Serial => values.iter().copied().find(invalid),
+            #[cfg(feature = "rayon")]
+            Passes::Parallel => {
+                use rayon::prelude::*;
+                values.par_iter().copied().find_first(invalid)
+            }
+        }
+    }
+
+    /// The largest value (exact in any order; the values are checked not NaN).
+    fn max(self, values: &[f64]) -> f64 {
+        match self {
+            Passes::Serial => values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            #[cfg(feature = "rayon")]
+            Passes::Parallel => {
+                use rayon::prelude::*;
+                values
+                    .par_iter()
+                    .copied()
+                    .reduce(|| f64::NEG_INFINITY, f64::max)
+            }
+        }
+    }
+
+    /// [`scaled_chunk_sums`] over the chunks of [`SUM_CHUNK`] values, the chunks' sums added in
+    /// order (`partials`: scratch with room for one pair per chunk, so nothing is allocated).
+    fn scaled_sums(self, values: &[f64], max: f64, partials: &mut Vec<(f64, f64)>) -> (f64, f64) {
+        match self {
+            Passes::Serial => {
+                let _ = partials;
+                values
+                    .chunks(SUM_CHUNK)
+                    .map(|c| scaled_chunk_sums(c, max))
+                    .fold((0.0, 0.0), add_sums)
+            }
+            #[cfg(feature = "rayon")]
+            Passes::Parallel => {
+                use rayon::prelude::*;
+                values
+                    .par_chunks(SUM_CHUNK)
+                    .map(|c| scaled_chunk_sums(c, max))
+                    .collect_into_vec(partials);
+                partials.iter().copied().fold((0.0, 0.0), add_sums)
+            }
+        }
+    }
+
+    /// `lᵢ ← pᵢ` normalised by `sum`.
+    fn write(self, values: &mut [f64], pending: &[f64], sum: LogSum) {
+        match self {
+            Passes::Serial => {
+                for (l, p) in values.iter_mut().zip(pending) {
+                    *l = sum.normalised(*p);
+                }
+            }
+            #[cfg(feature = "rayon")]
+            Passes::Parallel => {
+                use rayon::prelude::*;
+                values
+                    .par_iter_mut()
+                    .zip(pending.par_iter())
+                    .for_each(|(l, p)| *l = sum.normalised(*p));
+            }
+        }
+    }
+
+    /// `pᵢ ← lᵢ + (pᵢ − offset)`.
+    fn add(self, pending: &mut [f64], values: &[f64], offset: f64) {
+        match self {
+            Passes::Serial => {
+                for (p, l) in pending.iter_mut().zip(values) {
+                    *p = l + (*p - offset);
+                }
+            }
+            #[cfg(feature = "rayon")]
+            Passes::Parallel => {
+                use rayon::prelude::*;
+                pending
+                    .par_iter_mut()
+                    .zip(values.par_iter())
+                    .for_each(|(p, l)| *p = l + (*p - offset));
+            }
+        }
+    }
+}
+
 /// `ln Σ exp(lᵢ)` split as `m + ln s` with m the largest term and `s = Σ exp(lᵢ − m)` in [1, n], so
 /// that nothing overflows or underflows and the relative values `lᵢ − m` are kept whatever the size
 /// of m: normalising `lᵢ` to `(lᵢ − m) − ln s` is exact to rounding even at offsets of −1e300, where
@@ -58,18 +178,22 @@ pub(crate) fn checked_gaussian<X: Manifold<D, Scalar = f64>, const D: usize>(
 struct LogSum {
     max: f64,
     log_scaled_sum: f64,
+    /// `1 / Σ wᵢ² = s² / Σ eᵢ²` of the normalised terms `wᵢ = eᵢ / s`.
+    effective_size: f64,
 }
 
 impl LogSum {
-    fn of(values: &[f64]) -> Option<Self> {
-        let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    fn of(values: &[f64], passes: Passes, partials: &mut Vec<(f64, f64)>) -> Option<Self> {
+        let max = passes.max(values);
         if max == f64::NEG_INFINITY {
             return None;
         }
-        let scaled: f64 = values.iter().map(|l| (l - max).exp()).sum();
+        let (scaled, squares) = passes.scaled_sums(values, max, partials);
         Some(Self {
             max,
             log_scaled_sum: scaled.ln(),
+            // s ≥ 1 and Σ eᵢ² ≥ 1 (the largest term is 1): finite.
+            effective_size: scaled * scaled / squares,
         })
     }
 
@@ -91,6 +215,8 @@ impl LogSum {
 pub(crate) struct LogWeights {
     values: Vec<f64>,
     pending: Vec<f64>,
+    /// One pair per chunk of [`SUM_CHUNK`] weights: the parallel passes' partial sums.
+    partials: Vec<(f64, f64)>,
     /// `1 / Σ exp(2 lᵢ)`, kept with the weights: a propagation asks for it at every step, and the
     /// weights change only at a Bayes step or a reset.
     effective_size: f64,
@@ -108,6 +234,17 @@ impl LogWeights {
         Ok(Self {
             values,
             pending: with_capacity(what, n)?,
+            partials: {
+                let mut partials = Vec::new();
+                partials
+                    .try_reserve_exact(n.div_ceil(SUM_CHUNK))
+                    .map_err(|_| OperatorError::TooLarge {
+                        what,
+                        value: n,
+                        max: crate::MAX_ELEMENTS,
+                    })?;
+                partials
+            },
             effective_size: n as f64,
         })
     }
@@ -142,8 +279,9 @@ impl LogWeights {
         self.effective_size = n as f64;
     }
 
-    /// Bayes: `lᵢ += pendingᵢ`, then normalisation. Returns `ln Σ wᵢ exp(pendingᵢ)` (the log evidence,
-    /// the weights being normalised before the step).
+    /// Bayes: `lᵢ += pendingᵢ`, then normalisation, with `passes` (the same result serial or
+    /// parallel). Returns `ln Σ wᵢ exp(pendingᵢ)` (the log evidence, the weights being normalised
+    /// before the step).
     ///
     /// The log-likelihoods' largest value M is taken out before they are added to the weights,
     /// `lᵢ ← lᵢ + (pendingᵢ − M)`, and added back only to the evidence: offsets such as −1e300, where
@@ -152,20 +290,19 @@ impl LogWeights {
     /// # Errors
     /// [`OperatorError::NonFinite`] when a pending value is NaN or +∞, when every updated weight is
     /// zero, or when the log evidence is below −f64::MAX (−∞ in f64); the weights are then unchanged.
-    pub(crate) fn add_pending(&mut self, what: &'static str) -> Result<f64, OperatorError> {
-        check(what, &self.pending)?;
-        let offset = self
-            .pending
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
+    pub(crate) fn add_pending(
+        &mut self,
+        what: &'static str,
+        passes: Passes,
+    ) -> Result<f64, OperatorError> {
+        check(what, &self.pending, passes)?;
+        let offset = passes.max(&self.pending);
         if offset == f64::NEG_INFINITY {
             return Err(every_weight_zero());
         }
-        for (p, l) in self.pending.iter_mut().zip(&self.values) {
-            *p = l + (*p - offset);
-        }
-        let sum = LogSum::of(&self.pending).ok_or_else(every_weight_zero)?;
+        passes.add(&mut self.pending, &self.values, offset);
+        let sum =
+            LogSum::of(&self.pending, passes, &mut self.partials).ok_or_else(every_weight_zero)?;
         let evidence = offset + sum.total();
         if evidence == f64::NEG_INFINITY {
             return Err(OperatorError::NonFinite {
@@ -174,7 +311,7 @@ impl LogWeights {
                 value: evidence,
             });
         }
-        self.write(sum);
+        self.write(sum, passes);
         Ok(evidence)
     }
 
@@ -183,23 +320,17 @@ impl LogWeights {
     /// # Errors
     /// As [`Self::add_pending`].
     pub(crate) fn replace_with_pending(&mut self, what: &'static str) -> Result<(), OperatorError> {
-        check(what, &self.pending)?;
-        self.normalise_pending()
-    }
-
-    /// Normalises the pending values into the weights.
-    fn normalise_pending(&mut self) -> Result<(), OperatorError> {
-        let sum = LogSum::of(&self.pending).ok_or_else(every_weight_zero)?;
-        self.write(sum);
+        check(what, &self.pending, Passes::Serial)?;
+        let sum = LogSum::of(&self.pending, Passes::Serial, &mut self.partials)
+            .ok_or_else(every_weight_zero)?;
+        self.write(sum, Passes::Serial);
         Ok(())
     }
 
     /// The pending values, normalised by their log sum, become the weights.
-    fn write(&mut self, sum: LogSum) {
-        for (l, p) in self.values.iter_mut().zip(&self.pending) {
-            *l = sum.normalised(*p);
-        }
-        self.effective_size = 1.0 / self.values.iter().map(|l| (2.0 * l).exp()).sum::<f64>();
+    fn write(&mut self, sum: LogSum, passes: Passes) {
+        passes.write(&mut self.values, &self.pending, sum);
+        self.effective_size = sum.effective_size.min(self.values.len() as f64);
     }
 }
 
@@ -211,10 +342,10 @@ fn every_weight_zero() -> OperatorError {
     }
 }
 
-/// Refuses NaN and +∞ (−∞, a zero weight, is allowed).
-fn check(what: &'static str, values: &[f64]) -> Result<(), OperatorError> {
-    match values.iter().find(|v| v.is_nan() || **v == f64::INFINITY) {
-        Some(&value) => Err(OperatorError::NonFinite { what, value }),
+/// Refuses NaN and +∞ (−∞, a zero weight, is allowed), naming the first.
+fn check(what: &'static str, values: &[f64], passes: Passes) -> Result<(), OperatorError> {
+    match passes.first_invalid(values) {
+        Some(value) => Err(OperatorError::NonFinite { what, value }),
         None => Ok(()),
     }
 }
@@ -227,24 +358,27 @@ mod tests {
     #[test]
     fn log_sums_keep_the_relative_values() {
         let values = [-1.0, 0.5, -3.0];
-        let sum = LogSum::of(&values).unwrap();
+        let sum = LogSum::of(&values, Passes::Serial, &mut Vec::new()).unwrap();
         let direct: f64 = values.iter().map(|l: &f64| l.exp()).sum();
         assert!((sum.total() - direct.ln()).abs() < 1e-15);
         for offset in [-1e300, -1e15, 1e300] {
             let shifted = values.map(|l| l + offset);
-            let sum = LogSum::of(&shifted).unwrap();
+            let sum = LogSum::of(&shifted, Passes::Serial, &mut Vec::new()).unwrap();
             // The shifted values are exact multiples of their ulp; their differences are not, so
             // compare with the normalisation of the differences the shift left.
             let relative = shifted.map(|l| l - shifted[1]);
-            let reference = LogSum::of(&relative).unwrap();
+            let reference = LogSum::of(&relative, Passes::Serial, &mut Vec::new()).unwrap();
             for (s, r) in shifted.iter().zip(&relative) {
                 assert_eq!(sum.normalised(*s), reference.normalised(*r), "{offset}");
             }
             let total: f64 = shifted.iter().map(|l| sum.normalised(*l).exp()).sum();
             assert!((total - 1.0).abs() < 1e-15, "{offset}: {total}");
         }
-        assert_eq!(LogSum::of(&[f64::NEG_INFINITY; 2]), None);
-        assert_eq!(LogSum::of(&[]), None);
+        assert_eq!(
+            LogSum::of(&[f64::NEG_INFINITY; 2], Passes::Serial, &mut Vec::new()),
+            None
+        );
+        assert_eq!(LogSum::of(&[], Passes::Serial, &mut Vec::new()), None);
     }
 
     /// Two particles with log-likelihoods −1e300 keep their prior weights 0.9 and 0.1.
@@ -255,7 +389,7 @@ mod tests {
         w.replace_with_pending("test").unwrap();
         w.pending().clear();
         w.pending().extend([-1e300, -1e300]);
-        let evidence = w.add_pending("test").unwrap();
+        let evidence = w.add_pending("test", Passes::Serial).unwrap();
         assert_eq!(evidence, -1e300);
         assert!((w.values()[0].exp() - 0.9).abs() < 1e-15);
         assert!((w.values()[1].exp() - 0.1).abs() < 1e-15);

@@ -1,0 +1,131 @@
+//! Cost of the angle-of-arrival filters with the square track's four anchors: the particle filter's
+//! particle-updates per second (the von Mises-Fisher reweighting of Algorithm 1, serial and in
+//! parallel with rayon, and a whole step with the sampled random walk), the azimuth-elevation
+//! likelihood beside it, and the EKF and UKF per update with each model, all in one run.
+//! `cargo bench --bench aoa`; figures in docs/benchmarks.md.
+#![allow(missing_docs)]
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use liebayes::experiments::RecursiveFilter;
+use liebayes::filters::aoa::{
+    AngleNoise, AzEl, AzElModel, CheckedReadings, Prior, RandomWalk, UnitVectorModel, angle_ekf,
+    angle_ukf, square_track_anchors, vmf_ekf, vmf_particle_filter, vmf_ukf,
+};
+use liebayes::operators::Condition;
+use liebayes::operators::Converted;
+use liebayes::operators::particle::{Reweight, ReweightInParallel};
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::hint::black_box;
+use std::time::Duration;
+
+const SIGMA: f64 = 0.174_532_925_199_432_95;
+
+/// The readings of the square track's anchors of the point (1, 0.2, 0), as Model I would give
+/// them without noise.
+fn setup() -> (
+    UnitVectorModel<4>,
+    AzElModel<4>,
+    RandomWalk,
+    Prior,
+    [AzEl; 4],
+) {
+    let anchors = square_track_anchors();
+    let theta = Vector3::new(1.0, 0.2, 0.0);
+    let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&theta).unwrap().0));
+    (
+        UnitVectorModel::new(anchors, 1.0 / (SIGMA * SIGMA)).unwrap(),
+        AzElModel::new(
+            anchors,
+            AngleNoise::Fixed {
+                sigma_az: SIGMA,
+                sigma_el: SIGMA,
+            },
+        )
+        .unwrap(),
+        RandomWalk::new(0.5, 0.1).unwrap(),
+        Prior::new(Vector3::new(1.1, 0.1, 0.2), 0.5).unwrap(),
+        readings,
+    )
+}
+
+fn particle_updates(c: &mut Criterion) {
+    let (vmf, ae, walk, prior, readings) = setup();
+    for n in [10_000_usize, 1_000_000] {
+        let mut g = c.benchmark_group(format!("aoa particle filter, {n} particles"));
+        g.throughput(Throughput::Elements(n as u64));
+        if n > 100_000 {
+            g.sample_size(10).measurement_time(Duration::from_secs(8));
+        }
+        let filter =
+            vmf_particle_filter(vmf, walk, &prior, n, ChaCha8Rng::seed_from_u64(1)).unwrap();
+        let mut set = filter.density().clone();
+        let serial = Converted {
+            model: Reweight(vmf),
+            conversion: vmf.in_world_axes(),
+        };
+        let parallel = Converted {
+            model: ReweightInParallel(vmf),
+            conversion: vmf.in_world_axes(),
+        };
+        g.bench_function("VMF reweight, serial", |b| {
+            b.iter(|| {
+                set.condition_in_place(&serial, black_box(&readings))
+                    .unwrap()
+            });
+        });
+        g.bench_function("VMF reweight, parallel (rayon)", |b| {
+            b.iter(|| {
+                set.condition_in_place(&parallel, black_box(&readings))
+                    .unwrap()
+            });
+        });
+        let angles = Converted {
+            model: Reweight(ae.clone()),
+            conversion: CheckedReadings,
+        };
+        g.bench_function("AE reweight, serial", |b| {
+            b.iter(|| {
+                set.condition_in_place(&angles, black_box(&readings))
+                    .unwrap()
+            });
+        });
+        let mut pf = filter.clone();
+        g.bench_function("VMF predict + update (PF-VMF step), serial", |b| {
+            b.iter(|| {
+                pf.predict(black_box(&0.25)).unwrap();
+                pf.update(black_box(&readings)).unwrap();
+            });
+        });
+        g.finish();
+    }
+}
+
+fn kalman_updates(c: &mut Criterion) {
+    let (vmf, ae, walk, prior, readings) = setup();
+    let mut g = c.benchmark_group("aoa Kalman filters, predict + update");
+    let ekf = vmf_ekf::<4, 12>(vmf, walk, &prior).unwrap();
+    let ukf = vmf_ukf::<4, 12>(vmf, walk, &prior).unwrap();
+    let ekf_ae = angle_ekf::<4, 8>(ae.clone(), walk, &prior).unwrap();
+    let ukf_ae = angle_ukf::<4, 8>(ae, walk, &prior).unwrap();
+    macro_rules! step {
+        ($name:expr, $filter:expr) => {
+            g.bench_function($name, |b| {
+                let mut f = $filter.clone();
+                b.iter(|| {
+                    f.predict(black_box(&0.25)).unwrap();
+                    f.update(black_box(&readings)).unwrap();
+                });
+            });
+        };
+    }
+    step!("EKF-VMF", ekf);
+    step!("UKF-VMF", ukf);
+    step!("EKF-AE", ekf_ae);
+    step!("UKF-AE", ukf_ae);
+    g.finish();
+}
+
+criterion_group!(benches, particle_updates, kalman_updates);
+criterion_main!(benches);
