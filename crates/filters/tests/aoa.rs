@@ -3,13 +3,13 @@
 //! consistency (NEES against its χ²(3) band) where the truth follows their model, the paper's
 //! ordering of the filters on the square track, and the all-or-nothing steps.
 
+use liebayes_experiments::Scenario;
 use liebayes_experiments::{RecursiveFilter, Shard, Study, Summary, relative_differences};
 use liebayes_filters::aoa::{
     Algorithm, Anchor, AngleNoise, AzEl, AzElModel, DataModel, ModelChoice, Position, Prior,
     RandomWalk, SquareTrack, TrackConfig, TrackFilter, TruthModel, UnitVectorModel,
     square_track_anchors, vmf_ekf, vmf_particle_filter, wrap,
 };
-use liebayes_experiments::Scenario;
 use liebayes_manifolds::So3;
 use liebayes_operators::MeasurementModel;
 use liebayes_operators::evaluation::average_nees_band;
@@ -117,7 +117,10 @@ proptest! {
 
 #[test]
 fn the_square_track_walks_the_square_and_reads_canonical_directions() {
-    let data = DataModel::NormalWithFlip { sigma_az: SIGMA, sigma_el: SIGMA };
+    let data = DataModel::NormalWithFlip {
+        sigma_az: SIGMA,
+        sigma_el: SIGMA,
+    };
     let track = SquareTrack::paper(data).unwrap();
     let config = *track.config();
     let (mean, std) = config.step_length();
@@ -133,7 +136,10 @@ fn the_square_track_walks_the_square_and_reads_canonical_directions() {
         for step in track.simulate(&mut sim).unwrap() {
             let p = *step.truth.coords();
             assert!(p.z == 0.0 && p.x >= 0.0 && p.x <= 5.0 && p.y >= 0.0 && p.y <= 5.0);
-            assert!(p.x == 0.0 || p.x == 5.0 || p.y == 0.0 || p.y == 5.0, "{p} off the square");
+            assert!(
+                p.x == 0.0 || p.x == 5.0 || p.y == 0.0 || p.y == 5.0,
+                "{p} off the square"
+            );
             travelled += (p - previous).abs().sum();
             previous = p;
             for reading in step.measurement.unwrap() {
@@ -146,10 +152,19 @@ fn the_square_track_walks_the_square_and_reads_canonical_directions() {
     }
     assert_eq!(steps, 50 * config.epochs);
     // Along the sides y = 0 and y = 5 the user passes through two anchors' poles.
-    assert!(poles > steps / 4, "{poles} readings near a pole in {steps} steps");
+    assert!(
+        poles > steps / 4,
+        "{poles} readings near a pole in {steps} steps"
+    );
     // The same seed gives the same run.
-    let a: Vec<_> = track.simulate(&mut ChaCha8Rng::seed_from_u64(9)).unwrap().collect();
-    let b: Vec<_> = track.simulate(&mut ChaCha8Rng::seed_from_u64(9)).unwrap().collect();
+    let a: Vec<_> = track
+        .simulate(&mut ChaCha8Rng::seed_from_u64(9))
+        .unwrap()
+        .collect();
+    let b: Vec<_> = track
+        .simulate(&mut ChaCha8Rng::seed_from_u64(9))
+        .unwrap()
+        .collect();
     assert_eq!(a, b);
 }
 
@@ -163,20 +178,42 @@ fn study(filter: &TrackFilter, track: &SquareTrack<4>, runs: u64) -> Summary {
 #[test]
 fn vmf_filters_are_consistent_where_the_truth_follows_their_model() {
     let kappa = 1.0 / (SIGMA * SIGMA);
-    let config = TrackConfig { truth: TruthModel::RandomWalk, epochs: 24, ..TrackConfig::default() };
-    let track =
-        SquareTrack::new(square_track_anchors(), DataModel::VonMisesFisher { kappa }, config).unwrap();
+    let config = TrackConfig {
+        truth: TruthModel::RandomWalk,
+        epochs: 24,
+        ..TrackConfig::default()
+    };
+    let track = SquareTrack::new(
+        square_track_anchors(),
+        DataModel::VonMisesFisher { kappa },
+        config,
+    )
+    .unwrap();
     let runs = 300;
     for algorithm in [Algorithm::Ekf, Algorithm::Ukf, Algorithm::Particle(4000)] {
-        let filter = TrackFilter { algorithm, model: ModelChoice::Vmf { kappa } };
-        let summary = study(&filter, &track, if matches!(algorithm, Algorithm::Particle(_)) { 150 } else { runs });
+        let filter = TrackFilter {
+            algorithm,
+            model: ModelChoice::Vmf { kappa },
+        };
+        let summary = study(
+            &filter,
+            &track,
+            if matches!(algorithm, Algorithm::Particle(_)) {
+                150
+            } else {
+                runs
+            },
+        );
         assert_eq!(summary.failure_count(), 0);
         let series = summary.series("nees_position").unwrap();
         let last = series.epochs().last().unwrap();
         let n = usize::try_from(last.count()).unwrap();
         let mean = last.mean().unwrap();
         let (low, high) = average_nees_band(3, n).unwrap();
-        eprintln!("{}: final NEES {mean:.3} over {n} runs (95 % band [{low:.3}, {high:.3}])", filter.label());
+        eprintln!(
+            "{}: final NEES {mean:.3} over {n} runs (95 % band [{low:.3}, {high:.3}])",
+            filter.label()
+        );
         assert!(mean > low && mean < high, "{}: NEES {mean}", filter.label());
     }
 }
@@ -185,11 +222,20 @@ fn vmf_filters_are_consistent_where_the_truth_follows_their_model() {
 /// within a few percent of PF-VMF at the median, the AE-nominal filters far behind.
 #[test]
 fn the_vmf_filters_lead_on_the_square_track() {
-    let data = DataModel::VonMisesFisher { kappa: 1.0 / (SIGMA * SIGMA) };
+    let data = DataModel::VonMisesFisher {
+        kappa: 1.0 / (SIGMA * SIGMA),
+    };
     let track = SquareTrack::paper(data).unwrap();
     let models = ModelChoice::paper(&data, (0.34, 0.175)).unwrap();
     let runs = 60;
-    let pf = study(&TrackFilter { algorithm: Algorithm::Particle(2000), model: models[0].clone() }, &track, runs);
+    let pf = study(
+        &TrackFilter {
+            algorithm: Algorithm::Particle(2000),
+            model: models[0].clone(),
+        },
+        &track,
+        runs,
+    );
     let reference = pf.run_values("position_error").unwrap();
     let median = |filter: TrackFilter| {
         let summary = study(&filter, &track, runs);
@@ -197,9 +243,17 @@ fn the_vmf_filters_lead_on_the_square_track() {
         liebayes_experiments::quantiles(&d, &[0.5])[0]
     };
     for algorithm in [Algorithm::Ekf, Algorithm::Ukf] {
-        let vmf = median(TrackFilter { algorithm, model: models[0].clone() });
-        let ae = median(TrackFilter { algorithm, model: models[1].clone() });
-        eprintln!("{algorithm:?}: median RMSE difference from PF-VMF: VMF {vmf:.1} %, AE-nominal {ae:.1} %");
+        let vmf = median(TrackFilter {
+            algorithm,
+            model: models[0].clone(),
+        });
+        let ae = median(TrackFilter {
+            algorithm,
+            model: models[1].clone(),
+        });
+        eprintln!(
+            "{algorithm:?}: median RMSE difference from PF-VMF: VMF {vmf:.1} %, AE-nominal {ae:.1} %"
+        );
         assert!(vmf.abs() < 5.0, "{algorithm:?}-VMF {vmf} %");
         assert!(ae > 25.0, "{algorithm:?}-AE {ae} %");
     }
@@ -221,13 +275,23 @@ fn refused_readings_leave_the_filters_untouched() {
     assert!(ekf.update(&nan).is_err());
     assert_eq!(ekf, before);
     let mut pf = vmf_particle_filter(vmf, walk, &prior, 100, ChaCha8Rng::seed_from_u64(1)).unwrap();
-    let before = (pf.density().particles().to_vec(), pf.density().log_weights().to_vec());
+    let before = (
+        pf.density().particles().to_vec(),
+        pf.density().log_weights().to_vec(),
+    );
     assert!(pf.update(&nan).is_err());
     assert_eq!(pf.density().particles(), &before.0[..]);
     assert_eq!(pf.density().log_weights(), &before.1[..]);
     pf.update(&good).unwrap();
     // An angle filter refuses a non-canonical elevation, the unit-vector filter takes it.
-    let ae = AzElModel::new(anchors, AngleNoise::Fixed { sigma_az: SIGMA, sigma_el: SIGMA }).unwrap();
+    let ae = AzElModel::new(
+        anchors,
+        AngleNoise::Fixed {
+            sigma_az: SIGMA,
+            sigma_el: SIGMA,
+        },
+    )
+    .unwrap();
     let mut beyond = good;
     beyond[0].elevation = 2.0;
     let mut angle = liebayes_filters::aoa::angle_ekf::<4, 8>(ae, walk, &prior).unwrap();
@@ -242,10 +306,19 @@ fn refused_readings_leave_the_filters_untouched() {
 fn settings_out_of_range_are_refused_with_their_name() {
     let anchors = square_track_anchors();
     for kappa in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e13] {
-        assert!(UnitVectorModel::new(anchors, kappa).is_err(), "kappa {kappa}");
+        assert!(
+            UnitVectorModel::new(anchors, kappa).is_err(),
+            "kappa {kappa}"
+        );
     }
     for sigma in [0.0, -0.1, f64::NAN, 1e4] {
-        let e = AzElModel::new(anchors, AngleNoise::Fixed { sigma_az: sigma, sigma_el: 0.1 });
+        let e = AzElModel::new(
+            anchors,
+            AngleNoise::Fixed {
+                sigma_az: sigma,
+                sigma_el: 0.1,
+            },
+        );
         assert!(e.unwrap_err().to_string().contains("sigma_az"));
     }
     assert!(RandomWalk::new(-1.0, 0.1).is_err() && RandomWalk::new(0.1, f64::NAN).is_err());
@@ -264,17 +337,41 @@ fn settings_out_of_range_are_refused_with_their_name() {
     let error = SquareTrack::new(on_track, data, TrackConfig::default()).unwrap_err();
     assert!(error.to_string().contains("anchor"), "{error}");
     for config in [
-        TrackConfig { side: 0.0, ..TrackConfig::default() },
-        TrackConfig { delta: f64::NAN, ..TrackConfig::default() },
-        TrackConfig { epochs: 0, ..TrackConfig::default() },
-        TrackConfig { prior_std: -1.0, ..TrackConfig::default() },
+        TrackConfig {
+            side: 0.0,
+            ..TrackConfig::default()
+        },
+        TrackConfig {
+            delta: f64::NAN,
+            ..TrackConfig::default()
+        },
+        TrackConfig {
+            epochs: 0,
+            ..TrackConfig::default()
+        },
+        TrackConfig {
+            prior_std: -1.0,
+            ..TrackConfig::default()
+        },
     ] {
-        assert!(SquareTrack::new(anchors, data, config).is_err(), "{config:?}");
+        assert!(
+            SquareTrack::new(anchors, data, config).is_err(),
+            "{config:?}"
+        );
     }
-    assert!(SquareTrack::paper(DataModel::NormalWithFlip { sigma_az: f64::NAN, sigma_el: 0.1 }).is_err());
+    assert!(
+        SquareTrack::paper(DataModel::NormalWithFlip {
+            sigma_az: f64::NAN,
+            sigma_el: 0.1
+        })
+        .is_err()
+    );
     assert!(Anchor::at(Vector3::new(f64::INFINITY, 0.0, 0.0)).is_err());
     // A particle filter of zero particles is refused by the study before any run.
-    let filter = TrackFilter { algorithm: Algorithm::Particle(0), model: ModelChoice::Vmf { kappa: 32.8 } };
+    let filter = TrackFilter {
+        algorithm: Algorithm::Particle(0),
+        model: ModelChoice::Vmf { kappa: 32.8 },
+    };
     let track = SquareTrack::paper(data).unwrap();
     let study = Study::new("x", 2, 1, Shard::WHOLE).unwrap();
     assert!(filter.study(&track, &study, &|_| {}).is_err());

@@ -35,9 +35,16 @@ impl AzEl {
     /// The azimuth and elevation of a nonzero vector (its norm does not matter): `el = atan2(z, ρ)`,
     /// `az = atan2(y, x)` wrapped to [−π, π), `ρ = √(x² + y²)`. At a pole the azimuth is 0.
     pub fn of_vector(v: &Vector3<f64>) -> Self {
+        let squared = v.x * v.x + v.y * v.y;
+        // √(x² + y²) unless the squares overflow or underflow, where hypot keeps the ratio.
+        let rho = if squared.is_normal() {
+            squared.sqrt()
+        } else {
+            v.x.hypot(v.y)
+        };
         Self {
             azimuth: wrap(v.y.atan2(v.x)),
-            elevation: v.z.atan2(v.x.hypot(v.y)),
+            elevation: v.z.atan2(rho),
         }
     }
 
@@ -98,6 +105,16 @@ impl AzEl {
 
 /// An angle wrapped to [−π, π).
 pub fn wrap(angle: f64) -> f64 {
+    // The common cases without a floating-point remainder (a hot path of the particle filter).
+    if (-PI..PI).contains(&angle) {
+        return angle;
+    }
+    if (PI..3.0 * PI).contains(&angle) {
+        return angle - TAU;
+    }
+    if (-3.0 * PI..-PI).contains(&angle) {
+        return angle + TAU;
+    }
     let r = (angle + PI).rem_euclid(TAU) - PI;
     // rem_euclid may round up to TAU for tiny negative inputs.
     if r >= PI { r - TAU } else { r }

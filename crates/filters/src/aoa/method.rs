@@ -204,3 +204,109 @@ impl TrackFilter {
         }
     }
 }
+
+/// The root mean square, over a study's runs, of each run's RMSE of `position_error` over its
+/// track: `√(mean of the runs' mean squared errors)`; `None` when no run has a value.
+pub fn track_rmse(summary: &Summary) -> Option<f64> {
+    let values = summary.run_values("position_error")?;
+    let (sum, n) = values
+        .values()
+        .iter()
+        .filter(|(_, v)| v.is_finite())
+        .fold((0.0, 0_u32), |(s, n), (_, v)| (s + v * v, n + 1));
+    (n > 0).then(|| (sum / f64::from(n)).sqrt())
+}
+
+/// How [`particles_to_match`] searches: within `(1 + tolerance)` of the reference RMSE, tolerance in
+/// (0, 10]; counts from `low` to `high`; stopping when the bracket is within the relative
+/// `resolution`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SearchSettings {
+    /// The RMSE tolerance (0.01: within 1 %).
+    pub tolerance: f64,
+    /// The smallest count tried.
+    pub low: u64,
+    /// The largest count tried.
+    pub high: u64,
+    /// The relative width at which the bisection stops, in (0, 1].
+    pub resolution: f64,
+}
+
+/// What [`particles_to_match`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParticleSearch {
+    /// The reference filter's [`track_rmse`] (m), the target.
+    pub reference_rmse: f64,
+    /// Every particle count tried, with its [`track_rmse`] (m; +∞ when no run gave one), its failed
+    /// runs and its filter time per step (s), in the order tried.
+    pub tried: Vec<(u64, f64, u64, f64)>,
+    /// The smallest count found whose RMSE is within the tolerance, `None` if `high` is not.
+    pub count: Option<u64>,
+}
+
+/// The smallest particle count in `[low, high]` (see [`SearchSettings`]) at which the particle filter with `model` comes
+/// within `(1 + tolerance)` of the reference study's [`track_rmse`] on the same runs (the study's
+/// seed and runs: run k of every study reads the same data), with no failed run, by doubling then
+/// bisection to the relative `resolution`
+/// ([`smallest_passing`](liebayes_experiments::search::smallest_passing)).
+///
+/// # Errors
+/// [`ExperimentError::OutOfRange`] for a tolerance outside (0, 10] or NaN, a reference without
+/// per-run errors, or `high` above [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS); the search's
+/// and the studies' errors otherwise.
+pub fn particles_to_match(
+    track: &SquareTrack<4>,
+    model: &ModelChoice,
+    study: &Study,
+    reference: &Summary,
+    settings: SearchSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<ParticleSearch, ExperimentError> {
+    let SearchSettings {
+        tolerance,
+        low,
+        high,
+        resolution,
+    } = settings;
+    if !(tolerance > 0.0 && tolerance <= 10.0) {
+        return Err(ExperimentError::OutOfRange {
+            what: "RMSE tolerance",
+            value: tolerance.to_string(),
+            range: "(0, 10]",
+        });
+    }
+    let limit = u64::try_from(liebayes_operators::MAX_ELEMENTS).unwrap_or(u64::MAX);
+    if high > limit {
+        return Err(ExperimentError::OutOfRange {
+            what: "largest particle count",
+            value: high.to_string(),
+            range: "at most 2^30",
+        });
+    }
+    let reference_rmse = track_rmse(reference).ok_or(ExperimentError::OutOfRange {
+        what: "reference study",
+        value: reference.label().name.clone(),
+        range: "a study whose runs kept their position_error",
+    })?;
+    let mut tried = Vec::new();
+    let count = liebayes_experiments::search::smallest_passing(low, high, resolution, |n| {
+        // n ≤ high ≤ 2^30: it fits a usize.
+        let particles = usize::try_from(n).unwrap_or(usize::MAX);
+        let filter = TrackFilter {
+            algorithm: Algorithm::Particle(particles),
+            model: model.clone(),
+        };
+        let summary = filter.study(track, study, progress)?;
+        let rmse = track_rmse(&summary).unwrap_or(f64::INFINITY);
+        let seconds = summary.timing().mean().unwrap_or(f64::NAN);
+        tried.push((n, rmse, summary.failure_count(), seconds));
+        Ok::<_, ExperimentError>(
+            summary.failure_count() == 0 && rmse <= reference_rmse * (1.0 + tolerance),
+        )
+    })?;
+    Ok(ParticleSearch {
+        reference_rmse,
+        tried,
+        count,
+    })
+}

@@ -33,7 +33,10 @@ pub use filter::{
     RESAMPLE_BELOW, UKF_LAMBDA, VmfEkf, VmfParticleFilter, VmfUkf, angle_ekf,
     angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
 };
-pub use method::{Algorithm, ModelChoice, TrackFilter};
+pub use method::{
+    Algorithm, ModelChoice, ParticleSearch, SearchSettings, TrackFilter, particles_to_match,
+    track_rmse,
+};
 pub use model::{
     AngleNoise, AzElModel, CheckedReadings, InWorldAxes, Position, Readings, StackedAngles,
     StackedUnitVectors, UnitVectorModel, WorldDirections,

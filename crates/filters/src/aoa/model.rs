@@ -13,7 +13,7 @@
 
 use super::anchor::Anchor;
 use super::direction::{AzEl, wrap};
-use super::noise::{AdaptiveSigmas, az_el_log_density, check_kappa, check_sigma};
+use super::noise::{AdaptiveSigmas, AngleSigmas, check_kappa, check_sigma};
 use liebayes_densities::special::vmf_log_normalizer;
 use liebayes_manifolds::Rn;
 use liebayes_operators::particle::Likelihood;
@@ -153,6 +153,8 @@ impl AngleNoise {
 pub struct AzElModel<const N: usize> {
     anchors: [Anchor; N],
     noise: AngleNoise,
+    /// The constants of fixed σ, computed once.
+    fixed: Option<AngleSigmas>,
 }
 
 impl<const N: usize> AzElModel<N> {
@@ -161,11 +163,19 @@ impl<const N: usize> AzElModel<N> {
     /// # Errors
     /// A fixed σ outside [`SIGMA_RANGE`](super::SIGMA_RANGE) (as [`check_sigma`]).
     pub fn new(anchors: [Anchor; N], noise: AngleNoise) -> Result<Self, OperatorError> {
-        if let AngleNoise::Fixed { sigma_az, sigma_el } = noise {
-            check_sigma("azimuth standard deviation sigma_az (rad)", sigma_az)?;
-            check_sigma("elevation standard deviation sigma_el (rad)", sigma_el)?;
-        }
-        Ok(Self { anchors, noise })
+        let fixed = match noise {
+            AngleNoise::Fixed { sigma_az, sigma_el } => {
+                check_sigma("azimuth standard deviation sigma_az (rad)", sigma_az)?;
+                check_sigma("elevation standard deviation sigma_el (rad)", sigma_el)?;
+                Some(AngleSigmas::new(sigma_az, sigma_el))
+            }
+            AngleNoise::Adaptive(_) => None,
+        };
+        Ok(Self {
+            anchors,
+            noise,
+            fixed,
+        })
     }
 
     /// The anchors.
@@ -178,9 +188,14 @@ impl<const N: usize> AzElModel<N> {
         &self.noise
     }
 
-    /// The predicted reading of anchor j at θ; `None` at the anchor.
+    /// The predicted reading of anchor j at θ: the angles of `R (θ − s)`; `None` at the anchor
+    /// (or for a non-finite θ).
     fn predicted(anchor: &Anchor, theta: &Vector3<f64>) -> Option<AzEl> {
-        anchor.direction(theta).map(|(d, _)| AzEl::of_vector(&d))
+        let p = anchor.local_offset(theta);
+        let squared = p.norm_squared();
+        (squared > 0.0 && squared.is_finite())
+            .then(|| AzEl::of_vector(&p))
+            .or_else(|| anchor.direction(theta).map(|(d, _)| AzEl::of_vector(&d)))
     }
 }
 
@@ -195,8 +210,11 @@ impl<const N: usize> Likelihood<Position> for AzElModel<N> {
             let Some(predicted) = Self::predicted(anchor, x.coords()) else {
                 return f64::NEG_INFINITY;
             };
-            let (sigma_az, sigma_el) = self.noise.at(predicted.elevation);
-            sum += az_el_log_density(y, &predicted, sigma_az, sigma_el);
+            let sigmas = self.fixed.unwrap_or_else(|| {
+                let (sigma_az, sigma_el) = self.noise.at(predicted.elevation);
+                AngleSigmas::new(sigma_az, sigma_el)
+            });
+            sum += sigmas.log_density(y, &predicted);
         }
         sum
     }

@@ -77,12 +77,6 @@ pub(crate) fn normal_cdf(x: f64) -> f64 {
     0.5 * libm::erfc(-x / SQRT_2)
 }
 
-/// `ln N(x; 0, σ²)`.
-fn ln_normal(x: f64, sigma: f64) -> f64 {
-    let z = x / sigma;
-    -0.5 * z * z - sigma.ln() - 0.5 * TAU.ln()
-}
-
 /// Beyond this many standard deviations the normal's tail mass (below 1.2e-19) is lost to rounding
 /// in `ln(1 − tail)`.
 const NEGLIGIBLE_TAIL: f64 = 9.0;
@@ -92,6 +86,11 @@ const NEGLIGIBLE_TAIL: f64 = 9.0;
 fn ln_normal_mass(a: f64, b: f64) -> f64 {
     if a <= -NEGLIGIBLE_TAIL && b >= NEGLIGIBLE_TAIL {
         0.0
+    } else if a <= -NEGLIGIBLE_TAIL && b >= 0.0 {
+        // Φ(b) − Φ(a) = 1 − Φ(−b) to rounding: one erfc, and ln1p keeps the small tail.
+        (-normal_cdf(-b)).ln_1p()
+    } else if b >= NEGLIGIBLE_TAIL && a <= 0.0 {
+        (-normal_cdf(a)).ln_1p()
     } else if a > 0.0 {
         // Both in the upper tail: Φ(b) − Φ(a) = Φ(−a) − Φ(−b).
         (normal_cdf(-a) - normal_cdf(-b)).ln()
@@ -111,15 +110,49 @@ fn ln_normal_mass(a: f64, b: f64) -> f64 {
 /// a density in (az, el) on (−π, π] × [−π/2, π/2]; −∞ for an elevation outside that range. The
 /// predicted elevation must be in [−π/2, π/2] and σ in [`SIGMA_RANGE`].
 pub fn az_el_log_density(y: &AzEl, predicted: &AzEl, sigma_az: f64, sigma_el: f64) -> f64 {
-    if y.elevation.abs() > FRAC_PI_2 {
-        return f64::NEG_INFINITY;
+    AngleSigmas::new(sigma_az, sigma_el).log_density(y, predicted)
+}
+
+/// σ_az and σ_el with the constants of [`az_el_log_density`] that depend on them alone, computed
+/// once for a model with fixed σ (the particle filter's hot path).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AngleSigmas {
+    sigma_az: f64,
+    sigma_el: f64,
+    /// `−ln σ_az − ln √(2π) − ln[Φ(π/σ_az) − Φ(−π/σ_az)]`.
+    azimuth_constant: f64,
+    /// `−ln σ_el − ln √(2π)`.
+    elevation_constant: f64,
+}
+
+impl AngleSigmas {
+    /// The constants of σ_az, σ_el.
+    pub(crate) fn new(sigma_az: f64, sigma_el: f64) -> Self {
+        let half_ln_tau = 0.5 * TAU.ln();
+        Self {
+            sigma_az,
+            sigma_el,
+            azimuth_constant: -sigma_az.ln()
+                - half_ln_tau
+                - ln_normal_mass(-PI / sigma_az, PI / sigma_az),
+            elevation_constant: -sigma_el.ln() - half_ln_tau,
+        }
     }
-    let azimuth = ln_normal(wrap(y.azimuth - predicted.azimuth), sigma_az)
-        - ln_normal_mass(-PI / sigma_az, PI / sigma_az);
-    let el0 = predicted.elevation;
-    let elevation = ln_normal(y.elevation - el0, sigma_el)
-        - ln_normal_mass((-FRAC_PI_2 - el0) / sigma_el, (FRAC_PI_2 - el0) / sigma_el);
-    azimuth + elevation
+
+    /// [`az_el_log_density`] of y given the predicted reading.
+    pub(crate) fn log_density(&self, y: &AzEl, predicted: &AzEl) -> f64 {
+        if y.elevation.abs() > FRAC_PI_2 {
+            return f64::NEG_INFINITY;
+        }
+        let za = wrap(y.azimuth - predicted.azimuth) / self.sigma_az;
+        let el0 = predicted.elevation;
+        let ze = (y.elevation - el0) / self.sigma_el;
+        let mass = ln_normal_mass(
+            (-FRAC_PI_2 - el0) / self.sigma_el,
+            (FRAC_PI_2 - el0) / self.sigma_el,
+        );
+        -0.5 * (za * za + ze * ze) + self.azimuth_constant + self.elevation_constant - mass
+    }
 }
 
 /// The grid of [`AdaptiveSigmas`]: every degree of elevation from −90° to 90°.

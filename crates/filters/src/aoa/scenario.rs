@@ -275,7 +275,8 @@ impl<const N: usize> Iterator for TrackSteps<'_, N> {
                 config.point_at(self.travelled)
             }
             TruthModel::RandomWalk => {
-                let scale = Vector3::new(config.q_xy, config.q_xy, config.q_z) * config.delta.sqrt();
+                let scale =
+                    Vector3::new(config.q_xy, config.q_xy, config.q_z) * config.delta.sqrt();
                 let n = Vector3::from_fn(|_, _| StandardNormal.sample(&mut *self.rng));
                 self.position += scale.component_mul(&n);
                 self.position
