@@ -22,6 +22,7 @@ mod method;
 mod model;
 pub mod noise;
 mod process;
+mod quadrature;
 mod scenario;
 
 pub use anchor::{Anchor, POSITION_LIMIT, square_track_anchors};
@@ -43,4 +44,7 @@ pub use noise::{
     sigma_from_kappa,
 };
 pub use process::{DELTA_LIMIT, Q_LIMIT, RandomWalk};
+pub use quadrature::{
+    DEFAULT_NODES, NODE_RANGE, PRIOR_LIMIT, SphereRule, WIDTH_RANGE, exact_posterior,
+};
 pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackSteps};
