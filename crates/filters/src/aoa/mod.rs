@@ -14,6 +14,7 @@
 //! The math and the corrections to the paper are in `docs/filters/aoa.md`.
 
 mod anchor;
+mod comparison;
 mod data;
 pub mod direction;
 mod estimate;
@@ -26,6 +27,10 @@ mod quadrature;
 mod scenario;
 
 pub use anchor::{Anchor, POSITION_LIMIT, square_track_anchors};
+pub use comparison::{
+    AngleSigmaFit, ComparisonRow, FILTER_MODELS, MAX_SAMPLES, ModelComparison, PAPER_TABLE1,
+    PaperColumn, compare_models, fit_angle_sigmas, fit_angle_sigmas_to,
+};
 pub use data::DataModel;
 pub use direction::{AzEl, wrap};
 pub use estimate::{PositionEstimate, PositionMoments, PositionScorer};
