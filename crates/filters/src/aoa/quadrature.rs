@@ -46,8 +46,9 @@ pub const PRIOR_LIMIT: f64 = 1e8;
 /// `t(x) = w (e^{Λx} − 1)`, `x ∈ [0, 1]`, `Λ = ln(1 + 2/w)`, `w = 1 − cos(width)`, so that
 /// `dt = Λ (t + w) dx`: the nodes are spaced geometrically in t from about w at the centre to 2 at
 /// the opposite pole. A likelihood `e^{−κ t}` (von Mises-Fisher about c) becomes a smooth function
-/// of x on the scale `1/Λ` when `width ≈ 1/√κ`, so a fixed number of nodes serves any κ; a flat
-/// integrand (L ≡ 1) needs a few more nodes, about `Λ` times as many as `width = π`.
+/// of x on the scale `1/Λ` when `width ≈ 1/√κ`, so a fixed number of nodes serves any κ (Λ grows
+/// only as ln κ). An integrand with no peak at the centre still converges, with more nodes the
+/// smaller the width.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SphereRule {
     colatitude_nodes: usize,
