@@ -14,6 +14,7 @@
 //! The math and the corrections to the paper are in `docs/filters/aoa.md`.
 
 mod anchor;
+mod comparison;
 mod data;
 pub mod direction;
 mod estimate;
@@ -22,9 +23,14 @@ mod method;
 mod model;
 pub mod noise;
 mod process;
+mod quadrature;
 mod scenario;
 
 pub use anchor::{Anchor, POSITION_LIMIT, square_track_anchors};
+pub use comparison::{
+    AngleSigmaFit, ComparisonRow, FILTER_MODELS, MAX_SAMPLES, ModelComparison, PAPER_TABLE1,
+    PaperColumn, compare_models, fit_angle_sigmas, fit_angle_sigmas_to,
+};
 pub use data::DataModel;
 pub use direction::{AzEl, wrap};
 pub use estimate::{PositionEstimate, PositionMoments, PositionScorer};
@@ -46,4 +52,7 @@ pub use noise::{
     sigma_from_kappa,
 };
 pub use process::{DELTA_LIMIT, Q_LIMIT, RandomWalk};
+pub use quadrature::{
+    DEFAULT_NODES, NODE_RANGE, PRIOR_LIMIT, SphereRule, WIDTH_RANGE, exact_posterior,
+};
 pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackSteps, TruthModel};
