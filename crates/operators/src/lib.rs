@@ -68,7 +68,7 @@ pub use particle::{
     Given, LabelModel, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess,
 };
 pub use traits::{Condition, Conditioned, Evidence, Propagate};
-pub use ukf::Ukf;
+pub use ukf::{SquareRoot, Ukf};
 
 pub use liebayes_densities as densities;
 pub use liebayes_manifolds as manifolds;

@@ -51,6 +51,22 @@ pub struct Ukf<Model, const M: usize = 0> {
     alpha: f64,
     beta: f64,
     kappa: f64,
+    root: SquareRoot,
+}
+
+/// Which square root of P spreads the sigma points `μ ⊞ ±γ sⱼ`: any S with `S Sᵀ = P` gives the
+/// same mean and covariance for linear models, but not for nonlinear ones, so results depend on the
+/// choice (and two implementations agree only if they make the same one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SquareRoot {
+    /// The columns of the lower Cholesky factor L, `P = L Lᵀ` (the default: computed once with
+    /// the density).
+    #[default]
+    Cholesky,
+    /// The principal axes `√dⱼ vⱼ` of the eigendecomposition `P = V diag(d) Vᵀ` (cyclic Jacobi
+    /// rotations, at most 64 sweeps): the sigma points do not depend on the order of the
+    /// coordinates.
+    Eigen,
 }
 
 impl<Model, const M: usize> Ukf<Model, M> {
@@ -62,6 +78,7 @@ impl<Model, const M: usize> Ukf<Model, M> {
             alpha: 1.0,
             beta: 2.0,
             kappa: 0.0,
+            root: SquareRoot::Cholesky,
         }
     }
 
@@ -110,7 +127,15 @@ impl<Model, const M: usize> Ukf<Model, M> {
             alpha,
             beta,
             kappa,
+            root: SquareRoot::Cholesky,
         })
+    }
+
+    /// The same filter with the sigma points spread by `root` (see [`SquareRoot`]).
+    #[must_use]
+    pub fn with_square_root(mut self, root: SquareRoot) -> Self {
+        self.root = root;
+        self
     }
 
     /// The model.
@@ -132,16 +157,73 @@ impl<Model, const M: usize> Ukf<Model, M> {
     }
 }
 
-/// The sigma offsets `γ Lⱼ` from the density's Cholesky factor (the −γ Lⱼ side is their negation).
+/// The sigma offsets `γ sⱼ` of the square root `root` of the density's covariance (the −γ sⱼ side
+/// is their negation).
 fn sigma_offsets<X, const D: usize>(
     density: &ManifoldGaussian<X, D>,
     gamma: f64,
+    root: SquareRoot,
 ) -> [SVector<f64, D>; D]
 where
     X: Manifold<D, Scalar = f64>,
 {
-    let l = density.cholesky_factor() * gamma;
-    std::array::from_fn(|j| l.column(j).into_owned())
+    let s = match root {
+        SquareRoot::Cholesky => *density.cholesky_factor(),
+        SquareRoot::Eigen => principal_axes(density.covariance()),
+    } * gamma;
+    std::array::from_fn(|j| s.column(j).into_owned())
+}
+
+/// The most sweeps of the Jacobi iteration (it converges quadratically: a handful suffice).
+const JACOBI_SWEEPS: usize = 64;
+
+/// `V diag(√d)` for a symmetric positive definite P = V diag(d) Vᵀ, by cyclic Jacobi rotations
+/// (no allocation; bounded sweeps; eigenvalues rounded below zero are taken as zero).
+fn principal_axes<const D: usize>(p: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+    let mut a = *p;
+    let mut v = SMatrix::<f64, D, D>::identity();
+    let scale = a.norm();
+    for _ in 0..JACOBI_SWEEPS {
+        let off: f64 = (0..D)
+            .flat_map(|i| (0..D).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[(i, j)] * a[(i, j)])
+            .sum();
+        if off.sqrt() <= f64::EPSILON * scale {
+            break;
+        }
+        for i in 0..D {
+            for j in i + 1..D {
+                let apq = a[(i, j)];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (a[(j, j)] - a[(i, i)]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + theta.hypot(1.0));
+                let c = 1.0 / t.hypot(1.0);
+                let s = t * c;
+                for k in 0..D {
+                    let (aki, akj) = (a[(k, i)], a[(k, j)]);
+                    a[(k, i)] = c * aki - s * akj;
+                    a[(k, j)] = s * aki + c * akj;
+                }
+                for k in 0..D {
+                    let (aik, ajk) = (a[(i, k)], a[(j, k)]);
+                    a[(i, k)] = c * aik - s * ajk;
+                    a[(j, k)] = s * aik + c * ajk;
+                }
+                for k in 0..D {
+                    let (vki, vkj) = (v[(k, i)], v[(k, j)]);
+                    v[(k, i)] = c * vki - s * vkj;
+                    v[(k, j)] = s * vki + c * vkj;
+                }
+            }
+        }
+    }
+    for j in 0..D {
+        let root = a[(j, j)].max(0.0).sqrt();
+        v.column_mut(j).scale_mut(root);
+    }
+    v
 }
 
 impl<X, P, const D: usize> GaussianTransition<X, D> for Ukf<P>
@@ -159,7 +241,7 @@ where
         input: &P::Input,
     ) -> Result<Prediction<X, D>, OperatorError> {
         let (gamma, w0m, w0c, w) = self.weights(D);
-        let offsets = sigma_offsets(prior, gamma);
+        let offsets = sigma_offsets(prior, gamma, self.root);
         let mu = prior.mean();
         let centre = self.model.transition(mu, input);
         let plus = offsets.map(|d| self.model.transition(&mu.retract(&d), input));
@@ -228,7 +310,7 @@ where
     ) -> Result<Conditioned<Self, Innovation<D, M>>, OperatorError> {
         crate::error::all_finite("measurement z", z.iter())?;
         let (gamma, w0m, w0c, w) = ukf.weights(D);
-        let offsets = sigma_offsets(self, gamma);
+        let offsets = sigma_offsets(self, gamma, ukf.root);
         let (mu, h) = (self.mean(), &ukf.model);
         let centre = Measured::new(h.predict(mu), h);
         let plus = offsets.map(|d| Measured::new(h.predict(&mu.retract(&d)), h));
@@ -322,5 +404,34 @@ where
 
     fn is_finite(&self) -> bool {
         self.z.iter().all(|v| v.is_finite())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `S Sᵀ = P` for the principal axes of well and badly conditioned, diagonal and full P.
+    #[test]
+    fn principal_axes_are_a_square_root() {
+        let cases = [
+            SMatrix::<f64, 3, 3>::new(4.0, 1.0, 0.5, 1.0, 3.0, -0.2, 0.5, -0.2, 2.0),
+            SMatrix::<f64, 3, 3>::from_diagonal(&SVector::<f64, 3>::new(1e-12, 1.0, 1e6)),
+            SMatrix::<f64, 3, 3>::new(1.0, 0.999_999, 0.0, 0.999_999, 1.0, 0.0, 0.0, 0.0, 1e-8),
+        ];
+        for p in cases {
+            let s = principal_axes(&p);
+            let error = (s * s.transpose() - p).abs().max();
+            assert!(error <= 1e-14 * p.abs().max(), "{p}: error {error}");
+            // The columns are orthogonal: principal axes.
+            let gram = s.transpose() * s;
+            for i in 0..3 {
+                for j in 0..3 {
+                    if i != j {
+                        assert!(gram[(i, j)].abs() <= 1e-12 * p.abs().max());
+                    }
+                }
+            }
+        }
     }
 }
