@@ -1,15 +1,19 @@
 //! The `liebayes` command-line program: argument parsing and dispatch. The studies live in the
 //! application modules (`azimuth`), the reports in `report`, the files in `output`.
 //!
-//! With no arguments: the main job, the azimuth study with its files in `out/azimuth/`.
+//! With no arguments: the main job, the azimuth study with its files in `out/azimuth/`, then a
+//! short angle-of-arrival run (model comparison, single update, 50 square-track runs) in
+//! `out/aoa/`.
 //! `liebayes azimuth --help` lists the study's settings; `--shard K/N --out DIR` runs one part of
 //! it, and `liebayes merge DIR... --out DIR` combines the parts exactly. `liebayes particles`
 //! searches the particle count at which the particle filter matches the exact filter.
 
+mod aoa;
 mod azimuth;
 mod output;
 mod progress;
 mod report;
+mod sheet;
 
 use clap::{Parser, Subcommand};
 use liebayes::experiments::Shard;
@@ -28,6 +32,9 @@ struct Cli {
 enum Command {
     /// Azimuth alignment: the exact filter and its baselines, Monte Carlo over runs.
     Azimuth(azimuth::Args),
+    /// Angle-of-arrival positioning with von Mises-Fisher noise: the model comparison, the single
+    /// update and the square-track study.
+    Aoa(aoa::Args),
     /// The bootstrap particle filter's particle count that matches the exact filter's azimuth RMSE.
     Particles(azimuth::ParticleArgs),
     /// Combines the partial summaries of shards (the --out folders of `--shard K/N` runs) into the
@@ -74,7 +81,7 @@ fn main() -> ExitCode {
                 out: Some(PathBuf::from("out/azimuth")),
                 shard: Shard::WHOLE,
             };
-            let done = study(&args);
+            let done = study(&args).and_then(|()| aoa::main_job(&PathBuf::from("out/aoa")));
             if done.is_ok() {
                 report::print(
                     "\nThe manifolds and densities at work: cargo run --release --example tour",
@@ -83,6 +90,7 @@ fn main() -> ExitCode {
             done
         }
         Some(Command::Azimuth(args)) => study(&args),
+        Some(Command::Aoa(args)) => aoa::run(&args),
         Some(Command::Particles(args)) => azimuth::particles(&args),
         Some(Command::Merge(args)) => merge(&args),
     };

@@ -326,3 +326,56 @@ fn shards_merge_to_the_whole_run() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The angle-of-arrival parts write their tables and plots; the track study's per-run box plots
+/// come with its tables; bad settings fail at once and write nothing.
+#[test]
+fn aoa_parts_write_their_files_and_refuse_bad_settings() {
+    let dir = folder("aoa");
+    let d = dir.to_str().unwrap();
+    let out = liebayes(&["aoa", "table1", "--samples", "3000", "--out", d]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let printed = text(&out.stdout);
+    assert!(printed.contains("VMF") && printed.contains("Model II"), "{printed}");
+    let out = liebayes(&["aoa", "update", "--particles", "5000", "--out", d]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("exact AE"));
+    let out = liebayes(&[
+        "aoa", "track", "--data", "model2", "--runs", "6", "--particles", "300", "--steps", "10",
+        "--fit-samples", "2000", "--out", d,
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let names = files(&dir);
+    for name in [
+        "aoa_table1.csv",
+        "aoa_update_corrected.csv",
+        "aoa_update_corrected.svg",
+        "aoa_update_literal.csv",
+        "aoa_track_model2_summary.csv",
+        "aoa_track_model2_position_error_relative.csv",
+        "aoa_track_model2_position_error_relative.svg",
+        "aoa_track_model2.summary.json",
+    ] {
+        assert!(names.iter().any(|n| n == name), "{name} missing from {names:?}");
+    }
+    let relative = std::fs::read_to_string(dir.join("aoa_track_model2_position_error_relative.csv")).unwrap();
+    // Eleven filters against PF-VMF, and the header.
+    assert_eq!(relative.lines().count(), 12, "{relative}");
+    let empty = folder("aoa-bad");
+    let e = empty.to_str().unwrap();
+    for (args, needle) in [
+        (vec!["aoa", "table1", "--samples", "0"], "--samples"),
+        (vec!["aoa", "table1", "--sigma-deg", "-1"], "--sigma-deg"),
+        (vec!["aoa", "update", "--particles", "0"], "--particles"),
+        (vec!["aoa", "track", "--runs", "0"], "--runs"),
+        (vec!["aoa", "track", "--steps", "0"], "--steps"),
+        (vec!["aoa", "track", "--reference-runs", "900"], "--reference-runs"),
+        (vec!["aoa", "track", "--match-tolerance", "0.01"], "--match-tolerance"),
+        (vec!["aoa", "track", "--particles", "100000000"], "--particles"),
+    ] {
+        let mut args = args.clone();
+        args.extend(["--out", e]);
+        assert_fails(&liebayes(&args), needle);
+    }
+    assert!(files(&empty).is_empty());
+}

@@ -17,9 +17,13 @@ pub const MAX_RUNS: u64 = 1 << 40;
 /// flight. Longer runs are replayed with [`replay`] directly, or scored at fewer epochs.
 pub const MAX_STUDY_EPOCHS: usize = 1 << 14;
 
-/// Runs handed to a worker at a time: each such block is summarised on its own, and the blocks'
-/// summaries merged (exactly, so the block size does not change any figure).
+/// The most runs handed to a worker at a time: each such block is summarised on its own, and the
+/// blocks' summaries merged (exactly, so the block size does not change any figure).
 const BLOCK: u64 = 64;
+
+/// A study is cut into at least this many blocks when it has the runs (so that a short study of
+/// costly runs, ten runs of a 10⁶-particle filter, still uses every core).
+const MIN_BLOCKS: u64 = 16;
 
 /// What a study runs: how many runs, from which seed, and which shard of them here.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -112,11 +116,14 @@ impl Study {
             });
         }
         let range = self.shard.runs(self.runs);
-        let blocks = (range.end - range.start).div_ceil(BLOCK);
+        let size = (range.end - range.start)
+            .div_ceil(MIN_BLOCKS)
+            .clamp(1, BLOCK);
+        let blocks = (range.end - range.start).div_ceil(size);
         let done = std::sync::atomic::AtomicU64::new(0);
         let block = |b: u64| -> Result<Summary, ExperimentError> {
-            let start = range.start + b * BLOCK;
-            let end = (start + BLOCK).min(range.end);
+            let start = range.start + b * size;
+            let end = (start + size).min(range.end);
             let mut summary = Summary::new(self.label(), start..end);
             for run in start..end {
                 self.record(run, scenario, build, scorer, &mut summary)?;

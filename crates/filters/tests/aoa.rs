@@ -376,3 +376,32 @@ fn settings_out_of_range_are_refused_with_their_name() {
     let study = Study::new("x", 2, 1, Shard::WHOLE).unwrap();
     assert!(filter.study(&track, &study, &|_| {}).is_err());
 }
+
+/// The single-update example: its exact rows are the reference's quadrature posterior, the VMF
+/// filters point near the measured direction and the angle filters do not, and the literal
+/// elevation leaves only the unit-vector filters.
+#[test]
+fn the_single_update_example_reports_every_filter() {
+    let file = liebayes_reference::reference("aoa_vectors.json");
+    let rng = ChaCha8Rng::seed_from_u64(5);
+    for (corrected, name, rows) in [(true, "corrected", 8), (false, "literal", 4)] {
+        let example = liebayes_filters::aoa::UpdateExample::paper(corrected).unwrap();
+        assert_eq!(example.angles_apply(), corrected);
+        let result = example.run(20_000, &rng).unwrap();
+        assert_eq!(result.len(), rows);
+        let expected = liebayes_reference::numbers(
+            &file["single_update"]["cases"][name]["vmf_posterior_mean_quadrature"],
+        );
+        let exact = &result[0];
+        assert_eq!(exact.filter, "exact VMF");
+        assert!((exact.mean - Vector3::from_column_slice(&expected)).amax() < 1e-9);
+        if corrected {
+            for row in &result {
+                let vmf = row.filter.contains("VMF");
+                let near = row.bearing_deg < 5.0;
+                assert!(vmf == near || row.filter.starts_with("PF") || row.filter.starts_with("exact"),
+                    "{}: bearing {}", row.filter, row.bearing_deg);
+            }
+        }
+    }
+}

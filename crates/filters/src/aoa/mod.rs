@@ -18,6 +18,7 @@ mod comparison;
 mod data;
 pub mod direction;
 mod estimate;
+mod example;
 mod filter;
 mod method;
 mod model;
@@ -34,6 +35,7 @@ pub use comparison::{
 pub use data::DataModel;
 pub use direction::{AzEl, wrap};
 pub use estimate::{PositionEstimate, PositionMoments, PositionScorer};
+pub use example::{UpdateExample, UpdateRow};
 pub use filter::{
     AngleEkf, AngleParticleFilter, AngleUkf, PRIOR_STD_LIMIT, PositionGaussian, Prior,
     RESAMPLE_BELOW, UKF_LAMBDA, VmfEkf, VmfParticleFilter, VmfUkf, angle_ekf,
