@@ -139,10 +139,10 @@ pub fn table1(args: &Table1Args) -> Result<(), String> {
                         p.fitted_sigma_deg.0, p.fitted_sigma_deg.1
                     ))
             ),
-            "".into(),
-            "".into(),
-            "".into(),
-            "".into(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
         ]);
     }
     let sheet = Sheet {
@@ -220,9 +220,16 @@ pub fn update(args: &UpdateArgs) -> Result<(), String> {
         sheets.push(Sheet {
             name: format!("aoa_update_{name}"),
             title,
-            header: ["filter", "x (m)", "y (m)", "z (m)", "from exact (m)", "bearing (deg)"]
-                .map(String::from)
-                .to_vec(),
+            header: [
+                "filter",
+                "x (m)",
+                "y (m)",
+                "z (m)",
+                "from exact (m)",
+                "bearing (deg)",
+            ]
+            .map(String::from)
+            .to_vec(),
             rows: rows
                 .iter()
                 .map(|r| {
@@ -231,7 +238,8 @@ pub fn update(args: &UpdateArgs) -> Result<(), String> {
                         format!("{:.4}", r.mean.x),
                         format!("{:.4}", r.mean.y),
                         format!("{:.4}", r.mean.z),
-                        r.from_exact.map_or_else(|| "-".into(), |d| format!("{d:.4}")),
+                        r.from_exact
+                            .map_or_else(|| "-".into(), |d| format!("{d:.4}")),
                         format!("{:.2}", r.bearing_deg),
                     ]
                 })
@@ -392,7 +400,9 @@ fn runs(what: &str, n: u64, zero_allowed: bool) -> Result<u64, String> {
 /// Checks a particle count.
 fn particles(what: &str, n: usize) -> Result<usize, String> {
     if n == 0 || n > MAX_PARTICLES {
-        return Err(format!("{what} is {n}: it must be from 1 to {MAX_PARTICLES}"));
+        return Err(format!(
+            "{what} is {n}: it must be from 1 to {MAX_PARTICLES}"
+        ));
     }
     Ok(n)
 }
@@ -514,7 +524,9 @@ impl TrackPlan {
                 return Err(format!("--match-tolerance is {t}: it must be in (0, 10]"));
             }
             if args.output.shard != Shard::WHOLE {
-                return Err("--match-tolerance searches whole studies: it cannot run in a shard".into());
+                return Err(
+                    "--match-tolerance searches whole studies: it cannot run in a shard".into(),
+                );
             }
         }
         let config = TrackConfig {

@@ -87,12 +87,15 @@ pub fn segments_svg(
     origin: [f64; 3],
     direction: [f64; 3],
 ) -> Result<String, String> {
-    let ray_end = |length: f64| std::array::from_fn::<f64, 3, _>(|i| origin[i] + length * direction[i]);
+    let ray_end =
+        |length: f64| std::array::from_fn::<f64, 3, _>(|i| origin[i] + length * direction[i]);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (1100, 520)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let root = root.titled(title, ("sans-serif", 18)).map_err(|e| e.to_string())?;
+        let root = root
+            .titled(title, ("sans-serif", 18))
+            .map_err(|e| e.to_string())?;
         let panels = root.split_evenly((1, 2));
         for (panel, (axis, name)) in panels.iter().zip([(2usize, "z"), (1usize, "y")]) {
             let points: Vec<[f64; 3]> = segments
@@ -101,9 +104,11 @@ pub fn segments_svg(
                 .chain([origin, ray_end(1.0)])
                 .collect();
             let range = |i: usize| {
-                let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
-                    (l.min(p[i]), h.max(p[i]))
-                });
+                let (lo, hi) = points
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+                        (l.min(p[i]), h.max(p[i]))
+                    });
                 let pad = 0.1 * (hi - lo).max(0.5);
                 (lo - pad)..(hi + pad)
             };
@@ -139,7 +144,11 @@ pub fn segments_svg(
                     .label(label.clone())
                     .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
                 chart
-                    .draw_series(std::iter::once(Circle::new((to[0], to[axis]), 4, colour.filled())))
+                    .draw_series(std::iter::once(Circle::new(
+                        (to[0], to[axis]),
+                        4,
+                        colour.filled(),
+                    )))
                     .map_err(|e| e.to_string())?;
             }
             chart

@@ -336,13 +336,28 @@ fn aoa_parts_write_their_files_and_refuse_bad_settings() {
     let out = liebayes(&["aoa", "table1", "--samples", "3000", "--out", d]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let printed = text(&out.stdout);
-    assert!(printed.contains("VMF") && printed.contains("Model II"), "{printed}");
+    assert!(
+        printed.contains("VMF") && printed.contains("Model II"),
+        "{printed}"
+    );
     let out = liebayes(&["aoa", "update", "--particles", "5000", "--out", d]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(text(&out.stdout).contains("exact AE"));
     let out = liebayes(&[
-        "aoa", "track", "--data", "model2", "--runs", "6", "--particles", "300", "--steps", "10",
-        "--fit-samples", "2000", "--out", d,
+        "aoa",
+        "track",
+        "--data",
+        "model2",
+        "--runs",
+        "6",
+        "--particles",
+        "300",
+        "--steps",
+        "10",
+        "--fit-samples",
+        "2000",
+        "--out",
+        d,
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let names = files(&dir);
@@ -356,9 +371,13 @@ fn aoa_parts_write_their_files_and_refuse_bad_settings() {
         "aoa_track_model2_position_error_relative.svg",
         "aoa_track_model2.summary.json",
     ] {
-        assert!(names.iter().any(|n| n == name), "{name} missing from {names:?}");
+        assert!(
+            names.iter().any(|n| n == name),
+            "{name} missing from {names:?}"
+        );
     }
-    let relative = std::fs::read_to_string(dir.join("aoa_track_model2_position_error_relative.csv")).unwrap();
+    let relative =
+        std::fs::read_to_string(dir.join("aoa_track_model2_position_error_relative.csv")).unwrap();
     // Eleven filters against PF-VMF, and the header.
     assert_eq!(relative.lines().count(), 12, "{relative}");
     let empty = folder("aoa-bad");
@@ -369,9 +388,18 @@ fn aoa_parts_write_their_files_and_refuse_bad_settings() {
         (vec!["aoa", "update", "--particles", "0"], "--particles"),
         (vec!["aoa", "track", "--runs", "0"], "--runs"),
         (vec!["aoa", "track", "--steps", "0"], "--steps"),
-        (vec!["aoa", "track", "--reference-runs", "900"], "--reference-runs"),
-        (vec!["aoa", "track", "--match-tolerance", "0.01"], "--match-tolerance"),
-        (vec!["aoa", "track", "--particles", "100000000"], "--particles"),
+        (
+            vec!["aoa", "track", "--reference-runs", "900"],
+            "--reference-runs",
+        ),
+        (
+            vec!["aoa", "track", "--match-tolerance", "0.01"],
+            "--match-tolerance",
+        ),
+        (
+            vec!["aoa", "track", "--particles", "100000000"],
+            "--particles",
+        ),
     ] {
         let mut args = args.clone();
         args.extend(["--out", e]);

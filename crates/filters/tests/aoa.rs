@@ -399,8 +399,12 @@ fn the_single_update_example_reports_every_filter() {
             for row in &result {
                 let vmf = row.filter.contains("VMF");
                 let near = row.bearing_deg < 5.0;
-                assert!(vmf == near || row.filter.starts_with("PF") || row.filter.starts_with("exact"),
-                    "{}: bearing {}", row.filter, row.bearing_deg);
+                assert!(
+                    vmf == near || row.filter.starts_with("PF") || row.filter.starts_with("exact"),
+                    "{}: bearing {}",
+                    row.filter,
+                    row.bearing_deg
+                );
             }
         }
     }

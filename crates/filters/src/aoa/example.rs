@@ -55,7 +55,11 @@ impl UpdateExample {
     /// None in practice (the constructors' checks of the paper's constants).
     pub fn paper(corrected: bool) -> Result<Self, OperatorError> {
         let sigma = 5f64.to_radians();
-        let elevation = if corrected { -9.0 * PI / 20.0 } else { -19.0 * PI / 20.0 };
+        let elevation = if corrected {
+            -9.0 * PI / 20.0
+        } else {
+            -19.0 * PI / 20.0
+        };
         Ok(Self {
             prior: Prior::new(Vector3::new(0.3, -0.3, -2.0), 0.75)?,
             anchor: Anchor::at(Vector3::zeros())?,
