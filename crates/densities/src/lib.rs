@@ -71,7 +71,7 @@ mod harmonic_gaussian;
 mod heat_kernel;
 mod manifold_gaussian;
 mod moment_matching;
-mod quadrature;
+pub mod quadrature;
 mod scaled_bessel;
 mod scaled_bessel_coefficients;
 #[cfg(feature = "serde")]

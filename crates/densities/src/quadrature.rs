@@ -1,5 +1,6 @@
 //! Gauss-Legendre and Gauss-Hermite quadrature, for the normalisers and CDFs that have no closed form
 //! (and, through `testing::quadrature`, for the law suite's integrals over each space).
+//! [`legendre_nodes`] gives the Gauss-Legendre rule for integrals of one's own.
 
 use std::f64::consts::PI;
 use std::sync::OnceLock;
@@ -41,6 +42,25 @@ pub(crate) fn legendre_rule(n: usize) -> Vec<(f64, f64)> {
             (x, 2.0 / ((1.0 - x * x) * derivative * derivative))
         })
         .collect()
+}
+
+/// The largest rule [`legendre_nodes`] builds (its cost grows as n²).
+pub const MAX_LEGENDRE_NODES: usize = 8192;
+
+/// The n-point Gauss-Legendre rule on [−1, 1] as (node, weight) pairs, exact for polynomials of
+/// degree 2n − 1 (nodes and weights to full precision), for n from 1 to [`MAX_LEGENDRE_NODES`].
+///
+/// # Errors
+/// [`DensityError::OutOfRange`] for n outside that range.
+pub fn legendre_nodes(n: usize) -> Result<Vec<(f64, f64)>, crate::DensityError> {
+    if n == 0 || n > MAX_LEGENDRE_NODES {
+        return Err(crate::DensityError::OutOfRange {
+            what: "number of Gauss-Legendre nodes",
+            value: n as f64,
+            range: "[1, 8192]",
+        });
+    }
+    Ok(legendre_rule(n))
 }
 
 /// The n-point Gauss-Hermite rule for the standard normal, `E[f(u)] ≈ Σ wᵢ f(uᵢ)` with Σ wᵢ = 1

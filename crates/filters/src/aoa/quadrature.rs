@@ -18,6 +18,7 @@ use super::anchor::Anchor;
 use super::estimate::PositionEstimate;
 use super::filter::PositionGaussian;
 use super::noise::normal_cdf;
+use liebayes_densities::quadrature::legendre_nodes;
 use liebayes_operators::OperatorError;
 use nalgebra::{Cholesky, Matrix3, Vector3};
 use std::f64::consts::{PI, TAU};
@@ -121,7 +122,20 @@ impl SphereRule {
 
     /// Calls `visit(ω, weight)` at every node of the rule centred on the unit vector `centre`
     /// (`Σ weight f(ω) ≈ ∫ f dω`; the weights sum to 4π up to the rule's error).
-    fn for_each_node(&self, centre: &Vector3<f64>, mut visit: impl FnMut(&Vector3<f64>, f64)) {
+    ///
+    /// # Errors
+    /// None for a rule built by [`SphereRule::new`] (its node count is in range).
+    fn for_each_node(
+        &self,
+        centre: &Vector3<f64>,
+        mut visit: impl FnMut(&Vector3<f64>, f64),
+    ) -> Result<(), OperatorError> {
+        let colatitudes =
+            legendre_nodes(self.colatitude_nodes).map_err(|_| OperatorError::OutOfRange {
+                what: "colatitude nodes of the sphere rule",
+                value: self.colatitude_nodes as f64,
+                range: "[4, 8192]",
+            })?;
         let (e1, e2) = orthonormal_frame(centre);
         // w = 1 − cos(width), without cancellation.
         let w = 2.0 * (0.5 * self.width).sin().powi(2);
@@ -130,7 +144,7 @@ impl SphereRule {
         let longitudes: Vec<(f64, f64)> = (0..self.longitude_nodes)
             .map(|j| ((j as f64 + 0.5) * step).sin_cos())
             .collect();
-        for (xi, weight) in gauss_legendre(self.colatitude_nodes) {
+        for (xi, weight) in colatitudes {
             let x = 0.5 * (xi + 1.0);
             // t = w (e^{Λx} − 1) ∈ (0, 2).
             let t = (w * (lambda * x).exp_m1()).min(2.0);
@@ -141,6 +155,7 @@ impl SphereRule {
                 visit(&omega, ring);
             }
         }
+        Ok(())
     }
 }
 
@@ -156,39 +171,6 @@ fn orthonormal_frame(c: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     };
     let e1 = c.cross(&axis).normalize();
     (e1, c.cross(&e1))
-}
-
-/// Newton steps per Gauss-Legendre node (from the Tricomi-type initial guess it converges in under
-/// ten).
-const NEWTON_STEPS: usize = 100;
-
-/// The n-point Gauss-Legendre rule on [−1, 1], `(node, weight)`: the roots of Pₙ by Newton's method
-/// on the three-term recurrence, weights `2/((1 − x²) Pₙ′(x)²)`. n is at most [`NODE_RANGE`]'s upper
-/// end (checked by the rule).
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    let nf = n as f64;
-    (0..n)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (nf + 0.5)).cos();
-            let mut derivative = 1.0;
-            for _ in 0..NEWTON_STEPS {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let kf = k as f64;
-                    let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                derivative = nf * (x * p1 - p0) / (x * x - 1.0);
-                let delta = p1 / derivative;
-                x -= delta;
-                if delta.abs() <= 1e-16 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * derivative * derivative))
-        })
-        .collect()
 }
 
 /// Terms of the continued fraction of the scaled radial integrals (converged to 1e-14 for
@@ -400,7 +382,7 @@ pub fn exact_posterior(
         mass += w0;
         first += omega * (w0 * (m3 - m2).exp());
         second += omega * omega.transpose() * (w0 * (m4 - m2).exp());
-    });
+    })?;
     if let Some(value) = failure {
         return Err(OperatorError::NonFinite {
             what: "log likelihood at a node of the sphere rule",
@@ -493,7 +475,8 @@ mod tests {
     #[test]
     fn gauss_legendre_integrates_polynomials_exactly() {
         for n in [4, 17, 96, 500] {
-            let rule = gauss_legendre(n);
+            let rule = legendre_nodes(n).unwrap();
+            assert!(legendre_nodes(0).is_err() && legendre_nodes(8193).is_err());
             for degree in [0, 1, 2, 7, 2 * n - 1] {
                 let got: f64 = rule
                     .iter()
