@@ -58,6 +58,7 @@ fn from_mat(origin: &str, mat: &MatFile) -> Result<ImuLog, DataError> {
     check_length(origin, "imu_mag", n, rows(origin, mag.0, 3)?)?;
     let mut log = ImuLog::new_from(
         origin,
+        ["imu_gyr", "imu_acc", "imu_mag"],
         rate.1[0],
         vectors(gyr.1, n),
         vectors(acc.1, n),

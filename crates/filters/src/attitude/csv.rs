@@ -85,7 +85,14 @@ pub fn read_imu_csv<R: BufRead>(reader: R, origin: &str) -> Result<ImuLog, DataE
         }
     }
     let rate = infer_rate(&t, origin)?;
-    ImuLog::new_from(origin, rate, gyr, acc, nine.then_some(mag))
+    ImuLog::new_from(
+        origin,
+        ["gx,gy,gz", "ax,ay,az", "mx,my,mz"],
+        rate,
+        gyr,
+        acc,
+        nine.then_some(mag),
+    )
 }
 
 /// Writes `estimates` (one per time) as `t,w,x,y,z` lines under that header; numbers in Rust's

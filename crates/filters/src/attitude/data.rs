@@ -147,6 +147,9 @@ pub struct ImuLog {
 
 const NEW: &str = "ImuLog::new";
 
+/// The names of the gyroscope, accelerometer and magnetometer in errors about data in memory.
+const MEMORY_NAMES: [&str; 3] = ["gyroscope", "accelerometer", "magnetometer"];
+
 impl ImuLog {
     /// A log of `gyroscope` (rad/s) and `accelerometer` (m/s²) samples at `rate` Hz, with the
     /// `magnetometer` (µT) for a 9D log.
@@ -161,12 +164,21 @@ impl ImuLog {
         accelerometer: Vec<Vector3<f64>>,
         magnetometer: Option<Vec<Vector3<f64>>>,
     ) -> Result<Self, DataError> {
-        Self::new_from(NEW, rate, gyroscope, accelerometer, magnetometer)
+        Self::new_from(
+            NEW,
+            MEMORY_NAMES,
+            rate,
+            gyroscope,
+            accelerometer,
+            magnetometer,
+        )
     }
 
-    /// [`ImuLog::new`], naming `origin` (a file) in its errors.
+    /// [`ImuLog::new`], naming `origin` (a file) and `names` (its variables for the gyroscope,
+    /// accelerometer and magnetometer) in its errors.
     pub(crate) fn new_from(
         origin: &str,
+        names: [&str; 3],
         rate: f64,
         gyroscope: Vec<Vector3<f64>>,
         accelerometer: Vec<Vector3<f64>>,
@@ -183,12 +195,12 @@ impl ImuLog {
         }
         let n = gyroscope.len();
         check_count(origin, n)?;
-        check_length(origin, "accelerometer", n, accelerometer.len())?;
-        check_finite_rows(origin, "gyroscope", &gyroscope)?;
-        check_finite_rows(origin, "accelerometer", &accelerometer)?;
+        check_length(origin, names[1], n, accelerometer.len())?;
+        check_finite_rows(origin, names[0], &gyroscope)?;
+        check_finite_rows(origin, names[1], &accelerometer)?;
         if let Some(mag) = &magnetometer {
-            check_length(origin, "magnetometer", n, mag.len())?;
-            check_finite_rows(origin, "magnetometer", mag)?;
+            check_length(origin, names[2], n, mag.len())?;
+            check_finite_rows(origin, names[2], mag)?;
         }
         Ok(Self {
             rate,

@@ -34,23 +34,27 @@ pub struct TrialErrors {
 /// `e = q_est ⊗ q_ref*` (a rotation of the earth frame taking the reference onto the estimate),
 ///
 /// * total `2 acos(|e_w|)`: the angle of e;
-/// * heading `2 atan(|e_z / e_w|)` (computed as `2 atan2(|e_z|, |e_w|)`, π when `e_w = 0`):
-///   the angle of the rotation about the vertical in the decomposition `e = e_heading ⊗ e_tilt`
-///   with `e_tilt` about a horizontal axis;
+/// * heading `2 atan(|e_z / e_w|)` (π when `e_w = 0`): the angle of the rotation about the
+///   vertical in the decomposition `e = e_heading ⊗ e_tilt` with `e_tilt` about a horizontal axis;
 /// * inclination `2 acos(√(e_w² + e_z²))`: the angle of `e_tilt`.
 ///
-/// Valid for any unit quaternions (q and −q give the same errors); the acos arguments are clamped
-/// into [0, 1] against rounding.
+/// Computed in the equal forms (for a unit e) `2 atan2(√(e_x² + e_y² + e_z²), |e_w|)`,
+/// `2 atan2(|e_z|, |e_w|)` and `2 atan2(√(e_x² + e_y²), √(e_w² + e_z²))`: they do not depend on
+/// the rounding of e's norm and stay accurate near zero, where acos loses half the digits (an
+/// error of 1e-8 rad would otherwise read as anything up to 3e-8 rad). Valid for any unit
+/// quaternions (q and −q give the same errors). Where `e_w = e_z = 0` (a tilt of 180°) the heading
+/// is undefined: it is 0 there, and any value close to it.
 pub fn sample_errors(
     estimate: &UnitQuaternion<f64>,
     reference: &UnitQuaternion<f64>,
 ) -> SampleErrors {
     let e = (estimate * reference.conjugate()).into_inner();
     let (w, z) = (e.w.abs(), e.k.abs());
+    let horizontal = e.i.hypot(e.j);
     SampleErrors {
-        total: 2.0 * w.clamp(0.0, 1.0).acos(),
+        total: 2.0 * horizontal.hypot(z).atan2(w),
         heading: 2.0 * z.atan2(w),
-        inclination: 2.0 * (w * w + z * z).sqrt().clamp(0.0, 1.0).acos(),
+        inclination: 2.0 * horizontal.atan2(w.hypot(z)),
     }
 }
 
