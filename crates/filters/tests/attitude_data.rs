@@ -5,8 +5,9 @@
 //! The data are looked for in `$LIEBAYES_BROAD_DIR`, else in `shared/broad` beside the workspace.
 
 use liebayes_filters::attitude::{
-    DataError, ImuLog, RATE_TOLERANCE, per_sample_errors, read_broad, read_estimates_csv,
-    read_imu_csv, sample_errors, trial_errors, write_estimates_csv,
+    DataError, Disturbance, ImuLog, RATE_TOLERANCE, SimulationSettings, per_sample_errors,
+    read_broad, read_estimates_csv, read_imu_csv, sample_errors, simulate, trial_errors,
+    write_estimates_csv,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -667,4 +668,210 @@ fn estimates_round_trip_through_csv() {
         write_estimates_csv(Vec::new(), &times[..3], &orientations, "memory"),
         Err(DataError::Length { .. })
     ));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The simulator.
+
+fn quiet() -> SimulationSettings {
+    SimulationSettings {
+        gyro_noise: 0.0,
+        acc_noise: 0.0,
+        mag_noise: 0.0,
+        gyro_bias_walk: 0.0,
+        initial_gyro_bias: Vector3::zeros(),
+        initial_orientation: UnitQuaternion::from_euler_angles(0.2, -0.4, 1.3),
+        ..SimulationSettings::default()
+    }
+}
+
+/// Without noise or bias, integrating the gyroscope from the first true orientation gives the
+/// truth back at every sample.
+#[test]
+fn simulated_gyro_integrates_to_the_truth() {
+    let log = simulate(&quiet(), 7).expect("valid");
+    let truth = log.reference().expect("truth");
+    let dt = log.interval();
+    let mut q = truth[0].expect("known");
+    let mut worst = 0.0_f64;
+    for (k, w) in log.gyroscope().iter().enumerate() {
+        worst = worst.max(q.angle_to(&truth[k].expect("known")));
+        // An independent integration: the closed form of exp for a constant rate.
+        let angle = w.norm() * dt;
+        let step = if angle > 0.0 {
+            let axis = w / w.norm();
+            nalgebra::Quaternion::from_parts((0.5 * angle).cos(), axis * (0.5 * angle).sin())
+        } else {
+            nalgebra::Quaternion::identity()
+        };
+        q = UnitQuaternion::from_quaternion(q.into_inner() * step);
+    }
+    println!("largest angle between integrated gyro and truth: {worst:.3e} rad");
+    assert!(worst < 1e-9, "{worst}");
+    // The motion is not trivial: the rates have about the RMS asked for.
+    let rms = (log
+        .gyroscope()
+        .iter()
+        .map(Vector3::norm_squared)
+        .sum::<f64>()
+        / (3 * log.len()) as f64)
+        .sqrt();
+    assert!((0.6..1.4).contains(&rms), "rate RMS {rms}");
+}
+
+/// At rest the accelerometer reads gravity and the magnetometer the earth field, both rotated
+/// into the sensor frame (checked with the rotation matrix); a disturbance adds its offset in its
+/// interval only; the linear acceleration stays within its bound.
+#[test]
+fn simulated_accelerometer_and_magnetometer() {
+    let offset = Vector3::new(5.0, -3.0, 2.0);
+    let settings = SimulationSettings {
+        rotation_rate: 0.0,
+        acceleration_bound: 0.0,
+        disturbances: vec![Disturbance {
+            start: 1.0,
+            end: 2.0,
+            offset,
+        }],
+        ..quiet()
+    };
+    let log = simulate(&settings, 1).expect("valid");
+    let r = settings
+        .initial_orientation
+        .to_rotation_matrix()
+        .into_inner();
+    let gravity = r.transpose() * Vector3::new(0.0, 0.0, 9.81);
+    let field = r.transpose() * settings.earth_field;
+    let disturbed = r.transpose() * (settings.earth_field + offset);
+    for (k, (a, m)) in log
+        .accelerometer()
+        .iter()
+        .zip(log.magnetometer().expect("9D"))
+        .enumerate()
+    {
+        let t = k as f64 * log.interval();
+        assert!((a - gravity).norm() < 1e-12, "{k}: {a}");
+        let expected = if (1.0..2.0).contains(&t) {
+            disturbed
+        } else {
+            field
+        };
+        assert!((m - expected).norm() < 1e-12, "{k}: {m}");
+    }
+    // Hand-held motion: the ENU linear acceleration is bounded componentwise.
+    let moving = SimulationSettings {
+        acceleration_bound: 2.5,
+        ..quiet()
+    };
+    let log = simulate(&moving, 3).expect("valid");
+    let mut largest = 0.0_f64;
+    for (a, q) in log
+        .accelerometer()
+        .iter()
+        .zip(log.reference().expect("truth"))
+    {
+        let linear = q.expect("known") * a - Vector3::new(0.0, 0.0, 9.81);
+        largest = largest.max(linear.amax());
+    }
+    assert!(
+        largest <= 2.5 + 1e-9 && largest > 0.5,
+        "largest component {largest}"
+    );
+}
+
+/// The noises have the standard deviations asked for (Monte Carlo, 17 143 samples: the
+/// standard error of a standard deviation is 0.5 %), the bias walks, and the seed decides.
+#[test]
+fn simulated_noise_levels() {
+    let settings = SimulationSettings {
+        rotation_rate: 0.0,
+        acceleration_bound: 0.0,
+        gyro_noise: 0.01,
+        acc_noise: 0.1,
+        mag_noise: 0.7,
+        ..quiet()
+    };
+    let log = simulate(&settings, 11).expect("valid");
+    let r = settings
+        .initial_orientation
+        .to_rotation_matrix()
+        .into_inner();
+    let std =
+        |values: Vec<f64>| (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt();
+    let gyro = std(log
+        .gyroscope()
+        .iter()
+        .flat_map(|g| g.iter().copied().collect::<Vec<_>>())
+        .collect());
+    let gravity = r.transpose() * Vector3::new(0.0, 0.0, 9.81);
+    let acc = std(log
+        .accelerometer()
+        .iter()
+        .flat_map(|a| (a - gravity).iter().copied().collect::<Vec<_>>())
+        .collect());
+    let field = r.transpose() * settings.earth_field;
+    let mag = std(log
+        .magnetometer()
+        .expect("9D")
+        .iter()
+        .flat_map(|m| (m - field).iter().copied().collect::<Vec<_>>())
+        .collect());
+    println!("noise std: gyro {gyro:.5}, acc {acc:.5}, mag {mag:.5}");
+    assert!((gyro / 0.01 - 1.0).abs() < 0.03);
+    assert!((acc / 0.1 - 1.0).abs() < 0.03);
+    assert!((mag / 0.7 - 1.0).abs() < 0.03);
+    // A bias walk of 0.01 rad/s/√s over 60 s: the final bias has a std of 0.077 rad/s per axis.
+    let walking = SimulationSettings {
+        gyro_bias_walk: 0.01,
+        ..settings.clone()
+    };
+    let mut spread = Vec::new();
+    for seed in 0..40 {
+        let log = simulate(
+            &SimulationSettings {
+                gyro_noise: 0.0,
+                ..walking.clone()
+            },
+            seed,
+        )
+        .expect("valid");
+        spread.extend(log.gyroscope().last().expect("samples").iter().copied());
+    }
+    let walk = std(spread);
+    let expected = 0.01 * (settings.samples as f64 / settings.rate).sqrt();
+    println!("bias walk std {walk:.4}, expected {expected:.4}");
+    assert!((walk / expected - 1.0).abs() < 0.25, "{walk} vs {expected}");
+    assert_eq!(simulate(&settings, 5), simulate(&settings, 5));
+    assert_ne!(simulate(&settings, 5), simulate(&settings, 6));
+    for bad in [
+        SimulationSettings {
+            rate: 0.0,
+            ..settings.clone()
+        },
+        SimulationSettings {
+            samples: 0,
+            ..settings.clone()
+        },
+        SimulationSettings {
+            gyro_noise: -1.0,
+            ..settings.clone()
+        },
+        SimulationSettings {
+            earth_field: Vector3::zeros(),
+            ..settings.clone()
+        },
+        SimulationSettings {
+            disturbances: vec![Disturbance {
+                start: 2.0,
+                end: 1.0,
+                offset: Vector3::x(),
+            }],
+            ..settings.clone()
+        },
+    ] {
+        assert!(
+            matches!(simulate(&bad, 0), Err(DataError::BadValue { .. })),
+            "{bad:?}"
+        );
+    }
 }

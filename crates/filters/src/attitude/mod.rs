@@ -4,7 +4,8 @@
 //!   reference orientation and movement mask), read from a BROAD trial ([`read_broad`]) or a CSV
 //!   file ([`read_imu_csv`]);
 //! * the BROAD error metric ([`trial_errors`], [`per_sample_errors`], [`sample_errors`]);
-//! * [`Madgwick`]'s filter as the BROAD example evaluation runs it ([`run_madgwick`]).
+//! * [`Madgwick`]'s filter as the BROAD example evaluation runs it ([`run_madgwick`]);
+//! * an IMU simulator with its truth ([`simulate`]).
 //!
 //! Orientations are unit quaternions (scalar first) of the IMU frame with respect to
 //! East-North-Up. The math and the facts measured on the data are in `docs/filters/attitude.md`.
@@ -14,6 +15,7 @@ mod csv;
 mod data;
 mod madgwick;
 mod metric;
+mod simulate;
 
 pub use broad::{MAX_MAT_FILE_BYTES, read_broad};
 pub use csv::{
@@ -28,3 +30,4 @@ pub use madgwick::{
     gradient_marg, run_madgwick,
 };
 pub use metric::{SampleErrors, TrialErrors, per_sample_errors, sample_errors, trial_errors};
+pub use simulate::{Disturbance, SimulationSettings, simulate};
