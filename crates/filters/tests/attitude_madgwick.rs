@@ -195,7 +195,10 @@ fn initial_state_follows_the_example_construction() {
     assert!((r.matrix().column(2) - acc.normalize()).norm() < 1e-12);
     assert!(broad_initial_state(&Vector3::zeros(), Some(&mag)).is_none());
     assert!(broad_initial_state(&mag, Some(&mag)).is_none());
-    let _ = enu_from_nwu();
+    // NWU's x (North) and y (West) are ENU's North and minus East.
+    let q = enu_from_nwu();
+    assert!((q * Vector3::x() - Vector3::y()).norm() < 1e-15);
+    assert!((q * Vector3::y() + Vector3::x()).norm() < 1e-15);
     let log = ImuLog::new(100.0, vec![Vector3::zeros()], vec![Vector3::zeros()], None)
         .expect("valid log");
     assert!(run_madgwick(&log, BROAD_BETA).is_err());

@@ -17,7 +17,7 @@ pub const MAX_MAT_FILE_BYTES: u64 = 1 << 30;
 ///
 /// # Errors
 /// [`DataError::Io`] if the file cannot be read, [`DataError::TooLarge`] beyond
-/// [`MAX_MAT_FILE_BYTES`] or [`MAX_SAMPLES`], [`DataError::NotMatFile`] if it does not parse,
+/// [`MAX_MAT_FILE_BYTES`] or [`MAX_SAMPLES`](super::MAX_SAMPLES), [`DataError::NotMatFile`] if it does not parse,
 /// [`DataError::MissingVariable`], [`DataError::Shape`], [`DataError::Type`] for a variable that
 /// is absent or not as described, [`DataError::BadValue`] for a non-finite measurement (with its
 /// row) or a reference quaternion that is not of unit norm.

@@ -60,7 +60,9 @@ pub fn read_imu_csv<R: BufRead>(reader: R, origin: &str) -> Result<ImuLog, DataE
             1,
             0,
             &format!(
-                "header {header:?}, expected \"t,gx,gy,gz,ax,ay,az\" or \"t,gx,gy,gz,ax,ay,az,mx,my,mz\""
+                "header {header:?}, expected {:?} or {:?}",
+                IMU_6D.join(","),
+                IMU_9D.join(",")
             ),
         ));
     };

@@ -1,11 +1,11 @@
-//! [`ImuLog`]: a recorded (or simulated) IMU log, validated, and [`DataError`], what can go wrong in
-//! reading or building one.
+//! [`ImuLog`]: a recorded (or simulated) IMU log, validated, and [`DataError`], what can go wrong
+//! in reading or building one.
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use thiserror::Error;
 
-/// The largest number of samples a log may hold (2^28, about 10 days at 300 Hz): every reader checks
-/// it before allocating.
+/// The largest number of samples a log may hold (2^28, about 10 days at 300 Hz): every reader
+/// checks it before allocating.
 pub const MAX_SAMPLES: usize = 1 << 28;
 
 /// How far the norm of a reference quaternion may be from 1 (it is then normalised).
@@ -298,8 +298,8 @@ impl ImuLog {
     }
 }
 
-/// A reference quaternion from its components `(w, x, y, z)`: `None` when any is NaN (the capture
-/// lost it), else the normalised quaternion.
+/// A reference quaternion from its components `(w, x, y, z)` at sample `row` of `origin` (named in
+/// the error): `None` when any is NaN (the capture lost it), else the normalised quaternion.
 ///
 /// # Errors
 /// [`DataError::BadValue`] for an infinite component or a norm further than
