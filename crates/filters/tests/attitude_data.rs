@@ -1,16 +1,19 @@
 //! The attitude data layer: the BROAD reader on the twelve trials (skipped without the data) and on
 //! malformed files, `ImuLog` validation, the BROAD metric (hand cases, a decomposition property,
-//! invariances), CSV in and out, and the measured magnetometer facts the docs report.
+//! invariances), CSV in and out, the simulator, the measured magnetometer facts the docs report,
+//! and bad input through the bad-input harness (no panic, no hang, no silent NaN).
 //!
 //! The data are looked for in `$LIEBAYES_BROAD_DIR`, else in `shared/broad` beside the workspace.
 
 use liebayes_filters::attitude::{
-    DataError, Disturbance, ImuLog, RATE_TOLERANCE, SimulationSettings, per_sample_errors,
-    read_broad, read_estimates_csv, read_imu_csv, sample_errors, simulate, trial_errors,
-    write_estimates_csv,
+    DataError, Disturbance, ImuLog, MAX_SAMPLES, Madgwick, RATE_TOLERANCE, SimulationSettings,
+    per_sample_errors, read_broad, read_estimates_csv, read_imu_csv, run_madgwick, sample_errors,
+    simulate, trial_errors, write_estimates_csv,
 };
+use liebayes_reference::fuzz;
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
 
 const TRIALS: [&str; 12] = [
@@ -874,4 +877,183 @@ fn simulated_noise_levels() {
             "{bad:?}"
         );
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input: NaN, ±∞, ±MAX, subnormals, zeros and huge sizes, and mutated files, each call on its
+// own thread under a time limit (the bad-input harness): an error or a finite result, no panic.
+
+fn fuzz_vector() -> impl Strategy<Value = Vector3<f64>> {
+    (fuzz::value(), fuzz::value(), fuzz::value()).prop_map(|(x, y, z)| Vector3::new(x, y, z))
+}
+
+fn all_finite(estimates: &[UnitQuaternion<f64>]) -> bool {
+    estimates
+        .iter()
+        .all(|q| q.coords.iter().all(|c| c.is_finite()))
+}
+
+#[test]
+fn bad_input_logs_and_madgwick() {
+    let strategy = (
+        proptest::collection::vec((fuzz_vector(), fuzz_vector(), fuzz_vector()), 0..4),
+        fuzz::value(),
+        fuzz::value(),
+    );
+    fuzz::run(
+        "ImuLog::new, run_madgwick",
+        strategy,
+        |(rows, rate, beta)| {
+            fuzz::call("run_madgwick", move || {
+                let gyr = rows.iter().map(|r| r.0).collect();
+                let acc = rows.iter().map(|r| r.1).collect();
+                let mag = rows.iter().map(|r| r.2).collect();
+                let Some(log) = fuzz::counted(ImuLog::new(rate, gyr, acc, Some(mag))) else {
+                    return;
+                };
+                for log in [log.clone(), log.without_magnetometer()] {
+                    if let Some(estimates) = fuzz::counted(run_madgwick(&log, beta)) {
+                        assert!(all_finite(&estimates), "non-finite estimate");
+                    }
+                }
+            });
+        },
+    );
+}
+
+#[test]
+fn bad_input_madgwick_steps_leave_the_state_unchanged() {
+    let strategy = (
+        fuzz_vector(),
+        fuzz_vector(),
+        fuzz_vector(),
+        fuzz::value(),
+        fuzz::value(),
+    );
+    fuzz::run(
+        "Madgwick::update",
+        strategy,
+        |(gyr, acc, mag, beta, rate)| {
+            fuzz::call("Madgwick::update", move || {
+                let Some(mut filter) = fuzz::counted(Madgwick::new(beta, rate)) else {
+                    return;
+                };
+                let before = filter.clone();
+                if fuzz::counted(filter.update(&gyr, &acc, Some(&mag))).is_none() {
+                    assert_eq!(filter, before, "state changed by a failed step");
+                } else {
+                    assert!(all_finite(&[filter.orientation()]), "non-finite state");
+                }
+            });
+        },
+    );
+}
+
+#[test]
+fn bad_input_csv() {
+    let field = prop_oneof![
+        fuzz::value().prop_map(|v| v.to_string()),
+        Just(String::new()),
+        Just("x".to_owned()),
+        Just("1e999".to_owned()),
+    ];
+    let line = proptest::collection::vec(field, 0..12).prop_map(|f| f.join(","));
+    let text = proptest::collection::vec(line, 0..6)
+        .prop_map(|lines| format!("t,gx,gy,gz,ax,ay,az,mx,my,mz\n{}", lines.join("\n")));
+    let bytes = proptest::collection::vec(any::<u8>(), 0..300);
+    fuzz::run("read_imu_csv", (text, bytes), |(text, bytes)| {
+        fuzz::call("read_imu_csv", move || {
+            for input in [text.as_bytes(), bytes.as_slice()] {
+                if let Some(log) = fuzz::counted(read_imu_csv(input, "fuzz.csv")) {
+                    assert!(log.rate().is_finite() && log.rate() > 0.0);
+                }
+                let _ = fuzz::counted(read_estimates_csv(input, "fuzz.csv"));
+            }
+        });
+    });
+}
+
+#[test]
+fn bad_input_mat_files() {
+    let dir = temp_dir("fuzz-mat");
+    let good = mat_file(&good_variables(&GYR, &QUAT, &[0, 1, 1, 0]));
+    let len = good.len();
+    let mutations = proptest::collection::vec((0..len, any::<u8>()), 1..6);
+    let counter = std::sync::atomic::AtomicUsize::new(0);
+    fuzz::run(
+        "read_broad (crafted)",
+        (mutations, 0..=len),
+        |(mutations, cut)| {
+            let mut bytes = good.clone();
+            for (at, byte) in mutations {
+                bytes[at] = byte;
+            }
+            bytes.truncate(cut);
+            let k = counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let path = write(&dir, &format!("mutated-{k}.mat"), &bytes);
+            fuzz::call("read_broad", move || {
+                let _ = fuzz::counted(read_broad(&path));
+                std::fs::remove_file(&path).ok();
+            });
+        },
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// Bytes changed inside the compressed elements of a real trial (16 mutated copies).
+#[test]
+fn bad_input_mutated_trial() {
+    let Some(data) = data_dir() else { return };
+    let bytes = std::fs::read(data.join(format!("{}.mat", TRIALS[11]))).expect("read");
+    let dir = temp_dir("fuzz-trial");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(fuzz::seed());
+    for k in 0..16 {
+        let mut copy = bytes.clone();
+        for _ in 0..4 {
+            let at = rng.random_range(128..copy.len());
+            copy[at] = rng.random();
+        }
+        let path = write(&dir, &format!("mutated-{k}.mat"), &copy);
+        let result = fuzz::quick("read_broad (mutated trial)", || {
+            read_broad(&path).map(|l| l.len())
+        });
+        println!("mutated copy {k}: {result:?}");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn bad_input_simulate() {
+    let strategy = (
+        proptest::collection::vec(fuzz::value(), 10),
+        fuzz::size(MAX_SAMPLES),
+        fuzz_vector(),
+    );
+    fuzz::run("simulate", strategy, |(v, samples, vector)| {
+        fuzz::call("simulate", move || {
+            let settings = SimulationSettings {
+                rate: v[0],
+                samples: samples.min(MAX_SAMPLES + 1),
+                rotation_rate: v[1],
+                rotation_time: v[2],
+                acceleration_bound: v[3],
+                gyro_noise: v[4],
+                acc_noise: v[5],
+                mag_noise: v[6],
+                gyro_bias_walk: v[7],
+                gravity: v[8],
+                initial_gyro_bias: vector,
+                earth_field: vector,
+                disturbances: vec![Disturbance {
+                    start: v[9],
+                    end: v[9].abs(),
+                    offset: vector,
+                }],
+                ..SimulationSettings::default()
+            };
+            if let Some(log) = fuzz::counted(simulate(&settings, 0)) {
+                assert_eq!(log.len(), settings.samples);
+            }
+        });
+    });
 }

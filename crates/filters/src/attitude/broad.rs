@@ -37,12 +37,82 @@ pub fn read_broad(path: impl AsRef<Path>) -> Result<ImuLog, DataError> {
             limit: MAX_MAT_FILE_BYTES,
         });
     }
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mat = MatFile::parse(std::io::BufReader::new(file)).map_err(|e| DataError::NotMatFile {
+    let bytes = std::fs::read(path).map_err(io)?;
+    let not_mat = |message: String| DataError::NotMatFile {
         origin: origin.clone(),
-        message: e.to_string(),
-    })?;
+        message,
+    };
+    check_dimensions(&origin, &bytes)?;
+    // The parser can panic on some malformed files (an overflowing product of dimensions inside
+    // a compressed element): such a file is reported as unreadable, like any other parse failure.
+    let parsed = std::panic::catch_unwind(|| MatFile::parse(bytes.as_slice()))
+        .map_err(|_| not_mat("the parser failed on malformed contents".to_owned()))?;
+    let mat = parsed.map_err(|e| not_mat(e.to_string()))?;
     from_mat(&origin, &mat)
+}
+
+/// Checks the dimensions of the file's uncompressed matrices before the parser multiplies them:
+/// non-negative, with a product within `i32` (the format's limit). Compressed elements are left to
+/// the parser (their contents are only known once inflated); a structure the walk does not
+/// understand is left to the parser too, which reports it.
+fn check_dimensions(origin: &str, bytes: &[u8]) -> Result<(), DataError> {
+    let little = match bytes.get(126..128) {
+        Some(b"IM") => true,
+        Some(b"MI") => false,
+        _ => return Ok(()),
+    };
+    let word = |at: usize| -> Option<u32> {
+        let b: [u8; 4] = bytes.get(at..at.checked_add(4)?)?.try_into().ok()?;
+        Some(if little {
+            u32::from_le_bytes(b)
+        } else {
+            u32::from_be_bytes(b)
+        })
+    };
+    let mut at = 128_usize;
+    // Each element takes at least 8 bytes: the walk is bounded by the file's length.
+    for _ in 0..bytes.len() / 8 {
+        let (Some(data_type), Some(size)) = (word(at), word(at + 4)) else {
+            break;
+        };
+        if data_type >> 16 != 0 {
+            break;
+        }
+        let body = at + 8;
+        // miMATRIX: array flags (8 + 8 bytes), then the dimensions sub-element (miINT32).
+        if data_type == 14
+            && let (Some(5), Some(dims_bytes)) = (word(body + 16), word(body + 20))
+        {
+            let mut product: i64 = 1;
+            for k in 0..(dims_bytes / 4).min(64) {
+                let Some(dim) = word(body + 24 + 4 * k as usize) else {
+                    break;
+                };
+                #[allow(clippy::cast_possible_wrap)]
+                let dim = i64::from(dim as i32);
+                product = product.saturating_mul(dim.max(-1));
+                if dim < 0 || product > i64::from(i32::MAX) {
+                    return Err(DataError::NotMatFile {
+                        origin: origin.to_owned(),
+                        message: format!(
+                            "the array at byte {at} has dimensions that are negative or \
+                             multiply beyond 2^31"
+                        ),
+                    });
+                }
+            }
+        }
+        let step = if data_type == 15 {
+            size
+        } else {
+            size.next_multiple_of(8)
+        };
+        let Some(next) = body.checked_add(step as usize) else {
+            break;
+        };
+        at = next;
+    }
+    Ok(())
 }
 
 fn from_mat(origin: &str, mat: &MatFile) -> Result<ImuLog, DataError> {

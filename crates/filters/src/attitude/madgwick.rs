@@ -36,7 +36,7 @@ pub fn enu_from_nwu() -> UnitQuaternion<f64> {
 ///
 /// The feedback is skipped when the accelerometer reads exactly zero or the gradient vanishes; a
 /// magnetometer reading of exactly zero falls back to the 6D step (gravity only). Valid for
-/// `β ≥ 0` and a finite positive rate.
+/// `β ≥ 0`, a finite positive rate and finite readings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Madgwick {
     beta: f64,
@@ -89,18 +89,26 @@ impl Madgwick {
     }
 
     /// One step with the gyroscope (rad/s), the accelerometer and, for the 9D filter, the
-    /// magnetometer (any units: both are normalised). Inputs are assumed finite (an [`ImuLog`]
-    /// is).
-    pub fn update(&mut self, gyr: &Vector3<f64>, acc: &Vector3<f64>, mag: Option<&Vector3<f64>>) {
+    /// magnetometer (any units: both are normalised, scaled by their largest component first so
+    /// that huge readings do not overflow).
+    ///
+    /// # Errors
+    /// [`DataError::BadValue`] when the step would leave a non-finite state (a non-finite input,
+    /// or a rate so large that `q̇ Δt` overflows); the state is then unchanged.
+    pub fn update(
+        &mut self,
+        gyr: &Vector3<f64>,
+        acc: &Vector3<f64>,
+        mag: Option<&Vector3<f64>>,
+    ) -> Result<(), DataError> {
         let q = self.q;
         let omega = Quaternion::new(0.0, gyr.x, gyr.y, gyr.z);
         let qdot = Quaternion::new(q[0], q[1], q[2], q[3]) * omega * 0.5;
         let mut rate = Vector4::new(qdot.w, qdot.i, qdot.j, qdot.k);
-        if *acc != Vector3::zeros() {
-            let mag = mag.filter(|m| **m != Vector3::zeros());
-            let gradient = match mag {
-                Some(m) => gradient_marg(&q, &acc.normalize(), &m.normalize()),
-                None => gradient_imu(&q, &acc.normalize()),
+        if let Some(a) = direction(acc) {
+            let gradient = match mag.and_then(direction) {
+                Some(m) => gradient_marg(&q, &a, &m),
+                None => gradient_imu(&q, &a),
             };
             let norm = gradient.norm();
             if norm > 0.0 {
@@ -108,8 +116,35 @@ impl Madgwick {
             }
         }
         let next = q + rate * self.interval;
-        self.q = next / next.norm();
+        let next = next / next.amax();
+        let next = next / next.norm();
+        if !next.iter().all(|c| c.is_finite()) {
+            return Err(DataError::BadValue {
+                origin: "Madgwick::update".to_owned(),
+                variable: "gyroscope, accelerometer, magnetometer".to_owned(),
+                row: 0,
+                value: format!(
+                    "{:?}, {:?}, {:?}",
+                    gyr.as_slice(),
+                    acc.as_slice(),
+                    mag.map(nalgebra::Matrix::as_slice)
+                ),
+                expected: "finite readings giving a finite step",
+            });
+        }
+        self.q = next;
+        Ok(())
     }
+}
+
+/// The unit vector along `v`, computed as `(v / max|v_i|) / |v / max|v_i||`; `None` for a zero
+/// (or non-finite) vector.
+fn direction(v: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let scale = v.amax();
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    Some((v / scale).normalize())
 }
 
 /// `J_gᵀ f_g`: the gradient of ½|R(q)ᵀ ẑ − â|² in the polynomial forms of [`Madgwick`].
@@ -199,16 +234,20 @@ fn field_objective(q: &Vector4<f64>, mag: &Vector3<f64>) -> Objective {
 /// The BROAD example's initial state from the first accelerometer and magnetometer samples: the
 /// rotation whose matrix has the columns `x = normalise((a × −m) × a)`, `y = normalise(a × x)`,
 /// `z = normalise(a)`, set directly as the filter's (NWU) state. Without a magnetometer, `m` is
-/// taken as `−e_x` (the sensor's x axis in place of the field). `None` when `a` is zero or
-/// parallel to `m`.
+/// taken as `−e_x` (the sensor's x axis in place of the field). `None` when `a` or `m` is zero or
+/// not finite, or `a` is parallel to `m`.
 pub fn broad_initial_state(
     acc: &Vector3<f64>,
     mag: Option<&Vector3<f64>>,
 ) -> Option<UnitQuaternion<f64>> {
-    let m = mag.copied().unwrap_or(-Vector3::x());
-    let x = acc.cross(&-m).cross(acc).try_normalize(0.0)?;
-    let z = acc.try_normalize(0.0)?;
-    let y = z.cross(&x).try_normalize(0.0)?;
+    // Scaled to unit length first (the construction is scale-free): no overflow.
+    let m = match mag {
+        Some(m) => direction(m)?,
+        None => -Vector3::x(),
+    };
+    let z = direction(acc)?;
+    let x = direction(&z.cross(&-m).cross(&z))?;
+    let y = direction(&z.cross(&x))?;
     let r = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z]));
     Some(UnitQuaternion::from_rotation_matrix(&r))
 }
@@ -220,8 +259,8 @@ pub fn broad_initial_state(
 ///
 /// # Errors
 /// As [`Madgwick::new`]; [`DataError::BadValue`] when the first accelerometer sample is zero or
-/// parallel to the magnetometer (no initial state); [`DataError::NothingToScore`] for an empty
-/// log.
+/// parallel to the magnetometer (no initial state), or a step fails (as [`Madgwick::update`],
+/// with the sample's row); [`DataError::NothingToScore`] for an empty log.
 pub fn run_madgwick(log: &ImuLog, beta: f64) -> Result<Vec<UnitQuaternion<f64>>, DataError> {
     let mut filter = Madgwick::new(beta, log.rate())?;
     let (Some(acc0), gyr) = (log.accelerometer().first(), log.gyroscope()) else {
@@ -240,10 +279,26 @@ pub fn run_madgwick(log: &ImuLog, beta: f64) -> Result<Vec<UnitQuaternion<f64>>,
     })?;
     filter.set_state(&q0);
     let acc = log.accelerometer();
-    Ok((0..log.len())
+    (0..log.len())
         .map(|k| {
-            filter.update(&gyr[k], &acc[k], mag.map(|m| &m[k]));
-            filter.orientation()
+            filter
+                .update(&gyr[k], &acc[k], mag.map(|m| &m[k]))
+                .map_err(|e| match e {
+                    DataError::BadValue {
+                        variable,
+                        value,
+                        expected,
+                        ..
+                    } => DataError::BadValue {
+                        origin: "run_madgwick".to_owned(),
+                        variable,
+                        row: k,
+                        value,
+                        expected,
+                    },
+                    other => other,
+                })?;
+            Ok(filter.orientation())
         })
-        .collect())
+        .collect()
 }
