@@ -1,0 +1,325 @@
+//! CSV in and out: a user's own IMU log ([`read_imu_csv`]) and orientation estimates
+//! ([`write_estimates_csv`], [`read_estimates_csv`]).
+//!
+//! IMU log layout: a header line `t,gx,gy,gz,ax,ay,az` (6D) or `t,gx,gy,gz,ax,ay,az,mx,my,mz` (9D),
+//! then one sample per line: t in seconds (increasing at a constant rate), the gyroscope in rad/s,
+//! the accelerometer in m/s², the magnetometer in µT, all in the IMU's axes. Estimates layout: a
+//! header `t,w,x,y,z`, then the time and the unit quaternion (scalar first) of the IMU frame w.r.t.
+//! ENU. Fields are separated by commas, surrounding spaces are ignored, empty lines are not
+//! allowed.
+
+use super::data::{DataError, ImuLog, MAX_SAMPLES};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use std::io::{BufRead, Write};
+
+/// The longest line read (bytes), checked before it is kept.
+pub const MAX_LINE_BYTES: usize = 4096;
+
+/// How far each time step may be from the mean step `(t_last − t_first) / (n − 1)`, relative to
+/// it (1 %): the rate is `1 / mean step`.
+pub const RATE_TOLERANCE: f64 = 0.01;
+
+/// How far the norm of a read quaternion may be from 1.
+const UNIT_TOLERANCE: f64 = 1e-6;
+
+const IMU_6D: [&str; 7] = ["t", "gx", "gy", "gz", "ax", "ay", "az"];
+const IMU_9D: [&str; 10] = ["t", "gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz"];
+const ESTIMATES: [&str; 5] = ["t", "w", "x", "y", "z"];
+
+/// Orientation estimates with their times: `times[k]` (s) and `orientations[k]` (IMU w.r.t. ENU).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimates {
+    /// The times (s).
+    pub times: Vec<f64>,
+    /// The orientations.
+    pub orientations: Vec<UnitQuaternion<f64>>,
+}
+
+/// Reads an IMU log in the layout of this module's doc from `reader`, naming `origin` (the file)
+/// in errors. The rate is inferred from the times: every step within [`RATE_TOLERANCE`] of the
+/// mean step. Nothing is returned on error.
+///
+/// # Errors
+/// [`DataError::Csv`] naming the line and column of a wrong header, a missing, extra or
+/// unparsable field, a non-finite value, a time step off the constant rate, fewer than two
+/// samples or a line longer than [`MAX_LINE_BYTES`]; [`DataError::TooLarge`] beyond
+/// [`MAX_SAMPLES`]; [`DataError::Io`] when reading fails.
+pub fn read_imu_csv<R: BufRead>(reader: R, origin: &str) -> Result<ImuLog, DataError> {
+    let mut lines = Lines::new(reader, origin);
+    let header = lines
+        .next_line()?
+        .ok_or_else(|| csv(origin, 1, 0, "empty file, expected the header"))?;
+    let columns: Vec<&str> = header.split(',').map(str::trim).collect();
+    let nine = if columns == IMU_9D {
+        true
+    } else if columns == IMU_6D {
+        false
+    } else {
+        return Err(csv(
+            origin,
+            1,
+            0,
+            &format!(
+                "header {header:?}, expected {:?} or {:?}",
+                IMU_6D.join(","),
+                IMU_9D.join(",")
+            ),
+        ));
+    };
+    let width = columns.len();
+    let (mut t, mut gyr, mut acc, mut mag) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut fields = vec![0.0; width];
+    while let Some(line) = lines.next_line()? {
+        if t.len() >= MAX_SAMPLES {
+            return Err(DataError::TooLarge {
+                origin: origin.to_owned(),
+                what: "the number of samples",
+                size: t.len() as u64 + 1,
+                limit: MAX_SAMPLES as u64,
+            });
+        }
+        parse_fields(&line, lines.number, origin, &mut fields)?;
+        t.push(fields[0]);
+        gyr.push(Vector3::new(fields[1], fields[2], fields[3]));
+        acc.push(Vector3::new(fields[4], fields[5], fields[6]));
+        if nine {
+            mag.push(Vector3::new(fields[7], fields[8], fields[9]));
+        }
+    }
+    let rate = infer_rate(&t, origin)?;
+    ImuLog::new_from(
+        origin,
+        ["gx,gy,gz", "ax,ay,az", "mx,my,mz"],
+        rate,
+        gyr,
+        acc,
+        nine.then_some(mag),
+    )
+}
+
+/// Writes `estimates` (one per time) as `t,w,x,y,z` lines under that header; numbers in Rust's
+/// shortest form that reads back to the same `f64`.
+///
+/// # Errors
+/// [`DataError::Length`] unless there is one time per estimate; [`DataError::Io`] when writing
+/// fails.
+pub fn write_estimates_csv<W: Write>(
+    mut writer: W,
+    times: &[f64],
+    orientations: &[UnitQuaternion<f64>],
+    origin: &str,
+) -> Result<(), DataError> {
+    super::data::check_length(origin, "orientations", times.len(), orientations.len())?;
+    let io = |e: std::io::Error| DataError::Io {
+        origin: origin.to_owned(),
+        message: e.to_string(),
+    };
+    writeln!(writer, "{}", ESTIMATES.join(",")).map_err(io)?;
+    for (t, q) in times.iter().zip(orientations) {
+        let q = q.quaternion();
+        writeln!(writer, "{t:?},{:?},{:?},{:?},{:?}", q.w, q.i, q.j, q.k).map_err(io)?;
+    }
+    writer.flush().map_err(io)
+}
+
+/// Reads estimates written by [`write_estimates_csv`] (header `t,w,x,y,z`). Each quaternion's norm
+/// must be within 1e-6 of 1; it is kept as written.
+///
+/// # Errors
+/// [`DataError::Csv`] naming the line and column of a malformed line or a quaternion not of unit
+/// norm; [`DataError::TooLarge`] beyond [`MAX_SAMPLES`]; [`DataError::Io`] when reading fails.
+pub fn read_estimates_csv<R: BufRead>(reader: R, origin: &str) -> Result<Estimates, DataError> {
+    let mut lines = Lines::new(reader, origin);
+    let header = lines
+        .next_line()?
+        .ok_or_else(|| csv(origin, 1, 0, "empty file, expected the header"))?;
+    if header.split(',').map(str::trim).ne(ESTIMATES) {
+        return Err(csv(
+            origin,
+            1,
+            0,
+            &format!("header {header:?}, expected \"t,w,x,y,z\""),
+        ));
+    }
+    let (mut times, mut orientations) = (Vec::new(), Vec::new());
+    let mut fields = [0.0; 5];
+    while let Some(line) = lines.next_line()? {
+        if times.len() >= MAX_SAMPLES {
+            return Err(DataError::TooLarge {
+                origin: origin.to_owned(),
+                what: "the number of estimates",
+                size: times.len() as u64 + 1,
+                limit: MAX_SAMPLES as u64,
+            });
+        }
+        parse_fields(&line, lines.number, origin, &mut fields)?;
+        let q = Quaternion::new(fields[1], fields[2], fields[3], fields[4]);
+        if (q.norm() - 1.0).abs() > UNIT_TOLERANCE {
+            return Err(csv(
+                origin,
+                lines.number,
+                2,
+                &format!(
+                    "quaternion of norm {}, expected a unit quaternion",
+                    q.norm()
+                ),
+            ));
+        }
+        times.push(fields[0]);
+        orientations.push(UnitQuaternion::new_unchecked(q));
+    }
+    Ok(Estimates {
+        times,
+        orientations,
+    })
+}
+
+fn csv(origin: &str, line: usize, column: usize, message: &str) -> DataError {
+    DataError::Csv {
+        origin: origin.to_owned(),
+        line,
+        column,
+        message: message.to_owned(),
+    }
+}
+
+/// Parses exactly `out.len()` finite numbers from a line.
+fn parse_fields(line: &str, number: usize, origin: &str, out: &mut [f64]) -> Result<(), DataError> {
+    let mut parts = line.split(',');
+    for (column, slot) in out.iter_mut().enumerate() {
+        let Some(text) = parts.next() else {
+            return Err(csv(
+                origin,
+                number,
+                column + 1,
+                &format!("missing field, expected {} fields", out.len()),
+            ));
+        };
+        let value: f64 = text.trim().parse().map_err(|_| {
+            csv(
+                origin,
+                number,
+                column + 1,
+                &format!("{:?} is not a number", text.trim()),
+            )
+        })?;
+        if !value.is_finite() {
+            return Err(csv(
+                origin,
+                number,
+                column + 1,
+                &format!("{value} is not finite"),
+            ));
+        }
+        *slot = value;
+    }
+    if parts.next().is_some() {
+        return Err(csv(
+            origin,
+            number,
+            out.len() + 1,
+            &format!("extra field, expected {} fields", out.len()),
+        ));
+    }
+    Ok(())
+}
+
+/// `1 / mean step`, each step within [`RATE_TOLERANCE`] of the mean.
+fn infer_rate(t: &[f64], origin: &str) -> Result<f64, DataError> {
+    let (Some(first), Some(last)) = (t.first(), t.last()) else {
+        return Err(csv(origin, 2, 0, "no sample, expected at least two"));
+    };
+    if t.len() < 2 {
+        return Err(csv(
+            origin,
+            2,
+            0,
+            "one sample, expected at least two to infer the rate",
+        ));
+    }
+    let mean = (last - first) / (t.len() - 1) as f64;
+    if !(mean.is_finite() && mean > 0.0) {
+        return Err(csv(
+            origin,
+            2,
+            1,
+            "times do not increase, expected increasing times (s)",
+        ));
+    }
+    for (k, pair) in t.windows(2).enumerate() {
+        let step = pair[1] - pair[0];
+        if (step - mean).abs() > RATE_TOLERANCE * mean {
+            // Sample k + 1 is on line k + 3 (the header is line 1).
+            return Err(csv(
+                origin,
+                k + 3,
+                1,
+                &format!(
+                    "time step {step} s, expected the constant step {mean} s within {} %",
+                    RATE_TOLERANCE * 100.0
+                ),
+            ));
+        }
+    }
+    Ok(1.0 / mean)
+}
+
+/// Lines read with a bounded length, counted from 1.
+struct Lines<'a, R> {
+    reader: R,
+    origin: &'a str,
+    number: usize,
+    buffer: Vec<u8>,
+}
+
+impl<'a, R: BufRead> Lines<'a, R> {
+    fn new(reader: R, origin: &'a str) -> Self {
+        Self {
+            reader,
+            origin,
+            number: 0,
+            buffer: Vec::new(),
+        }
+    }
+
+    /// The next line without its end (`\n` or `\r\n`); `None` at the end of the input; an
+    /// error for an empty line.
+    fn next_line(&mut self) -> Result<Option<String>, DataError> {
+        self.buffer.clear();
+        let limit = (MAX_LINE_BYTES + 2) as u64;
+        let read = <&mut R as std::io::Read>::take(&mut self.reader, limit)
+            .read_until(b'\n', &mut self.buffer)
+            .map_err(|e| DataError::Io {
+                origin: self.origin.to_owned(),
+                message: e.to_string(),
+            })?;
+        if read == 0 {
+            return Ok(None);
+        }
+        self.number += 1;
+        if self.buffer.last() == Some(&b'\n') {
+            self.buffer.pop();
+            if self.buffer.last() == Some(&b'\r') {
+                self.buffer.pop();
+            }
+        } else if read as u64 == limit {
+            return Err(csv(
+                self.origin,
+                self.number,
+                0,
+                &format!("line longer than {MAX_LINE_BYTES} bytes"),
+            ));
+        }
+        let text = std::str::from_utf8(&self.buffer)
+            .map_err(|_| csv(self.origin, self.number, 0, "not UTF-8 text"))?;
+        if text.trim().is_empty() {
+            return Err(csv(
+                self.origin,
+                self.number,
+                0,
+                "empty line, expected a sample",
+            ));
+        }
+        Ok(Some(text.to_owned()))
+    }
+}

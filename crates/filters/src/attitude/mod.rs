@@ -1,0 +1,33 @@
+//! IMU attitude: the data layer and the baseline.
+//!
+//! * [`ImuLog`]: a validated IMU log (gyroscope, accelerometer, optional magnetometer, optional
+//!   reference orientation and movement mask), read from a BROAD trial ([`read_broad`]) or a CSV
+//!   file ([`read_imu_csv`]);
+//! * the BROAD error metric ([`trial_errors`], [`per_sample_errors`], [`sample_errors`]);
+//! * [`Madgwick`]'s filter as the BROAD example evaluation runs it ([`run_madgwick`]);
+//! * an IMU simulator with its truth ([`simulate`]).
+//!
+//! Orientations are unit quaternions (scalar first) of the IMU frame with respect to
+//! East-North-Up. The math and the facts measured on the data are in `docs/filters/attitude.md`.
+
+mod broad;
+mod csv;
+mod data;
+mod madgwick;
+mod metric;
+mod simulate;
+
+pub use broad::{MAX_MAT_FILE_BYTES, read_broad};
+pub use csv::{
+    Estimates, MAX_LINE_BYTES, RATE_TOLERANCE, read_estimates_csv, read_imu_csv,
+    write_estimates_csv,
+};
+pub use data::{
+    DataError, ImuLog, MAX_SAMPLES, REFERENCE_NORM_TOLERANCE, reference_from_components,
+};
+pub use madgwick::{
+    BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu, field_reference, gradient_imu,
+    gradient_marg, run_madgwick,
+};
+pub use metric::{SampleErrors, TrialErrors, per_sample_errors, sample_errors, trial_errors};
+pub use simulate::{Disturbance, SimulationSettings, simulate};

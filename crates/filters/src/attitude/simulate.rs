@@ -1,0 +1,234 @@
+//! [`simulate`]: an IMU log with its true orientation, from [`SimulationSettings`].
+
+use super::data::{DataError, ImuLog, MAX_SAMPLES};
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use std::f64::consts::TAU;
+
+/// A magnetic disturbance: the field `offset` (µT, ENU) added to the earth field from `start` to
+/// `end` (s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Disturbance {
+    /// Start (s).
+    pub start: f64,
+    /// End (s).
+    pub end: f64,
+    /// The added field (µT, ENU).
+    pub offset: Vector3<f64>,
+}
+
+/// The settings of a simulated IMU log. Units: rad/s, m/s², µT, s, Hz.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulationSettings {
+    /// Sampling rate (Hz), finite and positive.
+    pub rate: f64,
+    /// Number of samples, 1 to [`MAX_SAMPLES`].
+    pub samples: usize,
+    /// RMS of each component of the true rotation rate (rad/s), ≥ 0.
+    pub rotation_rate: f64,
+    /// Correlation time of the rotation rate (s), > 0: it is a stationary Ornstein-Uhlenbeck
+    /// process per component, `ω_{k+1} = a ω_k + √(1 − a²) σ n`, `a = exp(−Δt / τ)`.
+    pub rotation_time: f64,
+    /// Bound on each component of the linear acceleration (m/s², ENU), ≥ 0: a sum of three
+    /// sinusoids per axis (0.2 to 2 Hz, random phases) with amplitudes summing to this bound.
+    pub acceleration_bound: f64,
+    /// Standard deviation of the gyroscope's white noise per sample (rad/s), ≥ 0.
+    pub gyro_noise: f64,
+    /// Standard deviation of the accelerometer's white noise per sample (m/s²), ≥ 0.
+    pub acc_noise: f64,
+    /// Standard deviation of the magnetometer's white noise per sample (µT), ≥ 0.
+    pub mag_noise: f64,
+    /// The gyroscope bias random walk (rad/s/√s), ≥ 0: `b_{k+1} = b_k + σ_b √Δt n`.
+    pub gyro_bias_walk: f64,
+    /// The gyroscope bias at the start (rad/s).
+    pub initial_gyro_bias: Vector3<f64>,
+    /// Gravity (m/s²), > 0.
+    pub gravity: f64,
+    /// The earth field (µT, ENU), non-zero: for example `(0, 20, −44)`, north and down (dip 66°).
+    pub earth_field: Vector3<f64>,
+    /// Magnetic disturbance intervals.
+    pub disturbances: Vec<Disturbance>,
+    /// The true orientation at the start (IMU w.r.t. ENU).
+    pub initial_orientation: UnitQuaternion<f64>,
+}
+
+impl Default for SimulationSettings {
+    /// One minute at 285.714 Hz (BROAD's rate) of hand-held motion with a consumer-grade IMU.
+    fn default() -> Self {
+        Self {
+            rate: 2000.0 / 7.0,
+            samples: 17_143,
+            rotation_rate: 1.0,
+            rotation_time: 0.5,
+            acceleration_bound: 3.0,
+            gyro_noise: 0.005,
+            acc_noise: 0.05,
+            mag_noise: 0.5,
+            gyro_bias_walk: 1e-4,
+            initial_gyro_bias: Vector3::new(0.01, -0.005, 0.003),
+            gravity: 9.81,
+            earth_field: Vector3::new(0.0, 20.0, -44.0),
+            disturbances: Vec::new(),
+            initial_orientation: UnitQuaternion::identity(),
+        }
+    }
+}
+
+/// The sample-to-sample model of [`simulate`], sample k at `t_k = k Δt`:
+///
+/// * truth: `q_{k+1} = q_k ⊗ exp(ω_k Δt)`, ω_k the true body rate (held over the interval);
+/// * gyroscope: `ω_k + b_k + σ_g n`, b the bias random walk;
+/// * accelerometer: `R(q_k)ᵀ (a_k + g ẑ) + σ_a n`, a_k the linear acceleration (ENU);
+/// * magnetometer: `R(q_k)ᵀ (m_E + d(t_k)) + σ_m n`, d the disturbance active at `t_k`;
+///
+/// n independent standard normal vectors drawn from `ChaCha8Rng::seed_from_u64(seed)`. The log's
+/// reference is the truth and its movement mask is all true. The same settings and seed give the
+/// same log.
+///
+/// # Errors
+/// [`DataError::BadValue`] for a setting out of the range its field documents.
+pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, DataError> {
+    check(settings)?;
+    let s = settings;
+    let dt = 1.0 / s.rate;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let a = (-dt / s.rotation_time).exp();
+    let innovation = (1.0 - a * a).sqrt() * s.rotation_rate;
+    // Three sinusoids per axis for the linear acceleration.
+    let waves: Vec<[(f64, f64, f64); 3]> = (0..3)
+        .map(|_| {
+            let weights: [f64; 3] = [rng.random(), rng.random(), rng.random()];
+            let sum: f64 = weights.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+            weights.map(|w| {
+                let frequency = 0.2 + 1.8 * rng.random::<f64>();
+                (
+                    s.acceleration_bound * w / sum,
+                    frequency,
+                    TAU * rng.random::<f64>(),
+                )
+            })
+        })
+        .collect();
+    let mut omega = normal(&mut rng) * s.rotation_rate;
+    let mut bias = s.initial_gyro_bias;
+    let mut q = s.initial_orientation;
+    let n = s.samples;
+    let (mut gyr, mut acc, mut mag, mut truth) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for k in 0..n {
+        let t = k as f64 * dt;
+        let linear = Vector3::from_fn(|i, _| {
+            waves[i]
+                .iter()
+                .map(|(amplitude, f, phase)| amplitude * (TAU * f * t + phase).sin())
+                .sum()
+        });
+        let disturbance: Vector3<f64> = s
+            .disturbances
+            .iter()
+            .filter(|d| d.start <= t && t < d.end)
+            .map(|d| d.offset)
+            .sum();
+        let to_sensor = q.inverse();
+        gyr.push(omega + bias + normal(&mut rng) * s.gyro_noise);
+        acc.push(to_sensor * (linear + Vector3::z() * s.gravity) + normal(&mut rng) * s.acc_noise);
+        mag.push(to_sensor * (s.earth_field + disturbance) + normal(&mut rng) * s.mag_noise);
+        truth.push(Some(q));
+        q *= UnitQuaternion::from_scaled_axis(omega * dt);
+        q.renormalize();
+        omega = omega * a + normal(&mut rng) * innovation;
+        bias += normal(&mut rng) * (s.gyro_bias_walk * dt.sqrt());
+    }
+    ImuLog::new_from(
+        "simulate",
+        ["gyroscope", "accelerometer", "magnetometer"],
+        s.rate,
+        gyr,
+        acc,
+        Some(mag),
+    )?
+    .with_reference(truth)?
+    .with_movement(vec![true; n])
+}
+
+fn normal(rng: &mut ChaCha8Rng) -> Vector3<f64> {
+    Vector3::from_fn(|_, _| StandardNormal.sample(rng))
+}
+
+fn check(s: &SimulationSettings) -> Result<(), DataError> {
+    let bad = |variable: &str, value: String, expected| {
+        Err(DataError::BadValue {
+            origin: "simulate".to_owned(),
+            variable: variable.to_owned(),
+            row: 0,
+            value,
+            expected,
+        })
+    };
+    let positive = [
+        ("rate", s.rate),
+        ("rotation_time", s.rotation_time),
+        ("gravity", s.gravity),
+    ];
+    for (name, value) in positive {
+        if !(value.is_finite() && value > 0.0) {
+            return bad(name, value.to_string(), "finite and positive");
+        }
+    }
+    let non_negative = [
+        ("rotation_rate", s.rotation_rate),
+        ("acceleration_bound", s.acceleration_bound),
+        ("gyro_noise", s.gyro_noise),
+        ("acc_noise", s.acc_noise),
+        ("mag_noise", s.mag_noise),
+        ("gyro_bias_walk", s.gyro_bias_walk),
+    ];
+    for (name, value) in non_negative {
+        if !(value.is_finite() && value >= 0.0) {
+            return bad(name, value.to_string(), "finite and non-negative");
+        }
+    }
+    if s.samples == 0 || s.samples > MAX_SAMPLES {
+        return bad("samples", s.samples.to_string(), "1 to 2^28 samples");
+    }
+    let finite = |v: &Vector3<f64>| v.iter().all(|c| c.is_finite());
+    if !finite(&s.initial_gyro_bias) {
+        return bad(
+            "initial_gyro_bias",
+            format!("{:?}", s.initial_gyro_bias.as_slice()),
+            "finite",
+        );
+    }
+    if !finite(&s.earth_field) || s.earth_field == Vector3::zeros() {
+        return bad(
+            "earth_field",
+            format!("{:?}", s.earth_field.as_slice()),
+            "finite and non-zero",
+        );
+    }
+    if !s.initial_orientation.coords.iter().all(|c| c.is_finite()) {
+        return bad(
+            "initial_orientation",
+            format!("{:?}", s.initial_orientation.coords.as_slice()),
+            "a finite unit quaternion",
+        );
+    }
+    for (row, d) in s.disturbances.iter().enumerate() {
+        if !(d.start.is_finite() && d.end.is_finite() && d.start <= d.end && finite(&d.offset)) {
+            return Err(DataError::BadValue {
+                origin: "simulate".to_owned(),
+                variable: "disturbances".to_owned(),
+                row,
+                value: format!("{d:?}"),
+                expected: "finite start <= end (s) and a finite offset (µT)",
+            });
+        }
+    }
+    Ok(())
+}
