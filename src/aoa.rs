@@ -8,7 +8,7 @@ use crate::progress;
 use crate::report::{self, Table, print};
 use crate::sheet::{Segment, Sheet, segments_svg};
 use clap::{Subcommand, ValueEnum};
-use liebayes::experiments::{MAX_RUNS, Shard, Study};
+use liebayes::experiments::{MAX_RUNS, MAX_STUDY_EPOCHS, Shard, Study};
 use liebayes::filters::aoa::{
     Algorithm, DataModel, FILTER_MODELS, ModelChoice, PAPER_TABLE1, SearchSettings, SquareTrack,
     TrackConfig, TrackFilter, TruthModel, UpdateExample, compare_models, fit_angle_sigmas,
@@ -528,6 +528,12 @@ impl TrackPlan {
                     "--match-tolerance searches whole studies: it cannot run in a shard".into(),
                 );
             }
+        }
+        if args.steps > MAX_STUDY_EPOCHS {
+            return Err(format!(
+                "--steps is {}: a study summarises at most {MAX_STUDY_EPOCHS} epochs",
+                args.steps
+            ));
         }
         let config = TrackConfig {
             epochs: args.steps,

@@ -388,6 +388,7 @@ fn aoa_parts_write_their_files_and_refuse_bad_settings() {
         (vec!["aoa", "update", "--particles", "0"], "--particles"),
         (vec!["aoa", "track", "--runs", "0"], "--runs"),
         (vec!["aoa", "track", "--steps", "0"], "--steps"),
+        (vec!["aoa", "track", "--steps", "20000"], "--steps"),
         (
             vec!["aoa", "track", "--reference-runs", "900"],
             "--reference-runs",

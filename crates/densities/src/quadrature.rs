@@ -51,7 +51,7 @@ pub const MAX_LEGENDRE_NODES: usize = 8192;
 /// degree 2n − 1 (nodes and weights to full precision), for n from 1 to [`MAX_LEGENDRE_NODES`].
 ///
 /// # Errors
-/// [`DensityError::OutOfRange`] for n outside that range.
+/// [`DensityError::OutOfRange`](crate::DensityError::OutOfRange) for n outside that range.
 pub fn legendre_nodes(n: usize) -> Result<Vec<(f64, f64)>, crate::DensityError> {
     if n == 0 || n > MAX_LEGENDRE_NODES {
         return Err(crate::DensityError::OutOfRange {

@@ -199,7 +199,7 @@ impl<const N: usize> AzElModel<N> {
     }
 }
 
-/// `Σⱼ ln p(yⱼ | θ)` with [`az_el_log_density`] at each anchor's predicted direction; −∞ at an
+/// `Σⱼ ln p(yⱼ | θ)` with [`az_el_log_density`](super::az_el_log_density) at each anchor's predicted direction; −∞ at an
 /// anchor or for an elevation outside [−π/2, π/2].
 impl<const N: usize> Likelihood<Position> for AzElModel<N> {
     type Measurement = Readings<N>;
