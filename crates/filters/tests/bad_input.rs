@@ -1,15 +1,20 @@
-//! Bad input never panics, hangs, aborts or silently yields NaN in the azimuth application: the
-//! models, the exact filter, every baseline, the scenarios and the study are fed NaN, ±∞, ±MAX,
-//! subnormals, zeros, singular and indefinite covariances and huge sizes, each call on its own thread
-//! under a time limit. A call must return an error or a finite result (the exact filter's covariance
-//! positive definite), and a filter must be exactly as it was after a step that failed. The fixed
-//! cases at the end are the regressions of reported failures (`LIEBAYES_FUZZ_CASES` runs the
-//! properties long).
+//! Bad input never panics, hangs, aborts or silently yields NaN in the azimuth and
+//! angle-of-arrival applications: the models, the exact filter, every baseline, the scenarios and
+//! the study are fed NaN, ±∞, ±MAX, subnormals, zeros, singular and indefinite covariances and huge
+//! sizes, each call on its own thread under a time limit. A call must return an error or a finite
+//! result (the exact filter's covariance positive definite), and a filter must be exactly as it was
+//! after a step that failed. The fixed cases at the end of the azimuth part are the regressions of
+//! reported failures (`LIEBAYES_FUZZ_CASES` runs the properties long).
 
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{
     Estimator, ExperimentError, MAX_EPOCHS, MAX_RUNS, MAX_STUDY_EPOCHS, Recursive, RecursiveFilter,
     Scenario, Shard, StepOf, StepReport, Study, replay,
+};
+use liebayes_filters::aoa::{
+    Anchor, AngleNoise, AzEl, AzElModel, DataModel, PositionEstimate, Prior, RandomWalk,
+    SquareTrack, TrackConfig, UnitVectorModel, angle_ekf, angle_particle_filter, angle_ukf,
+    square_track_anchors, vmf_ekf, vmf_particle_filter, vmf_ukf,
 };
 use liebayes_filters::azimuth::{
     AzimuthDensity, AzimuthEstimate, AzimuthMoments, AzimuthScenario, AzimuthScorer, Config,
@@ -20,6 +25,7 @@ use liebayes_operators::grid::CircularGrid;
 use liebayes_operators::particle::ParticleSet;
 use liebayes_operators::{Condition, MAX_ELEMENTS, OperatorError, Propagate};
 use liebayes_reference::fuzz::{self, size, value};
+use nalgebra::Vector3;
 use nalgebra::{Cholesky, Matrix2, Vector2};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -686,4 +692,167 @@ fn baselines_survive_a_prior_far_away_and_a_huge_step() {
     exercise(ekf(p, m, r0, sigma0), true, &input, &zs).unwrap();
     exercise(ukf(p, m, r0, sigma0), true, &input, &zs).unwrap();
     exercise(exact(p, m, r0, sigma0), true, &input, &zs).unwrap();
+}
+
+// The angle-of-arrival models, filters and track.
+
+fn vector3() -> impl Strategy<Value = Vector3<f64>> {
+    (value(), value(), value()).prop_map(|(x, y, z)| Vector3::new(x, y, z))
+}
+
+fn readings() -> impl Strategy<Value = [AzEl; 4]> {
+    proptest::array::uniform4((value(), value()).prop_map(|(a, e)| AzEl::new(a, e)))
+}
+
+/// A step of `filter` either fails and leaves it unchanged, or leaves a finite estimate.
+fn aoa_step<F>(filter: &mut F, delta: f64, z: &[AzEl; 4]) -> Result<(), TestCaseError>
+where
+    F: RecursiveFilter<Input = f64, Measurement = [AzEl; 4], Estimate = PositionEstimate>
+        + Clone
+        + PartialEq
+        + std::fmt::Debug,
+{
+    let before = filter.clone();
+    if fuzz::counted(filter.predict(&delta)).is_none() {
+        prop_assert_eq!(&*filter, &before);
+    }
+    let before = filter.clone();
+    if fuzz::counted(filter.update(z)).is_none() {
+        prop_assert_eq!(&*filter, &before);
+    }
+    if let Some(e) = fuzz::counted(filter.estimate()) {
+        prop_assert!(
+            e.mean
+                .iter()
+                .chain(e.covariance.iter())
+                .all(|v| v.is_finite())
+        );
+    }
+    Ok(())
+}
+
+#[test]
+fn aoa_models_and_kalman_filters() {
+    fuzz::run(
+        "aoa_kalman",
+        (
+            vector3(),
+            value(),
+            value(),
+            value(),
+            value(),
+            value(),
+            vector3(),
+            value(),
+            readings(),
+        ),
+        |(anchor, kappa, sigma, q, mean_scale, std, m0, delta, z)| {
+            fuzz::case("aoa_kalman", move || -> Result<(), TestCaseError> {
+                let mut anchors = square_track_anchors();
+                if let Some(a) = fuzz::counted(Anchor::at(anchor)) {
+                    anchors[0] = a;
+                }
+                let Some(prior) = fuzz::counted(Prior::new(m0 * mean_scale.abs().min(1e3), std))
+                else {
+                    return Ok(());
+                };
+                let walk = fuzz::counted(RandomWalk::new(q, q))
+                    .unwrap_or(RandomWalk::new(0.5, 0.1).unwrap());
+                if let Some(vmf) = fuzz::counted(UnitVectorModel::new(anchors, kappa)) {
+                    if let Some(mut f) = fuzz::counted(vmf_ekf::<4, 12>(vmf, walk, &prior)) {
+                        aoa_step(&mut f, delta, &z)?;
+                    }
+                    if let Some(mut f) = fuzz::counted(vmf_ukf::<4, 12>(vmf, walk, &prior)) {
+                        aoa_step(&mut f, delta, &z)?;
+                    }
+                }
+                let noise = AngleNoise::Fixed {
+                    sigma_az: sigma,
+                    sigma_el: sigma.abs(),
+                };
+                if let Some(ae) = fuzz::counted(AzElModel::new(anchors, noise)) {
+                    if let Some(mut f) = fuzz::counted(angle_ekf::<4, 8>(ae.clone(), walk, &prior))
+                    {
+                        aoa_step(&mut f, delta, &z)?;
+                    }
+                    if let Some(mut f) = fuzz::counted(angle_ukf::<4, 8>(ae, walk, &prior)) {
+                        aoa_step(&mut f, delta, &z)?;
+                    }
+                }
+                Ok(())
+            });
+        },
+    );
+}
+
+#[test]
+fn aoa_particle_filters_and_scenarios() {
+    fuzz::run(
+        "aoa_particles",
+        (
+            size(MAX_ELEMENTS),
+            value(),
+            vector3(),
+            value(),
+            value(),
+            readings(),
+            value(),
+            value(),
+        ),
+        |(n, kappa, m0, std, delta, z, side, sigma)| {
+            fuzz::case("aoa_particles", move || -> Result<(), TestCaseError> {
+                let anchors = square_track_anchors();
+                let walk = RandomWalk::new(0.5, 0.1).unwrap();
+                if let Some(prior) = fuzz::counted(Prior::new(m0, std)) {
+                    let rng = ChaCha8Rng::seed_from_u64(1);
+                    if let Some(vmf) = fuzz::counted(UnitVectorModel::new(anchors, kappa)) {
+                        if let Some(mut f) =
+                            fuzz::counted(vmf_particle_filter(vmf, walk, &prior, n, rng.clone()))
+                        {
+                            let before = (
+                                f.density().particles().to_vec(),
+                                f.density().log_weights().to_vec(),
+                            );
+                            if fuzz::counted(f.update(&z)).is_none() {
+                                prop_assert_eq!(f.density().particles(), &before.0[..]);
+                                prop_assert_eq!(f.density().log_weights(), &before.1[..]);
+                            }
+                            let _ = fuzz::counted(f.predict(&delta));
+                            let _ = fuzz::counted(f.estimate());
+                        }
+                    }
+                    let noise = AngleNoise::Fixed {
+                        sigma_az: 0.2,
+                        sigma_el: 0.2,
+                    };
+                    let ae = AzElModel::new(anchors, noise).unwrap();
+                    if let Some(mut f) =
+                        fuzz::counted(angle_particle_filter(ae, walk, &prior, n, rng))
+                    {
+                        let _ = fuzz::counted(f.update(&z));
+                        let _ = fuzz::counted(f.estimate());
+                    }
+                }
+                let config = TrackConfig {
+                    side,
+                    delta: delta.abs(),
+                    ..TrackConfig::default()
+                };
+                let data = DataModel::NormalWithFlip {
+                    sigma_az: sigma,
+                    sigma_el: 0.1,
+                };
+                if let Some(track) = fuzz::counted(SquareTrack::new(anchors, data, config)) {
+                    let mut sim = ChaCha8Rng::seed_from_u64(2);
+                    for s in track.simulate(&mut sim).unwrap().take(3) {
+                        prop_assert!(s.truth.coords().iter().all(|v| v.is_finite()));
+                        for r in s.measurement.unwrap() {
+                            prop_assert!(r.check_canonical().is_ok());
+                        }
+                    }
+                }
+                Ok(())
+            });
+        },
+    );
 }
