@@ -5,7 +5,8 @@
 //!   file ([`read_imu_csv`]);
 //! * the BROAD error metric ([`trial_errors`], [`per_sample_errors`], [`sample_errors`]);
 //! * [`Madgwick`]'s filter as the BROAD example evaluation runs it ([`run_madgwick`]);
-//! * an IMU simulator with its truth ([`simulate`]).
+//! * an IMU simulator with its truth ([`simulate`]);
+//! * the talk's Bingham / heat-kernel filter ([`TalkFilter`], [`run_talk_filter`]).
 //!
 //! Orientations are unit quaternions (scalar first) of the IMU frame with respect to
 //! East-North-Up. The math and the facts measured on the data are in `docs/filters/attitude.md`.
@@ -16,6 +17,7 @@ mod data;
 mod madgwick;
 mod metric;
 mod simulate;
+mod talk;
 
 pub use broad::{MAX_MAT_FILE_BYTES, read_broad};
 pub use csv::{
@@ -31,3 +33,7 @@ pub use madgwick::{
 };
 pub use metric::{SampleErrors, TrialErrors, per_sample_errors, sample_errors, trial_errors};
 pub use simulate::{Disturbance, SimulationSettings, simulate};
+pub use talk::{
+    TalkFilter, TalkParams, TalkRun, bingham_from_diffusion, diffusion_from_bingham,
+    diffusion_second_moment, direction_matrix, field_reference_from, run_talk_filter,
+};
