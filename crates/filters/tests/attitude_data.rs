@@ -10,40 +10,12 @@ use liebayes_filters::attitude::{
     per_sample_errors, read_broad, read_estimates_csv, read_imu_csv, run_madgwick, sample_errors,
     simulate, trial_errors, write_estimates_csv,
 };
+use liebayes_reference::broad::{TRIALS, data_dir};
 use liebayes_reference::fuzz;
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
-
-const TRIALS: [&str; 12] = [
-    "01_undisturbed_slow_rotation_A",
-    "05_undisturbed_slow_rotation_with_breaks_B",
-    "07_undisturbed_fast_rotation_B",
-    "10_undisturbed_slow_translation_A",
-    "14_undisturbed_slow_translation_with_breaks_B",
-    "16_undisturbed_fast_translation_B",
-    "21_undisturbed_fast_combined",
-    "24_disturbed_tapping_A",
-    "27_disturbed_phone_vibration_B",
-    "28_disturbed_stationary_magnet_A",
-    "32_disturbed_attached_magnet_1cm",
-    "35_disturbed_attached_magnet_4cm",
-];
-
-/// The BROAD trials: `$LIEBAYES_BROAD_DIR` when set, else `shared/broad` beside the workspace.
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("LIEBAYES_BROAD_DIR").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/broad"),
-        PathBuf::from,
-    );
-    if dir.join(format!("{}.mat", TRIALS[0])).exists() {
-        Some(dir)
-    } else {
-        println!("skipped: BROAD data not found at {}", dir.display());
-        None
-    }
-}
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("liebayes-attitude-{}-{name}", std::process::id()));

@@ -8,9 +8,9 @@ use liebayes_filters::attitude::{
     BROAD_BETA, ImuLog, Madgwick, broad_initial_state, enu_from_nwu, gradient_imu, gradient_marg,
     read_broad, run_madgwick, trial_errors,
 };
+use liebayes_reference::broad::data_dir;
 use nalgebra::{UnitQuaternion, Vector3, Vector4};
 use proptest::prelude::*;
-use std::path::PathBuf;
 
 /// The Madgwick column of the BROAD table (total / heading / inclination RMSE, degrees).
 const PUBLISHED: [(&str, [f64; 3]); 12] = [
@@ -37,20 +37,6 @@ const PUBLISHED: [(&str, [f64; 3]); 12] = [
 /// The published figures have two decimals: a reproduction is within their rounding (0.005)
 /// plus 0.005.
 const TOLERANCE_DEG: f64 = 0.01;
-
-/// The BROAD trials: `$LIEBAYES_BROAD_DIR` when set, else `shared/broad` beside the workspace.
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("LIEBAYES_BROAD_DIR").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/broad"),
-        PathBuf::from,
-    );
-    if dir.join("01_undisturbed_slow_rotation_A.mat").exists() {
-        Some(dir)
-    } else {
-        println!("skipped: BROAD data not found at {}", dir.display());
-        None
-    }
-}
 
 fn check_trials(trials: &[(&str, [f64; 3])]) {
     let start = std::time::Instant::now();

@@ -13,12 +13,12 @@ use liebayes_filters::attitude::{
     simulate, trial_errors,
 };
 use liebayes_manifolds::{LieGroup, So3};
+use liebayes_reference::broad::{TRIALS, data_dir};
 use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3, Vector4};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
-use std::path::PathBuf;
 
 fn coords(q: &UnitQuaternion<f64>) -> Vector4<f64> {
     Vector4::new(q.w, q.i, q.j, q.k)
@@ -379,35 +379,6 @@ fn bad_input_is_refused_with_typed_errors() {
         run_talk_filter(&zero, &good),
         Err(DataError::BadValue { .. })
     ));
-}
-
-/// The twelve BROAD trials of the comparison.
-const TRIALS: [&str; 12] = [
-    "01_undisturbed_slow_rotation_A",
-    "05_undisturbed_slow_rotation_with_breaks_B",
-    "07_undisturbed_fast_rotation_B",
-    "10_undisturbed_slow_translation_A",
-    "14_undisturbed_slow_translation_with_breaks_B",
-    "16_undisturbed_fast_translation_B",
-    "21_undisturbed_fast_combined",
-    "24_disturbed_tapping_A",
-    "27_disturbed_phone_vibration_B",
-    "28_disturbed_stationary_magnet_A",
-    "32_disturbed_attached_magnet_1cm",
-    "35_disturbed_attached_magnet_4cm",
-];
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("LIEBAYES_BROAD_DIR").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/broad"),
-        PathBuf::from,
-    );
-    if dir.join("01_undisturbed_slow_rotation_A.mat").exists() {
-        Some(dir)
-    } else {
-        println!("skipped: BROAD data not found at {}", dir.display());
-        None
-    }
 }
 
 /// The talk's filter on the twelve BROAD trials with one parameter set (σ_U = 0.1 rad/s,

@@ -5,6 +5,7 @@
 
 use std::path::PathBuf;
 
+pub mod broad;
 pub mod fuzz;
 
 pub use serde_json::Value;
