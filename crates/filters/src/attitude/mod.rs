@@ -18,6 +18,7 @@ mod madgwick;
 mod metric;
 mod simulate;
 mod talk;
+mod track;
 
 pub use broad::{MAX_MAT_FILE_BYTES, read_broad};
 pub use csv::{
@@ -37,3 +38,4 @@ pub use talk::{
     TalkFilter, TalkParams, TalkRun, bingham_from_diffusion, diffusion_from_bingham,
     diffusion_second_moment, direction_matrix, field_reference_from, run_talk_filter,
 };
+pub use track::AttitudeTrack;

@@ -9,6 +9,7 @@
 
 use super::data::{DataError, ImuLog};
 use super::madgwick::{broad_initial_state, enu_from_nwu};
+use super::track::AttitudeTrack;
 use liebayes_densities::{Bingham, Density, DensityError, Rotate};
 use liebayes_manifolds::Su2;
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
@@ -379,6 +380,25 @@ impl TalkRun {
     /// a draw for a concentrated diffusion.
     pub fn reported_sigma(&self) -> Vec<f64> {
         self.covariances.iter().map(|c| c.trace().sqrt()).collect()
+    }
+
+    /// The run as an [`AttitudeTrack`]: the body-frame Σ moved to the world frame,
+    /// `R(q) Σ R(q)ᵀ`, and split into heading and tilt standard deviations.
+    pub fn track(&self) -> AttitudeTrack {
+        let (heading, tilt) = self
+            .orientations
+            .iter()
+            .zip(&self.covariances)
+            .map(|(q, c)| {
+                let r = q.to_rotation_matrix().into_inner();
+                AttitudeTrack::sigmas_of_world_covariance(&(r * c * r.transpose()))
+            })
+            .unzip();
+        AttitudeTrack {
+            orientations: self.orientations.clone(),
+            heading_sigma: Some(heading),
+            tilt_sigma: Some(tilt),
+        }
     }
 }
 
