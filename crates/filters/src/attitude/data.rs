@@ -371,3 +371,43 @@ fn check_finite_rows(origin: &str, variable: &str, rows: &[Vector3<f64>]) -> Res
         }),
     }
 }
+
+/// `v / |v|` computed from `v` scaled by its largest entry (no overflow); `None` for a zero or
+/// non-finite vector.
+pub(crate) fn scaled_unit(v: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let scale = v.amax();
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    Some((v / scale).normalize())
+}
+
+/// `Ok` for a finite positive `value`, else a [`DataError::BadValue`] naming it.
+pub(crate) fn check_positive(origin: &str, variable: &str, value: f64) -> Result<(), DataError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(bad(
+            origin,
+            variable,
+            value.to_string(),
+            "a finite positive number",
+        ))
+    }
+}
+
+/// A [`DataError::BadValue`] at row 0.
+pub(crate) fn bad(
+    origin: &str,
+    variable: &str,
+    value: String,
+    expected: &'static str,
+) -> DataError {
+    DataError::BadValue {
+        origin: origin.to_owned(),
+        variable: variable.to_owned(),
+        row: 0,
+        value,
+        expected,
+    }
+}

@@ -14,6 +14,7 @@
 mod broad;
 mod csv;
 mod data;
+mod ekf;
 mod madgwick;
 mod metric;
 mod simulate;
@@ -27,6 +28,10 @@ pub use csv::{
 };
 pub use data::{
     DataError, ImuLog, MAX_SAMPLES, REFERENCE_NORM_TOLERANCE, reference_from_components,
+};
+pub use ekf::{
+    AttitudeEkf, AttitudeParams, AttitudeState, Block, BlockProcess, DisturbanceParams, Heading,
+    MagnetometerParams, RestParams, STATE_DIM, Sensors, StateSlice, run_attitude_ekf,
 };
 pub use madgwick::{
     BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu, field_reference, gradient_imu,

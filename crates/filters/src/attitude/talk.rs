@@ -7,7 +7,7 @@
 //! `v_ENU = q v_IMU q*`), the talk's `r` being `R(q)ᵀ`; Σ is the covariance of the body-frame
 //! deviation, `R = R(q̄) exp([ξ]ₓ)`.
 
-use super::data::{DataError, ImuLog};
+use super::data::{DataError, ImuLog, bad, check_positive, scaled_unit};
 use super::madgwick::{broad_initial_state, enu_from_nwu};
 use super::track::AttitudeTrack;
 use liebayes_densities::{Bingham, Density, DensityError, Rotate};
@@ -548,27 +548,6 @@ fn unit(origin: &str, variable: &str, v: &Vector3<f64>) -> Result<Option<Vector3
     Ok(scaled_unit(v))
 }
 
-fn scaled_unit(v: &Vector3<f64>) -> Option<Vector3<f64>> {
-    let scale = v.amax();
-    if !(scale.is_finite() && scale > 0.0) {
-        return None;
-    }
-    Some((v / scale).normalize())
-}
-
-fn check_positive(origin: &str, variable: &str, value: f64) -> Result<(), DataError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(
-            origin,
-            variable,
-            value.to_string(),
-            "a finite positive number",
-        ))
-    }
-}
-
 fn density_error(origin: &str, e: &DensityError) -> DataError {
     bad(
         origin,
@@ -576,14 +555,4 @@ fn density_error(origin: &str, e: &DensityError) -> DataError {
         e.to_string(),
         "a Bingham within the library's range (increase the noise settings)",
     )
-}
-
-fn bad(origin: &str, variable: &str, value: String, expected: &'static str) -> DataError {
-    DataError::BadValue {
-        origin: origin.to_owned(),
-        variable: variable.to_owned(),
-        row: 0,
-        value,
-        expected,
-    }
 }
