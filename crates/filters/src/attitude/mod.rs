@@ -14,6 +14,7 @@
 mod broad;
 mod csv;
 mod data;
+mod ekf;
 mod madgwick;
 mod metric;
 mod simulate;
@@ -28,6 +29,7 @@ pub use csv::{
 pub use data::{
     DataError, ImuLog, MAX_SAMPLES, REFERENCE_NORM_TOLERANCE, reference_from_components,
 };
+pub use ekf::{AttitudeParams, Sensors, run_attitude_ekf};
 pub use madgwick::{
     BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu, field_reference, gradient_imu,
     gradient_marg, run_madgwick,
