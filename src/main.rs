@@ -3,12 +3,15 @@
 //!
 //! With no arguments: the main job, the azimuth study with its files in `out/azimuth/`, then a
 //! short angle-of-arrival run (model comparison, single update, 50 square-track runs) in
-//! `out/aoa/`.
+//! `out/aoa/`, then the attitude filters on a simulated log and, when `../shared/broad` (or
+//! `$LIEBAYES_BROAD_DIR`) holds BROAD's `.mat` trials, on those (else one line says it is skipped),
+//! files in `out/attitude/`. `liebayes attitude --broad DIR | --simulate | --csv FILE` runs it alone.
 //! `liebayes azimuth --help` lists the study's settings; `--shard K/N --out DIR` runs one part of
 //! it, and `liebayes merge DIR... --out DIR` combines the parts exactly. `liebayes particles`
 //! searches the particle count at which the particle filter matches the exact filter.
 
 mod aoa;
+mod attitude;
 mod azimuth;
 mod output;
 mod progress;
@@ -35,6 +38,9 @@ enum Command {
     /// Angle-of-arrival positioning with von Mises-Fisher noise: the model comparison, the single
     /// update and the square-track study.
     Aoa(aoa::Args),
+    /// IMU attitude: the liebayes EKF, the talk's filter and Madgwick's on BROAD trials, a
+    /// simulated log or a CSV log (exactly one of --broad DIR, --simulate, --csv FILE).
+    Attitude(attitude::Args),
     /// The bootstrap particle filter's particle count that matches the exact filter's azimuth RMSE.
     Particles(azimuth::ParticleArgs),
     /// Combines the partial summaries of shards (the --out folders of `--shard K/N` runs) into the
@@ -81,7 +87,9 @@ fn main() -> ExitCode {
                 out: Some(PathBuf::from("out/azimuth")),
                 shard: Shard::WHOLE,
             };
-            let done = study(&args).and_then(|()| aoa::main_job(&PathBuf::from("out/aoa")));
+            let done = study(&args)
+                .and_then(|()| aoa::main_job(&PathBuf::from("out/aoa")))
+                .and_then(|()| attitude::main_job(&PathBuf::from("out/attitude")));
             if done.is_ok() {
                 report::print(
                     "\nThe manifolds and densities at work: cargo run --release --example tour",
@@ -91,6 +99,7 @@ fn main() -> ExitCode {
         }
         Some(Command::Azimuth(args)) => study(&args),
         Some(Command::Aoa(args)) => aoa::run(&args),
+        Some(Command::Attitude(args)) => attitude::run(&args),
         Some(Command::Particles(args)) => azimuth::particles(&args),
         Some(Command::Merge(args)) => merge(&args),
     };

@@ -408,3 +408,46 @@ fn aoa_parts_write_their_files_and_refuse_bad_settings() {
     }
     assert!(files(&empty).is_empty());
 }
+
+#[test]
+fn attitude_simulate_writes_its_files_and_prints_the_table() {
+    let dir = folder("attitude-sim");
+    let out = liebayes(&[
+        "attitude",
+        "--simulate",
+        "--samples",
+        "300",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let printed = text(&out.stdout);
+    assert!(
+        printed.contains("RMSE (deg)") && printed.contains("Madgwick"),
+        "{printed}"
+    );
+    let names = files(&dir);
+    assert!(
+        names.contains(&"simulated_seed1.errors.svg".to_owned()),
+        "{names:?}"
+    );
+    assert!(
+        names.contains(&"simulated_seed1.liebayes-ekf-9d.csv".to_owned()),
+        "{names:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn attitude_bad_broad_folder_fails_with_one_line() {
+    let dir = folder("attitude-bad");
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = liebayes(&["attitude", "--broad", dir.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("holds no .mat trial"),
+        "{}",
+        text(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
