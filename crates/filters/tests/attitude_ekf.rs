@@ -153,12 +153,7 @@ fn rest_detection_learns_the_bias() {
     .unwrap();
     let mut filter =
         AttitudeEkf::new(AttitudeParams::default(), Sensors::NineD, log.rate()).unwrap();
-    let mag = log.magnetometer().unwrap();
-    for i in 0..log.len() {
-        filter
-            .update(&log.gyroscope()[i], &log.accelerometer()[i], Some(&mag[i]))
-            .unwrap();
-    }
+    feed(&mut filter, &log);
     assert!(filter.at_rest());
     assert!(
         (filter.bias() - bias).norm() < 0.05f64.to_radians(),
@@ -176,12 +171,7 @@ fn attitude_marginals_match_the_gaussian() {
     let mut filter =
         AttitudeEkf::new(AttitudeParams::default(), Sensors::NineD, log.rate()).unwrap();
     assert!(filter.attitude_bingham().is_err());
-    let mag = log.magnetometer().unwrap();
-    for i in 0..log.len() {
-        filter
-            .update(&log.gyroscope()[i], &log.accelerometer()[i], Some(&mag[i]))
-            .unwrap();
-    }
+    feed(&mut filter, &log);
     let q = filter.orientation();
     let bingham = filter.attitude_bingham().unwrap();
     let r = q.to_rotation_matrix().into_inner();
@@ -199,6 +189,14 @@ fn attitude_marginals_match_the_gaussian() {
     assert!(kernel.mean().distance(&So3::from_unit_quaternion(q)) < 1e-9);
 }
 
+/// Every sample of `log` through `filter`.
+fn feed(filter: &mut AttitudeEkf, log: &ImuLog) {
+    let mag = log.magnetometer().unwrap();
+    for ((g, a), m) in log.gyroscope().iter().zip(log.accelerometer()).zip(mag) {
+        filter.update(g, a, Some(m)).unwrap();
+    }
+}
+
 /// The 4×4 matrix of `p ↦ a p` (Hamilton product, scalar first).
 fn left_matrix(a: &UnitQuaternion<f64>) -> nalgebra::Matrix4<f64> {
     let (w, x, y, z) = (a.w, a.i, a.j, a.k);
@@ -212,8 +210,10 @@ fn left_matrix(a: &UnitQuaternion<f64>) -> nalgebra::Matrix4<f64> {
 
 #[test]
 fn bad_input_is_refused_and_leaves_the_state() {
-    let mut p = AttitudeParams::default();
-    p.velocity_bound = f64::NAN;
+    let p = AttitudeParams {
+        velocity_bound: f64::NAN,
+        ..AttitudeParams::default()
+    };
     assert!(matches!(
         AttitudeEkf::new(p, Sensors::NineD, 100.0),
         Err(DataError::BadValue { .. })

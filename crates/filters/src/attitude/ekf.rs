@@ -495,7 +495,7 @@ impl AttitudeEkf {
         params.validate()?;
         check_positive("AttitudeEkf::new", "rate", rate)?;
         let dt = 1.0 / rate;
-        let samples = |seconds: f64| ((seconds * rate).round() as usize).clamp(1, 1 << 30);
+        let samples = |seconds: f64| samples_in(seconds, rate).max(1);
         let block_samples = samples(params.block);
         let in_blocks = |seconds: f64| samples(seconds).div_ceil(block_samples).max(1);
         Ok(Self {
@@ -513,7 +513,7 @@ impl AttitudeEkf {
             velocity_every: in_blocks(params.velocity_interval),
             mag_every: in_blocks(params.magnetometer.interval),
             blocks: 0,
-            mag_delay: ((params.magnetometer.delay * rate).round() as usize).min(HISTORY - 1),
+            mag_delay: samples_in(params.magnetometer.delay, rate).min(HISTORY - 1),
             dt,
             sensors,
             params,
@@ -783,11 +783,11 @@ impl AttitudeEkf {
         }
         self.history[self.count % HISTORY] = self.orientation;
         if let (Some(m), Some(state)) = (mag, &mut self.magnet) {
-            if *m != state.last {
+            if *m == state.last {
+                state.age += 1;
+            } else {
                 state.last = *m;
                 state.age = 0;
-            } else {
-                state.age += 1;
             }
         }
         if self.in_block >= self.block_samples {
@@ -808,7 +808,7 @@ impl AttitudeEkf {
         let density = self.density.as_ref().expect("initialised");
         let next = density
             .propagate(&Ekf(&self.process), &self.block)
-            .map_err(|e| step_error("propagation", e))?;
+            .map_err(|e| step_error("propagation", &e))?;
         self.set_density(next);
         Ok(())
     }
@@ -835,7 +835,7 @@ impl AttitudeEkf {
         let density = self.density.as_ref().expect("initialised");
         let out = density
             .condition(&Ekf(model), z)
-            .map_err(|e| step_error("update", e))?;
+            .map_err(|e| step_error("update", &e))?;
         if out.report.nis() > gate {
             return Ok(false);
         }
@@ -959,7 +959,15 @@ impl AttitudeEkf {
     }
 }
 
-fn step_error(what: &str, e: liebayes_operators::OperatorError) -> DataError {
+/// The number of samples in `seconds` at `rate` (both checked finite and positive), rounded, at
+/// most 2³⁰.
+#[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+fn samples_in(seconds: f64, rate: f64) -> usize {
+    // In [0, 2³⁰] before the cast: exact.
+    (seconds * rate).round().clamp(0.0, f64::from(1u32 << 30)) as usize
+}
+
+fn step_error(what: &str, e: &liebayes_operators::OperatorError) -> DataError {
     DataError::BadValue {
         origin: "AttitudeEkf::update".to_owned(),
         variable: what.to_owned(),
