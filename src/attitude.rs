@@ -90,7 +90,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     }
 }
 
-/// The main job's attitude part: the simulated log, and BROAD's trials when `../shared/broad` (or
+/// The main job's attitude part: the simulated log, and BROAD's trials when the BROAD folder beside the project (or
 /// `$LIEBAYES_BROAD_DIR`) holds any (the talk filter, ~130 µs per sample, runs on the simulated log
 /// only), files in `out`.
 ///

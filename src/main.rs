@@ -3,7 +3,7 @@
 //!
 //! With no arguments: the main job, the azimuth study with its files in `out/azimuth/`, then a
 //! short angle-of-arrival run (model comparison, single update, 50 square-track runs) in
-//! `out/aoa/`, then the attitude filters on a simulated log and, when `../shared/broad` (or
+//! `out/aoa/`, then the attitude filters on a simulated log and, when the BROAD folder beside the project (or
 //! `$LIEBAYES_BROAD_DIR`) holds BROAD's `.mat` trials, on those (else one line says it is skipped),
 //! files in `out/attitude/`. `liebayes attitude --broad DIR | --simulate | --csv FILE` runs it alone.
 //! `liebayes azimuth --help` lists the study's settings; `--shard K/N --out DIR` runs one part of
