@@ -7,9 +7,9 @@ use crate::report::print;
 use crate::sheet::Sheet;
 use liebayes::experiments::Shard;
 use liebayes::filters::attitude::{
-    AttitudeParams, AttitudeTrack, BROAD_BETA, ImuLog, Sensors, SimulationSettings, TalkParams,
-    per_sample_errors, read_broad, read_imu_csv, run_attitude_ekf, run_madgwick, run_talk_filter,
-    simulate, trial_errors, write_estimates_csv,
+    AttitudeParams, AttitudeTrack, BROAD_BETA, ImuLog, NeesSums, Sensors, SimulationSettings,
+    TalkParams, per_sample_errors, read_broad, read_imu_csv, run_attitude_ekf, run_madgwick,
+    run_talk_filter, simulate, track_nees, trial_errors, write_estimates_csv,
 };
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -137,9 +137,8 @@ fn broad_trials(dir: &Path) -> Result<Vec<PathBuf>, String> {
 struct Tally {
     samples: usize,
     seconds: f64,
-    heading_nees: (f64, usize),
-    tilt_nees: (f64, usize),
-    sigma: bool,
+    /// The pooled NEES, for a method that reports σ.
+    nees: Option<NeesSums>,
     errors: Vec<[f64; 3]>,
 }
 
@@ -179,26 +178,10 @@ fn score(
                 .map(|s| (s.heading, s.inclination))
         })
         .collect();
-    if let (Some(h), Some(t)) = (&track.heading_sigma, &track.tilt_sigma) {
-        tally.sigma = true;
-        for (k, s) in scored.iter().enumerate() {
-            if let Some((eh, et)) = s {
-                if h[k] > 0.0 {
-                    tally.heading_nees.0 += (eh / h[k]).powi(2);
-                    tally.heading_nees.1 += 1;
-                }
-                if t[k] > 0.0 {
-                    tally.tilt_nees.0 += (et / t[k]).powi(2);
-                    tally.tilt_nees.1 += 1;
-                }
-            }
-        }
+    if let Some(n) = track_nees(track, log).map_err(|e| e.to_string())? {
+        tally.nees.get_or_insert_with(NeesSums::default).add(&n);
     }
     Ok(scored)
-}
-
-fn mean((sum, n): (f64, usize)) -> f64 {
-    if n == 0 { f64::NAN } else { sum / n as f64 }
 }
 
 /// Runs every method on every `(name, log)`, prints the tables and writes the files; returns the
@@ -274,17 +257,15 @@ fn compare(
         .iter()
         .zip(&tallies)
         .map(|(method, t)| {
-            let nees = |v: (f64, usize)| {
-                if t.sigma {
-                    format!("{:.2}", mean(v))
-                } else {
-                    "-".into()
-                }
+            let nees = |mean: fn(&NeesSums) -> f64| {
+                t.nees
+                    .as_ref()
+                    .map_or_else(|| "-".into(), |n| format!("{:.2}", mean(n)))
             };
             vec![
                 (*method).to_owned(),
-                nees(t.heading_nees),
-                nees(t.tilt_nees),
+                nees(NeesSums::heading_mean),
+                nees(NeesSums::tilt_mean),
                 format!("{:.0}", t.samples as f64 / t.seconds),
             ]
         })
@@ -353,12 +334,13 @@ fn broad(trials: &[PathBuf], talk: bool, output: &mut output::Output) -> Result<
         let nees: serde_json::Map<String, serde_json::Value> = methods
             .iter()
             .zip(&tallies)
-            .filter(|(_, t)| t.sigma)
-            .map(|(m, t)| {
-                (
-                    (*m).to_owned(),
-                    serde_json::json!([mean(t.heading_nees), mean(t.tilt_nees)]),
-                )
+            .filter_map(|(m, t)| {
+                t.nees.map(|n| {
+                    (
+                        (*m).to_owned(),
+                        serde_json::json!([n.heading_mean(), n.tilt_mean()]),
+                    )
+                })
             })
             .collect();
         let summary = serde_json::json!({

@@ -1,6 +1,6 @@
 //! The production attitude filter's ablation on BROAD: each modelling choice switched off in turn,
-//! with the mean total / heading / inclination RMSE (deg) and the heading and tilt NEES over the
-//! trials in the BROAD folder.
+//! with the mean total / heading / inclination RMSE (deg) over the trials in the BROAD folder and
+//! the heading and tilt NEES pooled over their scored samples.
 //!
 //! ```text
 //! cargo run --release -p liebayes-filters --example attitude_ablation [DIR]
@@ -8,8 +8,8 @@
 //! DIR defaults to `$LIEBAYES_BROAD_DIR` or `../shared/broad`.
 
 use liebayes_filters::attitude::{
-    AttitudeParams, AttitudeTrack, ImuLog, Sensors, per_sample_errors, read_broad,
-    run_attitude_ekf, trial_errors,
+    AttitudeParams, ImuLog, NeesSums, Sensors, read_broad, run_attitude_ekf, track_nees,
+    trial_errors,
 };
 use std::path::PathBuf;
 
@@ -43,21 +43,21 @@ fn main() {
         if only.as_deref().is_some_and(|o| !label.contains(o)) {
             continue;
         }
-        let mut sums = [0.0; 5];
+        let mut sums = [0.0; 3];
+        let mut pooled = NeesSums::default();
         for (name, log) in &logs {
             let track = run_attitude_ekf(log, &params, sensors).expect("a run");
             let e = trial_errors(&track.orientations, log).expect("scored");
-            let (nh, nt) = nees(&track, log);
+            let n = track_nees(&track, log).expect("scored").expect("σ");
+            let (nh, nt) = (n.heading_mean(), n.tilt_mean());
             if verbose {
                 println!(
                     "|   {name} | {:.2} | {:.2} | {:.2} | {nh:.2} | {nt:.2} |",
                     e.total, e.heading, e.inclination
                 );
             }
-            for (s, v) in sums
-                .iter_mut()
-                .zip([e.total, e.heading, e.inclination, nh, nt])
-            {
+            pooled.add(&n);
+            for (s, v) in sums.iter_mut().zip([e.total, e.heading, e.inclination]) {
                 *s += v;
             }
         }
@@ -67,28 +67,10 @@ fn main() {
             sums[0] / n,
             sums[1] / n,
             sums[2] / n,
-            sums[3] / n,
-            sums[4] / n
+            pooled.heading_mean(),
+            pooled.tilt_mean()
         );
     }
-}
-
-/// Mean heading and tilt NEES over the scored samples of one trial.
-fn nees(track: &AttitudeTrack, log: &ImuLog) -> (f64, f64) {
-    let errors = per_sample_errors(&track.orientations, log).expect("scored");
-    let (h, t) = (
-        track.heading_sigma.as_ref().unwrap(),
-        track.tilt_sigma.as_ref().unwrap(),
-    );
-    let (mut sh, mut st, mut n) = (0.0, 0.0, 0.0);
-    for (i, e) in errors.iter().enumerate() {
-        if let Some(e) = e {
-            sh += (e.heading / h[i]).powi(2);
-            st += (e.inclination / t[i]).powi(2);
-            n += 1.0;
-        }
-    }
-    (sh / n, st / n)
 }
 
 fn variants() -> Vec<(&'static str, Sensors, AttitudeParams)> {
@@ -103,6 +85,9 @@ fn variants() -> Vec<(&'static str, Sensors, AttitudeParams)> {
     let mut p = base.clone();
     p.magnetometer.disturbance = None;
     v.push(("9D, no disturbance rejection", Sensors::NineD, p));
+    let mut p = base.clone();
+    p.magnetometer.offset = None;
+    v.push(("9D, no field offset state", Sensors::NineD, p));
     let mut p = base.clone();
     p.magnetometer.delay = 0.0;
     v.push(("9D, no magnetometer delay", Sensors::NineD, p));

@@ -6,9 +6,9 @@
 //! The data are looked for in `$LIEBAYES_BROAD_DIR`, else in `shared/broad` beside the workspace.
 
 use liebayes_filters::attitude::{
-    DataError, Disturbance, ImuLog, MAX_SAMPLES, Madgwick, RATE_TOLERANCE, SimulationSettings,
-    per_sample_errors, read_broad, read_estimates_csv, read_imu_csv, run_madgwick, sample_errors,
-    simulate, trial_errors, write_estimates_csv,
+    AttitudeTrack, DataError, Disturbance, ImuLog, MAX_SAMPLES, Madgwick, RATE_TOLERANCE,
+    SimulationSettings, per_sample_errors, read_broad, read_estimates_csv, read_imu_csv,
+    run_madgwick, sample_errors, simulate, track_nees, trial_errors, write_estimates_csv,
 };
 use liebayes_reference::broad::{TRIALS, data_dir};
 use liebayes_reference::fuzz;
@@ -449,14 +449,20 @@ fn metric_hand_cases() {
     assert_eq!((e.total, e.heading, e.inclination), (0.0, 0.0, 0.0));
 }
 
-#[test]
-fn trial_rmse_over_movement_samples_with_a_reference() {
+/// Four samples at rest with an identity reference: scored are the first two (the third has no
+/// reference, the fourth is outside the movement mask).
+fn four_samples_two_scored() -> ImuLog {
     let v = vec![Vector3::new(0.0, 0.0, 9.8); 4];
     let truth = UnitQuaternion::identity();
-    let log = ImuLog::new(100.0, v.clone(), v, None)
+    ImuLog::new(100.0, v.clone(), v, None)
         .and_then(|l| l.with_reference(vec![Some(truth), Some(truth), None, Some(truth)]))
         .and_then(|l| l.with_movement(vec![true, true, true, false]))
-        .expect("valid");
+        .expect("valid")
+}
+
+#[test]
+fn trial_rmse_over_movement_samples_with_a_reference() {
+    let log = four_samples_two_scored();
     // Errors 3° and 4° on the two scored samples; huge errors on the unscored ones.
     let estimates = [yaw(3.0), yaw(4.0), yaw(90.0), yaw(90.0)];
     let e = trial_errors(&estimates, &log).expect("scored");
@@ -477,6 +483,43 @@ fn trial_rmse_over_movement_samples_with_a_reference() {
     assert!(matches!(
         trial_errors(&estimates, &none),
         Err(DataError::NothingToScore { .. })
+    ));
+}
+
+/// The NEES sums over the scored samples, by hand: heading errors 3° and 4° against σ 2°, a
+/// 1° tilt against σ_t 0.5°; the unscored samples (no reference, outside the mask) do not count.
+#[test]
+fn track_nees_sums_over_the_scored_samples() {
+    let log = four_samples_two_scored();
+    let tilt = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1f64.to_radians());
+    let track = AttitudeTrack {
+        orientations: vec![yaw(3.0), tilt * yaw(4.0), yaw(90.0), yaw(90.0)],
+        heading_sigma: Some(vec![2f64.to_radians(); 4]),
+        tilt_sigma: Some(vec![0.5f64.to_radians(); 4]),
+    };
+    let n = track_nees(&track, &log).expect("scored").expect("σ");
+    assert_eq!(n.samples, 2);
+    // tilt ⊗ yaw(4°) splits exactly into a 4° heading and a 1° inclination error.
+    assert!((n.heading_mean() - 25.0 / 8.0).abs() < 1e-9, "{n:?}");
+    assert!((n.tilt_mean() - 2.0).abs() < 1e-9, "{n:?}");
+    let mut pooled = n;
+    pooled.add(&n);
+    assert_eq!(pooled.samples, 4);
+    assert!((pooled.heading_mean() - n.heading_mean()).abs() < 1e-12);
+    assert_eq!(
+        track_nees(
+            &AttitudeTrack::without_sigma(track.orientations.clone()),
+            &log
+        ),
+        Ok(None)
+    );
+    let short = AttitudeTrack {
+        heading_sigma: Some(vec![1.0; 3]),
+        ..track
+    };
+    assert!(matches!(
+        track_nees(&short, &log),
+        Err(DataError::Length { .. })
     ));
 }
 

@@ -1,6 +1,7 @@
 //! The production attitude filter: an error-state EKF on attitude × gyro bias × horizontal
-//! velocity, composed from the library's parts ([`ManifoldGaussian`] on a [`ProductManifold`] of
-//! [`Left`]`<So3>` (world-frame attitude error) and `Rn<5>`, propagated and conditioned by the
+//! velocity × the local magnetic field's heading offset, composed from the library's parts
+//! ([`ManifoldGaussian`] on a [`ProductManifold`] of [`Left`]`<So3>` (world-frame attitude error)
+//! and `Rn<6>`, propagated and conditioned by the
 //! [`Ekf`] operators), with what real IMU data needs (see `docs/filters/attitude.md`):
 //!
 //! * **strapdown** per sample, `R ← R exp([ω − b̂]ₓ Δt)`, and the covariance propagated once per
@@ -19,6 +20,11 @@
 //!   from the freshest magnetometer sample and the orientation at the time it was measured (a fixed
 //!   delay), with disturbance rejection by field norm, dip and the innovation's NIS, and adoption of
 //!   a new reference field when a disturbance lasts;
+//! * **correlated magnetometer errors**: the heading of the local field differs from true north by
+//!   an offset `c` that changes over tens of seconds (the field of a room varies from place to
+//!   place by degrees; a phone or magnet carried with the sensor shifts it), a first-order
+//!   Gauss-Markov state the magnetometer measures together with the heading, so that averaging many
+//!   magnetometer samples never makes the heading more certain than the field it points along;
 //! * **initialisation** from the first sample (tilt from the accelerometer, heading from the
 //!   magnetometer in 9D, zero heading in 6D).
 
@@ -33,12 +39,16 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 use std::f64::consts::PI;
 
 /// The filter's state: attitude (IMU frame w.r.t. ENU, error `R = exp([δθ]ₓ) R̂` in the world
-/// frame) × (gyro bias b (rad/s, IMU frame), horizontal velocity v (m/s, East, North)); tangent
-/// order (δθ, δb, δv).
-pub type AttitudeState = ProductManifold<Left<So3<f64>>, Rn<f64, 5>, 3, 5, 8>;
+/// frame) × (gyro bias b (rad/s, IMU frame), horizontal velocity v (m/s, East, North), the local
+/// field's heading offset c (rad, the field's heading east of true north)); tangent order
+/// (δθ, δb, δv, δc).
+pub type AttitudeState = ProductManifold<Left<So3<f64>>, Rn<f64, 6>, 3, 6, 9>;
 
 /// The state's dimension.
-pub const STATE_DIM: usize = 8;
+pub const STATE_DIM: usize = 9;
+
+/// Tangent index of the field's heading offset c.
+const OFFSET: usize = 8;
 
 /// Which sensors the filter uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,7 +77,7 @@ pub struct RestParams {
 }
 
 /// Magnetic disturbance rejection.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DisturbanceParams {
     /// Relative deviation of the field norm from the reference that counts as disturbed.
     pub norm_threshold: f64,
@@ -87,12 +97,25 @@ pub struct DisturbanceParams {
     pub first_field_time: f64,
 }
 
+/// The heading offset of the local field from true north, a first-order Gauss-Markov process:
+/// `c′ = a c + w`, `a = exp(−T/τ)`, `w ~ N(0, σ_c² (1 − a²))`, stationary `c ~ N(0, σ_c²)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldOffset {
+    /// Stationary σ_c (rad).
+    pub sigma: f64,
+    /// Correlation time τ (s).
+    pub correlation_time: f64,
+}
+
 /// The magnetometer's use (9D).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MagnetometerParams {
-    /// σ of the heading measurement (rad): the magnetometer noise and the field's local errors
-    /// over one update interval.
+    /// σ of the heading measurement (rad): the magnetometer noise and the field's errors that are
+    /// independent from one update to the next.
     pub heading_sigma: f64,
+    /// The field's correlated heading error; `None` treats every error as independent (the
+    /// offset stays zero).
+    pub offset: Option<FieldOffset>,
     /// Time between heading updates (s).
     pub interval: f64,
     /// How much older a magnetometer sample is than the gyroscope sample of the same row (s).
@@ -142,7 +165,7 @@ impl Default for AttitudeParams {
             bias_walk: 0.001f64.to_radians(),
             estimate_bias: true,
             initial_bias_sigma: 0.5f64.to_radians(),
-            initial_tilt_sigma: 3f64.to_radians(),
+            initial_tilt_sigma: 10f64.to_radians(),
             initial_heading_sigma: 10f64.to_radians(),
             velocity_bound: 0.5,
             velocity_walk: 0.3,
@@ -158,6 +181,10 @@ impl Default for AttitudeParams {
             }),
             magnetometer: MagnetometerParams {
                 heading_sigma: 12f64.to_radians(),
+                offset: Some(FieldOffset {
+                    sigma: 4f64.to_radians(),
+                    correlation_time: 120.0,
+                }),
                 interval: 0.5,
                 delay: 0.012,
                 disturbance: Some(DisturbanceParams {
@@ -209,6 +236,14 @@ impl AttitudeParams {
                 self.magnetometer.delay.to_string(),
                 "a delay in [0, 1] s",
             ));
+        }
+        if let Some(f) = &self.magnetometer.offset {
+            check_positive(o, "magnetometer.offset.sigma", f.sigma)?;
+            check_positive(
+                o,
+                "magnetometer.offset.correlation_time",
+                f.correlation_time,
+            )?;
         }
         if let Some(r) = &self.rest {
             for (name, v) in [
@@ -279,11 +314,12 @@ impl Block {
 }
 
 /// The block's process model on [`AttitudeState`]:
-/// `R′ = exp(−[R B (b − b̂)]ₓ) R ΔR`, `b′ = b`, `v′ = v + (R Δv)_xy`; noise
-/// `diag((σ_g² + s² |ω̄|²) T I₃, σ_b² T I₃, σ_v² T I₂)` (|ω̄| the block's mean rate); Jacobian (world-frame error) `∂δθ′/∂δb = −R B`,
+/// `R′ = exp(−[R B (b − b̂)]ₓ) R ΔR`, `b′ = b`, `v′ = v + (R Δv)_xy`, `c′ = a c` with
+/// `a = exp(−T/τ_c)`; noise `diag((σ_g² + s² |ω̄|²) T I₃, σ_b² T I₃, σ_v² T I₂, σ_c² (1 − a²))`
+/// (|ω̄| the block's mean rate); Jacobian (world-frame error) `∂δθ′/∂δb = −R B`,
 /// `∂δv′/∂δθ = −[R Δv]ₓ` restricted to the two tilt columns (the accelerometer never turns the
-/// heading: its horizontal part is velocity, not direction, information). The bias's second-order
-/// effect on v inside a block is omitted.
+/// heading: its horizontal part is velocity, not direction, information), `∂δc′/∂δc = a`. The
+/// bias's second-order effect on v inside a block is omitted.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlockProcess {
     /// Gyroscope angle random walk (rad/√s).
@@ -294,6 +330,17 @@ pub struct BlockProcess {
     pub bias_walk: f64,
     /// Velocity random walk (m/s/√s).
     pub velocity_walk: f64,
+    /// The field offset's process; `None` keeps it constant without noise.
+    pub offset: Option<FieldOffset>,
+}
+
+impl BlockProcess {
+    /// The offset's factor `a = exp(−T/τ_c)` over `t` seconds (1 without an offset process).
+    fn offset_decay(&self, t: f64) -> f64 {
+        self.offset
+            .as_ref()
+            .map_or(1.0, |f| (-t / f.correlation_time).exp())
+    }
 }
 
 impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
@@ -309,6 +356,7 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         let mut next = *rest;
         next[3] += dv.x;
         next[4] += dv.y;
+        next[5] *= self.offset_decay(u.duration);
         AttitudeState::new(
             Left::new(So3::from_unit_quaternion(attitude)),
             Rn::new_unchecked(next),
@@ -329,6 +377,10 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         for i in 6..8 {
             q[(i, i)] = self.velocity_walk * self.velocity_walk * t;
         }
+        if let Some(f) = &self.offset {
+            let a = self.offset_decay(t);
+            q[(OFFSET, OFFSET)] = f.sigma * f.sigma * (1.0 - a * a);
+        }
         q
     }
 
@@ -341,6 +393,7 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         // −[a]ₓ, rows x and y, columns of the two tilt components.
         f[(6, 1)] = a.z;
         f[(7, 0)] = -a.z;
+        f[(OFFSET, OFFSET)] = self.offset_decay(u.duration);
         f
     }
 }
@@ -378,9 +431,10 @@ impl<const M: usize> MeasurementModel<AttitudeState, STATE_DIM, M> for StateSlic
 
 /// The heading-only magnetometer measurement: the heading `ψ = atan2(m_E, m_N)` of the measured
 /// field `m` (IMU frame, brought to the current sample) rotated into the world frame by the
-/// state's attitude, measured as 0 (North is magnetic north) with the wrapped residual.
-/// Jacobian: `∂ψ/∂δθ_z = −1`, the tilt columns zero; their share of the error,
-/// `h_t P_tt h_tᵀ` with `h_t = ∂ψ/∂δθ_xy`, is in the variance (`tilt_variance`).
+/// state's attitude, less the field's offset c, measured as 0 (North is the reference field's
+/// north) with the wrapped residual. Jacobian: `∂/∂δθ_z = −1`, `∂/∂δc = −1`, the tilt columns
+/// zero; their share of the error, `h_t P_tt h_tᵀ` with `h_t = ∂ψ/∂δθ_xy`, is in the variance
+/// (`tilt_variance`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Heading {
     /// The magnetometer reading in the current IMU frame.
@@ -405,7 +459,7 @@ impl Heading {
 impl MeasurementModel<AttitudeState, STATE_DIM, 1> for Heading {
     fn predict(&self, x: &AttitudeState) -> SVector<f64, 1> {
         let m = x.first().inner().as_unit_quaternion() * self.field;
-        SVector::<f64, 1>::new(m.x.atan2(m.y))
+        SVector::<f64, 1>::new(wrap(m.x.atan2(m.y) - x.second().coords()[5]))
     }
 
     fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 1, 1> {
@@ -419,6 +473,7 @@ impl MeasurementModel<AttitudeState, STATE_DIM, 1> for Heading {
     fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 1, STATE_DIM> {
         let mut h = SMatrix::<f64, 1, STATE_DIM>::zeros();
         h[(0, 2)] = -1.0;
+        h[(0, OFFSET)] = -1.0;
         h
     }
 }
@@ -508,6 +563,7 @@ impl AttitudeEkf {
                     0.0
                 },
                 velocity_walk: params.velocity_walk,
+                offset: params.magnetometer.offset,
             },
             block_samples,
             velocity_every: in_blocks(params.velocity_interval),
@@ -684,6 +740,8 @@ impl AttitudeEkf {
             .unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), PI));
         let p = &self.params;
         let mut heading_sigma = PI;
+        // ∂ψ/∂δθ_xy of the first magnetometer reading at the first orientation (9D).
+        let mut tilt_row = None;
         let mut orientation = tilt;
         if let Some(m) = mag {
             if let Some(field) = scaled_unit(m) {
@@ -692,6 +750,12 @@ impl AttitudeEkf {
                     let psi = w.x.atan2(w.y);
                     orientation = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), psi) * tilt;
                     heading_sigma = p.initial_heading_sigma;
+                    let model = Heading {
+                        field: *m,
+                        sigma: heading_sigma,
+                        tilt_variance: 0.0,
+                    };
+                    tilt_row = Some(model.jacobian_full(&orientation).1);
                     let world = orientation * m;
                     self.magnet = Some(MagnetState {
                         reference: FieldReference {
@@ -715,6 +779,7 @@ impl AttitudeEkf {
         } else {
             1e-9
         };
+        let offset_sigma = p.magnetometer.offset.as_ref().map_or(1e-9, |f| f.sigma);
         let diag = [
             p.initial_tilt_sigma,
             p.initial_tilt_sigma,
@@ -724,13 +789,29 @@ impl AttitudeEkf {
             bias_sigma,
             p.velocity_bound,
             p.velocity_bound,
+            offset_sigma,
         ];
         for (i, s) in diag.iter().enumerate() {
             cov[(i, i)] = s * s;
         }
+        if let Some(j) = tilt_row {
+            // The first heading ψ̂ reads the field through the first tilt: with ∂ψ/∂δθ = (j_x,
+            // j_y, −1), the heading error is δθ_z = j_x δθ_x + j_y δθ_y − n − c (n the reading's
+            // own error, c the field offset), so it carries the tilt's error and the offset's.
+            let tilt_cov = cov.fixed_view::<2, 2>(0, 0).into_owned();
+            let row = Vector2::new(j.x, j.y);
+            let cross = tilt_cov * row;
+            cov[(2, 2)] += row.dot(&cross) + offset_sigma * offset_sigma;
+            for i in 0..2 {
+                cov[(2, i)] = cross[i];
+                cov[(i, 2)] = cross[i];
+            }
+            cov[(2, OFFSET)] = -offset_sigma * offset_sigma;
+            cov[(OFFSET, 2)] = -offset_sigma * offset_sigma;
+        }
         let mean = AttitudeState::new(
             Left::new(So3::from_unit_quaternion(orientation)),
-            Rn::new_unchecked(SVector::<f64, 5>::zeros()),
+            Rn::new_unchecked(SVector::<f64, 6>::zeros()),
         );
         let density = ManifoldGaussian::new(mean, cov).map_err(|e| {
             bad(
@@ -843,6 +924,30 @@ impl AttitudeEkf {
         Ok(true)
     }
 
+    /// A new reference field has its own, unknown, heading offset: c becomes an independent
+    /// `N(0, σ_c²)`.
+    fn renew_offset(&mut self) -> Result<(), DataError> {
+        let (Some(f), Some(density)) = (&self.params.magnetometer.offset, &self.density) else {
+            return Ok(());
+        };
+        let mut cov = *density.covariance();
+        for i in 0..STATE_DIM {
+            cov[(i, OFFSET)] = 0.0;
+            cov[(OFFSET, i)] = 0.0;
+        }
+        cov[(OFFSET, OFFSET)] = f.sigma * f.sigma;
+        let mean = density.mean();
+        let mut rest = *mean.second().coords();
+        rest[5] = 0.0;
+        let next = ManifoldGaussian::new(
+            AttitudeState::new(*mean.first(), Rn::new_unchecked(rest)),
+            cov,
+        )
+        .map_err(|e| step_error("new field offset", &e.into()))?;
+        self.set_density(next);
+        Ok(())
+    }
+
     fn velocity_updates(&mut self) -> Result<(), DataError> {
         let at_rest = self.rest_detected();
         let (sigma, rest_gyro) = match (&self.params.rest, &self.rest) {
@@ -890,7 +995,7 @@ impl AttitudeEkf {
         let interval = (self.mag_every * self.block_samples) as f64 * self.dt;
         let mut state = state;
         let mut gate = f64::INFINITY;
-        if let Some(d) = &self.params.magnetometer.disturbance {
+        if let Some(d) = self.params.magnetometer.disturbance {
             let consistent = |r: &FieldReference| {
                 (observed.norm - r.norm).abs() <= d.norm_threshold * r.norm
                     && (observed.dip - r.dip).abs() <= d.dip_threshold
@@ -914,6 +1019,7 @@ impl AttitudeEkf {
                     Some((c, held)) if held >= d.new_field_time => {
                         state.reference = c;
                         state.candidate = None;
+                        self.renew_offset()?;
                     }
                     _ => {
                         state.disturbed = true;

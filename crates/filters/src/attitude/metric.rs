@@ -1,8 +1,10 @@
 //! The BROAD error metric: total, heading and inclination errors of an orientation estimate against
 //! its reference, per sample ([`sample_errors`], [`per_sample_errors`]) and as a trial's RMSE
-//! ([`trial_errors`]).
+//! ([`trial_errors`]); and the consistency of a filter's reported σ over the same samples
+//! ([`track_nees`]).
 
 use super::data::{DataError, ImuLog, check_length};
+use super::track::AttitudeTrack;
 use nalgebra::UnitQuaternion;
 
 /// One sample's errors (rad) of an estimate against its reference.
@@ -88,24 +90,15 @@ pub fn trial_errors(
     log: &ImuLog,
 ) -> Result<TrialErrors, DataError> {
     const ORIGIN: &str = "trial_errors";
-    let reference = reference_of(estimates, log, ORIGIN)?;
-    let movement = log.movement();
     let (mut total, mut heading, mut inclination, mut samples) = (0.0, 0.0, 0.0, 0_usize);
-    for (k, (q, r)) in estimates.iter().zip(reference).enumerate() {
-        let counts = movement.is_none_or(|m| m[k]);
-        if let (true, Some(r)) = (counts, r) {
-            let e = sample_errors(q, r);
-            total += e.total * e.total;
-            heading += e.heading * e.heading;
-            inclination += e.inclination * e.inclination;
-            samples += 1;
-        }
+    for (_, e) in scored(estimates, log, ORIGIN)? {
+        total += e.total * e.total;
+        heading += e.heading * e.heading;
+        inclination += e.inclination * e.inclination;
+        samples += 1;
     }
     if samples == 0 {
-        return Err(DataError::NothingToScore {
-            origin: ORIGIN.to_owned(),
-            message: "no movement sample has a reference orientation".to_owned(),
-        });
+        return Err(nothing_scored(ORIGIN));
     }
     let rmse = |sum: f64| (sum / samples as f64).sqrt().to_degrees();
     Ok(TrialErrors {
@@ -114,6 +107,96 @@ pub fn trial_errors(
         inclination: rmse(inclination),
         samples,
     })
+}
+
+/// Sums of the normalised estimation error squared over scored samples: heading
+/// `Σ (e_h / σ_h)²` (one degree of freedom per sample) and tilt `Σ e_t² / σ_t²` (two: `e_t` is the
+/// length of the horizontal error vector and `σ_t² = Σ_xx + Σ_yy` its expected square). A
+/// consistent filter has means near 1; above 1 it is over-confident, below 1 cautious. Sums, so
+/// that trials pool by [`add`](Self::add).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NeesSums {
+    /// `Σ (e_h / σ_h)²`.
+    pub heading: f64,
+    /// `Σ e_t² / σ_t²`.
+    pub tilt: f64,
+    /// The number of samples summed.
+    pub samples: usize,
+}
+
+impl NeesSums {
+    /// The mean heading NEES (NaN over no samples).
+    pub fn heading_mean(&self) -> f64 {
+        self.heading / self.samples as f64
+    }
+
+    /// The mean tilt NEES (NaN over no samples).
+    pub fn tilt_mean(&self) -> f64 {
+        self.tilt / self.samples as f64
+    }
+
+    /// Pools another trial's sums into these.
+    pub fn add(&mut self, other: &Self) {
+        self.heading += other.heading;
+        self.tilt += other.tilt;
+        self.samples += other.samples;
+    }
+}
+
+/// The NEES of a track's reported σ over the samples [`trial_errors`] scores (movement mask,
+/// known reference); `None` for a track without σ. A reported σ of zero with a non-zero error
+/// counts as an infinite NEES: it is not skipped.
+///
+/// # Errors
+/// As [`trial_errors`]; [`DataError::Length`] when the track's σ are not one per sample.
+pub fn track_nees(track: &AttitudeTrack, log: &ImuLog) -> Result<Option<NeesSums>, DataError> {
+    const ORIGIN: &str = "track_nees";
+    let (Some(h), Some(t)) = (&track.heading_sigma, &track.tilt_sigma) else {
+        return Ok(None);
+    };
+    check_length(ORIGIN, "heading_sigma", log.len(), h.len())?;
+    check_length(ORIGIN, "tilt_sigma", log.len(), t.len())?;
+    let mut sums = NeesSums::default();
+    for (k, e) in scored(&track.orientations, log, ORIGIN)? {
+        sums.heading += normalised_square(e.heading, h[k]);
+        sums.tilt += normalised_square(e.inclination, t[k]);
+        sums.samples += 1;
+    }
+    if sums.samples == 0 {
+        return Err(nothing_scored(ORIGIN));
+    }
+    Ok(Some(sums))
+}
+
+/// `(e / σ)²`, 0 for `e = 0` whatever σ.
+fn normalised_square(e: f64, sigma: f64) -> f64 {
+    if e == 0.0 { 0.0 } else { (e / sigma).powi(2) }
+}
+
+/// The scored samples of `log` (movement mask, known reference) with their errors.
+fn scored<'a>(
+    estimates: &'a [UnitQuaternion<f64>],
+    log: &'a ImuLog,
+    origin: &str,
+) -> Result<impl Iterator<Item = (usize, SampleErrors)> + 'a, DataError> {
+    let reference = reference_of(estimates, log, origin)?;
+    let movement = log.movement();
+    Ok(estimates
+        .iter()
+        .zip(reference)
+        .enumerate()
+        .filter_map(move |(k, (q, r))| {
+            r.as_ref()
+                .filter(|_| movement.is_none_or(|m| m[k]))
+                .map(|r| (k, sample_errors(q, r)))
+        }))
+}
+
+fn nothing_scored(origin: &str) -> DataError {
+    DataError::NothingToScore {
+        origin: origin.to_owned(),
+        message: "no movement sample has a reference orientation".to_owned(),
+    }
 }
 
 fn reference_of<'a>(

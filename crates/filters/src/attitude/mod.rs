@@ -3,7 +3,8 @@
 //! * [`ImuLog`]: a validated IMU log (gyroscope, accelerometer, optional magnetometer, optional
 //!   reference orientation and movement mask), read from a BROAD trial ([`read_broad`]) or a CSV
 //!   file ([`read_imu_csv`]);
-//! * the BROAD error metric ([`trial_errors`], [`per_sample_errors`], [`sample_errors`]);
+//! * the BROAD error metric ([`trial_errors`], [`per_sample_errors`], [`sample_errors`]) and the
+//!   NEES of a filter's reported σ ([`track_nees`]);
 //! * [`Madgwick`]'s filter as the BROAD example evaluation runs it ([`run_madgwick`]);
 //! * an IMU simulator with its truth ([`simulate`]);
 //! * the talk's Bingham / heat-kernel filter ([`TalkFilter`], [`run_talk_filter`]).
@@ -30,14 +31,17 @@ pub use data::{
     DataError, ImuLog, MAX_SAMPLES, REFERENCE_NORM_TOLERANCE, reference_from_components,
 };
 pub use ekf::{
-    AttitudeEkf, AttitudeParams, AttitudeState, Block, BlockProcess, DisturbanceParams, Heading,
-    MagnetometerParams, RestParams, STATE_DIM, Sensors, StateSlice, run_attitude_ekf,
+    AttitudeEkf, AttitudeParams, AttitudeState, Block, BlockProcess, DisturbanceParams,
+    FieldOffset, Heading, MagnetometerParams, RestParams, STATE_DIM, Sensors, StateSlice,
+    run_attitude_ekf,
 };
 pub use madgwick::{
     BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu, field_reference, gradient_imu,
     gradient_marg, run_madgwick,
 };
-pub use metric::{SampleErrors, TrialErrors, per_sample_errors, sample_errors, trial_errors};
+pub use metric::{
+    NeesSums, SampleErrors, TrialErrors, per_sample_errors, sample_errors, track_nees, trial_errors,
+};
 pub use simulate::{Disturbance, SimulationSettings, simulate};
 pub use talk::{
     TalkFilter, TalkParams, TalkRun, bingham_from_diffusion, diffusion_from_bingham,

@@ -1,6 +1,7 @@
 //! [`simulate`]: an IMU log with its true orientation, from [`SimulationSettings`].
 
 use super::data::{DataError, ImuLog, MAX_SAMPLES};
+use super::ekf::FieldOffset;
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -50,6 +51,9 @@ pub struct SimulationSettings {
     pub earth_field: Vector3<f64>,
     /// Magnetic disturbance intervals.
     pub disturbances: Vec<Disturbance>,
+    /// The local field's heading offset from the earth field's, a Gauss-Markov process (the model
+    /// the production filter assumes), or `None` for none.
+    pub field_offset: Option<FieldOffset>,
     /// The true orientation at the start (IMU w.r.t. ENU).
     pub initial_orientation: UnitQuaternion<f64>,
 }
@@ -71,6 +75,7 @@ impl Default for SimulationSettings {
             gravity: 9.81,
             earth_field: Vector3::new(0.0, 20.0, -44.0),
             disturbances: Vec::new(),
+            field_offset: None,
             initial_orientation: UnitQuaternion::identity(),
         }
     }
@@ -81,7 +86,9 @@ impl Default for SimulationSettings {
 /// * truth: `q_{k+1} = q_k ⊗ exp(ω_k Δt)`, ω_k the true body rate (held over the interval);
 /// * gyroscope: `ω_k + b_k + σ_g n`, b the bias random walk;
 /// * accelerometer: `R(q_k)ᵀ (a_k + g ẑ) + σ_a n`, a_k the linear acceleration (ENU);
-/// * magnetometer: `R(q_k)ᵀ (m_E + d(t_k)) + σ_m n`, d the disturbance active at `t_k`;
+/// * magnetometer: `R(q_k)ᵀ (Rz(−c_k) m_E + d(t_k)) + σ_m n`, d the disturbance active at `t_k`
+///   and c the field's heading offset (east of north): `c_0 ~ N(0, σ_c²)`,
+///   `c_{k+1} = a c_k + √(1 − a²) σ_c n`, `a = exp(−Δt/τ_c)` (0 without `field_offset`);
 ///
 /// n independent standard normal vectors drawn from `ChaCha8Rng::seed_from_u64(seed)`. The log's
 /// reference is the truth and its movement mask is all true. The same settings and seed give the
@@ -114,6 +121,10 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
     let mut omega = normal(&mut rng) * s.rotation_rate;
     let mut bias = s.initial_gyro_bias;
     let mut q = s.initial_orientation;
+    let offset_decay = s
+        .field_offset
+        .map(|f| ((-dt / f.correlation_time).exp(), f.sigma));
+    let mut offset = offset_decay.map_or(0.0, |(_, sigma)| sigma * standard(&mut rng));
     let n = s.samples;
     let (mut gyr, mut acc, mut mag, mut truth) = (
         Vec::with_capacity(n),
@@ -138,12 +149,16 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
         let to_sensor = q.inverse();
         gyr.push(omega + bias + normal(&mut rng) * s.gyro_noise);
         acc.push(to_sensor * (linear + Vector3::z() * s.gravity) + normal(&mut rng) * s.acc_noise);
-        mag.push(to_sensor * (s.earth_field + disturbance) + normal(&mut rng) * s.mag_noise);
+        let field = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), -offset) * s.earth_field;
+        mag.push(to_sensor * (field + disturbance) + normal(&mut rng) * s.mag_noise);
         truth.push(Some(q));
         q *= UnitQuaternion::from_scaled_axis(omega * dt);
         q.renormalize();
         omega = omega * a + normal(&mut rng) * innovation;
         bias += normal(&mut rng) * (s.gyro_bias_walk * dt.sqrt());
+        if let Some((a, sigma)) = offset_decay {
+            offset = a * offset + (1.0 - a * a).sqrt() * sigma * standard(&mut rng);
+        }
     }
     ImuLog::new_from(
         "simulate",
@@ -158,7 +173,11 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
 }
 
 fn normal(rng: &mut ChaCha8Rng) -> Vector3<f64> {
-    Vector3::from_fn(|_, _| StandardNormal.sample(rng))
+    Vector3::from_fn(|_, _| standard(rng))
+}
+
+fn standard(rng: &mut ChaCha8Rng) -> f64 {
+    StandardNormal.sample(rng)
 }
 
 fn check(s: &SimulationSettings) -> Result<(), DataError> {
@@ -218,6 +237,16 @@ fn check(s: &SimulationSettings) -> Result<(), DataError> {
             format!("{:?}", s.initial_orientation.coords.as_slice()),
             "a finite unit quaternion",
         );
+    }
+    if let Some(f) = &s.field_offset {
+        for (name, value) in [
+            ("field_offset.sigma", f.sigma),
+            ("field_offset.correlation_time", f.correlation_time),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return bad(name, value.to_string(), "finite and positive");
+            }
+        }
     }
     for (row, d) in s.disturbances.iter().enumerate() {
         if !(d.start.is_finite() && d.end.is_finite() && d.start <= d.end && finite(&d.offset)) {
