@@ -29,12 +29,16 @@
 //!   magnetometer in 9D, zero heading in 6D).
 
 use super::data::{DataError, ImuLog, bad, check_positive, scaled_unit};
+use super::study::{AttitudeEstimate, ImuSample};
 use super::talk::bingham_from_diffusion;
 use super::track::AttitudeTrack;
 use crate::aoa::wrap;
 use liebayes_densities::{Bingham, HeatKernelSo3, ManifoldGaussian};
+use liebayes_experiments::{Nis, RecursiveFilter, Update};
 use liebayes_manifolds::{Left, ProductManifold, Rn, So3};
-use liebayes_operators::{Condition, Ekf, MeasurementModel, ProcessModel, Propagate};
+use liebayes_operators::{
+    Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate,
+};
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 use std::f64::consts::PI;
 
@@ -512,7 +516,7 @@ struct RestState {
     since: f64,
 }
 
-/// The production attitude filter, one sample at a time ([`AttitudeEkf::update`]); see the module
+/// The production attitude filter, one sample at a time ([`AttitudeEkf::process_sample`]); see the module
 /// documentation for the model.
 #[derive(Clone, Debug)]
 pub struct AttitudeEkf {
@@ -537,10 +541,12 @@ pub struct AttitudeEkf {
     history: [UnitQuaternion<f64>; HISTORY],
     rest: Option<RestState>,
     magnet: Option<MagnetState>,
+    /// A heading update fell due at a block's end and waits for the next magnetometer reading.
+    heading_due: bool,
 }
 
 impl AttitudeEkf {
-    /// A filter for samples at `rate` (Hz), not yet initialised (the first [`update`](Self::update)
+    /// A filter for samples at `rate` (Hz), not yet initialised (the first [`process_sample`](Self::process_sample)
     /// initialises it).
     ///
     /// # Errors
@@ -581,6 +587,7 @@ impl AttitudeEkf {
             history: [UnitQuaternion::identity(); HISTORY],
             rest: None,
             magnet: None,
+            heading_due: false,
         })
     }
 
@@ -657,43 +664,51 @@ impl AttitudeEkf {
     }
 
     /// Processes one sample: gyroscope (rad/s), accelerometer (m/s²) and, in 9D, the
-    /// magnetometer (any unit; `None` when a sample has none).
+    /// magnetometer (any unit; `None` when a sample has none, or repeats the last reading when the
+    /// magnetometer is slower than the gyroscope). The first sample initialises the tilt, the first
+    /// usable magnetometer reading the heading.
     ///
     /// # Errors
     /// [`DataError::BadValue`] for a non-finite reading, a zero first accelerometer reading, or a
     /// step whose result is not a valid density (the state is then left as before the call).
-    pub fn update(
+    pub fn process_sample(
         &mut self,
         gyro: &Vector3<f64>,
         acc: &Vector3<f64>,
         mag: Option<&Vector3<f64>>,
     ) -> Result<(), DataError> {
-        let origin = "AttitudeEkf::update";
-        let mag = if self.sensors == Sensors::NineD {
-            mag
-        } else {
-            None
-        };
-        for (name, v) in [
-            ("gyroscope", Some(gyro)),
-            ("accelerometer", Some(acc)),
-            ("magnetometer", mag),
-        ] {
-            if let Some(v) = v {
-                if !v.iter().all(|x| x.is_finite()) {
-                    return Err(DataError::BadValue {
-                        origin: origin.to_owned(),
-                        variable: name.to_owned(),
-                        row: self.count,
-                        value: format!("{:?}", v.as_slice()),
-                        expected: "finite readings",
-                    });
-                }
+        let mag = mag.filter(|_| self.sensors == Sensors::NineD);
+        let row = self.count;
+        self.transaction(|f| {
+            f.imu_step(gyro, acc)?;
+            if let Some(m) = mag {
+                f.magnetometer_step(m)?;
             }
-        }
-        if self.density.is_none() {
-            return self.initialise(acc, mag);
-        }
+            Ok(())
+        })
+        .map_err(|e| {
+            let variable = match &e {
+                OperatorError::NonFinite { what, .. } | OperatorError::OutOfRange { what, .. } => {
+                    *what
+                }
+                _ => "filter step",
+            };
+            DataError::BadValue {
+                origin: "AttitudeEkf::process_sample".to_owned(),
+                variable: variable.to_owned(),
+                row,
+                value: e.to_string(),
+                expected: "finite readings, a non-zero first accelerometer reading, and steps \
+                           that keep a valid Gaussian (check the noise settings)",
+            }
+        })
+    }
+
+    /// Runs `step`; on an error the filter is restored to its state before it.
+    fn transaction<T>(
+        &mut self,
+        step: impl FnOnce(&mut Self) -> Result<T, OperatorError>,
+    ) -> Result<T, OperatorError> {
         let saved = (
             self.density.clone(),
             self.orientation,
@@ -703,8 +718,10 @@ impl AttitudeEkf {
             self.magnet.clone(),
             self.history,
             self.blocks,
+            self.count,
+            self.heading_due,
         );
-        let result = self.step(gyro, acc, mag);
+        let result = step(self);
         if result.is_err() {
             (
                 self.density,
@@ -715,63 +732,24 @@ impl AttitudeEkf {
                 self.magnet,
                 self.history,
                 self.blocks,
+                self.count,
+                self.heading_due,
             ) = saved;
-        } else {
-            self.count += 1;
         }
         result
     }
 
-    fn initialise(
-        &mut self,
-        acc: &Vector3<f64>,
-        mag: Option<&Vector3<f64>>,
-    ) -> Result<(), DataError> {
-        let origin = "AttitudeEkf::update";
-        let up = scaled_unit(acc).ok_or_else(|| {
-            bad(
-                origin,
-                "accelerometer",
-                format!("{:?}", acc.as_slice()),
-                "a non-zero first reading",
-            )
+    /// The first sample: the tilt from the accelerometer, the heading unknown (σ π) until the
+    /// first magnetometer reading.
+    fn initialise(&mut self, acc: &Vector3<f64>) -> Result<(), OperatorError> {
+        let up = scaled_unit(acc).ok_or(OperatorError::OutOfRange {
+            what: "accelerometer (the first reading's norm)",
+            value: acc.norm(),
+            range: "> 0",
         })?;
         let tilt = UnitQuaternion::rotation_between(&up, &Vector3::z())
             .unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), PI));
         let p = &self.params;
-        let mut heading_sigma = PI;
-        // ∂ψ/∂δθ_xy of the first magnetometer reading at the first orientation (9D).
-        let mut tilt_row = None;
-        let mut orientation = tilt;
-        if let Some(m) = mag {
-            if let Some(field) = scaled_unit(m) {
-                let w = tilt * field;
-                if w.x.hypot(w.y) > 1e-3 {
-                    let psi = w.x.atan2(w.y);
-                    orientation = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), psi) * tilt;
-                    heading_sigma = p.initial_heading_sigma;
-                    let model = Heading {
-                        field: *m,
-                        sigma: heading_sigma,
-                        tilt_variance: 0.0,
-                    };
-                    tilt_row = Some(model.jacobian_full(&orientation).1);
-                    let world = orientation * m;
-                    self.magnet = Some(MagnetState {
-                        reference: FieldReference {
-                            norm: m.norm(),
-                            dip: (world.z / m.norm()).clamp(-1.0, 1.0).asin(),
-                        },
-                        candidate: None,
-                        last: *m,
-                        age: 0,
-                        disturbed: false,
-                        gated: 0.0,
-                        learned: 0.0,
-                    });
-                }
-            }
-        }
         let mut cov = SMatrix::<f64, STATE_DIM, STATE_DIM>::zeros();
         // Without bias estimation the bias is pinned at zero by a negligible σ (1e-9 rad/s).
         let bias_sigma = if p.estimate_bias {
@@ -783,7 +761,7 @@ impl AttitudeEkf {
         let diag = [
             p.initial_tilt_sigma,
             p.initial_tilt_sigma,
-            heading_sigma,
+            PI,
             bias_sigma,
             bias_sigma,
             bias_sigma,
@@ -794,43 +772,97 @@ impl AttitudeEkf {
         for (i, s) in diag.iter().enumerate() {
             cov[(i, i)] = s * s;
         }
-        if let Some(j) = tilt_row {
-            // The first heading ψ̂ reads the field through the first tilt: with ∂ψ/∂δθ = (j_x,
-            // j_y, −1), the heading error is δθ_z = j_x δθ_x + j_y δθ_y − n − c (n the reading's
-            // own error, c the field offset), so it carries the tilt's error and the offset's.
-            let tilt_cov = cov.fixed_view::<2, 2>(0, 0).into_owned();
-            let row = Vector2::new(j.x, j.y);
-            let cross = tilt_cov * row;
-            cov[(2, 2)] += row.dot(&cross) + offset_sigma * offset_sigma;
-            for i in 0..2 {
-                cov[(2, i)] = cross[i];
-                cov[(i, 2)] = cross[i];
-            }
-            cov[(2, OFFSET)] = -offset_sigma * offset_sigma;
-            cov[(OFFSET, 2)] = -offset_sigma * offset_sigma;
-        }
         let mean = AttitudeState::new(
-            Left::new(So3::from_unit_quaternion(orientation)),
+            Left::new(So3::from_unit_quaternion(tilt)),
             Rn::new_unchecked(SVector::<f64, 6>::zeros()),
         );
-        let density = ManifoldGaussian::new(mean, cov).map_err(|e| {
-            bad(
-                origin,
-                "initial state",
-                e.to_string(),
-                "a valid initial covariance",
-            )
-        })?;
-        self.density = Some(density);
-        self.orientation = orientation;
-        self.block = Block::empty(Vector3::zeros());
-        self.history = [orientation; HISTORY];
+        self.set_density(ManifoldGaussian::new(mean, cov)?);
+        self.history = [tilt; HISTORY];
         self.rest = self.params.rest.as_ref().map(|_| RestState {
             gyro: Vector3::zeros(),
             acc: *acc,
             since: 0.0,
         });
         self.count = 1;
+        Ok(())
+    }
+
+    /// The heading from the first usable magnetometer reading `m` (its horizontal part in the world
+    /// frame not negligible): the orientation is turned about the vertical by the reading's heading
+    /// ψ, and so are the tilt and velocity errors (world-frame vectors) and the past orientations.
+    /// The heading error is then `δθ_z = j_x δθ_x + j_y δθ_y − n − c` (`(j_x, j_y, −1) = ∂ψ/∂δθ`,
+    /// n the reading's own error of σ `initial_heading_sigma`, c the field offset): its variance
+    /// `a P aᵀ + σ_n²` and covariances `a P` with `a = (j_x, j_y, 0, …, 0, −1)`.
+    fn initialise_heading(&mut self, m: &Vector3<f64>) -> Result<(), OperatorError> {
+        let Some(field) = scaled_unit(m) else {
+            return Ok(());
+        };
+        let w = self.orientation * field;
+        if w.x.hypot(w.y) <= 1e-3 {
+            return Ok(());
+        }
+        let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), w.x.atan2(w.y));
+        let density = self.density.as_ref().expect("initialised");
+        // Every world-frame horizontal pair turns with the heading.
+        let mut rotate = SMatrix::<f64, STATE_DIM, STATE_DIM>::identity();
+        let r = turn.to_rotation_matrix().into_inner();
+        let horizontal = r.fixed_view::<2, 2>(0, 0).into_owned();
+        rotate.fixed_view_mut::<2, 2>(0, 0).copy_from(&horizontal);
+        rotate.fixed_view_mut::<2, 2>(6, 6).copy_from(&horizontal);
+        let mut cov = rotate * density.covariance() * rotate.transpose();
+        let orientation = turn * self.orientation;
+        let sigma = self.params.initial_heading_sigma;
+        let model = Heading {
+            field: *m,
+            sigma,
+            tilt_variance: 0.0,
+        };
+        let (_, j) = model.jacobian_full(&orientation);
+        let mut a = SVector::<f64, STATE_DIM>::zeros();
+        a[0] = j.x;
+        a[1] = j.y;
+        a[OFFSET] = -1.0;
+        let row = cov * a;
+        for k in 0..STATE_DIM {
+            cov[(2, k)] = row[k];
+            cov[(k, 2)] = row[k];
+        }
+        cov[(2, 2)] = a.dot(&row) + sigma * sigma;
+        let mean = density.mean();
+        let mut rest = *mean.second().coords();
+        let v = horizontal * Vector2::new(rest[3], rest[4]);
+        rest[3] = v.x;
+        rest[4] = v.y;
+        let start = turn * mean.first().inner().as_unit_quaternion();
+        let next = ManifoldGaussian::new(
+            AttitudeState::new(
+                Left::new(So3::from_unit_quaternion(start)),
+                Rn::new_unchecked(rest),
+            ),
+            cov,
+        )?;
+        for q in &mut self.history {
+            *q = turn * *q;
+        }
+        let world = orientation * m;
+        self.magnet = Some(MagnetState {
+            reference: FieldReference {
+                norm: m.norm(),
+                dip: (world.z / m.norm()).clamp(-1.0, 1.0).asin(),
+            },
+            candidate: None,
+            last: *m,
+            age: 0,
+            disturbed: false,
+            gated: 0.0,
+            learned: 0.0,
+        });
+        let (block, in_block) = (self.block, self.in_block);
+        self.set_density(next);
+        // The pending block's increments stay: the orientation is the new start times them.
+        self.block = block;
+        self.in_block = in_block;
+        self.orientation = orientation;
         Ok(())
     }
 
@@ -841,12 +873,14 @@ impl AttitudeEkf {
         }
     }
 
-    fn step(
-        &mut self,
-        gyro: &Vector3<f64>,
-        acc: &Vector3<f64>,
-        mag: Option<&Vector3<f64>>,
-    ) -> Result<(), DataError> {
+    /// One sample's gyroscope and accelerometer: rest detection, strapdown, and at the end of a
+    /// block the covariance propagation and the velocity (and rest) updates.
+    fn imu_step(&mut self, gyro: &Vector3<f64>, acc: &Vector3<f64>) -> Result<(), OperatorError> {
+        check_finite("gyroscope reading", gyro)?;
+        check_finite("accelerometer reading", acc)?;
+        if self.density.is_none() {
+            return self.initialise(acc);
+        }
         let dt = self.dt;
         if let (Some(s), Some(p)) = (&mut self.rest, &self.params.rest) {
             let a = (dt / p.filter_tau).min(1.0);
@@ -863,13 +897,9 @@ impl AttitudeEkf {
             self.orientation = start.as_unit_quaternion() * self.block.rotation;
         }
         self.history[self.count % HISTORY] = self.orientation;
-        if let (Some(m), Some(state)) = (mag, &mut self.magnet) {
-            if *m == state.last {
-                state.age += 1;
-            } else {
-                state.last = *m;
-                state.age = 0;
-            }
+        self.count += 1;
+        if let Some(state) = &mut self.magnet {
+            state.age += 1;
         }
         if self.in_block >= self.block_samples {
             self.flush()?;
@@ -877,19 +907,46 @@ impl AttitudeEkf {
             if self.blocks % self.velocity_every == 0 {
                 self.velocity_updates()?;
             }
-            if mag.is_some() && self.blocks % self.mag_every == 0 {
-                self.heading_update()?;
+            if self.blocks % self.mag_every == 0 {
+                self.heading_due = true;
             }
         }
         Ok(())
     }
 
+    /// The magnetometer reading of the sample [`imu_step`](Self::imu_step) just processed (9D): the
+    /// first usable one initialises the heading; a reading equal to the last is a repeat (its age
+    /// grows); a heading update that fell due since the last reading is made with it (after
+    /// propagating the covariance over the samples of the block so far). Returns the update's log
+    /// evidence and NIS when one was applied.
+    fn magnetometer_step(&mut self, m: &Vector3<f64>) -> Result<Option<(f64, f64)>, OperatorError> {
+        check_finite("magnetometer reading", m)?;
+        if self.density.is_none() {
+            return Ok(None);
+        }
+        let Some(state) = &mut self.magnet else {
+            self.initialise_heading(m)?;
+            return Ok(None);
+        };
+        if *m != state.last {
+            state.last = *m;
+            state.age = 0;
+        }
+        if !self.heading_due {
+            return Ok(None);
+        }
+        self.heading_due = false;
+        if self.in_block > 0 {
+            // The update conditions the state now: the samples since the block's start first.
+            self.flush()?;
+        }
+        self.heading_update()
+    }
+
     /// Propagates the covariance over the pending block.
-    fn flush(&mut self) -> Result<(), DataError> {
+    fn flush(&mut self) -> Result<(), OperatorError> {
         let density = self.density.as_ref().expect("initialised");
-        let next = density
-            .propagate(&Ekf(&self.process), &self.block)
-            .map_err(|e| step_error("propagation", &e))?;
+        let next = density.propagate(&Ekf(&self.process), &self.block)?;
         self.set_density(next);
         Ok(())
     }
@@ -912,21 +969,20 @@ impl AttitudeEkf {
         model: impl MeasurementModel<AttitudeState, STATE_DIM, M>,
         z: &SVector<f64, M>,
         gate: f64,
-    ) -> Result<bool, DataError> {
+    ) -> Result<Option<(f64, f64)>, OperatorError> {
         let density = self.density.as_ref().expect("initialised");
-        let out = density
-            .condition(&Ekf(model), z)
-            .map_err(|e| step_error("update", &e))?;
-        if out.report.nis() > gate {
-            return Ok(false);
+        let out = density.condition(&Ekf(model), z)?;
+        let nis = out.report.nis();
+        if nis > gate {
+            return Ok(None);
         }
         self.set_density(out.posterior);
-        Ok(true)
+        Ok(Some((out.log_evidence, nis)))
     }
 
     /// A new reference field has its own, unknown, heading offset: c becomes an independent
     /// `N(0, σ_c²)`.
-    fn renew_offset(&mut self) -> Result<(), DataError> {
+    fn renew_offset(&mut self) -> Result<(), OperatorError> {
         let (Some(f), Some(density)) = (&self.params.magnetometer.offset, &self.density) else {
             return Ok(());
         };
@@ -942,13 +998,12 @@ impl AttitudeEkf {
         let next = ManifoldGaussian::new(
             AttitudeState::new(*mean.first(), Rn::new_unchecked(rest)),
             cov,
-        )
-        .map_err(|e| step_error("new field offset", &e.into()))?;
+        )?;
         self.set_density(next);
         Ok(())
     }
 
-    fn velocity_updates(&mut self) -> Result<(), DataError> {
+    fn velocity_updates(&mut self) -> Result<(), OperatorError> {
         let at_rest = self.rest_detected();
         let (sigma, rest_gyro) = match (&self.params.rest, &self.rest) {
             (Some(p), Some(s)) if at_rest => (p.velocity_sigma, Some((s.gyro, p.bias_sigma))),
@@ -972,20 +1027,23 @@ impl AttitudeEkf {
         Ok(())
     }
 
-    fn heading_update(&mut self) -> Result<(), DataError> {
+    /// The heading update with the last reading, if it is recent enough for the orientation
+    /// history; its log evidence and NIS when applied.
+    fn heading_update(&mut self) -> Result<Option<(f64, f64)>, OperatorError> {
         let Some(state) = self.magnet.clone() else {
-            return Ok(());
+            return Ok(None);
         };
         let delay = self.mag_delay + state.age;
         if delay >= HISTORY {
-            return Ok(());
+            return Ok(None);
         }
-        // The reading in the current IMU frame: R̂_nowᵀ R̂_then m.
-        let then = self.history[(self.count + HISTORY - delay) % HISTORY];
+        // The reading in the current IMU frame: R̂_nowᵀ R̂_then m (the current sample is
+        // `count − 1`).
+        let then = self.history[(self.count - 1 + HISTORY - delay) % HISTORY];
         let field = self.orientation.inverse() * (then * state.last);
         let norm = field.norm();
         if norm <= 0.0 {
-            return Ok(());
+            return Ok(None);
         }
         let world = self.orientation * field;
         let observed = FieldReference {
@@ -1024,7 +1082,7 @@ impl AttitudeEkf {
                     _ => {
                         state.disturbed = true;
                         self.magnet = Some(state);
-                        return Ok(());
+                        return Ok(None);
                     }
                 }
             }
@@ -1046,7 +1104,8 @@ impl AttitudeEkf {
             tilt_variance: tilt_variance.max(0.0),
             ..model
         };
-        let accepted = self.condition(model, &SVector::<f64, 1>::zeros(), gate)?;
+        let applied = self.condition(model, &SVector::<f64, 1>::zeros(), gate)?;
+        let accepted = applied.is_some();
         state.disturbed = !accepted;
         state.gated = if accepted {
             0.0
@@ -1061,7 +1120,62 @@ impl AttitudeEkf {
             }
         }
         self.magnet = Some(state);
-        Ok(())
+        Ok(applied)
+    }
+}
+
+/// `Ok` when every component of `v` is finite, else [`OperatorError::NonFinite`] naming `what`.
+fn check_finite(what: &'static str, v: &Vector3<f64>) -> Result<(), OperatorError> {
+    match v.iter().find(|x| !x.is_finite()) {
+        Some(&value) => Err(OperatorError::NonFinite { what, value }),
+        None => Ok(()),
+    }
+}
+
+/// The production filter as the experiment layer drives it: [`predict`](RecursiveFilter::predict)
+/// with one sample's gyroscope and accelerometer, [`update`](RecursiveFilter::update) with that
+/// sample's magnetometer reading (ignored in 6D); both all or nothing, as
+/// [`AttitudeEkf::process_sample`]. An update reports the log evidence and NIS (χ²(1)) of the heading
+/// update it made, NaN and none when it made none (no update due, or the reading rejected).
+impl RecursiveFilter for AttitudeEkf {
+    type Input = ImuSample;
+    type Measurement = Vector3<f64>;
+    type Estimate = AttitudeEstimate;
+
+    fn predict(&mut self, input: &ImuSample) -> Result<(), OperatorError> {
+        self.transaction(|f| f.imu_step(&input.gyro, &input.acc))
+    }
+
+    fn update(&mut self, z: &Vector3<f64>) -> Result<Update, OperatorError> {
+        let applied = if self.sensors == Sensors::NineD {
+            self.transaction(|f| f.magnetometer_step(z))?
+        } else {
+            None
+        };
+        Ok(applied.map_or(
+            Update {
+                log_evidence: f64::NAN,
+                nis: None,
+            },
+            |(log_evidence, value)| Update {
+                log_evidence,
+                nis: Some(Nis { value, dof: 1 }),
+            },
+        ))
+    }
+
+    fn estimate(&self) -> Result<AttitudeEstimate, OperatorError> {
+        if self.density.is_none() {
+            return Err(OperatorError::OutOfRange {
+                what: "attitude filter samples processed",
+                value: 0.0,
+                range: "at least 1 before an estimate",
+            });
+        }
+        Ok(AttitudeEstimate {
+            orientation: self.orientation,
+            covariance: self.attitude_covariance(),
+        })
     }
 }
 
@@ -1073,22 +1187,12 @@ fn samples_in(seconds: f64, rate: f64) -> usize {
     (seconds * rate).round().clamp(0.0, f64::from(1u32 << 30)) as usize
 }
 
-fn step_error(what: &str, e: &liebayes_operators::OperatorError) -> DataError {
-    DataError::BadValue {
-        origin: "AttitudeEkf::update".to_owned(),
-        variable: what.to_owned(),
-        row: 0,
-        value: e.to_string(),
-        expected: "a step that keeps a valid Gaussian (check the noise settings)",
-    }
-}
-
 /// The production filter run over a log, causally from the first sample; each estimate is the
 /// orientation after that sample's update, with the heading and tilt σ of the covariance at that
 /// time.
 ///
 /// # Errors
-/// As [`AttitudeEkf::new`] and [`AttitudeEkf::update`] (with the sample's row);
+/// As [`AttitudeEkf::new`] and [`AttitudeEkf::process_sample`] (with the sample's row);
 /// [`DataError::NothingToScore`] for an empty log.
 pub fn run_attitude_ekf(
     log: &ImuLog,
@@ -1111,7 +1215,7 @@ pub fn run_attitude_ekf(
     let mag = log.magnetometer();
     for (row, (g, a)) in log.gyroscope().iter().zip(log.accelerometer()).enumerate() {
         filter
-            .update(g, a, mag.map(|m| &m[row]))
+            .process_sample(g, a, mag.map(|m| &m[row]))
             .map_err(|e| with_row(e, row))?;
         orientations.push(filter.orientation());
         let (h, t) = AttitudeTrack::sigmas_of_world_covariance(&filter.attitude_covariance());

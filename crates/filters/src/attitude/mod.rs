@@ -1,4 +1,4 @@
-//! IMU attitude: the data layer and the baseline.
+//! IMU attitude: data, metric, baselines, the talk's filter and the production filter.
 //!
 //! * [`ImuLog`]: a validated IMU log (gyroscope, accelerometer, optional magnetometer, optional
 //!   reference orientation and movement mask), read from a BROAD trial ([`read_broad`]) or a CSV
@@ -7,7 +7,10 @@
 //!   NEES of a filter's reported σ ([`track_nees`]);
 //! * [`Madgwick`]'s filter as the BROAD example evaluation runs it ([`run_madgwick`]);
 //! * an IMU simulator with its truth ([`simulate`]);
-//! * the talk's Bingham / heat-kernel filter ([`TalkFilter`], [`run_talk_filter`]).
+//! * the talk's Bingham / heat-kernel filter ([`TalkFilter`], [`run_talk_filter`]);
+//! * the production filter ([`AttitudeEkf`], [`run_attitude_ekf`]);
+//! * the experiment layer's view of them ([`ImuScenario`], [`AttitudeScorer`], and
+//!   `RecursiveFilter` on [`AttitudeEkf`]): studies of many simulated runs.
 //!
 //! Orientations are unit quaternions (scalar first) of the IMU frame with respect to
 //! East-North-Up. The math and the facts measured on the data are in `docs/filters/attitude.md`.
@@ -19,6 +22,7 @@ mod ekf;
 mod madgwick;
 mod metric;
 mod simulate;
+mod study;
 mod talk;
 mod track;
 
@@ -43,6 +47,7 @@ pub use metric::{
     NeesSums, SampleErrors, TrialErrors, per_sample_errors, sample_errors, track_nees, trial_errors,
 };
 pub use simulate::{Disturbance, SimulationSettings, simulate};
+pub use study::{AttitudeEstimate, AttitudeScorer, ImuSample, ImuScenario, ImuSteps};
 pub use talk::{
     TalkFilter, TalkParams, TalkRun, bingham_from_diffusion, diffusion_from_bingham,
     diffusion_second_moment, direction_matrix, field_reference_from, run_talk_filter,

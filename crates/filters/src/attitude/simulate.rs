@@ -97,7 +97,7 @@ impl Default for SimulationSettings {
 /// # Errors
 /// [`DataError::BadValue`] for a setting out of the range its field documents.
 pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, DataError> {
-    check(settings)?;
+    check_settings(settings)?;
     let s = settings;
     let dt = 1.0 / s.rate;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -180,7 +180,8 @@ fn standard(rng: &mut ChaCha8Rng) -> f64 {
     StandardNormal.sample(rng)
 }
 
-fn check(s: &SimulationSettings) -> Result<(), DataError> {
+/// Checks every setting of a simulation (as [`simulate`] does before it draws anything).
+pub(super) fn check_settings(s: &SimulationSettings) -> Result<(), DataError> {
     let bad = |variable: &str, value: String, expected| {
         Err(DataError::BadValue {
             origin: "simulate".to_owned(),
