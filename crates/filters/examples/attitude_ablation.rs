@@ -8,8 +8,8 @@
 //! DIR defaults to `$LIEBAYES_BROAD_DIR` or `../shared/broad`.
 
 use liebayes_filters::attitude::{
-    AttitudeParams, ImuLog, NeesSums, Sensors, read_broad, run_attitude_ekf, track_nees,
-    trial_errors,
+    AttitudeParams, ImuLog, NeesSums, Propagation, Sensors, read_broad, run_attitude_ekf,
+    track_nees, trial_errors,
 };
 use std::path::PathBuf;
 
@@ -91,6 +91,9 @@ fn variants() -> Vec<(&'static str, Sensors, AttitudeParams)> {
     let mut p = base.clone();
     p.magnetometer.delay = 0.0;
     v.push(("9D, no magnetometer delay", Sensors::NineD, p));
+    let mut p = base.clone();
+    p.propagation = Propagation::Ukf;
+    v.push(("9D, UKF propagation", Sensors::NineD, p));
     v.push(("6D, all parts", Sensors::SixD, base));
     v
 }

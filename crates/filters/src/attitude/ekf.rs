@@ -37,7 +37,7 @@ use liebayes_densities::{Bingham, HeatKernelSo3, ManifoldGaussian};
 use liebayes_experiments::{Nis, RecursiveFilter, Update};
 use liebayes_manifolds::{Left, ProductManifold, Rn, So3};
 use liebayes_operators::{
-    Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate,
+    Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
 };
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 use std::f64::consts::PI;
@@ -53,6 +53,17 @@ pub const STATE_DIM: usize = 9;
 
 /// Tangent index of the field's heading offset c.
 const OFFSET: usize = 8;
+
+/// The operator that propagates the Gaussian over a block ([`BlockProcess`]); the measurement
+/// updates are always [`Ekf`] (the heading measurement is defined by its Jacobian: it has no tilt
+/// column, so that the magnetometer never tilts the estimate).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Propagation {
+    /// First order, with the block's analytic Jacobian.
+    Ekf,
+    /// The unscented transform ([`Ukf`] with its defaults: 2 × 9 + 1 sigma points).
+    Ukf,
+}
 
 /// Which sensors the filter uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -155,6 +166,8 @@ pub struct AttitudeParams {
     pub velocity_interval: f64,
     /// Largest time between covariance propagations (s).
     pub block: f64,
+    /// How the covariance is propagated over a block.
+    pub propagation: Propagation,
     /// Rest detection; `None` never detects rest.
     pub rest: Option<RestParams>,
     /// The magnetometer's use (9D only).
@@ -175,6 +188,7 @@ impl Default for AttitudeParams {
             velocity_walk: 0.3,
             velocity_interval: 0.5,
             block: 0.04,
+            propagation: Propagation::Ekf,
             rest: Some(RestParams {
                 gyro_threshold: 2f64.to_radians(),
                 acc_threshold: 0.5,
@@ -946,7 +960,10 @@ impl AttitudeEkf {
     /// Propagates the covariance over the pending block.
     fn flush(&mut self) -> Result<(), OperatorError> {
         let density = self.density.as_ref().expect("initialised");
-        let next = density.propagate(&Ekf(&self.process), &self.block)?;
+        let next = match self.params.propagation {
+            Propagation::Ekf => density.propagate(&Ekf(&self.process), &self.block)?,
+            Propagation::Ukf => density.propagate(&Ukf::new(&self.process), &self.block)?,
+        };
         self.set_density(next);
         Ok(())
     }

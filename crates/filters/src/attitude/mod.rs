@@ -36,8 +36,8 @@ pub use data::{
 };
 pub use ekf::{
     AttitudeEkf, AttitudeParams, AttitudeState, Block, BlockProcess, DisturbanceParams,
-    FieldOffset, Heading, MagnetometerParams, RestParams, STATE_DIM, Sensors, StateSlice,
-    run_attitude_ekf,
+    FieldOffset, Heading, MagnetometerParams, Propagation, RestParams, STATE_DIM, Sensors,
+    StateSlice, run_attitude_ekf,
 };
 pub use madgwick::{
     BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu, field_reference, gradient_imu,
