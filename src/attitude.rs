@@ -144,9 +144,9 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, S
     })
 }
 
-/// The main job's attitude part: the simulated log, and BROAD's trials when the BROAD folder beside the project (or
-/// `$LIEBAYES_BROAD_DIR`) holds any (the talk filter, ~130 µs per sample, runs on the simulated log
-/// only), files in `out`.
+/// The main job's attitude part: the simulated log, a study of simulated runs, and BROAD's trials
+/// when the BROAD folder beside the project (or `$LIEBAYES_BROAD_DIR`) holds any (the talk filter,
+/// ~130 µs per sample, runs on the simulated log only), files in `out`.
 ///
 /// # Errors
 /// As [`run`].
