@@ -167,7 +167,7 @@ pub fn table1(args: &Table1Args) -> Result<(), String> {
     };
     print(&sheet.render());
     write_sheets(&[sheet], &[], output.dir().is_some(), &mut output)?;
-    finish(output)
+    output.finish()
 }
 
 /// The single update's settings.
@@ -250,7 +250,7 @@ pub fn update(args: &UpdateArgs) -> Result<(), String> {
         print(&sheet.render());
     }
     write_sheets(&sheets, &plots, output.dir().is_some(), &mut output)?;
-    finish(output)
+    output.finish()
 }
 
 /// `liebayes aoa track`: settings and output folder checked before any run, then the studies,
@@ -312,16 +312,6 @@ fn write_sheets(
     }
     for (name, svg) in plots {
         output.write(name, svg.as_bytes())?;
-    }
-    Ok(())
-}
-
-/// Commits the files and says where they went.
-fn finish(output: output::Output) -> Result<(), String> {
-    let dir = output.dir().map(|d| d.display().to_string());
-    let written = output.commit()?;
-    if let Some(dir) = dir {
-        print(&format!("wrote {} files into {dir}", written.len()));
     }
     Ok(())
 }

@@ -77,11 +77,11 @@ pub fn run(args: &Args) -> Result<(), String> {
         let trials = broad_trials(dir)?;
         let mut output = output::prepare(&whole(args.out.clone()))?;
         broad(&trials, true, &mut output)?;
-        finish(output)
+        output.finish()
     } else if let Some(file) = &args.csv {
         let mut output = output::prepare(&whole(args.out.clone()))?;
         csv(file, &mut output)?;
-        finish(output)
+        output.finish()
     } else {
         let mut settings = SimulationSettings::default();
         if let Some(n) = args.samples {
@@ -97,7 +97,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         }
         let mut output = output;
         simulated(&settings, args.seed, &mut output)?;
-        finish(output)
+        output.finish()
     }
 }
 
@@ -170,7 +170,7 @@ pub fn main_job(out: &Path) -> Result<(), String> {
         }
         Err(why) => print(&format!("\nBROAD skipped: {why}")),
     }
-    finish(output)
+    output.finish()
 }
 
 /// The sorted `*.mat` files of `dir`.
@@ -563,14 +563,4 @@ fn whole(out: Option<PathBuf>) -> OutputArgs {
         out,
         shard: Shard::WHOLE,
     }
-}
-
-/// Commits the files and says where they went.
-fn finish(output: output::Output) -> Result<(), String> {
-    let dir = output.dir().map(|d| d.display().to_string());
-    let written = output.commit()?;
-    if let Some(dir) = dir {
-        print(&format!("wrote {} files into {dir}", written.len()));
-    }
-    Ok(())
 }

@@ -125,6 +125,19 @@ impl Output {
         }
         Ok(done)
     }
+
+    /// [`commit`](Self::commit)s the files and says where they went.
+    ///
+    /// # Errors
+    /// As [`commit`](Self::commit).
+    pub fn finish(self) -> Result<(), String> {
+        let dir = self.dir().map(|d| d.display().to_string());
+        let written = self.commit()?;
+        if let Some(dir) = dir {
+            crate::report::print(&format!("wrote {} files into {dir}", written.len()));
+        }
+        Ok(())
+    }
 }
 
 impl Drop for Output {
