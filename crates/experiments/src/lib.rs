@@ -12,7 +12,8 @@
 //!   every epoch.
 //! * [`Scenario`] simulates a [`Trajectory`] of [`Step`]s from a run's generator; [`replay()`] is the
 //!   one loop that runs a filter through it and scores each measurement epoch, stopping at the first
-//!   failure with where and why.
+//!   failure with where and why; [`record()`] is the same loop keeping every step's estimate (a
+//!   recorded log scored whole, a run plotted or written out).
 //! * [`Scorer`]: named metrics of an estimate against the truth; [`ManifoldScorer`] scores a
 //!   Gaussian on any manifold through `local` (squared error, NEES).
 //! * [`Study`]: runs of a scenario and a filter, each from its own stream [`run_rngs`], over one
@@ -31,6 +32,7 @@ mod error;
 mod exact_sum;
 pub mod filter;
 mod paired;
+pub mod record;
 pub mod replay;
 mod run_values;
 pub mod score;
@@ -44,6 +46,7 @@ pub use error::ExperimentError;
 pub use exact_sum::ExactSum;
 pub use filter::{AsIs, Estimator, Nis, Recursive, RecursiveFilter, StepReport, Update};
 pub use paired::{Paired, PairedEstimate};
+pub use record::{Recorded, Recording, record};
 pub use replay::{RunFailure, RunScores, Scenario, Step, StepOf, Trajectory, replay};
 pub use run_values::{MAX_KEPT_RUNS, RunValues, quantiles, relative_differences};
 pub use score::{ManifoldScorer, Metric, Reduction, Scorer};

@@ -14,5 +14,8 @@
 pub mod aoa;
 pub mod attitude;
 pub mod azimuth;
+mod error;
+
+pub use error::FilterError;
 
 pub use liebayes_operators as operators;

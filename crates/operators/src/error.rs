@@ -80,6 +80,15 @@ pub enum OperatorError {
         /// What was in use.
         what: &'static str,
     },
+    /// A filter asked for an estimate or an update before it has what it starts from (an attitude
+    /// filter before its first sample).
+    #[error("{what} is not initialised yet: it needs {needs}")]
+    NotReady {
+        /// The filter.
+        what: &'static str,
+        /// What initialises it.
+        needs: &'static str,
+    },
     /// A computation on the manifold failed, with what the step was computing: a weighted mean that
     /// did not converge (sigma points or particles spread over more than half the injectivity radius)
     /// or whose weights are degenerate.

@@ -1,12 +1,25 @@
 //! [`ImuLog`]: a recorded (or simulated) IMU log, validated, and [`DataError`], what can go wrong
 //! in reading or building one.
 
+use liebayes_operators::OperatorError;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use thiserror::Error;
 
 /// The largest number of samples a log may hold (2^28, about 10 days at 300 Hz): every reader
 /// checks it before allocating.
 pub const MAX_SAMPLES: usize = 1 << 28;
+
+/// The largest angular rate a gyroscope reading may have (rad/s): far above any gyroscope's range
+/// (MEMS gyroscopes saturate near 35 rad/s), so a reading above it is a corrupt sample. Logs
+/// ([`ImuLog::new`]) and the filters' steps refuse it.
+pub const MAX_ANGULAR_RATE: f64 = 1e4;
+
+/// The largest specific force an accelerometer reading may have (m/s², about 1000 g).
+pub const MAX_SPECIFIC_FORCE: f64 = 1e4;
+
+/// The largest magnetometer reading's norm, in the reading's own unit (the filters use its
+/// direction; the earth's field is about 50 µT, 0.5 G, or 5e4 nT).
+pub const MAX_FIELD: f64 = 1e9;
 
 /// How far the norm of a reference quaternion may be from 1 (it is then normalised).
 pub const REFERENCE_NORM_TOLERANCE: f64 = 1e-3;
@@ -133,7 +146,8 @@ pub enum DataError {
 /// samples that count in the error). All in the IMU's own axes.
 ///
 /// Built validated ([`ImuLog::new`], [`ImuLog::with_reference`], [`ImuLog::with_movement`]):
-/// the rate is finite and positive, every row is finite, every sequence has one entry per sample,
+/// the rate is finite and positive, every row is finite and within its sensor's limit
+/// ([`MAX_ANGULAR_RATE`], [`MAX_SPECIFIC_FORCE`], [`MAX_FIELD`]), every sequence has one entry per sample,
 /// at most [`MAX_SAMPLES`] samples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImuLog {
@@ -155,7 +169,8 @@ impl ImuLog {
     /// `magnetometer` (µT) for a 9D log.
     ///
     /// # Errors
-    /// [`DataError::BadValue`] for a rate that is not finite and positive or a non-finite row,
+    /// [`DataError::BadValue`] for a rate that is not finite and positive or a row that is not
+    /// finite or beyond its sensor's limit,
     /// [`DataError::Length`] when the sequences differ in length, [`DataError::TooLarge`] beyond
     /// [`MAX_SAMPLES`].
     pub fn new(
@@ -196,11 +211,11 @@ impl ImuLog {
         let n = gyroscope.len();
         check_count(origin, n)?;
         check_length(origin, names[1], n, accelerometer.len())?;
-        check_finite_rows(origin, names[0], &gyroscope)?;
-        check_finite_rows(origin, names[1], &accelerometer)?;
+        check_rows(origin, names[0], &gyroscope, LIMITS[0])?;
+        check_rows(origin, names[1], &accelerometer, LIMITS[1])?;
         if let Some(mag) = &magnetometer {
             check_length(origin, names[2], n, mag.len())?;
-            check_finite_rows(origin, names[2], mag)?;
+            check_rows(origin, names[2], mag, LIMITS[2])?;
         }
         Ok(Self {
             rate,
@@ -359,17 +374,59 @@ pub(crate) fn check_length(
     }
 }
 
-fn check_finite_rows(origin: &str, variable: &str, rows: &[Vector3<f64>]) -> Result<(), DataError> {
-    match rows.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+/// Every row finite with a norm of at most `limit`.
+fn check_rows(
+    origin: &str,
+    variable: &str,
+    rows: &[Vector3<f64>],
+    (limit, expected): (f64, &'static str),
+) -> Result<(), DataError> {
+    match rows
+        .iter()
+        .position(|v| !(v.iter().all(|c| c.is_finite()) && v.norm() <= limit))
+    {
         None => Ok(()),
         Some(row) => Err(DataError::BadValue {
             origin: origin.to_owned(),
             variable: variable.to_owned(),
             row,
             value: format!("{:?}", rows[row].as_slice()),
-            expected: "finite values",
+            expected,
         }),
     }
+}
+
+/// The gyroscope's, accelerometer's and magnetometer's limits, with what a log's error says.
+const LIMITS: [(f64, &str); 3] = [
+    (
+        MAX_ANGULAR_RATE,
+        "finite values of norm at most 1e4 rad/s (MAX_ANGULAR_RATE)",
+    ),
+    (
+        MAX_SPECIFIC_FORCE,
+        "finite values of norm at most 1e4 m/s^2 (MAX_SPECIFIC_FORCE)",
+    ),
+    (MAX_FIELD, "finite values of norm at most 1e9 (MAX_FIELD)"),
+];
+
+/// `Ok` for a finite reading of norm at most `limit`, else the step's error naming `what`.
+pub(crate) fn check_reading(
+    what: &'static str,
+    v: &Vector3<f64>,
+    limit: f64,
+) -> Result<(), OperatorError> {
+    if let Some(&value) = v.iter().find(|c| !c.is_finite()) {
+        return Err(OperatorError::NonFinite { what, value });
+    }
+    let norm = v.norm();
+    if norm > limit {
+        return Err(OperatorError::OutOfRange {
+            what,
+            value: norm,
+            range: "a norm within the sensor limit (MAX_ANGULAR_RATE, MAX_SPECIFIC_FORCE, MAX_FIELD)",
+        });
+    }
+    Ok(())
 }
 
 /// `v / |v|` computed from `v` scaled by its largest entry (no overflow); `None` for a zero or

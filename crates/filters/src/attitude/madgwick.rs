@@ -1,9 +1,13 @@
 //! [`Madgwick`]: Madgwick's gradient-descent orientation filter (S. O. H. Madgwick, "An efficient
 //! orientation filter for inertial and inertial/magnetic sensor arrays", 2010), in the variant of
-//! his published code that the BROAD dataset's example evaluation runs, and [`run_madgwick`], that
-//! evaluation's run of it on a log.
+//! his published code that the BROAD dataset's example evaluation runs.
 
-use super::data::{DataError, ImuLog};
+use super::data::{MAX_FIELD, check_reading, scaled_unit};
+use super::ekf::Sensors;
+use super::estimate::{AttitudeEstimate, ImuSample};
+use crate::error::{FilterError, positive_setting};
+use liebayes_experiments::{RecursiveFilter, Update};
+use liebayes_operators::OperatorError;
 use nalgebra::{
     Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3, Vector4,
 };
@@ -36,79 +40,91 @@ pub fn enu_from_nwu() -> UnitQuaternion<f64> {
 ///
 /// The feedback is skipped when the accelerometer reads exactly zero or the gradient vanishes; a
 /// magnetometer reading of exactly zero falls back to the 6D step (gravity only). Valid for
-/// `β ≥ 0`, a finite positive rate and finite readings.
+/// `β ≥ 0`, a finite positive rate and readings within the sensors' limits.
+///
+/// On the experiment layer, as the BROAD example evaluation runs it: the first sample sets the
+/// state ([`broad_initial_state`]) and every sample makes one step, `predict` with the sample's
+/// gyroscope and accelerometer (the 6D step) and, where the sample has a magnetometer reading,
+/// `update` with it, which makes that sample's step again from the state before it as the 9D step
+/// (the first sample's start is then taken with the magnetometer too). The estimate has no
+/// covariance.
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::attitude::{BROAD_BETA, ImuSample, Madgwick, Sensors};
+/// use nalgebra::Vector3;
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let mut filter = Madgwick::new(BROAD_BETA, Sensors::NineD, 100.0)?;
+/// let still = ImuSample { gyro: Vector3::zeros(), acc: Vector3::new(0.0, 0.0, 9.81) };
+/// filter.predict(&still)?;
+/// filter.update(&Vector3::new(0.0, 20.0, -40.0))?; // µT: North and down
+/// let estimate = filter.estimate()?;
+/// assert!(estimate.orientation.angle() < 1e-9); // level, facing North
+/// assert!(estimate.covariance.is_none());
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Madgwick {
     beta: f64,
+    sensors: Sensors,
     interval: f64,
-    q: Vector4<f64>,
+    /// The state (NWU), `None` before the first sample.
+    q: Option<Vector4<f64>>,
+    /// The last sample and the state before it, until its magnetometer reading or the next sample.
+    last: Option<(ImuSample, Option<Vector4<f64>>)>,
 }
 
 impl Madgwick {
-    /// A filter with gain `beta` (rad/s) at `rate` Hz, starting at the identity (NWU).
+    /// A filter with gain `beta` (rad/s) at `rate` Hz using `sensors`, initialised by its first
+    /// sample.
     ///
     /// # Errors
-    /// [`DataError::BadValue`] unless β is finite and non-negative and the rate finite and
+    /// [`FilterError::Setting`] unless β is finite and non-negative and the rate finite and
     /// positive.
-    pub fn new(beta: f64, rate: f64) -> Result<Self, DataError> {
-        let bad = |variable: &str, value: f64, expected| DataError::BadValue {
-            origin: "Madgwick::new".to_owned(),
-            variable: variable.to_owned(),
-            row: 0,
-            value: value.to_string(),
-            expected,
-        };
+    pub fn new(beta: f64, sensors: Sensors, rate: f64) -> Result<Self, FilterError> {
         if !(beta.is_finite() && beta >= 0.0) {
-            return Err(bad("beta", beta, "a finite non-negative gain in rad/s"));
+            return Err(FilterError::Setting {
+                origin: "Madgwick::new",
+                setting: "beta",
+                value: beta.to_string(),
+                expected: "a finite non-negative gain in rad/s",
+            });
         }
-        if !(rate.is_finite() && rate > 0.0) {
-            return Err(bad("rate", rate, "a finite positive rate in Hz"));
-        }
+        positive_setting("Madgwick::new", "rate", rate)?;
         Ok(Self {
             beta,
+            sensors,
             interval: 1.0 / rate,
-            q: Vector4::new(1.0, 0.0, 0.0, 0.0),
+            q: None,
+            last: None,
         })
     }
 
-    /// Sets the state: the sensor frame w.r.t. NWU.
-    pub fn set_state(&mut self, q_nwu: &UnitQuaternion<f64>) {
-        let q = q_nwu.quaternion();
-        self.q = Vector4::new(q.w, q.i, q.j, q.k);
+    /// The state: the sensor frame w.r.t. NWU, `None` before the first sample.
+    pub fn state(&self) -> Option<UnitQuaternion<f64>> {
+        self.q
+            .map(|q| UnitQuaternion::new_unchecked(Quaternion::new(q[0], q[1], q[2], q[3])))
     }
 
-    /// The state: the sensor frame w.r.t. NWU.
-    pub fn state(&self) -> UnitQuaternion<f64> {
-        let q = &self.q;
-        UnitQuaternion::new_unchecked(Quaternion::new(q[0], q[1], q[2], q[3]))
-    }
-
-    /// The estimate: the sensor frame w.r.t. ENU, `enu_from_nwu() ⊗ state`.
-    pub fn orientation(&self) -> UnitQuaternion<f64> {
-        enu_from_nwu() * self.state()
-    }
-
-    /// One step with the gyroscope (rad/s), the accelerometer and, for the 9D filter, the
-    /// magnetometer (any units: both are normalised, scaled by their largest component first so
-    /// that huge readings do not overflow).
-    ///
-    /// # Errors
-    /// [`DataError::BadValue`] when the step would leave a non-finite state (a non-finite input,
-    /// or a rate so large that `q̇ Δt` overflows); the state is then unchanged.
-    pub fn update(
-        &mut self,
-        gyr: &Vector3<f64>,
-        acc: &Vector3<f64>,
+    /// One step from the state `q` with the gyroscope, the accelerometer and, for the 9D step, the
+    /// magnetometer (both normalised, scaled by their largest component first so that huge
+    /// readings do not overflow); `None` when the result is not finite.
+    fn step(
+        &self,
+        q: &Vector4<f64>,
+        sample: &ImuSample,
         mag: Option<&Vector3<f64>>,
-    ) -> Result<(), DataError> {
-        let q = self.q;
+    ) -> Option<Vector4<f64>> {
+        let gyr = &sample.gyro;
         let omega = Quaternion::new(0.0, gyr.x, gyr.y, gyr.z);
         let qdot = Quaternion::new(q[0], q[1], q[2], q[3]) * omega * 0.5;
         let mut rate = Vector4::new(qdot.w, qdot.i, qdot.j, qdot.k);
-        if let Some(a) = direction(acc) {
-            let gradient = match mag.and_then(direction) {
-                Some(m) => gradient_marg(&q, &a, &m),
-                None => gradient_imu(&q, &a),
+        if let Some(a) = scaled_unit(&sample.acc) {
+            let gradient = match mag.and_then(scaled_unit) {
+                Some(m) => gradient_marg(q, &a, &m),
+                None => gradient_imu(q, &a),
             };
             let norm = gradient.norm();
             if norm > 0.0 {
@@ -118,43 +134,92 @@ impl Madgwick {
         let next = q + rate * self.interval;
         let next = next / next.amax();
         let next = next / next.norm();
-        if !next.iter().all(|c| c.is_finite()) {
-            return Err(DataError::BadValue {
-                origin: "Madgwick::update".to_owned(),
-                variable: "gyroscope, accelerometer, magnetometer".to_owned(),
-                row: 0,
-                value: format!(
-                    "{:?}, {:?}, {:?}",
-                    gyr.as_slice(),
-                    acc.as_slice(),
-                    mag.map(nalgebra::Matrix::as_slice)
-                ),
-                expected: "finite readings giving a finite step",
-            });
-        }
-        self.q = next;
-        Ok(())
+        next.iter().all(|c| c.is_finite()).then_some(next)
+    }
+
+    /// The state a first sample starts from (NWU).
+    fn start(sample: &ImuSample, mag: Option<&Vector3<f64>>) -> Result<Vector4<f64>, OperatorError> {
+        let q = broad_initial_state(&sample.acc, mag).ok_or(OperatorError::OutOfRange {
+            what: "Madgwick's first accelerometer reading (its norm)",
+            value: sample.acc.norm(),
+            range: "> 0, not parallel to the magnetometer",
+        })?;
+        let q = q.quaternion();
+        Ok(Vector4::new(q.w, q.i, q.j, q.k))
+    }
+
+    /// `step`, or the error naming the sample that left a non-finite state.
+    fn checked_step(
+        &self,
+        q: &Vector4<f64>,
+        sample: &ImuSample,
+        mag: Option<&Vector3<f64>>,
+    ) -> Result<Vector4<f64>, OperatorError> {
+        self.step(q, sample, mag).ok_or(OperatorError::NonFinite {
+            what: "Madgwick's state after the step (the rate times the interval overflows)",
+            value: f64::INFINITY,
+        })
     }
 }
 
-/// The unit vector along `v`, computed as `(v / max|v_i|) / |v / max|v_i||`; `None` for a zero
-/// (or non-finite) vector.
-fn direction(v: &Vector3<f64>) -> Option<Vector3<f64>> {
-    let scale = v.amax();
-    if !(scale.is_finite() && scale > 0.0) {
-        return None;
+impl RecursiveFilter for Madgwick {
+    type Input = ImuSample;
+    type Measurement = Vector3<f64>;
+    type Estimate = AttitudeEstimate;
+
+    fn predict(&mut self, input: &ImuSample) -> Result<(), OperatorError> {
+        input.check()?;
+        let before = match self.q {
+            Some(q) => q,
+            None => Self::start(input, None)?,
+        };
+        let next = self.checked_step(&before, input, None)?;
+        self.last = Some((*input, self.q));
+        self.q = Some(next);
+        Ok(())
     }
-    Some((v / scale).normalize())
+
+    fn update(&mut self, z: &Vector3<f64>) -> Result<Update, OperatorError> {
+        check_reading("magnetometer reading", z, MAX_FIELD)?;
+        let Some((sample, before)) = self.last else {
+            return Err(OperatorError::NotReady {
+                what: "Madgwick's filter",
+                needs: "the sample (predict) the magnetometer reading belongs to",
+            });
+        };
+        if self.sensors == Sensors::NineD {
+            let before = match before {
+                Some(q) => q,
+                None => Self::start(&sample, Some(z))?,
+            };
+            self.q = Some(self.checked_step(&before, &sample, Some(z))?);
+        }
+        Ok(Update {
+            log_evidence: 0.0,
+            nis: None,
+        })
+    }
+
+    fn estimate(&self) -> Result<AttitudeEstimate, OperatorError> {
+        let q = self.state().ok_or(OperatorError::NotReady {
+            what: "Madgwick's filter",
+            needs: "a first sample (predict)",
+        })?;
+        Ok(AttitudeEstimate {
+            orientation: enu_from_nwu() * q,
+            covariance: None,
+        })
+    }
 }
 
 /// `J_gᵀ f_g`: the gradient of ½|R(q)ᵀ ẑ − â|² in the polynomial forms of [`Madgwick`].
-pub fn gradient_imu(q: &Vector4<f64>, acc: &Vector3<f64>) -> Vector4<f64> {
+pub(crate) fn gradient_imu(q: &Vector4<f64>, acc: &Vector3<f64>) -> Vector4<f64> {
     let (f, j) = gravity_objective(q, acc);
     j.transpose() * f
 }
 
 /// `Jᵀ f` of the stacked gravity and field objective of [`Madgwick`] (b held constant).
-pub fn gradient_marg(q: &Vector4<f64>, acc: &Vector3<f64>, mag: &Vector3<f64>) -> Vector4<f64> {
+pub(crate) fn gradient_marg(q: &Vector4<f64>, acc: &Vector3<f64>, mag: &Vector3<f64>) -> Vector4<f64> {
     let (fg, jg) = gravity_objective(q, acc);
     let (fb, jb) = field_objective(q, mag);
     jg.transpose() * fg + jb.transpose() * fb
@@ -162,7 +227,7 @@ pub fn gradient_marg(q: &Vector4<f64>, acc: &Vector3<f64>, mag: &Vector3<f64>) -
 
 /// The field reference `b = (½ √(h_x² + h_y²), ½ h_z)` (horizontal, vertical) of the normalised
 /// measurement `mag`, `h = q ⊗ m ⊗ q*`, as [`Madgwick`] computes it.
-pub fn field_reference(q: &Vector4<f64>, mag: &Vector3<f64>) -> (f64, f64) {
+pub(crate) fn field_reference(q: &Vector4<f64>, mag: &Vector3<f64>) -> (f64, f64) {
     let (q0, q1, q2, q3) = (q[0], q[1], q[2], q[3]);
     let r = Matrix3::new(
         q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3,
@@ -242,63 +307,12 @@ pub fn broad_initial_state(
 ) -> Option<UnitQuaternion<f64>> {
     // Scaled to unit length first (the construction is scale-free): no overflow.
     let m = match mag {
-        Some(m) => direction(m)?,
+        Some(m) => scaled_unit(m)?,
         None => -Vector3::x(),
     };
-    let z = direction(acc)?;
-    let x = direction(&z.cross(&-m).cross(&z))?;
-    let y = direction(&z.cross(&x))?;
+    let z = scaled_unit(acc)?;
+    let x = scaled_unit(&z.cross(&-m).cross(&z))?;
+    let y = scaled_unit(&z.cross(&x))?;
     let r = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z]));
     Some(UnitQuaternion::from_rotation_matrix(&r))
-}
-
-/// Madgwick's filter run on `log` as the BROAD example evaluation runs it: gain β at the log's
-/// rate, the state initialised by [`broad_initial_state`] from the first sample, updated causally
-/// from the first sample on (9D when the log has a magnetometer, else 6D), each estimate the
-/// orientation w.r.t. ENU after that sample's update.
-///
-/// # Errors
-/// As [`Madgwick::new`]; [`DataError::BadValue`] when the first accelerometer sample is zero or
-/// parallel to the magnetometer (no initial state), or a step fails (as [`Madgwick::update`],
-/// with the sample's row); [`DataError::NothingToScore`] for an empty log.
-pub fn run_madgwick(log: &ImuLog, beta: f64) -> Result<Vec<UnitQuaternion<f64>>, DataError> {
-    let mut filter = Madgwick::new(beta, log.rate())?;
-    let (Some(acc0), gyr) = (log.accelerometer().first(), log.gyroscope()) else {
-        return Err(DataError::NothingToScore {
-            origin: "run_madgwick".to_owned(),
-            message: "the log is empty".to_owned(),
-        });
-    };
-    let mag = log.magnetometer();
-    let q0 = broad_initial_state(acc0, mag.map(|m| &m[0])).ok_or_else(|| DataError::BadValue {
-        origin: "run_madgwick".to_owned(),
-        variable: "accelerometer".to_owned(),
-        row: 0,
-        value: format!("{:?}", acc0.as_slice()),
-        expected: "a non-zero reading not parallel to the magnetometer",
-    })?;
-    filter.set_state(&q0);
-    let acc = log.accelerometer();
-    (0..log.len())
-        .map(|k| {
-            filter
-                .update(&gyr[k], &acc[k], mag.map(|m| &m[k]))
-                .map_err(|e| match e {
-                    DataError::BadValue {
-                        variable,
-                        value,
-                        expected,
-                        ..
-                    } => DataError::BadValue {
-                        origin: "run_madgwick".to_owned(),
-                        variable,
-                        row: k,
-                        value,
-                        expected,
-                    },
-                    other => other,
-                })?;
-            Ok(filter.orientation())
-        })
-        .collect()
 }

@@ -1,55 +1,53 @@
-//! IMU attitude: data, metric, baselines, the talk's filter and the production filter.
+//! IMU attitude: data, metric, the production filter, the talk's filter and Madgwick's, on the
+//! experiment layer.
 //!
 //! * [`ImuLog`]: a validated IMU log (gyroscope, accelerometer, optional magnetometer, optional
 //!   reference orientation and movement mask), read from a BROAD trial ([`read_broad`]) or a CSV
-//!   file ([`read_imu_csv`]);
-//! * the BROAD error metric ([`trial_errors`], [`per_sample_errors`], [`sample_errors`]) and the
-//!   NEES of a filter's reported σ ([`track_nees`]);
-//! * [`Madgwick`]'s filter as the BROAD example evaluation runs it ([`run_madgwick`]);
-//! * an IMU simulator with its truth ([`simulate`]);
-//! * the talk's Bingham / heat-kernel filter ([`TalkFilter`], [`run_talk_filter`]);
-//! * the production filter ([`AttitudeEkf`], [`run_attitude_ekf`]);
-//! * the experiment layer's view of them ([`ImuScenario`], [`AttitudeScorer`], and
-//!   `RecursiveFilter` on [`AttitudeEkf`]): studies of many simulated runs.
+//!   file ([`read_imu_csv`]), or simulated with its truth ([`simulate`]);
+//! * the filters, each a `RecursiveFilter` with the input [`ImuSample`], the measurement a
+//!   magnetometer reading and the estimate [`AttitudeEstimate`]: the production filter
+//!   ([`AttitudeEkf`]), the talk's Bingham / heat-kernel filter ([`TalkFilter`]) and Madgwick's
+//!   ([`Madgwick`]), by name and settings through [`Method`], built as one [`AttitudeFilter`];
+//! * scenarios: simulated runs ([`ImuScenario`]) and a recorded log ([`LogScenario`]);
+//! * scoring: BROAD's error metric ([`sample_errors`]) and the NEES ([`AttitudeScorer`]); the
+//!   BROAD evaluation of every method on every log, per log and pooled ([`evaluate`]).
 //!
 //! Orientations are unit quaternions (scalar first) of the IMU frame with respect to
-//! East-North-Up. The math and the facts measured on the data are in `docs/filters/attitude.md`.
+//! East-North-Up. The math and the facts measured on the data are in the project's
+//! `docs/filters/attitude.md`.
 
 mod broad;
 mod csv;
 mod data;
 mod ekf;
+mod estimate;
+mod evaluation;
 mod madgwick;
+mod method;
 mod metric;
+mod scenario;
 mod simulate;
-mod study;
 mod talk;
-mod track;
 
 pub use broad::{MAX_MAT_FILE_BYTES, read_broad};
-pub use csv::{
-    Estimates, MAX_LINE_BYTES, RATE_TOLERANCE, read_estimates_csv, read_imu_csv,
-    write_estimates_csv,
-};
+pub use csv::{Estimates, RATE_TOLERANCE, read_estimates_csv, read_imu_csv, write_estimates_csv};
 pub use data::{
-    DataError, ImuLog, MAX_SAMPLES, REFERENCE_NORM_TOLERANCE, reference_from_components,
+    DataError, ImuLog, MAX_ANGULAR_RATE, MAX_FIELD, MAX_SAMPLES, MAX_SPECIFIC_FORCE,
+    REFERENCE_NORM_TOLERANCE, reference_from_components,
 };
 pub use ekf::{
-    AttitudeEkf, AttitudeParams, AttitudeState, Block, BlockProcess, DisturbanceParams,
-    FieldOffset, Heading, MagnetometerParams, Propagation, RestParams, STATE_DIM, Sensors,
-    StateSlice, run_attitude_ekf,
+    ATTITUDE, AttitudeEkf, AttitudeParams, AttitudeState, BIAS, Block, BlockProcess,
+    DisturbanceParams, FieldOffset, Heading, MagnetometerParams, OFFSET, Propagation, RestParams,
+    STATE_DIM, Sensors, VELOCITY,
 };
-pub use madgwick::{
-    BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu, field_reference, gradient_imu,
-    gradient_marg, run_madgwick,
-};
-pub use metric::{
-    NeesSums, SampleErrors, TrialErrors, per_sample_errors, sample_errors, track_nees, trial_errors,
-};
+pub use estimate::{AttitudeEstimate, AttitudeScorer, ImuSample};
+pub use evaluation::{Evaluation, LogRecording, LogScore, evaluate, run_log};
+pub use madgwick::{BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu};
+pub use method::{AttitudeFilter, METHOD_NAMES, Method};
+pub use metric::{SampleErrors, TrialErrors, sample_errors};
+pub use scenario::{ImuScenario, ImuSteps, LogScenario, LogSteps};
 pub use simulate::{Disturbance, SimulationSettings, simulate};
-pub use study::{AttitudeEstimate, AttitudeScorer, ImuSample, ImuScenario, ImuSteps};
 pub use talk::{
-    TalkFilter, TalkParams, TalkRun, bingham_from_diffusion, diffusion_from_bingham,
-    diffusion_second_moment, direction_matrix, field_reference_from, run_talk_filter,
+    TalkFilter, TalkParams, bingham_from_diffusion, diffusion_from_bingham,
+    diffusion_second_moment, direction_matrix, field_reference_from,
 };
-pub use track::AttitudeTrack;

@@ -1,15 +1,19 @@
 //! The attitude filter of the talk "Kalman Filtering on SO(3)" (ETRI, 2017), errata corrected: a
 //! [`Bingham`] density on the unit quaternion, propagated with the gyroscope through a
 //! left-translated diffusion `LD(q̄, Σ)` and updated with the accelerometer and magnetometer by adding
-//! the direction-measurement matrices to the Bingham parameter ([`TalkFilter`], [`run_talk_filter`]).
+//! the direction-measurement matrices to the Bingham parameter ([`TalkFilter`]).
 //!
 //! Conventions: q is the IMU frame with respect to East-North-Up (Hamilton, scalar first,
 //! `v_ENU = q v_IMU q*`), the talk's `r` being `R(q)ᵀ`; Σ is the covariance of the body-frame
 //! deviation, `R = R(q̄) exp([ξ]ₓ)`.
 
-use super::data::{DataError, ImuLog, bad, check_positive, scaled_unit};
+use super::data::{DataError, MAX_FIELD, bad, check_positive, check_reading, scaled_unit};
+use super::ekf::Sensors;
+use super::estimate::{AttitudeEstimate, ImuSample};
 use super::madgwick::{broad_initial_state, enu_from_nwu};
-use super::track::AttitudeTrack;
+use crate::error::{FilterError, positive_setting};
+use liebayes_experiments::{RecursiveFilter, Update};
+use liebayes_operators::OperatorError;
 use liebayes_densities::{Bingham, Density, DensityError, Rotate};
 use liebayes_manifolds::Su2;
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
@@ -223,182 +227,234 @@ impl TalkParams {
 /// and its variance σ_Ω². One sample (gyroscope g, accelerometer a, magnetometer m), with
 /// `D = σ_U² + σ_A² Δt² + σ_Ω²`:
 ///
-/// 1. **gyroscope** ([`propagate`](Self::propagate)): the rate over the past interval
+/// 1. **gyroscope**: the rate over the past interval
 ///    `ω̃ = ((σ_U² + σ_A² Δt²) ω̄ + σ_Ω² g)/D` (the Kalman smoother of `Ω_(k−1)` given `G_k`), with
 ///    variance `σ̃² = (σ_U² + σ_A² Δt²) σ_Ω² / D`; the Bingham is converted to `LD(q̄, Σ)` by exact
 ///    moment matching ([`diffusion_from_bingham`]), turned `q̄ ← q̄ ⊗ exp(ω̃ Δt)`,
 ///    `Σ ← Eᵀ Σ E + σ̃² Δt² I` (E the rotation of ω̃ Δt; the isotropic convolution is exact), and
 ///    converted back ([`bingham_from_diffusion`]); then the rate's Kalman update
 ///    `ω̄ ← (σ_U² ω̄ + (σ_A² Δt² + σ_Ω²) g)/D`, `σ_Ω² ← σ_U² (σ_A² Δt² + σ_Ω²)/D`;
-/// 2. **accelerometer and magnetometer** ([`update`](Self::update)): the Bingham parameter
-///    `M ← M + M_acc + M_mag` with the [`direction_matrix`] of the unit gravity direction (reference
-///    `(0, 0, 1)`, σ_V) and of the unit field direction (reference `(0, cos δ, −sin δ)` in ENU, δ the
-///    dip, σ_W), re-diagonalised by [`Bingham::from_natural`].
+/// 2. **accelerometer**: the Bingham parameter `M ← M + M_acc`, the [`direction_matrix`] of the
+///    unit gravity direction (reference `(0, 0, 1)`, σ_V), re-diagonalised by
+///    [`Bingham::from_natural`] (Bayes' rule is exact in the natural parameter);
+/// 3. **magnetometer** (9D): `M ← M + M_mag` with the unit field direction, reference
+///    `(0, cos δ, −sin δ)` in ENU ([`field_reference_from`]) and σ_W. The talk takes the earth
+///    field as known; here its dip is learned causally: the running mean of `â · m̂` over the
+///    samples with a reading so far (one sample's dip would carry its noise into the tilt).
 ///
-/// The state is all-or-nothing: a failed step leaves it unchanged.
+/// Steps 1 and 2 are the filter's `predict` with an [`ImuSample`], step 3 its `update` with a
+/// magnetometer reading. The first sample initialises the mean (the construction of the BROAD
+/// example, [`broad_initial_state`], turned to ENU: from the first magnetometer reading when it
+/// comes with the first sample, the sample is then replayed from that start) with the diffusion
+/// `σ₀² I` and the rate at `N(0, σ_Ω,0² I)`. Every step is all or nothing.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TalkFilter {
     params: TalkParams,
+    sensors: Sensors,
     interval: f64,
+    state: Option<TalkState>,
+}
+
+/// The state of an initialised [`TalkFilter`].
+#[derive(Clone, Debug, PartialEq)]
+struct TalkState {
     bingham: Bingham,
     rate: Vector3<f64>,
     rate_variance: f64,
-    field_reference: Option<Vector3<f64>>,
+    /// The last sample's accelerometer, for the dip of the next magnetometer reading.
+    acc: Vector3<f64>,
+    /// `Σ â · m̂` and the number of readings in it.
+    dip: (f64, f64),
+    /// The first sample, until a magnetometer reading or the next sample comes.
+    first: Option<ImuSample>,
 }
 
 impl TalkFilter {
-    /// A filter at `rate` Hz starting at `LD(initial, σ₀² I)`, the angular rate at `N(0, σ_Ω,0² I)`,
-    /// with the unit field reference `field_reference` in ENU (`None`: accelerometer only).
+    /// A filter at `rate` Hz using `sensors`, initialised by its first sample.
     ///
     /// # Errors
-    /// [`DataError::BadValue`] for parameters out of range (as [`TalkParams::validate`]), a rate
-    /// that is not finite and positive, a field reference that is not a finite unit vector, or an
-    /// initial σ₀ too small or too large for a Bingham.
-    pub fn new(
-        params: &TalkParams,
-        rate: f64,
-        initial: &UnitQuaternion<f64>,
-        field_reference: Option<Vector3<f64>>,
-    ) -> Result<Self, DataError> {
+    /// [`FilterError::Data`] for parameters out of range (as [`TalkParams::validate`]),
+    /// [`FilterError::Setting`] for a rate that is not finite and positive.
+    pub fn new(params: &TalkParams, sensors: Sensors, rate: f64) -> Result<Self, FilterError> {
         params.validate()?;
-        check_positive("TalkFilter::new", "rate", rate)?;
-        if let Some(m) = field_reference
-            && !(m.iter().all(|c| c.is_finite()) && (m.norm() - 1.0).abs() <= 1e-9)
-        {
-            return Err(bad(
-                "TalkFilter::new",
-                "field_reference",
-                format!("{:?}", m.as_slice()),
-                "a finite unit vector (ENU)",
-            ));
-        }
-        let s0 = params.initial_sigma * params.initial_sigma;
-        let bingham = bingham_from_diffusion(initial, &(Matrix3::identity() * s0))?;
+        positive_setting("TalkFilter::new", "rate", rate)?;
         Ok(Self {
             params: *params,
+            sensors,
             interval: 1.0 / rate,
-            bingham,
-            rate: Vector3::zeros(),
-            rate_variance: params.initial_rate_sigma * params.initial_rate_sigma,
-            field_reference,
+            state: None,
         })
     }
 
-    /// The Bingham density of q.
-    pub fn bingham(&self) -> &Bingham {
-        &self.bingham
+    /// The Bingham density of q, `None` before the first sample.
+    pub fn bingham(&self) -> Option<&Bingham> {
+        self.state.as_ref().map(|s| &s.bingham)
     }
 
-    /// The angular-rate estimate ω̄ (rad/s, IMU frame) and its per-axis variance σ_Ω².
-    pub fn rate(&self) -> (Vector3<f64>, f64) {
-        (self.rate, self.rate_variance)
+    /// The angular-rate estimate ω̄ (rad/s, IMU frame) and its per-axis variance σ_Ω², `None`
+    /// before the first sample.
+    pub fn rate(&self) -> Option<(Vector3<f64>, f64)> {
+        self.state.as_ref().map(|s| (s.rate, s.rate_variance))
     }
 
-    /// The estimate and its covariance: the Bingham's mode (IMU w.r.t. ENU, w ≥ 0) and the
-    /// body-frame covariance Σ (rad²) of the moment-matched `LD(q̄, Σ)` ([`diffusion_from_bingham`]).
-    ///
-    /// # Errors
-    /// As [`diffusion_from_bingham`].
-    pub fn estimate(&self) -> Result<(UnitQuaternion<f64>, Matrix3<f64>), DataError> {
-        diffusion_from_bingham(&self.bingham)
+    /// The state at the first sample, from its accelerometer and magnetometer readings.
+    fn start(&self, acc: &Vector3<f64>, mag: Option<&Vector3<f64>>) -> Result<TalkState, DataError> {
+        let origin = "TalkFilter (first sample)";
+        let initial = broad_initial_state(acc, mag).ok_or_else(|| {
+            bad(
+                origin,
+                "accelerometer",
+                format!("{:?}", acc.as_slice()),
+                "a non-zero first reading not parallel to the magnetometer",
+            )
+        })?;
+        let s0 = self.params.initial_sigma * self.params.initial_sigma;
+        let bingham =
+            bingham_from_diffusion(&(enu_from_nwu() * initial), &(Matrix3::identity() * s0))?;
+        Ok(TalkState {
+            bingham,
+            rate: Vector3::zeros(),
+            rate_variance: self.params.initial_rate_sigma * self.params.initial_rate_sigma,
+            acc: *acc,
+            dip: (0.0, 0.0),
+            first: None,
+        })
     }
 
-    /// Step 1 with the gyroscope sample `gyr` (rad/s, IMU frame).
-    ///
-    /// # Errors
-    /// [`DataError::BadValue`] for a non-finite sample or a state the conversions refuse; the
-    /// state is then unchanged.
-    pub fn propagate(&mut self, gyr: &Vector3<f64>) -> Result<(), DataError> {
-        if !gyr.iter().all(|c| c.is_finite()) {
-            return Err(bad(
-                "TalkFilter::propagate",
-                "gyroscope",
-                format!("{:?}", gyr.as_slice()),
-                "finite readings in rad/s",
-            ));
-        }
+    /// Steps 1 and 2 with a sample, on `state`.
+    fn gyro_and_gravity(&self, state: &mut TalkState, sample: &ImuSample) -> Result<(), DataError> {
         let p = &self.params;
         let dt = self.interval;
         let (su, walk, so) = (
             p.gyro_noise * p.gyro_noise,
             p.rate_walk * p.rate_walk * dt * dt,
-            self.rate_variance,
+            state.rate_variance,
         );
+        let g = &sample.gyro;
         let denominator = su + walk + so;
-        let smoothed = (self.rate * (su + walk) + gyr * so) / denominator;
+        let smoothed = (state.rate * (su + walk) + g * so) / denominator;
         let smoothed_variance = (su + walk) * so / denominator;
-        let (mean, covariance) = diffusion_from_bingham(&self.bingham)?;
+        let (mean, covariance) = diffusion_from_bingham(&state.bingham)?;
         let turn = UnitQuaternion::from_scaled_axis(smoothed * dt);
         let e = turn.to_rotation_matrix().into_inner();
         let covariance =
             e.transpose() * covariance * e + Matrix3::identity() * (smoothed_variance * dt * dt);
-        let bingham = bingham_from_diffusion(&(mean * turn), &covariance)?;
-        self.bingham = bingham;
-        self.rate = (self.rate * su + gyr * (walk + so)) / denominator;
-        self.rate_variance = su * (walk + so) / denominator;
+        state.bingham = bingham_from_diffusion(&(mean * turn), &covariance)?;
+        state.rate = (state.rate * su + g * (walk + so)) / denominator;
+        state.rate_variance = su * (walk + so) / denominator;
+        state.acc = sample.acc;
+        if let Some(a) = scaled_unit(&sample.acc) {
+            let m = direction_matrix(&a, &Vector3::z(), p.acc_noise)?;
+            state.bingham = add_natural(&state.bingham, &m)?;
+        }
         Ok(())
     }
 
-    /// Step 2 with the accelerometer (any unit; its direction is used) and, when the filter has a
-    /// field reference, the magnetometer (any unit). A zero reading skips its update.
-    ///
-    /// # Errors
-    /// [`DataError::BadValue`] for a non-finite reading or a posterior the Bingham refuses (an
-    /// eigenvalue spread beyond [`Bingham::MAX_SPREAD`]); the state is then unchanged.
-    pub fn update(
-        &mut self,
-        acc: &Vector3<f64>,
-        mag: Option<&Vector3<f64>>,
-    ) -> Result<(), DataError> {
-        let origin = "TalkFilter::update";
-        let mut natural = self.bingham.natural();
-        if let Some(a) = unit(origin, "accelerometer", acc)? {
-            natural += direction_matrix(&a, &Vector3::z(), self.params.acc_noise)?;
-        }
-        if let (Some(reference), Some(m)) = (self.field_reference, mag) {
-            if let Some(m) = unit(origin, "magnetometer", m)? {
-                natural += direction_matrix(&m, &reference, self.params.mag_noise)?;
+    /// Step 3 with a magnetometer reading, on `state`.
+    fn field(&self, state: &mut TalkState, mag: &Vector3<f64>) -> Result<(), DataError> {
+        let Some(c) = dip_cosine(&state.acc, mag) else {
+            return Ok(());
+        };
+        state.dip = (state.dip.0 + c, state.dip.1 + 1.0);
+        let (Some(reference), Some(m)) = (
+            field_reference_from(state.dip.0 / state.dip.1),
+            scaled_unit(mag),
+        ) else {
+            return Ok(());
+        };
+        let matrix = direction_matrix(&m, &reference, self.params.mag_noise)?;
+        state.bingham = add_natural(&state.bingham, &matrix)?;
+        Ok(())
+    }
+}
+
+/// The Bingham with natural parameter `M + extra` (symmetrised).
+fn add_natural(bingham: &Bingham, extra: &Matrix4<f64>) -> Result<Bingham, DataError> {
+    let natural = bingham.natural() + extra;
+    Bingham::from_natural((natural + natural.transpose()) * 0.5)
+        .map_err(|e| density_error("TalkFilter", &e))
+}
+
+/// A step's error as the experiment layer reports it.
+fn step_error(e: &DataError) -> OperatorError {
+    OperatorError::NotClosed {
+        what: "talk filter step (the Bingham left its range: increase the noise settings)",
+        value: match e {
+            DataError::BadValue { row, .. } => *row as f64,
+            _ => f64::NAN,
+        },
+    }
+}
+
+/// The talk's filter on the experiment layer (see [`TalkFilter`]): `predict` is steps 1 and 2,
+/// `update` step 3 (ignored in 6D). An update reports its log evidence as 0 (the filter does not
+/// compute it) and no NIS.
+impl RecursiveFilter for TalkFilter {
+    type Input = ImuSample;
+    type Measurement = Vector3<f64>;
+    type Estimate = AttitudeEstimate;
+
+    fn predict(&mut self, input: &ImuSample) -> Result<(), OperatorError> {
+        input.check()?;
+        let mut state = if let Some(s) = &self.state {
+            TalkState {
+                first: None,
+                ..s.clone()
             }
-        }
-        let natural = (natural + natural.transpose()) * 0.5;
-        self.bingham = Bingham::from_natural(natural).map_err(|e| density_error(origin, &e))?;
+        } else {
+            TalkState {
+                first: Some(*input),
+                ..self.start(&input.acc, None).map_err(|e| step_error(&e))?
+            }
+        };
+        self.gyro_and_gravity(&mut state, input)
+            .map_err(|e| step_error(&e))?;
+        self.state = Some(state);
         Ok(())
     }
-}
 
-/// The result of [`run_talk_filter`]: per sample, the estimate after that sample's update.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TalkRun {
-    /// The Bingham mode: the IMU frame w.r.t. ENU, scalar first.
-    pub orientations: Vec<UnitQuaternion<f64>>,
-    /// The body-frame covariance Σ (rad²) of the moment-matched diffusion.
-    pub covariances: Vec<Matrix3<f64>>,
-}
-
-impl TalkRun {
-    /// The reported total standard deviation per sample, `√(tr Σ)` (rad): the RMS of the angle of
-    /// a draw for a concentrated diffusion.
-    pub fn reported_sigma(&self) -> Vec<f64> {
-        self.covariances.iter().map(|c| c.trace().sqrt()).collect()
+    fn update(&mut self, z: &Vector3<f64>) -> Result<Update, OperatorError> {
+        check_reading("magnetometer reading", z, MAX_FIELD)?;
+        let Some(current) = &self.state else {
+            return Err(OperatorError::NotReady {
+                what: "talk filter",
+                needs: "a first sample (predict) to initialise its mean",
+            });
+        };
+        if self.sensors == Sensors::NineD {
+            let state = match current.first {
+                // The first sample again, from the start its magnetometer reading gives.
+                Some(first) => {
+                    let mut s = self.start(&first.acc, Some(z)).map_err(|e| step_error(&e))?;
+                    self.gyro_and_gravity(&mut s, &first)
+                        .map_err(|e| step_error(&e))?;
+                    s
+                }
+                None => current.clone(),
+            };
+            let mut state = state;
+            self.field(&mut state, z).map_err(|e| step_error(&e))?;
+            self.state = Some(state);
+        }
+        Ok(Update {
+            log_evidence: 0.0,
+            nis: None,
+        })
     }
 
-    /// The run as an [`AttitudeTrack`]: the body-frame Σ moved to the world frame,
-    /// `R(q) Σ R(q)ᵀ`, and split into heading and tilt standard deviations.
-    pub fn track(&self) -> AttitudeTrack {
-        let (heading, tilt) = self
-            .orientations
-            .iter()
-            .zip(&self.covariances)
-            .map(|(q, c)| {
-                let r = q.to_rotation_matrix().into_inner();
-                AttitudeTrack::sigmas_of_world_covariance(&(r * c * r.transpose()))
-            })
-            .unzip();
-        AttitudeTrack {
-            orientations: self.orientations.clone(),
-            heading_sigma: Some(heading),
-            tilt_sigma: Some(tilt),
-        }
+    /// The Bingham's mode (w ≥ 0) and the world-frame covariance `R Σ Rᵀ` of the moment-matched
+    /// `LD(q̄, Σ)` ([`diffusion_from_bingham`]).
+    fn estimate(&self) -> Result<AttitudeEstimate, OperatorError> {
+        let s = self.state.as_ref().ok_or(OperatorError::NotReady {
+            what: "talk filter",
+            needs: "a first sample (predict) to initialise its mean",
+        })?;
+        let (q, body) = diffusion_from_bingham(&s.bingham).map_err(|e| step_error(&e))?;
+        let r = q.to_rotation_matrix().into_inner();
+        Ok(AttitudeEstimate {
+            orientation: q,
+            covariance: Some(r * body * r.transpose()),
+        })
     }
 }
 
@@ -417,94 +473,6 @@ pub fn field_reference_from(c: f64) -> Option<Vector3<f64>> {
 /// `â · m̂` of one sample, `None` when a reading is zero or not finite.
 fn dip_cosine(acc: &Vector3<f64>, mag: &Vector3<f64>) -> Option<f64> {
     Some(scaled_unit(acc)?.dot(&scaled_unit(mag)?))
-}
-
-/// The talk's filter run on `log`: initial mean from the first sample (the BROAD example's
-/// construction, [`broad_initial_state`], turned to ENU), then per sample [`TalkFilter::propagate`]
-/// and [`TalkFilter::update`], the estimate after both. The talk takes the earth field m as known;
-/// here its unit direction is [`field_reference_from`] the running mean of `â · m̂` over the
-/// samples so far (causal; one sample's dip would carry its noise into the tilt for the whole run).
-/// Without a magnetometer the filter uses the accelerometer only.
-///
-/// # Errors
-/// As [`TalkFilter::new`]; [`DataError::NothingToScore`] for an empty log;
-/// [`DataError::BadValue`] when the first sample gives no initial state or a step fails (with its
-/// row).
-pub fn run_talk_filter(log: &ImuLog, params: &TalkParams) -> Result<TalkRun, DataError> {
-    let origin = "run_talk_filter";
-    params.validate()?;
-    let (Some(acc0), gyr, acc) = (
-        log.accelerometer().first(),
-        log.gyroscope(),
-        log.accelerometer(),
-    ) else {
-        return Err(DataError::NothingToScore {
-            origin: origin.to_owned(),
-            message: "the log is empty".to_owned(),
-        });
-    };
-    let mag = log.magnetometer();
-    let initial = broad_initial_state(acc0, mag.map(|m| &m[0])).ok_or_else(|| {
-        bad(
-            origin,
-            "accelerometer",
-            format!("{:?}", acc0.as_slice()),
-            "a non-zero first reading not parallel to the magnetometer",
-        )
-    })?;
-    let (mut dip_sum, mut dip_count) = (0.0, 0.0);
-    let field = match mag {
-        Some(m) => {
-            let c = dip_cosine(acc0, &m[0]).ok_or_else(|| {
-                bad(
-                    origin,
-                    "magnetometer",
-                    format!("{:?}", m[0].as_slice()),
-                    "a non-zero first reading",
-                )
-            })?;
-            field_reference_from(c)
-        }
-        None => None,
-    };
-    let mut filter = TalkFilter::new(params, log.rate(), &(enu_from_nwu() * initial), field)?;
-    let mut run = TalkRun {
-        orientations: Vec::with_capacity(log.len()),
-        covariances: Vec::with_capacity(log.len()),
-    };
-    for k in 0..log.len() {
-        if let Some(c) = mag.and_then(|m| dip_cosine(&acc[k], &m[k])) {
-            dip_sum += c;
-            dip_count += 1.0;
-            filter.field_reference = field_reference_from(dip_sum / dip_count);
-        }
-        let step = filter
-            .propagate(&gyr[k])
-            .and_then(|()| filter.update(&acc[k], mag.map(|m| &m[k])))
-            .and_then(|()| filter.estimate());
-        let (q, covariance) = step.map_err(|e| with_row(origin, k, e))?;
-        run.orientations.push(q);
-        run.covariances.push(covariance);
-    }
-    Ok(run)
-}
-
-fn with_row(origin: &str, row: usize, e: DataError) -> DataError {
-    match e {
-        DataError::BadValue {
-            variable,
-            value,
-            expected,
-            ..
-        } => DataError::BadValue {
-            origin: origin.to_owned(),
-            variable,
-            row,
-            value,
-            expected,
-        },
-        other => other,
-    }
 }
 
 fn covariance_eigen(c: &Matrix3<f64>) -> Result<(Vector3<f64>, Matrix3<f64>), DataError> {
@@ -532,20 +500,6 @@ fn covariance_eigen(c: &Matrix3<f64>) -> Result<(Vector3<f64>, Matrix3<f64>), Da
         ));
     }
     Ok((eigen.eigenvalues.map(|v| v.max(0.0)), eigen.eigenvectors))
-}
-
-/// `v / |v|` (scaled by its largest component first), `None` for a zero vector; an error for a
-/// non-finite one.
-fn unit(origin: &str, variable: &str, v: &Vector3<f64>) -> Result<Option<Vector3<f64>>, DataError> {
-    if !v.iter().all(|c| c.is_finite()) {
-        return Err(bad(
-            origin,
-            variable,
-            format!("{:?}", v.as_slice()),
-            "finite readings",
-        ));
-    }
-    Ok(scaled_unit(v))
 }
 
 fn density_error(origin: &str, e: &DensityError) -> DataError {

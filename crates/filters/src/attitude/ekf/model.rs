@@ -1,0 +1,275 @@
+//! The production filter's state and models: the state manifold with its named tangent blocks, the
+//! preintegrated block of samples and its process model, and the measurement models (zero
+//! velocity, rest bias, heading).
+
+use super::params::FieldOffset;
+use crate::aoa::wrap;
+use liebayes_manifolds::{Left, ProductManifold, Rn, So3};
+use liebayes_operators::{MeasurementModel, ProcessModel};
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
+use std::ops::Range;
+
+/// The filter's state: attitude (IMU frame w.r.t. ENU, error `R = exp([δθ]ₓ) R̂` in the world
+/// frame) × (gyro bias b (rad/s, IMU frame), horizontal velocity v (m/s, East, North), the local
+/// field's heading offset c (rad, the field's heading east of true north)); tangent order
+/// (δθ, δb, δv, δc): [`ATTITUDE`], [`BIAS`], [`VELOCITY`], [`OFFSET`].
+pub type AttitudeState = ProductManifold<Left<So3<f64>>, Rn<f64, 6>, 3, 6, 9>;
+
+/// The state's dimension.
+pub const STATE_DIM: usize = 9;
+
+/// Tangent indices of the world-frame attitude error δθ (x, y: tilt; z: heading).
+pub const ATTITUDE: Range<usize> = 0..3;
+/// Tangent indices of the gyro bias.
+pub const BIAS: Range<usize> = 3..6;
+/// Tangent indices of the horizontal velocity (East, North).
+pub const VELOCITY: Range<usize> = 6..8;
+/// Tangent index of the field's heading offset c.
+pub const OFFSET: usize = 8;
+
+/// Index of a tangent coordinate (of the bias, velocity or offset) in the `Rn<6>` factor.
+pub(crate) const fn in_rest(tangent: usize) -> usize {
+    tangent - ATTITUDE.end
+}
+
+/// The covariance block of the attitude error (rad²).
+pub(crate) fn attitude_block(p: &SMatrix<f64, STATE_DIM, STATE_DIM>) -> Matrix3<f64> {
+    p.fixed_view::<3, 3>(ATTITUDE.start, ATTITUDE.start)
+        .into_owned()
+}
+
+/// The preintegrated increments of one block of gyroscope and accelerometer samples, in the IMU
+/// frame at the block's start (`ΔRᵢ` the rotation from the start to sample i):
+/// `ΔR = Π exp([ωᵢ − b̂]ₓ Δt)`, `Δv = Σ ΔRᵢ fᵢ Δt`, `B = Σ ΔRᵢ Δt`, `T = n Δt`, with the bias `b̂`
+/// they were integrated with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Block {
+    /// `ΔR`.
+    pub rotation: UnitQuaternion<f64>,
+    /// `Δv` (m/s, start frame).
+    pub velocity: Vector3<f64>,
+    /// `B` (s): how the bias moves the attitude.
+    pub bias_coupling: Matrix3<f64>,
+    /// `T` (s).
+    pub duration: f64,
+    /// `b̂` (rad/s).
+    pub bias: Vector3<f64>,
+}
+
+impl Block {
+    pub(crate) fn empty(bias: Vector3<f64>) -> Self {
+        Self {
+            rotation: UnitQuaternion::identity(),
+            velocity: Vector3::zeros(),
+            bias_coupling: Matrix3::zeros(),
+            duration: 0.0,
+            bias,
+        }
+    }
+
+    /// Adds one sample: gyroscope ω, accelerometer f, interval Δt.
+    pub(crate) fn push(&mut self, gyro: &Vector3<f64>, acc: &Vector3<f64>, dt: f64) {
+        self.rotation *= UnitQuaternion::from_scaled_axis((gyro - self.bias) * dt);
+        let r = self.rotation.to_rotation_matrix().into_inner();
+        self.velocity += r * acc * dt;
+        self.bias_coupling += r * dt;
+        self.duration += dt;
+    }
+}
+
+/// The block's process model on [`AttitudeState`]:
+/// `R′ = exp(−[R B (b − b̂)]ₓ) R ΔR`, `b′ = b`, `v′ = v + (R Δv)_xy`, `c′ = a c` with
+/// `a = exp(−T/τ_c)`; noise `diag((σ_g² + s² |ω̄|²) T I₃, σ_b² T I₃, σ_v² T I₂, σ_c² (1 − a²))`
+/// (|ω̄| the block's mean rate); Jacobian (world-frame error) `∂δθ′/∂δb = −R B`,
+/// `∂δv′/∂δθ = −[R Δv]ₓ` restricted to the two tilt columns (the accelerometer never turns the
+/// heading: its horizontal part is velocity, not direction, information), `∂δc′/∂δc = a`. The
+/// bias's second-order effect on v inside a block is omitted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BlockProcess {
+    /// Gyroscope angle random walk (rad/√s).
+    pub gyro_noise: f64,
+    /// Rate-proportional attitude noise (√s).
+    pub rate_noise: f64,
+    /// Bias random walk (rad/s/√s).
+    pub bias_walk: f64,
+    /// Velocity random walk (m/s/√s).
+    pub velocity_walk: f64,
+    /// The field offset's process; `None` keeps it constant without noise.
+    pub offset: Option<FieldOffset>,
+}
+
+impl BlockProcess {
+    /// The offset's factor `a = exp(−T/τ_c)` over `t` seconds (1 without an offset process).
+    fn offset_decay(&self, t: f64) -> f64 {
+        self.offset
+            .as_ref()
+            .map_or(1.0, |f| (-t / f.correlation_time).exp())
+    }
+}
+
+impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
+    type Input = Block;
+
+    fn transition(&self, x: &AttitudeState, u: &Block) -> AttitudeState {
+        let r = x.first().inner().as_unit_quaternion();
+        let rest = x.second().coords();
+        let bias = rest.fixed_rows::<3>(in_rest(BIAS.start)).into_owned();
+        let turn = r * (u.bias_coupling * (bias - u.bias)).into_owned();
+        let attitude = UnitQuaternion::from_scaled_axis(-turn) * r * u.rotation;
+        let dv = r * u.velocity;
+        let mut next = *rest;
+        next[in_rest(VELOCITY.start)] += dv.x;
+        next[in_rest(VELOCITY.start) + 1] += dv.y;
+        next[in_rest(OFFSET)] *= self.offset_decay(u.duration);
+        AttitudeState::new(
+            Left::new(So3::from_unit_quaternion(attitude)),
+            Rn::new_unchecked(next),
+        )
+    }
+
+    fn noise(&self, _x: &AttitudeState, u: &Block) -> SMatrix<f64, STATE_DIM, STATE_DIM> {
+        let t = u.duration;
+        // (rate_noise |ω̄|)² T with |ω̄| = angle(ΔR)/T.
+        let turned = self.rate_noise * u.rotation.angle();
+        let attitude =
+            self.gyro_noise * self.gyro_noise * t + turned * turned / t.max(f64::MIN_POSITIVE);
+        let mut q = SMatrix::<f64, STATE_DIM, STATE_DIM>::zeros();
+        for i in ATTITUDE {
+            q[(i, i)] = attitude;
+        }
+        for i in BIAS {
+            q[(i, i)] = self.bias_walk * self.bias_walk * t;
+        }
+        for i in VELOCITY {
+            q[(i, i)] = self.velocity_walk * self.velocity_walk * t;
+        }
+        if let Some(f) = &self.offset {
+            let a = self.offset_decay(t);
+            q[(OFFSET, OFFSET)] = f.sigma * f.sigma * (1.0 - a * a);
+        }
+        q
+    }
+
+    fn jacobian(&self, x: &AttitudeState, u: &Block) -> SMatrix<f64, STATE_DIM, STATE_DIM> {
+        let r = x.first().inner().as_unit_quaternion().to_rotation_matrix();
+        let mut f = SMatrix::<f64, STATE_DIM, STATE_DIM>::identity();
+        let rb = r.matrix() * u.bias_coupling;
+        f.fixed_view_mut::<3, 3>(ATTITUDE.start, BIAS.start)
+            .copy_from(&(-rb));
+        let a = r * u.velocity;
+        // −[a]ₓ, rows x and y, columns of the two tilt components.
+        f[(VELOCITY.start, ATTITUDE.start + 1)] = a.z;
+        f[(VELOCITY.start + 1, ATTITUDE.start)] = -a.z;
+        f[(OFFSET, OFFSET)] = self.offset_decay(u.duration);
+        f
+    }
+}
+
+/// The bounded-velocity (and, at rest, zero-velocity) pseudo-measurement `z = v = 0`, noise
+/// `σ² I₂`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ZeroVelocity {
+    /// σ of each component (m/s).
+    pub sigma: f64,
+}
+
+impl MeasurementModel<AttitudeState, STATE_DIM, 2> for ZeroVelocity {
+    fn predict(&self, x: &AttitudeState) -> SVector<f64, 2> {
+        x.second()
+            .coords()
+            .fixed_rows::<2>(in_rest(VELOCITY.start))
+            .into_owned()
+    }
+
+    fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 2, 2> {
+        SMatrix::<f64, 2, 2>::identity() * (self.sigma * self.sigma)
+    }
+
+    fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 2, STATE_DIM> {
+        let mut h = SMatrix::<f64, 2, STATE_DIM>::zeros();
+        for (row, column) in VELOCITY.enumerate() {
+            h[(row, column)] = 1.0;
+        }
+        h
+    }
+}
+
+/// The low-passed gyroscope at rest as a measurement of the bias, `z = b`, noise `σ² I₃`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct RestBias {
+    /// σ of each component (rad/s).
+    pub sigma: f64,
+}
+
+impl MeasurementModel<AttitudeState, STATE_DIM, 3> for RestBias {
+    fn predict(&self, x: &AttitudeState) -> SVector<f64, 3> {
+        x.second()
+            .coords()
+            .fixed_rows::<3>(in_rest(BIAS.start))
+            .into_owned()
+    }
+
+    fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 3, 3> {
+        SMatrix::<f64, 3, 3>::identity() * (self.sigma * self.sigma)
+    }
+
+    fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 3, STATE_DIM> {
+        let mut h = SMatrix::<f64, 3, STATE_DIM>::zeros();
+        for (row, column) in BIAS.enumerate() {
+            h[(row, column)] = 1.0;
+        }
+        h
+    }
+}
+
+/// The heading-only magnetometer measurement: the heading `ψ = atan2(m_E, m_N)` of the measured
+/// field `m` (IMU frame, brought to the current sample) rotated into the world frame by the
+/// state's attitude, less the field's offset c, measured as 0 (North is the reference field's
+/// north) with the wrapped residual. Jacobian: `∂/∂δθ_z = −1`, `∂/∂δc = −1`, the tilt columns
+/// zero; their share of the error, `h_t P_tt h_tᵀ` with `h_t = ∂ψ/∂δθ_xy`, is in the variance
+/// (`tilt_variance`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Heading {
+    /// The magnetometer reading in the current IMU frame.
+    pub field: Vector3<f64>,
+    /// σ of the heading (rad).
+    pub sigma: f64,
+    /// The tilt's share of the heading variance (rad²).
+    pub tilt_variance: f64,
+}
+
+impl Heading {
+    /// The world-frame field and `∂ψ/∂δθ` (all three columns) at the attitude `r`.
+    pub(crate) fn jacobian_full(&self, r: &UnitQuaternion<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let m = r * self.field;
+        let h2 = (m.x * m.x + m.y * m.y).max(f64::MIN_POSITIVE);
+        // dψ/dm = (m_N, −m_E, 0)/h², dm/dδθ = −[m]ₓ.
+        let dpsi = Vector3::new(m.y / h2, -m.x / h2, 0.0);
+        (m, -(m.cross_matrix().transpose() * dpsi))
+    }
+}
+
+impl MeasurementModel<AttitudeState, STATE_DIM, 1> for Heading {
+    fn predict(&self, x: &AttitudeState) -> SVector<f64, 1> {
+        let m = x.first().inner().as_unit_quaternion() * self.field;
+        SVector::<f64, 1>::new(wrap(
+            m.x.atan2(m.y) - x.second().coords()[in_rest(OFFSET)],
+        ))
+    }
+
+    fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 1, 1> {
+        SMatrix::<f64, 1, 1>::new(self.sigma * self.sigma + self.tilt_variance)
+    }
+
+    fn residual(&self, z: &SVector<f64, 1>, predicted: &SVector<f64, 1>) -> SVector<f64, 1> {
+        SVector::<f64, 1>::new(wrap(z[0] - predicted[0]))
+    }
+
+    fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 1, STATE_DIM> {
+        let mut h = SMatrix::<f64, 1, STATE_DIM>::zeros();
+        h[(0, ATTITUDE.start + 2)] = -1.0;
+        h[(0, OFFSET)] = -1.0;
+        h
+    }
+}
+

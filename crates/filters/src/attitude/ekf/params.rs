@@ -1,0 +1,241 @@
+//! The production filter's settings: one parameter set, checked once.
+
+use crate::error::{FilterError, positive_setting};
+
+/// The operator that propagates the Gaussian over a block ([`BlockProcess`]); the measurement
+/// updates are always [`Ekf`] (the heading measurement is defined by its Jacobian: it has no tilt
+/// column, so that the magnetometer never tilts the estimate).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Propagation {
+    /// First order, with the block's analytic Jacobian.
+    Ekf,
+    /// The unscented transform ([`Ukf`] with its defaults: 2 × 9 + 1 sigma points).
+    Ukf,
+}
+
+/// Which sensors the filter uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sensors {
+    /// Gyroscope, accelerometer and magnetometer.
+    NineD,
+    /// Gyroscope and accelerometer: heading is integrated only (and starts at zero).
+    SixD,
+}
+
+/// Rest detection (all thresholds on the deviation of a sample from the low-passed signal).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RestParams {
+    /// Gyroscope threshold (rad/s).
+    pub gyro_threshold: f64,
+    /// Accelerometer threshold (m/s²).
+    pub acc_threshold: f64,
+    /// Time both must hold before the sensor counts as at rest (s).
+    pub min_duration: f64,
+    /// Time constant of the first-order low-pass filters (s).
+    pub filter_tau: f64,
+    /// σ of the zero-velocity measurement at rest (m/s).
+    pub velocity_sigma: f64,
+    /// σ of the low-passed gyroscope as a measurement of the bias at rest (rad/s).
+    pub bias_sigma: f64,
+}
+
+/// Magnetic disturbance rejection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DisturbanceParams {
+    /// Relative deviation of the field norm from the reference that counts as disturbed.
+    pub norm_threshold: f64,
+    /// Deviation of the dip angle from the reference that counts as disturbed (rad).
+    pub dip_threshold: f64,
+    /// Largest normalised innovation squared accepted...
+    pub nis_gate: f64,
+    /// ...for at most this long (s): a gate that has rejected every sample for this long lets the
+    /// next one through (otherwise a heading that drifted out of the gate would never return).
+    pub gate_time: f64,
+    /// Time constant with which the reference norm and dip follow accepted samples (s).
+    pub reference_tau: f64,
+    /// A disturbed field that stays consistent with itself this long becomes the new reference (s).
+    pub new_field_time: f64,
+    /// For this long after the start (s) every sample is used and the reference is their running
+    /// mean: the first sample's dip carries the first tilt's error (linear acceleration).
+    pub first_field_time: f64,
+}
+
+/// The heading offset of the local field from true north, a first-order Gauss-Markov process:
+/// `c′ = a c + w`, `a = exp(−T/τ)`, `w ~ N(0, σ_c² (1 − a²))`, stationary `c ~ N(0, σ_c²)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldOffset {
+    /// Stationary σ_c (rad).
+    pub sigma: f64,
+    /// Correlation time τ (s).
+    pub correlation_time: f64,
+}
+
+/// The magnetometer's use (9D).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MagnetometerParams {
+    /// σ of the heading measurement (rad): the magnetometer noise and the field's errors that are
+    /// independent from one update to the next.
+    pub heading_sigma: f64,
+    /// The field's correlated heading error; `None` treats every error as independent (the
+    /// offset stays zero).
+    pub offset: Option<FieldOffset>,
+    /// Time between heading updates (s).
+    pub interval: f64,
+    /// How much older a magnetometer sample is than the gyroscope sample of the same row (s).
+    pub delay: f64,
+    /// Disturbance rejection; `None` uses every sample.
+    pub disturbance: Option<DisturbanceParams>,
+}
+
+/// The one parameter set of the production filter (SI units, angles in rad).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AttitudeParams {
+    /// Gyroscope angle random walk (rad/√s).
+    pub gyro_noise: f64,
+    /// Attitude noise proportional to the rotation rate (√s): the gyroscope's scale-factor and
+    /// axis errors, whose variance per second is `(rate_noise |ω|)²`.
+    pub rate_noise: f64,
+    /// Gyro bias random walk (rad/s/√s); with `estimate_bias == false` the bias stays at zero.
+    pub bias_walk: f64,
+    /// Whether the gyro bias is estimated.
+    pub estimate_bias: bool,
+    /// Initial σ of the gyro bias (rad/s).
+    pub initial_bias_sigma: f64,
+    /// Initial σ of each tilt component (rad).
+    pub initial_tilt_sigma: f64,
+    /// Initial σ of the heading (rad): 9D, from the first magnetometer sample.
+    pub initial_heading_sigma: f64,
+    /// σ of the bounded-velocity pseudo-measurement `v = 0` (m/s).
+    pub velocity_bound: f64,
+    /// Velocity random walk (m/s/√s): accelerometer noise and the drift the pseudo-measurement
+    /// forgives between updates.
+    pub velocity_walk: f64,
+    /// Time between bounded-velocity (and rest) updates (s).
+    pub velocity_interval: f64,
+    /// Largest time between covariance propagations (s).
+    pub block: f64,
+    /// How the covariance is propagated over a block.
+    pub propagation: Propagation,
+    /// Rest detection; `None` never detects rest.
+    pub rest: Option<RestParams>,
+    /// The magnetometer's use (9D only).
+    pub magnetometer: MagnetometerParams,
+}
+
+impl Default for AttitudeParams {
+    fn default() -> Self {
+        Self {
+            gyro_noise: 0.26f64.to_radians(),
+            rate_noise: 0.004,
+            bias_walk: 0.001f64.to_radians(),
+            estimate_bias: true,
+            initial_bias_sigma: 0.5f64.to_radians(),
+            initial_tilt_sigma: 10f64.to_radians(),
+            initial_heading_sigma: 10f64.to_radians(),
+            velocity_bound: 0.5,
+            velocity_walk: 0.3,
+            velocity_interval: 0.5,
+            block: 0.04,
+            propagation: Propagation::Ekf,
+            rest: Some(RestParams {
+                gyro_threshold: 2f64.to_radians(),
+                acc_threshold: 0.5,
+                min_duration: 1.5,
+                filter_tau: 0.5,
+                velocity_sigma: 0.02,
+                bias_sigma: 0.05f64.to_radians(),
+            }),
+            magnetometer: MagnetometerParams {
+                heading_sigma: 12f64.to_radians(),
+                offset: Some(FieldOffset {
+                    sigma: 4f64.to_radians(),
+                    correlation_time: 120.0,
+                }),
+                interval: 0.5,
+                delay: 0.012,
+                disturbance: Some(DisturbanceParams {
+                    norm_threshold: 0.1,
+                    dip_threshold: 10f64.to_radians(),
+                    nis_gate: 25.0,
+                    gate_time: 5.0,
+                    reference_tau: 20.0,
+                    new_field_time: 20.0,
+                    first_field_time: 5.0,
+                }),
+            },
+        }
+    }
+}
+
+impl AttitudeParams {
+    /// Checks every setting.
+    ///
+    /// # Errors
+    /// [`FilterError::Setting`] naming the first setting that is not finite and positive (the
+    /// magnetometer delay: in [0, 1] s).
+    pub fn validate(&self) -> Result<(), FilterError> {
+        let o = "AttitudeParams";
+        for (name, v) in [
+            ("gyro_noise", self.gyro_noise),
+            ("rate_noise", self.rate_noise),
+            ("bias_walk", self.bias_walk),
+            ("initial_bias_sigma", self.initial_bias_sigma),
+            ("initial_tilt_sigma", self.initial_tilt_sigma),
+            ("initial_heading_sigma", self.initial_heading_sigma),
+            ("velocity_bound", self.velocity_bound),
+            ("velocity_walk", self.velocity_walk),
+            ("velocity_interval", self.velocity_interval),
+            ("block", self.block),
+            (
+                "magnetometer.heading_sigma",
+                self.magnetometer.heading_sigma,
+            ),
+            ("magnetometer.interval", self.magnetometer.interval),
+        ] {
+            positive_setting(o, name, v)?;
+        }
+        if !(self.magnetometer.delay.is_finite() && (0.0..=1.0).contains(&self.magnetometer.delay))
+        {
+            return Err(FilterError::Setting {
+                origin: o,
+                setting: "magnetometer.delay",
+                value: self.magnetometer.delay.to_string(),
+                expected: "a delay in [0, 1] s",
+            });
+        }
+        if let Some(f) = &self.magnetometer.offset {
+            positive_setting(o, "magnetometer.offset.sigma", f.sigma)?;
+            positive_setting(
+                o,
+                "magnetometer.offset.correlation_time",
+                f.correlation_time,
+            )?;
+        }
+        if let Some(r) = &self.rest {
+            for (name, v) in [
+                ("rest.gyro_threshold", r.gyro_threshold),
+                ("rest.acc_threshold", r.acc_threshold),
+                ("rest.min_duration", r.min_duration),
+                ("rest.filter_tau", r.filter_tau),
+                ("rest.velocity_sigma", r.velocity_sigma),
+                ("rest.bias_sigma", r.bias_sigma),
+            ] {
+                positive_setting(o, name, v)?;
+            }
+        }
+        if let Some(d) = &self.magnetometer.disturbance {
+            for (name, v) in [
+                ("disturbance.norm_threshold", d.norm_threshold),
+                ("disturbance.dip_threshold", d.dip_threshold),
+                ("disturbance.nis_gate", d.nis_gate),
+                ("disturbance.gate_time", d.gate_time),
+                ("disturbance.reference_tau", d.reference_tau),
+                ("disturbance.new_field_time", d.new_field_time),
+                ("disturbance.first_field_time", d.first_field_time),
+            ] {
+                positive_setting(o, name, v)?;
+            }
+        }
+        Ok(())
+    }
+}

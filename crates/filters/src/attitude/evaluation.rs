@@ -1,0 +1,173 @@
+//! The BROAD evaluation as a library function: every method on every recorded log, scored by
+//! [`AttitudeScorer`] over the samples that count, per log and pooled ([`evaluate`]). The binary's
+//! table, the ablation example and the tests all come from it.
+
+use super::estimate::{AttitudeEstimate, AttitudeScorer};
+use super::method::Method;
+use super::metric::TrialErrors;
+use super::scenario::LogScenario;
+use crate::error::FilterError;
+use liebayes_experiments::{Recording, RunningStats, Scorer, record};
+use nalgebra::UnitQuaternion;
+
+/// A recorded log's run: the estimate after every sample, with its truth where it counts.
+pub type LogRecording = Recording<Option<UnitQuaternion<f64>>, AttitudeEstimate>;
+
+/// One method's scores over one log (or pooled over several): the statistics of each metric of
+/// [`AttitudeScorer`] over the samples that count, and the filter's time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogScore {
+    /// One per metric of [`AttitudeScorer`], in its order.
+    stats: Vec<RunningStats>,
+    /// Samples filtered.
+    pub samples: u64,
+    /// Filter time (s).
+    pub seconds: f64,
+}
+
+impl LogScore {
+    /// The scores of a recording.
+    pub fn of(recording: &LogRecording) -> Self {
+        let metrics = Scorer::<Option<UnitQuaternion<f64>>, AttitudeEstimate>::metrics(
+            &AttitudeScorer,
+        );
+        let mut stats = vec![RunningStats::new(); metrics.len()];
+        let mut values = vec![0.0; metrics.len()];
+        for step in &recording.steps {
+            if step.truth.is_none() {
+                continue;
+            }
+            AttitudeScorer.score(&step.truth, &step.estimate, &mut values);
+            for (s, v) in stats.iter_mut().zip(&values) {
+                s.add(*v);
+            }
+        }
+        Self {
+            stats,
+            samples: recording.len() as u64,
+            seconds: recording.seconds,
+        }
+    }
+
+    /// The statistics of metric `name` of [`AttitudeScorer`] over the scored samples.
+    pub fn stats(&self, name: &str) -> Option<&RunningStats> {
+        self.stats.get(AttitudeScorer::index(name)?)
+    }
+
+    /// BROAD's score: the RMSE (deg) of the total, heading and inclination errors over the scored
+    /// samples; `None` when no sample was scored.
+    pub fn errors(&self) -> Option<TrialErrors> {
+        let rmse = |name| self.stats(name)?.mean_square().map(f64::sqrt);
+        Some(TrialErrors {
+            total: rmse("total_error")?,
+            heading: rmse("heading_error")?,
+            inclination: rmse("tilt_error")?,
+            samples: usize::try_from(self.stats("total_error")?.count()).unwrap_or(usize::MAX),
+        })
+    }
+
+    /// The mean NEES of the heading (χ²(1): a consistent filter's mean is 1), the tilt (χ²(2):
+    /// mean 2) and the whole attitude error (χ²(3): mean 3) over the scored samples; `None` for a
+    /// filter without a covariance.
+    pub fn nees(&self) -> Option<[f64; 3]> {
+        let mean = |name| self.stats(name)?.mean();
+        Some([mean("heading_nees")?, mean("tilt_nees")?, mean("nees")?])
+    }
+
+    /// Samples per second of filter time.
+    pub fn throughput(&self) -> f64 {
+        self.samples as f64 / self.seconds
+    }
+
+    /// Adds another log's scores (pooling: statistics merged exactly, samples and time summed).
+    pub fn merge(&mut self, other: &LogScore) {
+        for (s, o) in self.stats.iter_mut().zip(&other.stats) {
+            s.merge(o);
+        }
+        self.samples += other.samples;
+        self.seconds += other.seconds;
+    }
+}
+
+/// Runs `method` over the log of `scenario` from its first sample (causally, one parameter set),
+/// keeping every estimate.
+///
+/// # Errors
+/// The method's settings ([`Method::build`]); [`FilterError::Step`] naming `name` and the sample
+/// where a step failed.
+pub fn run_log(
+    name: &str,
+    scenario: &LogScenario,
+    method: &Method,
+) -> Result<LogRecording, FilterError> {
+    let mut filter = method.build(scenario.log().rate())?;
+    record(&mut filter, scenario.steps()).map_err(|f| FilterError::step(name, f))
+}
+
+/// Every method on every log: `scores[trial][method]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Evaluation {
+    /// The logs' names, in order.
+    pub trials: Vec<String>,
+    /// The methods' labels, in order.
+    pub methods: Vec<String>,
+    /// `scores[i][j]`: method j on log i.
+    pub scores: Vec<Vec<LogScore>>,
+}
+
+impl Evaluation {
+    /// BROAD's mean over the logs of each log's RMSE (total, heading, inclination; deg) for method
+    /// `j`, `None` when a log had no scored sample.
+    pub fn mean_errors(&self, j: usize) -> Option<[f64; 3]> {
+        let mut sums = [0.0; 3];
+        for row in &self.scores {
+            let e = row.get(j)?.errors()?;
+            sums[0] += e.total;
+            sums[1] += e.heading;
+            sums[2] += e.inclination;
+        }
+        let n = self.scores.len() as f64;
+        Some(sums.map(|s| s / n))
+    }
+
+    /// Method `j`'s scores pooled over every log (its pooled NEES and total throughput).
+    pub fn pooled(&self, j: usize) -> Option<LogScore> {
+        let mut rows = self.scores.iter();
+        let mut pooled = rows.next()?.get(j)?.clone();
+        for row in rows {
+            pooled.merge(row.get(j)?);
+        }
+        Some(pooled)
+    }
+}
+
+/// Runs every method on every `(name, log)` ([`run_log`]), scores each run ([`LogScore`]) and
+/// hands each recording to `inspect` (to write its estimates or plot it; `|_, _, _| Ok(())` to
+/// keep nothing), so that no run is held longer than its scoring.
+///
+/// # Errors
+/// The first run's or `inspect`'s error.
+pub fn evaluate(
+    logs: &[(String, LogScenario)],
+    methods: &[Method],
+    inspect: &mut dyn FnMut(&str, &Method, &LogRecording) -> Result<(), FilterError>,
+) -> Result<Evaluation, FilterError> {
+    for method in methods {
+        method.validate()?;
+    }
+    let mut scores = Vec::with_capacity(logs.len());
+    for (name, scenario) in logs {
+        let mut row = Vec::with_capacity(methods.len());
+        for method in methods {
+            let recording = run_log(name, scenario, method)?;
+            row.push(LogScore::of(&recording));
+            inspect(name, method, &recording)?;
+        }
+        scores.push(row);
+    }
+    Ok(Evaluation {
+        trials: logs.iter().map(|(name, _)| name.clone()).collect(),
+        methods: methods.iter().map(Method::label).collect(),
+        scores,
+    })
+}

@@ -1,0 +1,189 @@
+//! The attitude filters by name: [`Method`] says which filter with which settings, and builds it
+//! as an [`AttitudeFilter`], one type that every attitude filter is stepped as.
+
+use super::ekf::{AttitudeEkf, AttitudeParams, Sensors};
+use super::estimate::{AttitudeEstimate, ImuSample};
+use super::madgwick::{BROAD_BETA, Madgwick};
+use super::talk::{TalkFilter, TalkParams};
+use crate::error::FilterError;
+use liebayes_experiments::{RecursiveFilter, Update};
+use liebayes_operators::OperatorError;
+use nalgebra::Vector3;
+
+/// An attitude filter with its settings.
+// The EKF's settings are the largest variant; a method is built once per run, not stepped.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq)]
+pub enum Method {
+    /// The production filter ([`AttitudeEkf`]).
+    Ekf {
+        /// Its parameters.
+        params: AttitudeParams,
+        /// Its sensors.
+        sensors: Sensors,
+    },
+    /// The talk's Bingham / heat-kernel filter ([`TalkFilter`]).
+    Talk {
+        /// Its parameters.
+        params: TalkParams,
+        /// Its sensors.
+        sensors: Sensors,
+    },
+    /// Madgwick's filter ([`Madgwick`]).
+    Madgwick {
+        /// Its gain β (rad/s).
+        beta: f64,
+        /// Its sensors.
+        sensors: Sensors,
+    },
+}
+
+/// The names [`Method::from_name`] accepts, in the order the reports list them.
+pub const METHOD_NAMES: [&str; 6] = [
+    "ekf-9d",
+    "ekf-6d",
+    "talk-9d",
+    "talk-6d",
+    "madgwick-9d",
+    "madgwick-6d",
+];
+
+impl Method {
+    /// The method of a name in [`METHOD_NAMES`] with its default settings (the EKF's
+    /// [`AttitudeParams::default`], the talk filter's [`TalkParams::default`], Madgwick's
+    /// [`BROAD_BETA`]).
+    ///
+    /// # Errors
+    /// [`FilterError::Setting`] for any other name, listing the accepted ones.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_filters::attitude::Method;
+    /// assert_eq!(Method::from_name("ekf-9d")?.label(), "EKF 9D");
+    /// assert!(Method::from_name("kalman").is_err());
+    /// # Ok::<(), liebayes_filters::FilterError>(())
+    /// ```
+    pub fn from_name(name: &str) -> Result<Self, FilterError> {
+        let sensors = |suffix: &str| match suffix {
+            "9d" => Some(Sensors::NineD),
+            "6d" => Some(Sensors::SixD),
+            _ => None,
+        };
+        let parsed = name.split_once('-').and_then(|(filter, suffix)| {
+            let sensors = sensors(suffix)?;
+            match filter {
+                "ekf" => Some(Method::Ekf {
+                    params: AttitudeParams::default(),
+                    sensors,
+                }),
+                "talk" => Some(Method::Talk {
+                    params: TalkParams::default(),
+                    sensors,
+                }),
+                "madgwick" => Some(Method::Madgwick {
+                    beta: BROAD_BETA,
+                    sensors,
+                }),
+                _ => None,
+            }
+        });
+        parsed.ok_or_else(|| FilterError::Setting {
+            origin: "attitude method",
+            setting: "name",
+            value: format!("{name:?}"),
+            expected: "one of ekf-9d, ekf-6d, talk-9d, talk-6d, madgwick-9d, madgwick-6d",
+        })
+    }
+
+    /// The sensors the method uses.
+    pub fn sensors(&self) -> Sensors {
+        match self {
+            Method::Ekf { sensors, .. }
+            | Method::Talk { sensors, .. }
+            | Method::Madgwick { sensors, .. } => *sensors,
+        }
+    }
+
+    /// A short label: `EKF 9D`, `talk filter 6D`, `Madgwick 9D`.
+    pub fn label(&self) -> String {
+        let name = match self {
+            Method::Ekf { .. } => "EKF",
+            Method::Talk { .. } => "talk filter",
+            Method::Madgwick { .. } => "Madgwick",
+        };
+        let sensors = match self.sensors() {
+            Sensors::NineD => "9D",
+            Sensors::SixD => "6D",
+        };
+        format!("{name} {sensors}")
+    }
+
+    /// Builds the filter for samples at `rate` Hz.
+    ///
+    /// # Errors
+    /// The filter's constructor's errors: a setting out of its range.
+    pub fn build(&self, rate: f64) -> Result<AttitudeFilter, FilterError> {
+        Ok(match self {
+            Method::Ekf { params, sensors } => {
+                AttitudeFilter::Ekf(AttitudeEkf::new(params.clone(), *sensors, rate)?)
+            }
+            Method::Talk { params, sensors } => {
+                AttitudeFilter::Talk(TalkFilter::new(params, *sensors, rate)?)
+            }
+            Method::Madgwick { beta, sensors } => {
+                AttitudeFilter::Madgwick(Madgwick::new(*beta, *sensors, rate)?)
+            }
+        })
+    }
+
+    /// Checks the settings (by building the filter at 100 Hz) before any run.
+    ///
+    /// # Errors
+    /// As [`build`](Self::build).
+    pub fn validate(&self) -> Result<(), FilterError> {
+        self.build(100.0).map(|_| ())
+    }
+}
+
+/// Any attitude filter, stepped through [`RecursiveFilter`] by dispatch to the one it holds.
+// Held inline: one filter per run, and no indirection in its per-sample steps.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+pub enum AttitudeFilter {
+    /// The production filter.
+    Ekf(AttitudeEkf),
+    /// The talk's filter.
+    Talk(TalkFilter),
+    /// Madgwick's filter.
+    Madgwick(Madgwick),
+}
+
+impl RecursiveFilter for AttitudeFilter {
+    type Input = ImuSample;
+    type Measurement = Vector3<f64>;
+    type Estimate = AttitudeEstimate;
+
+    fn predict(&mut self, input: &ImuSample) -> Result<(), OperatorError> {
+        match self {
+            AttitudeFilter::Ekf(f) => f.predict(input),
+            AttitudeFilter::Talk(f) => f.predict(input),
+            AttitudeFilter::Madgwick(f) => f.predict(input),
+        }
+    }
+
+    fn update(&mut self, z: &Vector3<f64>) -> Result<Update, OperatorError> {
+        match self {
+            AttitudeFilter::Ekf(f) => f.update(z),
+            AttitudeFilter::Talk(f) => f.update(z),
+            AttitudeFilter::Madgwick(f) => f.update(z),
+        }
+    }
+
+    fn estimate(&self) -> Result<AttitudeEstimate, OperatorError> {
+        match self {
+            AttitudeFilter::Ekf(f) => f.estimate(),
+            AttitudeFilter::Talk(f) => f.estimate(),
+            AttitudeFilter::Madgwick(f) => f.estimate(),
+        }
+    }
+}

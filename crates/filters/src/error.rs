@@ -1,0 +1,78 @@
+//! [`FilterError`]: what can go wrong in building or running an application's filter, with the
+//! lower crates' errors kept as its sources.
+
+use crate::attitude::DataError;
+use liebayes_densities::DensityError;
+use liebayes_experiments::RunFailure;
+use liebayes_operators::OperatorError;
+use thiserror::Error;
+
+/// The filters crate's error: a setting out of its range, bad data, or a step of a filter that
+/// failed (with the sample where it failed). The errors of the lower crates convert into it with
+/// `?` and stay reachable through [`std::error::Error::source`].
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum FilterError {
+    /// A setting of a filter or a scenario is outside its range.
+    #[error("{origin}: the setting `{setting}` is {value}, expected {expected}")]
+    Setting {
+        /// The settings' type or the constructor.
+        origin: &'static str,
+        /// The setting's name.
+        setting: &'static str,
+        /// Its value, as text.
+        value: String,
+        /// Its accepted range, in words.
+        expected: &'static str,
+    },
+    /// A log or a file that cannot be used.
+    #[error(transparent)]
+    Data(#[from] DataError),
+    /// An operator (a propagation or an update) refused its input or its result.
+    #[error(transparent)]
+    Operator(#[from] OperatorError),
+    /// A density outside its family's range.
+    #[error(transparent)]
+    Density(#[from] DensityError),
+    /// A run of a filter over a log stopped at a sample.
+    #[error("{origin}: sample {sample} (t = {time} s): {source}")]
+    Step {
+        /// The log (a file name or a trial).
+        origin: String,
+        /// The index of the sample.
+        sample: usize,
+        /// Its time (s).
+        time: f64,
+        /// The step's error.
+        source: OperatorError,
+    },
+}
+
+impl FilterError {
+    /// The failure of a run over the log `origin`.
+    pub fn step(origin: &str, failure: RunFailure) -> Self {
+        FilterError::Step {
+            origin: origin.to_owned(),
+            sample: failure.step,
+            time: failure.time,
+            source: failure.error,
+        }
+    }
+}
+
+/// `Ok` for a finite `value > 0`, else [`FilterError::Setting`].
+pub(crate) fn positive_setting(
+    origin: &'static str,
+    setting: &'static str,
+    value: f64,
+) -> Result<(), FilterError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(FilterError::Setting {
+            origin,
+            setting,
+            value: value.to_string(),
+            expected: "a finite positive number",
+        })
+    }
+}
