@@ -1,39 +1,33 @@
 //! `liebayes attitude`: IMU attitude estimation on BROAD trials (`--broad DIR`), on a simulated log
-//! (`--simulate`) or on a user's CSV log (`--csv FILE`): the liebayes EKF (9D and 6D), the talk's
-//! filter and Madgwick's, their errors, NEES and throughput, files written all or nothing.
+//! (`--simulate`, or a study of many with `--runs N`) or on a user's CSV log (`--csv FILE`). The
+//! runs and their scores come from the library ([`evaluate`], [`Study`]); this module parses,
+//! dispatches and renders the tables, plots and files (written all or nothing).
 
 use crate::output::{self, OutputArgs};
 use crate::report::{Table, emit, print};
 use crate::sheet::Sheet;
 use liebayes::experiments::{Shard, Study};
 use liebayes::filters::attitude::{
-    AttitudeEkf, AttitudeParams, AttitudeScorer, AttitudeTrack, BROAD_BETA, ImuLog, ImuScenario,
-    NeesSums, Sensors, SimulationSettings, TalkParams, per_sample_errors, read_broad, read_imu_csv,
-    run_attitude_ekf, run_madgwick, run_talk_filter, simulate, track_nees, trial_errors,
-    write_estimates_csv,
+    AttitudeEkf, AttitudeParams, AttitudeScorer, Evaluation, ImuScenario, LogRecording,
+    LogScenario, Method, Sensors, SimulationSettings, read_broad, read_imu_csv, run_log,
+    sample_errors, simulate, write_estimates_csv,
 };
+use liebayes::filters::{FilterError, attitude::evaluate};
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-/// The methods compared, in table order.
-pub const METHODS: [&str; 4] = [
-    "liebayes EKF 9D",
-    "liebayes EKF 6D",
-    "talk filter 9D",
-    "Madgwick",
-];
+/// The methods compared when none is named, in table order.
+const DEFAULT_METHODS: [&str; 4] = ["ekf-9d", "ekf-6d", "talk-9d", "madgwick-9d"];
+
+/// The methods of the main job's BROAD run: the talk filter (about 130 µs per sample) runs there on
+/// the simulated log only.
+const MAIN_JOB_BROAD_METHODS: [&str; 3] = ["ekf-9d", "ekf-6d", "madgwick-9d"];
 
 /// VQF's published mean errors on BROAD's twelve undisturbed/disturbed trials (BROAD's README):
 /// (label, total, heading, inclination) in degrees.
 const VQF_PUBLISHED: [(&str, f64, f64, f64); 2] = [
-    ("VQF 9D default (published, not run here)", 2.76, 2.61, 0.70),
-    (
-        "VQF 9D tauAcc=3 tauMag=20 (published, not run here)",
-        2.44,
-        2.27,
-        0.70,
-    ),
+    ("VQF 9D default", 2.76, 2.61, 0.70),
+    ("VQF 9D tauAcc=3 tauMag=20", 2.44, 2.27, 0.70),
 ];
 
 /// `liebayes attitude`: exactly one of --broad, --simulate, --csv.
@@ -50,6 +44,10 @@ pub struct Args {
     /// magnetometer).
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
+    /// A method to run (repeat for several; default ekf-9d, ekf-6d, talk-9d, madgwick-9d): one of
+    /// ekf-9d, ekf-6d, talk-9d, talk-6d, madgwick-9d, madgwick-6d.
+    #[arg(long = "method", value_name = "NAME", value_parser = parse_method)]
+    pub methods: Vec<Method>,
     /// The simulation's seed.
     #[arg(long, default_value_t = 1, requires = "simulate")]
     pub seed: u64,
@@ -67,21 +65,31 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
+/// A method by name ([`METHOD_NAMES`]).
+fn parse_method(name: &str) -> Result<Method, String> {
+    Method::from_name(name).map_err(|e| e.to_string())
+}
+
+/// The named methods, or `names` when none was given.
+fn methods_or(given: &[Method], names: &[&str]) -> Result<Vec<Method>, String> {
+    if !given.is_empty() {
+        return Ok(given.to_vec());
+    }
+    names.iter().map(|n| parse_method(n)).collect()
+}
+
 /// Runs `liebayes attitude`.
 ///
 /// # Errors
 /// Bad input (missing folder, no trial, malformed file), a failed filter, or a file that cannot be
 /// written; nothing is written then.
 pub fn run(args: &Args) -> Result<(), String> {
+    let mut output = output::prepare(&whole(args.out.clone()))?;
     if let Some(dir) = &args.broad {
-        let trials = broad_trials(dir)?;
-        let mut output = output::prepare(&whole(args.out.clone()))?;
-        broad(&trials, true, &mut output)?;
-        output.finish()
+        let methods = methods_or(&args.methods, &DEFAULT_METHODS)?;
+        broad(&broad_trials(dir)?, &methods, &mut output)?;
     } else if let Some(file) = &args.csv {
-        let mut output = output::prepare(&whole(args.out.clone()))?;
         csv(file, &mut output)?;
-        output.finish()
     } else {
         let mut settings = SimulationSettings::default();
         if let Some(n) = args.samples {
@@ -90,15 +98,14 @@ pub fn run(args: &Args) -> Result<(), String> {
             }
             settings.samples = n;
         }
-        let output = output::prepare(&whole(args.out.clone()))?;
         if let Some(runs) = args.runs {
             let table = study(&settings, runs, args.seed)?;
             return emit(&[table], &whole(args.out.clone()), output);
         }
-        let mut output = output;
-        simulated(&settings, args.seed, &mut output)?;
-        output.finish()
+        let methods = methods_or(&args.methods, &DEFAULT_METHODS)?;
+        simulated(&settings, args.seed, &methods, &mut output)?;
     }
+    output.finish()
 }
 
 /// Samples between magnetometer readings in the study (a magnetometer at a tenth of the
@@ -144,32 +151,36 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, S
     })
 }
 
-/// The main job's attitude part: the simulated log, a study of simulated runs, and BROAD's trials
-/// when the BROAD folder beside the project (or `$LIEBAYES_BROAD_DIR`) holds any (the talk filter,
-/// ~130 µs per sample, runs on the simulated log only), files in `out`.
+/// The main job's attitude part: every method on a simulated log, a study of simulated runs, and
+/// the BROAD trials: the two shipped with the repository, or the folder `$LIEBAYES_BROAD_DIR`
+/// names; files in `out`.
 ///
 /// # Errors
 /// As [`run`].
 pub fn main_job(out: &Path) -> Result<(), String> {
     let mut output = output::prepare(&whole(Some(out.to_path_buf())))?;
-    simulated(&SimulationSettings::default(), 1, &mut output)?;
+    let methods = methods_or(&[], &DEFAULT_METHODS)?;
+    simulated(&SimulationSettings::default(), 1, &methods, &mut output)?;
     let table = study(&SimulationSettings::default(), MAIN_JOB_STUDY_RUNS, 1)?;
     emit(
         &[table],
         &whole(Some(out.to_path_buf())),
         output::prepare(&whole(Some(out.to_path_buf())))?,
     )?;
-    let dir = std::env::var_os("LIEBAYES_BROAD_DIR")
-        .map_or_else(|| PathBuf::from("../shared/broad"), PathBuf::from);
-    match broad_trials(&dir) {
-        Ok(trials) => {
-            print(
-                "\nBROAD: the talk filter runs on the simulated log only in the main job (~130 us per sample); `liebayes attitude --broad DIR` runs it on every trial.",
-            );
-            broad(&trials, false, &mut output)?;
-        }
-        Err(why) => print(&format!("\nBROAD skipped: {why}")),
-    }
+    let dir = std::env::var_os("LIEBAYES_BROAD_DIR").map_or_else(
+        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/broad"),
+        PathBuf::from,
+    );
+    print(&format!(
+        "\nBROAD trials in {} (the talk filter, about 130 us per sample, runs on the simulated log \
+         only here; `liebayes attitude --broad DIR` runs every method):",
+        dir.display()
+    ));
+    broad(
+        &broad_trials(&dir)?,
+        &methods_or(&[], &MAIN_JOB_BROAD_METHODS)?,
+        &mut output,
+    )?;
     output.finish()
 }
 
@@ -192,164 +203,143 @@ fn broad_trials(dir: &Path) -> Result<Vec<PathBuf>, String> {
     Ok(trials)
 }
 
-/// One method's runs, accumulated over the logs.
-#[derive(Default)]
-struct Tally {
-    samples: usize,
-    seconds: f64,
-    /// The pooled NEES, for a method that reports σ.
-    nees: Option<NeesSums>,
-    errors: Vec<[f64; 3]>,
+/// The file-name slug of a method: its name, `ekf-9d`.
+fn slug(method: &Method) -> String {
+    method.label().to_lowercase().replace(' ', "-")
 }
 
-/// Runs `method` on `log`, timed (the run call only).
-fn run_method(method: &str, log: &ImuLog) -> Result<(AttitudeTrack, f64), String> {
-    let start = Instant::now();
-    let track = match method {
-        "liebayes EKF 9D" => run_attitude_ekf(log, &AttitudeParams::default(), Sensors::NineD),
-        "liebayes EKF 6D" => run_attitude_ekf(log, &AttitudeParams::default(), Sensors::SixD),
-        "talk filter 9D" => run_talk_filter(log, &TalkParams::default()).map(|r| r.track()),
-        _ => run_madgwick(log, BROAD_BETA).map(AttitudeTrack::without_sigma),
-    }
-    .map_err(|e| format!("{method}: {e}"))?;
-    Ok((track, start.elapsed().as_secs_f64()))
-}
-
-/// The file-name slug of a method: `liebayes-ekf-9d`.
-fn slug(method: &str) -> String {
-    method.to_lowercase().replace(' ', "-")
-}
-
-/// Scores a track: the errors (deg), the NEES sums, the SVG for the EKF 9D.
-fn score(
-    tally: &mut Tally,
-    track: &AttitudeTrack,
-    log: &ImuLog,
-) -> Result<Vec<Option<(f64, f64)>>, String> {
-    let e = trial_errors(&track.orientations, log).map_err(|e| e.to_string())?;
-    tally.errors.push([e.total, e.heading, e.inclination]);
-    let per = per_sample_errors(&track.orientations, log).map_err(|e| e.to_string())?;
-    let movement = log.movement();
-    let scored: Vec<Option<(f64, f64)>> = per
-        .iter()
-        .enumerate()
-        .map(|(k, s)| {
-            s.filter(|_| movement.is_none_or(|m| m[k]))
-                .map(|s| (s.heading, s.inclination))
-        })
-        .collect();
-    if let Some(n) = track_nees(track, log).map_err(|e| e.to_string())? {
-        tally.nees.get_or_insert_with(NeesSums::default).add(&n);
-    }
-    Ok(scored)
-}
-
-/// Runs every method on every `(name, log)`, prints the tables and writes the files; returns the
-/// tallies.
+/// Runs every method on every log, writing each run's estimates (and, for the first method, its
+/// error plot) when there is an output folder; prints the tables.
 fn compare(
-    logs: &[(String, ImuLog)],
-    methods: &[&str],
+    logs: &[(String, LogScenario)],
+    methods: &[Method],
     title: &str,
     output: &mut output::Output,
-) -> Result<Vec<Tally>, String> {
-    let mut tallies: Vec<Tally> = methods.iter().map(|_| Tally::default()).collect();
-    for (name, log) in logs {
-        let times: Vec<f64> = (0..log.len()).map(|k| k as f64 * log.interval()).collect();
-        for (m, method) in methods.iter().enumerate() {
-            let (track, seconds) = run_method(method, log)?;
-            let tally = &mut tallies[m];
-            tally.samples += log.len();
-            tally.seconds += seconds;
-            let scored = score(tally, &track, log).map_err(|e| format!("{name}, {method}: {e}"))?;
-            if output.dir().is_some() {
-                let mut bytes = Vec::new();
-                write_estimates_csv(&mut bytes, &times, &track.orientations, name)
-                    .map_err(|e| e.to_string())?;
-                output.write(&format!("{name}.{}.csv", slug(method)), &bytes)?;
-                if m == 0 {
-                    let svg = errors_svg(name, &times, &scored, &track)?;
-                    output.write(&format!("{name}.errors.svg"), svg.as_bytes())?;
-                }
+) -> Result<Evaluation, String> {
+    let writing = output.dir().is_some();
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    let evaluation = evaluate(logs, methods, &mut |name, method, recording| {
+        if writing {
+            let (times, orientations): (Vec<f64>, Vec<_>) = recording
+                .steps
+                .iter()
+                .map(|s| (s.time, s.estimate.orientation))
+                .unzip();
+            let mut bytes = Vec::new();
+            write_estimates_csv(&mut bytes, &times, &orientations, name)?;
+            files.push((format!("{name}.{}.csv", slug(method)), bytes));
+            if *method == methods[0] {
+                let svg = errors_svg(name, &method.label(), recording).map_err(|message| {
+                    FilterError::Setting {
+                        origin: "error plot",
+                        setting: "svg",
+                        value: message,
+                        expected: "a plot that renders",
+                    }
+                })?;
+                files.push((format!("{name}.errors.svg"), svg.into_bytes()));
             }
         }
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
+    for (name, bytes) in files {
+        output.write(&name, &bytes)?;
     }
+    print_tables(&evaluation, title);
+    Ok(evaluation)
+}
+
+/// The RMSE table (per log, and the mean over logs) and the NEES and throughput table.
+fn print_tables(evaluation: &Evaluation, title: &str) {
     let mut header = vec!["trial".to_owned()];
-    for method in methods {
-        header.push(format!("{method} total"));
-        header.push("heading".to_owned());
-        header.push("incl.".to_owned());
+    for method in &evaluation.methods {
+        header.extend([format!("{method} total"), "heading".into(), "incl.".into()]);
     }
-    let mut rows: Vec<Vec<String>> = logs
-        .iter()
-        .enumerate()
-        .map(|(i, (name, _))| {
-            std::iter::once(name.clone())
-                .chain(
-                    tallies
-                        .iter()
-                        .flat_map(|t| t.errors[i].map(|v| format!("{v:.2}"))),
-                )
-                .collect()
-        })
-        .collect();
-    if logs.len() > 1 {
+    let cell = |e: Option<[f64; 3]>| {
+        e.map_or_else(
+            || ["-".into(), "-".into(), "-".into()],
+            |e| e.map(|v| format!("{v:.2}")),
+        )
+    };
+    let mut rows: Vec<Vec<String>> =
+        evaluation
+            .trials
+            .iter()
+            .zip(&evaluation.scores)
+            .map(|(name, row)| {
+                std::iter::once(name.clone())
+                    .chain(row.iter().flat_map(|s| {
+                        cell(s.errors().map(|e| [e.total, e.heading, e.inclination]))
+                    }))
+                    .collect()
+            })
+            .collect();
+    if evaluation.trials.len() > 1 {
         rows.push(
             std::iter::once("mean".to_owned())
-                .chain(tallies.iter().flat_map(|t| {
-                    (0..3).map(|j| {
-                        let s: f64 = t.errors.iter().map(|e| e[j]).sum();
-                        format!("{:.2}", s / t.errors.len() as f64)
-                    })
-                }))
+                .chain((0..evaluation.methods.len()).flat_map(|j| cell(evaluation.mean_errors(j))))
                 .collect(),
         );
     }
     print(
         &Sheet {
             name: String::new(),
-            title: format!("{title}: RMSE (deg) total / heading / inclination"),
+            title: format!(
+                "{title}: RMSE (deg) of the total / heading / inclination error over the samples \
+                 that count (BROAD's metric)"
+            ),
             header,
             rows,
         }
         .render(),
     );
-    let rows = methods
+    let rows = evaluation
+        .methods
         .iter()
-        .zip(&tallies)
-        .map(|(method, t)| {
-            let nees = |mean: fn(&NeesSums) -> f64| {
-                t.nees
-                    .as_ref()
-                    .map_or_else(|| "-".into(), |n| format!("{:.2}", mean(n)))
-            };
-            vec![
-                (*method).to_owned(),
-                nees(NeesSums::heading_mean),
-                nees(NeesSums::tilt_mean),
-                format!("{:.0}", t.samples as f64 / t.seconds),
-            ]
+        .enumerate()
+        .filter_map(|(j, method)| {
+            let pooled = evaluation.pooled(j)?;
+            let nees = pooled.nees();
+            let show = |i: usize| nees.map_or_else(|| "-".into(), |n| format!("{:.2}", n[i]));
+            Some(vec![
+                method.clone(),
+                show(0),
+                show(1),
+                show(2),
+                format!("{:.0}", pooled.throughput()),
+            ])
         })
         .collect();
     print(
         &Sheet {
             name: String::new(),
             title: format!(
-                "{title}: NEES over scored samples (heading mean (e_h/sigma_h)^2, tilt mean \
-                 (e_t/sigma_t)^2 with sigma_t^2 = Sxx + Syy; expected 1, values > 1 = \
-                 over-confident) and throughput"
+                "{title}: the reported uncertainty (NEES pooled over the samples that count) and \
+                 the speed"
             ),
-            header: ["method", "heading NEES", "tilt NEES", "samples/s"]
+            header: ["method", "heading NEES", "tilt NEES", "NEES", "samples/s"]
                 .map(String::from)
                 .to_vec(),
             rows,
         }
         .render(),
     );
-    Ok(tallies)
+    print(
+        "NEES: the squared error over the filter's own variance, chi-square with 1 (heading), 2 \
+         (tilt) and 3 (whole attitude) degrees of freedom: a consistent filter's means are 1, 2 \
+         and 3; above, it is over-confident; below, cautious. '-': the filter reports no \
+         uncertainty. Consecutive samples are correlated, so a log's mean wanders further from \
+         these values than independent samples would.",
+    );
 }
 
-/// `--broad`: every trial, the table with VQF's published row, and `broad.summary.json`.
-fn broad(trials: &[PathBuf], talk: bool, output: &mut output::Output) -> Result<(), String> {
+/// `--broad`: every trial, the tables with VQF's published row, and `broad.summary.json`.
+fn broad(
+    trials: &[PathBuf],
+    methods: &[Method],
+    output: &mut output::Output,
+) -> Result<(), String> {
     let mut logs = Vec::with_capacity(trials.len());
     for path in trials {
         let log = read_broad(path).map_err(|e| e.to_string())?;
@@ -358,91 +348,81 @@ fn broad(trials: &[PathBuf], talk: bool, output: &mut output::Output) -> Result<
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
         output::check_name(&name)?;
-        logs.push((name, log));
+        logs.push((name, LogScenario::new(log).map_err(|e| e.to_string())?));
     }
-    let methods: Vec<&str> = METHODS
-        .iter()
-        .copied()
-        .filter(|m| talk || *m != "talk filter 9D")
-        .collect();
-    let tallies = compare(&logs, &methods, "BROAD", output)?;
+    let evaluation = compare(&logs, methods, "BROAD", output)?;
+    print(
+        "VQF's published means over BROAD's twelve trials (not run here; total / heading / inclination):",
+    );
     for (label, total, heading, inclination) in VQF_PUBLISHED {
         print(&format!(
-            "{label}: mean {total:.2} / {heading:.2} / {inclination:.2} deg"
+            "  {label}: {total:.2} / {heading:.2} / {inclination:.2} deg"
         ));
     }
     if output.dir().is_some() {
-        let mut errors_of = Vec::new();
-        for (i, (name, _)) in logs.iter().enumerate() {
-            let errors: serde_json::Map<String, serde_json::Value> = methods
-                .iter()
-                .zip(&tallies)
-                .map(|(m, t)| ((*m).to_owned(), serde_json::json!(t.errors[i])))
-                .collect();
-            errors_of.push(serde_json::json!({"trial": name, "errors": errors}));
-        }
-        let throughput: serde_json::Map<String, serde_json::Value> = methods
-            .iter()
-            .zip(&tallies)
-            .map(|(m, t)| {
-                (
-                    (*m).to_owned(),
-                    serde_json::json!(t.samples as f64 / t.seconds),
-                )
-            })
-            .collect();
-        let nees: serde_json::Map<String, serde_json::Value> = methods
-            .iter()
-            .zip(&tallies)
-            .filter_map(|(m, t)| {
-                t.nees.map(|n| {
-                    (
-                        (*m).to_owned(),
-                        serde_json::json!([n.heading_mean(), n.tilt_mean()]),
-                    )
-                })
-            })
-            .collect();
-        let summary = serde_json::json!({
-            "methods": methods,
-            "trials": errors_of,
-            "throughput": throughput,
-            "nees": nees,
-        });
-        let text = serde_json::to_string_pretty(&summary).map_err(|e| e.to_string())?;
+        let text =
+            serde_json::to_string_pretty(&summary_json(&evaluation)).map_err(|e| e.to_string())?;
         output.write("broad.summary.json", text.as_bytes())?;
     }
     Ok(())
 }
 
-/// `--simulate`: every method on one simulated log, with the NEES bands.
+/// The evaluation as JSON: per trial each method's RMSE, per method its pooled NEES (heading,
+/// tilt, whole) and throughput.
+fn summary_json(evaluation: &Evaluation) -> serde_json::Value {
+    let trials: Vec<serde_json::Value> = evaluation
+        .trials
+        .iter()
+        .zip(&evaluation.scores)
+        .map(|(name, row)| {
+            let errors: serde_json::Map<String, serde_json::Value> = evaluation
+                .methods
+                .iter()
+                .zip(row)
+                .map(|(m, s)| {
+                    let e = s.errors().map(|e| [e.total, e.heading, e.inclination]);
+                    (m.clone(), serde_json::json!(e))
+                })
+                .collect();
+            serde_json::json!({"trial": name, "errors": errors})
+        })
+        .collect();
+    let per_method =
+        |f: &dyn Fn(usize) -> serde_json::Value| -> serde_json::Map<String, serde_json::Value> {
+            evaluation
+                .methods
+                .iter()
+                .enumerate()
+                .map(|(j, m)| (m.clone(), f(j)))
+                .collect()
+        };
+    serde_json::json!({
+        "methods": evaluation.methods,
+        "trials": trials,
+        "nees": per_method(&|j| serde_json::json!(evaluation.pooled(j).and_then(|p| p.nees()))),
+        "throughput": per_method(&|j| serde_json::json!(evaluation.pooled(j).map(|p| p.throughput()))),
+    })
+}
+
+/// `--simulate`: every method on one simulated log.
 fn simulated(
     settings: &SimulationSettings,
     seed: u64,
+    methods: &[Method],
     output: &mut output::Output,
 ) -> Result<(), String> {
     let log = simulate(settings, seed).map_err(|e| format!("--simulate: {e}"))?;
     let n = log.len();
-    let logs = vec![(format!("simulated_seed{seed}"), log)];
+    let logs = vec![(
+        format!("simulated_seed{seed}"),
+        LogScenario::new(log).map_err(|e| e.to_string())?,
+    )];
     compare(
         &logs,
-        &METHODS,
+        methods,
         &format!("Simulated log ({n} samples, seed {seed})"),
         output,
     )?;
-    // Heading NEES: chi-square with 1 degree of freedom per sample; tilt: 2 (two components over
-    // Sxx + Syy, so the mean of n samples is chi2(2n)/(2n)).
-    let band = |dof: f64| {
-        let total = dof * n as f64;
-        let half = 1.96 * (2.0 * total).sqrt() / total;
-        (1.0 - half, 1.0 + half)
-    };
-    let (h0, h1) = band(1.0);
-    let (t0, t1) = band(2.0);
-    print(&format!(
-        "NEES 95 % band for the mean of {n} independent samples: heading [{h0:.3}, {h1:.3}], \
-         tilt [{t0:.3}, {t1:.3}]; consecutive samples are correlated, so the true band is wider."
-    ));
     Ok(())
 }
 
@@ -451,69 +431,64 @@ fn csv(file: &Path, output: &mut output::Output) -> Result<(), String> {
     let origin = file.display().to_string();
     let reader = std::fs::File::open(file).map_err(|e| format!("{origin}: {e}"))?;
     let log = read_imu_csv(std::io::BufReader::new(reader), &origin).map_err(|e| e.to_string())?;
-    let (sensors, method) = if log.magnetometer().is_some() {
-        (Sensors::NineD, "liebayes EKF 9D")
+    let name = if log.magnetometer().is_some() {
+        "ekf-9d"
     } else {
-        (Sensors::SixD, "liebayes EKF 6D")
+        "ekf-6d"
     };
-    let track = run_attitude_ekf(&log, &AttitudeParams::default(), sensors)
-        .map_err(|e| format!("{method}: {e}"))?;
-    print(&format!("{method} on {origin}: {} samples", log.len()));
-    if log.reference().is_some() {
-        let e = trial_errors(&track.orientations, &log).map_err(|e| e.to_string())?;
+    let method = parse_method(name)?;
+    let n = log.len();
+    let scenario = LogScenario::new(log).map_err(|e| e.to_string())?;
+    let recording = run_log(&origin, &scenario, &method).map_err(|e| e.to_string())?;
+    print(&format!("{} on {origin}: {n} samples", method.label()));
+    if let Some(e) = liebayes::filters::attitude::LogScore::of(&recording).errors() {
         print(&format!(
             "RMSE (deg): total {:.2}, heading {:.2}, inclination {:.2}",
             e.total, e.heading, e.inclination
         ));
     }
     if output.dir().is_some() {
-        let times: Vec<f64> = (0..log.len()).map(|k| k as f64 * log.interval()).collect();
+        let (times, orientations): (Vec<f64>, Vec<_>) = recording
+            .steps
+            .iter()
+            .map(|s| (s.time, s.estimate.orientation))
+            .unzip();
         let mut bytes = Vec::new();
-        write_estimates_csv(&mut bytes, &times, &track.orientations, &origin)
+        write_estimates_csv(&mut bytes, &times, &orientations, &origin)
             .map_err(|e| e.to_string())?;
         let stem = file
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
-        output.write(&format!("{stem}.{}.csv", slug(method)), &bytes)?;
+        output.write(&format!("{stem}.{}.csv", slug(&method)), &bytes)?;
     }
     Ok(())
 }
 
-/// The SVG of the EKF 9D's heading and inclination errors over time (deg) with its ±2σ band.
-fn errors_svg(
-    name: &str,
-    times: &[f64],
-    scored: &[Option<(f64, f64)>],
-    track: &AttitudeTrack,
-) -> Result<String, String> {
+/// The SVG of a run's heading and inclination errors over time (deg) with its ±2σ band where the
+/// filter reports one, over the samples that count.
+fn errors_svg(name: &str, label: &str, recording: &LogRecording) -> Result<String, String> {
     let err = |e: DrawingAreaErrorKind<_>| e.to_string();
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (1000, 700)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
         let panels = root.split_evenly((2, 1));
-        let t_end = times.last().copied().unwrap_or(1.0).max(1e-9);
-        for (i, (panel, (label, sigma))) in panels
-            .iter()
-            .zip([
-                ("heading", track.heading_sigma.as_ref()),
-                ("inclination", track.tilt_sigma.as_ref()),
-            ])
-            .enumerate()
-        {
-            let errors: Vec<(f64, f64)> = times
-                .iter()
-                .zip(scored)
-                .filter_map(|(t, s)| s.map(|s| (*t, if i == 0 { s.0 } else { s.1 }.to_degrees())))
-                .collect();
-            let band: Vec<(f64, f64)> = sigma.map_or_else(Vec::new, |s| {
-                times
-                    .iter()
-                    .zip(s)
-                    .map(|(t, s)| (*t, 2.0 * s.to_degrees()))
-                    .collect()
-            });
+        let t_end = recording.steps.last().map_or(1.0, |s| s.time).max(1e-9);
+        for (i, (panel, axis)) in panels.iter().zip(["heading", "inclination"]).enumerate() {
+            let mut errors = Vec::new();
+            let mut band = Vec::new();
+            for step in &recording.steps {
+                let Some(truth) = &step.truth else { continue };
+                let e = sample_errors(&step.estimate.orientation, truth);
+                errors.push((
+                    step.time,
+                    if i == 0 { e.heading } else { e.inclination }.to_degrees(),
+                ));
+                if let Some((h, t)) = step.estimate.sigmas() {
+                    band.push((step.time, 2.0 * if i == 0 { h } else { t }.to_degrees()));
+                }
+            }
             let top = errors
                 .iter()
                 .chain(&band)
@@ -521,10 +496,7 @@ fn errors_svg(
                 .fold(1.0_f64, f64::max)
                 .min(180.0);
             let mut chart = ChartBuilder::on(panel)
-                .caption(
-                    format!("{name}: liebayes EKF 9D {label} error"),
-                    ("sans-serif", 16),
-                )
+                .caption(format!("{name}: {label} {axis} error"), ("sans-serif", 16))
                 .margin(10)
                 .x_label_area_size(30)
                 .y_label_area_size(50)
@@ -533,7 +505,7 @@ fn errors_svg(
             chart
                 .configure_mesh()
                 .x_desc("t (s)")
-                .y_desc(format!("{label} error (deg)"))
+                .y_desc(format!("{axis} error (deg)"))
                 .draw()
                 .map_err(err)?;
             chart
@@ -562,5 +534,19 @@ fn whole(out: Option<PathBuf>) -> OutputArgs {
     OutputArgs {
         out,
         shard: Shard::WHOLE,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use liebayes::filters::attitude::METHOD_NAMES;
+
+    #[test]
+    fn every_listed_method_name_parses_and_others_do_not() {
+        for name in METHOD_NAMES {
+            assert!(parse_method(name).is_ok(), "{name}");
+        }
+        assert!(parse_method("vqf").unwrap_err().contains("ekf-9d"));
     }
 }

@@ -432,7 +432,7 @@ fn attitude_simulate_writes_its_files_and_prints_the_table() {
         "{names:?}"
     );
     assert!(
-        names.contains(&"simulated_seed1.liebayes-ekf-9d.csv".to_owned()),
+        names.contains(&"simulated_seed1.ekf-9d.csv".to_owned()),
         "{names:?}"
     );
     let _ = std::fs::remove_dir_all(&dir);
@@ -478,8 +478,8 @@ fn write_imu_csv(path: &Path, log: &liebayes::filters::attitude::ImuLog) {
 #[test]
 fn attitude_csv_round_trip() {
     use liebayes::filters::attitude::{
-        AttitudeParams, ImuLog, Sensors, SimulationSettings, read_estimates_csv, read_imu_csv,
-        run_attitude_ekf, simulate,
+        ImuLog, LogScenario, Method, SimulationSettings, read_estimates_csv, read_imu_csv, run_log,
+        simulate,
     };
     let dir = folder("attitude-csv");
     let settings = SimulationSettings {
@@ -494,10 +494,7 @@ fn attitude_csv_round_trip() {
         None,
     )
     .unwrap();
-    for (stem, log, sensors, method) in [
-        ("nine", &simulated, Sensors::NineD, "liebayes-ekf-9d"),
-        ("six", &six, Sensors::SixD, "liebayes-ekf-6d"),
-    ] {
+    for (stem, log, method) in [("nine", &simulated, "ekf-9d"), ("six", &six, "ekf-6d")] {
         let input = dir.join(format!("{stem}.csv"));
         write_imu_csv(&input, log);
         let out_dir = dir.join(format!("{stem}-out"));
@@ -518,9 +515,11 @@ fn attitude_csv_round_trip() {
         let written =
             read_estimates_csv(read(&out_dir.join(format!("{stem}.{method}.csv"))), "out").unwrap();
         let log = read_imu_csv(read(&input), "in").unwrap();
-        let expected = run_attitude_ekf(&log, &AttitudeParams::default(), sensors).unwrap();
+        let scenario = LogScenario::new(log).unwrap();
+        let expected = run_log("in", &scenario, &Method::from_name(method).unwrap()).unwrap();
         assert_eq!(written.orientations.len(), 600);
-        for (w, e) in written.orientations.iter().zip(&expected.orientations) {
+        for (w, e) in written.orientations.iter().zip(&expected.steps) {
+            let e = e.estimate.orientation;
             assert!(
                 w.coords == e.coords || w.coords == -e.coords,
                 "{w:?} vs {e:?}"
@@ -551,14 +550,12 @@ fn attitude_csv_round_trip() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `--broad` on a folder of one trial (skipped without the data): the per-trial table with every
-/// method, the NEES table, and per method an estimates CSV, the error plot and the summary.
+/// `--broad` on a folder of one shipped trial: the per-trial table with every method, the NEES
+/// table, and per method an estimates CSV, the error plot and the summary.
 #[test]
 fn attitude_broad_one_trial() {
-    let Some(data) = liebayes_reference::broad::data_dir() else {
-        return;
-    };
-    let trial = liebayes_reference::broad::TRIALS[0];
+    let data = liebayes_reference::broad::shipped_dir();
+    let trial = liebayes_reference::broad::SHIPPED[1];
     let dir = folder("attitude-broad");
     let input = dir.join("in");
     std::fs::create_dir_all(&input).unwrap();
@@ -569,27 +566,22 @@ fn attitude_broad_one_trial() {
         "attitude",
         "--broad",
         input.to_str().unwrap(),
+        "--method",
+        "ekf-9d",
+        "--method",
+        "ekf-6d",
+        "--method",
+        "madgwick-9d",
         "--out",
         out_dir.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let printed = text(&out.stdout);
-    for needle in [
-        trial,
-        "liebayes EKF 9D",
-        "talk filter 9D",
-        "Madgwick",
-        "heading NEES",
-    ] {
+    for needle in [trial, "EKF 9D", "EKF 6D", "Madgwick 9D", "heading NEES"] {
         assert!(printed.contains(needle), "{needle}: {printed}");
     }
     let names = files(&out_dir);
-    for method in [
-        "liebayes-ekf-9d",
-        "liebayes-ekf-6d",
-        "talk-filter-9d",
-        "madgwick",
-    ] {
+    for method in ["ekf-9d", "ekf-6d", "madgwick-9d"] {
         assert!(
             names.contains(&format!("{trial}.{method}.csv")),
             "{names:?}"
@@ -604,6 +596,18 @@ fn attitude_broad_one_trial() {
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("broad.summary.json")).unwrap())
             .unwrap();
-    assert!(summary["nees"]["liebayes EKF 9D"].is_array(), "{summary}");
+    assert!(summary["nees"]["EKF 9D"].is_array(), "{summary}");
+    assert!(summary["nees"]["Madgwick 9D"].is_null(), "{summary}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn attitude_unknown_method_is_refused() {
+    let out = liebayes(&["attitude", "--simulate", "--method", "vqf"]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.contains("vqf") && stderr.contains("ekf-9d") && stderr.trim().lines().count() == 1,
+        "{stderr}"
+    );
 }

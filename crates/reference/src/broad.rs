@@ -1,10 +1,14 @@
-//! Where the test suites find the BROAD recordings (real IMU data with optical ground truth), which
-//! do not ship with the repository: `$LIEBAYES_BROAD_DIR` when set, else `shared/broad` beside the
-//! workspace. Tests that need them skip, saying so, where they are absent.
+//! Where the test suites find the BROAD recordings (real IMU data with optical ground truth): two
+//! trials ship with the repository in `data/broad/` ([`SHIPPED`], [`shipped_dir`]), so every
+//! checkout runs the real-data tests on them; the twelve trials the project's figures are measured
+//! on ([`TRIALS`]) are read from `$LIEBAYES_BROAD_DIR` when it is set ([`data_dir`]).
 
 use std::path::PathBuf;
 
-/// The twelve BROAD trials the suites use, by file stem.
+/// The environment variable naming a folder with the twelve trials of [`TRIALS`].
+pub const VARIABLE: &str = "LIEBAYES_BROAD_DIR";
+
+/// The twelve BROAD trials of the project's figures, by file stem.
 pub const TRIALS: [&str; 12] = [
     "01_undisturbed_slow_rotation_A",
     "05_undisturbed_slow_rotation_with_breaks_B",
@@ -20,17 +24,65 @@ pub const TRIALS: [&str; 12] = [
     "35_disturbed_attached_magnet_4cm",
 ];
 
-/// The folder of the BROAD trials, or `None` (after printing "skipped: BROAD data not found at …")
-/// when it does not hold the first trial.
-pub fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("LIEBAYES_BROAD_DIR").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/broad"),
-        PathBuf::from,
-    );
-    if dir.join(format!("{}.mat", TRIALS[0])).exists() {
-        Some(dir)
-    } else {
-        println!("skipped: BROAD data not found at {}", dir.display());
-        None
+/// The two trials in the repository: one undisturbed, one with a magnet attached to the sensor.
+pub const SHIPPED: [&str; 2] = [
+    "01_undisturbed_slow_rotation_A",
+    "35_disturbed_attached_magnet_4cm",
+];
+
+/// The repository's `data/broad/` folder, which holds the [`SHIPPED`] trials.
+///
+/// # Panics
+/// When a shipped trial is missing: a broken checkout, which must fail the test rather than skip.
+pub fn shipped_dir() -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/broad");
+    for trial in SHIPPED {
+        let file = dir.join(format!("{trial}.mat"));
+        assert!(
+            file.exists(),
+            "the shipped BROAD trial {} is missing: a broken checkout",
+            file.display()
+        );
     }
+    dir
+}
+
+/// The folder of the twelve [`TRIALS`] when `$LIEBAYES_BROAD_DIR` asks for them; `None` when the
+/// variable is not set (after printing that the twelve-trial check is skipped and how to run it).
+///
+/// # Panics
+/// When the variable is set and the folder lacks any of the twelve: a test asked to run on them
+/// fails, naming the missing file, rather than pass without them.
+pub fn data_dir() -> Option<PathBuf> {
+    let Some(dir) = std::env::var_os(VARIABLE).map(PathBuf::from) else {
+        println!(
+            "skipped: the twelve-trial BROAD check runs with {VARIABLE} set to a folder of them"
+        );
+        return None;
+    };
+    for trial in TRIALS {
+        let file = dir.join(format!("{trial}.mat"));
+        assert!(
+            file.exists(),
+            "{VARIABLE} is set but {} is missing",
+            file.display()
+        );
+    }
+    Some(dir)
+}
+
+/// The trials the real-data tests run on: the twelve from `$LIEBAYES_BROAD_DIR` when it is set,
+/// else the two shipped ones; each as `(stem, path)`.
+///
+/// # Panics
+/// As [`data_dir`] and [`shipped_dir`].
+pub fn trials() -> Vec<(&'static str, PathBuf)> {
+    let (dir, names): (PathBuf, &[&'static str]) = match std::env::var_os(VARIABLE) {
+        Some(_) => (data_dir().unwrap_or_default(), &TRIALS),
+        None => (shipped_dir(), &SHIPPED),
+    };
+    names
+        .iter()
+        .map(|name| (*name, dir.join(format!("{name}.mat"))))
+        .collect()
 }

@@ -1,7 +1,7 @@
 //! The attitude filters' scenarios on the experiment layer: [`ImuScenario`], simulated IMU runs,
 //! and [`LogScenario`], a recorded log replayed as it is. In both, every sample is a step whose
 //! input is its gyroscope and accelerometer reading ([`ImuSample`]) and whose measurement is its
-//! magnetometer reading, where it has a fresh one.
+//! magnetometer reading, where it has one.
 
 use super::data::{DataError, ImuLog};
 use super::estimate::ImuSample;
@@ -106,9 +106,9 @@ impl Scenario for ImuScenario {
 /// A recorded [`ImuLog`] as a scenario: every run replays the same samples. The truth of a sample
 /// is its reference orientation where the log has one and the sample counts (the movement mask;
 /// every sample without a mask), `None` otherwise (scored as NaN, left out of every statistic). The
-/// measurement is the magnetometer reading where the sample has a fresh one: a reading
-/// bit-identical to the previous sample's is a repeat of a magnetometer slower than the gyroscope
-/// (sample and hold), not a new measurement, and is `None`; a 6D log has none.
+/// measurement is the sample's magnetometer reading as the log has it (a magnetometer slower than
+/// the gyroscope repeats its last reading; each filter knows what to do with a repeat); a 6D log
+/// has none.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogScenario {
     log: ImuLog,
@@ -127,9 +127,11 @@ impl LogScenario {
                 message: "the log is empty".to_owned(),
             });
         }
-        let epochs = (0..log.len())
-            .filter(|&k| fresh_reading(&log, k).is_some())
-            .count();
+        let epochs = if log.magnetometer().is_some() {
+            log.len()
+        } else {
+            0
+        };
         Ok(Self { log, epochs })
     }
 
@@ -145,14 +147,6 @@ impl LogScenario {
             next: 0,
         }
     }
-}
-
-/// The magnetometer reading of sample k, `None` without one or for a repeat of sample k − 1's.
-fn fresh_reading(log: &ImuLog, k: usize) -> Option<Vector3<f64>> {
-    let m = log.magnetometer()?;
-    let reading = *m.get(k)?;
-    let repeat = k > 0 && m[k - 1] == reading;
-    (!repeat).then_some(reading)
 }
 
 /// The steps of a [`LogScenario`].
@@ -179,7 +173,7 @@ impl Iterator for LogSteps<'_> {
                 acc: log.accelerometer()[k],
             },
             truth,
-            measurement: fresh_reading(log, k),
+            measurement: log.magnetometer().map(|m| m[k]),
         })
     }
 

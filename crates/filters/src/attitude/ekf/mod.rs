@@ -41,7 +41,9 @@ use liebayes_experiments::{Nis, RecursiveFilter, Update};
 use liebayes_manifolds::{Left, Rn, So3};
 use liebayes_operators::{Condition, Ekf, MeasurementModel, OperatorError, Propagate, Ukf};
 use magnetometer::{FieldReference, Magnetometer, Verdict};
-pub use model::{ATTITUDE, AttitudeState, BIAS, Block, BlockProcess, Heading, OFFSET, STATE_DIM, VELOCITY};
+pub use model::{
+    ATTITUDE, AttitudeState, BIAS, Block, BlockProcess, Heading, OFFSET, STATE_DIM, VELOCITY,
+};
 use model::{RestBias, ZeroVelocity, attitude_block, in_rest};
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 pub use params::{
@@ -390,11 +392,12 @@ impl Running {
         for q in &mut self.history {
             *q = turn * *q;
         }
-        let reference = FieldReference::of(&(orientation * m)).ok_or(OperatorError::OutOfRange {
-            what: "magnetometer reading (its norm)",
-            value: m.norm(),
-            range: "> 0",
-        })?;
+        let reference =
+            FieldReference::of(&(orientation * m)).ok_or(OperatorError::OutOfRange {
+                what: "magnetometer reading (its norm)",
+                value: m.norm(),
+                range: "> 0",
+            })?;
         self.magnet = Some(Magnetometer::new(reference));
         let (block, in_block) = (self.block, self.in_block);
         self.set_density(settings, next);
@@ -451,8 +454,8 @@ impl Running {
         Ok(())
     }
 
-    /// A fresh magnetometer reading, taken at the sample [`imu_step`](Self::imu_step) just
-    /// processed (9D): the first usable one initialises the heading; a heading update that fell due
+    /// The magnetometer reading of the sample [`imu_step`](Self::imu_step) just processed (9D): the
+    /// first usable one initialises the heading; a heading update that fell due
     /// since the last reading is made with it (after propagating the covariance over the samples of
     /// the block so far). Returns the update's log evidence and NIS when one was applied.
     fn magnetometer_step(
@@ -460,7 +463,13 @@ impl Running {
         settings: &Settings,
         m: &Vector3<f64>,
     ) -> Result<Option<(f64, f64)>, OperatorError> {
-        self.reading = Some(Reading { field: *m, age: 0 });
+        // A magnetometer slower than the gyroscope repeats its last reading (sample and hold):
+        // a reading bit-identical to the last keeps its age, so that it is lined up with the
+        // orientation of the sample it was taken at.
+        match &mut self.reading {
+            Some(r) if r.field == *m => {}
+            _ => self.reading = Some(Reading { field: *m, age: 0 }),
+        }
         if self.magnet.is_none() {
             self.initialise_heading(settings, m)?;
             return Ok(None);
@@ -633,8 +642,9 @@ impl Running {
 
 /// The production filter as the experiment layer drives it: [`predict`](RecursiveFilter::predict)
 /// with one sample's gyroscope and accelerometer (the first initialises the tilt),
-/// [`update`](RecursiveFilter::update) with a fresh magnetometer reading taken at that sample
-/// (ignored in 6D; the first usable one initialises the heading). Readings must be finite and
+/// [`update`](RecursiveFilter::update) with that sample's magnetometer reading (ignored in 6D; the
+/// first usable one initialises the heading; a reading equal to the last is a repeat of a
+/// magnetometer slower than the gyroscope and keeps the age of the sample it was taken at). Readings must be finite and
 /// within the sensors' range ([`MAX_ANGULAR_RATE`](super::MAX_ANGULAR_RATE),
 /// [`MAX_SPECIFIC_FORCE`](super::MAX_SPECIFIC_FORCE), [`MAX_FIELD`](super::MAX_FIELD)). An update
 /// reports the log evidence and NIS (χ²(1)) of the heading update it made; where it made none (no
