@@ -3,11 +3,11 @@
 //! detection and bias, the Bingham and heat-kernel marginals, bad input, and the twelve BROAD
 //! trials against VQF's published figures (skipped with a message when the data are absent).
 
+use liebayes_densities::Bingham;
 use liebayes_filters::attitude::{
     AttitudeEkf, AttitudeParams, AttitudeState, BROAD_BETA, Block, BlockProcess, DataError,
-    FieldOffset, Heading, ImuLog, Propagation, STATE_DIM, Sensors, SimulationSettings,
-    diffusion_second_moment, read_broad, run_attitude_ekf, run_madgwick, sample_errors, simulate,
-    track_nees, trial_errors,
+    FieldOffset, Heading, ImuLog, Propagation, STATE_DIM, Sensors, SimulationSettings, read_broad,
+    run_attitude_ekf, run_madgwick, sample_errors, simulate, track_nees, trial_errors,
 };
 use liebayes_manifolds::{Left, Manifold, Rn, So3};
 use liebayes_operators::{MeasurementModel, ProcessModel};
@@ -256,7 +256,7 @@ fn attitude_marginals_match_the_gaussian() {
     let bingham = filter.attitude_bingham().unwrap();
     let r = q.to_rotation_matrix().into_inner();
     let body = r.transpose() * filter.attitude_covariance() * r;
-    let expected = diffusion_second_moment(&body).unwrap();
+    let expected = Bingham::diffusion_second_moment(&body).unwrap();
     // Rotate the Bingham's second moment back to the identity: E[p pᵀ] with p = q⁻¹ x.
     let m = bingham.second_moment();
     let left = left_matrix(&q.conjugate());

@@ -30,7 +30,7 @@
 
 use super::data::{DataError, ImuLog, bad, check_positive, scaled_unit};
 use super::study::{AttitudeEstimate, ImuSample};
-use super::talk::bingham_from_diffusion;
+use super::talk::from_diffusion;
 use super::track::AttitudeTrack;
 use crate::aoa::wrap;
 use liebayes_densities::{Bingham, HeatKernelSo3, ManifoldGaussian};
@@ -656,7 +656,7 @@ impl AttitudeEkf {
             ));
         }
         let body = r.transpose() * self.attitude_covariance() * r;
-        bingham_from_diffusion(&self.orientation, &body)
+        from_diffusion(&self.orientation, &body, "AttitudeEkf::attitude_bingham")
     }
 
     /// The attitude marginal as an isotropic heat kernel on SO(3), moment matched to

@@ -48,8 +48,5 @@ pub use metric::{
 };
 pub use simulate::{Disturbance, SimulationSettings, simulate};
 pub use study::{AttitudeEstimate, AttitudeScorer, ImuSample, ImuScenario, ImuSteps};
-pub use talk::{
-    TalkFilter, TalkParams, TalkRun, bingham_from_diffusion, diffusion_from_bingham,
-    diffusion_second_moment, direction_matrix, field_reference_from, run_talk_filter,
-};
+pub use talk::{TalkFilter, TalkParams, TalkRun, field_reference_from, run_talk_filter};
 pub use track::AttitudeTrack;

@@ -10,158 +10,9 @@
 use super::data::{DataError, ImuLog, bad, check_positive, scaled_unit};
 use super::madgwick::{broad_initial_state, enu_from_nwu};
 use super::track::AttitudeTrack;
-use liebayes_densities::{Bingham, Density, DensityError, Rotate};
+use liebayes_densities::{Bingham, DensityError};
 use liebayes_manifolds::Su2;
-use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
-
-/// The direction-measurement matrix of the talk, in the filter's convention: for a reference
-/// direction `h` (ENU) measured in the IMU frame as `v = R(q)ᵀ h + N(0, σ² I)`,
-///
-/// `exp(−|v − R(q)ᵀ h|² / (2σ²)) = exp(qᵀ M q)` for every unit q, exactly, with
-///
-/// `M = [ −|v − h|²/(2σ²)   (v × h)ᵀ/σ² ;  (v × h)/σ²   (v hᵀ + h vᵀ)/σ² − |v + h|²/(2σ²) I ]`.
-///
-/// (The talk's matrix is written for the active rotation `R(q) h`; the body-frame measurement is
-/// its conjugate `diag(1, −1, −1, −1) M diag(1, −1, −1, −1)`, which flips the cross-product terms.)
-/// Valid for finite vectors and a finite `σ > 0` whose entries stay finite.
-///
-/// # Errors
-/// [`DataError::BadValue`] for a non-finite vector, a σ that is not finite and positive, or a
-/// matrix that overflows.
-pub fn direction_matrix(
-    measured: &Vector3<f64>,
-    reference: &Vector3<f64>,
-    sigma: f64,
-) -> Result<Matrix4<f64>, DataError> {
-    check_positive("direction_matrix", "sigma", sigma)?;
-    let (v, h) = (measured, reference);
-    let inv = 1.0 / (sigma * sigma);
-    let cross = v.cross(h) * inv;
-    let block = (v * h.transpose() + h * v.transpose()) * inv
-        - Matrix3::identity() * ((v + h).norm_squared() * 0.5 * inv);
-    let mut m = Matrix4::zeros();
-    m[(0, 0)] = -(v - h).norm_squared() * 0.5 * inv;
-    for i in 0..3 {
-        m[(0, i + 1)] = cross[i];
-        m[(i + 1, 0)] = cross[i];
-        for j in 0..3 {
-            m[(i + 1, j + 1)] = block[(i, j)];
-        }
-    }
-    if m.iter().all(|x| x.is_finite()) {
-        Ok(m)
-    } else {
-        Err(bad(
-            "direction_matrix",
-            "measured, reference",
-            format!("{:?}, {:?}", v.as_slice(), h.as_slice()),
-            "finite vectors and a sigma giving a finite matrix",
-        ))
-    }
-}
-
-/// The second-moment matrix `E[q qᵀ]` of the left-translated diffusion `LD(1, Σ)` about the identity
-/// (Σ the body-frame covariance, symmetric positive semi-definite, rad²). Exact: the rotation's first
-/// moment is `E[R] = expm((Σ − tr Σ I)/2)`, so along an eigenvector of Σ (eigenvalue σᵢ²) it is
-/// `eᵢ = exp(−(σⱼ² + σₖ²)/2)`; with `dᵢ = 1 − eᵢ`, the quaternion's moments are
-/// `E[w²] = 1 − (d₁ + d₂ + d₃)/4`, `E[uᵢ²] = (dⱼ + dₖ − dᵢ)/4` along the eigenvectors, and the
-/// cross terms zero. Computed with `exp_m1` so that tiny variances keep their relative accuracy.
-///
-/// # Errors
-/// [`DataError::BadValue`] for a non-finite or non-symmetric Σ or a negative eigenvalue.
-pub fn diffusion_second_moment(covariance: &Matrix3<f64>) -> Result<Matrix4<f64>, DataError> {
-    let (values, vectors) = covariance_eigen(covariance)?;
-    let total: f64 = values.sum();
-    let d = values.map(|v| -(-(total - v) / 2.0).exp_m1());
-    let sum_d = d.sum();
-    let mut moments = Matrix4::zeros();
-    moments[(0, 0)] = 1.0 - sum_d / 4.0;
-    let diag = d.map(|di| (sum_d - 2.0 * di) / 4.0);
-    let block = vectors * Matrix3::from_diagonal(&diag) * vectors.transpose();
-    for i in 0..3 {
-        for j in 0..3 {
-            moments[(i + 1, j + 1)] = block[(i, j)];
-        }
-    }
-    Ok(moments)
-}
-
-/// The Bingham with the second moments of `LD(mean, Σ)`: [`diffusion_second_moment`] fitted by
-/// [`Bingham::from_second_moment`] about the identity, then turned to `mean` (`q ↦ mean q`).
-/// Exact in the second moments (to the fit's 1e-11).
-///
-/// # Errors
-/// As [`diffusion_second_moment`]; [`DataError::BadValue`] when the fit fails (a variance below
-/// about 2e-6 rad², beyond [`Bingham::MAX_SPREAD`]).
-pub fn bingham_from_diffusion(
-    mean: &UnitQuaternion<f64>,
-    covariance: &Matrix3<f64>,
-) -> Result<Bingham, DataError> {
-    let moments = diffusion_second_moment(covariance)?;
-    let about_identity = Bingham::from_second_moment(moments)
-        .map_err(|e| density_error("bingham_from_diffusion", &e))?;
-    Ok(about_identity.rotated(&Su2::from_unit_quaternion(*mean)))
-}
-
-/// The left-translated diffusion `LD(q̄, Σ)` with the second moments of a Bingham: q̄ its mode
-/// (w ≥ 0) and, with `U` the vector block of `E[p pᵀ]` for `p = q̄⁻¹ q`, in U's eigenbasis
-/// `dᵢ = 2(Uⱼⱼ + Uₖₖ)`, `ln eᵢ = ln(1 − dᵢ)`, `T = tr Σ = −Σ ln eᵢ` and `σᵢ² = 2 ln eᵢ + T`
-/// (the inverse of [`diffusion_second_moment`]). For an isotropic Bingham it is the heat kernel of
-/// `Bingham::to_heat_kernel_moment_matched`.
-///
-/// # Errors
-/// [`DataError::BadValue`] when the Bingham has no unique mode, is too diffuse (`dᵢ ≥ 1`) or too
-/// anisotropic for a diffusion (a `σᵢ² < 0`).
-pub fn diffusion_from_bingham(
-    bingham: &Bingham,
-) -> Result<(UnitQuaternion<f64>, Matrix3<f64>), DataError> {
-    let origin = "diffusion_from_bingham";
-    let mode = bingham.mode().ok_or_else(|| {
-        bad(
-            origin,
-            "Bingham eigenvalues",
-            format!("{:?}", bingham.eigenvalues().as_slice()),
-            "a unique largest eigenvalue (a unique mode)",
-        )
-    })?;
-    let about = bingham.rotated(&Su2::from_unit_quaternion(
-        mode.as_unit_quaternion().inverse(),
-    ));
-    let s = about.second_moment();
-    let block = Matrix3::from_fn(|r, c| 0.5 * (s[(r + 1, c + 1)] + s[(c + 1, r + 1)]));
-    let eigen = SymmetricEigen::new(block);
-    let u = eigen.eigenvalues;
-    let d = Vector3::new(
-        2.0 * (u[1] + u[2]),
-        2.0 * (u[0] + u[2]),
-        2.0 * (u[0] + u[1]),
-    );
-    if !d
-        .iter()
-        .all(|&di| di.is_finite() && (0.0..1.0).contains(&di))
-    {
-        return Err(bad(
-            origin,
-            "Bingham second moments",
-            format!("{:?}", u.as_slice()),
-            "a concentrated Bingham (every 2(U_jj + U_kk) in [0, 1))",
-        ));
-    }
-    let log_e = d.map(|di| (-di).ln_1p());
-    let total = -log_e.sum();
-    let variances = log_e.map(|l| 2.0 * l + total);
-    if variances.iter().any(|&v| v < 0.0) {
-        return Err(bad(
-            origin,
-            "diffusion variances",
-            format!("{:?}", variances.as_slice()),
-            "a Bingham whose moments are those of a diffusion (non-negative variances)",
-        ));
-    }
-    let covariance =
-        eigen.eigenvectors * Matrix3::from_diagonal(&variances) * eigen.eigenvectors.transpose();
-    Ok((*mode.as_unit_quaternion(), covariance))
-}
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 /// The noise settings of [`TalkFilter`] (the talk's symbols).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -226,12 +77,13 @@ impl TalkParams {
 /// 1. **gyroscope** ([`propagate`](Self::propagate)): the rate over the past interval
 ///    `ω̃ = ((σ_U² + σ_A² Δt²) ω̄ + σ_Ω² g)/D` (the Kalman smoother of `Ω_(k−1)` given `G_k`), with
 ///    variance `σ̃² = (σ_U² + σ_A² Δt²) σ_Ω² / D`; the Bingham is converted to `LD(q̄, Σ)` by exact
-///    moment matching ([`diffusion_from_bingham`]), turned `q̄ ← q̄ ⊗ exp(ω̃ Δt)`,
+///    moment matching ([`Bingham::to_diffusion_moment_matched`]), turned `q̄ ← q̄ ⊗ exp(ω̃ Δt)`,
 ///    `Σ ← Eᵀ Σ E + σ̃² Δt² I` (E the rotation of ω̃ Δt; the isotropic convolution is exact), and
-///    converted back ([`bingham_from_diffusion`]); then the rate's Kalman update
+///    converted back ([`Bingham::from_diffusion_moment_matched`]); then the rate's Kalman update
 ///    `ω̄ ← (σ_U² ω̄ + (σ_A² Δt² + σ_Ω²) g)/D`, `σ_Ω² ← σ_U² (σ_A² Δt² + σ_Ω²)/D`;
 /// 2. **accelerometer and magnetometer** ([`update`](Self::update)): the Bingham parameter
-///    `M ← M + M_acc + M_mag` with the [`direction_matrix`] of the unit gravity direction (reference
+///    `M ← M + M_acc + M_mag` with the natural parameters of [`Bingham::from_direction`] for the
+///    unit gravity direction (reference
 ///    `(0, 0, 1)`, σ_V) and of the unit field direction (reference `(0, cos δ, −sin δ)` in ENU, δ the
 ///    dip, σ_W), re-diagonalised by [`Bingham::from_natural`].
 ///
@@ -273,7 +125,7 @@ impl TalkFilter {
             ));
         }
         let s0 = params.initial_sigma * params.initial_sigma;
-        let bingham = bingham_from_diffusion(initial, &(Matrix3::identity() * s0))?;
+        let bingham = from_diffusion(initial, &(Matrix3::identity() * s0), "TalkFilter::new")?;
         Ok(Self {
             params: *params,
             interval: 1.0 / rate,
@@ -295,12 +147,13 @@ impl TalkFilter {
     }
 
     /// The estimate and its covariance: the Bingham's mode (IMU w.r.t. ENU, w ≥ 0) and the
-    /// body-frame covariance Σ (rad²) of the moment-matched `LD(q̄, Σ)` ([`diffusion_from_bingham`]).
+    /// body-frame covariance Σ (rad²) of the moment-matched `LD(q̄, Σ)`
+    /// ([`Bingham::to_diffusion_moment_matched`]).
     ///
     /// # Errors
-    /// As [`diffusion_from_bingham`].
+    /// [`DataError::BadValue`] when that matching fails.
     pub fn estimate(&self) -> Result<(UnitQuaternion<f64>, Matrix3<f64>), DataError> {
-        diffusion_from_bingham(&self.bingham)
+        to_diffusion(&self.bingham, "TalkFilter::estimate")
     }
 
     /// Step 1 with the gyroscope sample `gyr` (rad/s, IMU frame).
@@ -327,12 +180,13 @@ impl TalkFilter {
         let denominator = su + walk + so;
         let smoothed = (self.rate * (su + walk) + gyr * so) / denominator;
         let smoothed_variance = (su + walk) * so / denominator;
-        let (mean, covariance) = diffusion_from_bingham(&self.bingham)?;
+        let origin = "TalkFilter::propagate";
+        let (mean, covariance) = to_diffusion(&self.bingham, origin)?;
         let turn = UnitQuaternion::from_scaled_axis(smoothed * dt);
         let e = turn.to_rotation_matrix().into_inner();
         let covariance =
             e.transpose() * covariance * e + Matrix3::identity() * (smoothed_variance * dt * dt);
-        let bingham = bingham_from_diffusion(&(mean * turn), &covariance)?;
+        let bingham = from_diffusion(&(mean * turn), &covariance, origin)?;
         self.bingham = bingham;
         self.rate = (self.rate * su + gyr * (walk + so)) / denominator;
         self.rate_variance = su * (walk + so) / denominator;
@@ -353,11 +207,11 @@ impl TalkFilter {
         let origin = "TalkFilter::update";
         let mut natural = self.bingham.natural();
         if let Some(a) = unit(origin, "accelerometer", acc)? {
-            natural += direction_matrix(&a, &Vector3::z(), self.params.acc_noise)?;
+            natural += direction(&a, &Vector3::z(), self.params.acc_noise, origin)?;
         }
         if let (Some(reference), Some(m)) = (self.field_reference, mag) {
             if let Some(m) = unit(origin, "magnetometer", m)? {
-                natural += direction_matrix(&m, &reference, self.params.mag_noise)?;
+                natural += direction(&m, &reference, self.params.mag_noise, origin)?;
             }
         }
         let natural = (natural + natural.transpose()) * 0.5;
@@ -507,33 +361,6 @@ fn with_row(origin: &str, row: usize, e: DataError) -> DataError {
     }
 }
 
-fn covariance_eigen(c: &Matrix3<f64>) -> Result<(Vector3<f64>, Matrix3<f64>), DataError> {
-    let origin = "diffusion covariance";
-    let scale = c.amax();
-    if !c.iter().all(|x| x.is_finite()) || (c - c.transpose()).amax() > 1e-10 * (1.0 + scale) {
-        return Err(bad(
-            origin,
-            "covariance",
-            format!("{:?}", c.as_slice()),
-            "a finite symmetric matrix (rad^2)",
-        ));
-    }
-    let eigen = SymmetricEigen::new((c + c.transpose()) * 0.5);
-    if eigen
-        .eigenvalues
-        .iter()
-        .any(|&v| v < -1e-12 * (1.0 + scale))
-    {
-        return Err(bad(
-            origin,
-            "covariance eigenvalues",
-            format!("{:?}", eigen.eigenvalues.as_slice()),
-            "a positive semi-definite matrix",
-        ));
-    }
-    Ok((eigen.eigenvalues.map(|v| v.max(0.0)), eigen.eigenvectors))
-}
-
 /// `v / |v|` (scaled by its largest component first), `None` for a zero vector; an error for a
 /// non-finite one.
 fn unit(origin: &str, variable: &str, v: &Vector3<f64>) -> Result<Option<Vector3<f64>>, DataError> {
@@ -546,6 +373,39 @@ fn unit(origin: &str, variable: &str, v: &Vector3<f64>) -> Result<Option<Vector3
         ));
     }
     Ok(scaled_unit(v))
+}
+
+/// [`Bingham::from_diffusion_moment_matched`] with its error as a [`DataError`].
+pub(super) fn from_diffusion(
+    mean: &UnitQuaternion<f64>,
+    covariance: &Matrix3<f64>,
+    origin: &str,
+) -> Result<Bingham, DataError> {
+    Bingham::from_diffusion_moment_matched(&Su2::from_unit_quaternion(*mean), covariance)
+        .map_err(|e| density_error(origin, &e))
+}
+
+/// [`Bingham::to_diffusion_moment_matched`] with its error as a [`DataError`].
+fn to_diffusion(
+    bingham: &Bingham,
+    origin: &str,
+) -> Result<(UnitQuaternion<f64>, Matrix3<f64>), DataError> {
+    let (mean, covariance) = bingham
+        .to_diffusion_moment_matched()
+        .map_err(|e| density_error(origin, &e))?;
+    Ok((*mean.as_unit_quaternion(), covariance))
+}
+
+/// The natural parameter of [`Bingham::from_direction`], with its error as a [`DataError`].
+fn direction(
+    measured: &Vector3<f64>,
+    reference: &Vector3<f64>,
+    sigma: f64,
+    origin: &str,
+) -> Result<nalgebra::Matrix4<f64>, DataError> {
+    Bingham::from_direction(measured, reference, sigma)
+        .map(|b| b.natural())
+        .map_err(|e| density_error(origin, &e))
 }
 
 fn density_error(origin: &str, e: &DensityError) -> DataError {
