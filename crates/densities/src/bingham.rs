@@ -192,6 +192,67 @@ impl Bingham {
         Self::from_sorted_eigen(orientation, eigenvalues)
     }
 
+    /// The likelihood of a measured direction as a Bingham density of the orientation q. A
+    /// `reference` direction h (world frame) measured in the body frame as
+    /// `v = R(q)ᵀ h + n`, `n ~ N(0, σ² I)` (R(q) the rotation of q, `x_world = R(q) x_body`), has
+    /// the likelihood, for every unit q exactly,
+    ///
+    /// `exp(−|v − R(q)ᵀ h|² / (2σ²)) = exp(qᵀ M q)`,
+    ///
+    /// `M = [ −|v − h|²/(2σ²)   (v × h)ᵀ/σ² ;  (v × h)/σ²   (v hᵀ + h vᵀ)/σ² − |v + h|²/(2σ²) I ]`
+    ///
+    /// in the (w, x, y, z) coordinates. The result is that likelihood normalised over q: its
+    /// [`natural`](Self::natural) parameter is M (to rounding), so a prior's posterior is
+    /// `Bingham::from_natural(prior.natural() + M)` or [`Product::product`]. For unit vectors the
+    /// eigenvalue spread is `2/σ²`; any finite vectors are accepted.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] for a non-finite component or σ; [`DensityError::OutOfRange`] for
+    /// σ ≤ 0, for a matrix whose entries overflow, or for an eigenvalue spread beyond
+    /// [`Self::MAX_SPREAD`] (σ below about 1.4e-3 for unit vectors).
+    pub fn from_direction(
+        measured: &Vector3<f64>,
+        reference: &Vector3<f64>,
+        sigma: f64,
+    ) -> Result<Self, DensityError> {
+        for &c in measured.iter() {
+            finite("measured direction component", c)?;
+        }
+        for &c in reference.iter() {
+            finite("reference direction component", c)?;
+        }
+        finite("direction noise standard deviation", sigma)?;
+        if sigma <= 0.0 {
+            return Err(DensityError::OutOfRange {
+                what: "direction noise standard deviation",
+                value: sigma,
+                range: "(0, infinity)",
+            });
+        }
+        let (v, h) = (measured, reference);
+        let inv = 1.0 / (sigma * sigma);
+        let cross = v.cross(h) * inv;
+        let block = (v * h.transpose() + h * v.transpose()) * inv
+            - Matrix3::identity() * ((v + h).norm_squared() * 0.5 * inv);
+        let mut m = Matrix4::zeros();
+        m[(0, 0)] = -(v - h).norm_squared() * 0.5 * inv;
+        for i in 0..3 {
+            m[(0, i + 1)] = cross[i];
+            m[(i + 1, 0)] = cross[i];
+            for j in 0..3 {
+                m[(i + 1, j + 1)] = block[(i, j)];
+            }
+        }
+        if !m.iter().all(|x| x.is_finite()) {
+            return Err(DensityError::OutOfRange {
+                what: "largest entry of the direction likelihood's parameter",
+                value: m.amax(),
+                range: "finite: |v|, |h| and 1/sigma^2 whose products stay within f64",
+            });
+        }
+        Self::from_natural(m)
+    }
+
     /// The uniform distribution on S³ (all eigenvalues 0), density 1 against the uniform probability
     /// measure.
     pub fn uniform() -> Self {

@@ -1,5 +1,7 @@
-//! Named approximations between the SO(3) families, by matching second moments of the unit quaternion.
-//! Their errors, measured against concentration, are in `docs/densities/heat_kernel_so3.md`.
+//! Named approximations between the SO(3) families, by matching second moments of the unit quaternion:
+//! the heat kernel, the manifold Gaussian and the left-translated anisotropic diffusion `LD(q̄, Σ)`
+//! to and from the Bingham. Their errors, measured against concentration, are in
+//! `docs/densities/heat_kernel_so3.md` and `docs/densities/bingham.md`.
 
 use crate::bingham::Bingham;
 use crate::error::DensityError;
@@ -130,5 +132,147 @@ impl Bingham {
             covariance += residual * 4.0;
         }
         ManifoldGaussian::new(mode.to_so3(), covariance)
+    }
+}
+
+/// Accepted asymmetry of a diffusion covariance, relative to its largest entry.
+const SYMMETRY_TOLERANCE: f64 = 1e-10;
+
+/// The eigendecomposition of a diffusion covariance Σ, checked finite, symmetric and positive
+/// semi-definite (eigenvalues above `−1e-12 (1 + max |Σᵢⱼ|)` are rounded up to 0).
+fn diffusion_eigen(
+    covariance: &Matrix3<f64>,
+) -> Result<(Vector3<f64>, Matrix3<f64>), DensityError> {
+    for &v in covariance.iter() {
+        crate::error::finite("diffusion covariance entry", v)?;
+    }
+    let scale = covariance.amax();
+    let asymmetry = (covariance - covariance.transpose()).amax();
+    if asymmetry > SYMMETRY_TOLERANCE * (1.0 + scale) {
+        return Err(DensityError::OutOfRange {
+            what: "asymmetry of the diffusion covariance",
+            value: asymmetry,
+            range: "symmetric matrices (rad^2)",
+        });
+    }
+    let eigen = SymmetricEigen::new(covariance * 0.5 + covariance.transpose() * 0.5);
+    let smallest = eigen.eigenvalues.min();
+    if smallest < -1e-12 * (1.0 + scale) {
+        return Err(DensityError::OutOfRange {
+            what: "smallest eigenvalue of the diffusion covariance",
+            value: smallest,
+            range: "[0, infinity): a positive semi-definite matrix (rad^2)",
+        });
+    }
+    Ok((eigen.eigenvalues.map(|v| v.max(0.0)), eigen.eigenvectors))
+}
+
+impl Bingham {
+    /// The second-moment matrix `E[q qᵀ]` of the left-translated anisotropic diffusion `LD(1, Σ)`
+    /// about the identity: the unit quaternion of the Brownian motion `dR = R [dW]ₓ` on SO(3) with
+    /// body-frame increments of covariance Σ per unit time, at time 1 (equivalently the limit of
+    /// the random walk `q ← q exp(ξ/2)`, `ξ ~ N(0, Σ/n)`, after n steps). Exact: the rotation's
+    /// first moment is `E[R] = expm((Σ − tr Σ I)/2)`, so along an eigenvector of Σ (eigenvalue
+    /// σᵢ²) it is `eᵢ = exp(−(σⱼ² + σₖ²)/2)`; with `dᵢ = 1 − eᵢ`, the quaternion's moments are
+    /// `E[w²] = 1 − (d₁ + d₂ + d₃)/4`, `E[uᵢ²] = (dⱼ + dₖ − dᵢ)/4` along the eigenvectors, and the
+    /// cross terms zero. Computed with `exp_m1`, so tiny variances keep their relative accuracy.
+    /// For `LD(q̄, Σ)` the moments are `L(q̄) E[q qᵀ] L(q̄)ᵀ`, L the left multiplication.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] for a non-finite entry; [`DensityError::OutOfRange`] for a
+    /// non-symmetric Σ or a negative eigenvalue.
+    pub fn diffusion_second_moment(
+        covariance: &Matrix3<f64>,
+    ) -> Result<Matrix4<f64>, DensityError> {
+        let (values, vectors) = diffusion_eigen(covariance)?;
+        let total: f64 = values.sum();
+        let d = values.map(|v| -(-(total - v) / 2.0).exp_m1());
+        let sum_d = d.sum();
+        let mut moments = Matrix4::zeros();
+        moments[(0, 0)] = 1.0 - sum_d / 4.0;
+        let diagonal = d.map(|di| (sum_d - 2.0 * di) / 4.0);
+        let block = vectors * Matrix3::from_diagonal(&diagonal) * vectors.transpose();
+        for i in 0..3 {
+            for j in 0..3 {
+                moments[(i + 1, j + 1)] = block[(i, j)];
+            }
+        }
+        Ok(moments)
+    }
+
+    /// **Approximation**: the Bingham with the second moments of the left-translated diffusion
+    /// `LD(mean, Σ)` (`R = R(mean) exp([ξ]ₓ)`, ξ the Brownian motion of
+    /// [`diffusion_second_moment`](Self::diffusion_second_moment)): those moments fitted by
+    /// [`Bingham::from_second_moment`] about the identity, then turned to `mean` (`q ↦ mean q`).
+    /// Exact in the second moments (to the fit's 1e-11, relative). For an isotropic Σ = s I it is
+    /// [`HeatKernelSo3::to_bingham_moment_matched`]. Range: Σ positive semi-definite with every
+    /// `σⱼ² + σₖ²` above about 4e-6 rad² (the Bingham's [`MAX_SPREAD`](Self::MAX_SPREAD)).
+    ///
+    /// # Errors
+    /// As [`diffusion_second_moment`](Self::diffusion_second_moment), and those of
+    /// [`Bingham::from_second_moment`] for a diffusion too concentrated for a Bingham.
+    pub fn from_diffusion_moment_matched(
+        mean: &Su2<f64>,
+        covariance: &Matrix3<f64>,
+    ) -> Result<Self, DensityError> {
+        let moments = Self::diffusion_second_moment(covariance)?;
+        Ok(Self::from_second_moment(moments)?.rotated(mean))
+    }
+
+    /// **Approximation**: the left-translated diffusion `LD(q̄, Σ)` with the second moments of the
+    /// Bingham, the inverse of [`from_diffusion_moment_matched`](Self::from_diffusion_moment_matched):
+    /// q̄ the mode (w ≥ 0) and, with U the vector block of `E[p pᵀ]` for `p = q̄⁻¹ q`, in U's
+    /// eigenbasis `dᵢ = 2(Uⱼⱼ + Uₖₖ)`, `ln eᵢ = ln(1 − dᵢ)`, `tr Σ = −Σ ln eᵢ` and
+    /// `σᵢ² = 2 ln eᵢ + tr Σ`. For an isotropic Bingham it is the heat kernel of
+    /// [`to_heat_kernel_moment_matched`](Self::to_heat_kernel_moment_matched). The covariance
+    /// returned is symmetric positive definite (its Cholesky factorisation succeeds).
+    ///
+    /// # Errors
+    /// [`DensityError::OutOfRange`] when the Bingham has no unique mode, is too diffuse for a
+    /// diffusion (a `dᵢ ≥ 1`), or too anisotropic (its moments are those of no diffusion: a
+    /// `σᵢ² ≤ 0`, or a covariance that is not numerically positive definite).
+    pub fn to_diffusion_moment_matched(&self) -> Result<(Su2<f64>, Matrix3<f64>), DensityError> {
+        let mode = self.mode().ok_or(DensityError::OutOfRange {
+            what: "gap between the two largest Bingham eigenvalues",
+            value: self.eigenvalues()[0] - self.eigenvalues()[1],
+            range: "(0, infinity): a diffusion needs a unique mode",
+        })?;
+        let about = self.rotated(&mode.inverse());
+        let s = about.second_moment();
+        let block = Matrix3::from_fn(|r, c| 0.5 * (s[(r + 1, c + 1)] + s[(c + 1, r + 1)]));
+        let eigen = SymmetricEigen::new(block);
+        let u = eigen.eigenvalues;
+        let d = Vector3::new(
+            2.0 * (u[1] + u[2]),
+            2.0 * (u[0] + u[2]),
+            2.0 * (u[0] + u[1]),
+        );
+        if let Some(&di) = d.iter().find(|&&di| !(0.0..1.0).contains(&di)) {
+            return Err(DensityError::OutOfRange {
+                what: "decay 2(U_jj + U_kk) of the Bingham's vector moments about its mode",
+                value: di,
+                range: "[0, 1): a Bingham concentrated enough for a diffusion",
+            });
+        }
+        let log_e = d.map(|di| (-di).ln_1p());
+        let total = -log_e.sum();
+        let variances = log_e.map(|l| 2.0 * l + total);
+        let smallest = variances.min();
+        let not_definite = DensityError::OutOfRange {
+            what: "smallest variance of the matched diffusion (rad^2)",
+            value: smallest,
+            range: "(0, infinity): a Bingham whose moments are those of a diffusion",
+        };
+        if smallest.is_nan() || smallest <= 0.0 {
+            return Err(not_definite);
+        }
+        let covariance = eigen.eigenvectors
+            * Matrix3::from_diagonal(&variances)
+            * eigen.eigenvectors.transpose();
+        let covariance = (covariance + covariance.transpose()) * 0.5;
+        if covariance.cholesky().is_none() {
+            return Err(not_definite);
+        }
+        Ok((mode, covariance))
     }
 }

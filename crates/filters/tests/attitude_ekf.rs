@@ -9,8 +9,9 @@ use liebayes_filters::attitude::{
     AttitudeEkf, AttitudeEstimate, AttitudeParams, AttitudeScorer, AttitudeState, BROAD_BETA,
     Block, BlockProcess, FieldOffset, Heading, ImuLog, ImuSample, LogRecording, LogScenario,
     LogScore, Method, Propagation, STATE_DIM, Sensors, SimulationSettings, TrialErrors,
-    diffusion_second_moment, evaluate, read_broad, run_log, simulate,
+    evaluate, read_broad, run_log, simulate,
 };
+use liebayes_densities::Bingham;
 use liebayes_manifolds::{Left, Manifold, Rn, So3};
 use liebayes_operators::evaluation::chi_square_quantile;
 use liebayes_operators::{MeasurementModel, ProcessModel};
@@ -307,7 +308,7 @@ fn attitude_marginals_match_the_gaussian() {
     let bingham = filter.attitude_bingham().unwrap();
     let r = q.to_rotation_matrix().into_inner();
     let body = r.transpose() * estimate.covariance.expect("a covariance") * r;
-    let expected = diffusion_second_moment(&body).unwrap();
+    let expected = Bingham::diffusion_second_moment(&body).unwrap();
     // Rotate the Bingham's second moment back to the identity: E[p pᵀ] with p = q⁻¹ x.
     let m = bingham.second_moment();
     let left = left_matrix(&q.conjugate());

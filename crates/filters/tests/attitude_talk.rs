@@ -1,31 +1,24 @@
-//! The talk's Bingham / heat-kernel attitude filter: its measurement matrix against the likelihood,
-//! its moment matching against the library and a Brownian Monte Carlo, one update and one
-//! propagation against Monte Carlo of the prior, a run on the simulator, bad input, and the twelve
-//! BROAD trials (ignored: release only).
+//! The talk's Bingham / heat-kernel attitude filter: one update and one propagation against Monte
+//! Carlo of the prior, a run on the simulator, bad input, and the twelve BROAD trials (ignored:
+//! release only). Its density algebra (the direction likelihood and the diffusion moment matching)
+//! is tested in the densities crate (`tests/bingham_attitude.rs`).
 //!
 //! The BROAD data are looked for in `$LIEBAYES_BROAD_DIR`, else in `shared/broad` beside the
 //! workspace.
 
-use liebayes_densities::{Bingham, Density, HeatKernelSo3};
+use liebayes_densities::{Density, HeatKernelSo3};
 use liebayes_filters::attitude::{
-    DataError, ImuLog, SimulationSettings, TalkFilter, TalkParams, bingham_from_diffusion,
-    diffusion_from_bingham, diffusion_second_moment, direction_matrix, read_broad, run_talk_filter,
+    DataError, ImuLog, SimulationSettings, TalkFilter, TalkParams, read_broad, run_talk_filter,
     simulate, trial_errors,
 };
 use liebayes_manifolds::{LieGroup, So3};
 use liebayes_reference::broad::{TRIALS, data_dir};
-use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3, Vector4};
-use proptest::prelude::*;
-use rand::{Rng, SeedableRng};
+use nalgebra::{Matrix4, UnitQuaternion, Vector3, Vector4};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
 
 fn coords(q: &UnitQuaternion<f64>) -> Vector4<f64> {
     Vector4::new(q.w, q.i, q.j, q.k)
-}
-
-fn normal3(rng: &mut ChaCha8Rng) -> Vector3<f64> {
-    Vector3::from_fn(|_, _| rng.sample(StandardNormal))
 }
 
 /// Weighted mean of `x` (one 4×4 matrix per sample) and the standard error of each entry,
@@ -50,106 +43,6 @@ fn assert_within(what: &str, ours: &Matrix4<f64>, mc: &Matrix4<f64>, se: &Matrix
     }
     println!("{what}: largest |ours - MC| / standard error = {worst:.2}");
     assert!(worst < 5.0, "{what}: {worst} standard errors\n{ours}\n{mc}");
-}
-
-fn unit_vector() -> impl Strategy<Value = Vector3<f64>> {
-    (-1.0..1.0_f64, -1.0..1.0_f64, -1.0..1.0_f64)
-        .prop_filter("not too short", |(x, y, z)| x * x + y * y + z * z > 0.01)
-        .prop_map(|(x, y, z)| Vector3::new(x, y, z).normalize())
-}
-
-fn rotation() -> impl Strategy<Value = UnitQuaternion<f64>> {
-    (unit_vector(), 0.0..std::f64::consts::PI)
-        .prop_map(|(axis, angle)| UnitQuaternion::from_scaled_axis(axis * angle))
-}
-
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
-
-    /// `qᵀ M q` is the log-likelihood `−|v − R(q)ᵀ h|²/(2σ²)` of a body-frame direction, exactly.
-    #[test]
-    fn direction_matrix_is_the_log_likelihood(
-        q in rotation(), v in unit_vector(), h in unit_vector(), scale in 0.1..3.0_f64,
-        sigma in 0.05..2.0_f64,
-    ) {
-        let (v, h) = (v * scale, h * (1.0 + scale));
-        let m = direction_matrix(&v, &h, sigma).unwrap();
-        let x = coords(&q);
-        let ours = (x.transpose() * m * x)[0];
-        let predicted = q.inverse_transform_vector(&h);
-        let reference = -(v - predicted).norm_squared() / (2.0 * sigma * sigma);
-        prop_assert!((ours - reference).abs() <= 1e-10 * (1.0 + reference.abs()),
-            "{ours} vs {reference}");
-    }
-}
-
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(16))]
-
-    /// LD → Bingham → LD gives back the mean and Σ (anisotropic, 0.6° to 13° per axis).
-    #[test]
-    fn diffusion_bingham_round_trip(
-        mean in rotation(), frame in rotation(),
-        variances in (1e-4..0.05_f64, 1e-4..0.05_f64, 1e-4..0.05_f64),
-    ) {
-        let r = frame.to_rotation_matrix().into_inner();
-        let sigma = r * Matrix3::from_diagonal(&Vector3::new(variances.0, variances.1, variances.2))
-            * r.transpose();
-        let bingham = bingham_from_diffusion(&mean, &sigma).unwrap();
-        let (back_mean, back_sigma) = diffusion_from_bingham(&bingham).unwrap();
-        prop_assert!(back_mean.angle_to(&mean) < 1e-8);
-        prop_assert!((back_sigma - sigma).amax() <= 1e-7 * sigma.amax(),
-            "{back_sigma} vs {sigma}");
-    }
-}
-
-/// For an isotropic Σ = s I the conversions are the library's heat-kernel moment matches.
-#[test]
-fn isotropic_diffusion_is_the_library_heat_kernel() {
-    let mean = UnitQuaternion::from_scaled_axis(Vector3::new(0.3, -1.1, 0.4));
-    for s in [1e-5, 1e-3, 0.05, 0.5] {
-        let ours = bingham_from_diffusion(&mean, &(Matrix3::identity() * s)).unwrap();
-        let kernel = HeatKernelSo3::new(So3::from_unit_quaternion(mean), s).unwrap();
-        let library = kernel.to_bingham_moment_matched().unwrap();
-        let gap = (ours.second_moment() - library.second_moment()).amax();
-        assert!(gap < 1e-12, "s = {s}: second moments differ by {gap}");
-        let (_, sigma) = diffusion_from_bingham(&library).unwrap();
-        let back = library.to_heat_kernel_moment_matched().unwrap().variance();
-        assert!(
-            (sigma - Matrix3::identity() * back).amax() < 1e-10 * s,
-            "s = {s}: {sigma} vs {back}"
-        );
-        assert!((back - s).abs() < 1e-8 * s, "s = {s}: {back}");
-    }
-}
-
-/// `E[q qᵀ]` of `LD(1, Σ)` against a Monte Carlo of Brownian motion with right increments:
-/// 10 000 paths of 200 steps `exp(L n / √200)`, `L Lᵀ = Σ` (the discretisation bias, about
-/// |Σ|²/200 = 1e-5, is below the standard error).
-#[test]
-fn diffusion_moments_match_brownian_monte_carlo() {
-    let frame = UnitQuaternion::from_scaled_axis(Vector3::new(0.4, 0.2, -0.7))
-        .to_rotation_matrix()
-        .into_inner();
-    let sd = Vector3::new(3.0_f64, 6.0, 12.0).map(f64::to_radians);
-    let sigma = frame * Matrix3::from_diagonal(&sd.map(|s| s * s)) * frame.transpose();
-    let l = sigma.cholesky().unwrap().l();
-    let steps = 200;
-    let scale = 1.0 / f64::from(steps).sqrt();
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let samples: Vec<(f64, Matrix4<f64>)> = (0..10_000)
-        .map(|_| {
-            let mut q = UnitQuaternion::identity();
-            for _ in 0..steps {
-                q *= UnitQuaternion::from_scaled_axis(l * normal3(&mut rng) * scale);
-            }
-            let x = coords(&q);
-            (1.0, x * x.transpose())
-        })
-        .collect();
-    let (mc, se) = weighted_moment(&samples);
-    let ours = diffusion_second_moment(&sigma).unwrap();
-    assert_within("diffusion moments", &ours, &mc, &se);
 }
 
 fn field() -> Vector3<f64> {
@@ -331,9 +224,6 @@ fn bad_input_is_refused_with_typed_errors() {
             assert!(matches!(p.validate(), Err(DataError::BadValue { .. })));
         }
     }
-    assert!(direction_matrix(&Vector3::x(), &Vector3::z(), 0.0).is_err());
-    assert!(direction_matrix(&Vector3::x(), &Vector3::z(), 1e-200).is_err());
-    assert!(direction_matrix(&Vector3::new(f64::NAN, 0.0, 0.0), &Vector3::z(), 1.0).is_err());
     let q = UnitQuaternion::identity();
     assert!(TalkFilter::new(&good, 0.0, &q, None).is_err());
     assert!(TalkFilter::new(&good, 100.0, &q, Some(Vector3::new(0.0, 2.0, 0.0))).is_err());
@@ -365,10 +255,6 @@ fn bad_input_is_refused_with_typed_errors() {
         .update(&Vector3::zeros(), Some(&Vector3::zeros()))
         .unwrap();
     assert_eq!(filter.bingham(), before.bingham());
-    let bad = Matrix3::new(1.0, 2.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
-    assert!(diffusion_second_moment(&bad).is_err());
-    assert!(diffusion_second_moment(&(-Matrix3::identity())).is_err());
-    assert!(diffusion_from_bingham(&Bingham::uniform()).is_err());
     let empty = ImuLog::new(285.0, Vec::new(), Vec::new(), None).unwrap();
     assert!(matches!(
         run_talk_filter(&empty, &good),

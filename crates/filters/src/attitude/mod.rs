@@ -47,7 +47,4 @@ pub use method::{AttitudeFilter, METHOD_NAMES, Method};
 pub use metric::{SampleErrors, TrialErrors, sample_errors};
 pub use scenario::{ImuScenario, ImuSteps, LogScenario, LogSteps};
 pub use simulate::{Disturbance, SimulationSettings, simulate};
-pub use talk::{
-    TalkFilter, TalkParams, bingham_from_diffusion, diffusion_from_bingham,
-    diffusion_second_moment, direction_matrix, field_reference_from,
-};
+pub use talk::{TalkFilter, TalkParams, field_reference_from};

@@ -34,11 +34,10 @@ mod params;
 
 use super::data::{check_reading, scaled_unit};
 use super::estimate::{AttitudeEstimate, ImuSample};
-use super::talk::bingham_from_diffusion;
 use crate::error::{FilterError, positive_setting};
 use liebayes_densities::{Bingham, HeatKernelSo3, ManifoldGaussian};
 use liebayes_experiments::{Nis, RecursiveFilter, Update};
-use liebayes_manifolds::{Left, Rn, So3};
+use liebayes_manifolds::{Left, Rn, So3, Su2};
 use liebayes_operators::{Condition, Ekf, MeasurementModel, OperatorError, Propagate, Ukf};
 use magnetometer::{FieldReference, Magnetometer, Verdict};
 pub use model::{
@@ -231,7 +230,10 @@ impl AttitudeEkf {
         let s = self.running()?;
         let r = s.orientation.to_rotation_matrix().into_inner();
         let body = r.transpose() * attitude_block(s.density.covariance()) * r;
-        Ok(bingham_from_diffusion(&s.orientation, &body)?)
+        Ok(Bingham::from_diffusion_moment_matched(
+            &Su2::from_unit_quaternion(s.orientation),
+            &body,
+        )?)
     }
 
     /// The attitude marginal as an isotropic heat kernel on SO(3), moment matched to
