@@ -438,33 +438,3 @@ pub(crate) fn scaled_unit(v: &Vector3<f64>) -> Option<Vector3<f64>> {
     }
     Some((v / scale).normalize())
 }
-
-/// `Ok` for a finite positive `value`, else a [`DataError::BadValue`] naming it.
-pub(crate) fn check_positive(origin: &str, variable: &str, value: f64) -> Result<(), DataError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(
-            origin,
-            variable,
-            value.to_string(),
-            "a finite positive number",
-        ))
-    }
-}
-
-/// A [`DataError::BadValue`] at row 0.
-pub(crate) fn bad(
-    origin: &str,
-    variable: &str,
-    value: String,
-    expected: &'static str,
-) -> DataError {
-    DataError::BadValue {
-        origin: origin.to_owned(),
-        variable: variable.to_owned(),
-        row: 0,
-        value,
-        expected,
-    }
-}

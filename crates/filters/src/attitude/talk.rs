@@ -16,7 +16,7 @@ use liebayes_experiments::{RecursiveFilter, Update};
 use liebayes_operators::OperatorError;
 use liebayes_densities::Bingham;
 use liebayes_manifolds::Su2;
-use nalgebra::{Matrix3, Matrix4, Vector3};
+use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3};
 
 /// The noise settings of [`TalkFilter`] (the talk's symbols).
 #[derive(Clone, Copy, Debug, PartialEq)]
