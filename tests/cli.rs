@@ -327,6 +327,63 @@ fn shards_merge_to_the_whole_run() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Crafted summaries (a sum flagged NaN, a count of 2^64 − 1, a minimum above the maximum, an
+/// epoch repeated in the trace) are refused by `merge`, naming the file and the field, with nothing
+/// written.
+#[test]
+fn merge_refuses_crafted_summaries() {
+    let dir = folder("crafted");
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    let out = liebayes(&[
+        "azimuth",
+        "--runs",
+        "3",
+        "--baseline-runs",
+        "2",
+        "--duration",
+        "4",
+        "--particles",
+        "50",
+        "--cells",
+        "36",
+        "--mpf-particles",
+        "36",
+        "--out",
+        &path("good"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let file = "azimuth_line.summary.json";
+    let original = std::fs::read_to_string(dir.join("good").join(file)).unwrap();
+    let edits: [(&str, fn(&mut serde_json::Value)); 4] = [
+        ("flagged NaN", |row| {
+            row["metrics"][0]["series"]["epochs"][0]["sum"]["nan"] = true.into();
+        }),
+        ("exceed the 3 runs", |row| {
+            row["times"]["epochs"][1]["count"] = u64::MAX.into();
+        }),
+        ("min <= max", |row| {
+            row["times"]["epochs"][0]["min"] = 1e300.into();
+        }),
+        ("strictly increasing", |row| {
+            let times = &mut row["trace"]["times"];
+            times[1] = times[0].clone();
+        }),
+    ];
+    for (k, (field, edit)) in edits.into_iter().enumerate() {
+        let bad = dir.join(format!("bad-{k}"));
+        std::fs::create_dir_all(&bad).unwrap();
+        let mut table: serde_json::Value = serde_json::from_str(&original).unwrap();
+        edit(&mut table["summaries"][0]);
+        std::fs::write(bad.join(file), table.to_string()).unwrap();
+        let out_dir = path(&format!("out-{k}"));
+        let out = liebayes(&["merge", bad.to_str().unwrap(), "--out", &out_dir]);
+        assert_fails(&out, field);
+        assert!(text(&out.stderr).contains(file), "{}", text(&out.stderr));
+        assert!(files(Path::new(&out_dir)).is_empty());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The angle-of-arrival parts write their tables and plots; the track study's per-run box plots
 /// come with its tables; bad settings fail at once and write nothing.
 #[test]
