@@ -588,3 +588,14 @@ fn is_finite_flags_non_finite_coordinates() {
     assert!(product(rotation, 1.0).is_finite());
     assert!(!product(rotation, nan).is_finite());
 }
+
+/// `Su2::log` at q = (−1, −1.7e-308, −0, 0), a unit quaternion a subnormal away from −1, was
+/// (−∞, NaN, NaN): the factor 2π/|xyz| overflowed. It is the turn of 2π about −x.
+#[test]
+fn su2_log_next_to_minus_one_is_finite() {
+    let q = Su2::from_quaternion_wxyz(-1.0, -1.7e-308, -0.0, 0.0).unwrap();
+    let v = q.log();
+    assert!(all_finite(v.iter().copied()), "{v:?}");
+    assert!((v.x + 2.0 * std::f64::consts::PI).abs() <= 1e-15, "{v:?}");
+    assert_eq!((v.y, v.z), (0.0, 0.0));
+}
