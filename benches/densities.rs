@@ -45,6 +45,12 @@ fn von_mises_moments(c: &mut Criterion) {
             },
         );
     }
+    for kappa in [1.0, 1e4, f64::MAX] {
+        g.bench_function(
+            format!("I_n/I0 at the highest order n = 100000, kappa {kappa:e}"),
+            |b| b.iter(|| special::bessel_ratio(black_box(special::MAX_ORDER), black_box(kappa))),
+        );
+    }
     g.bench_function("A^-1(0.9)", |b| {
         b.iter(|| special::a1_inverse(black_box(0.9)));
     });

@@ -477,7 +477,6 @@ pub fn bingham_log_normalizer_and_moments(z: &[f64; 4]) -> Result<(f64, [f64; 4]
 #[cfg(test)]
 mod tests {
     use super::{MAX_ORDER, SERIES_LIMIT, power_series_tail};
-    use std::time::Instant;
 
     // The functions on valid arguments, unwrapped.
     fn log_i0(k: f64) -> f64 {
@@ -595,7 +594,6 @@ mod tests {
     /// took seconds (order u32::MAX ran the recurrence 4e9 steps): each is now refused at once.
     #[test]
     fn bad_arguments_are_refused_before_any_series() {
-        let start = Instant::now();
         for k in [
             f64::NAN,
             f64::INFINITY,
@@ -615,22 +613,16 @@ mod tests {
         let error = super::bessel_ratio(u32::MAX, 1.0).unwrap_err();
         assert!(error.to_string().contains("100000"), "{error}");
         assert!(super::bessel_ratio(MAX_ORDER + 1, 1e6).is_err());
-        assert!(start.elapsed().as_millis() < 50);
         assert_eq!(super::log_i0(-0.0), Ok(0.0));
     }
 
-    /// The highest order at every κ regime, each well under the 200 ms the fuzz harness allows.
+    /// The highest order at every κ regime is a ratio in [0, 1] (its time is in the `densities`
+    /// benchmark: the recurrence is bounded by construction).
     #[test]
-    fn the_highest_order_is_fast() {
+    fn the_highest_order_is_in_range_at_every_regime() {
         for kappa in [1e-300, 1.0, 30.0, 31.0, 1e4, 2e10, 1e300, f64::MAX] {
-            let start = Instant::now();
             let value = bessel_ratio(MAX_ORDER, kappa);
             assert!((0.0..=1.0).contains(&value), "{kappa:e}: {value}");
-            assert!(
-                start.elapsed().as_millis() < 100,
-                "{kappa:e}: {:?}",
-                start.elapsed()
-            );
         }
         assert_eq!(bessel_ratio(MAX_ORDER, 1.0), 0.0);
         assert!(bessel_ratio(MAX_ORDER, 1e300) > 0.999_999);

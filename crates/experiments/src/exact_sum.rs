@@ -146,6 +146,12 @@ impl ExactSum {
         sum
     }
 
+    /// Whether a NaN or an infinity was added (the flags that make [`value`](Self::value)
+    /// non-finite whatever the finite values).
+    pub(crate) fn has_non_finite(&self) -> bool {
+        self.nan || self.positive_infinity || self.negative_infinity
+    }
+
     /// The exact total rounded to the nearest f64 (ties to even); see the type for non-finite values.
     pub fn value(&self) -> f64 {
         if self.nan || (self.positive_infinity && self.negative_infinity) {

@@ -11,8 +11,12 @@ use crate::ExactSum;
 /// `(Σx² − (Σx)²/n) / (n − 1)` are computed from the exact sums, each rounded once, then combined in
 /// f64: the variance keeps a relative accuracy of about `ε · mean² / variance`, which loses digits
 /// only for values whose spread is below 1e-8 of their size.
+///
+/// Read from a file, the statistics are checked: no non-finite value in either sum (only finite
+/// values are summed), the count and the non-finite count summing within u64, extremes present
+/// exactly when the count is positive, finite, with min ≤ max, and the sums of no values zero.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RunningStatsFields")]
 pub struct RunningStats {
     count: u64,
     non_finite: u64,
@@ -107,5 +111,68 @@ impl RunningStats {
     /// The largest finite value.
     pub fn max(&self) -> Option<f64> {
         self.max
+    }
+}
+
+/// The serialized form of [`RunningStats`], checked when converted.
+#[derive(serde::Deserialize)]
+#[serde(rename = "RunningStats", deny_unknown_fields)]
+struct RunningStatsFields {
+    count: u64,
+    non_finite: u64,
+    sum: ExactSum,
+    sum_of_squares: ExactSum,
+    min: Option<f64>,
+    max: Option<f64>,
+}
+
+impl TryFrom<RunningStatsFields> for RunningStats {
+    type Error = String;
+
+    fn try_from(f: RunningStatsFields) -> Result<Self, String> {
+        if f.sum.has_non_finite() || f.sum_of_squares.has_non_finite() {
+            return Err(
+                "statistics: sum or sum_of_squares is flagged NaN or infinite, but only \
+                        finite values are summed"
+                    .to_owned(),
+            );
+        }
+        if f.count.checked_add(f.non_finite).is_none() {
+            return Err(format!(
+                "statistics: count {} plus non_finite {} overflows",
+                f.count, f.non_finite
+            ));
+        }
+        match (f.count, f.min, f.max) {
+            (0, None, None) => {
+                if f.sum != ExactSum::new() || f.sum_of_squares != ExactSum::new() {
+                    return Err("statistics: count is 0 but the sums are not".to_owned());
+                }
+            }
+            (1.., Some(min), Some(max)) => {
+                if !(min.is_finite() && max.is_finite() && min <= max) {
+                    return Err(format!(
+                        "statistics: min {min} and max {max} must be finite with min <= max"
+                    ));
+                }
+                if f.sum_of_squares.value() < 0.0 {
+                    return Err("statistics: sum_of_squares is negative".to_owned());
+                }
+            }
+            (count, min, max) => {
+                return Err(format!(
+                    "statistics: count {count} with min {min:?} and max {max:?} (extremes are \
+                     present exactly when the count is positive)"
+                ));
+            }
+        }
+        Ok(Self {
+            count: f.count,
+            non_finite: f.non_finite,
+            sum: f.sum,
+            sum_of_squares: f.sum_of_squares,
+            min: f.min,
+            max: f.max,
+        })
     }
 }

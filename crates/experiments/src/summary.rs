@@ -28,20 +28,24 @@ pub struct MetricSeries {
 }
 
 impl MetricSeries {
-    /// Adds one run's value at epoch k.
+    /// Adds one run's value at epoch k: an epoch already held, or the next one. A run's epochs
+    /// are added in order, so the series holds exactly the epochs added, and its memory is
+    /// proportional to them.
     ///
     /// # Errors
-    /// [`ExperimentError::OutOfRange`] for k at or beyond [`MAX_EPOCHS`].
+    /// [`ExperimentError::OutOfRange`] for k beyond the next epoch (k greater than the number of
+    /// epochs held), or at or beyond [`MAX_EPOCHS`]; nothing is added then.
     pub fn add(&mut self, k: usize, value: f64) -> Result<(), ExperimentError> {
-        if k >= MAX_EPOCHS {
+        let next = self.epochs.len();
+        if k > next || k >= MAX_EPOCHS {
             return Err(ExperimentError::OutOfRange {
                 what: "epoch index",
                 value: k.to_string(),
-                range: "[0, 2^24)",
+                range: "[0, epochs held] and below 2^24 (epochs are added in order)",
             });
         }
-        if self.epochs.len() <= k {
-            self.epochs.resize_with(k + 1, RunningStats::new);
+        if k == next {
+            self.epochs.push(RunningStats::new());
         }
         self.epochs[k].add(value);
         Ok(())
@@ -151,8 +155,11 @@ pub struct StudyLabel {
 /// Everything but the timing is determined by the study's seed and runs: two summaries of the same
 /// runs are equal bit for bit, however they were sharded. The timing is measured, so it differs
 /// from one execution to the next; it is kept apart for that reason.
+///
+/// Read from a file, a summary is checked whole (see [`Summary::check`]), so that what merges and
+/// what is reported can be trusted; the error names the field at fault.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "SummaryFields")]
 pub struct Summary {
     label: StudyLabel,
     /// Disjoint, sorted, with adjacent ranges joined.
@@ -164,7 +171,161 @@ pub struct Summary {
     timing: RunningStats,
 }
 
+/// The serialized form of [`Summary`], checked when converted.
+#[derive(Deserialize)]
+#[serde(rename = "Summary", deny_unknown_fields)]
+struct SummaryFields {
+    label: StudyLabel,
+    runs: Vec<Range<u64>>,
+    metrics: Vec<SummaryMetric>,
+    times: MetricSeries,
+    failures: BTreeMap<String, u64>,
+    trace: Option<Trace>,
+    timing: RunningStats,
+}
+
+impl TryFrom<SummaryFields> for Summary {
+    type Error = String;
+
+    fn try_from(f: SummaryFields) -> Result<Self, String> {
+        let summary = Self {
+            label: f.label,
+            runs: f.runs,
+            metrics: f.metrics,
+            times: f.times,
+            failures: f.failures,
+            trace: f.trace,
+            timing: f.timing,
+        };
+        summary.check()?;
+        Ok(summary)
+    }
+}
+
 impl Summary {
+    /// Checks what every summary built by [`add_run`](Self::add_run), [`add_failure`](Self::add_failure)
+    /// and [`merge`](Self::merge) satisfies, so that a summary read from a file can be trusted:
+    /// - run ranges non-empty, sorted, disjoint and not adjacent (joined), inside `0..label.runs`;
+    /// - metric names distinct; at most [`MAX_EPOCHS`] epochs per series;
+    /// - at every epoch of every series, and for the timing together with the failures, no more
+    ///   values (finite and not) than runs covered; at most [`MAX_FAILURE_REASONS`] reasons besides
+    ///   "other reasons";
+    /// - per-run values only for covered runs;
+    /// - a trace of run 0, covered, with finite, strictly increasing epoch times (each epoch once)
+    ///   and one value per epoch and metric.
+    ///
+    /// (Each [`RunningStats`] is checked on its own when read.)
+    ///
+    /// # Errors
+    /// A message naming the field at fault and what it holds.
+    fn check(&self) -> Result<(), String> {
+        let mut end = 0;
+        for (i, r) in self.runs.iter().enumerate() {
+            if r.start >= r.end || (i > 0 && r.start <= end) || r.end > self.label.runs {
+                return Err(format!(
+                    "runs: range {}..{} is empty, unsorted, overlapping or adjacent to the one \
+                     before, or outside the study's 0..{}",
+                    r.start, r.end, self.label.runs
+                ));
+            }
+            end = r.end;
+        }
+        let runs = self.run_count();
+        let within = |what: &str, stats: &RunningStats, others: u64| {
+            let values = stats.count().checked_add(stats.non_finite());
+            match values.and_then(|v| v.checked_add(others)) {
+                Some(v) if v <= runs => Ok(()),
+                _ => Err(format!(
+                    "{what}: count {} and non_finite {} (with {others} failed runs) exceed the \
+                     {runs} runs covered",
+                    stats.count(),
+                    stats.non_finite()
+                )),
+            }
+        };
+        let series = |what: &str, s: &MetricSeries| {
+            if s.epochs.len() > MAX_EPOCHS {
+                return Err(format!(
+                    "{what}: {} epochs, more than {MAX_EPOCHS}",
+                    s.epochs.len()
+                ));
+            }
+            s.epochs
+                .iter()
+                .enumerate()
+                .try_for_each(|(k, e)| within(&format!("{what}, epoch {k}"), e, 0))
+        };
+        for (i, m) in self.metrics.iter().enumerate() {
+            if self.metrics[..i].iter().any(|n| n.name == m.name) {
+                return Err(format!("metrics: {:?} appears twice", m.name));
+            }
+            series(&format!("metric {:?}", m.name), &m.series)?;
+            let stray = m.per_run.as_ref().and_then(|values| {
+                values
+                    .values()
+                    .iter()
+                    .find(|v| !self.runs.iter().any(|r| r.contains(&v.0)))
+            });
+            if let Some((run, _)) = stray {
+                return Err(format!(
+                    "metric {:?}, per_run: run {run} is not among the runs covered",
+                    m.name
+                ));
+            }
+        }
+        series("times", &self.times)?;
+        if self.failures.len() > MAX_FAILURE_REASONS + 1 {
+            return Err(format!(
+                "failures: {} reasons, more than {MAX_FAILURE_REASONS} and \"{OTHER_REASONS}\"",
+                self.failures.len()
+            ));
+        }
+        let failed = self
+            .failures
+            .values()
+            .try_fold(0_u64, |total, &n| total.checked_add(n))
+            .filter(|&n| n <= runs)
+            .ok_or_else(|| format!("failures: more failed runs than the {runs} runs covered"))?;
+        within("timing", &self.timing, failed)?;
+        if let Some(trace) = &self.trace {
+            self.check_trace(trace)?;
+        }
+        Ok(())
+    }
+
+    /// The trace's part of [`check`](Self::check).
+    fn check_trace(&self, trace: &Trace) -> Result<(), String> {
+        if trace.run != 0 || !self.runs.iter().any(|r| r.contains(&0)) {
+            return Err(format!(
+                "trace: run {} is not run 0 of the runs covered",
+                trace.run
+            ));
+        }
+        if trace.times.len() > MAX_EPOCHS {
+            return Err(format!(
+                "trace: {} epochs, more than {MAX_EPOCHS}",
+                trace.times.len()
+            ));
+        }
+        if trace.times.iter().any(|t| !t.is_finite())
+            || trace.times.windows(2).any(|w| w[0] >= w[1])
+        {
+            return Err(
+                "trace: epoch times must be finite and strictly increasing (each epoch once)"
+                    .to_owned(),
+            );
+        }
+        if trace.times.len().checked_mul(self.metrics.len()) != Some(trace.values.len()) {
+            return Err(format!(
+                "trace: {} values for {} epochs of {} metrics",
+                trace.values.len(),
+                trace.times.len(),
+                self.metrics.len()
+            ));
+        }
+        Ok(())
+    }
+
     /// The empty summary of the runs `runs` of the study `label` (nothing recorded yet).
     pub fn new(label: StudyLabel, runs: Range<u64>) -> Self {
         Self {

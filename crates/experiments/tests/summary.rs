@@ -163,3 +163,89 @@ fn a_trace_with_missing_values_survives_its_file() {
     assert_eq!(back, summary);
     assert!(back.trace().unwrap().values[0].is_nan());
 }
+
+#[test]
+fn a_series_holds_only_the_epochs_added_in_order() {
+    let mut series = liebayes_experiments::MetricSeries::default();
+    // An index inside 0..2^24 but beyond the epochs held would have to allocate every epoch below it.
+    let error = series.add(MAX_EPOCHS - 1, 1.0).unwrap_err();
+    assert!(error.to_string().contains("added in order"), "{error}");
+    assert!(series.epochs().is_empty());
+    series.add(0, 1.0).unwrap();
+    series.add(1, 2.0).unwrap();
+    series.add(0, 3.0).unwrap();
+    assert!(series.add(3, 1.0).is_err());
+    assert_eq!(series.epochs().len(), 2);
+    assert_eq!(series.epochs()[0].count(), 2);
+    assert_eq!(series.epochs()[1].count(), 1);
+}
+
+/// A change to a summary's JSON.
+type Edit = dyn Fn(&mut serde_json::Value);
+
+/// `summary` through a file with `edit` applied to its JSON: the error, if it is refused.
+fn read_edited(
+    summary: &Summary,
+    edit: impl Fn(&mut serde_json::Value),
+) -> Result<Summary, String> {
+    let mut json = serde_json::to_value(summary).unwrap();
+    edit(&mut json);
+    serde_json::from_str(&json.to_string()).map_err(|e| e.to_string())
+}
+
+#[test]
+fn crafted_summaries_are_refused_naming_the_field() {
+    let whole = study(3, Shard::WHOLE, 20);
+    assert_eq!(read_edited(&whole, |_| {}).unwrap(), whole);
+    let epoch = |j: &mut serde_json::Value| j["metrics"][0]["series"]["epochs"][0].take();
+    let cases: [(&str, Box<Edit>); 9] = [
+        (
+            "flagged NaN",
+            Box::new(|j| j["metrics"][0]["series"]["epochs"][0]["sum"]["nan"] = true.into()),
+        ),
+        (
+            "exceed the 20 runs",
+            Box::new(|j| {
+                j["metrics"][1]["series"]["epochs"][3]["non_finite"] = (u64::MAX / 2).into();
+            }),
+        ),
+        (
+            "overflows",
+            Box::new(|j| {
+                j["times"]["epochs"][0]["count"] = u64::MAX.into();
+                j["times"]["epochs"][0]["non_finite"] = 1.into();
+            }),
+        ),
+        (
+            "min <= max",
+            Box::new(move |j| {
+                let mut e = epoch(j);
+                let (min, max) = (e["min"].clone(), e["max"].clone());
+                e["min"] = max;
+                e["max"] = min;
+                j["metrics"][0]["series"]["epochs"][0] = e;
+            }),
+        ),
+        (
+            "strictly increasing",
+            Box::new(|j| j["trace"]["times"][2] = j["trace"]["times"][1].clone()),
+        ),
+        (
+            "appears twice",
+            Box::new(|j| j["metrics"][1]["name"] = "error".into()),
+        ),
+        (
+            "runs: range 0..30",
+            Box::new(|j| j["runs"][0]["end"] = 30.into()),
+        ),
+        (
+            "failures: more failed runs",
+            Box::new(|j| j["failures"]["diverged"] = 21.into()),
+        ),
+        ("timing", Box::new(|j| j["timing"]["count"] = 20.into())),
+    ];
+    for (field, edit) in cases {
+        let error = read_edited(&whole, edit).unwrap_err();
+        assert!(error.contains(field), "{field}: {error}");
+    }
+}

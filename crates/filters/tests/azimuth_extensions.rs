@@ -229,7 +229,7 @@ impl<const N: usize>
                 (cell.covariance() - composite.covariance()).amax()
                     / (1.0 + cell.covariance().amax()),
             );
-            let expected = step.at(grid.angle(j));
+            let expected = step.at(grid.angle(j)).unwrap();
             let cell_evidence = grid.log_weights()[j] - previous.log_weights[j] + grid_evidence;
             evidence = evidence.max((cell_evidence - expected).abs() / (1.0 + expected.abs()));
         }

@@ -72,8 +72,15 @@ pub(crate) fn log<T: Real>(q: &Quaternion<T>) -> Vector3<T> {
     let n = norm(&xyz);
     if n > T::zero() {
         // atan2(n, w) / n is accurate to a few ulp for every n > 0 (no cancellation), so no series
-        // branch is needed near the identity.
-        xyz * (T::lit(2.0) * n.atan2(q.w) / n)
+        // branch is needed near the identity. Near q = −1 with a subnormal n the factor overflows
+        // (2π / 1.7e-308): there the unit axis xyz / n is taken first.
+        let angle = T::lit(2.0) * n.atan2(q.w);
+        let factor = angle / n;
+        if nalgebra::ComplexField::is_finite(&factor) {
+            xyz * factor
+        } else {
+            (xyz / n) * angle
+        }
     } else if q.w >= T::zero() {
         Vector3::zeros()
     } else {

@@ -148,6 +148,18 @@ impl<T: Real> Se3<T> {
     }
 }
 
+/// `t` with coordinates beyond the scalar's range (±∞ from an overflowing sum) saturated at the
+/// largest finite value.
+#[inline]
+fn saturated<T: Real>(t: Vector3<T>) -> Vector3<T> {
+    if t.iter().all(|x| nalgebra::ComplexField::is_finite(x)) {
+        t
+    } else {
+        let max = T::max_finite();
+        t.map(|x| x.clamp(-max, max))
+    }
+}
+
 /// The translation and rotation blocks `(ρ, φ)` of a tangent.
 #[inline]
 fn split<T: Real>(v: &Tangent<T, 6>) -> (Vector3<T>, Vector3<T>) {
@@ -199,8 +211,14 @@ pub(crate) fn v_inverse_times<T: Real>(phi: &Vector3<T>, t: &Vector3<T>) -> Vect
 /// [`theta_minus_sin_over_theta`] and `1 − cos θ = 2 sin²(θ/2)`: each accurate to a few eps absolute
 /// and bounded for huge θ. Against φ itself they are the Taylor series to θ⁴ of `θ²c₃ − 1/2`,
 /// `c₂ − 2c₃`, `c₂`, `c₂ − θ²c₄` and `c₄`.
+///
+/// For a φ whose norm overflows (components near the largest finite value) the block is taken at
+/// φ/2: every coefficient is within O(1/θ) < 1e-307 of its limit at either angle.
 fn coupling<T: Real>(rho: &Vector3<T>, phi: &Vector3<T>) -> Matrix3<T> {
     let theta = crate::real::stable_norm(phi);
+    if !nalgebra::ComplexField::is_finite(&theta) {
+        return coupling(rho, &(phi * T::lit(0.5)));
+    }
     let (a, [beta, gamma, k1, delta, k4]) = if theta < T::SERIES_ANGLE {
         let t2 = theta * theta;
         let t4 = t2 * t2;
@@ -247,20 +265,22 @@ impl<T: Real> LieGroup<6> for Se3<T> {
         Self::new_unchecked(So3::identity(), Vector3::zeros())
     }
 
-    /// `(R₁ R₂, t₁ + R₁ t₂)`.
+    /// `(R₁ R₂, t₁ + R₁ t₂)`; a translation beyond the scalar's range saturates at its largest
+    /// finite value.
     #[inline]
     fn compose(&self, other: &Self) -> Self {
         Self::new_unchecked(
             self.rotation.compose(&other.rotation),
-            self.translation + self.rotation.rotate(&other.translation),
+            saturated(self.translation + self.rotation.rotate(&other.translation)),
         )
     }
 
-    /// `(Rᵀ, −Rᵀ t)`.
+    /// `(Rᵀ, −Rᵀ t)`; saturating like [`compose`](Self::compose) (a rotated translation's
+    /// coordinates can exceed the original's by up to √3).
     #[inline]
     fn inverse(&self) -> Self {
         let r_inv = self.rotation.inverse();
-        Self::new_unchecked(r_inv, -r_inv.rotate(&self.translation))
+        Self::new_unchecked(r_inv, saturated(-r_inv.rotate(&self.translation)))
     }
 
     /// `(exp(φ), V(φ) ρ)`, with the Taylor series of the coefficients below the series angle. Valid
@@ -294,9 +314,11 @@ impl<T: Real> LieGroup<6> for Se3<T> {
         Vector6::new(a.m14, a.m24, a.m34, phi.x, phi.y, phi.z)
     }
 
-    /// `H a H⁻¹` with the homogeneous matrices of `self` and its inverse.
+    /// `H a H⁻¹` with the homogeneous matrices of `self` and its inverse; saturating, never NaN,
+    /// for entries whose products overflow.
     fn conjugate_algebra(&self, a: &Matrix4<T>) -> Matrix4<T> {
-        self.to_homogeneous() * a * self.inverse().to_homogeneous()
+        let left = mul_saturating(&self.to_homogeneous(), a);
+        mul_saturating(&left, &self.inverse().to_homogeneous())
     }
 
     /// `[[R, hat(t) R], [0, R]]`.

@@ -7,10 +7,10 @@
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{
     GroupAction, Left, LieGroup, Manifold, ManifoldError, MeanSettings, ProductManifold, Real, Rn,
-    S2, So2, So3, Su2, weighted_mean,
+    S2, Se3, So2, So3, Su2, weighted_mean,
 };
 use liebayes_reference::fuzz;
-use nalgebra::{Matrix2, Matrix3, Quaternion, SVector, Vector1, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, Quaternion, SVector, Vector1, Vector2, Vector3, Vector6};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 use std::f64::consts::PI;
@@ -587,4 +587,45 @@ fn is_finite_flags_non_finite_coordinates() {
     };
     assert!(product(rotation, 1.0).is_finite());
     assert!(!product(rotation, nan).is_finite());
+}
+
+/// `Su2::log` at q = (−1, −1.7e-308, −0, 0), a unit quaternion a subnormal away from −1, was
+/// (−∞, NaN, NaN): the factor 2π/|xyz| overflowed. It is the turn of 2π about −x.
+#[test]
+fn su2_log_next_to_minus_one_is_finite() {
+    let q = Su2::from_quaternion_wxyz(-1.0, -1.7e-308, -0.0, 0.0).unwrap();
+    let v = q.log();
+    assert!(all_finite(v.iter().copied()), "{v:?}");
+    assert!((v.x + 2.0 * std::f64::consts::PI).abs() <= 1e-15, "{v:?}");
+    assert_eq!((v.y, v.z), (0.0, 0.0));
+}
+
+/// Se3 near the largest finite value: `local` between translations whose difference overflows,
+/// `conjugate_algebra` with products that overflow, and the Jacobians of a rotation vector whose
+/// norm overflows all returned NaN. Each now saturates: finite, never NaN.
+#[test]
+fn se3_near_the_largest_value_is_finite() {
+    let turn = So3::from_rotation_vector(&Vector3::new(0.3, -1.0, 2.0)).unwrap();
+    let max = f64::MAX;
+    for (a, b) in [(1.0, max), (1e200, -max), (1e308, max), (-1e308, -max)] {
+        let x = Se3::new(turn, Vector3::new(a, b, 1.0)).unwrap();
+        let y = Se3::new(turn, Vector3::new(-b, a, -a)).unwrap();
+        let local = x.local(&y);
+        assert!(
+            all_finite(local.iter().copied()),
+            "local {a:e} {b:e}: {local:?}"
+        );
+        assert!(x.inverse().compose(&y).is_finite());
+        let algebra = Se3::<f64>::hat(&Vector6::new(a, b, 1.0, 0.5, -0.2, 0.1));
+        let conjugated = x.conjugate_algebra(&algebra);
+        assert!(
+            all_finite(conjugated.iter().copied()),
+            "conjugate {a:e} {b:e}"
+        );
+        let v = Vector6::new(1.0, 0.5, 2.0, a.abs(), b, 0.1);
+        let jacobians = [Se3::right_jacobian(&v), Se3::right_jacobian_inverse(&v)];
+        for j in jacobians {
+            assert!(all_finite(j.iter().copied()), "Jacobian at {v:?}");
+        }
+    }
 }

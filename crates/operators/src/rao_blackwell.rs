@@ -54,11 +54,34 @@ pub struct Harmonics {
 }
 
 impl Harmonics {
-    /// The log-likelihood at y.
-    pub fn at(&self, y: f64) -> f64 {
+    /// The log-likelihood at y: finite, or the exact value's ±∞ where it overflows f64 (the terms
+    /// are summed scaled by 1/8, exactly, so that no partial sum overflows before the total).
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for a non-finite y or coefficient.
+    pub fn at(&self, y: f64) -> Result<f64, OperatorError> {
+        all_finite("angle y", [y].iter())?;
+        all_finite(
+            "harmonics coefficients",
+            [self.constant].iter().chain(&self.eta1).chain(&self.eta2),
+        )?;
         let (s, c) = y.sin_cos();
         let (s2, c2) = (2.0 * y).sin_cos();
-        self.constant + self.eta1.dot(&Vector2::new(c, s)) + self.eta2.dot(&Vector2::new(c2, s2))
+        let eighth = |v: &Vector2<f64>| v / 8.0;
+        let scaled = self.constant / 8.0
+            + eighth(&self.eta1).dot(&Vector2::new(c, s))
+            + eighth(&self.eta2).dot(&Vector2::new(c2, s2));
+        Ok(8.0 * scaled)
+    }
+
+    /// The harmonics, if every coefficient is finite.
+    fn finite(self) -> Result<Self, OperatorError> {
+        all_finite(
+            "measurement's harmonics of the angle (they overflow: the measurement or the \
+             composite is too large for its noise)",
+            [self.constant].iter().chain(&self.eta1).chain(&self.eta2),
+        )?;
+        Ok(self)
     }
 }
 
@@ -116,8 +139,8 @@ fn cross(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
 /// `ln p(z | y, past)` of a y-independent linear measurement, as harmonics of y (see the module docs).
 ///
 /// # Errors
-/// [`OperatorError::NonFinite`] for a non-finite z, [`OperatorError::NotPositiveDefinite`] when
-/// `S = H Σ Hᵀ + R` is not.
+/// [`OperatorError::NonFinite`] for a non-finite z or harmonics that overflow,
+/// [`OperatorError::NotPositiveDefinite`] when `S = H Σ Hᵀ + R` is not.
 pub fn linear_harmonics<const N: usize, const M: usize>(
     density: &HarmonicGaussian<N>,
     model: &LinearMeasurement<N, M>,
@@ -129,8 +152,8 @@ pub fn linear_harmonics<const N: usize, const M: usize>(
 /// `ln p(z | y, past)` of a rotated measurement, as harmonics of y (see the module docs).
 ///
 /// # Errors
-/// [`OperatorError::NonFinite`] for a non-finite z, [`OperatorError::NotClosed`] when `H Σ Hᵀ` is
-/// not isotropic.
+/// [`OperatorError::NonFinite`] for a non-finite z or harmonics that overflow,
+/// [`OperatorError::NotClosed`] when `H Σ Hᵀ` is not isotropic.
 pub fn rotated_harmonics<const N: usize>(
     density: &HarmonicGaussian<N>,
     model: &RotatedMeasurement<N>,
@@ -162,7 +185,8 @@ fn linear_step<const N: usize, const M: usize>(
             - 0.5 * (log_det + M as f64 * (2.0 * PI).ln()),
         eta1: Vector2::new(g[1] - w[(0, 1)], g[2] - w[(0, 2)]),
         eta2: Vector2::new(-0.25 * (w[(1, 1)] - w[(2, 2)]), -0.5 * w[(1, 2)]),
-    };
+    }
+    .finite()?;
     let gain = factor.solve(&(h * density.covariance())).transpose();
     Ok((harmonics, gain))
 }
@@ -204,7 +228,8 @@ fn rotated_step<const N: usize>(
             0.5 * (z.dot(&b1) - cross(&b2, z)) - 0.25 * (b1.norm_squared() - b2.norm_squared()),
             0.5 * (cross(&b1, z) + z.dot(&b2)) - 0.5 * b1.dot(&b2),
         ) / s,
-    };
+    }
+    .finite()?;
     Ok((harmonics, s))
 }
 

@@ -58,7 +58,7 @@ fn conditioned_grid(
             .condition(&model_at(&grid.rotation(j)).unwrap(), z)
             .unwrap()
             .log_evidence;
-        worst = worst.max((l - harmonics.at(grid.angle(j))).abs() / (1.0 + l.abs()));
+        worst = worst.max((l - harmonics.at(grid.angle(j)).unwrap()).abs() / (1.0 + l.abs()));
     }
     prop_assert!(worst < 1e-9, "per-angle log evidence off by {worst:e}");
     let evidence = grid.condition_in_place(&Given(model_at), z).unwrap();
@@ -420,4 +420,42 @@ fn failed_grid_steps_leave_the_grid_unchanged() {
     for (a, b) in grid.cells().iter().zip(&cells) {
         assert_eq!((a.mean(), a.covariance()), (b.mean(), b.covariance()));
     }
+}
+
+/// A measurement 1e200 from its prediction: the harmonics overflowed to ±∞ and `at` returned NaN,
+/// as Ok. Now the harmonics are refused, and `at` never returns NaN (a finite value, or the ±∞ of
+/// an exact value that overflows).
+#[test]
+fn harmonics_that_overflow_are_refused_and_at_is_never_nan() {
+    let angle = GenVonMises2::from_natural(Vector2::new(1.0, 0.0), Vector2::zeros()).unwrap();
+    let prior = HarmonicGaussian::new(
+        angle,
+        Matrix2x3::new(1.0, 2.0, -1.0, 0.5, 0.0, 3.0),
+        Matrix2::identity(),
+    )
+    .unwrap();
+    let z = Vector2::new(1e200, -1e200);
+    let linear = LinearMeasurement::new(Matrix2::identity(), Matrix2::identity()).unwrap();
+    let rotated = RotatedMeasurement::new(Matrix2::identity(), 1.0).unwrap();
+    for error in [
+        linear_harmonics(&prior, &linear, &z).unwrap_err(),
+        rotated_harmonics(&prior, &rotated, &z).unwrap_err(),
+    ] {
+        assert!(matches!(error, OperatorError::NonFinite { .. }), "{error}");
+    }
+    // At y = 0 the exact value MAX + MAX − MAX is MAX (summed left to right, it overflowed); at
+    // y = π/2, MAX + MAX overflows: +∞, the exact value's sign.
+    let huge = Harmonics {
+        constant: f64::MAX,
+        eta1: Vector2::new(f64::MAX, f64::MAX),
+        eta2: Vector2::new(-f64::MAX, 0.0),
+    };
+    assert_eq!(huge.at(0.0).unwrap(), f64::MAX);
+    assert_eq!(huge.at(std::f64::consts::FRAC_PI_2).unwrap(), f64::INFINITY);
+    assert!(huge.at(f64::NAN).is_err());
+    let nan = Harmonics {
+        constant: f64::NAN,
+        ..huge
+    };
+    assert!(nan.at(0.0).is_err());
 }
