@@ -1,15 +1,17 @@
 //! The attitude data layer: the BROAD reader on the twelve trials (skipped without the data) and on
 //! malformed files, `ImuLog` validation, the BROAD metric (hand cases, a decomposition property,
 //! invariances), CSV in and out, the simulator, the measured magnetometer facts the docs report,
-//! and bad input through the bad-input harness (no panic, no hang, no silent NaN).
+//! and bad input through the bad-input harness (no panic, no hang, no silent NaN; a refused step
+//! leaves the filter as it was).
 //!
-//! The data are looked for in `$LIEBAYES_BROAD_DIR`, else in `shared/broad` beside the workspace.
+//! The twelve trials are read from `$LIEBAYES_BROAD_DIR` when it is set.
 
+use liebayes_experiments::{Recorded, Recording, RecursiveFilter};
 use liebayes_filters::attitude::{
-    AttitudeTrack, DataError, Disturbance, FieldOffset, ImuLog, MAX_SAMPLES, Madgwick,
-    RATE_TOLERANCE, SimulationSettings, per_sample_errors, read_broad, read_estimates_csv,
-    read_imu_csv, run_madgwick, sample_errors, simulate, track_nees, trial_errors,
-    write_estimates_csv,
+    AttitudeEstimate, DataError, Disturbance, FieldOffset, ImuLog, ImuSample, LogRecording,
+    LogScenario, LogScore, MAX_SAMPLES, METHOD_NAMES, Method, RATE_TOLERANCE, Sensors,
+    SimulationSettings, read_broad, read_estimates_csv, read_imu_csv, run_log, sample_errors,
+    simulate, write_estimates_csv,
 };
 use liebayes_reference::broad::{TRIALS, data_dir};
 use liebayes_reference::fuzz;
@@ -394,6 +396,18 @@ fn imu_log_validates_its_input() {
         ImuLog::new(100.0, v.clone(), v.clone(), Some(bad)),
         Err(DataError::BadValue { row: 1, .. })
     ));
+    // A gyroscope row beyond MAX_ANGULAR_RATE (1e4 rad/s) is refused, naming its row; the limit
+    // itself is accepted.
+    let mut fast = v.clone();
+    fast[2] = Vector3::new(1e5, 0.0, 0.0);
+    let err = ImuLog::new(100.0, fast.clone(), v.clone(), None).unwrap_err();
+    assert!(
+        matches!(&err, DataError::BadValue { variable, row: 2, .. } if variable == "gyroscope"),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("row 2"), "{err}");
+    fast[2] = Vector3::new(1e4, 0.0, 0.0);
+    assert!(ImuLog::new(100.0, fast, v.clone(), None).is_ok());
     let log = ImuLog::new(100.0, v.clone(), v.clone(), None).expect("valid");
     assert!(log.clone().with_reference(vec![None; 2]).is_err());
     assert!(log.clone().with_movement(vec![true; 4]).is_err());
@@ -461,12 +475,44 @@ fn four_samples_two_scored() -> ImuLog {
         .expect("valid")
 }
 
+/// A recording of `log` with the given estimates, one per sample, the truths as its scenario
+/// gives them.
+fn recording(log: &ImuLog, estimates: &[AttitudeEstimate]) -> LogRecording {
+    let scenario = LogScenario::new(log.clone()).expect("a non-empty log");
+    assert_eq!(estimates.len(), log.len());
+    Recording {
+        steps: scenario
+            .steps()
+            .zip(estimates)
+            .map(|(step, estimate)| Recorded {
+                time: step.time,
+                truth: step.truth,
+                estimate: *estimate,
+                update: None,
+            })
+            .collect(),
+        seconds: 1.0,
+    }
+}
+
+fn without_covariance(orientation: UnitQuaternion<f64>) -> AttitudeEstimate {
+    AttitudeEstimate {
+        orientation,
+        covariance: None,
+    }
+}
+
 #[test]
 fn trial_rmse_over_movement_samples_with_a_reference() {
     let log = four_samples_two_scored();
+    // The truth counts where the sample has a reference and is inside the movement mask.
+    let scenario = LogScenario::new(log.clone()).expect("a non-empty log");
+    let truths: Vec<bool> = scenario.steps().map(|s| s.truth.is_some()).collect();
+    assert_eq!(truths, [true, true, false, false]);
     // Errors 3° and 4° on the two scored samples; huge errors on the unscored ones.
-    let estimates = [yaw(3.0), yaw(4.0), yaw(90.0), yaw(90.0)];
-    let e = trial_errors(&estimates, &log).expect("scored");
+    let estimates = [yaw(3.0), yaw(4.0), yaw(90.0), yaw(90.0)].map(without_covariance);
+    let score = LogScore::of(&recording(&log, &estimates));
+    let e = score.errors().expect("scored");
     assert_eq!(e.samples, 2);
     let expected = (12.5_f64).sqrt(); // √((9 + 16) / 2)
     assert!(
@@ -474,54 +520,61 @@ fn trial_rmse_over_movement_samples_with_a_reference() {
         "{e:?}"
     );
     assert!(e.inclination.abs() < 1e-6);
-    let per = per_sample_errors(&estimates, &log).expect("per sample");
-    assert!(per[2].is_none() && per[3].is_some());
-    assert!(matches!(
-        trial_errors(&estimates[..3], &log),
-        Err(DataError::Length { .. })
-    ));
+    assert_eq!(score.samples, 4);
+    assert_eq!(score.nees(), None, "no covariance, no NEES");
     let none = log.clone().with_movement(vec![false; 4]).expect("valid");
-    assert!(matches!(
-        trial_errors(&estimates, &none),
-        Err(DataError::NothingToScore { .. })
-    ));
+    assert_eq!(LogScore::of(&recording(&none, &estimates)).errors(), None);
 }
 
-/// The NEES sums over the scored samples, by hand: heading errors 3° and 4° against σ 2°, a
-/// 1° tilt against σ_t 0.5°; the unscored samples (no reference, outside the mask) do not count.
+/// The NEES means over the scored samples, by hand. The truth is the identity, so the world-frame
+/// error is `δθ = log(R_true R̂ᵀ) = −r` for an estimate of rotation vector r: `r = (0, 0, 3°)` on
+/// the first scored sample and `(1°, 0, 4°)` on the second. With the covariance of heading σ 2°
+/// (independent) and tilt block `s² [[1, ρ], [ρ, 1]]`, s = 0.5°, ρ = 0.5 (whose inverse is
+/// `[[1, −ρ], [−ρ, 1]] / (s² (1 − ρ²))`), the heading NEES (χ²(1)) are 9/4 and 16/4, the tilt
+/// NEES (χ²(2)) 0 and `(1/0.5)² / (1 − ρ²)` = 16/3, and the whole (χ²(3)) their sums; the
+/// unscored samples (no reference, outside the mask) do not count.
 #[test]
-fn track_nees_sums_over_the_scored_samples() {
+fn nees_means_over_the_scored_samples() {
     let log = four_samples_two_scored();
-    let tilt = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1f64.to_radians());
-    let track = AttitudeTrack {
-        orientations: vec![yaw(3.0), tilt * yaw(4.0), yaw(90.0), yaw(90.0)],
-        heading_sigma: Some(vec![2f64.to_radians(); 4]),
-        tilt_sigma: Some(vec![0.5f64.to_radians(); 4]),
-    };
-    let n = track_nees(&track, &log).expect("scored").expect("σ");
-    assert_eq!(n.samples, 2);
-    // tilt ⊗ yaw(4°) splits exactly into a 4° heading and a 1° inclination error.
-    assert!((n.heading_mean() - 25.0 / 8.0).abs() < 1e-9, "{n:?}");
-    assert!((n.tilt_mean() - 2.0).abs() < 1e-9, "{n:?}");
-    let mut pooled = n;
-    pooled.add(&n);
-    assert_eq!(pooled.samples, 4);
-    assert!((pooled.heading_mean() - n.heading_mean()).abs() < 1e-12);
-    assert_eq!(
-        track_nees(
-            &AttitudeTrack::without_sigma(track.orientations.clone()),
-            &log
-        ),
-        Ok(None)
+    let (s, rho, h) = (0.5f64.to_radians(), 0.5, 2f64.to_radians());
+    let covariance = nalgebra::Matrix3::new(
+        s * s,
+        rho * s * s,
+        0.0,
+        rho * s * s,
+        s * s,
+        0.0,
+        0.0,
+        0.0,
+        h * h,
     );
-    let short = AttitudeTrack {
-        heading_sigma: Some(vec![1.0; 3]),
-        ..track
+    let with = |r: Vector3<f64>| AttitudeEstimate {
+        orientation: UnitQuaternion::from_scaled_axis(r.map(f64::to_radians)),
+        covariance: Some(covariance),
     };
-    assert!(matches!(
-        track_nees(&short, &log),
-        Err(DataError::Length { .. })
-    ));
+    let estimates = [
+        with(Vector3::new(0.0, 0.0, 3.0)),
+        with(Vector3::new(1.0, 0.0, 4.0)),
+        with(Vector3::new(0.0, 0.0, 90.0)),
+        with(Vector3::new(0.0, 0.0, 90.0)),
+    ];
+    let score = LogScore::of(&recording(&log, &estimates));
+    let [heading, tilt, whole] = score.nees().expect("a covariance");
+    let expected = [
+        (9.0 / 4.0 + 16.0 / 4.0) / 2.0,
+        (0.0 + 16.0 / 3.0) / 2.0,
+        (9.0 / 4.0 + 16.0 / 4.0 + 16.0 / 3.0) / 2.0,
+    ];
+    for (ours, hand) in [heading, tilt, whole].iter().zip(expected) {
+        assert!((ours - hand).abs() < 1e-9, "{ours} vs {hand}");
+    }
+    assert_eq!(score.stats("nees").expect("a metric").count(), 2);
+    // Pooling a log with itself keeps the means and doubles the count.
+    let mut pooled = score.clone();
+    pooled.merge(&score);
+    assert_eq!(pooled.stats("nees").expect("a metric").count(), 4);
+    let again = pooled.nees().expect("a covariance");
+    assert!((again[0] - heading).abs() < 1e-12);
 }
 
 fn rotation() -> impl Strategy<Value = UnitQuaternion<f64>> {
@@ -958,10 +1011,11 @@ fn fuzz_vector() -> impl Strategy<Value = Vector3<f64>> {
     (fuzz::value(), fuzz::value(), fuzz::value()).prop_map(|(x, y, z)| Vector3::new(x, y, z))
 }
 
-fn all_finite(estimates: &[UnitQuaternion<f64>]) -> bool {
-    estimates
-        .iter()
-        .all(|q| q.coords.iter().all(|c| c.is_finite()))
+fn finite(estimate: &AttitudeEstimate) -> bool {
+    estimate.orientation.coords.iter().all(|c| c.is_finite())
+        && estimate
+            .covariance
+            .is_none_or(|p| p.iter().all(|c| c.is_finite()))
 }
 
 #[test]
@@ -972,19 +1026,29 @@ fn bad_input_logs_and_madgwick() {
         fuzz::value(),
     );
     fuzz::run(
-        "ImuLog::new, run_madgwick",
+        "ImuLog::new, Madgwick's run_log",
         strategy,
         |(rows, rate, beta)| {
-            fuzz::call("run_madgwick", move || {
+            fuzz::call("Madgwick's run_log", move || {
                 let gyr = rows.iter().map(|r| r.0).collect();
                 let acc = rows.iter().map(|r| r.1).collect();
                 let mag = rows.iter().map(|r| r.2).collect();
                 let Some(log) = fuzz::counted(ImuLog::new(rate, gyr, acc, Some(mag))) else {
                     return;
                 };
-                for log in [log.clone(), log.without_magnetometer()] {
-                    if let Some(estimates) = fuzz::counted(run_madgwick(&log, beta)) {
-                        assert!(all_finite(&estimates), "non-finite estimate");
+                for (log, sensors) in [
+                    (log.clone(), Sensors::NineD),
+                    (log.without_magnetometer(), Sensors::SixD),
+                ] {
+                    let Some(scenario) = fuzz::counted(LogScenario::new(log)) else {
+                        continue;
+                    };
+                    let method = Method::Madgwick { beta, sensors };
+                    if let Some(recording) = fuzz::counted(run_log("fuzz", &scenario, &method)) {
+                        assert!(
+                            recording.steps.iter().all(|s| finite(&s.estimate)),
+                            "non-finite estimate"
+                        );
                     }
                 }
             });
@@ -992,28 +1056,45 @@ fn bad_input_logs_and_madgwick() {
     );
 }
 
+/// Every attitude filter, fresh and after a good sample, given a step of arbitrary readings:
+/// a refused `predict` or `update` leaves it exactly as it was (its debug form, which writes
+/// every field's value), an accepted one leaves a finite estimate.
 #[test]
-fn bad_input_madgwick_steps_leave_the_state_unchanged() {
-    let strategy = (
-        fuzz_vector(),
-        fuzz_vector(),
-        fuzz_vector(),
-        fuzz::value(),
-        fuzz::value(),
-    );
+fn bad_input_filter_steps_are_all_or_nothing() {
+    let strategy = (fuzz_vector(), fuzz_vector(), fuzz_vector(), fuzz::value());
     fuzz::run(
-        "Madgwick::update",
+        "attitude filters' steps",
         strategy,
-        |(gyr, acc, mag, beta, rate)| {
-            fuzz::call("Madgwick::update", move || {
-                let Some(mut filter) = fuzz::counted(Madgwick::new(beta, rate)) else {
-                    return;
+        |(gyro, acc, mag, rate)| {
+            fuzz::call("attitude filters' steps", move || {
+                let good = ImuSample {
+                    gyro: Vector3::new(0.1, -0.2, 0.3),
+                    acc: Vector3::new(0.3, -0.2, 9.8),
                 };
-                let before = filter.clone();
-                if fuzz::counted(filter.update(&gyr, &acc, Some(&mag))).is_none() {
-                    assert_eq!(filter, before, "state changed by a failed step");
-                } else {
-                    assert!(all_finite(&[filter.orientation()]), "non-finite state");
+                let field = Vector3::new(0.0, 20.0, -40.0);
+                for name in METHOD_NAMES {
+                    let method = Method::from_name(name).expect("a method name");
+                    let Some(fresh) = fuzz::counted(method.build(rate)) else {
+                        continue;
+                    };
+                    let mut warm = fresh.clone();
+                    if warm.predict(&good).is_err() || warm.update(&field).is_err() {
+                        warm = fresh.clone();
+                    }
+                    for mut filter in [fresh, warm] {
+                        let before = format!("{filter:?}");
+                        if fuzz::counted(filter.predict(&ImuSample { gyro, acc })).is_none() {
+                            assert_eq!(format!("{filter:?}"), before, "{name}: predict");
+                        } else if let Ok(e) = filter.estimate() {
+                            assert!(finite(&e), "{name}: non-finite estimate");
+                        }
+                        let before = format!("{filter:?}");
+                        if fuzz::counted(filter.update(&mag)).is_none() {
+                            assert_eq!(format!("{filter:?}"), before, "{name}: update");
+                        } else if let Ok(e) = filter.estimate() {
+                            assert!(finite(&e), "{name}: non-finite estimate");
+                        }
+                    }
                 }
             });
         },

@@ -1,16 +1,14 @@
 //! Madgwick's filter as the BROAD example evaluation runs it: the published figures on the twelve
-//! trials (skipped without the data), its gradient against finite differences, and its
-//! convergence at rest.
-//!
-//! The data are looked for in `$LIEBAYES_BROAD_DIR`, else in `shared/broad` beside the workspace.
+//! trials (skipped without the data), its convergence at rest, its start, and its steps on bad
+//! input (all or nothing). Its gradients are checked against finite differences in its module.
 
+use liebayes_experiments::RecursiveFilter;
 use liebayes_filters::attitude::{
-    BROAD_BETA, ImuLog, Madgwick, broad_initial_state, enu_from_nwu, gradient_imu, gradient_marg,
-    read_broad, run_madgwick, trial_errors,
+    BROAD_BETA, ImuSample, LogScenario, LogScore, Madgwick, Method, Sensors, broad_initial_state,
+    enu_from_nwu, read_broad, run_log,
 };
 use liebayes_reference::broad::data_dir;
-use nalgebra::{UnitQuaternion, Vector3, Vector4};
-use proptest::prelude::*;
+use nalgebra::{UnitQuaternion, Vector3};
 
 /// The Madgwick column of the BROAD table (total / heading / inclination RMSE, degrees).
 const PUBLISHED: [(&str, [f64; 3]); 12] = [
@@ -40,11 +38,13 @@ const TOLERANCE_DEG: f64 = 0.01;
 
 fn check_trials(trials: &[(&str, [f64; 3])]) {
     let Some(dir) = data_dir() else { return };
+    let method = Method::from_name("madgwick-9d").expect("a method");
     let mut worst = 0.0_f64;
     for (name, published) in trials {
         let log = read_broad(dir.join(format!("{name}.mat"))).expect("BROAD trial reads");
-        let estimates = run_madgwick(&log, BROAD_BETA).expect("Madgwick runs");
-        let e = trial_errors(&estimates, &log).expect("scored");
+        let scenario = LogScenario::new(log).expect("a non-empty trial");
+        let recording = run_log(name, &scenario, &method).expect("Madgwick runs");
+        let e = LogScore::of(&recording).errors().expect("scored");
         let ours = [e.total, e.heading, e.inclination];
         println!(
             "{name}: {:.4} / {:.4} / {:.4} (published {published:?})",
@@ -63,79 +63,6 @@ fn reproduces_the_published_figures_on_twelve_trials() {
     check_trials(&PUBLISHED);
 }
 
-/// ½|f|² of the objectives in the polynomial forms, for finite differences.
-fn half_squared_imu(q: &Vector4<f64>, a: &Vector3<f64>) -> f64 {
-    let (q0, q1, q2, q3) = (q[0], q[1], q[2], q[3]);
-    let f = Vector3::new(
-        2.0 * (q1 * q3 - q0 * q2) - a.x,
-        2.0 * (q0 * q1 + q2 * q3) - a.y,
-        1.0 - 2.0 * q1 * q1 - 2.0 * q2 * q2 - a.z,
-    );
-    0.5 * f.norm_squared()
-}
-
-fn half_squared_field(q: &Vector4<f64>, m: &Vector3<f64>, bx: f64, bz: f64) -> f64 {
-    let (q0, q1, q2, q3) = (q[0], q[1], q[2], q[3]);
-    let f = Vector3::new(
-        bx * (1.0 - 2.0 * q2 * q2 - 2.0 * q3 * q3) + bz * 2.0 * (q1 * q3 - q0 * q2) - m.x,
-        bx * 2.0 * (q1 * q2 - q0 * q3) + bz * 2.0 * (q0 * q1 + q2 * q3) - m.y,
-        bx * 2.0 * (q0 * q2 + q1 * q3) + bz * (1.0 - 2.0 * q1 * q1 - 2.0 * q2 * q2) - m.z,
-    );
-    0.5 * f.norm_squared()
-}
-
-fn central_difference(f: impl Fn(&Vector4<f64>) -> f64, q: &Vector4<f64>) -> Vector4<f64> {
-    let h = 1e-6;
-    Vector4::from_fn(|i, _| {
-        let mut plus = *q;
-        let mut minus = *q;
-        plus[i] += h;
-        minus[i] -= h;
-        (f(&plus) - f(&minus)) / (2.0 * h)
-    })
-}
-
-fn unit_vector() -> impl Strategy<Value = Vector3<f64>> {
-    (-1.0..1.0_f64, -1.0..1.0_f64, -1.0..1.0_f64)
-        .prop_filter("not too short", |(x, y, z)| x * x + y * y + z * z > 0.01)
-        .prop_map(|(x, y, z)| Vector3::new(x, y, z).normalize())
-}
-
-fn unit_quaternion() -> impl Strategy<Value = Vector4<f64>> {
-    (-1.0..1.0_f64, -1.0..1.0_f64, -1.0..1.0_f64, -1.0..1.0_f64)
-        .prop_filter("not too short", |(w, x, y, z)| {
-            w * w + x * x + y * y + z * z > 0.01
-        })
-        .prop_map(|(w, x, y, z)| Vector4::new(w, x, y, z).normalize())
-}
-
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
-
-    /// The 6D gradient is the gradient of ½|f_g|² (central differences).
-    #[test]
-    fn imu_gradient_matches_finite_differences(q in unit_quaternion(), a in unit_vector()) {
-        let ours = gradient_imu(&q, &a);
-        let numeric = central_difference(|p| half_squared_imu(p, &a), &q);
-        prop_assert!((ours - numeric).norm() < 1e-7, "{ours} vs {numeric}");
-    }
-
-    /// The 9D gradient is the gradient of ½|f_g|² + ½|f_b|² with the field reference b held at
-    /// its value at q (central differences).
-    #[test]
-    fn marg_gradient_matches_finite_differences(
-        q in unit_quaternion(), a in unit_vector(), m in unit_vector()
-    ) {
-        let ours = gradient_marg(&q, &a, &m);
-        let (bx, bz) = liebayes_filters::attitude::field_reference(&q, &m);
-        let numeric = central_difference(
-            |p| half_squared_imu(p, &a) + half_squared_field(p, &m, bx, bz),
-            &q,
-        );
-        prop_assert!((ours - numeric).norm() < 1e-7, "{ours} vs {numeric}");
-    }
-}
-
 /// At rest with exact gravity and an earth field with a dip, from the identity, the 6D filter's
 /// inclination and the 9D filter's orientation converge to the truth, up to the limit cycle of
 /// the normalised gradient step: each step moves q by at most β Δt, an angle of 2 β Δt.
@@ -147,15 +74,24 @@ fn converges_at_rest() {
     let field_enu = Vector3::new(0.0, 20.0, -45.0); // north and down, µT
     let acc = truth.inverse() * (9.81 * up);
     let mag = truth.inverse() * field_enu;
-    let gyr = Vector3::zeros();
+    let sample = ImuSample {
+        gyro: Vector3::zeros(),
+        acc,
+    };
     for with_mag in [false, true] {
-        let mut filter = Madgwick::new(0.5, rate).expect("valid");
+        let sensors = if with_mag {
+            Sensors::NineD
+        } else {
+            Sensors::SixD
+        };
+        let mut filter = Madgwick::new(0.5, sensors, rate).expect("valid");
         for _ in 0..6000 {
-            filter
-                .update(&gyr, &acc, with_mag.then_some(&mag))
-                .expect("finite step");
+            filter.predict(&sample).expect("finite step");
+            if with_mag {
+                filter.update(&mag).expect("finite step");
+            }
         }
-        let est = filter.orientation();
+        let est = filter.estimate().expect("an estimate").orientation;
         let bound = 2.0 * 0.5 / rate;
         let tilt = (est.inverse() * up).angle(&(truth.inverse() * up));
         assert!(tilt < bound, "tilt error {tilt} rad (mag {with_mag})");
@@ -183,7 +119,80 @@ fn initial_state_follows_the_example_construction() {
     let q = enu_from_nwu();
     assert!((q * Vector3::x() - Vector3::y()).norm() < 1e-15);
     assert!((q * Vector3::y() + Vector3::x()).norm() < 1e-15);
-    let log = ImuLog::new(100.0, vec![Vector3::zeros()], vec![Vector3::zeros()], None)
-        .expect("valid log");
-    assert!(run_madgwick(&log, BROAD_BETA).is_err());
+    // A first sample with a zero accelerometer gives no start: refused, nothing set.
+    let mut filter = Madgwick::new(BROAD_BETA, Sensors::NineD, 100.0).expect("valid");
+    let zero = ImuSample {
+        gyro: Vector3::zeros(),
+        acc: Vector3::zeros(),
+    };
+    assert!(filter.predict(&zero).is_err());
+    assert_eq!(filter.state(), None);
+    assert!(filter.estimate().is_err());
+}
+
+/// The bits of the filter's estimate, for a comparison that `==` would blur (−0 against 0).
+fn bits(filter: &Madgwick) -> [u64; 4] {
+    let q = filter.estimate().expect("an estimate").orientation;
+    q.coords.map(f64::to_bits).into()
+}
+
+/// Every step is all or nothing: a NaN or out-of-range gyroscope or accelerometer reading, a NaN
+/// or out-of-range magnetometer reading, and a step that overflows (a sampling rate so slow that
+/// the angular rate times the interval is infinite) are refused, and the filter is left exactly
+/// as it was.
+#[test]
+fn a_refused_step_leaves_the_filter_unchanged() {
+    let good = ImuSample {
+        gyro: Vector3::new(0.1, -0.2, 0.3),
+        acc: Vector3::new(0.5, -0.3, 9.7),
+    };
+    let field = Vector3::new(0.0, 20.0, -40.0);
+    for sensors in [Sensors::NineD, Sensors::SixD] {
+        let mut filter = Madgwick::new(BROAD_BETA, sensors, 100.0).expect("valid");
+        for _ in 0..20 {
+            filter.predict(&good).expect("a step");
+            filter.update(&field).expect("a step");
+        }
+        let (before, before_bits) = (filter.clone(), bits(&filter));
+        let bad_inputs = [
+            ImuSample {
+                gyro: Vector3::new(f64::NAN, 0.0, 0.0),
+                ..good
+            },
+            ImuSample {
+                gyro: Vector3::new(1e200, 0.0, 0.0),
+                ..good
+            },
+            ImuSample {
+                acc: Vector3::new(0.0, f64::INFINITY, 0.0),
+                ..good
+            },
+            ImuSample {
+                acc: Vector3::new(0.0, 0.0, 1e5),
+                ..good
+            },
+        ];
+        for bad in bad_inputs {
+            assert!(filter.predict(&bad).is_err(), "{bad:?}");
+            assert_eq!(filter, before, "{bad:?}");
+        }
+        for bad in [
+            Vector3::new(0.0, f64::NAN, 0.0),
+            Vector3::new(1e10, 0.0, 0.0),
+        ] {
+            assert!(filter.update(&bad).is_err(), "{bad:?}");
+            assert_eq!(filter, before, "{bad:?}");
+        }
+        assert_eq!(bits(&filter), before_bits);
+    }
+    // At 1e-305 Hz the interval is 1e305 s: a step at the largest angular rate the filter takes
+    // (1e4 rad/s) overflows, and is refused.
+    let mut slow = Madgwick::new(BROAD_BETA, Sensors::NineD, 1e-305).expect("valid");
+    let before = slow.clone();
+    let fastest = ImuSample {
+        gyro: Vector3::new(1e4, 0.0, 0.0),
+        ..good
+    };
+    assert!(slow.predict(&fastest).is_err());
+    assert_eq!(slow, before);
 }

@@ -1,20 +1,21 @@
-//! The production attitude filter on the experiment layer: driven through `RecursiveFilter` it
-//! gives the same estimates as `run_attitude_ekf`; a study of independent simulated runs (the
-//! field offset the filter models, a magnetometer ten times slower than the gyroscope) keeps its
-//! heading, tilt and whole-attitude NEES below the χ² bands' upper ends at every scored epoch
-//! of the last ten seconds.
+//! The production attitude filter on the experiment layer: the library's recorded run of a log
+//! (`run_log`) gives the estimates of the filter stepped by hand through `RecursiveFilter`; a study
+//! of independent simulated runs (the field offset the filter models, a magnetometer ten times
+//! slower than the gyroscope) keeps its heading, tilt and whole-attitude NEES within bounds at
+//! every scored epoch of the last ten seconds.
 
 use liebayes_experiments::{RecursiveFilter, Scenario, Shard, Study, replay};
 use liebayes_filters::attitude::{
-    AttitudeEkf, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario, Sensors,
-    SimulationSettings, run_attitude_ekf, simulate,
+    AttitudeEkf, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario, LogScenario, Method,
+    Sensors, SimulationSettings, run_log, simulate,
 };
 use liebayes_operators::evaluation::chi_square_quantile;
 
-/// The same log through `RecursiveFilter` (predict with the gyroscope and accelerometer, update
-/// with the magnetometer, every sample) and through `run_attitude_ekf`: equal bit for bit.
+/// The same log stepped by hand through `RecursiveFilter` (predict with the gyroscope and
+/// accelerometer, update with the magnetometer, every sample) and recorded by `run_log`: equal
+/// bit for bit, and the heading updates' reports the same.
 #[test]
-fn recursive_filter_replays_run_attitude_ekf() {
+fn run_log_replays_the_recursive_filter() {
     let log = simulate(
         &SimulationSettings {
             samples: 3000,
@@ -24,7 +25,13 @@ fn recursive_filter_replays_run_attitude_ekf() {
     )
     .unwrap();
     let params = AttitudeParams::default();
-    let expected = run_attitude_ekf(&log, &params, Sensors::NineD).unwrap();
+    let method = Method::Ekf {
+        params: params.clone(),
+        sensors: Sensors::NineD,
+    };
+    let scenario = LogScenario::new(log.clone()).unwrap();
+    let recording = run_log("simulated", &scenario, &method).unwrap();
+    assert_eq!(recording.len(), log.len());
     let mut filter = AttitudeEkf::new(params, Sensors::NineD, log.rate()).unwrap();
     let mag = log.magnetometer().unwrap();
     let mut updates = 0;
@@ -35,8 +42,9 @@ fn recursive_filter_replays_run_attitude_ekf() {
             assert!(nis.value.is_finite() && u.log_evidence.is_finite());
             updates += 1;
         }
-        let e = filter.estimate().unwrap();
-        assert_eq!(e.orientation, expected.orientations[k], "sample {k}");
+        let recorded = &recording.steps[k];
+        assert_eq!(recorded.update, Some(u), "sample {k}");
+        assert_eq!(recorded.estimate, filter.estimate().unwrap(), "sample {k}");
     }
     // A heading update every 0.5 s (a few rejected at most).
     assert!((15..=21).contains(&updates), "{updates} heading updates");
@@ -70,12 +78,20 @@ fn recursive_filter_refuses_bad_input() {
     assert_eq!(filter.estimate().unwrap(), before);
 }
 
-/// A study of 64 independent 30-s runs with the magnetometer at a tenth of the gyroscope's rate:
-/// at every epoch of the last 10 s the mean NEES over the runs, per degree of freedom, stays below
-/// the upper end of the two-sided 99.8 % band of χ²(64 k)/(64 k) (k = 1 heading, 2 tilt, 3
-/// whole), and above 0.1 for the heading (it is not uselessly loose).
+/// A study of 64 independent 30-s runs with the magnetometer at a tenth of the gyroscope's rate,
+/// over the epochs of the last 10 s, the mean NEES over the runs per degree of freedom (a
+/// consistent filter's is χ²(64 d)/(64 d), d = 1 heading, 2 tilt, 3 whole):
+///
+/// * the heading's is within the two-sided 99.8 % band of χ²(64)/64 at every epoch (measured
+///   0.92 to 1.01 in [0.54, 1.64]): consistent both ways;
+/// * the tilt's and the whole attitude's stay below the band's upper end at every epoch (not
+///   over-confident), and their average over the epochs is above 0.1 (a reported σ at most about
+///   three times the error: not uselessly loose). That floor is not a χ² quantile: the filter is
+///   knowingly cautious in tilt here, its velocity bound (0.5 m/s) and noise figures being those
+///   of a real IMU, not the simulator's (measured averages: tilt 0.15, whole 0.42 per degree of
+///   freedom, below the band's lower ends 0.66 and 0.71).
 #[test]
-fn study_nees_stays_below_the_chi_square_band() {
+fn study_nees_stays_in_the_band() {
     let params = AttitudeParams::default();
     let settings = SimulationSettings {
         samples: 8572,
@@ -97,9 +113,14 @@ fn study_nees_stays_below_the_chi_square_band() {
     assert_eq!(summary.failure_count(), 0);
     let epochs = summary.series("heading_nees").unwrap().epochs().len();
     assert_eq!(epochs, scenario.epochs());
-    let upper = |dof: f64| {
+    // The two-sided 99.8 % band of the mean of χ²(runs d) per degree of freedom.
+    let band = |dof: f64| {
         let n = runs as f64 * dof;
-        chi_square_quantile(3.090_232_306, n).unwrap() / n
+        let z = 3.090_232_306;
+        (
+            chi_square_quantile(-z, n).unwrap() / n,
+            chi_square_quantile(z, n).unwrap() / n,
+        )
     };
     let mean = |name: &str, k: usize| {
         summary.series(name).unwrap().epochs()[k]
@@ -108,29 +129,31 @@ fn study_nees_stays_below_the_chi_square_band() {
     };
     // The runs last 30 s: the last third of the epochs.
     let last_ten_seconds = epochs - epochs / 3;
-    let (mut worst_heading, mut worst_tilt, mut worst_whole) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let names = ["heading_nees", "tilt_nees", "nees"];
+    // Per metric: the smallest, largest and summed per-dof means over the epochs.
+    let mut seen = [(f64::INFINITY, 0.0_f64, 0.0); 3];
     for k in last_ten_seconds..epochs {
-        let (h, t, w) = (
-            mean("heading_nees", k),
-            mean("tilt_nees", k),
-            mean("nees", k),
-        );
-        // The means of χ²(k) values are near k: per degree of freedom against the band.
-        let (h, t, w) = (h, t / 2.0, w / 3.0);
-        assert!(h < upper(1.0) && h > 0.1, "epoch {k}: heading NEES {h}");
-        assert!(t < upper(2.0), "epoch {k}: tilt NEES per dof {t}");
-        assert!(w < upper(3.0), "epoch {k}: NEES per dof {w}");
-        worst_heading = worst_heading.max(h);
-        worst_tilt = worst_tilt.max(t);
-        worst_whole = worst_whole.max(w);
+        for (d, (name, s)) in names.iter().zip(&mut seen).enumerate() {
+            let dof = (d + 1) as f64;
+            let v = mean(name, k) / dof;
+            let (low, high) = band(dof);
+            assert!(v < high, "epoch {k}: {name} per dof {v} above {high}");
+            if d == 0 {
+                assert!(v > low, "epoch {k}: {name} {v} below {low}");
+            }
+            *s = (s.0.min(v), s.1.max(v), s.2 + v);
+        }
     }
-    println!(
-        "last 10 s, largest mean NEES per dof over {runs} runs: heading {worst_heading:.2} (band \
-         upper {:.2}), tilt {worst_tilt:.2} ({:.2}), whole {worst_whole:.2} ({:.2})",
-        upper(1.0),
-        upper(2.0),
-        upper(3.0)
-    );
+    let count = (epochs - last_ten_seconds) as f64;
+    for (d, (name, (low, high, sum))) in names.iter().zip(seen).enumerate() {
+        let average = sum / count;
+        println!(
+            "last 10 s, {name} per dof over {runs} runs: {low:.3} to {high:.3}, average \
+             {average:.3} (band {:.3?})",
+            band((d + 1) as f64)
+        );
+        assert!(average > 0.1, "{name}: average per dof {average}");
+    }
 }
 
 /// One run replayed by the experiment layer's loop: every epoch scored, the heading updates'

@@ -1,24 +1,29 @@
-//! The talk's Bingham / heat-kernel attitude filter: one update and one propagation against Monte
-//! Carlo of the prior, a run on the simulator, bad input, and the twelve BROAD trials (ignored:
-//! release only). Its density algebra (the direction likelihood and the diffusion moment matching)
-//! is tested in the densities crate (`tests/bingham_attitude.rs`).
-//!
-//! The BROAD data are looked for in `$LIEBAYES_BROAD_DIR`, else in `shared/broad` beside the
-//! workspace.
+//! The talk's Bingham / heat-kernel attitude filter (its measurement matrix and moment matching
+//! are the densities crate's, tested there): its accelerometer and magnetometer conditioning and its propagation against Monte Carlo of the prior, a run on the
+//! simulator, bad input, and the twelve BROAD trials (ignored: release only).
 
-use liebayes_densities::{Density, HeatKernelSo3};
+use liebayes_densities::{Bingham, Density, HeatKernelSo3};
+use liebayes_experiments::RecursiveFilter;
+use liebayes_filters::FilterError;
 use liebayes_filters::attitude::{
-    DataError, ImuLog, SimulationSettings, TalkFilter, TalkParams, read_broad, run_talk_filter,
-    simulate, trial_errors,
+    DataError, ImuLog, ImuSample, LogRecording, LogScenario, LogScore, Method, Sensors,
+    SimulationSettings, TalkFilter, TalkParams, field_reference_from, read_broad, run_log,
+    simulate,
 };
 use liebayes_manifolds::{LieGroup, So3};
 use liebayes_reference::broad::{TRIALS, data_dir};
-use nalgebra::{Matrix4, UnitQuaternion, Vector3, Vector4};
-use rand::SeedableRng;
+use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3, Vector4};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 
 fn coords(q: &UnitQuaternion<f64>) -> Vector4<f64> {
     Vector4::new(q.w, q.i, q.j, q.k)
+}
+
+fn normal3(rng: &mut ChaCha8Rng) -> Vector3<f64> {
+    Vector3::from_fn(|_, _| rng.sample(StandardNormal))
 }
 
 /// Weighted mean of `x` (one 4×4 matrix per sample) and the standard error of each entry,
@@ -50,43 +55,76 @@ fn field() -> Vector3<f64> {
     Vector3::new(0.0, dip.cos(), -dip.sin())
 }
 
-/// One accelerometer + magnetometer update of a 20° prior against importance weights: 200 000
-/// draws of the prior (the library's exact sampler), weighted by the Gaussian likelihoods of the
-/// two unit directions computed directly; the posterior's second moments within 5 standard
-/// errors, and its mode within 0.5° of the weighted scatter's principal axis.
+/// A sample with the gyroscope `gyro` and the accelerometer `acc`.
+fn sample(gyro: Vector3<f64>, acc: Vector3<f64>) -> ImuSample {
+    ImuSample { gyro, acc }
+}
+
+/// The filter's Bingham (initialised).
+fn bingham(filter: &TalkFilter) -> Bingham {
+    filter.bingham().expect("initialised").clone()
+}
+
+/// The accelerometer's conditioning (in `predict`) and the magnetometer's (in `update`) against
+/// importance weights: a prior (the filter's Bingham after a first sample, 20° in heading) is
+/// drawn 200 000 times (the library's exact sampler) and the draws weighted by the Gaussian
+/// likelihoods of the unit directions computed directly: after the second sample's `predict`,
+/// the accelerometer's; after `update`, times the magnetometer's, whose reference is
+/// `(0, √(1 − c²), c)` with `c = â · m̂` (the dip learned from the one reading). The posteriors'
+/// second moments within 5 standard errors, and the final mode within 0.5° of the weighted
+/// scatter's principal axis. The gyroscope noise is 1e-6 rad/s and the gyroscope reads zero, so
+/// that the second `predict` turns nothing and diffuses by about 1e-16 rad², far below the
+/// standard errors.
 #[test]
-fn update_matches_importance_weighted_prior() {
+fn conditioning_matches_importance_weighted_prior() {
     let params = TalkParams {
+        gyro_noise: 1e-6,
+        rate_walk: 0.0,
         acc_noise: 0.15,
         mag_noise: 0.3,
         initial_sigma: 20f64.to_radians(),
         ..TalkParams::default()
     };
-    let prior_mean = UnitQuaternion::from_scaled_axis(Vector3::new(0.2, -0.3, 1.0));
-    let mut filter = TalkFilter::new(&params, 100.0, &prior_mean, Some(field())).unwrap();
-    let prior = filter.bingham().clone();
-    let truth = prior_mean * UnitQuaternion::from_scaled_axis(Vector3::new(0.15, 0.1, -0.2));
+    let start = UnitQuaternion::from_scaled_axis(Vector3::new(0.2, -0.3, 1.0));
+    let mut filter = TalkFilter::new(&params, Sensors::NineD, 100.0).unwrap();
+    let still = Vector3::zeros();
+    filter
+        .predict(&sample(
+            still,
+            start.inverse_transform_vector(&Vector3::z()) * 9.81,
+        ))
+        .unwrap();
+    let prior = bingham(&filter);
+    let mean = *prior.mode().unwrap().as_unit_quaternion();
+    let truth = mean * UnitQuaternion::from_scaled_axis(Vector3::new(0.15, 0.1, -0.2));
     let acc = truth.inverse_transform_vector(&Vector3::z()) + Vector3::new(0.05, -0.03, 0.02);
     let mag = truth.inverse_transform_vector(&field()) + Vector3::new(-0.1, 0.05, 0.08);
-    filter.update(&(acc * 9.81), Some(&(mag * 48.0))).unwrap();
+    filter.predict(&sample(still, acc * 9.81)).unwrap();
+    let after_gravity = bingham(&filter);
+    filter.update(&(mag * 48.0)).unwrap();
+    let posterior = bingham(&filter);
     let (a, m) = (acc.normalize(), mag.normalize());
-    let log_likelihood = |q: &UnitQuaternion<f64>| {
-        -(a - q.inverse_transform_vector(&Vector3::z())).norm_squared()
-            / (2.0 * params.acc_noise * params.acc_noise)
-            - (m - q.inverse_transform_vector(&field())).norm_squared()
-                / (2.0 * params.mag_noise * params.mag_noise)
-    };
+    let reference = field_reference_from(a.dot(&m)).unwrap();
+    let likelihood =
+        |q: &UnitQuaternion<f64>, direction: &Vector3<f64>, h: &Vector3<f64>, sigma: f64| {
+            (-(direction - q.inverse_transform_vector(h)).norm_squared() / (2.0 * sigma * sigma))
+                .exp()
+        };
     let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let samples: Vec<(f64, Matrix4<f64>)> = (0..200_000)
+    let (gravity, both): (Vec<_>, Vec<_>) = (0..200_000)
         .map(|_| {
             let q = *prior.sample(&mut rng).as_unit_quaternion();
             let x = coords(&q);
-            (log_likelihood(&q).exp(), x * x.transpose())
+            let moment = x * x.transpose();
+            let w = likelihood(&q, &a, &Vector3::z(), params.acc_noise);
+            let w_field = likelihood(&q, &m, &reference, params.mag_noise);
+            ((w, moment), (w * w_field, moment))
         })
-        .collect();
-    let (mc, se) = weighted_moment(&samples);
-    let posterior = filter.bingham();
-    assert_within("update", &posterior.second_moment(), &mc, &se);
+        .unzip();
+    let (mc, se) = weighted_moment(&gravity);
+    assert_within("accelerometer", &after_gravity.second_moment(), &mc, &se);
+    let (mc, se) = weighted_moment(&both);
+    assert_within("magnetometer", &posterior.second_moment(), &mc, &se);
     let principal = nalgebra::SymmetricEigen::new(mc);
     let k = principal.eigenvalues.imax();
     let axis = principal.eigenvectors.column(k);
@@ -99,10 +137,11 @@ fn update_matches_importance_weighted_prior() {
     assert!(angle < 0.5f64.to_radians(), "{angle} rad");
 }
 
-/// One gyroscope step against Monte Carlo: draws of the prior (an anisotropic Bingham after an
-/// update), each turned by the talk's smoothed rate `ω̃ Δt` and diffused by an independent
-/// isotropic heat-kernel draw of variance `σ̃² Δt²` (the library's sampler); the propagated
-/// Bingham's second moments within 5 standard errors. The rate's Kalman update is checked
+/// One gyroscope step against Monte Carlo: draws of the prior (an anisotropic Bingham after a
+/// first sample's accelerometer), each turned by the talk's smoothed rate `ω̃ Δt` and diffused by
+/// an independent isotropic heat-kernel draw of variance `σ̃² Δt²` (the library's sampler); the
+/// propagated Bingham's second moments within 5 standard errors. The second sample's accelerometer
+/// reads zero, which skips its conditioning. The rate's Kalman update over both samples is checked
 /// against the talk's formulas.
 #[test]
 fn propagation_matches_rotated_and_diffused_prior() {
@@ -115,19 +154,24 @@ fn propagation_matches_rotated_and_diffused_prior() {
         ..TalkParams::default()
     };
     let (rate, dt) = (10.0, 0.1);
-    let mean = UnitQuaternion::from_scaled_axis(Vector3::new(-0.5, 0.1, 0.3));
-    let mut filter = TalkFilter::new(&params, rate, &mean, None).unwrap();
-    let acc = mean.inverse_transform_vector(&Vector3::new(0.1, 0.0, 1.0));
-    filter.update(&acc, None).unwrap();
-    let prior = filter.bingham().clone();
+    let start = UnitQuaternion::from_scaled_axis(Vector3::new(-0.5, 0.1, 0.3));
+    let mut filter = TalkFilter::new(&params, Sensors::SixD, rate).unwrap();
+    let acc = start.inverse_transform_vector(&Vector3::new(0.1, 0.0, 1.0));
+    filter.predict(&sample(Vector3::zeros(), acc)).unwrap();
+    // The talk's formulas, from ω̄₀ = 0 and σ_Ω,0² = 1.5²: after a zero gyroscope reading the
+    // rate stays 0 and its variance is σ_U² (σ_A² Δt² + σ_Ω²) / D.
+    let (su, sa) = (1.0, 4.0 * dt * dt);
+    let so = su * (sa + 1.5 * 1.5) / (su + sa + 1.5 * 1.5);
+    let (rate_mean, rate_var) = filter.rate().unwrap();
+    assert_eq!(rate_mean, Vector3::zeros());
+    assert!((rate_var - so).abs() < 1e-14, "{rate_var} vs {so}");
+    let prior = bingham(&filter);
     let gyr = Vector3::new(0.8, -1.2, 2.0);
-    filter.propagate(&gyr).unwrap();
-    // The talk's formulas, with ω̄₀ = 0.
-    let (su, sa, so) = (1.0, 4.0 * dt * dt, 1.5 * 1.5);
+    filter.predict(&sample(gyr, Vector3::zeros())).unwrap();
     let d = su + sa + so;
     let smoothed = gyr * (so / d);
     let added = (su + sa) * so / d * dt * dt;
-    let (rate_mean, rate_var) = filter.rate();
+    let (rate_mean, rate_var) = filter.rate().unwrap();
     assert!((rate_mean - gyr * ((sa + so) / d)).amax() < 1e-14);
     assert!((rate_var - su * (sa + so) / d).abs() < 1e-14);
     let turn = UnitQuaternion::from_scaled_axis(smoothed * dt);
@@ -142,25 +186,29 @@ fn propagation_matches_rotated_and_diffused_prior() {
         })
         .collect();
     let (mc, se) = weighted_moment(&samples);
-    assert_within("propagation", &filter.bingham().second_moment(), &mc, &se);
+    assert_within("propagation", &bingham(&filter).second_moment(), &mc, &se);
 }
 
-fn mean_nees_and_rmse(log: &ImuLog, run: &liebayes_filters::attitude::TalkRun) -> (f64, f64) {
-    let reference = log.reference().unwrap();
-    let (mut nees, mut squared, mut n) = (0.0, 0.0, 0.0);
-    for ((q, c), r) in run.orientations.iter().zip(&run.covariances).zip(reference) {
-        let r = r.unwrap();
-        let xi = (q.inverse() * r).scaled_axis();
-        nees += (xi.transpose() * c.try_inverse().unwrap() * xi)[0];
-        squared += xi.norm_squared();
-        n += 1.0;
+fn talk(params: &TalkParams) -> Method {
+    Method::Talk {
+        params: *params,
+        sensors: Sensors::NineD,
     }
-    (nees / n, (squared / n).sqrt())
+}
+
+/// The reported total standard deviation `√(tr Σ)` (rad) of every step: the RMS of the angle of a
+/// draw for a concentrated diffusion.
+fn reported_sigma(recording: &LogRecording) -> Vec<f64> {
+    recording
+        .steps
+        .iter()
+        .map(|s| s.estimate.covariance.expect("a covariance").trace().sqrt())
+        .collect()
 }
 
 /// Ten seconds of the simulator without gyro bias and with little linear acceleration: the
-/// error stays below 0.5° throughout the last half, and the mean NEES (3 for a consistent filter)
-/// is reported.
+/// error stays below 0.5° throughout the last half, and the mean NEES (χ²(3): 3 for a consistent
+/// filter) is reported.
 #[test]
 fn simulator_error_stays_bounded() {
     let settings = SimulationSettings {
@@ -178,21 +226,21 @@ fn simulator_error_stays_bounded() {
         mag_noise: 0.2,
         ..TalkParams::default()
     };
-    let run = run_talk_filter(&log, &params).unwrap();
-    let reference = log.reference().unwrap();
-    let half = log.len() / 2;
-    let worst = run.orientations[half..]
+    let scenario = LogScenario::new(log).unwrap();
+    let recording = run_log("simulated", &scenario, &talk(&params)).unwrap();
+    let half = recording.len() / 2;
+    let worst = recording.steps[half..]
         .iter()
-        .zip(&reference[half..])
-        .map(|(q, r)| q.angle_to(&r.unwrap()))
+        .map(|s| s.estimate.orientation.angle_to(&s.truth.unwrap()))
         .fold(0.0_f64, f64::max);
-    let (nees, rmse) = mean_nees_and_rmse(&log, &run);
-    let sigma = run.reported_sigma();
+    let score = LogScore::of(&recording);
+    let rmse = score.errors().unwrap().total;
+    let nees = score.nees().unwrap()[2];
+    let sigma = reported_sigma(&recording);
     let mean_sigma = sigma[half..].iter().sum::<f64>() / (sigma.len() - half) as f64;
     println!(
-        "simulator: RMSE {:.3} deg, worst in the last half {:.3} deg, mean reported sigma \
+        "simulator: RMSE {rmse:.3} deg, worst in the last half {:.3} deg, mean reported sigma \
          {:.3} deg, mean NEES {nees:.2} (3 if consistent)",
-        rmse.to_degrees(),
         worst.to_degrees(),
         mean_sigma.to_degrees(),
     );
@@ -218,58 +266,102 @@ fn bad_input_is_refused_with_typed_errors() {
         for value in [f64::NAN, f64::INFINITY, -1.0] {
             let mut p = good;
             set(&mut p, value);
-            assert!(matches!(p.validate(), Err(DataError::BadValue { .. })));
+            assert!(matches!(p.validate(), Err(FilterError::Setting { .. })));
+            assert!(matches!(
+                TalkFilter::new(&p, Sensors::NineD, 100.0),
+                Err(FilterError::Setting { .. })
+            ));
         }
     }
-    let q = UnitQuaternion::identity();
-    assert!(TalkFilter::new(&good, 0.0, &q, None).is_err());
-    assert!(TalkFilter::new(&good, 100.0, &q, Some(Vector3::new(0.0, 2.0, 0.0))).is_err());
-    // Too concentrated for a Bingham.
+    assert!(matches!(
+        TalkFilter::new(&good, Sensors::NineD, 0.0),
+        Err(FilterError::Setting { .. })
+    ));
+    let level = sample(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.3, -0.2, 9.8));
+    let mag = field() * 48.0;
+    // Too concentrated for a Bingham: the first sample cannot start the filter.
     let tight = TalkParams {
         initial_sigma: 1e-6,
         ..good
     };
-    assert!(TalkFilter::new(&tight, 100.0, &q, None).is_err());
-    let mut filter = TalkFilter::new(&good, 100.0, &q, Some(field())).unwrap();
-    let before = filter.clone();
-    assert!(filter.propagate(&Vector3::new(f64::NAN, 0.0, 0.0)).is_err());
-    assert!(
-        filter
-            .update(&Vector3::new(0.0, f64::INFINITY, 0.0), None)
-            .is_err()
-    );
+    let mut tight_filter = TalkFilter::new(&tight, Sensors::NineD, 100.0).unwrap();
+    assert!(tight_filter.predict(&level).is_err());
+    assert!(tight_filter.bingham().is_none());
+    // A magnetometer so precise that its conditioning leaves the Bingham's range: refused, the
+    // filter unchanged.
     let sharp = TalkParams {
-        acc_noise: 1e-5,
+        mag_noise: 1e-5,
         ..good
     };
-    let mut sharp_filter = TalkFilter::new(&sharp, 100.0, &q, None).unwrap();
+    let mut sharp_filter = TalkFilter::new(&sharp, Sensors::NineD, 100.0).unwrap();
+    sharp_filter.predict(&level).unwrap();
+    sharp_filter.predict(&level).unwrap();
     let sharp_before = sharp_filter.clone();
-    assert!(sharp_filter.update(&Vector3::z(), None).is_err());
+    assert!(sharp_filter.update(&mag).is_err());
     assert_eq!(sharp_filter, sharp_before);
+    // A zero magnetometer reading skips its conditioning.
+    let mut filter = TalkFilter::new(&good, Sensors::NineD, 100.0).unwrap();
+    for _ in 0..3 {
+        filter.predict(&level).unwrap();
+        filter.update(&mag).unwrap();
+    }
+    let before = filter.clone();
+    filter.update(&Vector3::zeros()).unwrap();
     assert_eq!(filter, before);
-    // A zero reading skips its update.
-    filter
-        .update(&Vector3::zeros(), Some(&Vector3::zeros()))
-        .unwrap();
-    assert_eq!(filter.bingham(), before.bingham());
     let empty = ImuLog::new(285.0, Vec::new(), Vec::new(), None).unwrap();
     assert!(matches!(
-        run_talk_filter(&empty, &good),
+        LogScenario::new(empty),
         Err(DataError::NothingToScore { .. })
     ));
     let zero = ImuLog::new(285.0, vec![Vector3::zeros()], vec![Vector3::zeros()], None).unwrap();
     assert!(matches!(
-        run_talk_filter(&zero, &good),
-        Err(DataError::BadValue { .. })
+        run_log("zero", &LogScenario::new(zero).unwrap(), &talk(&good)),
+        Err(FilterError::Step { sample: 0, .. })
     ));
+}
+
+/// Every step is all or nothing: a NaN or out-of-range gyroscope or accelerometer reading and a
+/// NaN or out-of-range magnetometer reading are refused, and the filter is left exactly as it was
+/// (its Bingham, rate and learned dip).
+#[test]
+fn a_refused_step_leaves_the_filter_unchanged() {
+    let good = sample(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.3, -0.2, 9.8));
+    let mag = field() * 48.0;
+    for sensors in [Sensors::NineD, Sensors::SixD] {
+        let mut filter = TalkFilter::new(&TalkParams::default(), sensors, 100.0).unwrap();
+        for _ in 0..5 {
+            filter.predict(&good).unwrap();
+            filter.update(&mag).unwrap();
+        }
+        let before = filter.clone();
+        let bits = |f: &TalkFilter| bingham(f).natural().map(f64::to_bits);
+        let before_bits = bits(&filter);
+        let bad_inputs = [
+            sample(Vector3::new(f64::NAN, 0.0, 0.0), good.acc),
+            sample(Vector3::new(1e200, 0.0, 0.0), good.acc),
+            sample(good.gyro, Vector3::new(0.0, f64::INFINITY, 0.0)),
+            sample(good.gyro, Vector3::new(0.0, 0.0, 1e5)),
+        ];
+        for bad in bad_inputs {
+            assert!(filter.predict(&bad).is_err(), "{bad:?}");
+            assert_eq!(filter, before, "{bad:?}");
+        }
+        for bad in [
+            Vector3::new(0.0, f64::NAN, 0.0),
+            Vector3::new(1e10, 0.0, 0.0),
+        ] {
+            assert!(filter.update(&bad).is_err(), "{bad:?}");
+            assert_eq!(filter, before, "{bad:?}");
+        }
+        assert_eq!(bits(&filter), before_bits);
+    }
 }
 
 /// The talk's filter on the twelve BROAD trials with one parameter set (σ_U = 0.1 rad/s,
 /// σ_A = 30 rad/s², σ_V = 0.2, σ_W = 1, the best of the five settings listed in
 /// `docs/filters/attitude.md`; or σ_U, σ_A, σ_V, σ_W from `$LIEBAYES_TALK_NOISE` as four
-/// comma-separated numbers), printing
-/// each trial's total / heading / inclination RMSE, the mean reported σ and the mean. About 80 s
-/// in release; run with
+/// comma-separated numbers), printing each trial's total / heading / inclination RMSE, the mean
+/// reported σ and the mean. About 80 s in release; run with
 /// `cargo test --release -p liebayes-filters --test attitude_talk -- --ignored --nocapture`.
 #[test]
 #[ignore = "about a minute in release: cargo test --release -p liebayes-filters --test attitude_talk -- --ignored"]
@@ -300,9 +392,10 @@ fn broad_twelve_trials() {
     let mut sum = [0.0; 3];
     for name in TRIALS {
         let log = read_broad(dir.join(format!("{name}.mat"))).expect("BROAD trial reads");
-        let run = run_talk_filter(&log, &params).expect("the filter runs");
-        let e = trial_errors(&run.orientations, &log).expect("scored");
-        let sigma = run.reported_sigma();
+        let scenario = LogScenario::new(log).expect("a non-empty trial");
+        let recording = run_log(name, &scenario, &talk(&params)).expect("the filter runs");
+        let e = LogScore::of(&recording).errors().expect("scored");
+        let sigma = reported_sigma(&recording);
         let mean_sigma = sigma.iter().sum::<f64>() / sigma.len() as f64;
         println!(
             "| {name} | {:.2} / {:.2} / {:.2} | {:.2} |",

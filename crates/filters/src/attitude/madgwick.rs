@@ -316,3 +316,82 @@ pub fn broad_initial_state(
     let r = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z]));
     Some(UnitQuaternion::from_rotation_matrix(&r))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// ½|f|² of the objectives in the polynomial forms, for finite differences.
+    fn half_squared_imu(q: &Vector4<f64>, a: &Vector3<f64>) -> f64 {
+        let (q0, q1, q2, q3) = (q[0], q[1], q[2], q[3]);
+        let f = Vector3::new(
+            2.0 * (q1 * q3 - q0 * q2) - a.x,
+            2.0 * (q0 * q1 + q2 * q3) - a.y,
+            1.0 - 2.0 * q1 * q1 - 2.0 * q2 * q2 - a.z,
+        );
+        0.5 * f.norm_squared()
+    }
+
+    fn half_squared_field(q: &Vector4<f64>, m: &Vector3<f64>, bx: f64, bz: f64) -> f64 {
+        let (q0, q1, q2, q3) = (q[0], q[1], q[2], q[3]);
+        let f = Vector3::new(
+            bx * (1.0 - 2.0 * q2 * q2 - 2.0 * q3 * q3) + bz * 2.0 * (q1 * q3 - q0 * q2) - m.x,
+            bx * 2.0 * (q1 * q2 - q0 * q3) + bz * 2.0 * (q0 * q1 + q2 * q3) - m.y,
+            bx * 2.0 * (q0 * q2 + q1 * q3) + bz * (1.0 - 2.0 * q1 * q1 - 2.0 * q2 * q2) - m.z,
+        );
+        0.5 * f.norm_squared()
+    }
+
+    fn central_difference(f: impl Fn(&Vector4<f64>) -> f64, q: &Vector4<f64>) -> Vector4<f64> {
+        let h = 1e-6;
+        Vector4::from_fn(|i, _| {
+            let mut plus = *q;
+            let mut minus = *q;
+            plus[i] += h;
+            minus[i] -= h;
+            (f(&plus) - f(&minus)) / (2.0 * h)
+        })
+    }
+
+    fn unit_vector() -> impl Strategy<Value = Vector3<f64>> {
+        (-1.0..1.0_f64, -1.0..1.0_f64, -1.0..1.0_f64)
+            .prop_filter("not too short", |(x, y, z)| x * x + y * y + z * z > 0.01)
+            .prop_map(|(x, y, z)| Vector3::new(x, y, z).normalize())
+    }
+
+    fn unit_quaternion() -> impl Strategy<Value = Vector4<f64>> {
+        (-1.0..1.0_f64, -1.0..1.0_f64, -1.0..1.0_f64, -1.0..1.0_f64)
+            .prop_filter("not too short", |(w, x, y, z)| {
+                w * w + x * x + y * y + z * z > 0.01
+            })
+            .prop_map(|(w, x, y, z)| Vector4::new(w, x, y, z).normalize())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// The 6D gradient is the gradient of ½|f_g|² (central differences).
+        #[test]
+        fn imu_gradient_matches_finite_differences(q in unit_quaternion(), a in unit_vector()) {
+            let ours = gradient_imu(&q, &a);
+            let numeric = central_difference(|p| half_squared_imu(p, &a), &q);
+            prop_assert!((ours - numeric).norm() < 1e-7, "{ours} vs {numeric}");
+        }
+
+        /// The 9D gradient is the gradient of ½|f_g|² + ½|f_b|² with the field reference b held
+        /// at its value at q (central differences).
+        #[test]
+        fn marg_gradient_matches_finite_differences(
+            q in unit_quaternion(), a in unit_vector(), m in unit_vector()
+        ) {
+            let ours = gradient_marg(&q, &a, &m);
+            let (bx, bz) = field_reference(&q, &m);
+            let numeric = central_difference(
+                |p| half_squared_imu(p, &a) + half_squared_field(p, &m, bx, bz),
+                &q,
+            );
+            prop_assert!((ours - numeric).norm() < 1e-7, "{ours} vs {numeric}");
+        }
+    }
+}
