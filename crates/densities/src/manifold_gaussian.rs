@@ -2,6 +2,7 @@
 //! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
 
 use crate::error::DensityError;
+use crate::gaussian::{MAX_SCALE, within_scale};
 use crate::traits::{Density, Entropy, Rotate};
 use liebayes_manifolds::{Jacobian, LieGroup, Manifold};
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -70,7 +71,7 @@ pub struct ManifoldGaussian<X, const D: usize> {
 /// `(tr P⁻¹, ln det P)` from the Cholesky factor L of P: `tr P⁻¹ = ‖L⁻¹‖²_F` with L⁻¹ by forward
 /// substitution, `ln det P = 2 ln Π Lᵢᵢ` (one logarithm while the product stays a normal number, the
 /// sum of logarithms otherwise).
-fn inverse_trace_and_log_det<const D: usize>(l: &SMatrix<f64, D, D>) -> (f64, f64) {
+pub(crate) fn inverse_trace_and_log_det<const D: usize>(l: &SMatrix<f64, D, D>) -> (f64, f64) {
     let reciprocal: [f64; D] = std::array::from_fn(|i| 1.0 / l[(i, i)]);
     let mut trace = 0.0;
     let mut column = [0.0; D];
@@ -102,9 +103,9 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// [`DensityError::NonFinite`] for a mean with a NaN or infinite coordinate
     /// ([`Manifold::is_finite`]) and for NaN or infinite entries of P, [`DensityError::OutOfRange`]
     /// for a P that is not symmetric (to 1e-12 relative) or not positive definite (its Cholesky factorisation
-    /// fails), and when P⁻¹ is not representable: its trace `tr P⁻¹ = ‖L⁻¹‖²_F` overflows
-    /// (eigenvalues of P below about 1e-308), so that Mahalanobis distances and divergences would be
-    /// infinite for every point.
+    /// fails), and for an entry of P or the trace `tr P⁻¹ = ‖L⁻¹‖²_F` above
+    /// [`MAX_SCALE`](crate::MAX_SCALE) = 1e100, the limit of every Gaussian (beyond it samples,
+    /// the entropy, Mahalanobis distances and divergences overflow).
     pub fn new(mean: X, covariance: SMatrix<f64, D, D>) -> Result<Self, DensityError> {
         const WHAT: &str = "tangent covariance P";
         if !mean.is_finite() {
@@ -127,6 +128,7 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
                 }
             }
         }
+        within_scale(WHAT, &covariance)?;
         if asymmetry > SYMMETRY_TOLERANCE * scale {
             return Err(DensityError::OutOfRange {
                 what: WHAT,
@@ -152,11 +154,11 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
         };
         let cholesky = factor.unpack();
         let (inverse_trace, log_det) = inverse_trace_and_log_det(&cholesky);
-        if !inverse_trace.is_finite() {
+        if inverse_trace.is_nan() || inverse_trace > MAX_SCALE {
             return Err(DensityError::OutOfRange {
                 what: "trace of the inverse tangent covariance P^-1",
                 value: inverse_trace,
-                range: "finite values: P's eigenvalues must be above about 1e-308",
+                range: "at most 1e100: P's eigenvalues must be above about 1e-100",
             });
         }
         Ok(Self {
