@@ -208,10 +208,35 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// (`f(μ ⊞ δ) = f(μ) ⊞ (J δ + O(|δ|²))`). Unlike [`propagate_linearized`](Self::propagate_linearized)
     /// it accepts rank-deficient results: rotating a point p cannot move it along p, so the covariance
     /// of R p is singular.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] for a Jacobian with a NaN or infinite entry,
+    /// [`DensityError::OutOfRange`] when an entry of `J P Jᵀ` exceeds
+    /// [`MAX_SCALE`](crate::MAX_SCALE) = 1e100 (or overflows), the limit of every Gaussian.
     pub fn propagated_covariance<const E: usize>(
         &self,
         jacobian: &Jacobian<f64, E, D>,
-    ) -> SMatrix<f64, E, E> {
+    ) -> Result<SMatrix<f64, E, E>, DensityError> {
+        if let Some(&value) = jacobian.iter().find(|v| !v.is_finite()) {
+            return Err(DensityError::NonFinite {
+                what: "Jacobian J of the propagation",
+                value,
+            });
+        }
+        let c = self.sandwich(jacobian);
+        if c.iter().any(|v| v.is_nan()) {
+            return Err(DensityError::OutOfRange {
+                what: "propagated covariance J P J^T",
+                value: f64::INFINITY,
+                range: "entries of at most 1e100 (its products overflow)",
+            });
+        }
+        within_scale("propagated covariance J P J^T", &c)?;
+        Ok(c)
+    }
+
+    /// `J P Jᵀ`, symmetrised.
+    fn sandwich<const E: usize>(&self, jacobian: &Jacobian<f64, E, D>) -> SMatrix<f64, E, E> {
         let c = jacobian * self.covariance() * jacobian.transpose();
         (c + c.transpose()) * 0.5
     }
@@ -223,14 +248,15 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// second derivative of f.
     ///
     /// # Errors
-    /// As [`new`](Self::new), when `J P Jᵀ` is not positive definite (J rank-deficient): a degenerate
-    /// Gaussian is refused, not repaired.
+    /// As [`propagated_covariance`](Self::propagated_covariance), and as [`new`](Self::new) when
+    /// `J P Jᵀ` is not positive definite (J rank-deficient): a degenerate Gaussian is refused, not
+    /// repaired.
     pub fn propagate_linearized<Y: Manifold<E, Scalar = f64>, const E: usize>(
         &self,
         image_of_mean: Y,
         jacobian: &Jacobian<f64, E, D>,
     ) -> Result<ManifoldGaussian<Y, E>, DensityError> {
-        ManifoldGaussian::new(image_of_mean, self.propagated_covariance(jacobian))
+        ManifoldGaussian::new(image_of_mean, self.propagated_covariance(jacobian)?)
     }
 
     /// `KL(self ‖ other) = ½ (tr(P_q⁻¹ P_p) − D + ln det P_q − ln det P_p)` for two Gaussians with
@@ -268,10 +294,11 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> ManifoldGaussian<G, D> {
     /// Baker-Campbell-Hausdorff series).
     ///
     /// # Errors
-    /// As [`new`](Self::new) (only when the sum overflows).
+    /// As [`propagated_covariance`](Self::propagated_covariance) and [`new`](Self::new) (only when
+    /// the covariance exceeds the limit of every Gaussian).
     pub fn compose(&self, other: &Self) -> Result<Self, DensityError> {
         let ja = self.mean.j_compose_self(&other.mean);
-        let covariance = self.propagated_covariance(&ja) + other.covariance();
+        let covariance = self.propagated_covariance(&ja)? + other.covariance();
         Self::new(self.mean.compose(&other.mean), covariance)
     }
 }
@@ -318,7 +345,7 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussia
                 ..self.clone()
             };
         }
-        let covariance = self.propagated_covariance(&j);
+        let covariance = self.sandwich(&j);
         let cholesky = lower_factor(j * self.cholesky);
         let (_, log_det) = inverse_trace_and_log_det(&cholesky);
         Self {
