@@ -10,10 +10,14 @@ use std::f64::consts::PI;
 /// Relative asymmetry accepted in a covariance or information matrix: `|A − Aᵀ| ≤ 1e-12 max|A|`.
 const SYMMETRY_TOLERANCE: f64 = 1e-12;
 
-/// Largest accepted magnitude of a mean component and of an entry of Σ or Σ⁻¹: with it every derived
-/// quantity (sums of two covariances or information matrices, Mahalanobis distances between two means,
-/// the KL divergence, ln det Σ) stays finite.
-const MAX_SCALE: f64 = 1e100;
+/// The largest magnitude of a mean (or feature) coordinate and of an entry of a covariance or of its
+/// inverse that the Gaussian constructors accept ([`Gaussian::new`],
+/// [`ManifoldGaussian::new`](crate::ManifoldGaussian::new) with `tr P⁻¹` for the inverse,
+/// [`HarmonicGaussian::new`](crate::HarmonicGaussian::new)): so covariances from about 1e-100 to
+/// 1e100 in every direction. With it every derived quantity (sums of two covariances or information
+/// matrices, Mahalanobis distances between two means, the KL divergence, ln det, samples, the
+/// entropy) stays finite.
+pub const MAX_SCALE: f64 = 1e100;
 
 /// The normal distribution `N(μ, Σ)` on Rⁿ, with respect to the Lebesgue measure:
 ///
@@ -34,7 +38,7 @@ pub struct Gaussian<const N: usize> {
 }
 
 /// Checks that every entry is at most [`MAX_SCALE`] in magnitude.
-fn within_scale<const R: usize, const C: usize>(
+pub(crate) fn within_scale<const R: usize, const C: usize>(
     what: &'static str,
     m: &SMatrix<f64, R, C>,
 ) -> Result<(), DensityError> {

@@ -2,8 +2,9 @@
 //! the angle's first harmonics.
 
 use crate::error::DensityError;
-use crate::gaussian::Gaussian;
+use crate::gaussian::{Gaussian, MAX_SCALE, within_scale};
 use crate::gen_von_mises::GenVonMises2;
+use crate::manifold_gaussian::inverse_trace_and_log_det;
 use crate::traits::{Density, Entropy, KlDivergence};
 use liebayes_manifolds::So2;
 use nalgebra::{Cholesky, Matrix3, SMatrix, SVector, Vector3};
@@ -44,7 +45,8 @@ impl<const N: usize> HarmonicGaussian<N> {
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] for non-finite B or Σ, [`DensityError::OutOfRange`] when Σ is not
-    /// positive definite.
+    /// positive definite, or for an entry of B or Σ, or the trace of Σ⁻¹, above
+    /// [`MAX_SCALE`](crate::MAX_SCALE) = 1e100, the limit of every Gaussian.
     pub fn new(
         angle: GenVonMises2,
         features: SMatrix<f64, N, 3>,
@@ -62,6 +64,8 @@ impl<const N: usize> HarmonicGaussian<N> {
                 value,
             });
         }
+        within_scale("feature matrix B", &features)?;
+        within_scale("conditional covariance Sigma", &covariance)?;
         let covariance = (covariance + covariance.transpose()) * 0.5;
         let Some(factor) = Cholesky::new(covariance) else {
             return Err(DensityError::OutOfRange {
@@ -71,14 +75,15 @@ impl<const N: usize> HarmonicGaussian<N> {
             });
         };
         let cholesky = factor.unpack();
-        let log_det = 2.0 * cholesky.diagonal().iter().map(|d| d.ln()).sum::<f64>();
-        if !log_det.is_finite() {
+        let (inverse_trace, _) = inverse_trace_and_log_det(&cholesky);
+        if inverse_trace.is_nan() || inverse_trace > MAX_SCALE {
             return Err(DensityError::OutOfRange {
-                what: "log-determinant of the conditional covariance Sigma",
-                value: log_det,
-                range: "finite values (eigenvalues of Sigma between about 1e-300 and 1e300)",
+                what: "trace of the inverse conditional covariance Sigma^-1",
+                value: inverse_trace,
+                range: "at most 1e100: Sigma's eigenvalues must be above about 1e-100",
             });
         }
+        let log_det = 2.0 * cholesky.diagonal().iter().map(|d| d.ln()).sum::<f64>();
         Ok(Self {
             angle,
             features,
@@ -150,9 +155,13 @@ impl<const N: usize> HarmonicGaussian<N> {
         (self.features * mean_phi, (cov + cov.transpose()) * 0.5)
     }
 
-    /// `(x − B φ(y))ᵀ Σ⁻¹ (x − B φ(y))`, by one triangular solve.
+    /// `(x − B φ(y))ᵀ Σ⁻¹ (x − B φ(y))`, by one triangular solve; +∞ for a finite x whose residual
+    /// overflows (x within 1e100 of ±f64::MAX), the exact value's overflow.
     fn conditional_mahalanobis_squared(&self, y: &So2<f64>, x: &SVector<f64, N>) -> f64 {
         let residual = x - self.conditional_mean(y.angle());
+        if residual.iter().any(|r| r.is_infinite()) && x.iter().all(|v| v.is_finite()) {
+            return f64::INFINITY;
+        }
         // The factor of a successful Cholesky decomposition has a positive diagonal.
         self.cholesky
             .solve_lower_triangular_unchecked(&residual)

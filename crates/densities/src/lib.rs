@@ -85,7 +85,7 @@ mod von_mises_fisher;
 
 pub use bingham::Bingham;
 pub use error::DensityError;
-pub use gaussian::Gaussian;
+pub use gaussian::{Gaussian, MAX_SCALE};
 pub use gen_von_mises::{GenVonMises2, GenVonMises2Sampler};
 pub use harmonic_gaussian::{HarmonicGaussian, harmonic_features};
 pub use heat_kernel::HeatKernelSo3;

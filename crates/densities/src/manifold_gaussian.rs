@@ -2,6 +2,7 @@
 //! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
 
 use crate::error::DensityError;
+use crate::gaussian::{MAX_SCALE, within_scale};
 use crate::traits::{Density, Entropy, Rotate};
 use liebayes_manifolds::{Jacobian, LieGroup, Manifold};
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -70,7 +71,7 @@ pub struct ManifoldGaussian<X, const D: usize> {
 /// `(tr P⁻¹, ln det P)` from the Cholesky factor L of P: `tr P⁻¹ = ‖L⁻¹‖²_F` with L⁻¹ by forward
 /// substitution, `ln det P = 2 ln Π Lᵢᵢ` (one logarithm while the product stays a normal number, the
 /// sum of logarithms otherwise).
-fn inverse_trace_and_log_det<const D: usize>(l: &SMatrix<f64, D, D>) -> (f64, f64) {
+pub(crate) fn inverse_trace_and_log_det<const D: usize>(l: &SMatrix<f64, D, D>) -> (f64, f64) {
     let reciprocal: [f64; D] = std::array::from_fn(|i| 1.0 / l[(i, i)]);
     let mut trace = 0.0;
     let mut column = [0.0; D];
@@ -102,9 +103,9 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// [`DensityError::NonFinite`] for a mean with a NaN or infinite coordinate
     /// ([`Manifold::is_finite`]) and for NaN or infinite entries of P, [`DensityError::OutOfRange`]
     /// for a P that is not symmetric (to 1e-12 relative) or not positive definite (its Cholesky factorisation
-    /// fails), and when P⁻¹ is not representable: its trace `tr P⁻¹ = ‖L⁻¹‖²_F` overflows
-    /// (eigenvalues of P below about 1e-308), so that Mahalanobis distances and divergences would be
-    /// infinite for every point.
+    /// fails), and for an entry of P or the trace `tr P⁻¹ = ‖L⁻¹‖²_F` above
+    /// [`MAX_SCALE`](crate::MAX_SCALE) = 1e100, the limit of every Gaussian (beyond it samples,
+    /// the entropy, Mahalanobis distances and divergences overflow).
     pub fn new(mean: X, covariance: SMatrix<f64, D, D>) -> Result<Self, DensityError> {
         const WHAT: &str = "tangent covariance P";
         if !mean.is_finite() {
@@ -127,6 +128,7 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
                 }
             }
         }
+        within_scale(WHAT, &covariance)?;
         if asymmetry > SYMMETRY_TOLERANCE * scale {
             return Err(DensityError::OutOfRange {
                 what: WHAT,
@@ -152,11 +154,11 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
         };
         let cholesky = factor.unpack();
         let (inverse_trace, log_det) = inverse_trace_and_log_det(&cholesky);
-        if !inverse_trace.is_finite() {
+        if inverse_trace.is_nan() || inverse_trace > MAX_SCALE {
             return Err(DensityError::OutOfRange {
                 what: "trace of the inverse tangent covariance P^-1",
                 value: inverse_trace,
-                range: "finite values: P's eigenvalues must be above about 1e-308",
+                range: "at most 1e100: P's eigenvalues must be above about 1e-100",
             });
         }
         Ok(Self {
@@ -206,10 +208,35 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// (`f(μ ⊞ δ) = f(μ) ⊞ (J δ + O(|δ|²))`). Unlike [`propagate_linearized`](Self::propagate_linearized)
     /// it accepts rank-deficient results: rotating a point p cannot move it along p, so the covariance
     /// of R p is singular.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] for a Jacobian with a NaN or infinite entry,
+    /// [`DensityError::OutOfRange`] when an entry of `J P Jᵀ` exceeds
+    /// [`MAX_SCALE`](crate::MAX_SCALE) = 1e100 (or overflows), the limit of every Gaussian.
     pub fn propagated_covariance<const E: usize>(
         &self,
         jacobian: &Jacobian<f64, E, D>,
-    ) -> SMatrix<f64, E, E> {
+    ) -> Result<SMatrix<f64, E, E>, DensityError> {
+        if let Some(&value) = jacobian.iter().find(|v| !v.is_finite()) {
+            return Err(DensityError::NonFinite {
+                what: "Jacobian J of the propagation",
+                value,
+            });
+        }
+        let c = self.sandwich(jacobian);
+        if c.iter().any(|v| v.is_nan()) {
+            return Err(DensityError::OutOfRange {
+                what: "propagated covariance J P J^T",
+                value: f64::INFINITY,
+                range: "entries of at most 1e100 (its products overflow)",
+            });
+        }
+        within_scale("propagated covariance J P J^T", &c)?;
+        Ok(c)
+    }
+
+    /// `J P Jᵀ`, symmetrised.
+    fn sandwich<const E: usize>(&self, jacobian: &Jacobian<f64, E, D>) -> SMatrix<f64, E, E> {
         let c = jacobian * self.covariance() * jacobian.transpose();
         (c + c.transpose()) * 0.5
     }
@@ -221,14 +248,15 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// second derivative of f.
     ///
     /// # Errors
-    /// As [`new`](Self::new), when `J P Jᵀ` is not positive definite (J rank-deficient): a degenerate
-    /// Gaussian is refused, not repaired.
+    /// As [`propagated_covariance`](Self::propagated_covariance), and as [`new`](Self::new) when
+    /// `J P Jᵀ` is not positive definite (J rank-deficient): a degenerate Gaussian is refused, not
+    /// repaired.
     pub fn propagate_linearized<Y: Manifold<E, Scalar = f64>, const E: usize>(
         &self,
         image_of_mean: Y,
         jacobian: &Jacobian<f64, E, D>,
     ) -> Result<ManifoldGaussian<Y, E>, DensityError> {
-        ManifoldGaussian::new(image_of_mean, self.propagated_covariance(jacobian))
+        ManifoldGaussian::new(image_of_mean, self.propagated_covariance(jacobian)?)
     }
 
     /// `KL(self ‖ other) = ½ (tr(P_q⁻¹ P_p) − D + ln det P_q − ln det P_p)` for two Gaussians with
@@ -266,10 +294,11 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> ManifoldGaussian<G, D> {
     /// Baker-Campbell-Hausdorff series).
     ///
     /// # Errors
-    /// As [`new`](Self::new) (only when the sum overflows).
+    /// As [`propagated_covariance`](Self::propagated_covariance) and [`new`](Self::new) (only when
+    /// the covariance exceeds the limit of every Gaussian).
     pub fn compose(&self, other: &Self) -> Result<Self, DensityError> {
         let ja = self.mean.j_compose_self(&other.mean);
-        let covariance = self.propagated_covariance(&ja) + other.covariance();
+        let covariance = self.propagated_covariance(&ja)? + other.covariance();
         Self::new(self.mean.compose(&other.mean), covariance)
     }
 }
@@ -316,7 +345,7 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussia
                 ..self.clone()
             };
         }
-        let covariance = self.propagated_covariance(&j);
+        let covariance = self.sandwich(&j);
         let cholesky = lower_factor(j * self.cholesky);
         let (_, log_det) = inverse_trace_and_log_det(&cholesky);
         Self {

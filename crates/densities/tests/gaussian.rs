@@ -185,7 +185,7 @@ proptest! {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = 20_000;
         // Tangent samples come back exactly (local ∘ retract = id inside the injectivity radius).
-        let image = x.propagated_covariance(&mean.j_act_self(&p));
+        let image = x.propagated_covariance(&mean.j_act_self(&p)).unwrap();
         let composed = x.compose(&y).unwrap();
         let (mut c_point, mut c_comp) = (Matrix3::zeros(), Matrix3::zeros());
         for _ in 0..n {
@@ -222,4 +222,15 @@ fn propagation_into_a_group_keeps_a_full_rank_covariance() {
         degenerate.is_err(),
         "a rank-deficient image is refused, not repaired"
     );
+    // A Jacobian whose products overflow (J P Jᵀ with entries near 1e300 · 1e300 · 1e-4) gave NaN
+    // and an invalid Gaussian: now an error, as is a non-finite Jacobian.
+    let huge = Matrix3::new(1e300, -1e300, 0.0, 1e300, 1e300, 0.0, 0.0, 0.0, 1.0);
+    for j in [
+        huge,
+        Matrix3::identity() * 1e60,
+        Matrix3::identity() * f64::NAN,
+    ] {
+        assert!(x.propagated_covariance(&j).is_err());
+        assert!(x.propagate_linearized(mean, &j).is_err());
+    }
 }

@@ -12,7 +12,7 @@ use liebayes_densities::testing::strategies::gaussian;
 use liebayes_densities::{Density, Entropy, Gaussian, KlDivergence, ManifoldGaussian};
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{LieGroup, Manifold, Rn, So2, So3};
-use nalgebra::{Matrix1, Matrix2, Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix1, Matrix2, Matrix3, SMatrix, SVector, Vector1, Vector2, Vector3};
 use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -202,22 +202,25 @@ fn bad_covariances_are_refused_with_a_message() {
     let y = Rn::new_unchecked(Vector2::new(1.0, 2.0));
     let asymmetric = ManifoldGaussian::new(y, Matrix2::new(1.0, 0.5, 0.0, 1.0)).unwrap_err();
     assert!(asymmetric.to_string().contains("symmetric"), "{asymmetric}");
-    // Positive definite, but P⁻¹ = 1e310 overflows: refused; at 1e-300 it is representable.
-    let tiny = ManifoldGaussian::new(y, Matrix2::new(1e-310, 0.0, 0.0, 1.0)).unwrap_err();
-    assert!(tiny.to_string().contains("inverse"), "{tiny}");
-    let small = ManifoldGaussian::new(y, Matrix2::new(1e-300, 0.0, 0.0, 1.0)).unwrap();
+    // Positive definite, but tr P⁻¹ above MAX_SCALE = 1e100 (the limit of every Gaussian):
+    // refused; at 1e-99 accepted.
+    for eigenvalue in [1e-310, 1e-300, 1e-101] {
+        let tiny = ManifoldGaussian::new(y, Matrix2::new(eigenvalue, 0.0, 0.0, 1.0)).unwrap_err();
+        assert!(tiny.to_string().contains("inverse"), "{tiny}");
+    }
+    let small = ManifoldGaussian::new(y, Matrix2::new(1e-99, 0.0, 0.0, 1.0)).unwrap();
     assert!(small.log_pdf(&y).is_finite() && small.entropy().is_finite());
-    let far = Rn::new_unchecked(Vector2::new(1.0 + 1e-140, 2.0));
+    let far = Rn::new_unchecked(Vector2::new(1.0 + 1e-40, 2.0));
     assert!(small.mahalanobis_squared(&far).is_finite());
-    // ln det P where the product of the Cholesky diagonal under- or overflows (1e-375, 1e375): the
-    // sum of logarithms instead of the logarithm of the product.
-    for scale in [1e-250, 1e-100, 1e100, 1e250] {
+    // ln det P where the product of the Cholesky diagonal under- or overflows (1e-445, 1e450 in
+    // nine dimensions): the sum of logarithms instead of the logarithm of the product.
+    for scale in [1e-99, 1e-50, 1e50, 1e100] {
         let g = ManifoldGaussian::new(
-            Rn::<f64, 3>::new_unchecked(Vector3::zeros()),
-            Matrix3::identity() * scale,
+            Rn::<f64, 9>::new_unchecked(SVector::zeros()),
+            SMatrix::<f64, 9, 9>::identity() * scale,
         )
         .unwrap();
-        let expected = 3.0 * f64::ln(scale);
+        let expected = 9.0 * f64::ln(scale);
         assert!(
             (g.log_determinant() / expected - 1.0).abs() < 1e-15,
             "{scale}: {}",
@@ -225,7 +228,14 @@ fn bad_covariances_are_refused_with_a_message() {
         );
         assert!(g.entropy().is_finite());
     }
-    // A huge but finite covariance is fine.
-    let wide = ManifoldGaussian::new(x, Matrix1::new(1e300)).unwrap();
+    // A covariance of 1e100 is fine; above it (1.6e308 was accepted, its samples NaN and its
+    // entropy infinite) it is refused, as by Gaussian::new.
+    let wide = ManifoldGaussian::new(x, Matrix1::new(1e100)).unwrap();
     assert!(wide.log_pdf(&So2::from_angle_unchecked(-2.0)).is_finite());
+    assert!(wide.entropy().is_finite());
+    for huge in [1e101, 1.6e308] {
+        let error = ManifoldGaussian::new(x, Matrix1::new(huge)).unwrap_err();
+        assert!(error.to_string().contains("1e100"), "{error}");
+        assert!(Gaussian::new(Vector1::zeros(), Matrix1::new(huge)).is_err());
+    }
 }

@@ -178,3 +178,48 @@ fn von_mises_fisher_keeps_tiny_concentrations_and_equals_the_uniform_at_zero() {
         VonMises::uniform()
     );
 }
+
+/// `HarmonicGaussian::new` accepted features and covariances of 1e210, and then its marginal
+/// moments, log density and divergences were NaN. It now takes the limit of every Gaussian,
+/// [`MAX_SCALE`] = 1e100, and at that limit every one of them is a number (the log density of a
+/// point at ±f64::MAX is −∞, the exact value's overflow).
+#[test]
+fn harmonic_gaussian_takes_the_gaussian_limit() {
+    use liebayes_densities::{Entropy, HarmonicGaussian, KlDivergence, MAX_SCALE};
+    use nalgebra::{Matrix2, Matrix2x3};
+    let angle =
+        GenVonMises2::from_natural(Vector2::new(1.0, 0.5), Vector2::new(0.2, -0.1)).unwrap();
+    let make = |b: f64, sigma: f64| {
+        HarmonicGaussian::new(
+            angle.clone(),
+            Matrix2x3::from_element(b),
+            Matrix2::new(sigma, 0.3 * sigma, 0.3 * sigma, sigma),
+        )
+    };
+    for (b, sigma) in [(1e210, 1.0), (1.0, 1e210), (1.0, 1e-210), (1e101, 1.0)] {
+        let error = make(b, sigma).unwrap_err();
+        assert!(
+            error.to_string().contains("1e100"),
+            "{b:e} {sigma:e}: {error}"
+        );
+    }
+    let far = make(MAX_SCALE, MAX_SCALE).unwrap();
+    let near = make(-MAX_SCALE, 1e-99).unwrap();
+    for p in [&far, &near] {
+        let (mean, cov) = p.marginal_moments();
+        assert!(mean.iter().chain(cov.iter()).all(|v| v.is_finite()));
+        assert!(p.entropy().is_finite());
+        for q in [&far, &near] {
+            assert!(p.kl_divergence(q).is_finite());
+        }
+        let y = So2::from_angle_unchecked(0.3);
+        for x in [
+            Vector2::new(f64::MAX, -f64::MAX),
+            Vector2::new(1e300, 1.0),
+            Vector2::zeros(),
+        ] {
+            let l = p.log_pdf(&(y, x));
+            assert!(!l.is_nan() && l != f64::INFINITY, "{x:?}: {l}");
+        }
+    }
+}
