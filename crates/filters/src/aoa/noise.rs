@@ -12,7 +12,8 @@
 //! * [`AdaptiveSigmas`]: the standard deviations of Model I's reduced errors as a function of the
 //!   true elevation (the paper's Fig. 1), from which the AE-adaptive filters take their σ.
 
-use super::direction::{AzEl, wrap};
+use super::direction::AzEl;
+use liebayes_manifolds::wrap_angle;
 use liebayes_operators::OperatorError;
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2, TAU};
 use std::sync::Arc;
@@ -104,7 +105,7 @@ fn ln_normal_mass(a: f64, b: f64) -> f64 {
 /// The log density of a canonical reading y given the predicted direction y₀ under the
 /// azimuth-elevation model with standard deviations σ_az, σ_el:
 ///
-/// `ln N(wrap(y_az − az₀); 0, σ_az²) − ln[Φ(π/σ_az) − Φ(−π/σ_az)]
+/// `ln N(wrap_angle(y_az − az₀); 0, σ_az²) − ln[Φ(π/σ_az) − Φ(−π/σ_az)]
 ///  + ln N(y_el − el₀; 0, σ_el²) − ln[Φ((π/2 − el₀)/σ_el) − Φ((−π/2 − el₀)/σ_el)]`,
 ///
 /// a density in (az, el) on (−π, π] × [−π/2, π/2]; −∞ for an elevation outside that range. The
@@ -144,7 +145,7 @@ impl AngleSigmas {
         if y.elevation.abs() > FRAC_PI_2 {
             return f64::NEG_INFINITY;
         }
-        let za = wrap(y.azimuth - predicted.azimuth) / self.sigma_az;
+        let za = wrap_angle(y.azimuth - predicted.azimuth) / self.sigma_az;
         let el0 = predicted.elevation;
         let ze = (y.elevation - el0) / self.sigma_el;
         let mass = ln_normal_mass(
@@ -162,7 +163,7 @@ pub const ADAPTIVE_GRID: usize = 181;
 /// function of the true elevation el₀, on a 1° grid ([`ADAPTIVE_GRID`] points, linear
 /// interpolation between them): for the elevation, the standard deviation of
 /// `canonical(el₀ + e_el) − el₀` about its mean; for the azimuth, that of
-/// `wrap(e_az + π F)`, F = 1 when the reading was flipped over a pole (its mean is 0). Near a pole
+/// `wrap_angle(e_az + π F)`, F = 1 when the reading was flipped over a pole (its mean is 0). Near a pole
 /// a flip happens half the time and the azimuth error's standard deviation approaches π/√3 and more
 /// (2.13 rad at σ = 10°), where the nominal model says σ_az.
 ///
@@ -273,7 +274,7 @@ fn half_turns(sigma: f64) -> i64 {
     n.max(2)
 }
 
-/// `E[wrap(e + offset)²]` for `e ~ N(0, σ²)`: on each turn `[−π − offset + 2kπ, π − offset + 2kπ)`
+/// `E[wrap_angle(e + offset)²]` for `e ~ N(0, σ²)`: on each turn `[−π − offset + 2kπ, π − offset + 2kπ)`
 /// the wrapped value is `e + offset − 2kπ`.
 fn wrapped_second_moment(offset: f64, sigma: f64) -> f64 {
     let turns = half_turns(sigma) / 2 + 1;

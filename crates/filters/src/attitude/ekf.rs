@@ -32,9 +32,9 @@ use super::data::{DataError, ImuLog, bad, check_positive, scaled_unit};
 use super::study::{AttitudeEstimate, ImuSample};
 use super::talk::from_diffusion;
 use super::track::AttitudeTrack;
-use crate::aoa::wrap;
 use liebayes_densities::{Bingham, HeatKernelSo3, ManifoldGaussian};
 use liebayes_experiments::{Nis, RecursiveFilter, Update};
+use liebayes_manifolds::wrap_angle;
 use liebayes_manifolds::{Left, ProductManifold, Rn, So3};
 use liebayes_operators::{
     Condition, Ekf, MeasurementModel, OperatorError, ProcessModel, Propagate, Ukf,
@@ -477,7 +477,7 @@ impl Heading {
 impl MeasurementModel<AttitudeState, STATE_DIM, 1> for Heading {
     fn predict(&self, x: &AttitudeState) -> SVector<f64, 1> {
         let m = x.first().inner().as_unit_quaternion() * self.field;
-        SVector::<f64, 1>::new(wrap(m.x.atan2(m.y) - x.second().coords()[5]))
+        SVector::<f64, 1>::new(wrap_angle(m.x.atan2(m.y) - x.second().coords()[5]))
     }
 
     fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 1, 1> {
@@ -485,7 +485,7 @@ impl MeasurementModel<AttitudeState, STATE_DIM, 1> for Heading {
     }
 
     fn residual(&self, z: &SVector<f64, 1>, predicted: &SVector<f64, 1>) -> SVector<f64, 1> {
-        SVector::<f64, 1>::new(wrap(z[0] - predicted[0]))
+        SVector::<f64, 1>::new(wrap_angle(z[0] - predicted[0]))
     }
 
     fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 1, STATE_DIM> {
