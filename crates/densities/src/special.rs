@@ -27,6 +27,14 @@
 //!   (1 − A, 1 − A/κ − A², ln I₀ − κ); about 10 ns each.
 //! * [`bingham_log_normalizer_and_moments`]: the Bingham normaliser on S³ and its gradient, a
 //!   one-dimensional integral of these (see `Bingham`).
+//!
+//! **The standard normal distribution.** [`normal_cdf`] Φ and [`log_normal_mass`]
+//! `ln[Φ(b) − Φ(a)]` take any x on the extended real line (Φ(−∞) = 0, Φ(∞) = 1) and are infallible
+//! (a hot path of the particle filters); like f64's own functions they return NaN for a NaN
+//! argument. Φ is `erfc(−x/√2)/2` (libm's erfc), so its lower tail never forms 1 − small: relative
+//! error below `2e-16 (1 + x²)` down to Φ(−37.5) ≈ 4.6e-308, the smallest normal f64 (the rounding
+//! of x/√2 times Φ's condition number x²; measured 1.4e-13 at −37.5, 8.9e-15 at −10, 1.8e-16 at
+//! −1), checked against 50-digit values.
 
 use crate::error::{DensityError, finite};
 use crate::scaled_bessel;
@@ -472,6 +480,51 @@ pub fn bingham_log_normalizer_and_moments(z: &[f64; 4]) -> Result<(f64, [f64; 4]
         crate::bingham_normalizer::log_normalizer_and_moments(z);
     let max = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     Ok((max + log_normalizer_minus_max, moments))
+}
+
+/// The standard normal CDF `Φ(x) = erfc(−x/√2)/2`, accurate in both tails: relative error below
+/// `2e-16 (1 + x²)` down to Φ(−37.5) ≈ 4.6e-308 (the lower tail never forms 1 − small), and
+/// `1 − Φ(x)` is `normal_cdf(−x)` to the same accuracy. NaN for NaN.
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::normal_cdf;
+/// assert_eq!(normal_cdf(0.0), 0.5);
+/// // Φ(−10) = 7.6198530241605261e-24, to 9e-15 relative (the tail is conditioned by x²).
+/// assert!((normal_cdf(-10.0) / 7.619_853_024_160_526e-24 - 1.0).abs() < 2e-14);
+/// ```
+pub fn normal_cdf(x: f64) -> f64 {
+    0.5 * libm::erfc(-x / std::f64::consts::SQRT_2)
+}
+
+/// Beyond this many standard deviations the normal's tail mass (below 1.2e-19) is lost to rounding
+/// in `ln(1 − tail)`.
+const NEGLIGIBLE_TAIL: f64 = 9.0;
+
+/// `ln[Φ(b) − Φ(a)]`, the log probability of `a < Z < b` for a standard normal Z, for `a ≤ b` on the
+/// extended real line (−∞ when `a = b`), computed from the side where it does not cancel:
+/// `ln1p(−Φ(−b))` or `ln1p(−Φ(a))` when one bound is beyond 9 standard deviations (0 without any
+/// erfc when both are), the complementary tails when both bounds lie on one side of 0, and
+/// `ln((erf(b/√2) − erf(a/√2))/2)` across 0 (keeping the relative accuracy of tiny intervals).
+/// Error below `1e-14 (1 + |ln mass|)` in the log (checked against 50-digit values); NaN for a NaN
+/// bound.
+pub fn log_normal_mass(a: f64, b: f64) -> f64 {
+    use std::f64::consts::SQRT_2;
+    if a <= -NEGLIGIBLE_TAIL && b >= NEGLIGIBLE_TAIL {
+        0.0
+    } else if a <= -NEGLIGIBLE_TAIL && b >= 0.0 {
+        // Φ(b) − Φ(a) = 1 − Φ(−b) to rounding: one erfc, and ln1p keeps the small tail.
+        (-normal_cdf(-b)).ln_1p()
+    } else if b >= NEGLIGIBLE_TAIL && a <= 0.0 {
+        (-normal_cdf(a)).ln_1p()
+    } else if a > 0.0 {
+        // Both in the upper tail: Φ(b) − Φ(a) = Φ(−a) − Φ(−b).
+        (normal_cdf(-a) - normal_cdf(-b)).ln()
+    } else if b < 0.0 {
+        (normal_cdf(b) - normal_cdf(a)).ln()
+    } else {
+        (0.5 * (libm::erf(b / SQRT_2) - libm::erf(a / SQRT_2))).ln()
+    }
 }
 
 #[cfg(test)]

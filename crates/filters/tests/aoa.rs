@@ -8,9 +8,9 @@ use liebayes_experiments::{RecursiveFilter, Shard, Study, Summary, relative_diff
 use liebayes_filters::aoa::{
     Algorithm, Anchor, AngleNoise, AzEl, AzElModel, DataModel, ModelChoice, Position, Prior,
     RandomWalk, SquareTrack, TrackConfig, TrackFilter, TruthModel, UnitVectorModel,
-    square_track_anchors, vmf_ekf, vmf_particle_filter, wrap,
+    square_track_anchors, vmf_ekf, vmf_particle_filter,
 };
-use liebayes_manifolds::So3;
+use liebayes_manifolds::{So3, wrap_angle};
 use liebayes_operators::MeasurementModel;
 use liebayes_operators::evaluation::average_nees_band;
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -46,12 +46,12 @@ proptest! {
         prop_assert!(c.elevation.abs() <= FRAC_PI_2 && (-PI..PI).contains(&c.azimuth));
         let again = c.canonical();
         prop_assert!((again.elevation - c.elevation).abs() < 1e-15);
-        prop_assert!(wrap(again.azimuth - c.azimuth).abs() < 1e-14);
+        prop_assert!(wrap_angle(again.azimuth - c.azimuth).abs() < 1e-14);
         // Away from the poles, the angles of the unit vector are the canonical reading.
         if c.elevation.abs() < 1.5 {
             let back = AzEl::of_vector(&raw.unit_vector());
             prop_assert!((back.elevation - c.elevation).abs() < 1e-13);
-            prop_assert!(wrap(back.azimuth - c.azimuth).abs() < 1e-13);
+            prop_assert!(wrap_angle(back.azimuth - c.azimuth).abs() < 1e-13);
         }
     }
 

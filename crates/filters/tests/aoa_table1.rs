@@ -5,8 +5,9 @@
 
 use liebayes_filters::aoa::{
     AzEl, DataModel, FILTER_MODELS, MAX_SAMPLES, ModelComparison, PAPER_TABLE1, compare_models,
-    fit_angle_sigmas, fit_angle_sigmas_to, wrap,
+    fit_angle_sigmas, fit_angle_sigmas_to,
 };
+use liebayes_manifolds::wrap_angle;
 use liebayes_operators::OperatorError;
 use liebayes_reference::reference;
 use rand::{Rng, SeedableRng};
@@ -174,7 +175,7 @@ fn the_fit_recovers_the_sigmas_of_data_from_the_model_itself() {
                     &mut rng,
                 );
                 (
-                    AzEl::new(wrap(truth.azimuth + e_az), truth.elevation + e_el),
+                    AzEl::new(wrap_angle(truth.azimuth + e_az), truth.elevation + e_el),
                     truth,
                 )
             })

@@ -98,7 +98,7 @@ pub use rn::Rn;
 pub use s2::S2;
 pub use se2::Se2;
 pub use se3::Se3;
-pub use so2::So2;
+pub use so2::{So2, wrap_angle};
 pub use so3::So3;
 pub use su2::Su2;
 

@@ -6,6 +6,35 @@ use crate::manifold::{Jacobian, Tangent};
 use crate::real::Real;
 use nalgebra::{Complex, Matrix1, Matrix2, Rotation2, UnitComplex, Vector1, Vector2};
 
+/// `angle` wrapped to [−π, π): `angle − 2πk` for the integer k that puts it there (the azimuth
+/// and bearing convention; [`So2::angle`] returns (−π, π] instead). Exact for |angle| < 3π (one
+/// subtraction of 2π, rounded once), `rem_euclid` beyond; NaN for a non-finite angle.
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::wrap_angle;
+/// use std::f64::consts::PI;
+/// assert_eq!(wrap_angle(PI), -PI);
+/// assert!((wrap_angle(7.0) - (7.0 - 2.0 * PI)).abs() < 1e-15);
+/// assert_eq!(wrap_angle(-0.5), -0.5);
+/// ```
+pub fn wrap_angle(angle: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    // The common cases without a floating-point remainder (a hot path of particle filters).
+    if (-PI..PI).contains(&angle) {
+        return angle;
+    }
+    if (PI..3.0 * PI).contains(&angle) {
+        return angle - TAU;
+    }
+    if (-3.0 * PI..-PI).contains(&angle) {
+        return angle + TAU;
+    }
+    let r = (angle + PI).rem_euclid(TAU) - PI;
+    // rem_euclid may round up to TAU for tiny negative inputs.
+    if r >= PI { r - TAU } else { r }
+}
+
 /// A rotation of the plane, an element of SO(2), stored as a unit complex number `cos θ + i sin θ`.
 ///
 /// Counter-clockwise for positive angles: `R(θ) = [[cos θ, −sin θ], [sin θ, cos θ]]`. The tangent is

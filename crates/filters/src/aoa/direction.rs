@@ -5,9 +5,10 @@
 //! positive towards its z-axis (the poles are `el = ±π/2`), azimuth `az ∈ [−π, π)` from its x-axis
 //! towards its y-axis, and `u(az, el) = [cos az cos el, sin az cos el, sin el]`.
 
+use liebayes_manifolds::wrap_angle;
 use liebayes_operators::OperatorError;
 use nalgebra::Vector3;
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// One direction reading: azimuth and elevation (rad) in the anchor's axes.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -43,7 +44,7 @@ impl AzEl {
             v.x.hypot(v.y)
         };
         Self {
-            azimuth: wrap(v.y.atan2(v.x)),
+            azimuth: wrap_angle(v.y.atan2(v.x)),
             elevation: v.z.atan2(rho),
         }
     }
@@ -54,7 +55,7 @@ impl AzEl {
     /// A reading that passed over a pole becomes the direction it points at.
     #[must_use]
     pub fn canonical(&self) -> Self {
-        let el = wrap(self.elevation);
+        let el = wrap_angle(self.elevation);
         let (el, flip) = if el > FRAC_PI_2 {
             (PI - el, PI)
         } else if el < -FRAC_PI_2 {
@@ -63,7 +64,7 @@ impl AzEl {
             (el, 0.0)
         };
         Self {
-            azimuth: wrap(self.azimuth + flip),
+            azimuth: wrap_angle(self.azimuth + flip),
             elevation: el,
         }
     }
@@ -101,21 +102,4 @@ impl AzEl {
         }
         Ok(())
     }
-}
-
-/// An angle wrapped to [−π, π).
-pub fn wrap(angle: f64) -> f64 {
-    // The common cases without a floating-point remainder (a hot path of the particle filter).
-    if (-PI..PI).contains(&angle) {
-        return angle;
-    }
-    if (PI..3.0 * PI).contains(&angle) {
-        return angle - TAU;
-    }
-    if (-3.0 * PI..-PI).contains(&angle) {
-        return angle + TAU;
-    }
-    let r = (angle + PI).rem_euclid(TAU) - PI;
-    // rem_euclid may round up to TAU for tiny negative inputs.
-    if r >= PI { r - TAU } else { r }
 }

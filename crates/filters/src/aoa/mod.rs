@@ -33,7 +33,7 @@ pub use comparison::{
     PaperColumn, compare_models, fit_angle_sigmas, fit_angle_sigmas_to,
 };
 pub use data::DataModel;
-pub use direction::{AzEl, wrap};
+pub use direction::AzEl;
 pub use estimate::{PositionEstimate, PositionMoments, PositionScorer};
 pub use example::{UpdateExample, UpdateRow};
 pub use filter::{

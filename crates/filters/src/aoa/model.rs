@@ -12,10 +12,11 @@
 //!   stack `[az₁, el₁, …]` (M = 2N) with the azimuth residual wrapped.
 
 use super::anchor::Anchor;
-use super::direction::{AzEl, wrap};
+use super::direction::AzEl;
 use super::noise::{AdaptiveSigmas, AngleSigmas, check_kappa, check_sigma};
 use liebayes_densities::special::vmf_log_normalizer;
 use liebayes_manifolds::Rn;
+use liebayes_manifolds::wrap_angle;
 use liebayes_operators::particle::Likelihood;
 use liebayes_operators::{Conversion, MeasurementModel, OperatorError};
 use nalgebra::{Matrix3, RowVector3, SMatrix, SVector, Vector3};
@@ -257,7 +258,7 @@ impl<const N: usize, const M: usize> MeasurementModel<Position, 3, M> for AzElMo
     fn residual(&self, z: &SVector<f64, M>, predicted: &SVector<f64, M>) -> SVector<f64, M> {
         let mut r = z - predicted;
         for j in 0..N {
-            r[2 * j] = wrap(r[2 * j]);
+            r[2 * j] = wrap_angle(r[2 * j]);
         }
         r
     }
@@ -357,7 +358,7 @@ impl<const N: usize, const M: usize> Conversion for StackedAngles<N, M> {
     fn convert(&self, readings: &Readings<N>) -> Result<SVector<f64, M>, OperatorError> {
         stacked::<N, M, 2>(readings, |y| {
             y.check_canonical()?;
-            Ok(nalgebra::Vector2::new(wrap(y.azimuth), y.elevation))
+            Ok(nalgebra::Vector2::new(wrap_angle(y.azimuth), y.elevation))
         })
     }
 }

@@ -12,9 +12,11 @@
 //! * [`AdaptiveSigmas`]: the standard deviations of Model I's reduced errors as a function of the
 //!   true elevation (the paper's Fig. 1), from which the AE-adaptive filters take their σ.
 
-use super::direction::{AzEl, wrap};
+use super::direction::AzEl;
+use liebayes_densities::special::log_normal_mass;
+use liebayes_manifolds::wrap_angle;
 use liebayes_operators::OperatorError;
-use std::f64::consts::{FRAC_PI_2, PI, SQRT_2, TAU};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
 
 /// The range of an angle standard deviation σ (rad): below, `1/σ²` overflows as a precision; above,
@@ -72,39 +74,10 @@ pub fn sigma_from_kappa(kappa: f64) -> f64 {
     1.0 / kappa.sqrt()
 }
 
-/// The standard normal CDF Φ(x) = erfc(−x/√2)/2, accurate in the tails.
-pub(crate) fn normal_cdf(x: f64) -> f64 {
-    0.5 * libm::erfc(-x / SQRT_2)
-}
-
-/// Beyond this many standard deviations the normal's tail mass (below 1.2e-19) is lost to rounding
-/// in `ln(1 − tail)`.
-const NEGLIGIBLE_TAIL: f64 = 9.0;
-
-/// `ln [Φ(b) − Φ(a)]` for a ≤ b, from the side where it does not cancel (0 when both bounds are
-/// beyond [`NEGLIGIBLE_TAIL`], without evaluating erf: the hot path of the particle filter).
-fn ln_normal_mass(a: f64, b: f64) -> f64 {
-    if a <= -NEGLIGIBLE_TAIL && b >= NEGLIGIBLE_TAIL {
-        0.0
-    } else if a <= -NEGLIGIBLE_TAIL && b >= 0.0 {
-        // Φ(b) − Φ(a) = 1 − Φ(−b) to rounding: one erfc, and ln1p keeps the small tail.
-        (-normal_cdf(-b)).ln_1p()
-    } else if b >= NEGLIGIBLE_TAIL && a <= 0.0 {
-        (-normal_cdf(a)).ln_1p()
-    } else if a > 0.0 {
-        // Both in the upper tail: Φ(b) − Φ(a) = Φ(−a) − Φ(−b).
-        (normal_cdf(-a) - normal_cdf(-b)).ln()
-    } else if b < 0.0 {
-        (normal_cdf(b) - normal_cdf(a)).ln()
-    } else {
-        (0.5 * (libm::erf(b / SQRT_2) - libm::erf(a / SQRT_2))).ln()
-    }
-}
-
 /// The log density of a canonical reading y given the predicted direction y₀ under the
 /// azimuth-elevation model with standard deviations σ_az, σ_el:
 ///
-/// `ln N(wrap(y_az − az₀); 0, σ_az²) − ln[Φ(π/σ_az) − Φ(−π/σ_az)]
+/// `ln N(wrap_angle(y_az − az₀); 0, σ_az²) − ln[Φ(π/σ_az) − Φ(−π/σ_az)]
 ///  + ln N(y_el − el₀; 0, σ_el²) − ln[Φ((π/2 − el₀)/σ_el) − Φ((−π/2 − el₀)/σ_el)]`,
 ///
 /// a density in (az, el) on (−π, π] × [−π/2, π/2]; −∞ for an elevation outside that range. The
@@ -134,7 +107,7 @@ impl AngleSigmas {
             sigma_el,
             azimuth_constant: -sigma_az.ln()
                 - half_ln_tau
-                - ln_normal_mass(-PI / sigma_az, PI / sigma_az),
+                - log_normal_mass(-PI / sigma_az, PI / sigma_az),
             elevation_constant: -sigma_el.ln() - half_ln_tau,
         }
     }
@@ -144,10 +117,10 @@ impl AngleSigmas {
         if y.elevation.abs() > FRAC_PI_2 {
             return f64::NEG_INFINITY;
         }
-        let za = wrap(y.azimuth - predicted.azimuth) / self.sigma_az;
+        let za = wrap_angle(y.azimuth - predicted.azimuth) / self.sigma_az;
         let el0 = predicted.elevation;
         let ze = (y.elevation - el0) / self.sigma_el;
-        let mass = ln_normal_mass(
+        let mass = log_normal_mass(
             (-FRAC_PI_2 - el0) / self.sigma_el,
             (FRAC_PI_2 - el0) / self.sigma_el,
         );
@@ -162,7 +135,7 @@ pub const ADAPTIVE_GRID: usize = 181;
 /// function of the true elevation el₀, on a 1° grid ([`ADAPTIVE_GRID`] points, linear
 /// interpolation between them): for the elevation, the standard deviation of
 /// `canonical(el₀ + e_el) − el₀` about its mean; for the azimuth, that of
-/// `wrap(e_az + π F)`, F = 1 when the reading was flipped over a pole (its mean is 0). Near a pole
+/// `wrap_angle(e_az + π F)`, F = 1 when the reading was flipped over a pole (its mean is 0). Near a pole
 /// a flip happens half the time and the azimuth error's standard deviation approaches π/√3 and more
 /// (2.13 rad at σ = 10°), where the nominal model says σ_az.
 ///
@@ -187,7 +160,7 @@ fn truncated_moments(a: f64, b: f64, sigma: f64) -> (f64, f64, f64) {
         }
     };
     let (za, zb) = (a / sigma, b / sigma);
-    let p = (ln_normal_mass(za, zb)).exp();
+    let p = (log_normal_mass(za, zb)).exp();
     let ((pa, zpa), (pb, zpb)) = (density(za), density(zb));
     (p, sigma * (pa - pb), sigma * sigma * (p + zpa - zpb))
 }
@@ -273,7 +246,7 @@ fn half_turns(sigma: f64) -> i64 {
     n.max(2)
 }
 
-/// `E[wrap(e + offset)²]` for `e ~ N(0, σ²)`: on each turn `[−π − offset + 2kπ, π − offset + 2kπ)`
+/// `E[wrap_angle(e + offset)²]` for `e ~ N(0, σ²)`: on each turn `[−π − offset + 2kπ, π − offset + 2kπ)`
 /// the wrapped value is `e + offset − 2kπ`.
 fn wrapped_second_moment(offset: f64, sigma: f64) -> f64 {
     let turns = half_turns(sigma) / 2 + 1;

@@ -17,8 +17,8 @@
 use super::anchor::Anchor;
 use super::estimate::PositionEstimate;
 use super::filter::PositionGaussian;
-use super::noise::normal_cdf;
 use liebayes_densities::quadrature::legendre_nodes;
+use liebayes_densities::special::normal_cdf;
 use liebayes_operators::OperatorError;
 use nalgebra::{Cholesky, Matrix3, Vector3};
 use std::f64::consts::{PI, TAU};

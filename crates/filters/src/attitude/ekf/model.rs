@@ -3,7 +3,7 @@
 //! velocity, rest bias, heading).
 
 use super::params::FieldOffset;
-use crate::aoa::wrap;
+use liebayes_manifolds::wrap_angle;
 use liebayes_manifolds::{Left, ProductManifold, Rn, So3};
 use liebayes_operators::{MeasurementModel, ProcessModel};
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
@@ -252,7 +252,7 @@ impl Heading {
 impl MeasurementModel<AttitudeState, STATE_DIM, 1> for Heading {
     fn predict(&self, x: &AttitudeState) -> SVector<f64, 1> {
         let m = x.first().inner().as_unit_quaternion() * self.field;
-        SVector::<f64, 1>::new(wrap(
+        SVector::<f64, 1>::new(wrap_angle(
             m.x.atan2(m.y) - x.second().coords()[in_rest(OFFSET)],
         ))
     }
@@ -262,7 +262,7 @@ impl MeasurementModel<AttitudeState, STATE_DIM, 1> for Heading {
     }
 
     fn residual(&self, z: &SVector<f64, 1>, predicted: &SVector<f64, 1>) -> SVector<f64, 1> {
-        SVector::<f64, 1>::new(wrap(z[0] - predicted[0]))
+        SVector::<f64, 1>::new(wrap_angle(z[0] - predicted[0]))
     }
 
     fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 1, STATE_DIM> {
