@@ -3,15 +3,15 @@
 //! detection and bias, the Bingham and heat-kernel marginals, bad input, and the twelve BROAD
 //! trials against VQF's published figures (skipped with a message when the data are absent).
 
+use liebayes_densities::Bingham;
 use liebayes_experiments::{RecursiveFilter, Scorer};
 use liebayes_filters::FilterError;
 use liebayes_filters::attitude::{
     AttitudeEkf, AttitudeEstimate, AttitudeParams, AttitudeScorer, AttitudeState, BROAD_BETA,
     Block, BlockProcess, FieldOffset, Heading, ImuLog, ImuSample, LogRecording, LogScenario,
-    LogScore, Method, Propagation, STATE_DIM, Sensors, SimulationSettings, TrialErrors,
-    evaluate, read_broad, run_log, simulate,
+    LogScore, Method, Propagation, STATE_DIM, Sensors, SimulationSettings, TrialErrors, evaluate,
+    read_broad, run_log, simulate,
 };
-use liebayes_densities::Bingham;
 use liebayes_manifolds::{Left, Manifold, Rn, So3};
 use liebayes_operators::evaluation::chi_square_quantile;
 use liebayes_operators::{MeasurementModel, ProcessModel};

@@ -12,18 +12,13 @@ use liebayes_filters::attitude::{
 };
 use liebayes_manifolds::{LieGroup, So3};
 use liebayes_reference::broad::{TRIALS, data_dir};
-use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3, Vector4};
-use proptest::prelude::*;
+use nalgebra::{Matrix4, UnitQuaternion, Vector3, Vector4};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 fn coords(q: &UnitQuaternion<f64>) -> Vector4<f64> {
     Vector4::new(q.w, q.i, q.j, q.k)
-}
-
-fn normal3(rng: &mut ChaCha8Rng) -> Vector3<f64> {
-    Vector3::from_fn(|_, _| rng.sample(StandardNormal))
 }
 
 /// Weighted mean of `x` (one 4×4 matrix per sample) and the standard error of each entry,

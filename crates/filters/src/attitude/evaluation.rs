@@ -28,9 +28,8 @@ pub struct LogScore {
 impl LogScore {
     /// The scores of a recording.
     pub fn of(recording: &LogRecording) -> Self {
-        let metrics = Scorer::<Option<UnitQuaternion<f64>>, AttitudeEstimate>::metrics(
-            &AttitudeScorer,
-        );
+        let metrics =
+            Scorer::<Option<UnitQuaternion<f64>>, AttitudeEstimate>::metrics(&AttitudeScorer);
         let mut stats = vec![RunningStats::new(); metrics.len()];
         let mut values = vec![0.0; metrics.len()];
         for step in &recording.steps {

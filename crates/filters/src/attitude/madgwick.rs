@@ -138,7 +138,10 @@ impl Madgwick {
     }
 
     /// The state a first sample starts from (NWU).
-    fn start(sample: &ImuSample, mag: Option<&Vector3<f64>>) -> Result<Vector4<f64>, OperatorError> {
+    fn start(
+        sample: &ImuSample,
+        mag: Option<&Vector3<f64>>,
+    ) -> Result<Vector4<f64>, OperatorError> {
         let q = broad_initial_state(&sample.acc, mag).ok_or(OperatorError::OutOfRange {
             what: "Madgwick's first accelerometer reading (its norm)",
             value: sample.acc.norm(),
@@ -219,7 +222,11 @@ pub(crate) fn gradient_imu(q: &Vector4<f64>, acc: &Vector3<f64>) -> Vector4<f64>
 }
 
 /// `Jᵀ f` of the stacked gravity and field objective of [`Madgwick`] (b held constant).
-pub(crate) fn gradient_marg(q: &Vector4<f64>, acc: &Vector3<f64>, mag: &Vector3<f64>) -> Vector4<f64> {
+pub(crate) fn gradient_marg(
+    q: &Vector4<f64>,
+    acc: &Vector3<f64>,
+    mag: &Vector3<f64>,
+) -> Vector4<f64> {
     let (fg, jg) = gravity_objective(q, acc);
     let (fb, jb) = field_objective(q, mag);
     jg.transpose() * fg + jb.transpose() * fb

@@ -55,4 +55,3 @@ pub fn sample_errors(
         inclination: 2.0 * horizontal.atan2(w.hypot(z)),
     }
 }
-

@@ -12,10 +12,10 @@ use super::ekf::Sensors;
 use super::estimate::{AttitudeEstimate, ImuSample};
 use super::madgwick::{broad_initial_state, enu_from_nwu};
 use crate::error::{FilterError, positive_setting};
-use liebayes_experiments::{RecursiveFilter, Update};
-use liebayes_operators::OperatorError;
 use liebayes_densities::Bingham;
+use liebayes_experiments::{RecursiveFilter, Update};
 use liebayes_manifolds::Su2;
+use liebayes_operators::OperatorError;
 use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3};
 
 /// The noise settings of [`TalkFilter`] (the talk's symbols).
@@ -229,7 +229,9 @@ impl TalkFilter {
 /// The Bingham with natural parameter `M + extra` (symmetrised).
 fn add_natural(bingham: &Bingham, extra: &Matrix4<f64>) -> Result<Bingham, OperatorError> {
     let natural = bingham.natural() + extra;
-    Ok(Bingham::from_natural((natural + natural.transpose()) * 0.5)?)
+    Ok(Bingham::from_natural(
+        (natural + natural.transpose()) * 0.5,
+    )?)
 }
 
 /// The talk's filter on the experiment layer (see [`TalkFilter`]): `predict` is steps 1 and 2,

@@ -187,8 +187,14 @@ mod tests {
             dip: 0.0,
         };
         // Learning: everything is used and averaged (mean of 50, 70 after the second second).
-        assert!(matches!(m.judge(&EARTH, 1.0, Some(&d)), Verdict::Use { .. }));
-        assert!(matches!(m.judge(&other, 1.0, Some(&d)), Verdict::Use { .. }));
+        assert!(matches!(
+            m.judge(&EARTH, 1.0, Some(&d)),
+            Verdict::Use { .. }
+        ));
+        assert!(matches!(
+            m.judge(&other, 1.0, Some(&d)),
+            Verdict::Use { .. }
+        ));
         assert!((m.reference.norm - 60.0).abs() < 1e-12);
         assert!((m.reference.dip - 0.5).abs() < 1e-12);
     }

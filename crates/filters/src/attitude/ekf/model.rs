@@ -272,4 +272,3 @@ impl MeasurementModel<AttitudeState, STATE_DIM, 1> for Heading {
         h
     }
 }
-
