@@ -13,9 +13,8 @@ use liebayes_filters::attitude::{
 use liebayes_manifolds::{LieGroup, So3};
 use liebayes_reference::broad::{TRIALS, data_dir};
 use nalgebra::{Matrix4, UnitQuaternion, Vector3, Vector4};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
 
 fn coords(q: &UnitQuaternion<f64>) -> Vector4<f64> {
     Vector4::new(q.w, q.i, q.j, q.k)
