@@ -156,7 +156,8 @@ pub struct StudyLabel {
 /// runs are equal bit for bit, however they were sharded. The timing is measured, so it differs
 /// from one execution to the next; it is kept apart for that reason.
 ///
-/// Read from a file, a summary is checked whole (see [`Summary::check`]), so that what merges and
+/// Read from a file, a summary is checked whole (sums finite unless flagged, counts consistent,
+/// min ≤ max, epochs unique and sorted), so that what merges and
 /// what is reported can be trusted; the error names the field at fault.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "SummaryFields")]

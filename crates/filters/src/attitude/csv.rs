@@ -13,7 +13,7 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::io::{BufRead, Write};
 
 /// The longest line read (bytes), checked before it is kept.
-pub const MAX_LINE_BYTES: usize = 4096;
+pub(crate) const MAX_LINE_BYTES: usize = 4096;
 
 /// How far each time step may be from the mean step `(t_last − t_first) / (n − 1)`, relative to
 /// it (1 %): the rate is `1 / mean step`.
@@ -42,7 +42,7 @@ pub struct Estimates {
 /// # Errors
 /// [`DataError::Csv`] naming the line and column of a wrong header, a missing, extra or
 /// unparsable field, a non-finite value, a time step off the constant rate, fewer than two
-/// samples or a line longer than [`MAX_LINE_BYTES`]; [`DataError::TooLarge`] beyond
+/// samples or a line longer than 4096 bytes; [`DataError::TooLarge`] beyond
 /// [`MAX_SAMPLES`]; [`DataError::Io`] when reading fails.
 pub fn read_imu_csv<R: BufRead>(reader: R, origin: &str) -> Result<ImuLog, DataError> {
     let mut lines = Lines::new(reader, origin);

@@ -2,14 +2,14 @@
 
 use crate::error::{FilterError, positive_setting};
 
-/// The operator that propagates the Gaussian over a block ([`BlockProcess`]); the measurement
-/// updates are always [`Ekf`] (the heading measurement is defined by its Jacobian: it has no tilt
+/// The operator that propagates the Gaussian over a block ([`BlockProcess`](super::BlockProcess)); the measurement
+/// updates are always [`Ekf`](liebayes_operators::Ekf) (the heading measurement is defined by its Jacobian: it has no tilt
 /// column, so that the magnetometer never tilts the estimate).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Propagation {
     /// First order, with the block's analytic Jacobian.
     Ekf,
-    /// The unscented transform ([`Ukf`] with its defaults: 2 × 9 + 1 sigma points).
+    /// The unscented transform ([`Ukf`](liebayes_operators::Ukf) with its defaults: 2 × 9 + 1 sigma points).
     Ukf,
 }
 
