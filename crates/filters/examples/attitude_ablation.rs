@@ -1,15 +1,16 @@
 //! The production attitude filter's ablation on BROAD: each modelling choice switched off in turn,
 //! with the mean total / heading / inclination RMSE (deg) over the trials in the BROAD folder and
-//! the heading and tilt NEES pooled over their scored samples.
+//! the heading and tilt NEES pooled over their scored samples (the heading's a χ²(1) mean, 1 for
+//! a consistent filter; the tilt's a χ²(2) mean, 2 for a consistent filter).
 //!
 //! ```text
 //! cargo run --release -p liebayes-filters --example attitude_ablation [DIR]
 //! ```
-//! DIR defaults to `$LIEBAYES_BROAD_DIR` or `../shared/broad`.
+//! DIR defaults to `$LIEBAYES_BROAD_DIR`. `ABLATION_ONLY=text` runs the variants whose label
+//! contains `text`; `ABLATION_TRIALS=1` prints every trial's row too.
 
 use liebayes_filters::attitude::{
-    AttitudeParams, ImuLog, NeesSums, Propagation, Sensors, read_broad, run_attitude_ekf,
-    track_nees, trial_errors,
+    AttitudeParams, LogScenario, Method, Propagation, Sensors, evaluate, read_broad,
 };
 use std::path::PathBuf;
 
@@ -28,72 +29,70 @@ fn main() {
         .filter(|p| p.extension().is_some_and(|e| e == "mat"))
         .collect();
     files.sort();
-    let logs: Vec<(String, ImuLog)> = files
+    let logs: Vec<(String, LogScenario)> = files
         .iter()
         .map(|p| {
             let name = p.file_stem().unwrap().to_string_lossy().into_owned();
-            (name, read_broad(p).expect("a BROAD trial"))
+            let log = read_broad(p).expect("a BROAD trial");
+            (name, LogScenario::new(log).expect("a non-empty trial"))
         })
         .collect();
     let only = std::env::var("ABLATION_ONLY").ok();
     let verbose = std::env::var("ABLATION_TRIALS").is_ok();
+    let (labels, methods): (Vec<&str>, Vec<Method>) = variants()
+        .into_iter()
+        .filter(|(label, _)| only.as_deref().is_none_or(|o| label.contains(o)))
+        .unzip();
+    let evaluation = evaluate(&logs, &methods, &mut |_, _, _| Ok(())).expect("the runs");
     println!("| variant | total | heading | inclination | NEES heading | NEES tilt |");
     println!("|---|---|---|---|---|---|");
-    for (label, sensors, params) in variants() {
-        if only.as_deref().is_some_and(|o| !label.contains(o)) {
-            continue;
-        }
-        let mut sums = [0.0; 3];
-        let mut pooled = NeesSums::default();
-        for (name, log) in &logs {
-            let track = run_attitude_ekf(log, &params, sensors).expect("a run");
-            let e = trial_errors(&track.orientations, log).expect("scored");
-            let n = track_nees(&track, log).expect("scored").expect("σ");
-            let (nh, nt) = (n.heading_mean(), n.tilt_mean());
-            if verbose {
+    for (j, label) in labels.iter().enumerate() {
+        if verbose {
+            for (name, row) in evaluation.trials.iter().zip(&evaluation.scores) {
+                let e = row[j].errors().expect("scored");
+                let [nh, nt, _] = row[j].nees().expect("the EKF's covariance");
                 println!(
                     "|   {name} | {:.2} | {:.2} | {:.2} | {nh:.2} | {nt:.2} |",
                     e.total, e.heading, e.inclination
                 );
             }
-            pooled.add(&n);
-            for (s, v) in sums.iter_mut().zip([e.total, e.heading, e.inclination]) {
-                *s += v;
-            }
         }
-        let n = logs.len() as f64;
-        println!(
-            "| {label} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
-            sums[0] / n,
-            sums[1] / n,
-            sums[2] / n,
-            pooled.heading_mean(),
-            pooled.tilt_mean()
-        );
+        let [total, heading, inclination] = evaluation.mean_errors(j).expect("scored");
+        let pooled = evaluation.pooled(j).expect("a log");
+        let [nh, nt, _] = pooled.nees().expect("the EKF's covariance");
+        println!("| {label} | {total:.2} | {heading:.2} | {inclination:.2} | {nh:.2} | {nt:.2} |");
     }
 }
 
-fn variants() -> Vec<(&'static str, Sensors, AttitudeParams)> {
+/// The variants: the default filter, then one modelling choice off (or changed) at a time.
+fn variants() -> Vec<(&'static str, Method)> {
     let base = AttitudeParams::default();
-    let mut v = vec![("9D, all parts", Sensors::NineD, base.clone())];
-    let mut p = base.clone();
-    p.estimate_bias = false;
-    v.push(("9D, no gyro bias", Sensors::NineD, p));
-    let mut p = base.clone();
-    p.rest = None;
-    v.push(("9D, no rest detection", Sensors::NineD, p));
-    let mut p = base.clone();
-    p.magnetometer.disturbance = None;
-    v.push(("9D, no disturbance rejection", Sensors::NineD, p));
-    let mut p = base.clone();
-    p.magnetometer.offset = None;
-    v.push(("9D, no field offset state", Sensors::NineD, p));
-    let mut p = base.clone();
-    p.magnetometer.delay = 0.0;
-    v.push(("9D, no magnetometer delay", Sensors::NineD, p));
-    let mut p = base.clone();
-    p.propagation = Propagation::Ukf;
-    v.push(("9D, UKF propagation", Sensors::NineD, p));
-    v.push(("6D, all parts", Sensors::SixD, base));
-    v
+    let ekf = |params: AttitudeParams, sensors| Method::Ekf { params, sensors };
+    let changed = |change: fn(&mut AttitudeParams)| {
+        let mut p = base.clone();
+        change(&mut p);
+        ekf(p, Sensors::NineD)
+    };
+    vec![
+        ("9D, all parts", ekf(base.clone(), Sensors::NineD)),
+        ("9D, no gyro bias", changed(|p| p.estimate_bias = false)),
+        ("9D, no rest detection", changed(|p| p.rest = None)),
+        (
+            "9D, no disturbance rejection",
+            changed(|p| p.magnetometer.disturbance = None),
+        ),
+        (
+            "9D, no field offset state",
+            changed(|p| p.magnetometer.offset = None),
+        ),
+        (
+            "9D, no magnetometer delay",
+            changed(|p| p.magnetometer.delay = 0.0),
+        ),
+        (
+            "9D, UKF propagation",
+            changed(|p| p.propagation = Propagation::Ukf),
+        ),
+        ("6D, all parts", ekf(base.clone(), Sensors::SixD)),
+    ]
 }
