@@ -1055,6 +1055,69 @@ fn bad_input_logs_and_madgwick() {
     );
 }
 
+/// Every attitude filter (the six methods), after a few good samples: a NaN or out-of-range
+/// gyroscope or accelerometer reading (beyond `MAX_ANGULAR_RATE`, `MAX_SPECIFIC_FORCE`) and a NaN
+/// or out-of-range magnetometer reading (beyond `MAX_FIELD`) are refused, naming the reading, and
+/// the filter is left exactly as it was: its debug form (which writes every field's value, −0
+/// apart from 0) and its estimate bit for bit.
+#[test]
+fn a_refused_step_leaves_every_filter_unchanged() {
+    let good = ImuSample {
+        gyro: Vector3::new(0.1, -0.2, 0.3),
+        acc: Vector3::new(0.3, -0.2, 9.8),
+    };
+    let field = Vector3::new(0.0, 20.0, -40.0);
+    let bad_samples = [
+        (Vector3::new(f64::NAN, 0.0, 0.0), good.acc, "gyroscope"),
+        (Vector3::new(1e200, 0.0, 0.0), good.acc, "gyroscope"),
+        (
+            good.gyro,
+            Vector3::new(0.0, f64::INFINITY, 0.0),
+            "accelerometer",
+        ),
+        (good.gyro, Vector3::new(0.0, 0.0, 1e5), "accelerometer"),
+    ];
+    let bad_fields = [
+        Vector3::new(0.0, f64::NAN, 0.0),
+        Vector3::new(1e10, 0.0, 0.0),
+    ];
+    let bits = |e: AttitudeEstimate| -> Vec<u64> {
+        let covariance = e.covariance.map(|p| p.iter().copied().collect::<Vec<_>>());
+        e.orientation
+            .coords
+            .iter()
+            .chain(covariance.iter().flatten())
+            .map(|v| v.to_bits())
+            .collect()
+    };
+    for name in METHOD_NAMES {
+        let mut filter = Method::from_name(name)
+            .and_then(|m| m.build(100.0))
+            .expect("a filter");
+        for _ in 0..20 {
+            filter.predict(&good).expect("a step");
+            filter.update(&field).expect("a step");
+        }
+        let before = format!("{filter:?}");
+        let estimate = bits(filter.estimate().expect("an estimate"));
+        for (gyro, acc, reading) in bad_samples {
+            let err = filter.predict(&ImuSample { gyro, acc }).unwrap_err();
+            assert!(err.to_string().contains(reading), "{name}: {err}");
+            assert_eq!(format!("{filter:?}"), before, "{name}: {err}");
+        }
+        for z in bad_fields {
+            let err = filter.update(&z).unwrap_err();
+            assert!(err.to_string().contains("magnetometer"), "{name}: {err}");
+            assert_eq!(format!("{filter:?}"), before, "{name}: {err}");
+        }
+        assert_eq!(
+            bits(filter.estimate().expect("an estimate")),
+            estimate,
+            "{name}"
+        );
+    }
+}
+
 /// Every attitude filter, fresh and after a good sample, given a step of arbitrary readings:
 /// a refused `predict` or `update` leaves it exactly as it was (its debug form, which writes
 /// every field's value), an accepted one leaves a finite estimate.

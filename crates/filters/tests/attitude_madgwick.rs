@@ -1,6 +1,6 @@
 //! Madgwick's filter as the BROAD example evaluation runs it: the published figures on the twelve
-//! trials (skipped without the data), its convergence at rest, its start, and its steps on bad
-//! input (all or nothing). Its gradients are checked against finite differences in its module.
+//! trials (skipped without the data), its convergence at rest, its start, and a step that
+//! overflows. Its gradients are checked against finite differences in its module.
 
 use liebayes_experiments::RecursiveFilter;
 use liebayes_filters::attitude::{
@@ -130,69 +130,18 @@ fn initial_state_follows_the_example_construction() {
     assert!(filter.estimate().is_err());
 }
 
-/// The bits of the filter's estimate, for a comparison that `==` would blur (−0 against 0).
-fn bits(filter: &Madgwick) -> [u64; 4] {
-    let q = filter.estimate().expect("an estimate").orientation;
-    q.coords.map(f64::to_bits).into()
-}
-
-/// Every step is all or nothing: a NaN or out-of-range gyroscope or accelerometer reading, a NaN
-/// or out-of-range magnetometer reading, and a step that overflows (a sampling rate so slow that
-/// the angular rate times the interval is infinite) are refused, and the filter is left exactly
-/// as it was.
+/// A step that overflows is refused and leaves the filter as it was: at 1e-305 Hz the interval is
+/// 1e305 s, and a step at the largest angular rate the filter takes (1e4 rad/s) overflows. (Bad
+/// readings are refused by every filter alike: `attitude_data`.)
 #[test]
-fn a_refused_step_leaves_the_filter_unchanged() {
-    let good = ImuSample {
-        gyro: Vector3::new(0.1, -0.2, 0.3),
-        acc: Vector3::new(0.5, -0.3, 9.7),
-    };
-    let field = Vector3::new(0.0, 20.0, -40.0);
-    for sensors in [Sensors::NineD, Sensors::SixD] {
-        let mut filter = Madgwick::new(BROAD_BETA, sensors, 100.0).expect("valid");
-        for _ in 0..20 {
-            filter.predict(&good).expect("a step");
-            filter.update(&field).expect("a step");
-        }
-        let (before, before_bits) = (filter.clone(), bits(&filter));
-        let bad_inputs = [
-            ImuSample {
-                gyro: Vector3::new(f64::NAN, 0.0, 0.0),
-                ..good
-            },
-            ImuSample {
-                gyro: Vector3::new(1e200, 0.0, 0.0),
-                ..good
-            },
-            ImuSample {
-                acc: Vector3::new(0.0, f64::INFINITY, 0.0),
-                ..good
-            },
-            ImuSample {
-                acc: Vector3::new(0.0, 0.0, 1e5),
-                ..good
-            },
-        ];
-        for bad in bad_inputs {
-            assert!(filter.predict(&bad).is_err(), "{bad:?}");
-            assert_eq!(filter, before, "{bad:?}");
-        }
-        for bad in [
-            Vector3::new(0.0, f64::NAN, 0.0),
-            Vector3::new(1e10, 0.0, 0.0),
-        ] {
-            assert!(filter.update(&bad).is_err(), "{bad:?}");
-            assert_eq!(filter, before, "{bad:?}");
-        }
-        assert_eq!(bits(&filter), before_bits);
-    }
-    // At 1e-305 Hz the interval is 1e305 s: a step at the largest angular rate the filter takes
-    // (1e4 rad/s) overflows, and is refused.
+fn a_step_that_overflows_is_refused() {
     let mut slow = Madgwick::new(BROAD_BETA, Sensors::NineD, 1e-305).expect("valid");
     let before = slow.clone();
     let fastest = ImuSample {
         gyro: Vector3::new(1e4, 0.0, 0.0),
-        ..good
+        acc: Vector3::new(0.5, -0.3, 9.7),
     };
-    assert!(slow.predict(&fastest).is_err());
+    let err = slow.predict(&fastest).unwrap_err();
+    assert!(err.to_string().contains("overflows"), "{err}");
     assert_eq!(slow, before);
 }
