@@ -1,5 +1,5 @@
-//! Madgwick's filter as the BROAD example evaluation runs it: the published figures on the twelve
-//! trials (skipped without the data), its convergence at rest, its start, and a step that
+//! Madgwick's filter as the BROAD example evaluation runs it: the published figures on the trials
+//! (the two shipped, or the twelve with `$LIEBAYES_BROAD_DIR`), its convergence at rest, its start, and a step that
 //! overflows. Its gradients are checked against finite differences in its module.
 
 use liebayes_experiments::RecursiveFilter;
@@ -7,7 +7,7 @@ use liebayes_filters::attitude::{
     BROAD_BETA, ImuSample, LogScenario, LogScore, Madgwick, Method, Sensors, broad_initial_state,
     enu_from_nwu, read_broad, run_log,
 };
-use liebayes_reference::broad::data_dir;
+use liebayes_reference::broad::trials;
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// The Madgwick column of the BROAD table (total / heading / inclination RMSE, degrees).
@@ -36,12 +36,19 @@ const PUBLISHED: [(&str, [f64; 3]); 12] = [
 /// plus 0.005.
 const TOLERANCE_DEG: f64 = 0.01;
 
-fn check_trials(trials: &[(&str, [f64; 3])]) {
-    let Some(dir) = data_dir() else { return };
+/// Every available trial ([`trials`]: the two shipped, or the twelve) against its published
+/// figures.
+fn check_trials(published_figures: &[(&str, [f64; 3])]) {
     let method = Method::from_name("madgwick-9d").expect("a method");
     let mut worst = 0.0_f64;
-    for (name, published) in trials {
-        let log = read_broad(dir.join(format!("{name}.mat"))).expect("BROAD trial reads");
+    let available = trials();
+    assert!(!available.is_empty());
+    for (name, path) in available {
+        let (_, published) = published_figures
+            .iter()
+            .find(|(n, _)| *n == name)
+            .expect("a published figure for every trial");
+        let log = read_broad(path).expect("BROAD trial reads");
         let scenario = LogScenario::new(log).expect("a non-empty trial");
         let recording = run_log(name, &scenario, &method).expect("Madgwick runs");
         let e = LogScore::of(&recording).errors().expect("scored");
@@ -59,7 +66,7 @@ fn check_trials(trials: &[(&str, [f64; 3])]) {
 }
 
 #[test]
-fn reproduces_the_published_figures_on_twelve_trials() {
+fn reproduces_the_published_figures() {
     check_trials(&PUBLISHED);
 }
 
@@ -144,4 +151,27 @@ fn a_step_that_overflows_is_refused() {
     let err = slow.predict(&fastest).unwrap_err();
     assert!(err.to_string().contains("overflows"), "{err}");
     assert_eq!(slow, before);
+}
+
+/// A first magnetometer reading that gives no heading (zero, or parallel to gravity) starts the
+/// filter as without a magnetometer, in Madgwick's and the talk's filters alike.
+#[test]
+fn a_first_reading_without_a_heading_starts_as_6d() {
+    let level = ImuSample {
+        gyro: Vector3::zeros(),
+        acc: Vector3::new(0.0, 0.0, 9.81),
+    };
+    for name in ["madgwick-9d", "talk-9d"] {
+        for reading in [Vector3::zeros(), Vector3::new(0.0, 0.0, -40.0)] {
+            let mut filter = Method::from_name(name).unwrap().build(100.0).unwrap();
+            filter.predict(&level).unwrap();
+            let six = filter.estimate().unwrap();
+            filter.update(&reading).unwrap();
+            let estimate = filter.estimate().unwrap();
+            assert!(
+                estimate.orientation.angle_to(&six.orientation) < 1e-9,
+                "{name}, {reading:?}"
+            );
+        }
+    }
 }

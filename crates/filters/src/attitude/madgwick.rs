@@ -137,16 +137,19 @@ impl Madgwick {
         next.iter().all(|c| c.is_finite()).then_some(next)
     }
 
-    /// The state a first sample starts from (NWU).
+    /// The state a first sample starts from (NWU): from its magnetometer reading when that gives
+    /// a heading, else (a zero reading, or one parallel to gravity) as without one.
     fn start(
         sample: &ImuSample,
         mag: Option<&Vector3<f64>>,
     ) -> Result<Vector4<f64>, OperatorError> {
-        let q = broad_initial_state(&sample.acc, mag).ok_or(OperatorError::OutOfRange {
-            what: "Madgwick's first accelerometer reading (its norm)",
-            value: sample.acc.norm(),
-            range: "> 0, not parallel to the magnetometer",
-        })?;
+        let q = broad_initial_state(&sample.acc, mag)
+            .or_else(|| broad_initial_state(&sample.acc, None))
+            .ok_or(OperatorError::OutOfRange {
+                what: "Madgwick's first accelerometer reading (its norm)",
+                value: sample.acc.norm(),
+                range: "> 0, and not along the sensor's x axis when the magnetometer gives no heading",
+            })?;
         let q = q.quaternion();
         Ok(Vector4::new(q.w, q.i, q.j, q.k))
     }

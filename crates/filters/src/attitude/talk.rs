@@ -154,11 +154,15 @@ impl TalkFilter {
         acc: &Vector3<f64>,
         mag: Option<&Vector3<f64>>,
     ) -> Result<TalkState, OperatorError> {
-        let initial = broad_initial_state(acc, mag).ok_or(OperatorError::OutOfRange {
-            what: "the talk filter's first accelerometer reading (its norm)",
-            value: acc.norm(),
-            range: "> 0, not parallel to the magnetometer",
-        })?;
+        // A magnetometer reading that gives no heading (zero, or parallel to gravity) starts the
+        // filter as without one.
+        let initial = broad_initial_state(acc, mag)
+            .or_else(|| broad_initial_state(acc, None))
+            .ok_or(OperatorError::OutOfRange {
+                what: "the talk filter's first accelerometer reading (its norm)",
+                value: acc.norm(),
+                range: "> 0, and not along the sensor's x axis when the magnetometer gives no heading",
+            })?;
         let s0 = self.params.initial_sigma * self.params.initial_sigma;
         let bingham = Bingham::from_diffusion_moment_matched(
             &Su2::from_unit_quaternion(enu_from_nwu() * initial),
