@@ -27,6 +27,9 @@
 //!   target, by doubling then bisection, in a bounded number of studies.
 //! * [`ExactSum`] and [`RunningStats`]: the exact, mergeable statistics beneath, in constant memory
 //!   whatever the number of runs.
+//! * `testing` (feature `proptest`): the filter law suite, `filter_laws!`, which any
+//!   `RecursiveFilter` runs in one line: steps all or nothing on extreme inputs, NEES and NIS in
+//!   two-sided χ² bands, a mis-specified measurement noise caught.
 
 mod error;
 mod exact_sum;
@@ -41,6 +44,8 @@ mod shard;
 mod statistics;
 pub mod study;
 mod summary;
+#[cfg(feature = "proptest")]
+pub mod testing;
 
 pub use error::ExperimentError;
 pub use exact_sum::ExactSum;

@@ -46,7 +46,9 @@ pub struct VelocityInput {
 }
 
 impl VelocityInput {
-    /// Checks the input: finite velocity, finite non-negative dt.
+    /// Checks the input: finite velocity, finite non-negative dt, and a displacement `|v| dt` of at
+    /// most [`POSITION_LIMIT`](super::POSITION_LIMIT) = 1e150 m (the positions' range: a step
+    /// beyond it would leave every filter's second moments overflowing).
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] or [`OperatorError::OutOfRange`], saying which.
@@ -62,6 +64,14 @@ impl VelocityInput {
                 what: "time step dt",
                 value: self.dt,
                 range: "[0, infinity)",
+            });
+        }
+        let displacement = self.velocity.amax() * self.dt;
+        if displacement > super::POSITION_LIMIT {
+            return Err(OperatorError::OutOfRange {
+                what: "displacement |v| dt of the step (m)",
+                value: displacement,
+                range: "[0, 1e150]",
             });
         }
         Ok(())

@@ -1,0 +1,280 @@
+//! The filter law suite (`filter_laws!`) on every filter of the azimuth and attitude applications:
+//! steps all or nothing on extreme inputs and measurements, the NEES (and the NIS where the filter
+//! reports one) in its two-sided χ² band over independent simulated runs, and a measurement noise
+//! assumed 10 times too small or too large caught by the same band.
+
+use liebayes_experiments::testing::FilterLawSubject;
+use liebayes_experiments::{Nis, RecursiveFilter, Scorer, filter_laws};
+use liebayes_filters::attitude::{
+    AttitudeEstimate, AttitudeFilter, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario,
+    Method, SimulationSettings,
+};
+use liebayes_filters::azimuth::{
+    AzimuthEstimate, AzimuthScenario, AzimuthScorer, Config, Motion, PositionAzimuth,
+    PositionMeasurement, VelocityInput, VelocityProcess, ekf, exact, grid_filter,
+    marginalized_filter, particle_filter, ukf,
+};
+
+/// A filter's construction error.
+type BoxedError = Box<dyn std::error::Error + Send + Sync>;
+use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use rand_chacha::ChaCha8Rng;
+
+// ---------------------------------------------------------------------------------------------
+// Azimuth alignment.
+
+/// The azimuth filters.
+#[derive(Clone, Copy, Debug)]
+enum Azimuth {
+    Exact,
+    Ekf,
+    Ukf,
+    Particle(usize),
+    Grid(usize),
+    Marginalized(usize),
+}
+
+/// A filter of azimuth alignment on the line scenario, 30 s (30 measurements): long enough to
+/// observe the azimuth, short enough for 100 runs of the sampling filters. The prior position σ₀
+/// is 10 m, ten times the measurement noise, so that the measurements, not the prior, make the
+/// posterior: a filter that assumes a measurement noise ten times too large then reports a
+/// covariance far larger than its error (with σ₀ = σ_m it would barely move from its prior, whose
+/// covariance is honest).
+struct AzimuthSubject {
+    filter: Azimuth,
+    scenario: AzimuthScenario,
+}
+
+impl AzimuthSubject {
+    fn new(filter: Azimuth) -> Self {
+        let config = Config {
+            steps: 300,
+            sigma0: 10.0,
+            ..Config::default()
+        };
+        Self {
+            filter,
+            scenario: AzimuthScenario::new(Motion::Line, config).expect("a valid scenario"),
+        }
+    }
+}
+
+/// A boxed azimuth filter: every one reports an [`AzimuthEstimate`].
+type BoxedAzimuth = Box<
+    dyn RecursiveFilter<
+            Input = VelocityInput,
+            Measurement = Vector2<f64>,
+            Estimate = AzimuthEstimate,
+        > + Send,
+>;
+
+impl FilterLawSubject for AzimuthSubject {
+    type Scenario = AzimuthScenario;
+    type Filter = BoxedAzimuth;
+
+    fn scenario(&self) -> &AzimuthScenario {
+        &self.scenario
+    }
+
+    fn filter(&self, noise: f64, rng: &mut ChaCha8Rng) -> Result<BoxedAzimuth, BoxedError> {
+        let config = self.scenario.config();
+        let process = VelocityProcess::new(config.q)?;
+        let measurement = PositionMeasurement::new(config.sigma_m * noise)?;
+        let (r0, s0) = (Vector2::zeros(), config.sigma0);
+        Ok(match self.filter {
+            Azimuth::Exact => Box::new(exact(process, measurement, r0, s0)?),
+            Azimuth::Ekf => Box::new(ekf(process, measurement, r0, s0)?),
+            Azimuth::Ukf => Box::new(ukf(process, measurement, r0, s0)?),
+            Azimuth::Particle(n) => Box::new(particle_filter(
+                n,
+                process,
+                measurement,
+                r0,
+                s0,
+                rng.clone(),
+            )?),
+            Azimuth::Grid(n) => Box::new(grid_filter(n, process, measurement, r0, s0)?),
+            Azimuth::Marginalized(n) => Box::new(marginalized_filter(
+                n,
+                process,
+                measurement,
+                r0,
+                s0,
+                rng.clone(),
+            )?),
+        })
+    }
+
+    /// The position NEES `(E r − r)ᵀ (Cov r)⁻¹ (E r − r)`, χ²(2).
+    fn nees(&self, truth: &PositionAzimuth, estimate: &AzimuthEstimate) -> Option<Nis> {
+        let mut values = [0.0; 9];
+        AzimuthScorer.score(truth, estimate, &mut values);
+        Some(Nis {
+            value: values[6],
+            dof: 2,
+        })
+    }
+
+    fn valid(&self, e: &AzimuthEstimate) -> bool {
+        e.mean_r.iter().all(|x| x.is_finite())
+            && e.cov_r.iter().all(|x| x.is_finite())
+            && e.cov_r.cholesky().is_some()
+            && (0.0..=1.0).contains(&e.rho)
+    }
+
+    fn corrupt_input(&self, input: &VelocityInput, value: f64) -> VelocityInput {
+        VelocityInput {
+            velocity: Vector2::new(value, input.velocity.y),
+            ..*input
+        }
+    }
+
+    fn corrupt_measurement(&self, z: &Vector2<f64>, value: f64) -> Vector2<f64> {
+        Vector2::new(z.x, value)
+    }
+}
+
+filter_laws!(azimuth_exact, AzimuthSubject::new(Azimuth::Exact));
+filter_laws!(azimuth_grid, AzimuthSubject::new(Azimuth::Grid(360)));
+// The approximations: from a 10 m prior the linearised azimuth of the EKF and UKF is far off
+// (position NEES per degree of freedom 266 and 284 over these runs), 1000 particles degenerate
+// (1.1e6), and the marginalized filter's 360 azimuth particles are over-confident (2.1).
+filter_laws!(
+    azimuth_ekf,
+    AzimuthSubject::new(Azimuth::Ekf),
+    known_inconsistent("linearisation: position NEES 266 per dof from a 10 m prior")
+);
+filter_laws!(
+    azimuth_ukf,
+    AzimuthSubject::new(Azimuth::Ukf),
+    known_inconsistent("sigma points: position NEES 284 per dof from a 10 m prior")
+);
+filter_laws!(
+    azimuth_particle,
+    AzimuthSubject::new(Azimuth::Particle(1000)),
+    known_inconsistent("1000 particles degenerate: position NEES 1.1e6 per dof")
+);
+filter_laws!(
+    azimuth_marginalized,
+    AzimuthSubject::new(Azimuth::Marginalized(360)),
+    known_inconsistent("360 azimuth particles: position NEES 2.1 per dof")
+);
+
+// ---------------------------------------------------------------------------------------------
+// IMU attitude.
+
+/// An attitude filter on simulated runs (20 s: 5714 samples at 285.7 Hz) whose field has the
+/// heading offset the EKF models, a magnetometer reading every 10th sample. The measurement noise scaled is the
+/// magnetometer's error model: the EKF's heading σ and its field offset's σ_c, the talk filter's
+/// direction σ_W.
+struct AttitudeSubject {
+    name: &'static str,
+    scenario: ImuScenario,
+    runs: u64,
+}
+
+impl AttitudeSubject {
+    fn new(name: &'static str, samples: usize, runs: u64) -> Self {
+        let settings = SimulationSettings {
+            samples,
+            field_offset: AttitudeParams::default().magnetometer.offset,
+            ..SimulationSettings::default()
+        };
+        Self {
+            name,
+            scenario: ImuScenario::new(settings, 10).expect("a valid scenario"),
+            runs,
+        }
+    }
+}
+
+impl FilterLawSubject for AttitudeSubject {
+    type Scenario = ImuScenario;
+    type Filter = AttitudeFilter;
+
+    fn scenario(&self) -> &ImuScenario {
+        &self.scenario
+    }
+
+    fn filter(&self, noise: f64, _rng: &mut ChaCha8Rng) -> Result<AttitudeFilter, BoxedError> {
+        let method = match Method::from_name(self.name).expect("a method") {
+            Method::Ekf {
+                mut params,
+                sensors,
+            } => {
+                params.magnetometer.heading_sigma *= noise;
+                if let Some(offset) = &mut params.magnetometer.offset {
+                    offset.sigma *= noise;
+                }
+                Method::Ekf { params, sensors }
+            }
+            Method::Talk {
+                mut params,
+                sensors,
+            } => {
+                params.mag_noise *= noise;
+                Method::Talk { params, sensors }
+            }
+            other @ Method::Madgwick { .. } => other,
+        };
+        Ok(method.build(self.scenario.settings().rate)?)
+    }
+
+    /// The heading NEES `δθ_z² / P_zz`, χ²(1): the magnetometer's share of the state (the tilt
+    /// is observed by the accelerometer, whose noise the scale does not touch).
+    fn nees(&self, truth: &UnitQuaternion<f64>, estimate: &AttitudeEstimate) -> Option<Nis> {
+        estimate.covariance?;
+        let mut values = [0.0; 8];
+        AttitudeScorer.score(truth, estimate, &mut values);
+        let index = AttitudeScorer::index("heading_nees")?;
+        Some(Nis {
+            value: values[index],
+            dof: 1,
+        })
+    }
+
+    fn valid(&self, e: &AttitudeEstimate) -> bool {
+        let q = e.orientation.coords;
+        q.iter().all(|c| c.is_finite())
+            && (q.norm() - 1.0).abs() < 1e-9
+            && e.covariance.is_none_or(|p| p.cholesky().is_some())
+    }
+
+    fn corrupt_input(&self, input: &ImuSample, value: f64) -> ImuSample {
+        ImuSample {
+            gyro: Vector3::new(input.gyro.x, value, input.gyro.z),
+            ..*input
+        }
+    }
+
+    fn corrupt_measurement(&self, z: &Vector3<f64>, value: f64) -> Vector3<f64> {
+        Vector3::new(value, z.y, z.z)
+    }
+
+    fn runs(&self) -> u64 {
+        self.runs
+    }
+}
+
+filter_laws!(attitude_ekf_9d, AttitudeSubject::new("ekf-9d", 5_714, 100));
+filter_laws!(
+    attitude_ekf_6d,
+    AttitudeSubject::new("ekf-6d", 5_714, 100),
+    known_inconsistent(
+        "6D: the heading is not observed, its sigma grows: heading NEES 4e-5 per dof"
+    )
+);
+// The talk's filter is about 300 times slower per sample than the EKF, too slow for the runs the
+// consistency laws need in the test suite: only its steps are checked here. Measured by hand (its
+// consistency test with 100 runs of 20 s, 390 s): heading NEES 12.3 per degree of freedom,
+// over-confident (docs/filters/attitude.md).
+filter_laws!(
+    attitude_talk_9d,
+    AttitudeSubject::new("talk-9d", 1_000, 4),
+    no_uncertainty
+);
+filter_laws!(
+    attitude_madgwick_9d,
+    AttitudeSubject::new("madgwick-9d", 5_714, 4),
+    no_uncertainty
+);
