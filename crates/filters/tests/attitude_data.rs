@@ -687,6 +687,16 @@ fn estimates_round_trip_through_csv() {
         write_estimates_csv(Vec::new(), &times[..3], &orientations, "memory"),
         Err(DataError::Length { .. })
     ));
+    // A quaternion of norm 1.0000005 (written with few digits) was kept as it was, off the unit
+    // sphere; it is normalised now.
+    let short = "t,w,x,y,z\n0,1.0000005,0,0,0\n1,0.6,0.8000004,0,0\n";
+    let read = read_estimates_csv(short.as_bytes(), "short.csv").expect("reads");
+    for q in &read.orientations {
+        assert!(
+            (q.quaternion().norm() - 1.0).abs() <= 2.0 * f64::EPSILON,
+            "{q:?}"
+        );
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
