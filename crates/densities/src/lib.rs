@@ -30,6 +30,21 @@
 //! * Every family's sampler is a [`rand::distr::Distribution`] of its points (`rng.sample(&p)`,
 //!   `p.sample_iter(rng)`), the same draws as [`Density::sample`].
 //!
+//! # Input contract
+//!
+//! Every constructor takes the same limit for the same kind of value, and every result is finite
+//! and valid, or the call returns a typed [`DensityError`]:
+//!
+//! * **Gaussian locations and spreads**: a mean (or feature) coordinate, an entry of a covariance
+//!   and of its inverse at most [`MAX_SCALE`] = 1e100 in magnitude, in [`Gaussian::new`],
+//!   [`ManifoldGaussian::new`] (the inverse through `tr P⁻¹`) and [`HarmonicGaussian::new`], and in
+//!   what [`ManifoldGaussian::propagated_covariance`] returns.
+//! * **Concentrations**: each family documents its range (the generalised von Mises up to
+//!   [`GenVonMises2::MAX_CONCENTRATION`] = 1e16); orders of [`special::bessel_ratio`] up to
+//!   [`special::MAX_ORDER`].
+//! * **Values that overflow**: a log density whose exact value is below −f64::MAX (a point 1e200
+//!   standard deviations away) is −∞, documented per family; never NaN.
+//!
 //! # Naming contract
 //!
 //! Every family follows the same names, so that code written for one reads the same for another:

@@ -409,3 +409,31 @@ fn the_single_update_example_reports_every_filter() {
         }
     }
 }
+
+/// A target 2e-162 m from an anchor gave a direction of norm 0.905 (|θ − s|² is subnormal); one
+/// 1e200 m away overflowed. Both are unit now, with their distance.
+#[test]
+fn directions_are_unit_at_every_distance() {
+    let turn = So3::from_rotation_vector(&Vector3::new(0.3, -0.2, 1.0)).unwrap();
+    let anchor = Anchor::new(Vector3::zeros(), turn).unwrap();
+    let at = Vector3::zeros();
+    for offset in [
+        Vector3::new(2e-162, 0.0, 0.0),
+        Vector3::new(1e-320, -3e-321, 5e-324),
+        Vector3::new(1e200, 1e200, -1e200),
+        Vector3::new(1.0, 2.0, 3.0),
+    ] {
+        let (u, distance) = anchor.direction(&(at + offset)).unwrap();
+        assert!(
+            (u.norm() - 1.0).abs() < 4.0 * f64::EPSILON,
+            "{offset:?}: |u| {}",
+            u.norm()
+        );
+        let expected = offset.amax() * (offset / offset.amax()).norm();
+        assert!(
+            (distance / expected - 1.0).abs() < 1e-15,
+            "{offset:?}: {distance}"
+        );
+    }
+    assert!(anchor.direction(&at).is_none());
+}

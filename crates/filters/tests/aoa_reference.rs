@@ -104,13 +104,43 @@ fn unit_vectors_and_the_flipping_rule_replay() {
     }
 }
 
+/// A predicted elevation of 1e154 gave NaN and one of 1e20 +∞, as a bare number: such a direction,
+/// a non-finite reading and a σ outside its range are now errors.
+#[test]
+fn the_density_refuses_what_it_cannot_evaluate() {
+    let y = AzEl::new(0.3, 0.2);
+    for el0 in [1e154, 1e20, 2.0, f64::NAN] {
+        assert!(az_el_log_density(&y, &AzEl::new(0.1, el0), 0.1, 0.1).is_err());
+    }
+    let y0 = AzEl::new(0.1, 0.1);
+    assert!(az_el_log_density(&AzEl::new(f64::INFINITY, 0.0), &y0, 0.1, 0.1).is_err());
+    for sigma in [0.0, 1e-300, 1e300, f64::NAN] {
+        assert!(az_el_log_density(&y, &y0, sigma, 0.1).is_err());
+        assert!(az_el_log_density(&y, &y0, 0.1, sigma).is_err());
+    }
+    // At the edges of the accepted ranges the density is a number; a reading past a pole has
+    // density zero.
+    for (s_az, s_el) in [(1e-9, 1e-9), (1e3, 1e3), (1e-9, 1e3)] {
+        for el0 in [
+            std::f64::consts::FRAC_PI_2,
+            -std::f64::consts::FRAC_PI_2,
+            0.0,
+        ] {
+            let value = az_el_log_density(&y, &AzEl::new(3.0, el0), s_az, s_el).unwrap();
+            assert!(value.is_finite(), "{s_az} {s_el} {el0}: {value}");
+        }
+    }
+    let past = az_el_log_density(&AzEl::new(0.0, 2.0), &y0, 0.1, 0.1).unwrap();
+    assert_eq!(past, f64::NEG_INFINITY);
+}
+
 #[test]
 fn azimuth_elevation_densities_replay() {
     let file = reference("aoa_vectors.json");
     for case in file["ae_logpdf"].as_array().unwrap() {
         let y = AzEl::new(number(&case["y_az"]), number(&case["y_el"]));
         let y0 = AzEl::new(number(&case["az0"]), number(&case["el0"]));
-        let got = az_el_log_density(&y, &y0, number(&case["s_az"]), number(&case["s_el"]));
+        let got = az_el_log_density(&y, &y0, number(&case["s_az"]), number(&case["s_el"])).unwrap();
         let expected = number(&case["logpdf"]);
         assert!(
             (got - expected).abs() < 1e-13 * expected.abs().max(1.0),

@@ -528,3 +528,33 @@ fn bad_input_is_refused_with_a_typed_error() {
         Err(OperatorError::OutOfRange { .. })
     ));
 }
+
+/// A von Mises-Fisher likelihood of κ = 1e204, far narrower than the rule's nodes: the posterior
+/// covariance came out not positive definite, as Ok. It is an error now; a likelihood the rule
+/// resolves still gives a positive definite covariance.
+#[test]
+fn an_unresolved_likelihood_is_an_error_not_an_indefinite_covariance() {
+    let anchor = Anchor::new(
+        Vector3::zeros(),
+        <So3<f64> as liebayes_manifolds::LieGroup<3>>::identity(),
+    )
+    .unwrap();
+    let prior = PositionGaussian::new(
+        Position::new_unchecked(Vector3::new(3.0, 1.0, 0.5)),
+        Matrix3::identity(),
+    )
+    .unwrap();
+    let d = Vector3::new(3.0, 1.1, 0.4).normalize();
+    let rule = SphereRule::with_width(0.5).unwrap();
+    for kappa in [1e204, 1e100, 1e30] {
+        let error =
+            exact_posterior(&prior, &anchor, &d, |w| kappa * (w.dot(&d) - 1.0), &rule).unwrap_err();
+        assert!(
+            matches!(error, OperatorError::NotPositiveDefinite { .. }),
+            "{kappa:e}: {error}"
+        );
+    }
+    let resolved =
+        exact_posterior(&prior, &anchor, &d, |w| 50.0 * (w.dot(&d) - 1.0), &rule).unwrap();
+    assert!(resolved.covariance.cholesky().is_some());
+}

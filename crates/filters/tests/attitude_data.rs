@@ -283,6 +283,69 @@ fn crafted_file_reads_column_major_with_nan_references() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// The file with every top-level element compressed (miCOMPRESSED holding the zlib stream of the
+/// element), as MATLAB writes them; `edit` changes each element's bytes before compression.
+fn compressed(uncompressed: &[u8], edit: impl Fn(&mut Vec<u8>)) -> Vec<u8> {
+    use std::io::Write as _;
+    let mut out = uncompressed[..128].to_vec();
+    let mut at = 128;
+    while at < uncompressed.len() {
+        let size = u32::from_le_bytes(uncompressed[at + 4..at + 8].try_into().unwrap()) as usize;
+        let mut element = uncompressed[at..at + 8 + size].to_vec();
+        edit(&mut element);
+        let mut encoder = libflate::zlib::Encoder::new(Vec::new()).unwrap();
+        encoder.write_all(&element).unwrap();
+        let stream = encoder.finish().into_result().unwrap();
+        out.extend_from_slice(&15_u32.to_le_bytes());
+        out.extend_from_slice(&u32::try_from(stream.len()).unwrap().to_le_bytes());
+        out.extend_from_slice(&stream);
+        at += 8 + size;
+    }
+    out
+}
+
+/// Compressed elements are checked before the parser sees them: a corrupt zlib stream (the parser
+/// printed a stray line on it), dimensions that overflow inside a compressed element (the parser
+/// panicked), and an element of another type (the parser printed it) are refused with the byte of
+/// the element; a well-formed compressed file reads as its uncompressed original.
+#[test]
+fn compressed_elements_are_checked_before_parsing() {
+    let dir = temp_dir("compressed");
+    let good = mat_file(&good_variables(&GYR, &QUAT, &[0, 1, 1, 0]));
+    let path = write(&dir, "compressed.mat", &compressed(&good, |_| ()));
+    let log = read_broad(&path).expect("reads");
+    assert_eq!(log.len(), N);
+    assert_eq!(log.gyroscope()[1], Vector3::new(0.2, 2.0, -2.0));
+    let mut corrupt = compressed(&good, |_| ());
+    for b in &mut corrupt[140..150] {
+        *b ^= 0x5a;
+    }
+    // Dimensions 2^20 x 2^20 in every element (the dimensions sub-element starts at byte 32).
+    let huge = compressed(&good, |e| {
+        e[32..36].copy_from_slice(&(1_i32 << 20).to_le_bytes());
+        e[36..40].copy_from_slice(&(1_i32 << 20).to_le_bytes());
+    });
+    let other = compressed(&good, |e| e[..4].copy_from_slice(&9_u32.to_le_bytes()));
+    let mut plain_other = good.clone();
+    plain_other[128..132].copy_from_slice(&9_u32.to_le_bytes());
+    for (name, bytes, needle) in [
+        ("corrupt.mat", corrupt, "zlib"),
+        ("huge.mat", huge, "dimensions"),
+        ("other.mat", other, "type 9"),
+        ("plain-other.mat", plain_other, "type 9"),
+    ] {
+        let path = write(&dir, name, &bytes);
+        match read_broad(&path) {
+            Err(DataError::NotMatFile { message, .. }) => {
+                assert!(message.contains(needle), "{name}: {message}");
+                assert!(message.contains("byte 128"), "{name}: {message}");
+            }
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
 #[test]
 fn malformed_files_give_typed_errors() {
     let dir = temp_dir("malformed");
@@ -737,6 +800,16 @@ fn estimates_round_trip_through_csv() {
         write_estimates_csv(Vec::new(), &times[..3], &orientations, "memory"),
         Err(DataError::Length { .. })
     ));
+    // A quaternion of norm 1.0000005 (written with few digits) was kept as it was, off the unit
+    // sphere; it is normalised now.
+    let short = "t,w,x,y,z\n0,1.0000005,0,0,0\n1,0.6,0.8000004,0,0\n";
+    let read = read_estimates_csv(short.as_bytes(), "short.csv").expect("reads");
+    for q in &read.orientations {
+        assert!(
+            (q.quaternion().norm() - 1.0).abs() <= 2.0 * f64::EPSILON,
+            "{q:?}"
+        );
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

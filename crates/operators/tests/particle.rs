@@ -12,7 +12,7 @@ use liebayes_operators::particle::{
 };
 use liebayes_operators::{Condition, OperatorError, Propagate};
 use nalgebra::{Matrix1, Vector1, Vector2, Vector3};
-use rand::{RngCore, SeedableRng};
+use rand::{Rng, RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::cell::Cell;
@@ -398,4 +398,22 @@ fn the_mean_is_taken_on_the_manifold() {
     )
     .unwrap();
     assert!(set.mean().unwrap().distance(&centre) < 1e-12);
+}
+
+/// Every scheme returns its indices in increasing order, n of them, each of a particle of positive
+/// weight (the draws are generated in order, without a sort).
+#[test]
+fn every_scheme_returns_sorted_indices_of_weighted_particles() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let weights: Vec<f64> = (0..300)
+        .map(|i| if i % 7 == 0 { 0.0 } else { rng.random::<f64>() })
+        .collect();
+    for scheme in SCHEMES {
+        for n in [1, 2, 299, 300, 1000] {
+            let indices = resample_indices(&weights, n, scheme, &mut rng).unwrap();
+            assert_eq!(indices.len(), n, "{scheme:?}");
+            assert!(indices.windows(2).all(|w| w[0] <= w[1]), "{scheme:?} {n}");
+            assert!(indices.iter().all(|&i| weights[i] > 0.0), "{scheme:?} {n}");
+        }
+    }
 }

@@ -21,7 +21,7 @@
 use super::data::DataModel;
 use super::direction::AzEl;
 use super::noise::{
-    AdaptiveSigmas, SIGMA_RANGE, az_el_log_density, check_sigma, kappa_from_sigmas,
+    AdaptiveSigmas, AngleSigmas, SIGMA_RANGE, az_el_log_density, check_sigma, kappa_from_sigmas,
     sigma_from_kappa,
 };
 use liebayes_densities::special::vmf_log_normalizer;
@@ -168,7 +168,9 @@ pub fn fit_angle_sigmas_to(pairs: &[(AzEl, AzEl)]) -> Result<AngleSigmaFit, Oper
         y0.check_canonical()?;
     }
     let range = (SIGMA_RANGE.0.ln(), SIGMA_RANGE.1.ln());
-    let term = |(y, y0): &(AzEl, AzEl), az: f64, el: f64| az_el_log_density(y, y0, az, el);
+    // Checked above, and σ stays in SIGMA_RANGE: the density's own checks are not repeated.
+    let term =
+        |(y, y0): &(AzEl, AzEl), az: f64, el: f64| AngleSigmas::new(az, el).log_density(y, y0);
     let total = |az: f64, el: f64| pairs.iter().map(|p| term(p, az, el)).sum::<f64>();
     // The other σ is held at 1 rad: its part is a constant of each search.
     let ln_az = golden_maximum(range.0, range.1, |x| total(x.exp(), 1.0));
@@ -308,9 +310,9 @@ pub fn compare_models<R: Rng + ?Sized>(
         let truth = AzEl::of_vector(&theta);
         let (az, el) = adaptive.at(truth.elevation);
         let values = Vector4::new(
-            az_el_log_density(&y, &truth, nominal.0, nominal.1),
-            az_el_log_density(&y, &truth, fitted.0, fitted.1),
-            az_el_log_density(&y, &truth, az, el),
+            az_el_log_density(&y, &truth, nominal.0, nominal.1)?,
+            az_el_log_density(&y, &truth, fitted.0, fitted.1)?,
+            az_el_log_density(&y, &truth, az, el)?,
             log_c + kappa * y.unit_vector().dot(&theta) + y.elevation.cos().ln(),
         );
         if let Some(&value) = values.iter().find(|v| !v.is_finite()) {

@@ -55,6 +55,7 @@ pub use noise::{
 };
 pub use process::{DELTA_LIMIT, Q_LIMIT, RandomWalk};
 pub use quadrature::{
-    DEFAULT_NODES, NODE_RANGE, PRIOR_LIMIT, SphereRule, WIDTH_RANGE, exact_posterior,
+    DEFAULT_NODES, MIN_EFFECTIVE_NODES, NODE_RANGE, PRIOR_LIMIT, SphereRule, WIDTH_RANGE,
+    exact_posterior,
 };
 pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackSteps, TruthModel};

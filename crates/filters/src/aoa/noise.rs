@@ -80,10 +80,26 @@ pub fn sigma_from_kappa(kappa: f64) -> f64 {
 /// `ln N(wrap_angle(y_az − az₀); 0, σ_az²) − ln[Φ(π/σ_az) − Φ(−π/σ_az)]
 ///  + ln N(y_el − el₀; 0, σ_el²) − ln[Φ((π/2 − el₀)/σ_el) − Φ((−π/2 − el₀)/σ_el)]`,
 ///
-/// a density in (az, el) on (−π, π] × [−π/2, π/2]; −∞ for an elevation outside that range. The
-/// predicted elevation must be in [−π/2, π/2] and σ in [`SIGMA_RANGE`].
-pub fn az_el_log_density(y: &AzEl, predicted: &AzEl, sigma_az: f64, sigma_el: f64) -> f64 {
-    AngleSigmas::new(sigma_az, sigma_el).log_density(y, predicted)
+/// a density in (az, el) on (−π, π] × [−π/2, π/2]; −∞ for a reading's elevation outside that
+/// range. Finite for every accepted argument.
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] for a non-finite reading, and as [`AzEl::check_canonical`] for a
+/// predicted direction that is not finite or has an elevation outside [−π/2, π/2]; as
+/// [`check_sigma`] for a σ outside [`SIGMA_RANGE`].
+pub fn az_el_log_density(
+    y: &AzEl,
+    predicted: &AzEl,
+    sigma_az: f64,
+    sigma_el: f64,
+) -> Result<f64, OperatorError> {
+    y.check_finite()?;
+    predicted.check_canonical()?;
+    let sigmas = AngleSigmas::new(
+        check_sigma("sigma_az", sigma_az)?,
+        check_sigma("sigma_el", sigma_el)?,
+    );
+    Ok(sigmas.log_density(y, predicted))
 }
 
 /// σ_az and σ_el with the constants of [`az_el_log_density`] that depend on them alone, computed

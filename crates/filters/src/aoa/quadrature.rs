@@ -313,6 +313,10 @@ impl ScaledPrior {
     }
 }
 
+/// The fewest effective nodes `(Σ w)² / Σ w²` (w the posterior weights) on which
+/// [`exact_posterior`] rests its moments: with fewer the angular spread is not resolved.
+pub const MIN_EFFECTIVE_NODES: f64 = 4.0;
+
 /// The exact posterior mean and covariance of the position after one reading of `anchor`, for the
 /// Gaussian prior `prior` = N(m, P) and a likelihood that depends on the position θ only through
 /// its direction from the anchor: `log_likelihood(ω)` is `ln L` (up to a constant) at the unit
@@ -330,7 +334,10 @@ impl ScaledPrior {
 /// * [`OperatorError::OutOfRange`] for a zero centre, a prior mean farther than [`PRIOR_LIMIT`]
 ///   standard deviations from the anchor or a covariance with a condition number above it, or a
 ///   likelihood that is zero at every node (centre the rule on the measured direction);
-/// * [`OperatorError::NotPositiveDefinite`] when the prior covariance cannot be factored.
+/// * [`OperatorError::NotPositiveDefinite`] when the prior covariance cannot be factored, or the
+///   posterior covariance is not positive definite or rests on fewer than
+///   [`MIN_EFFECTIVE_NODES`] nodes (`(Σ w)² / Σ w²`: a likelihood narrower than the rule resolves,
+///   whose angular spread the rule cannot measure).
 pub fn exact_posterior(
     prior: &PositionGaussian,
     anchor: &Anchor,
@@ -356,6 +363,8 @@ pub fn exact_posterior(
     let scaled = ScaledPrior::new(prior, anchor)?;
     let mut peak = f64::NEG_INFINITY;
     let (mut mass, mut first, mut second) = (0.0, Vector3::zeros(), Matrix3::zeros());
+    // Σ w², for the effective number of nodes (Σ w)² / Σ w².
+    let mut mass_of_squares = 0.0;
     let mut failure = None;
     rule.for_each_node(&centre, |omega, weight| {
         if failure.is_some() {
@@ -374,12 +383,14 @@ pub fn exact_posterior(
         if ln_w > peak {
             let scale = (peak - ln_w).exp();
             mass *= scale;
+            mass_of_squares *= scale * scale;
             first *= scale;
             second *= scale;
             peak = ln_w;
         }
         let w0 = (ln_w - peak).exp();
         mass += w0;
+        mass_of_squares += w0 * w0;
         first += omega * (w0 * (m3 - m2).exp());
         second += omega * omega.transpose() * (w0 * (m4 - m2).exp());
     })?;
@@ -396,6 +407,12 @@ pub fn exact_posterior(
             range: "positive (centre the rule on the measured direction)",
         });
     }
+    if mass * mass < MIN_EFFECTIVE_NODES * mass_of_squares {
+        return Err(OperatorError::NotPositiveDefinite {
+            what: "exact posterior covariance (the likelihood is narrower than the sphere rule \
+                   resolves, fewer than 4 nodes carry it: narrow the rule's width or add nodes)",
+        });
+    }
     let mean = first / mass;
     let moment = second / mass;
     let spread = moment - mean * mean.transpose();
@@ -410,6 +427,14 @@ pub fn exact_posterior(
             what: "exact posterior moments",
             value,
         }),
+        // A likelihood narrower than the rule resolves (κ = 1e204) leaves a spread that
+        // cancellation makes indefinite.
+        None if nalgebra::Cholesky::new(covariance).is_none() => {
+            Err(OperatorError::NotPositiveDefinite {
+                what: "exact posterior covariance (the likelihood is narrower than the sphere \
+                       rule resolves: narrow the rule's width or add nodes)",
+            })
+        }
         None => Ok(PositionEstimate { mean, covariance }),
     }
 }

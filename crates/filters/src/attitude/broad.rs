@@ -42,7 +42,7 @@ pub fn read_broad(path: impl AsRef<Path>) -> Result<ImuLog, DataError> {
         origin: origin.clone(),
         message,
     };
-    check_dimensions(&origin, &bytes)?;
+    check_elements(&origin, &bytes)?;
     // The parser can panic on some malformed files (an overflowing product of dimensions inside
     // a compressed element): such a file is reported as unreadable, like any other parse failure.
     let parsed = std::panic::catch_unwind(|| MatFile::parse(bytes.as_slice()))
@@ -51,16 +51,31 @@ pub fn read_broad(path: impl AsRef<Path>) -> Result<ImuLog, DataError> {
     from_mat(&origin, &mat)
 }
 
-/// Checks the dimensions of the file's uncompressed matrices before the parser multiplies them:
-/// non-negative, with a product within `i32` (the format's limit). Compressed elements are left to
-/// the parser (their contents are only known once inflated); a structure the walk does not
-/// understand is left to the parser too, which reports it.
-fn check_dimensions(origin: &str, bytes: &[u8]) -> Result<(), DataError> {
+/// Checks the file's elements before the parser sees them: every top-level element is a matrix
+/// (miMATRIX) or a compressed matrix (miCOMPRESSED), a compressed one a valid zlib stream that
+/// inflates to at most [`MAX_MAT_FILE_BYTES`] and holds a matrix, and every matrix has
+/// dimensions that are non-negative with a product within `i32` (the format's limit). So the parser
+/// never multiplies overflowing dimensions, inflates without a bound, or prints on a corrupt
+/// stream. A structure the walk does not reach (a truncated element, a missing header) is left to
+/// the parser, which reports it.
+fn check_elements(origin: &str, bytes: &[u8]) -> Result<(), DataError> {
     let little = match bytes.get(126..128) {
         Some(b"IM") => true,
         Some(b"MI") => false,
         _ => return Ok(()),
     };
+    walk(origin, bytes, 128, little, None)
+}
+
+/// The element walk of [`check_elements`] over `bytes` from `start`; `inside` is the byte of the
+/// compressed element whose inflated contents these are.
+fn walk(
+    origin: &str,
+    bytes: &[u8],
+    start: usize,
+    little: bool,
+    inside: Option<usize>,
+) -> Result<(), DataError> {
     let word = |at: usize| -> Option<u32> {
         let b: [u8; 4] = bytes.get(at..at.checked_add(4)?)?.try_into().ok()?;
         Some(if little {
@@ -69,37 +84,56 @@ fn check_dimensions(origin: &str, bytes: &[u8]) -> Result<(), DataError> {
             u32::from_be_bytes(b)
         })
     };
-    let mut at = 128_usize;
-    // Each element takes at least 8 bytes: the walk is bounded by the file's length.
+    let refuse = |at: usize, what: &str| {
+        let place = match inside {
+            Some(outer) => format!("byte {at} of the compressed element at byte {outer}"),
+            None => format!("byte {at}"),
+        };
+        DataError::NotMatFile {
+            origin: origin.to_owned(),
+            message: format!("the element at {place} {what}"),
+        }
+    };
+    let mut at = start;
+    // Each element takes at least 8 bytes: the walk is bounded by the length.
     for _ in 0..bytes.len() / 8 {
         let (Some(data_type), Some(size)) = (word(at), word(at + 4)) else {
             break;
         };
-        if data_type >> 16 != 0 {
-            break;
-        }
         let body = at + 8;
-        // miMATRIX: array flags (8 + 8 bytes), then the dimensions sub-element (miINT32).
-        if data_type == 14
-            && let (Some(5), Some(dims_bytes)) = (word(body + 16), word(body + 20))
-        {
-            let mut product: i64 = 1;
-            for k in 0..(dims_bytes / 4).min(64) {
-                let Some(dim) = word(body + 24 + 4 * k as usize) else {
+        match data_type {
+            // miMATRIX: array flags (8 + 8 bytes), then the dimensions sub-element (miINT32).
+            14 => {
+                if let (Some(5), Some(dims_bytes)) = (word(body + 16), word(body + 20)) {
+                    let mut product: i64 = 1;
+                    for k in 0..(dims_bytes / 4).min(64) {
+                        let Some(dim) = word(body + 24 + 4 * k as usize) else {
+                            break;
+                        };
+                        #[allow(clippy::cast_possible_wrap)]
+                        let dim = i64::from(dim as i32);
+                        product = product.saturating_mul(dim.max(-1));
+                        if dim < 0 || product > i64::from(i32::MAX) {
+                            return Err(refuse(
+                                at,
+                                "has dimensions that are negative or multiply beyond 2^31",
+                            ));
+                        }
+                    }
+                }
+            }
+            15 if inside.is_none() => {
+                let Some(stream) = bytes.get(body..body.saturating_add(size as usize)) else {
                     break;
                 };
-                #[allow(clippy::cast_possible_wrap)]
-                let dim = i64::from(dim as i32);
-                product = product.saturating_mul(dim.max(-1));
-                if dim < 0 || product > i64::from(i32::MAX) {
-                    return Err(DataError::NotMatFile {
-                        origin: origin.to_owned(),
-                        message: format!(
-                            "the array at byte {at} has dimensions that are negative or \
-                             multiply beyond 2^31"
-                        ),
-                    });
-                }
+                let inflated = inflate(stream).map_err(|why| refuse(at, &why))?;
+                walk(origin, &inflated, 0, little, Some(at))?;
+            }
+            other => {
+                return Err(refuse(
+                    at,
+                    &format!("is of type {other}, not a matrix (14) or a compressed matrix (15)"),
+                ));
             }
         }
         let step = if data_type == 15 {
@@ -113,6 +147,24 @@ fn check_dimensions(origin: &str, bytes: &[u8]) -> Result<(), DataError> {
         at = next;
     }
     Ok(())
+}
+
+/// A zlib stream inflated, refused when it is corrupt or inflates beyond [`MAX_MAT_FILE_BYTES`].
+fn inflate(stream: &[u8]) -> Result<Vec<u8>, String> {
+    use std::io::Read as _;
+    let corrupt = |e: std::io::Error| format!("is not a valid zlib stream ({e})");
+    let decoder = libflate::zlib::Decoder::new(stream).map_err(corrupt)?;
+    let mut inflated = Vec::new();
+    decoder
+        .take(MAX_MAT_FILE_BYTES + 1)
+        .read_to_end(&mut inflated)
+        .map_err(corrupt)?;
+    if inflated.len() as u64 > MAX_MAT_FILE_BYTES {
+        return Err(format!(
+            "inflates beyond {MAX_MAT_FILE_BYTES} bytes (the reader's limit)"
+        ));
+    }
+    Ok(inflated)
 }
 
 fn from_mat(origin: &str, mat: &MatFile) -> Result<ImuLog, DataError> {

@@ -22,6 +22,10 @@ pub const RATE_TOLERANCE: f64 = 0.01;
 /// How far the norm of a read quaternion may be from 1.
 const UNIT_TOLERANCE: f64 = 1e-6;
 
+/// How far the norm of a read quaternion may be from 1 and be kept as written (unit to the
+/// manifolds' tolerance); between this and [`UNIT_TOLERANCE`] it is normalised.
+const KEPT_TOLERANCE: f64 = 1e-12;
+
 const IMU_6D: [&str; 7] = ["t", "gx", "gy", "gz", "ax", "ay", "az"];
 const IMU_9D: [&str; 10] = ["t", "gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz"];
 const ESTIMATES: [&str; 5] = ["t", "w", "x", "y", "z"];
@@ -123,7 +127,9 @@ pub fn write_estimates_csv<W: Write>(
 }
 
 /// Reads estimates written by [`write_estimates_csv`] (header `t,w,x,y,z`). Each quaternion's norm
-/// must be within 1e-6 of 1; it is kept as written.
+/// must be within 1e-6 of 1 (a file written with fewer digits); it is kept as written when within
+/// 1e-12 of 1 (so a round trip through [`write_estimates_csv`] is exact) and normalised otherwise,
+/// so that every orientation read is a unit quaternion.
 ///
 /// # Errors
 /// [`DataError::Csv`] naming the line and column of a malformed line or a quaternion not of unit
@@ -166,7 +172,11 @@ pub fn read_estimates_csv<R: BufRead>(reader: R, origin: &str) -> Result<Estimat
             ));
         }
         times.push(fields[0]);
-        orientations.push(UnitQuaternion::new_unchecked(q));
+        orientations.push(if (q.norm() - 1.0).abs() > KEPT_TOLERANCE {
+            UnitQuaternion::new_normalize(q)
+        } else {
+            UnitQuaternion::new_unchecked(q)
+        });
     }
     Ok(Estimates {
         times,

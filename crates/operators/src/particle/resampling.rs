@@ -3,6 +3,7 @@
 use crate::OperatorError;
 use crate::error::{check_size, reserve, with_capacity};
 use rand::Rng;
+use rand_distr::Exp1;
 
 /// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
 /// expected number of copies is N wᵢ); they differ in variance and cost:
@@ -139,8 +140,7 @@ pub(super) fn resample_into<R: Rng + ?Sized>(
     points.clear();
     match scheme {
         Resampling::Multinomial => {
-            points.extend((0..n).map(|_| rng.random::<f64>()));
-            points.sort_by(f64::total_cmp);
+            sorted_uniforms(n, rng, points);
             select(weights, points, out);
         }
         Resampling::Stratified => {
@@ -152,44 +152,86 @@ pub(super) fn resample_into<R: Rng + ?Sized>(
             points.extend((0..n).map(|k| (k as f64 + u) / nf));
             select(weights, points, out);
         }
-        Resampling::Residual => {
-            // With normalised weights ⌊N wᵢ⌋ ≤ N wᵢ, so the floors sum to at most N (up to the
-            // rounding of N wᵢ, which the bound below absorbs).
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            for (i, w) in weights.iter().enumerate() {
-                let copies = ((nf * w).floor() as usize).min(n - out.len());
-                out.extend(std::iter::repeat_n(i, copies));
+        Resampling::Residual => residual(weights, n, rng, work, out),
+    }
+}
+
+/// ⌊N wᵢ⌋ copies of each particle (at most N in all: the bound absorbs the rounding of N wᵢ), then
+/// the remaining draws multinomially from the residuals `N wᵢ − ⌊N wᵢ⌋`, merged in index order: in
+/// time linear in N and the number of particles.
+fn residual<R: Rng + ?Sized>(
+    weights: &[f64],
+    n: usize,
+    rng: &mut R,
+    work: &mut Workspace,
+    out: &mut Vec<usize>,
+) {
+    let nf = n as f64;
+    // With normalised weights ⌊N wᵢ⌋ ≤ N wᵢ, so the floors sum to at most N up to rounding.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let floor = |w: f64| (nf * w).floor() as usize;
+    let floors = weights
+        .iter()
+        .fold(0_usize, |sum, &w| sum.saturating_add(floor(w)));
+    let rest = n.saturating_sub(floors);
+    let residual = &mut work.residual;
+    residual.clear();
+    residual.extend(weights.iter().map(|w| nf * w - (nf * w).floor()));
+    let total: f64 = residual.iter().sum();
+    // The residual draws, in index order (as f64, exact below 2⁵³, in the points buffer).
+    let points = &mut work.points;
+    points.clear();
+    if rest > 0 {
+        if total > 0.0 {
+            for r in residual.iter_mut() {
+                *r /= total;
             }
-            let rest = n - out.len();
-            if rest > 0 {
-                let residual = &mut work.residual;
-                residual.clear();
-                residual.extend(weights.iter().map(|w| nf * w - (nf * w).floor()));
-                let total: f64 = residual.iter().sum();
-                if total > 0.0 {
-                    for r in residual.iter_mut() {
-                        *r /= total;
-                    }
-                    points.extend((0..rest).map(|_| rng.random::<f64>()));
-                    points.sort_by(f64::total_cmp);
-                    select(residual, points, out);
-                } else {
-                    // Every N wᵢ was an integer up to rounding: the floors fell short of N only by
-                    // that rounding, and the heaviest particle takes the rest.
-                    let heaviest = weights
-                        .iter()
-                        .enumerate()
-                        .max_by(|a, b| a.1.total_cmp(b.1))
-                        .map_or(0, |(i, _)| i);
-                    out.extend(std::iter::repeat_n(heaviest, rest));
-                }
-                out.sort_unstable();
-            }
+            sorted_uniforms(rest, rng, points);
+            select(residual, points, out);
+        } else {
+            // Every N wᵢ was an integer up to rounding: the floors fell short of N only by that
+            // rounding, and the heaviest particle takes the rest.
+            let heaviest = weights
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1.total_cmp(b.1))
+                .map_or(0, |(i, _)| i);
+            out.extend(std::iter::repeat_n(heaviest, rest));
+        }
+        points.clear();
+        #[allow(clippy::cast_precision_loss)]
+        points.extend(out.iter().map(|&i| i as f64));
+        out.clear();
+    }
+    let mut drawn = points.iter().peekable();
+    for (i, &w) in weights.iter().enumerate() {
+        let copies = floor(w).min(n - out.len());
+        out.extend(std::iter::repeat_n(i, copies));
+        #[allow(clippy::cast_precision_loss)]
+        while drawn.next_if(|&&d| d == i as f64).is_some() {
+            out.push(i);
         }
     }
 }
 
-/// For sorted points in [0, 1), appends the index whose cumulative-weight interval holds each point;
+/// n sorted uniform draws on [0, 1] into `points` (cleared first) in time linear in n, by
+/// exponential spacings (Rényi's representation): with E₁, …, Eₙ₊₁ independent Exp(1) and Sₖ
+/// their partial sums, `(S₁, …, Sₙ) / Sₙ₊₁` is distributed as the order statistics of n uniform
+/// draws.
+fn sorted_uniforms<R: Rng + ?Sized>(n: usize, rng: &mut R, points: &mut Vec<f64>) {
+    points.clear();
+    let mut sum = 0.0;
+    points.extend((0..n).map(|_| {
+        sum += rng.sample::<f64, _>(Exp1);
+        sum
+    }));
+    let total = sum + rng.sample::<f64, _>(Exp1);
+    for p in points.iter_mut() {
+        *p /= total;
+    }
+}
+
+/// For sorted points in [0, 1], appends the index whose cumulative-weight interval holds each point;
 /// a point past the rounded total goes to the last particle of positive weight, never to a trailing
 /// particle of weight zero.
 fn select(weights: &[f64], sorted_points: &[f64], out: &mut Vec<usize>) {
