@@ -132,6 +132,18 @@ pub(crate) fn ln_i0(kappa: f64) -> f64 {
 ///
 /// # Errors
 /// Unless κ ∈ [0, f64::MAX] (see the module docs).
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::log_i0;
+/// // I₀(0) = 1; I₀(1) = 1.2660658777520084 (Abramowitz & Stegun table 9.8).
+/// assert_eq!(log_i0(0.0).unwrap(), 0.0);
+/// assert!((log_i0(1.0).unwrap() - 1.266_065_877_752_008_4_f64.ln()).abs() < 1e-15);
+/// // No overflow where I₀ itself would: ln I₀(κ) ≈ κ − ½ ln(2πκ).
+/// let k = 1e6;
+/// assert!((log_i0(k).unwrap() - (k - 0.5 * (2.0 * std::f64::consts::PI * k).ln())).abs() < 1e-6);
+/// assert!(log_i0(-1.0).is_err());
+/// ```
 pub fn log_i0(kappa: f64) -> Result<f64, DensityError> {
     concentration("kappa", kappa).map(ln_i0)
 }
@@ -319,6 +331,17 @@ pub fn a1_derivative(kappa: f64) -> Result<f64, DensityError> {
 ///
 /// # Errors
 /// [`DensityError::OutOfRange`] unless `0 ≤ r < 1`.
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::{a1, a1_inverse};
+/// // A⁻¹ inverts A = I₁/I₀, the von Mises mean resultant length.
+/// for kappa in [0.01, 1.0, 30.0, 1e4] {
+///     let r = a1(kappa).unwrap();
+///     assert!((a1_inverse(r).unwrap() / kappa - 1.0).abs() < 1e-9);
+/// }
+/// assert!(a1_inverse(1.0).is_err());
+/// ```
 pub fn a1_inverse(r: f64) -> Result<f64, DensityError> {
     if !(0.0..1.0).contains(&r) {
         return Err(DensityError::OutOfRange {
