@@ -97,6 +97,22 @@ fn prior(
 ///
 /// # Errors
 /// As the prior: a non-finite r₀, σ₀ outside [1.5e-154, 1e150].
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::azimuth::{PositionMeasurement, VelocityInput, VelocityProcess, ekf};
+/// use nalgebra::Vector2;
+/// let process = VelocityProcess::new(0.1).unwrap();
+/// let sensor = PositionMeasurement::new(1.0).unwrap();
+/// let mut filter = ekf(process, sensor, Vector2::new(5.0, 0.0), 1.0).unwrap();
+/// // One second at 1 m/s along the platform's x axis moves the position estimate by 1 m.
+/// filter.predict(&VelocityInput { velocity: Vector2::new(1.0, 0.0), dt: 1.0 }).unwrap();
+/// let estimate = filter.estimate().unwrap();
+/// assert!((estimate.mean_r - Vector2::new(6.0, 0.0)).norm() < 1e-12);
+/// // Its variance grows by q² dt = 0.01 per axis.
+/// assert!((estimate.cov_r[(0, 0)] - 1.01).abs() < 1e-12);
+/// ```
 pub fn ekf(
     process: VelocityProcess,
     measurement: PositionMeasurement,
