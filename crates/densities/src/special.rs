@@ -184,6 +184,14 @@ pub(crate) fn mean_resultant(kappa: f64) -> f64 {
 ///
 /// # Errors
 /// Unless κ ∈ [0, f64::MAX].
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::a1;
+/// // A(κ) = I₁(κ)/I₀(κ): κ/2 for small κ, 1 − 1/(2κ) for large κ.
+/// assert!((a1(1e-4).unwrap() - 5e-5).abs() < 1e-12);
+/// assert!((a1(1e4).unwrap() - (1.0 - 0.5e-4)).abs() < 1e-8);
+/// ```
 pub fn a1(kappa: f64) -> Result<f64, DensityError> {
     concentration("kappa", kappa).map(mean_resultant)
 }
@@ -473,6 +481,15 @@ pub(crate) fn vmf_log_normalizer_plus_kappa(kappa: f64) -> f64 {
 ///
 /// # Errors
 /// Unless κ ∈ [0, f64::MAX].
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::vmf_log_normalizer;
+/// // ln(κ / (4π sinh κ)): at κ → 0 the uniform density 1/(4π) on the unit sphere.
+/// assert!((vmf_log_normalizer(0.0).unwrap() + (4.0 * std::f64::consts::PI).ln()).abs() < 1e-15);
+/// let k: f64 = 2.0;
+/// assert!((vmf_log_normalizer(k).unwrap() - (k / (4.0 * std::f64::consts::PI * k.sinh())).ln()).abs() < 1e-14);
+/// ```
 pub fn vmf_log_normalizer(kappa: f64) -> Result<f64, DensityError> {
     let kappa = concentration("kappa", kappa)?;
     Ok(vmf_log_normalizer_plus_kappa(kappa) - kappa)

@@ -145,6 +145,16 @@ pub trait LieGroup<const D: usize>: Manifold<D> {
 }
 
 /// The action of a group of dimension `D` on points of `R^P` (rotation of vectors, translation).
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{GroupAction, So3};
+/// use nalgebra::Vector3;
+/// let r = So3::from_axis_angle(&Vector3::z(), std::f64::consts::FRAC_PI_2).unwrap();
+/// // A quarter turn about z takes x to y; the Jacobian in the point is the rotation matrix.
+/// assert!((r.act(&Vector3::x()) - Vector3::y()).norm() < 1e-15);
+/// assert!((r.j_act_point(&Vector3::x()) - r.to_matrix()).norm() < 1e-15);
+/// ```
 pub trait GroupAction<const D: usize, const P: usize>: LieGroup<D> {
     /// The transformed point `g · p`.
     fn act(&self, p: &SVector<Self::Scalar, P>) -> SVector<Self::Scalar, P>;

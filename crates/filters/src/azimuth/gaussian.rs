@@ -135,6 +135,19 @@ pub fn ekf(
 ///
 /// # Errors
 /// As [`ekf`].
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::azimuth::{PositionMeasurement, VelocityProcess, ukf};
+/// use nalgebra::Vector2;
+/// let filter = ukf(VelocityProcess::new(0.1).unwrap(), PositionMeasurement::new(1.0).unwrap(),
+///     Vector2::new(5.0, 0.0), 2.0).unwrap();
+/// // Before any step the estimate is the prior: r₀, σ₀² I, the azimuth at 0.
+/// let estimate = filter.estimate().unwrap();
+/// assert_eq!(estimate.mean_r, Vector2::new(5.0, 0.0));
+/// assert!((estimate.cov_r[(1, 1)] - 4.0).abs() < 1e-12);
+/// ```
 pub fn ukf(
     process: VelocityProcess,
     measurement: PositionMeasurement,
