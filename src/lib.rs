@@ -23,6 +23,7 @@
 //! | `proptest` | no | proptest strategies for every space and density, and the law suites |
 //! | `rayon` | no | parallel particle weighting and parallel runs of a study |
 //! | `serde` | no | `Serialize`/`Deserialize` for points, densities and filter states, read back through the validated constructors |
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub use liebayes_densities as densities;
 pub use liebayes_experiments as experiments;

@@ -26,6 +26,7 @@
 //!   target, by doubling then bisection, in a bounded number of studies.
 //! * [`ExactSum`] and [`RunningStats`]: the exact, mergeable statistics beneath, in constant memory
 //!   whatever the number of runs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 mod error;
 mod exact_sum;
