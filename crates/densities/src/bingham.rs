@@ -145,6 +145,20 @@ impl Bingham {
     /// # Errors
     /// [`DensityError::NonFinite`], or [`DensityError::OutOfRange`] when V is not orthogonal (to
     /// 1e-10), an eigenvalue lies beyond ±1e300 or their spread beyond [`Self::MAX_SPREAD`].
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::{Bingham, Density};
+    /// use liebayes_manifolds::Su2;
+    /// use nalgebra::{Matrix4, Vector4};
+    /// let p = Bingham::new(Matrix4::identity(), Vector4::new(0.0, -5.0, -5.0, -20.0)).unwrap();
+    /// // The mode is the first eigenvector, and q and −q have the same density.
+    /// let mode = p.mode().unwrap();
+    /// assert_eq!(mode.to_quaternion_wxyz(), [1.0, 0.0, 0.0, 0.0]);
+    /// assert_eq!(p.log_pdf(&mode), p.log_pdf(&mode.antipode()));
+    /// // The second moments along the eigenvectors sum to 1.
+    /// assert!((p.eigen_moments().sum() - 1.0).abs() < 1e-14);
+    /// ```
     pub fn new(orientation: Matrix4<f64>, eigenvalues: Vector4<f64>) -> Result<Self, DensityError> {
         for &v in orientation.iter().chain(eigenvalues.iter()) {
             finite("Bingham orientation or eigenvalue", v)?;
@@ -210,6 +224,22 @@ impl Bingham {
     /// [`DensityError::NonFinite`] for a non-finite component or σ; [`DensityError::OutOfRange`] for
     /// σ ≤ 0, for a matrix whose entries overflow, or for an eigenvalue spread beyond
     /// [`Self::MAX_SPREAD`] (σ below about 1.4e-3 for unit vectors).
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::Bingham;
+    /// use liebayes_manifolds::{LieGroup, Su2};
+    /// use nalgebra::Vector3;
+    /// let (reference, sigma) = (Vector3::z(), 0.1);
+    /// let q = Su2::exp(&Vector3::new(0.2, -0.1, 0.4));
+    /// let measured = q.to_rotation_matrix().transpose() * reference + Vector3::new(0.01, 0.0, -0.02);
+    /// let m = Bingham::from_direction(&measured, &reference, sigma).unwrap().natural();
+    /// // qᵀ M q is the Gaussian log-likelihood of the measured direction.
+    /// let x = nalgebra::Vector4::from(q.to_quaternion_wxyz());
+    /// let residual = measured - q.to_rotation_matrix().transpose() * reference;
+    /// let expected = -residual.norm_squared() / (2.0 * sigma * sigma);
+    /// assert!(((x.transpose() * m * x)[0] - expected).abs() < 1e-12);
+    /// ```
     pub fn from_direction(
         measured: &Vector3<f64>,
         reference: &Vector3<f64>,

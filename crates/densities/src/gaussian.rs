@@ -93,6 +93,19 @@ impl<const N: usize> Gaussian<N> {
     /// covariance that is not symmetric or not positive definite (with its smallest eigenvalue), or
     /// when an entry of μ, Σ or Σ⁻¹ exceeds 1e100 in magnitude (Σ = 1e308 I and Σ = 1e-310 I were
     /// accepted before, with an infinite or NaN information matrix).
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::{Convolve, Density, Gaussian};
+    /// use nalgebra::{Matrix2, Vector2};
+    /// let p = Gaussian::new(Vector2::new(1.0, -1.0), Matrix2::new(2.0, 0.5, 0.5, 1.0)).unwrap();
+    /// // At the mean, ln N = −ln(2π) − ½ ln det Σ (det Σ = 1.75).
+    /// let peak = -(2.0 * std::f64::consts::PI).ln() - 0.5 * 1.75_f64.ln();
+    /// assert!((p.log_pdf(p.mean()) - peak).abs() < 1e-14);
+    /// // Convolution adds means and covariances.
+    /// let sum = p.convolve(&p).unwrap();
+    /// assert!((sum.covariance() - p.covariance() * 2.0).norm() < 1e-14);
+    /// ```
     pub fn new(
         mean: SVector<f64, N>,
         covariance: SMatrix<f64, N, N>,

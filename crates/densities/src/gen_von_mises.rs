@@ -270,6 +270,17 @@ impl GenVonMises2 {
     /// # Errors
     /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] for a negative or non-finite
     /// concentration, and as [`from_natural`](Self::from_natural) when `κ₁ + 4κ₂` exceeds 1e16.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::{Density, GenVonMises2};
+    /// use liebayes_manifolds::So2;
+    /// // With κ₂ = 0 it is the von Mises: the mode is the first mean.
+    /// let p = GenVonMises2::new(So2::from_angle_unchecked(1.0), 3.0, So2::from_angle_unchecked(0.0), 0.0).unwrap();
+    /// let mode = p.mode().unwrap();
+    /// assert!((mode.angle() - 1.0).abs() < 1e-9);
+    /// assert!(p.log_pdf(&mode) > p.log_pdf(&So2::from_angle_unchecked(-2.0)));
+    /// ```
     pub fn new(
         mean1: So2<f64>,
         concentration1: f64,

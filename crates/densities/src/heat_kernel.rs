@@ -60,6 +60,17 @@ impl HeatKernelSo3 {
     /// # Errors
     /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] unless `1e-300 ≤ s < ∞` (below,
     /// the log density at the half turn, −π²/(2s), overflows).
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::{Convolve, HeatKernelSo3};
+    /// use liebayes_manifolds::{LieGroup, So3};
+    /// let p = HeatKernelSo3::new(So3::identity(), 0.04).unwrap();
+    /// // E[R] = e^(−s) R(mean), so tr E[R] = 3 e^(−s).
+    /// assert!((p.first_moment().trace() - 3.0 * (-0.04_f64).exp()).abs() < 1e-14);
+    /// // Diffusions compose: the variances add.
+    /// assert!((p.convolve(&p).unwrap().variance() - 0.08).abs() < 1e-15);
+    /// ```
     pub fn new(mean: So3<f64>, variance: f64) -> Result<Self, DensityError> {
         let s = variance;
         finite("variance s", s)?;

@@ -21,9 +21,10 @@
 //!   `docs/densities/`.
 //! * [`special`]: ln I₀, ln I₁, Bessel ratios Iₙ/I₀, A⁻¹ and the von Mises-Fisher functions, accurate to
 //!   a few ulp from κ = 0 to 1e6.
-//! * With the `proptest` feature, [`testing`] exports strategies for every family, quadrature on
-//!   every space, and the density law suite ([`density_laws!`]) that a family of your own can run in
-//!   one line.
+//! * With the `proptest` feature, the `testing` module exports strategies for every family,
+//!   quadrature on every space, and the density law suite (the `density_laws!` macro) that a family
+//!   of your own can run in one line; build the docs with `cargo doc --all-features` (as docs.rs
+//!   does) to see them.
 //! * With the `serde` feature, every density serializes as its defining parameters and deserializes
 //!   through its validated constructor: a file with a negative concentration or a covariance that is
 //!   not positive definite is an error, never an invalid density.
@@ -76,6 +77,7 @@
 //! Gaussian and the harmonic Gaussian do not: their pointwise products leave the family); the
 //! manifold Gaussian has a closed KL only for equal means, so it offers
 //! [`ManifoldGaussian::kl_divergence`] as a fallible method, not [`KlDivergence`].
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 mod bingham;
 mod bingham_normalizer;
@@ -93,6 +95,7 @@ mod scaled_bessel_coefficients;
 mod serde_impls;
 pub mod special;
 #[cfg(feature = "proptest")]
+#[cfg_attr(docsrs, doc(cfg(feature = "proptest")))]
 pub mod testing;
 mod traits;
 mod von_mises;

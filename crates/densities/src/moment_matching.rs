@@ -211,6 +211,20 @@ impl Bingham {
     /// # Errors
     /// As [`diffusion_second_moment`](Self::diffusion_second_moment), and those of
     /// [`Bingham::from_second_moment`] for a diffusion too concentrated for a Bingham.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::Bingham;
+    /// use liebayes_manifolds::{LieGroup, Manifold, Su2};
+    /// use nalgebra::{Matrix3, Vector3};
+    /// let mean = Su2::exp(&Vector3::new(0.5, 0.0, -0.3));
+    /// let sigma = Matrix3::from_diagonal(&Vector3::new(0.01, 0.02, 0.04));
+    /// let bingham = Bingham::from_diffusion_moment_matched(&mean, &sigma).unwrap();
+    /// // Matching back gives the diffusion again.
+    /// let (back, back_sigma) = bingham.to_diffusion_moment_matched().unwrap();
+    /// assert!(back.distance(&mean) < 1e-9);
+    /// assert!((back_sigma - sigma).amax() < 1e-9);
+    /// ```
     pub fn from_diffusion_moment_matched(
         mean: &Su2<f64>,
         covariance: &Matrix3<f64>,

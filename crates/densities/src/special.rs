@@ -132,6 +132,18 @@ pub(crate) fn ln_i0(kappa: f64) -> f64 {
 ///
 /// # Errors
 /// Unless κ ∈ [0, f64::MAX] (see the module docs).
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::log_i0;
+/// // I₀(0) = 1; I₀(1) = 1.2660658777520084 (Abramowitz & Stegun table 9.8).
+/// assert_eq!(log_i0(0.0).unwrap(), 0.0);
+/// assert!((log_i0(1.0).unwrap() - 1.266_065_877_752_008_4_f64.ln()).abs() < 1e-15);
+/// // No overflow where I₀ itself would: ln I₀(κ) ≈ κ − ½ ln(2πκ).
+/// let k = 1e6;
+/// assert!((log_i0(k).unwrap() - (k - 0.5 * (2.0 * std::f64::consts::PI * k).ln())).abs() < 1e-6);
+/// assert!(log_i0(-1.0).is_err());
+/// ```
 pub fn log_i0(kappa: f64) -> Result<f64, DensityError> {
     concentration("kappa", kappa).map(ln_i0)
 }
@@ -172,6 +184,14 @@ pub(crate) fn mean_resultant(kappa: f64) -> f64 {
 ///
 /// # Errors
 /// Unless κ ∈ [0, f64::MAX].
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::a1;
+/// // A(κ) = I₁(κ)/I₀(κ): κ/2 for small κ, 1 − 1/(2κ) for large κ.
+/// assert!((a1(1e-4).unwrap() - 5e-5).abs() < 1e-12);
+/// assert!((a1(1e4).unwrap() - (1.0 - 0.5e-4)).abs() < 1e-8);
+/// ```
 pub fn a1(kappa: f64) -> Result<f64, DensityError> {
     concentration("kappa", kappa).map(mean_resultant)
 }
@@ -319,6 +339,17 @@ pub fn a1_derivative(kappa: f64) -> Result<f64, DensityError> {
 ///
 /// # Errors
 /// [`DensityError::OutOfRange`] unless `0 ≤ r < 1`.
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::{a1, a1_inverse};
+/// // A⁻¹ inverts A = I₁/I₀, the von Mises mean resultant length.
+/// for kappa in [0.01, 1.0, 30.0, 1e4] {
+///     let r = a1(kappa).unwrap();
+///     assert!((a1_inverse(r).unwrap() / kappa - 1.0).abs() < 1e-9);
+/// }
+/// assert!(a1_inverse(1.0).is_err());
+/// ```
 pub fn a1_inverse(r: f64) -> Result<f64, DensityError> {
     if !(0.0..1.0).contains(&r) {
         return Err(DensityError::OutOfRange {
@@ -450,6 +481,15 @@ pub(crate) fn vmf_log_normalizer_plus_kappa(kappa: f64) -> f64 {
 ///
 /// # Errors
 /// Unless κ ∈ [0, f64::MAX].
+///
+/// # Example
+/// ```
+/// use liebayes_densities::special::vmf_log_normalizer;
+/// // ln(κ / (4π sinh κ)): at κ → 0 the uniform density 1/(4π) on the unit sphere.
+/// assert!((vmf_log_normalizer(0.0).unwrap() + (4.0 * std::f64::consts::PI).ln()).abs() < 1e-15);
+/// let k: f64 = 2.0;
+/// assert!((vmf_log_normalizer(k).unwrap() - (k / (4.0 * std::f64::consts::PI * k.sinh())).ln()).abs() < 1e-14);
+/// ```
 pub fn vmf_log_normalizer(kappa: f64) -> Result<f64, DensityError> {
     let kappa = concentration("kappa", kappa)?;
     Ok(vmf_log_normalizer_plus_kappa(kappa) - kappa)

@@ -32,6 +32,19 @@ pub trait Density {
 }
 
 /// Bayes' rule with a conjugate likelihood: the normalised pointwise product `p q / ∫ p q`.
+///
+/// # Example
+/// ```
+/// use liebayes_densities::{Density, Gaussian, Product};
+/// use nalgebra::{Matrix1, Vector1};
+/// let p = Gaussian::new(Vector1::new(0.0), Matrix1::new(1.0)).unwrap();
+/// let q = Gaussian::new(Vector1::new(2.0), Matrix1::new(1.0)).unwrap();
+/// // N(0, 1) N(2, 1) ∝ N(1, 1/2); ∫ p q = N(2; 0, 2).
+/// let r = p.product(&q).unwrap();
+/// assert!((r.mean()[0] - 1.0).abs() < 1e-15 && (r.covariance()[0] - 0.5).abs() < 1e-15);
+/// let expected = -0.5 * (4.0 * std::f64::consts::PI).ln() - 1.0;
+/// assert!((p.log_product_integral(&q).unwrap() - expected).abs() < 1e-14);
+/// ```
 pub trait Product: Density + Sized {
     /// The normalised product `p q / ∫ p q`.
     ///
@@ -50,12 +63,34 @@ pub trait Product: Density + Sized {
 }
 
 /// Closed-form entropy `−∫ p ln p` with respect to the base measure.
+///
+/// # Example
+/// ```
+/// use liebayes_densities::{Entropy, VonMises};
+/// use liebayes_manifolds::So2;
+/// // The uniform distribution on the circle has the largest entropy, ln 2π.
+/// let uniform = VonMises::new(So2::from_angle_unchecked(0.0), 0.0).unwrap();
+/// assert!((uniform.entropy() - (2.0 * std::f64::consts::PI).ln()).abs() < 1e-15);
+/// let peaked = VonMises::new(So2::from_angle_unchecked(0.0), 5.0).unwrap();
+/// assert!(peaked.entropy() < uniform.entropy());
+/// ```
 pub trait Entropy: Density {
     /// The differential entropy.
     fn entropy(&self) -> f64;
 }
 
 /// Closed-form Kullback-Leibler divergence.
+///
+/// # Example
+/// ```
+/// use liebayes_densities::{Gaussian, KlDivergence};
+/// use nalgebra::{Matrix1, Vector1};
+/// let p = Gaussian::new(Vector1::new(0.0), Matrix1::new(1.0)).unwrap();
+/// let q = Gaussian::new(Vector1::new(1.0), Matrix1::new(1.0)).unwrap();
+/// // KL(N(0, 1) ‖ N(1, 1)) = 1/2; zero against itself.
+/// assert!((p.kl_divergence(&q) - 0.5).abs() < 1e-15);
+/// assert_eq!(p.kl_divergence(&p), 0.0);
+/// ```
 pub trait KlDivergence: Density {
     /// `KL(self ‖ other) = ∫ p ln(p/q) ≥ 0`, zero only for equal densities.
     fn kl_divergence(&self, other: &Self) -> f64;
@@ -78,6 +113,18 @@ pub trait Convolve: Density + Sized {
 ///
 /// The action is [`act`](Rotate::act): rotation of the circle by `So2`, of the sphere by `So3`,
 /// left multiplication of unit quaternions by `Su2`, left composition on a group (left translation).
+///
+/// # Example
+/// ```
+/// use liebayes_densities::{Density, Rotate, VonMisesFisher};
+/// use liebayes_manifolds::{S2, So3};
+/// use nalgebra::Vector3;
+/// let p = VonMisesFisher::new(S2::new(Vector3::x()).unwrap(), 3.0).unwrap();
+/// let turn = So3::from_axis_angle(&Vector3::z(), std::f64::consts::FRAC_PI_2).unwrap();
+/// // Turning the density turns its mean: x goes to y.
+/// let turned = p.rotated(&turn);
+/// assert!((turned.mode().unwrap().as_vector() - Vector3::y()).norm() < 1e-15);
+/// ```
 pub trait Rotate<G>: Density + Sized {
     /// The distribution of `g · x`, `x ~ self`: `rotated(g).log_pdf(act(g, x)) = log_pdf(x)`.
     #[must_use]

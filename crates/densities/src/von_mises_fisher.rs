@@ -37,6 +37,21 @@ impl VonMisesFisher {
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] for κ outside [0, 1e300].
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::{Density, Product, VonMisesFisher};
+    /// use liebayes_manifolds::S2;
+    /// use nalgebra::Vector3;
+    /// let up = S2::new(Vector3::z()).unwrap();
+    /// let p = VonMisesFisher::new(up, 10.0).unwrap();
+    /// // E[x] = (coth κ − 1/κ) μ.
+    /// let expected = 1.0 / 10.0_f64.tanh() - 0.1;
+    /// assert!((p.first_moment() - Vector3::z() * expected).norm() < 1e-14);
+    /// // The product of two with one mean adds the concentrations.
+    /// assert!((p.product(&p).unwrap().concentration() - 20.0).abs() < 1e-12);
+    /// assert_eq!(p.mode(), Some(up));
+    /// ```
     pub fn new(mean: S2<f64>, concentration: f64) -> Result<Self, DensityError> {
         let kappa = check_concentration("concentration kappa", concentration)?;
         Ok(if kappa == 0.0 {

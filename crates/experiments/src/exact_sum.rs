@@ -61,6 +61,18 @@ impl Default for ExactSum {
 
 impl ExactSum {
     /// The empty sum, 0.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_experiments::ExactSum;
+    /// let mut sum = ExactSum::new();
+    /// for x in [1e16, 1.0, -1e16] {
+    ///     sum.add(x);
+    /// }
+    /// // Floating-point addition gives 0 here; the exact sum keeps the 1.
+    /// assert_eq!(1e16 + 1.0 - 1e16, 0.0);
+    /// assert_eq!(sum.value(), 1.0);
+    /// ```
     pub const fn new() -> Self {
         Self {
             limbs: [0; LIMBS],

@@ -31,6 +31,8 @@
 //!   `RecursiveFilter` runs in one line: steps all or nothing on extreme inputs, NEES and NIS in
 //!   two-sided χ² bands, a mis-specified measurement noise caught.
 
+#![cfg_attr(docsrs, feature(doc_cfg))]
+
 mod error;
 mod exact_sum;
 pub mod filter;
@@ -45,6 +47,7 @@ mod statistics;
 pub mod study;
 mod summary;
 #[cfg(feature = "proptest")]
+#[cfg_attr(docsrs, doc(cfg(feature = "proptest")))]
 pub mod testing;
 
 pub use error::ExperimentError;

@@ -105,6 +105,38 @@ pub struct RunFailure {
 ///
 /// # Errors
 /// [`RunFailure`] at the first step, update or estimate that fails.
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::{Metric, Recursive, Reduction, Scorer, Step, replay};
+/// use liebayes_operators::densities::Gaussian;
+/// use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
+/// use nalgebra::{Matrix1, Vector1};
+///
+/// /// The estimate's error, scored at each measurement epoch.
+/// struct Error;
+/// impl Scorer<f64, Gaussian<1>> for Error {
+///     fn metrics(&self) -> Vec<Metric> {
+///         vec![Metric::new("error", Reduction::RootMeanSquare, "")]
+///     }
+///     fn score(&self, truth: &f64, estimate: &Gaussian<1>, values: &mut [f64]) {
+///         values[0] = estimate.mean()[0] - truth;
+///     }
+/// }
+///
+/// let process = LinearProcess::new(Matrix1::new(1.0), Matrix1::new(1.0)).unwrap();
+/// let sensor = LinearMeasurement::new(Matrix1::new(1.0), Matrix1::new(1.0)).unwrap();
+/// let prior = Gaussian::new(Vector1::new(0.0), Matrix1::new(1.0)).unwrap();
+/// let mut filter = Recursive::new(prior, process, sensor);
+/// let step = |time, z: Option<f64>| Step { time, input: Vector1::zeros(), truth: 0.0, measurement: z.map(Vector1::new) };
+/// let steps = vec![step(1.0, Some(3.0)), step(2.0, None), step(3.0, Some(-1.0))];
+/// let scores = replay(&mut filter, steps, &Error).unwrap();
+/// // Two measurement epochs, each with the error, the log evidence and the NIS.
+/// assert_eq!(scores.times, vec![1.0, 3.0]);
+/// assert_eq!(scores.metrics.len(), 3);
+/// // First epoch: predicted variance 2, gain 2/3, estimate 2.
+/// assert!((scores.values[0] - 2.0).abs() < 1e-12);
+/// ```
 pub fn replay<F, T, Sc>(
     filter: &mut F,
     steps: impl IntoIterator<Item = Step<T, F::Input, F::Measurement>>,

@@ -134,6 +134,14 @@ pub(crate) fn run_value(reduction: Reduction, values: impl Iterator<Item = f64>)
 /// `q(p) = x₍⌊h⌋₎ + (h − ⌊h⌋) (x₍⌊h⌋+1₎ − x₍⌊h⌋₎)`; so q(0) is the smallest value and q(1) the
 /// largest. NaN for a probability outside [0, 1] (or NaN), and for every probability when no value
 /// is finite.
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::quantiles;
+/// let q = quantiles(&[4.0, 1.0, f64::NAN, 3.0, 2.0], &[0.0, 0.5, 1.0, 0.25]);
+/// // NaN is left out; the median of 1..4 lies half-way between 2 and 3.
+/// assert_eq!(q, vec![1.0, 2.5, 4.0, 1.75]);
+/// ```
 pub fn quantiles(values: &[f64], probabilities: &[f64]) -> Vec<f64> {
     let mut sorted: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     sorted.sort_unstable_by(f64::total_cmp);

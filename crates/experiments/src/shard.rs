@@ -42,6 +42,15 @@ impl Shard {
 
     /// The run indices of this shard in a study of `runs` runs: `[⌊(K−1) runs / N⌋, ⌊K runs / N⌋)`.
     /// The N shards partition `[0, runs)` into contiguous ranges whose sizes differ by at most one.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_experiments::Shard;
+    /// // Ten runs over three machines: 3, 3 and 4 runs, contiguous.
+    /// let parts: Vec<_> = (1..=3).map(|k| Shard::new(k, 3).unwrap().runs(10)).collect();
+    /// assert_eq!(parts, vec![0..3, 3..6, 6..10]);
+    /// assert!(Shard::new(0, 3).is_err());
+    /// ```
     pub fn runs(&self, runs: u64) -> Range<u64> {
         let bound = |k: u64| {
             u64::try_from(u128::from(k) * u128::from(runs) / u128::from(self.count)).unwrap_or(runs)

@@ -96,6 +96,60 @@ impl Study {
     /// [`ExperimentError::OutOfRange`] for a scenario of more than [`MAX_STUDY_EPOCHS`] epochs
     /// (before any run), [`ExperimentError`] when the scenario cannot be simulated; filter
     /// failures are recorded in the summary instead.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_experiments::{
+    ///     ExperimentError, ManifoldScorer, Recursive, Scenario, Shard, Step, StepOf, Study,
+    /// };
+    /// use liebayes_operators::manifolds::{Manifold, Rn};
+    /// use liebayes_operators::densities::ManifoldGaussian;
+    /// use liebayes_operators::{Ekf, MeasurementFn, ProcessFn};
+    /// use nalgebra::{Matrix1, Vector1};
+    /// use rand::Rng;
+    /// use rand_chacha::ChaCha8Rng;
+    ///
+    /// /// A point at rest at 0, measured five times with uniform noise.
+    /// struct AtRest;
+    /// impl Scenario for AtRest {
+    ///     type Truth = Rn<f64, 1>;
+    ///     type Input = ();
+    ///     type Measurement = Vector1<f64>;
+    ///     type Steps<'s> = std::vec::IntoIter<StepOf<Self>>;
+    ///     fn epochs(&self) -> usize {
+    ///         5
+    ///     }
+    ///     fn simulate<'s>(&'s self, rng: &'s mut ChaCha8Rng) -> Result<Self::Steps<'s>, ExperimentError> {
+    ///         let truth = Rn::new(Vector1::new(0.0)).unwrap();
+    ///         let steps: Vec<StepOf<Self>> = (1..=5)
+    ///             .map(|k| Step {
+    ///                 time: f64::from(k),
+    ///                 input: (),
+    ///                 truth,
+    ///                 measurement: Some(Vector1::new(rng.random::<f64>() - 0.5)),
+    ///             })
+    ///             .collect();
+    ///         Ok(steps.into_iter())
+    ///     }
+    /// }
+    ///
+    /// let still = ProcessFn::new(|x: &Rn<f64, 1>, _: &()| *x, |_, _| Matrix1::new(1e-6));
+    /// let sensor = MeasurementFn::new(|x: &Rn<f64, 1>| *x.coords(), |_| Matrix1::new(1.0 / 12.0));
+    /// let study = Study::new("at rest", 8, 42, Shard::WHOLE)?;
+    /// let summary = study.run(
+    ///     &AtRest,
+    ///     &|_| {
+    ///         let prior = ManifoldGaussian::new(Rn::new(Vector1::new(0.0)).unwrap(), Matrix1::new(1.0))?;
+    ///         Ok(Recursive::new(prior, Ekf(&still), Ekf(&sensor)))
+    ///     },
+    ///     &ManifoldScorer,
+    ///     &|_| {},
+    /// )?;
+    /// assert_eq!(summary.run_count(), 8);
+    /// assert_eq!(summary.failure_count(), 0);
+    /// assert_eq!(summary.series("error").unwrap().epochs().len(), 5);
+    /// # Ok::<(), ExperimentError>(())
+    /// ```
     pub fn run<S, F, Sc>(
         &self,
         scenario: &S,

@@ -1,15 +1,18 @@
 //! # liebayes-filters
 //!
-//! The applications, each a composition of the operators:
+//! The applications, each a composition of the operators and driven through the experiment layer
+//! (`liebayes_experiments::RecursiveFilter`, scenarios and studies):
 //!
-//! * [`azimuth`]: the exact von Mises × Gaussian filter for aligning two frames rotated by an unknown
-//!   azimuth (the blog post "Exact finite-state filter for azimuth alignment"), with its brute-force reference (a grid of Kalman filters) and its scenarios.
-//!
+//! * [`azimuth`]: the exact von Mises × Gaussian filter for aligning two frames rotated by an
+//!   unknown azimuth (the blog post "Exact finite-state filter for azimuth alignment"), its EKF,
+//!   UKF, grid, particle and Rao-Blackwellised rivals, and its scenarios;
+//! * [`aoa`]: angle-of-arrival positioning ("3D angle-of-arrival positioning using von
+//!   Mises-Fisher distribution"): the two noise models, the EKFs, UKFs and particle filters of
+//!   both, the exact single-update posterior by quadrature, and the square-track scenario;
 //! * [`attitude`]: IMU attitude: the data layer (IMU logs from the BROAD dataset and CSV files),
-//!   the BROAD error metric and Madgwick's filter as a baseline.
-//!
-//! The IMU attitude filter (Bingham and heat kernel on SO(3)) and angle-of-arrival positioning (von
-//! Mises-Fisher) follow in their own issues.
+//!   the BROAD error metric, Madgwick's filter as a baseline, the talk's Bingham filter and the
+//!   production error-state EKF.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod aoa;
 pub mod attitude;

@@ -3,11 +3,13 @@
 //! against brute-force Monte Carlo and the prior's own moments, and as the yardstick of every
 //! filter's update: EKF and UKF with both models, and particle filters.
 
+use liebayes_densities::DensityError;
+use liebayes_densities::quadrature::SphereRule;
 use liebayes_experiments::RecursiveFilter;
 use liebayes_filters::aoa::{
     Anchor, AngleNoise, AzEl, AzElModel, Position, PositionEstimate, PositionGaussian, Prior,
-    RandomWalk, SphereRule, UnitVectorModel, WorldDirections, angle_ekf, angle_particle_filter,
-    angle_ukf, exact_posterior, vmf_ekf, vmf_particle_filter, vmf_ukf,
+    RandomWalk, UnitVectorModel, WorldDirections, angle_ekf, angle_particle_filter, angle_ukf,
+    exact_posterior, vmf_ekf, vmf_particle_filter, vmf_ukf,
 };
 use liebayes_manifolds::So3;
 use liebayes_operators::OperatorError;
@@ -461,23 +463,23 @@ fn bad_input_is_refused_with_a_typed_error() {
     let u = y.unit_vector();
     assert!(matches!(
         SphereRule::new(3, 64, 0.1),
-        Err(OperatorError::OutOfRange { .. })
+        Err(DensityError::OutOfRange { .. })
     ));
     assert!(matches!(
         SphereRule::new(64, 100_000, 0.1),
-        Err(OperatorError::OutOfRange { .. })
+        Err(DensityError::OutOfRange { .. })
     ));
     assert!(matches!(
         SphereRule::new(64, 64, 0.0),
-        Err(OperatorError::OutOfRange { .. })
+        Err(DensityError::OutOfRange { .. })
     ));
     assert!(matches!(
         SphereRule::new(64, 64, f64::NAN),
-        Err(OperatorError::OutOfRange { .. })
+        Err(DensityError::OutOfRange { .. })
     ));
     assert!(matches!(
         SphereRule::new(64, 64, 4.0),
-        Err(OperatorError::OutOfRange { .. })
+        Err(DensityError::OutOfRange { .. })
     ));
     let rule = SphereRule::with_width(0.1).unwrap();
     let g = ex.gaussian();

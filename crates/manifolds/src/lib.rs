@@ -58,10 +58,12 @@
 //! `ProductManifold<So3<f64>, Rn<f64, 3>, 3, 3, 6>`), a Lie group when both factors are; products
 //! nest. [`weighted_mean`] averages samples on any [`Manifold`] by Gauss-Newton, without allocating.
 //!
-//! With the `proptest` feature, [`testing`] exports the strategies (uniform and curated edge elements
-//! for every space) and the generic law suite this crate tests itself with. With the `serde` feature,
+//! With the `proptest` feature, the `testing` module exports the strategies (uniform and curated edge
+//! elements for every space) and the generic law suite this crate tests itself with; build the docs
+//! with `cargo doc --all-features` (as docs.rs does) to see it. With the `serde` feature,
 //! every point implements `Serialize` and `Deserialize`, and reading goes through the validated
 //! constructors (a file cannot produce a quaternion that is not unit).
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 mod approx_impls;
 pub mod constants;
@@ -85,6 +87,7 @@ mod so2;
 mod so3;
 mod su2;
 #[cfg(feature = "proptest")]
+#[cfg_attr(docsrs, doc(cfg(feature = "proptest")))]
 pub mod testing;
 
 pub use error::{ManifoldError, Readable};

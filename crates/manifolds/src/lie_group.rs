@@ -25,6 +25,18 @@ use std::fmt::Debug;
 /// with another retraction must override all of them, as [`Left`](crate::Left) does for world-frame
 /// errors `x ⊞ δ = exp(δ) · x`. There are no `retract_left`/`local_left` methods: wrapping the group in
 /// `Left` is the one way to perturb on the left, and it keeps every generic operator working.
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{LieGroup, Manifold, So3};
+/// use nalgebra::Vector3;
+/// let x = So3::exp(&Vector3::new(0.1, 0.2, 0.3));
+/// let y = So3::exp(&Vector3::new(-0.4, 0.0, 0.5));
+/// // Group laws and the right perturbation x ⊞ v = x · exp(v).
+/// assert!(x.compose(&x.inverse()).distance(&So3::identity()) < 1e-15);
+/// let v = x.local(&y);
+/// assert!(x.compose(&So3::exp(&v)).distance(&y) < 1e-15);
+/// ```
 pub trait LieGroup<const D: usize>: Manifold<D> {
     /// The Lie algebra in the group's own representation (a skew matrix for SO(2)/SO(3), a pure
     /// quaternion for SU(2), a vector for Rⁿ).
@@ -133,6 +145,16 @@ pub trait LieGroup<const D: usize>: Manifold<D> {
 }
 
 /// The action of a group of dimension `D` on points of `R^P` (rotation of vectors, translation).
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{GroupAction, So3};
+/// use nalgebra::Vector3;
+/// let r = So3::from_axis_angle(&Vector3::z(), std::f64::consts::FRAC_PI_2).unwrap();
+/// // A quarter turn about z takes x to y; the Jacobian in the point is the rotation matrix.
+/// assert!((r.act(&Vector3::x()) - Vector3::y()).norm() < 1e-15);
+/// assert!((r.j_act_point(&Vector3::x()) - r.to_matrix()).norm() < 1e-15);
+/// ```
 pub trait GroupAction<const D: usize, const P: usize>: LieGroup<D> {
     /// The transformed point `g · p`.
     fn act(&self, p: &SVector<Self::Scalar, P>) -> SVector<Self::Scalar, P>;

@@ -21,6 +21,18 @@ pub type Jacobian<T, const R: usize, const C: usize> = SMatrix<T, R, C>;
 /// perturbations act on the right, in the tangent space at `x` (the body frame);
 /// [`Left`](crate::Left) gives `exp(v) · x` (the world frame) and
 /// [`ProductManifold`](crate::ProductManifold) acts factor by factor.
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{Manifold, So2};
+/// use nalgebra::Vector1;
+/// let x = So2::from_angle(3.0_f64)?;
+/// // ⊞ and ⊟ invert each other, across the ±π cut.
+/// let y = x.retract(&Vector1::new(0.5));
+/// assert!((x.local(&y)[0] - 0.5).abs() < 1e-15);
+/// assert!((y.angle() - (3.5 - 2.0 * std::f64::consts::PI)).abs() < 1e-15);
+/// # Ok::<(), liebayes_manifolds::ManifoldError>(())
+/// ```
 pub trait Manifold<const D: usize>: Clone + Debug + Sized {
     /// The scalar type of coordinates.
     type Scalar: Real;

@@ -9,6 +9,17 @@ use nalgebra::SVector;
 /// A point of Rⁿ, the additive group: compose is `+`, exp and log are the identity map, and every
 /// Jacobian is `±I`. It acts on Rⁿ by translation. Having it behind the same traits lets generic
 /// filters treat positions, velocities and biases like any other state.
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{LieGroup, Manifold, Rn};
+/// use nalgebra::Vector2;
+/// let x = Rn::new(Vector2::new(1.0, 2.0))?;
+/// let y = x.retract(&Vector2::new(0.5, -1.0));
+/// assert_eq!(y.coords(), &Vector2::new(1.5, 1.0));
+/// assert_eq!(x.compose(&x.inverse()), Rn::identity());
+/// # Ok::<(), liebayes_manifolds::ManifoldError>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rn<T: Real, const N: usize> {
     v: SVector<T, N>,

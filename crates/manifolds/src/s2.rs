@@ -16,6 +16,18 @@ use nalgebra::{Matrix3x2, Unit, Vector3};
 ///
 /// The basis is the branch-free construction of Duff et al. (2017), continuous everywhere except across
 /// the plane z = 0, where it switches between the charts of the two poles. `DIM` = 2.
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{Manifold, S2};
+/// use nalgebra::{Vector2, Vector3};
+/// let north = S2::new(Vector3::z())?;
+/// // A quarter turn along the first tangent direction reaches the equator.
+/// let equator = north.retract(&Vector2::new(std::f64::consts::FRAC_PI_2, 0.0));
+/// assert!((north.angle_to(&equator) - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+/// assert!((north.local(&equator) - Vector2::new(std::f64::consts::FRAC_PI_2, 0.0)).norm() < 1e-15);
+/// # Ok::<(), liebayes_manifolds::ManifoldError>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct S2<T: Real> {
     n: Unit<Vector3<T>>,

@@ -18,6 +18,18 @@ use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 /// Tangent coordinates are the same rotation vectors as for [`So3`]: `exp(v) = (cos(θ/2), sin(θ/2) v/θ)`.
 /// `log` returns the vector with |v| = 2 atan2(|xyz|, w) in [0, 2π] (so `w < 0` gives angles above π);
 /// exp is injective for |v| < 2π and singular at 2π, where every axis reaches −1.
+///
+/// # Example
+/// ```
+/// use liebayes_manifolds::{LieGroup, Manifold, So3, Su2};
+/// use nalgebra::Vector3;
+/// let v = Vector3::new(0.3, -0.2, 0.9);
+/// let q = Su2::exp(&v);
+/// // The covering map sends exp on SU(2) to exp on SO(3), and −q to the same rotation.
+/// assert!(q.to_so3().distance(&So3::exp(&v)) < 1e-15);
+/// assert!(q.antipode().to_so3().distance(&So3::exp(&v)) < 1e-15);
+/// assert!((q.log() - v).norm() < 1e-15);
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct Su2<T: Real> {
     q: UnitQuaternion<T>,

@@ -24,6 +24,24 @@ use nalgebra::SVector;
 /// `density.condition(&Ekf(measurement), &z)`, or with a model kept elsewhere,
 /// `density.propagate(&Ekf(&process), &u)`. M, the measurement dimension, is inferred from z (and is
 /// 0, unused, for a process).
+///
+/// # Example
+/// ```
+/// use liebayes_operators::densities::ManifoldGaussian;
+/// use liebayes_operators::manifolds::{Manifold, Rn};
+/// use liebayes_operators::{Condition, Ekf, MeasurementFn};
+/// use nalgebra::{Matrix1, Vector1};
+///
+/// // A range z = x² + n, linearised at the mean 2: H = 4.
+/// let range = MeasurementFn::new(|x: &Rn<f64, 1>| Vector1::new(x.coords()[0].powi(2)), |_| {
+///     Matrix1::new(1.0)
+/// });
+/// let prior = ManifoldGaussian::new(Rn::new(Vector1::new(2.0)).unwrap(), Matrix1::new(0.5)).unwrap();
+/// let step = prior.condition(&Ekf(&range), &Vector1::new(5.0)).unwrap();
+/// // Kalman gain K = P H / (H P H + R) = 2/9; the mean moves by K (z − 4), P by (1 − K H).
+/// assert!((step.posterior.mean().coords()[0] - (2.0 + 2.0 / 9.0)).abs() < 1e-6);
+/// assert!((step.posterior.covariance()[0] - 0.5 / 9.0).abs() < 1e-6);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ekf<Model, const M: usize = 0>(pub Model);
 

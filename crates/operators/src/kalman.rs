@@ -55,6 +55,25 @@ impl<const N: usize> LinearProcess<N> {
 
 /// The linear measurement `z = H x + n`, `n ~ N(0, R)`.
 #[derive(Clone, Debug, PartialEq)]
+///
+/// # Example
+/// ```
+/// use liebayes_operators::densities::Gaussian;
+/// use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
+/// use liebayes_operators::{Condition, Propagate};
+/// use nalgebra::{Matrix1, Matrix2, Vector1, Vector2};
+///
+/// // Constant velocity, position measured: the Kalman filter is the Gaussian's own propagate and condition.
+/// let process = LinearProcess::new(Matrix2::new(1.0, 1.0, 0.0, 1.0), Matrix2::identity() * 0.01).unwrap();
+/// let sensor = LinearMeasurement::new(nalgebra::Matrix1x2::new(1.0, 0.0), Matrix1::new(0.25)).unwrap();
+/// let prior = Gaussian::new(Vector2::new(0.0, 1.0), Matrix2::identity()).unwrap();
+/// let predicted = prior.propagate(&process, &Vector2::zeros()).unwrap();
+/// assert_eq!(predicted.mean(), &Vector2::new(1.0, 1.0));
+/// let step = predicted.condition(&sensor, &Vector1::new(1.0)).unwrap();
+/// // The reading equals the prediction: the mean stays, the position variance shrinks.
+/// assert!((step.posterior.mean() - Vector2::new(1.0, 1.0)).norm() < 1e-12);
+/// assert!(step.posterior.covariance()[(0, 0)] < 0.25);
+/// ```
 pub struct LinearMeasurement<const N: usize, const M: usize> {
     matrix: SMatrix<f64, M, N>,
     noise: SMatrix<f64, M, M>,

@@ -40,6 +40,7 @@
 //!   statistic) and the estimation error on a manifold.
 //!
 //! The math of each is in `docs/operators/`; the filters crate composes them into applications.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod converted;
 pub mod ekf;

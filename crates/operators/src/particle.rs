@@ -49,6 +49,25 @@ pub const PARALLEL_MIN_PARTICLES: usize = 4096;
 
 /// Weighted particles `Σ wᵢ δ(x − xᵢ)`, weights kept as logarithms so that no likelihood underflows.
 #[derive(Clone, Debug)]
+///
+/// # Example
+/// ```
+/// use liebayes_operators::manifolds::So2;
+/// use liebayes_operators::particle::{LikelihoodFn, ParticleSet, Reweight};
+/// use liebayes_operators::{Condition, OperatorError};
+///
+/// let particles = vec![So2::from_angle_unchecked(-0.2), So2::from_angle_unchecked(0.2)];
+/// let set = ParticleSet::from_samples(particles)?;
+/// assert_eq!(set.effective_sample_size(), 2.0);
+/// // A likelihood twice as large at the second particle: weights 1/3 and 2/3.
+/// let likelihood = LikelihoodFn::new(|x: &So2<f64>, _: &()| if x.angle() > 0.0 { 2f64.ln() } else { 0.0 });
+/// let step = set.condition(&Reweight(likelihood), &())?;
+/// let w = step.posterior.weights();
+/// assert!((w[1] - 2.0 / 3.0).abs() < 1e-15);
+/// // The evidence is the prior mean of the likelihood, (1 + 2)/2.
+/// assert!((step.log_evidence - 1.5f64.ln()).abs() < 1e-15);
+/// # Ok::<(), OperatorError>(())
+/// ```
 pub struct ParticleSet<X> {
     particles: Vec<X>,
     /// The normalised log weights, with the buffer a Bayes step fills (also the weights' buffer when

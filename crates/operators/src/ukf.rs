@@ -72,6 +72,24 @@ pub enum SquareRoot {
 impl<Model, const M: usize> Ukf<Model, M> {
     /// The model with α = 1, β = 2, κ = 0: sigma points at `±√D` standard deviations, no negative
     /// mean weight.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_operators::densities::ManifoldGaussian;
+    /// use liebayes_operators::manifolds::{Manifold, Rn};
+    /// use liebayes_operators::{Condition, MeasurementFn, Ukf};
+    /// use nalgebra::{Matrix1, Vector1};
+    ///
+    /// // On a linear model the unscented transform is exact: the Kalman update.
+    /// let linear = MeasurementFn::new(|x: &Rn<f64, 1>| Vector1::new(3.0 * x.coords()[0]), |_| {
+    ///     Matrix1::new(1.0)
+    /// });
+    /// let prior = ManifoldGaussian::new(Rn::new(Vector1::new(0.0)).unwrap(), Matrix1::new(1.0)).unwrap();
+    /// let step = prior.condition(&Ukf::new(&linear), &Vector1::new(3.0)).unwrap();
+    /// // K = 3/(9 + 1): mean 0.9, variance 1 − 0.9 · 3 = 0.1.
+    /// assert!((step.posterior.mean().coords()[0] - 0.9).abs() < 1e-12);
+    /// assert!((step.posterior.covariance()[0] - 0.1).abs() < 1e-12);
+    /// ```
     pub fn new(model: Model) -> Self {
         Self {
             model,

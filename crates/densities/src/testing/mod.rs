@@ -53,6 +53,7 @@ pub use proptest as __proptest;
 /// The expansion refers to the caller's names through `use super::*`, so a strategy written with
 /// the caller's imports works as it is.
 #[macro_export]
+#[cfg_attr(docsrs, doc(cfg(feature = "proptest")))]
 macro_rules! density_laws {
     ($name:ident, $strategy:expr $(, $law:ident $(($($arg:expr),*))?)* $(,)?) => {
         mod $name {

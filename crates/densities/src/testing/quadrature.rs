@@ -6,7 +6,7 @@
 //! | space | rule | base measure |
 //! |---|---|---|
 //! | SO(2) | [`circle`]: the periodic trapezoid rule | dθ (total 2π) |
-//! | S² | [`sphere`]: Gauss-Legendre in `t = 1 − a · x` on geometric panels × trapezoid in azimuth | surface measure (total 4π) |
+//! | S² | [`sphere`]: the crate's [`SphereRule`](crate::quadrature::SphereRule), Gauss-Legendre in a geometric map of `t = 1 − a · x` × trapezoid in azimuth | surface measure (total 4π) |
 //! | SO(3) | [`so3`]: exponential coordinates `c · exp(L r n)`, Gauss-Legendre in r on panels × Gauss-Legendre-trapezoid on the directions n | normalised Haar measure |
 //! | SU(2) = S³ | [`s3`]: Hopf coordinates in an orthonormal frame, `u = (√(1 − |y|²) e^(iα), y)`, trapezoid or sinh-mapped Gauss-Legendre in α × whitened polar or iterated Gauss-Legendre on the disk `|y| ≤ 1` | uniform probability measure |
 //! | Rⁿ | [`rn`]: Gauss-Hermite in the eigen-coordinates of a covariance | Lebesgue |
@@ -42,6 +42,9 @@ const AZIMUTH_POINTS: usize = 32;
 
 /// Azimuthal points of [`sphere`].
 const SPHERE_AZIMUTH_POINTS: usize = 64;
+
+/// Colatitude points of [`sphere`].
+pub const SPHERE_COLATITUDE_POINTS: usize = 128;
 
 /// The radius, in units of the spread L, beyond which [`so3`] stops (and the whitened disk of [`s3`]): the densities they are
 /// placed for are below e^(−72) of their peak there.
@@ -99,24 +102,25 @@ pub fn circle(width: f64) -> Vec<(So2<f64>, f64)> {
         .collect()
 }
 
-/// The sphere S², against its surface measure, about `axis`: in `t = 1 − axis · x ∈ [0, 2]`
-/// Gauss-Legendre on the geometric panels of [`peaked`] starting at `width` (for a von Mises-Fisher
-/// of concentration κ about the axis, whose density is `∝ e^(−κ t)`, `width = 1/(1 + κ)`), times the
-/// trapezoid rule on 64 azimuths (exact for the first 63 azimuthal harmonics). The surface element is
-/// `dS = dt dφ`.
+/// The sphere S², against its surface measure, about `axis`: the crate's
+/// [`SphereRule`](crate::quadrature::SphereRule) with [`SPHERE_COLATITUDE_POINTS`] colatitude
+/// and 64 longitude nodes, its angle chosen so that `1 − cos(angle) = width` in `t = 1 − axis · x`
+/// (for a von Mises-Fisher of concentration κ about the axis, whose density is `∝ e^(−κ t)`,
+/// `width = 1/(1 + κ)`). Widths are clamped to the rule's range of angles.
+///
+/// # Panics
+/// Never: the node counts are constants within the rule's range and the angle is clamped to it.
 pub fn sphere(axis: &S2<f64>, width: f64) -> Vec<(S2<f64>, f64)> {
-    let basis = axis.tangent_basis();
-    let h = 2.0 * PI / SPHERE_AZIMUTH_POINTS as f64;
-    let mut nodes = Vec::new();
-    for (t, wt) in peaked(width, 2.0, 30) {
-        let radius = (t * (2.0 - t)).max(0.0).sqrt();
-        for k in 0..SPHERE_AZIMUTH_POINTS {
-            let (s, c) = (h * k as f64).sin_cos();
-            let x =
-                axis.as_vector() * (1.0 - t) + (basis.column(0) * c + basis.column(1) * s) * radius;
-            nodes.push((S2::new_unchecked(x.normalize()), wt * h));
-        }
-    }
+    let (low, high) = crate::quadrature::SPHERE_WIDTH_RANGE;
+    // 1 − cos(angle) = width, without cancellation: angle = 2 asin(√(width/2)).
+    let angle = (2.0 * (0.5 * width.clamp(0.0, 2.0)).sqrt().asin()).clamp(low, high);
+    let rule =
+        crate::quadrature::SphereRule::new(SPHERE_COLATITUDE_POINTS, SPHERE_AZIMUTH_POINTS, angle)
+            .expect("node counts and angle within the rule's ranges");
+    let mut nodes = Vec::with_capacity(SPHERE_COLATITUDE_POINTS * SPHERE_AZIMUTH_POINTS);
+    rule.for_each_node(axis, |x, w| {
+        nodes.push((S2::new_unchecked(x.normalize()), w));
+    });
     nodes
 }
 

@@ -8,7 +8,8 @@ use super::filter::{
 };
 use super::model::{AngleNoise, AzElModel, Position, UnitVectorModel, WorldDirections};
 use super::process::RandomWalk;
-use super::quadrature::{SphereRule, exact_posterior};
+use super::quadrature::exact_posterior;
+use liebayes_densities::quadrature::SphereRule;
 use liebayes_experiments::RecursiveFilter;
 use liebayes_operators::OperatorError;
 use liebayes_operators::particle::Likelihood;

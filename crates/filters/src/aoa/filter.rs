@@ -212,6 +212,25 @@ pub fn vmf_particle_filter<const N: usize>(
 ///
 /// # Errors
 /// As [`Prior::gaussian`].
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::aoa::{AzEl, Prior, RandomWalk, UnitVectorModel, square_track_anchors, vmf_ekf};
+/// use nalgebra::Vector3;
+/// let anchors = square_track_anchors();
+/// let truth = Vector3::new(1.0, 0.2, 0.0);
+/// // Noise-free readings of the true position by the four anchors.
+/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0));
+/// let model = UnitVectorModel::new(anchors, 100.0).unwrap();
+/// let walk = RandomWalk::new(0.5, 0.1).unwrap();
+/// let mut filter = vmf_ekf::<4, 12>(model, walk, &Prior::new(truth, 0.5).unwrap()).unwrap();
+/// filter.update(&readings).unwrap();
+/// // A prior centred on the truth and exact readings: the mean stays, the spread shrinks.
+/// let estimate = filter.estimate().unwrap();
+/// assert!((estimate.mean - truth).norm() < 1e-9);
+/// assert!(estimate.covariance.trace() < 3.0 * 0.25);
+/// ```
 pub fn vmf_ekf<const N: usize, const M: usize>(
     model: UnitVectorModel<N>,
     process: RandomWalk,
@@ -232,6 +251,24 @@ pub fn vmf_ekf<const N: usize, const M: usize>(
 ///
 /// # Errors
 /// As [`Prior::gaussian`].
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::aoa::{AzEl, Prior, RandomWalk, UnitVectorModel, square_track_anchors, vmf_ukf};
+/// use nalgebra::Vector3;
+/// let anchors = square_track_anchors();
+/// let truth = Vector3::new(1.0, 0.2, 0.0);
+/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0));
+/// let model = UnitVectorModel::new(anchors, 100.0).unwrap();
+/// let walk = RandomWalk::new(0.5, 0.1).unwrap();
+/// let mut filter = vmf_ukf::<4, 12>(model, walk, &Prior::new(truth, 0.5).unwrap()).unwrap();
+/// filter.update(&readings).unwrap();
+/// // Exact readings pull the estimate towards the truth and shrink the spread.
+/// let estimate = filter.estimate().unwrap();
+/// assert!((estimate.mean - truth).norm() < 0.05);
+/// assert!(estimate.covariance.trace() < 3.0 * 0.25);
+/// ```
 pub fn vmf_ukf<const N: usize, const M: usize>(
     model: UnitVectorModel<N>,
     process: RandomWalk,
@@ -275,6 +312,26 @@ pub fn angle_particle_filter<const N: usize>(
 ///
 /// # Errors
 /// As [`Prior::gaussian`].
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::aoa::{
+///     AngleNoise, AzEl, AzElModel, Prior, RandomWalk, angle_ekf, square_track_anchors,
+/// };
+/// use nalgebra::Vector3;
+/// let anchors = square_track_anchors();
+/// let truth = Vector3::new(1.0, 0.2, 0.0);
+/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0));
+/// let noise = AngleNoise::Fixed { sigma_az: 0.1, sigma_el: 0.1 };
+/// let model = AzElModel::new(anchors, noise).unwrap();
+/// let walk = RandomWalk::new(0.5, 0.1).unwrap();
+/// let mut filter = angle_ekf::<4, 8>(model, walk, &Prior::new(truth, 0.5).unwrap()).unwrap();
+/// filter.update(&readings).unwrap();
+/// let estimate = filter.estimate().unwrap();
+/// assert!((estimate.mean - truth).norm() < 1e-9);
+/// assert!(estimate.covariance.trace() < 3.0 * 0.25);
+/// ```
 pub fn angle_ekf<const N: usize, const M: usize>(
     model: AzElModel<N>,
     process: RandomWalk,

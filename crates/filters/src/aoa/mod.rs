@@ -54,8 +54,5 @@ pub use noise::{
     sigma_from_kappa,
 };
 pub use process::{DELTA_LIMIT, Q_LIMIT, RandomWalk};
-pub use quadrature::{
-    DEFAULT_NODES, MIN_EFFECTIVE_NODES, NODE_RANGE, PRIOR_LIMIT, SphereRule, WIDTH_RANGE,
-    exact_posterior,
-};
+pub use quadrature::{MIN_EFFECTIVE_NODES, PRIOR_LIMIT, exact_posterior};
 pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackSteps, TruthModel};

@@ -126,6 +126,21 @@ impl AzimuthDensity {
     /// [`OperatorError::OutOfRange`] for σ₀ outside [1.5e-154, 1e150] (negative, zero, or with a
     /// square that underflows or exceeds 1e300) or components of r₀ beyond ±1e150;
     /// [`OperatorError::NonFinite`] for a non-finite r₀.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_filters::azimuth::{AzimuthDensity, PositionMeasurement};
+    /// use nalgebra::Vector2;
+    /// // The platform at r = (10, 0) in its own axes, turned by an unknown azimuth A.
+    /// let prior = AzimuthDensity::new(Vector2::new(10.0, 0.0), 1.0).unwrap();
+    /// let sensor = PositionMeasurement::new(0.1).unwrap();
+    /// // A world position (0, 10): A is a quarter turn.
+    /// let posterior = prior.conditioned(&sensor, &Vector2::new(0.0, 10.0)).unwrap();
+    /// let azimuth = posterior.estimate().azimuth.unwrap().angle();
+    /// assert!((azimuth - std::f64::consts::FRAC_PI_2).abs() < 1e-2);
+    /// // The position variance is the Kalman one, σ₀² σ_m² / (σ₀² + σ_m²).
+    /// assert!((posterior.sigma2() - 0.01 / 1.01).abs() < 1e-15);
+    /// ```
     pub fn new(r0: Vector2<f64>, sigma0: f64) -> Result<Self, OperatorError> {
         let sigma2 = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
         Self::from_parts(Vector2::zeros(), r0, Vector2::zeros(), sigma2)

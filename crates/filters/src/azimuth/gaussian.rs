@@ -97,6 +97,22 @@ fn prior(
 ///
 /// # Errors
 /// As the prior: a non-finite r₀, σ₀ outside [1.5e-154, 1e150].
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::azimuth::{PositionMeasurement, VelocityInput, VelocityProcess, ekf};
+/// use nalgebra::Vector2;
+/// let process = VelocityProcess::new(0.1).unwrap();
+/// let sensor = PositionMeasurement::new(1.0).unwrap();
+/// let mut filter = ekf(process, sensor, Vector2::new(5.0, 0.0), 1.0).unwrap();
+/// // One second at 1 m/s along the platform's x axis moves the position estimate by 1 m.
+/// filter.predict(&VelocityInput { velocity: Vector2::new(1.0, 0.0), dt: 1.0 }).unwrap();
+/// let estimate = filter.estimate().unwrap();
+/// assert!((estimate.mean_r - Vector2::new(6.0, 0.0)).norm() < 1e-12);
+/// // Its variance grows by q² dt = 0.01 per axis.
+/// assert!((estimate.cov_r[(0, 0)] - 1.01).abs() < 1e-12);
+/// ```
 pub fn ekf(
     process: VelocityProcess,
     measurement: PositionMeasurement,
@@ -119,6 +135,19 @@ pub fn ekf(
 ///
 /// # Errors
 /// As [`ekf`].
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::azimuth::{PositionMeasurement, VelocityProcess, ukf};
+/// use nalgebra::Vector2;
+/// let filter = ukf(VelocityProcess::new(0.1).unwrap(), PositionMeasurement::new(1.0).unwrap(),
+///     Vector2::new(5.0, 0.0), 2.0).unwrap();
+/// // Before any step the estimate is the prior: r₀, σ₀² I, the azimuth at 0.
+/// let estimate = filter.estimate().unwrap();
+/// assert_eq!(estimate.mean_r, Vector2::new(5.0, 0.0));
+/// assert!((estimate.cov_r[(1, 1)] - 4.0).abs() < 1e-12);
+/// ```
 pub fn ukf(
     process: VelocityProcess,
     measurement: PositionMeasurement,

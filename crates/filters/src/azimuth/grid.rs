@@ -76,6 +76,20 @@ pub type AzimuthGrid = Recursive<
 /// [`OperatorError::OutOfRange`] for n = 0 or σ₀ outside [1.5e-154, 1e150],
 /// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS), or
 /// the Gaussian's errors for r₀; all before any cell is allocated.
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::azimuth::{PositionMeasurement, VelocityProcess, grid_filter};
+/// use nalgebra::Vector2;
+/// let process = VelocityProcess::new(0.1).unwrap();
+/// let sensor = PositionMeasurement::new(0.1).unwrap();
+/// let mut filter = grid_filter(360, process, sensor, Vector2::new(10.0, 0.0), 1.0).unwrap();
+/// // A world position (−10, 0): half a turn, found to the grid's degree.
+/// filter.update(&Vector2::new(-10.0, 0.0)).unwrap();
+/// let azimuth = filter.estimate().unwrap().azimuth.unwrap();
+/// assert!((azimuth.angle().abs() - std::f64::consts::PI).abs() < 2e-2);
+/// ```
 pub fn grid_filter(
     n: usize,
     process: VelocityProcess,
