@@ -656,7 +656,50 @@ fn render(table: &Table) -> String {
     for note in notes {
         let _ = writeln!(out, "{note}");
     }
+    let legend: Vec<String> = columns
+        .iter()
+        .filter_map(|c| meaning(&c.name).map(|m| format!("  {}: {m}", c.name)))
+        .collect();
+    if !legend.is_empty() {
+        let _ = writeln!(out, "What the figures say:");
+        for line in legend {
+            let _ = writeln!(out, "{line}");
+        }
+        let _ = writeln!(out, "  ns/step: the filter's time per step (nanoseconds).");
+    }
     out
+}
+
+/// What a metric's printed figure means, in a line under the table (`None` for a metric without
+/// one: its name says it).
+fn meaning(name: &str) -> Option<String> {
+    let text = if let Some(what) = name.strip_suffix("_error") {
+        format!("RMS over the runs of the {what} error (truth minus estimate)")
+    } else if let Some(what) = name.strip_suffix("_sigma") {
+        format!(
+            "RMS over the runs of the filter's own {what} standard deviation: about the error when              the filter is consistent, far below it when over-confident"
+        )
+    } else if name == "nis" || name.ends_with("nees") {
+        format!(
+            "the mean {} (a chi-square value with the degrees of freedom of its metric) and, in              brackets, the 95 % band a consistent filter's mean falls in: above, over-confident;              below, cautious",
+            name.to_uppercase().replace('_', " ")
+        )
+    } else {
+        match name {
+            "circular_consistency" => {
+                "mean of (1 - cos e)/(1 - rho) of the azimuth error e against the filter's mean                  resultant length rho: 1 when its angular spread is right; a particle filter whose                  particles collapsed on one azimuth reports rho = 1 to rounding, and reads 1e9 or                  more"
+            }
+            "diverged" => {
+                "share of the runs whose final azimuth error exceeds 10 deg (where the azimuth                  cannot be observed, the static scenario, every azimuth figure measures nothing)"
+            }
+            "log_evidence" => {
+                "mean log likelihood of the last measurement under the prediction (0 for a step                  that conditioned on nothing)"
+            }
+            _ => return None,
+        }
+        .to_owned()
+    };
+    Some(text)
 }
 
 // ---------------------------------------------------------------------------------------------
