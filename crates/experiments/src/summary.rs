@@ -156,9 +156,11 @@ pub struct StudyLabel {
 /// runs are equal bit for bit, however they were sharded. The timing is measured, so it differs
 /// from one execution to the next; it is kept apart for that reason.
 ///
-/// Read from a file, a summary is checked whole (sums finite unless flagged, counts consistent,
-/// min ≤ max, epochs unique and sorted), so that what merges and
-/// what is reported can be trusted; the error names the field at fault.
+/// Read from a file, a summary is checked whole, so that what merges and what is reported can be
+/// trusted: run ranges sorted, disjoint and inside the study; metric names distinct; at every epoch
+/// no more values than runs covered; per-run values of covered runs only; a trace of run 0 with
+/// each epoch once, in increasing time; each [`RunningStats`] consistent. The error names the
+/// field at fault.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "SummaryFields")]
 pub struct Summary {
