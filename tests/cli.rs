@@ -645,3 +645,35 @@ fn attitude_unknown_method_is_refused() {
         "{stderr}"
     );
 }
+
+/// A CSV log with a corrupt gyroscope reading (1e200 rad/s, beyond the sensor's range) is refused
+/// with one line naming the file and the row, and nothing is written.
+#[test]
+fn attitude_csv_with_a_corrupt_reading_is_refused() {
+    let dir = folder("attitude-corrupt");
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("corrupt.csv");
+    std::fs::write(
+        &input,
+        "t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n0.02,1e200,0,0,0,0,9.8\n",
+    )
+    .unwrap();
+    let out_dir = dir.join("out");
+    let out = liebayes(&[
+        "attitude",
+        "--csv",
+        input.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.contains("corrupt.csv")
+            && stderr.contains("row 2")
+            && stderr.trim().lines().count() == 1,
+        "{stderr}"
+    );
+    assert!(files(&out_dir).is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
