@@ -269,6 +269,10 @@ impl<G: AbsDiffEq> AbsDiffEq for Left<G> {
     fn abs_diff_eq(&self, other: &Self, epsilon: G::Epsilon) -> bool {
         self.0.abs_diff_eq(&other.0, epsilon)
     }
+    /// The negation of `abs_diff_eq`.
+    fn abs_diff_ne(&self, other: &Self, epsilon: G::Epsilon) -> bool {
+        !self.abs_diff_eq(other, epsilon)
+    }
 }
 
 /// Compares the wrapped elements.
@@ -278,5 +282,9 @@ impl<G: RelativeEq> RelativeEq for Left<G> {
     }
     fn relative_eq(&self, other: &Self, epsilon: G::Epsilon, max_relative: G::Epsilon) -> bool {
         self.0.relative_eq(&other.0, epsilon, max_relative)
+    }
+    /// The negation of `relative_eq`.
+    fn relative_ne(&self, other: &Self, epsilon: G::Epsilon, max_relative: G::Epsilon) -> bool {
+        !self.relative_eq(other, epsilon, max_relative)
     }
 }

@@ -143,6 +143,10 @@ macro_rules! impl_pose_comparisons_and_conversions {
                 self.rotation.abs_diff_eq(&other.rotation, epsilon)
                     && self.translation.abs_diff_eq(&other.translation, epsilon)
             }
+            /// The negation of `abs_diff_eq`.
+            fn abs_diff_ne(&self, other: &Self, epsilon: T) -> bool {
+                !self.abs_diff_eq(other, epsilon)
+            }
         }
 
         impl<T: $crate::Real> approx::RelativeEq for $ty<T> {
@@ -156,6 +160,10 @@ macro_rules! impl_pose_comparisons_and_conversions {
                     && self
                         .translation
                         .relative_eq(&other.translation, epsilon, max_relative)
+            }
+            /// The negation of `relative_eq`.
+            fn relative_ne(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
+                !self.relative_eq(other, epsilon, max_relative)
             }
         }
 

@@ -246,6 +246,10 @@ impl<T: Real> AbsDiffEq for So3<T> {
         self.q.coords.abs_diff_eq(&other.q.coords, epsilon)
             || self.q.coords.abs_diff_eq(&-other.q.coords, epsilon)
     }
+    /// The negation of `abs_diff_eq`.
+    fn abs_diff_ne(&self, other: &Self, epsilon: T) -> bool {
+        !self.abs_diff_eq(other, epsilon)
+    }
 }
 
 impl<T: Real> RelativeEq for So3<T> {
@@ -261,6 +265,10 @@ impl<T: Real> RelativeEq for So3<T> {
                 .q
                 .coords
                 .relative_eq(&-other.q.coords, epsilon, max_relative)
+    }
+    /// The negation of `relative_eq`.
+    fn relative_ne(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
+        !self.relative_eq(other, epsilon, max_relative)
     }
 }
 
