@@ -57,6 +57,26 @@ pub trait RecursiveFilter {
     fn estimate(&self) -> Result<Self::Estimate, OperatorError>;
 }
 
+/// A boxed filter is a filter: an application whose methods build different filter types can
+/// give a [`Method`](crate::Method) one filter type, `Box<dyn RecursiveFilter<...> + Send>`.
+impl<F: RecursiveFilter + ?Sized> RecursiveFilter for Box<F> {
+    type Input = F::Input;
+    type Measurement = F::Measurement;
+    type Estimate = F::Estimate;
+
+    fn predict(&mut self, input: &Self::Input) -> Result<(), OperatorError> {
+        (**self).predict(input)
+    }
+
+    fn update(&mut self, z: &Self::Measurement) -> Result<Update, OperatorError> {
+        (**self).update(z)
+    }
+
+    fn estimate(&self) -> Result<Self::Estimate, OperatorError> {
+        (**self).estimate()
+    }
+}
+
 /// What a conditioning step's report says about consistency: the NIS where there is one.
 pub trait StepReport {
     /// The NIS of the update, if the algorithm has an innovation covariance.
