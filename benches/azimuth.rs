@@ -7,8 +7,8 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use liebayes::experiments::RecursiveFilter;
 use liebayes::filters::azimuth::{
-    AzimuthDensity, PositionMeasurement, VelocityInput, VelocityProcess, ekf, exact, grid_filter,
-    marginalized_filter, particle_filter, ukf,
+    AzimuthDensity, AzimuthExact, PositionMeasurement, VelocityInput, VelocityProcess, ekf, exact,
+    grid_filter, marginalized_filter, particle_filter, ukf,
 };
 use liebayes::operators::{Condition, Propagate};
 use nalgebra::Vector2;
@@ -104,6 +104,15 @@ fn baselines(c: &mut Criterion) {
     let r0 = Vector2::zeros();
     let rng = || ChaCha8Rng::seed_from_u64(1);
     step(&mut g, "exact", exact(p, m, r0, 1.0).unwrap());
+    // The cost of a method's boxed filter (one Filter type for methods of different types).
+    let boxed: Box<
+        dyn RecursiveFilter<
+                Input = VelocityInput,
+                Measurement = Vector2<f64>,
+                Estimate = <AzimuthExact as RecursiveFilter>::Estimate,
+            > + Send,
+    > = Box::new(exact(p, m, r0, 1.0).unwrap());
+    step(&mut g, "exact, boxed", boxed);
     step(&mut g, "EKF", ekf(p, m, r0, 1.0).unwrap());
     step(&mut g, "UKF", ukf(p, m, r0, 1.0).unwrap());
     step(&mut g, "grid 360", grid_filter(360, p, m, r0, 1.0).unwrap());

@@ -21,6 +21,15 @@ pub enum ExperimentError {
     /// A scenario that cannot be simulated with its settings.
     #[error("scenario: {0}")]
     Scenario(String),
+    /// A method whose settings are refused, before any run.
+    #[error("method {label}: {source}")]
+    Method {
+        /// The method's label.
+        label: String,
+        /// What is wrong with its settings.
+        #[source]
+        source: liebayes_operators::OperatorError,
+    },
     /// Two partial summaries that cannot be merged.
     #[error("cannot merge these summaries: {0}")]
     Incompatible(String),

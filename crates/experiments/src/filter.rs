@@ -57,8 +57,8 @@ pub trait RecursiveFilter {
     fn estimate(&self) -> Result<Self::Estimate, OperatorError>;
 }
 
-/// A boxed filter is a filter (so that filters of different types can be held as one, a trait
-/// object, at the cost of a dynamic call per step).
+/// A boxed filter is a filter: an application whose methods build different filter types can
+/// give a [`Method`](crate::Method) one filter type, `Box<dyn RecursiveFilter<...> + Send>`.
 impl<F: RecursiveFilter + ?Sized> RecursiveFilter for Box<F> {
     type Input = F::Input;
     type Measurement = F::Measurement;
@@ -138,25 +138,6 @@ pub struct Recursive<Density, P, M, E = AsIs> {
 
 impl<Density, P, M> Recursive<Density, P, M> {
     /// The filter starting from the prior `density`, its own estimate ([`AsIs`]).
-    ///
-    /// # Example
-    /// ```
-    /// use liebayes_experiments::{Recursive, RecursiveFilter};
-    /// use liebayes_operators::densities::Gaussian;
-    /// use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
-    /// use nalgebra::{Matrix1, Vector1};
-    ///
-    /// // A random walk x′ = x + w, w ~ N(0, 1), measured directly with noise variance 1.
-    /// let process = LinearProcess::new(Matrix1::new(1.0), Matrix1::new(1.0)).unwrap();
-    /// let sensor = LinearMeasurement::new(Matrix1::new(1.0), Matrix1::new(1.0)).unwrap();
-    /// let prior = Gaussian::new(Vector1::new(0.0), Matrix1::new(1.0)).unwrap();
-    /// let mut filter = Recursive::new(prior, process, sensor);
-    /// filter.predict(&Vector1::zeros()).unwrap();
-    /// let update = filter.update(&Vector1::new(3.0)).unwrap();
-    /// // Predicted variance 2, gain 2/3: the estimate moves to 2, and the NIS is 3²/3 = 3.
-    /// assert!((filter.estimate().unwrap().mean()[0] - 2.0).abs() < 1e-12);
-    /// assert!((update.nis.unwrap().value - 3.0).abs() < 1e-12);
-    /// ```
     pub fn new(density: Density, process: P, measurement: M) -> Self {
         Self::with_estimator(density, process, measurement, AsIs)
     }

@@ -8,6 +8,8 @@
 //!   measurement returning its log evidence and NIS, an estimate with its uncertainty).
 //!   [`Recursive`] gives it to any density that steps through the operators' `Propagate` and
 //!   `Condition` (the Kalman filters on a manifold, the linear Kalman filter).
+//! * [`Method`]: one filter a study compares: its label, its settings checked before any run,
+//!   and the filter of each run built from the run's filter stream; [`Study::run_method`] runs it.
 //! * [`Paired`]: two filters on the same data, to compare an approximation with a reference at
 //!   every epoch.
 //! * [`Scenario`] simulates a [`Trajectory`] of [`Step`]s from a run's generator; [`replay()`] is the
@@ -36,6 +38,7 @@
 mod error;
 mod exact_sum;
 pub mod filter;
+mod method;
 mod paired;
 pub mod record;
 pub mod replay;
@@ -53,6 +56,7 @@ pub mod testing;
 pub use error::ExperimentError;
 pub use exact_sum::ExactSum;
 pub use filter::{AsIs, Estimator, Nis, Recursive, RecursiveFilter, StepReport, Update};
+pub use method::Method;
 pub use paired::{Paired, PairedEstimate};
 pub use record::{Recorded, Recording, record};
 pub use replay::{RunFailure, RunScores, Scenario, Step, StepOf, Trajectory, replay};

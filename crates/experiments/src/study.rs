@@ -5,7 +5,7 @@ use crate::filter::RecursiveFilter;
 use crate::replay::{Scenario, replay};
 use crate::score::Scorer;
 use crate::summary::StudyLabel;
-use crate::{ExperimentError, Shard, Summary, run_rngs};
+use crate::{ExperimentError, Method, Shard, Summary, run_rngs};
 use liebayes_operators::OperatorError;
 use rand_chacha::ChaCha8Rng;
 
@@ -191,6 +191,39 @@ impl Study {
         reduce_blocks(blocks, &block, &|| {
             Summary::new(self.label(), range.start..range.start)
         })
+    }
+
+    /// Runs this shard of `method` on `scenario`, as [`Study::run`] with the method's
+    /// [`build`](Method::build), after checking the method's settings once.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Method`] when [`Method::validate`] refuses the method (before any run);
+    /// as [`Study::run`] otherwise.
+    pub fn run_method<S, M, Sc>(
+        &self,
+        scenario: &S,
+        method: &M,
+        scorer: &Sc,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<Summary, ExperimentError>
+    where
+        S: Scenario,
+        M: Method + Sync,
+        M::Filter: RecursiveFilter<Input = S::Input, Measurement = S::Measurement>,
+        Sc: Scorer<S::Truth, <M::Filter as RecursiveFilter>::Estimate>,
+    {
+        method
+            .validate()
+            .map_err(|source| ExperimentError::Method {
+                label: method.label(),
+                source,
+            })?;
+        self.run(
+            scenario,
+            &|rng: &mut ChaCha8Rng| method.build(rng),
+            scorer,
+            progress,
+        )
     }
 
     /// One run into `summary`.

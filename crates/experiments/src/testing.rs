@@ -13,8 +13,7 @@
 //!
 //! **The band** is the one for independent runs: the sum of R values χ²(d) is χ²(R d), so their mean
 //! per degree of freedom lies in `[q(0.0005), q(0.9995)] / (R d)` for a consistent filter (q the
-//! χ²(R d) quantile, from [`chi_square_quantile`]'s Wilson-Hilferty form, accurate to 2e-3 for the
-//! R d ≥ 100 used here). The last epoch of each run is taken (epochs of one run are correlated;
+//! exact χ²(R d) quantile, [`chi_square_quantile`]). The last epoch of each run is taken (epochs of one run are correlated;
 //! runs are not).
 
 use crate::filter::{Nis, RecursiveFilter};

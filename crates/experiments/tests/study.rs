@@ -5,8 +5,8 @@
 
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{
-    ExperimentError, ManifoldScorer, Metric, Recursive, RecursiveFilter, Scenario, Scorer, Shard,
-    Step, Study, Summary, replay, run_rngs,
+    ExperimentError, ManifoldScorer, Method, Metric, Recursive, RecursiveFilter, Scenario, Scorer,
+    Shard, Step, Study, Summary, replay, run_rngs,
 };
 use liebayes_manifolds::{Manifold, So2};
 use liebayes_operators::evaluation::average_nees_band;
@@ -250,4 +250,84 @@ fn replay_stops_at_the_first_failure_and_says_where() {
         failure.to_string().starts_with("step 5 (t = 6 s)"),
         "{failure}"
     );
+}
+
+/// The EKF of the scenario as a method, assuming this measurement sigma, its filter boxed.
+struct Assumed(f64);
+
+impl Method for Assumed {
+    type Filter = Box<
+        dyn RecursiveFilter<
+                Input = (),
+                Measurement = Vector2<f64>,
+                Estimate = ManifoldGaussian<So2<f64>, 1>,
+            > + Send,
+    >;
+
+    fn label(&self) -> String {
+        format!("EKF sigma {}", self.0)
+    }
+
+    fn validate(&self) -> Result<(), OperatorError> {
+        if self.0 > 0.0 {
+            Ok(())
+        } else {
+            Err(OperatorError::OutOfRange {
+                what: "measurement sigma",
+                value: self.0,
+                range: "(0, inf)",
+            })
+        }
+    }
+
+    fn build(&self, _: &mut ChaCha8Rng) -> Result<Self::Filter, OperatorError> {
+        Ok(Box::new(filter(self.0)?))
+    }
+}
+
+#[test]
+fn a_method_study_equals_the_study_of_its_built_filter_bit_for_bit() {
+    let by_method = Study::new("EKF, heading", 40, 11, Shard::WHOLE)
+        .unwrap()
+        .run_method(
+            &Heading { steps: 40 },
+            &Assumed(SIGMA),
+            &PerRunError,
+            &|_| {},
+        )
+        .unwrap();
+    let by_closure = study(40, Shard::WHOLE, SIGMA);
+    // Everything but the timing.
+    let text = |s: &Summary| serde_json::to_string(s.metrics()).unwrap();
+    assert_eq!(text(&by_method), text(&by_closure));
+    assert_eq!(by_method.failures(), by_closure.failures());
+    assert_eq!(by_method.trace(), by_closure.trace());
+    assert_eq!(
+        by_method.run_values("error"),
+        by_closure.run_values("error")
+    );
+    assert_eq!(by_method.runs(), by_closure.runs());
+}
+
+#[test]
+fn a_refused_method_stops_the_study_before_any_run() {
+    let runs = std::sync::atomic::AtomicU64::new(0);
+    let error = Study::new("EKF, heading", 40, 11, Shard::WHOLE)
+        .unwrap()
+        .run_method(
+            &Heading { steps: 40 },
+            &Assumed(-1.0),
+            &PerRunError,
+            &|done| {
+                runs.store(done, std::sync::atomic::Ordering::Relaxed);
+            },
+        )
+        .unwrap_err();
+    assert!(matches!(
+        &error,
+        ExperimentError::Method { label, source: OperatorError::OutOfRange { .. } }
+            if label == "EKF sigma -1"
+    ));
+    assert!(std::error::Error::source(&error).is_some());
+    assert_eq!(runs.load(std::sync::atomic::Ordering::Relaxed), 0);
 }

@@ -86,9 +86,9 @@ pub fn nis<const M: usize>(
 /// normal quantile `z_p` (so that one argument serves every band: `z_p = ±1.96` for a 95 % band),
 /// exact: the root x of `P(k/2, x/2) = p` ([`chi_square_cdf`]), found by bisection on a bracket
 /// from the Wilson-Hilferty cube `k (1 − 2/(9k) + z_p √(2/(9k)))³` (in at most 200 halvings, to
-/// a relative 1e-13). Accurate for a handful of degrees of freedom as for thousands (the cube
-/// alone errs by 10 % at k = 1). Valid for k ≥ 1 and |z_p| ≤ 37 (p representable away from 0
-/// and 1).
+/// a relative 1e-13), up to k = 1e4; beyond, the cube itself, whose relative error is then below
+/// 1e-6. So it is accurate for a handful of degrees of freedom as for millions (the cube alone
+/// errs by 10 % at k = 1). Valid for k ≥ 1 and |z_p| ≤ 37 (p representable away from 0 and 1).
 ///
 /// # Errors
 /// [`OperatorError::NonFinite`] for a non-finite z_p or k; [`OperatorError::OutOfRange`] for
@@ -112,16 +112,26 @@ pub fn chi_square_quantile(normal_quantile: f64, dof: f64) -> Result<f64, Operat
             range: "[-37, 37]",
         });
     }
+    let h = 2.0 / (9.0 * dof);
+    let guess = dof * (1.0 - h + normal_quantile * h.sqrt()).powi(3).max(0.0);
+    if dof > EXACT_DOF {
+        // The cube is exact to about 1e-6 relative here (its error falls as 1/k), and the series
+        // would need more than its 500 terms.
+        all_finite(
+            "chi-square quantile (it overflows: the normal quantile is too large)",
+            [guess].iter(),
+        )?;
+        return Ok(guess);
+    }
     // Work in the smaller tail: q = P(upper) for z > 0, else the lower tail, so that p near 1
     // keeps its digits.
     let upper = normal_quantile > 0.0;
     let tail = liebayes_densities::special::normal_cdf(-normal_quantile.abs());
-    let h = 2.0 / (9.0 * dof);
-    let guess = dof * (1.0 - h + normal_quantile * h.sqrt()).powi(3).max(0.0);
     // The tail mass beyond x on the side of the quantile: decreasing in x for the upper tail,
     // increasing for the lower.
     let beyond = |x: f64| {
-        let (lower, upper_mass) = chi_square_cdf(x, dof);
+        // x > 0 and 1 ≤ k ≤ 1e4 here: the function cannot fail.
+        let (lower, upper_mass) = chi_square_cdf(x, dof).unwrap_or((0.5, 0.5));
         if upper { upper_mass } else { lower }
     };
     // A bracket [low, high] with the root inside.
@@ -167,17 +177,42 @@ pub fn chi_square_quantile(normal_quantile: f64, dof: f64) -> Result<f64, Operat
     Ok(0.5 * (low + high))
 }
 
+/// The most degrees of freedom [`chi_square_quantile`] inverts the distribution function for;
+/// beyond, the Wilson-Hilferty cube is as accurate as the band needs.
+const EXACT_DOF: f64 = 1e4;
+
 /// The χ² distribution function with k degrees of freedom and its complement,
 /// `(P(k/2, x/2), Q(k/2, x/2))`, the regularized incomplete gamma functions: by their series
 /// `P(a, y) = e^(−y) y^a / Γ(a+1) Σ yⁿ / ((a+1)…(a+n))` for `y < a + 1`, and by the continued
 /// fraction of Q (modified Lentz) beyond, each the complement of the other; at most 500 terms,
-/// to a relative 1e-16. `(0, 1)` for x ≤ 0.
-pub fn chi_square_cdf(x: f64, dof: f64) -> (f64, f64) {
-    if x <= 0.0 || x.is_nan() {
-        return (0.0, 1.0);
+/// to a relative 1e-16, which suffice for k up to 1e4. `(0, 1)` for x ≤ 0, `(1, 0)` for x = +∞.
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] for a NaN x or a non-finite k; [`OperatorError::OutOfRange`] for
+/// k outside [1, 1e4].
+pub fn chi_square_cdf(x: f64, dof: f64) -> Result<(f64, f64), OperatorError> {
+    if x.is_nan() {
+        return Err(OperatorError::NonFinite {
+            what: "argument of the chi-square distribution function",
+            value: x,
+        });
+    }
+    all_finite(
+        "degrees of freedom of the chi-square distribution function",
+        [dof].iter(),
+    )?;
+    if !(1.0..=EXACT_DOF).contains(&dof) {
+        return Err(OperatorError::OutOfRange {
+            what: "degrees of freedom of the chi-square distribution function",
+            value: dof,
+            range: "[1, 1e4]",
+        });
+    }
+    if x <= 0.0 {
+        return Ok((0.0, 1.0));
     }
     if x.is_infinite() {
-        return (1.0, 0.0);
+        return Ok((1.0, 0.0));
     }
     let (a, y) = (0.5 * dof, 0.5 * x);
     let log_front = -y + a * y.ln() - libm::lgamma(a);
@@ -191,7 +226,7 @@ pub fn chi_square_cdf(x: f64, dof: f64) -> (f64, f64) {
             }
         }
         let p = (log_front + sum.ln()).exp().min(1.0);
-        (p, 1.0 - p)
+        Ok((p, 1.0 - p))
     } else {
         let tiny = 1e-300;
         let mut b = y + 1.0 - a;
@@ -218,14 +253,36 @@ pub fn chi_square_cdf(x: f64, dof: f64) -> (f64, f64) {
             }
         }
         let q = (log_front + fraction.ln()).exp().min(1.0);
-        (1.0 - q, q)
+        Ok((1.0 - q, q))
     }
 }
 
 /// The standard normal 97.5 % quantile.
 pub const Z_975: f64 = 1.959_963_984_540_054;
 
-/// The two-sided 95 % band of the average NEES over `runs` runs of a `dim`-dimensional state.
+/// The 2.5 % and 97.5 % quantiles of χ²(k), exact ([`chi_square_quantile`]): the one band every
+/// consistency figure of the library is drawn with.
+///
+/// # Errors
+/// [`OperatorError::OutOfRange`] for k = 0.
+pub fn chi_square_band(dof: usize) -> Result<(f64, f64), OperatorError> {
+    if dof == 0 {
+        return Err(OperatorError::OutOfRange {
+            what: "degrees of freedom of the chi-square band",
+            value: 0.0,
+            range: "at least 1",
+        });
+    }
+    let dof = dof as f64;
+    Ok((
+        chi_square_quantile(-Z_975, dof)?,
+        chi_square_quantile(Z_975, dof)?,
+    ))
+}
+
+/// The two-sided 95 % band of the average NEES over `runs` runs of a `dim`-dimensional state:
+/// the [`chi_square_band`] of `dim · runs` degrees of freedom divided by `runs` (the sum of `runs`
+/// independent χ²(dim) values is χ²(dim · runs)).
 ///
 /// # Errors
 /// [`OperatorError::OutOfRange`] for `dim` or `runs` zero, [`OperatorError::TooLarge`] when
@@ -240,11 +297,8 @@ pub fn average_nees_band(dim: usize, runs: usize) -> Result<(f64, f64), Operator
     }
     let dof = dim.saturating_mul(runs);
     check_size("degrees of freedom dim * runs of the NEES band", dof)?;
-    let dof = dof as f64;
-    Ok((
-        chi_square_quantile(-Z_975, dof)? / runs as f64,
-        chi_square_quantile(Z_975, dof)? / runs as f64,
-    ))
+    let (low, high) = chi_square_band(dof)?;
+    Ok((low / runs as f64, high / runs as f64))
 }
 
 /// The circular consistency statistic `(1 − cos e)/(1 − ρ)` of an angle error e against the
@@ -336,6 +390,52 @@ mod tests {
                 "{k}: {got_high} vs {high}"
             );
         }
+    }
+
+    /// The regularised lower incomplete gamma function P(a, x) by its power series (converges
+    /// for every x > 0; here x < 20).
+    fn regularised_gamma(a: f64, x: f64) -> f64 {
+        let (mut term, mut sum) = (1.0 / a, 1.0 / a);
+        for n in 1..500 {
+            term *= x / (a + f64::from(n));
+            sum += term;
+        }
+        // Γ(a) for a half-integer or integer a ≥ 1/2 by Γ(a + 1) = a Γ(a).
+        let mut gamma = if a.fract() == 0.0 { 1.0 } else { PI.sqrt() };
+        let mut b = if a.fract() == 0.0 { 1.0 } else { 0.5 };
+        while b < a {
+            gamma *= b;
+            b += 1.0;
+        }
+        (a * x.ln() - x).exp() * sum / gamma
+    }
+
+    #[test]
+    fn the_small_dof_band_holds_the_exact_quantiles() {
+        // Published table values (k = 1, 2) and the χ² CDF, by its own series, at the band's ends.
+        assert!((chi_square_band(1).unwrap().0 - 9.820_691e-4).abs() < 1e-9);
+        assert!((chi_square_band(2).unwrap().1 - 7.377_759).abs() < 1e-6);
+        for k in 1..20 {
+            let (low, high) = chi_square_band(k).unwrap();
+            let a = k as f64 / 2.0;
+            assert!(
+                (regularised_gamma(a, low / 2.0) - 0.025).abs() < 1e-10,
+                "{k}"
+            );
+            assert!(
+                (regularised_gamma(a, high / 2.0) - 0.975).abs() < 1e-10,
+                "{k}"
+            );
+        }
+        assert!(chi_square_band(0).is_err());
+        // The Wilson-Hilferty cube is off by about half at the lower quantile of k = 2: why the
+        // band is exact.
+        let h = 2.0 / 18.0;
+        let wh = 2.0 * (1.0 - h - Z_975 * f64::sqrt(h)).powi(3);
+        assert!(
+            (wh / chi_square_band(2).unwrap().0 - 1.0).abs() > 0.4,
+            "{wh}"
+        );
     }
 
     #[test]

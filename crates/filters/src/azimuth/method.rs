@@ -60,16 +60,18 @@ impl Method {
     /// (`r ~ N(0, σ₀² I)`, A uniform), scored by [`AzimuthScorer`].
     ///
     /// # Errors
-    /// As [`Study::run`]; an invalid method size is an [`ExperimentError::OutOfRange`] before any
-    /// run.
+    /// As [`Study::run`]; an invalid method size is an [`ExperimentError::Method`] (its source
+    /// the [`Method::validate`] error) before any run.
     pub fn study(
         self,
         scenario: &AzimuthScenario,
         study: &Study,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<Summary, ExperimentError> {
-        self.validate()
-            .map_err(|e| ExperimentError::Scenario(e.to_string()))?;
+        self.validate().map_err(|source| ExperimentError::Method {
+            label: self.label(),
+            source,
+        })?;
         let config = scenario.config();
         let (r0, s0) = (Vector2::zeros(), config.sigma0);
         let settings = || -> Result<(VelocityProcess, PositionMeasurement), OperatorError> {
