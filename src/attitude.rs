@@ -220,14 +220,10 @@ fn compare(
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let evaluation = evaluate(logs, methods, &mut |name, method, recording| {
         if writing {
-            let (times, orientations): (Vec<f64>, Vec<_>) = recording
-                .steps
-                .iter()
-                .map(|s| (s.time, s.estimate.orientation))
-                .unzip();
-            let mut bytes = Vec::new();
-            write_estimates_csv(&mut bytes, &times, &orientations, name)?;
-            files.push((format!("{name}.{}.csv", slug(method)), bytes));
+            files.push((
+                format!("{name}.{}.csv", slug(method)),
+                estimates_csv(recording, name)?,
+            ));
             if *method == methods[0] {
                 let svg = errors_svg(name, &method.label(), recording).map_err(|message| {
                     FilterError::Setting {
@@ -448,14 +444,7 @@ fn csv(file: &Path, output: &mut output::Output) -> Result<(), String> {
         ));
     }
     if output.dir().is_some() {
-        let (times, orientations): (Vec<f64>, Vec<_>) = recording
-            .steps
-            .iter()
-            .map(|s| (s.time, s.estimate.orientation))
-            .unzip();
-        let mut bytes = Vec::new();
-        write_estimates_csv(&mut bytes, &times, &orientations, &origin)
-            .map_err(|e| e.to_string())?;
+        let bytes = estimates_csv(&recording, &origin).map_err(|e| e.to_string())?;
         let stem = file
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -463,6 +452,18 @@ fn csv(file: &Path, output: &mut output::Output) -> Result<(), String> {
         output.write(&format!("{stem}.{}.csv", slug(&method)), &bytes)?;
     }
     Ok(())
+}
+
+/// A run's estimates as the CSV file `write_estimates_csv` writes (`origin` names it in errors).
+fn estimates_csv(recording: &LogRecording, origin: &str) -> Result<Vec<u8>, FilterError> {
+    let (times, orientations): (Vec<f64>, Vec<_>) = recording
+        .steps
+        .iter()
+        .map(|s| (s.time, s.estimate.orientation))
+        .unzip();
+    let mut bytes = Vec::new();
+    write_estimates_csv(&mut bytes, &times, &orientations, origin)?;
+    Ok(bytes)
 }
 
 /// The SVG of a run's heading and inclination errors over time (deg) with its ±2σ band where the
