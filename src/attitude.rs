@@ -8,9 +8,9 @@ use crate::report::{Table, emit, print};
 use crate::sheet::Sheet;
 use liebayes::experiments::{Shard, Study};
 use liebayes::filters::attitude::{
-    AttitudeEkf, AttitudeParams, AttitudeScorer, Evaluation, ImuScenario, LogRecording,
-    LogScenario, Method, Sensors, SimulationSettings, read_broad, read_imu_csv, run_log,
-    sample_errors, simulate, write_estimates_csv,
+    AtRate, AttitudeParams, AttitudeScorer, Evaluation, ImuScenario, LogRecording, LogScenario,
+    Method, Sensors, SimulationSettings, read_broad, read_imu_csv, run_log, sample_errors,
+    simulate, write_estimates_csv,
 };
 use liebayes::filters::{FilterError, attitude::evaluate};
 use plotters::prelude::*;
@@ -128,16 +128,15 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, S
     let (rate, samples) = (settings.rate, settings.samples);
     let scenario = ImuScenario::new(settings, STUDY_MAGNETOMETER_EVERY)
         .map_err(|e| format!("--simulate --runs: {e}"))?;
-    let prototype = AttitudeEkf::new(params, Sensors::NineD, rate).map_err(|e| e.to_string())?;
+    let method = AtRate {
+        method: Method::Ekf {
+            params,
+            sensors: Sensors::NineD,
+        },
+        rate,
+    };
     let summary = Study::new("EKF 9D", runs, seed, Shard::WHOLE)
-        .and_then(|s| {
-            s.run(
-                &scenario,
-                &|_| Ok(prototype.clone()),
-                &AttitudeScorer,
-                &|_| {},
-            )
-        })
+        .and_then(|s| s.run_method(&scenario, &method, &AttitudeScorer, &|_| {}))
         .map_err(|e| format!("--simulate --runs {runs}: {e}"))?;
     Ok(Table {
         name: "attitude_study".to_owned(),

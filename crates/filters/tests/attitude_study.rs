@@ -6,8 +6,8 @@
 
 use liebayes_experiments::{RecursiveFilter, Scenario, Shard, Study, replay};
 use liebayes_filters::attitude::{
-    AttitudeEkf, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario, LogScenario, Method,
-    Sensors, SimulationSettings, run_log, simulate,
+    AtRate, AttitudeEkf, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario, LogScenario,
+    Method, Sensors, SimulationSettings, run_log, simulate,
 };
 use liebayes_operators::evaluation::chi_square_quantile;
 
@@ -102,13 +102,20 @@ fn study_nees_stays_in_the_band() {
     let scenario = ImuScenario::new(settings, 10).unwrap();
     let runs = 64;
     let study = Study::new("EKF 9D", runs, 11, Shard::WHOLE).unwrap();
+    let method = |rate| AtRate {
+        method: Method::Ekf {
+            params: params.clone(),
+            sensors: Sensors::NineD,
+        },
+        rate,
+    };
+    // A method that cannot be built is refused before any run, with its error as the source.
+    let refused = study.run_method(&scenario, &method(0.0), &AttitudeScorer, &|_| {
+        panic!("no run may start")
+    });
+    assert!(std::error::Error::source(&refused.unwrap_err()).is_some());
     let summary = study
-        .run(
-            &scenario,
-            &|_| Ok(AttitudeEkf::new(params.clone(), Sensors::NineD, rate).expect("valid")),
-            &AttitudeScorer,
-            &|_| {},
-        )
+        .run_method(&scenario, &method(rate), &AttitudeScorer, &|_| {})
         .unwrap();
     assert_eq!(summary.failure_count(), 0);
     let epochs = summary.series("heading_nees").unwrap().epochs().len();

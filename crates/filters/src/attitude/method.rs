@@ -9,6 +9,7 @@ use crate::error::FilterError;
 use liebayes_experiments::{RecursiveFilter, Update};
 use liebayes_operators::OperatorError;
 use nalgebra::Vector3;
+use rand_chacha::ChaCha8Rng;
 
 /// An attitude filter with its settings.
 // The EKF's settings are the largest variant; a method is built once per run, not stepped.
@@ -185,5 +186,59 @@ impl RecursiveFilter for AttitudeFilter {
             AttitudeFilter::Talk(f) => f.estimate(),
             AttitudeFilter::Madgwick(f) => f.estimate(),
         }
+    }
+}
+
+/// A method for samples at a rate: what a [`Study`](liebayes_experiments::Study) builds each run's
+/// filter from ([`Study::run_method`](liebayes_experiments::Study::run_method)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AtRate {
+    /// The method.
+    pub method: Method,
+    /// The samples' rate (Hz).
+    pub rate: f64,
+}
+
+impl liebayes_experiments::Method for AtRate {
+    type Filter = AttitudeFilter;
+
+    fn label(&self) -> String {
+        self.method.label()
+    }
+
+    /// As [`Method::build`] at the rate.
+    fn validate(&self) -> Result<(), OperatorError> {
+        self.method
+            .build(self.rate)
+            .map(|_| ())
+            .map_err(operator_error)
+    }
+
+    fn build(&self, _rng: &mut ChaCha8Rng) -> Result<AttitudeFilter, OperatorError> {
+        self.method.build(self.rate).map_err(operator_error)
+    }
+}
+
+/// A construction error as the experiment layer reports it: a setting out of range names the
+/// setting and its value (NaN where the value is not a number).
+fn operator_error(e: FilterError) -> OperatorError {
+    match e {
+        FilterError::Operator(e) | FilterError::Step { source: e, .. } => e,
+        FilterError::Setting {
+            setting,
+            value,
+            expected,
+            ..
+        } => OperatorError::OutOfRange {
+            what: setting,
+            value: value.parse().unwrap_or(f64::NAN),
+            range: expected,
+        },
+        FilterError::Density(e) => OperatorError::Density(e),
+        FilterError::Data(_) => OperatorError::OutOfRange {
+            what: "attitude method settings",
+            value: f64::NAN,
+            range: "settings within their documented ranges",
+        },
     }
 }

@@ -43,7 +43,7 @@ pub use ekf::{
 pub use estimate::{AttitudeEstimate, AttitudeScorer, ImuSample};
 pub use evaluation::{Evaluation, LogRecording, LogScore, evaluate, run_log};
 pub use madgwick::{BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu};
-pub use method::{AttitudeFilter, METHOD_NAMES, Method};
+pub use method::{AtRate, AttitudeFilter, METHOD_NAMES, Method};
 pub use metric::{SampleErrors, TrialErrors, sample_errors};
 pub use scenario::{ImuScenario, ImuSteps, LogScenario, LogSteps};
 pub use simulate::{Disturbance, SimulationSettings, simulate};
