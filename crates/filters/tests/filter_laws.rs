@@ -16,8 +16,8 @@ use liebayes_filters::attitude::{
     Method, SimulationSettings,
 };
 use liebayes_filters::azimuth::{
-    AzimuthEstimate, AzimuthScenario, AzimuthScorer, Config, Motion, PositionAzimuth,
-    PositionMeasurement, VelocityInput, VelocityProcess, ekf, exact, grid_filter,
+    AzimuthEstimate, AzimuthScenario, AzimuthScorer, Config, Method as AzimuthMethod, Motion,
+    PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess, ekf, exact, grid_filter,
     marginalized_filter, particle_filter, ukf,
 };
 
@@ -29,17 +29,6 @@ use rand_chacha::ChaCha8Rng;
 // ---------------------------------------------------------------------------------------------
 // Azimuth alignment.
 
-/// The azimuth filters.
-#[derive(Clone, Copy, Debug)]
-enum Azimuth {
-    Exact,
-    Ekf,
-    Ukf,
-    Particle(usize),
-    Grid(usize),
-    Marginalized(usize),
-}
-
 /// A filter of azimuth alignment on the line scenario, 30 s (30 measurements): long enough to
 /// observe the azimuth, short enough for 100 runs of the sampling filters. The prior position σ₀
 /// is 10 m, ten times the measurement noise, so that the measurements, not the prior, make the
@@ -47,12 +36,12 @@ enum Azimuth {
 /// covariance far larger than its error (with σ₀ = σ_m it would barely move from its prior, whose
 /// covariance is honest).
 struct AzimuthSubject {
-    filter: Azimuth,
+    filter: AzimuthMethod,
     scenario: AzimuthScenario,
 }
 
 impl AzimuthSubject {
-    fn new(filter: Azimuth) -> Self {
+    fn new(filter: AzimuthMethod) -> Self {
         let config = Config {
             steps: 300,
             sigma0: 10.0,
@@ -88,10 +77,10 @@ impl FilterLawSubject for AzimuthSubject {
         let measurement = PositionMeasurement::new(config.sigma_m * noise)?;
         let (r0, s0) = (Vector2::zeros(), config.sigma0);
         Ok(match self.filter {
-            Azimuth::Exact => Box::new(exact(process, measurement, r0, s0)?),
-            Azimuth::Ekf => Box::new(ekf(process, measurement, r0, s0)?),
-            Azimuth::Ukf => Box::new(ukf(process, measurement, r0, s0)?),
-            Azimuth::Particle(n) => Box::new(particle_filter(
+            AzimuthMethod::Exact => Box::new(exact(process, measurement, r0, s0)?),
+            AzimuthMethod::Ekf => Box::new(ekf(process, measurement, r0, s0)?),
+            AzimuthMethod::Ukf => Box::new(ukf(process, measurement, r0, s0)?),
+            AzimuthMethod::Particle(n) => Box::new(particle_filter(
                 n,
                 process,
                 measurement,
@@ -99,8 +88,8 @@ impl FilterLawSubject for AzimuthSubject {
                 s0,
                 rng.clone(),
             )?),
-            Azimuth::Grid(n) => Box::new(grid_filter(n, process, measurement, r0, s0)?),
-            Azimuth::Marginalized(n) => Box::new(marginalized_filter(
+            AzimuthMethod::Grid(n) => Box::new(grid_filter(n, process, measurement, r0, s0)?),
+            AzimuthMethod::Marginalized(n) => Box::new(marginalized_filter(
                 n,
                 process,
                 measurement,
@@ -140,29 +129,29 @@ impl FilterLawSubject for AzimuthSubject {
     }
 }
 
-filter_laws!(azimuth_exact, AzimuthSubject::new(Azimuth::Exact));
-filter_laws!(azimuth_grid, AzimuthSubject::new(Azimuth::Grid(360)));
+filter_laws!(azimuth_exact, AzimuthSubject::new(AzimuthMethod::Exact));
+filter_laws!(azimuth_grid, AzimuthSubject::new(AzimuthMethod::Grid(360)));
 // The approximations: from a 10 m prior the linearised azimuth of the EKF and UKF is far off
 // (position NEES per degree of freedom 266 and 284 over these runs), 1000 particles degenerate
 // (1.1e6), and the marginalized filter's 360 azimuth particles are over-confident (2.1).
 filter_laws!(
     azimuth_ekf,
-    AzimuthSubject::new(Azimuth::Ekf),
+    AzimuthSubject::new(AzimuthMethod::Ekf),
     known_inconsistent("linearisation: position NEES 266 per dof from a 10 m prior")
 );
 filter_laws!(
     azimuth_ukf,
-    AzimuthSubject::new(Azimuth::Ukf),
+    AzimuthSubject::new(AzimuthMethod::Ukf),
     known_inconsistent("sigma points: position NEES 284 per dof from a 10 m prior")
 );
 filter_laws!(
     azimuth_particle,
-    AzimuthSubject::new(Azimuth::Particle(1000)),
+    AzimuthSubject::new(AzimuthMethod::Particle(1000)),
     known_inconsistent("1000 particles degenerate: position NEES 1.1e6 per dof")
 );
 filter_laws!(
     azimuth_marginalized,
-    AzimuthSubject::new(Azimuth::Marginalized(360)),
+    AzimuthSubject::new(AzimuthMethod::Marginalized(360)),
     known_inconsistent("360 azimuth particles: position NEES 2.1 per dof")
 );
 
