@@ -5,14 +5,16 @@
 
 use crate::output::{self, OutputArgs};
 use crate::progress;
-use crate::report::{self, Table, print};
+use crate::report::{self, print, print_search};
 use crate::sheet::{Segment, Sheet, segments_svg};
 use clap::{Subcommand, ValueEnum};
+use liebayes::experiments::Table;
+use liebayes::experiments::search::SearchSettings;
 use liebayes::experiments::{MAX_RUNS, MAX_STUDY_EPOCHS, Shard, Study};
 use liebayes::filters::aoa::{
-    Algorithm, DataModel, FILTER_MODELS, ModelChoice, PAPER_TABLE1, SearchSettings, SquareTrack,
-    TrackConfig, TrackFilter, TruthModel, UpdateExample, compare_models, fit_angle_sigmas,
-    particles_to_match, square_track_anchors,
+    Algorithm, DataModel, FILTER_MODELS, ModelChoice, PAPER_TABLE1, SquareTrack, TrackConfig,
+    TrackFilter, TruthModel, UpdateExample, compare_models, fit_angle_sigmas, particles_to_match,
+    square_track_anchors,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -659,23 +661,14 @@ impl TrackPlan {
         };
         let found = particles_to_match(track, model, &study, reference, settings, &bar)
             .map_err(|e| format!("{name}: {e}"))?;
-        print(&format!(
-            "{name}: reference RMSE {:.4} m over {runs} runs",
-            found.reference_rmse
-        ));
-        for (n, rmse, failures, seconds) in &found.tried {
-            print(&format!(
-                "  {n:>8} particles: RMSE {rmse:.4} m, {failures} failed runs, {:.1} us per step",
-                seconds * 1e6
-            ));
-        }
-        print(&match found.count {
-            Some(n) => format!(
-                "  -> {n} particles come within {:.1} % of the reference",
-                100.0 * tolerance
-            ),
-            None => format!("  -> {MAX_PARTICLES} particles do not"),
-        });
+        print_search(
+            name,
+            "track RMSE (m)",
+            "the reference",
+            runs,
+            &found,
+            tolerance,
+        );
         Ok(())
     }
 }

@@ -4,8 +4,9 @@
 //! dispatches and renders the tables, plots and files (written all or nothing).
 
 use crate::output::{self, OutputArgs};
-use crate::report::{Table, emit, print};
+use crate::report::{emit, print};
 use crate::sheet::Sheet;
+use liebayes::experiments::Table;
 use liebayes::experiments::{Shard, Study};
 use liebayes::filters::attitude::{
     AtRate, AttitudeParams, AttitudeScorer, Evaluation, ImuScenario, LogRecording, LogScenario,

@@ -3,8 +3,10 @@
 
 use crate::output::OutputArgs;
 use crate::progress;
-use crate::report::{Table, print};
+use crate::report::print_search;
 use clap::ValueEnum;
+use liebayes::experiments::Table;
+use liebayes::experiments::search::SearchSettings;
 use liebayes::experiments::{MAX_RUNS, MAX_STUDY_EPOCHS, Shard, Study};
 use liebayes::filters::azimuth::{AzimuthScenario, Config, Method, Motion, particles_to_match};
 
@@ -356,31 +358,22 @@ pub fn particles(args: &ParticleArgs) -> Result<(), String> {
         let study = Study::new("particle search", runs, args.seed, Shard::WHOLE)
             .map_err(|e| e.to_string())?;
         let bar = progress::bar(&format!("search {name}"), runs);
-        let found = particles_to_match(
-            scenario,
-            &study,
+        let settings = SearchSettings {
+            tolerance: args.tolerance,
+            low: args.low,
+            high: args.high,
+            resolution: args.resolution,
+        };
+        let found = particles_to_match(scenario, &study, settings, &bar)
+            .map_err(|e| format!("{name}: {e}"))?;
+        print_search(
+            name,
+            "final azimuth RMSE (deg)",
+            "the exact filter",
+            runs,
+            &found,
             args.tolerance,
-            (args.low, args.high),
-            args.resolution,
-            &bar,
-        )
-        .map_err(|e| format!("{name}: {e}"))?;
-        print(&format!(
-            "{name}: exact filter final azimuth RMSE {:.4} deg over {runs} runs",
-            found.exact_rmse
-        ));
-        for (n, rmse, failures) in &found.tried {
-            print(&format!(
-                "  {n:>8} particles: RMSE {rmse:.4} deg, {failures} failed runs"
-            ));
-        }
-        print(&match found.count {
-            Some(n) => format!(
-                "  -> {n} particles reach the exact filter's RMSE within {:.0} %",
-                100.0 * args.tolerance
-            ),
-            None => format!("  -> {} particles do not reach it", args.high),
-        });
+        );
     }
     Ok(())
 }

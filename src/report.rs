@@ -9,37 +9,16 @@
 //! differences from the table's reference row on the same runs, and drawn as box plots.
 
 use crate::output::{Output, OutputArgs, check_name};
-use liebayes::experiments::study::MAX_RUNS;
+use liebayes::experiments::search::SizeSearch;
 use liebayes::experiments::{
-    MAX_KEPT_RUNS, Reduction, RunningStats, Shard, Summary, quantiles, relative_differences,
+    Column, Figure, FigureKind, MAX_KEPT_RUNS, RunComparison, RunningStats, Shard, Summary, Table,
 };
-use liebayes::operators::evaluation::{Z_975, average_nees_band};
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::io::Read as _;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
-
-/// The studies of one report: a file stem (`azimuth_circle`), a title describing the settings, one
-/// summary per row (row label: the summary's study name, for example `"EKF"`), and optionally the
-/// row the others are compared with run by run. Shards of a table merge only when their names,
-/// titles, row labels and reference rows agree.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Table {
-    /// The stem of the table's file names: a plain name (ASCII letters, digits, `_`, `-`, `.`).
-    pub name: String,
-    /// What was studied, with its settings (the printed table's heading, the plots' titles).
-    pub title: String,
-    /// One summary per row.
-    pub summaries: Vec<Summary>,
-    /// The row (an index into `summaries`) the other rows are compared with, run by run: for
-    /// each metric kept per run, the report gives the quantiles of every other row's percentage
-    /// difference from this row's value on the same run (same simulated data), `100 (v / v_ref −
-    /// 1)`. `None`: the quantiles of each row's run values themselves.
-    pub reference: Option<usize>,
-}
 
 /// The most epochs drawn in a plot; longer series are sampled at evenly spaced epochs.
 pub const MAX_PLOTTED_EPOCHS: usize = 2000;
@@ -77,17 +56,21 @@ const JSON_ENDING: &str = ".summary.json";
 /// written then.
 pub fn emit(tables: &[Table], args: &OutputArgs, mut output: Output) -> Result<(), String> {
     for (i, table) in tables.iter().enumerate() {
-        validate(table)?;
+        check_table(table)?;
         if tables[..i].iter().any(|t| t.name == table.name) {
             return Err(format!("internal: two tables are named {:?}", table.name));
         }
     }
-    let missing: Vec<String> = tables.iter().flat_map(missing_runs).collect();
+    let missing: Vec<String> = tables
+        .iter()
+        .flat_map(Table::missing_runs)
+        .map(|m| m.to_string())
+        .collect();
     let complete = args.shard == Shard::WHOLE && missing.is_empty();
     for table in tables {
         print(&render(table));
         if complete {
-            for comparison in run_comparisons(table) {
+            for comparison in table.run_comparisons() {
                 print(&render_runs(table, &comparison));
             }
         }
@@ -144,6 +127,45 @@ pub fn print(text: &str) {
     let _ = writeln!(std::io::stdout().lock(), "{text}");
 }
 
+/// Prints a particle-count search: the target, every count tried, and what was found.
+/// `what` names the score with its unit (`"final azimuth RMSE (deg)"`), `of` the reference
+/// filter (`"the exact filter"`).
+pub fn print_search(
+    name: &str,
+    what: &str,
+    of: &str,
+    runs: u64,
+    found: &SizeSearch,
+    tolerance: f64,
+) {
+    print(&format!(
+        "{name}: {of}'s {what} {} over {runs} runs",
+        compact(Some(found.target))
+    ));
+    for t in &found.tried {
+        print(&format!(
+            "  {:>8} particles: {} {}, {} failed runs, {} us per step",
+            t.count,
+            what,
+            compact(t.score.is_finite().then_some(t.score)),
+            t.failures,
+            compact(
+                t.seconds_per_step
+                    .is_finite()
+                    .then_some(t.seconds_per_step * 1e6)
+            )
+        ));
+    }
+    print(&match (found.count, found.tried.last()) {
+        (Some(n), _) => format!(
+            "  -> {n} particles come within {} % of {of}",
+            compact(Some(100.0 * tolerance))
+        ),
+        (None, Some(last)) => format!("  -> {} particles do not", last.count),
+        (None, None) => "  -> no count was tried".to_owned(),
+    });
+}
+
 /// Checks that the folders to merge exist and that the output folder is none of them (the merged
 /// summaries would replace a shard's).
 ///
@@ -181,7 +203,8 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Vec<Table>, String> {
             let table = read_table(&file)?;
             match tables.iter_mut().find(|t| t.name == table.name) {
                 Some(into) => {
-                    absorb(into, &table).map_err(|e| format!("{}: {e}", file.display()))?;
+                    into.merge(&table)
+                        .map_err(|e| format!("{}: {e}", file.display()))?;
                 }
                 None => tables.push(table),
             }
@@ -244,138 +267,8 @@ fn read_table(file: &Path) -> Result<Table, String> {
     }
     let table: Table = serde_json::from_str(&text)
         .map_err(|e| format!("{} is not a liebayes summary: {e}", file.display()))?;
-    validate(&table).map_err(|e| format!("{}: {e}", file.display()))?;
+    check_table(&table).map_err(|e| format!("{}: {e}", file.display()))?;
     Ok(table)
-}
-
-/// Adds the rows of `table` to those of `into`, after checking that both have the same title and
-/// rows: all rows merge, or none.
-fn absorb(into: &mut Table, table: &Table) -> Result<(), String> {
-    let labels =
-        |t: &Table| -> Vec<String> { t.summaries.iter().map(|s| s.label().name.clone()).collect() };
-    if into.title != table.title {
-        return Err(format!(
-            "table {} has the title {:?} here and {:?} before: were the shards run with different \
-             settings?",
-            table.name, table.title, into.title
-        ));
-    }
-    if labels(into) != labels(table) {
-        return Err(format!(
-            "table {} has the rows {:?} here and {:?} before",
-            table.name,
-            labels(table),
-            labels(into)
-        ));
-    }
-    if into.reference != table.reference {
-        return Err(format!(
-            "table {} has the reference row {:?} here and {:?} before",
-            table.name, table.reference, into.reference
-        ));
-    }
-    let mut merged = into.summaries.clone();
-    for (a, b) in merged.iter_mut().zip(&table.summaries) {
-        a.merge(b)
-            .map_err(|e| format!("table {}, row {}: {e}", table.name, b.label().name))?;
-    }
-    into.summaries = merged;
-    Ok(())
-}
-
-/// Checks what a table read from a file (or built by an application) must satisfy before it is
-/// reported: a plain name, a reference row among its rows, metrics kept per run whose names make
-/// plain file names, run ranges sorted, disjoint and inside the study, a study of at most
-/// `MAX_RUNS` runs, and a trace with one value per metric and epoch.
-fn validate(table: &Table) -> Result<(), String> {
-    check_name(&format!("{}{JSON_ENDING}", table.name))
-        .map_err(|e| format!("table name {:?}: {e}", table.name))?;
-    if let Some(r) = table.reference
-        && r >= table.summaries.len()
-    {
-        return Err(format!(
-            "table {}: the reference row {r} is not one of its {} rows (0 to {})",
-            table.name,
-            table.summaries.len(),
-            table.summaries.len().saturating_sub(1)
-        ));
-    }
-    for metric in per_run_metrics(table) {
-        check_name(&run_file(table, &metric, "relative", "svg")).map_err(|e| {
-            format!(
-                "table {}: metric {metric:?} kept per run cannot name a file: {e}",
-                table.name
-            )
-        })?;
-    }
-    for s in &table.summaries {
-        let label = s.label();
-        let bad = |what: String| Err(format!("table {}, row {}: {what}", table.name, label.name));
-        if label.runs > MAX_RUNS {
-            return bad(format!("{} runs, more than {MAX_RUNS}", label.runs));
-        }
-        let mut end = 0;
-        for r in s.runs() {
-            if r.start < end || r.start >= r.end || r.end > label.runs {
-                return bad(format!(
-                    "run range {}..{} is not sorted, disjoint and inside 0..{}",
-                    r.start, r.end, label.runs
-                ));
-            }
-            end = r.end;
-        }
-        if let Some(trace) = s.trace() {
-            let expected = trace.times.len().checked_mul(s.metrics().len());
-            if expected != Some(trace.values.len()) {
-                return bad(format!(
-                    "its trace has {} values for {} epochs of {} metrics",
-                    trace.values.len(),
-                    trace.times.len(),
-                    s.metrics().len()
-                ));
-            }
-        }
-    }
-    Ok(())
-}
-
-/// The runs a table's rows miss, one entry per incomplete row (`"EKF: runs 10..20 of 30"`).
-fn missing_runs(table: &Table) -> Vec<String> {
-    /// The most ranges listed per row.
-    const LISTED: usize = 4;
-    let mut out = Vec::new();
-    for s in &table.summaries {
-        let total = s.label().runs;
-        let mut gaps: Vec<Range<u64>> = Vec::new();
-        let mut next = 0;
-        for r in s.runs() {
-            if r.start > next {
-                gaps.push(next..r.start);
-            }
-            next = r.end;
-        }
-        if next < total {
-            gaps.push(next..total);
-        }
-        if gaps.is_empty() {
-            continue;
-        }
-        let mut text: Vec<String> = gaps
-            .iter()
-            .take(LISTED)
-            .map(|g| format!("{}..{}", g.start, g.end))
-            .collect();
-        if gaps.len() > LISTED {
-            text.push(format!("and {} more ranges", gaps.len() - LISTED));
-        }
-        out.push(format!(
-            "{} {}: runs {} of {total}",
-            table.name,
-            s.label().name,
-            text.join(", ")
-        ));
-    }
-    out
 }
 
 /// The distinct values, in the order first seen.
@@ -392,118 +285,55 @@ fn distinct(values: impl Iterator<Item = u64>) -> Vec<u64> {
 // ---------------------------------------------------------------------------------------------
 // Figures
 
-/// How a metric's statistics at an epoch are reported.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Figure {
-    /// No finite value at that epoch.
-    Empty,
-    /// A root mean square `√(Σx²/n)`.
-    Rms(f64),
-    /// A mean with its 95 % band, when it has one (a mean of one value has none).
-    Mean(f64, Option<(f64, f64)>),
-    /// A rate, in percent.
-    Percent(f64),
+/// Checks a table before anything of it is printed or written: the library's checks
+/// ([`Table::validate`]), and that every file it would write has a plain name.
+fn check_table(table: &Table) -> Result<(), String> {
+    table.validate().map_err(|e| e.to_string())?;
+    check_name(&format!("{}{JSON_ENDING}", table.name))
+        .map_err(|e| format!("table name {:?}: {e}", table.name))?;
+    for metric in table.per_run_metrics() {
+        check_name(&run_file(table, &metric, "relative", "svg")).map_err(|e| {
+            format!(
+                "table {}: metric {metric:?} kept per run cannot name a file: {e}",
+                table.name
+            )
+        })?;
+    }
+    Ok(())
 }
 
-/// The figure of `stats` by `reduction`: `RootMeanSquare` → `√(Σx²/n)`; `Mean` → `x̄` with
-/// `x̄ ± 1.96 s/√n` (n ≥ 2); `ChiSquare { dof }` → `x̄` with the 95 % band of the mean of n
-/// χ²(dof) values; `Rate` → `100 x̄`.
-fn figure(stats: &RunningStats, reduction: Reduction) -> Figure {
-    let (Some(mean), Some(mean_square)) = (stats.mean(), stats.mean_square()) else {
-        return Figure::Empty;
-    };
-    let n = stats.count();
-    match reduction {
-        Reduction::RootMeanSquare => Figure::Rms(mean_square.sqrt()),
-        Reduction::Mean => {
-            let half = stats
-                .variance()
-                .map(|v| Z_975 * (v / n as f64).sqrt())
-                .filter(|h| h.is_finite());
-            Figure::Mean(mean, half.map(|h| (mean - h, mean + h)))
-        }
-        Reduction::ChiSquare { dof } => {
-            let band = usize::try_from(n)
-                .ok()
-                .and_then(|n| average_nees_band(dof, n).ok());
-            Figure::Mean(mean, band)
-        }
-        Reduction::Rate => Figure::Percent(100.0 * mean),
+/// The CSV columns' suffixes of a kind of figure.
+fn suffixes(kind: FigureKind) -> &'static [&'static str] {
+    match kind {
+        FigureKind::Rms => &["rms"],
+        FigureKind::Mean => &["mean", "low", "high"],
+        FigureKind::Percent => &["percent"],
     }
 }
 
-/// The kind of columns a reduction's figure takes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kind {
-    Rms,
-    Mean,
-    Percent,
-}
-
-impl Kind {
-    fn of(reduction: Reduction) -> Self {
-        match reduction {
-            Reduction::RootMeanSquare => Kind::Rms,
-            Reduction::Mean | Reduction::ChiSquare { .. } => Kind::Mean,
-            Reduction::Rate => Kind::Percent,
-        }
-    }
-
-    /// The CSV columns' suffixes.
-    fn suffixes(self) -> &'static [&'static str] {
-        match self {
-            Kind::Rms => &["rms"],
-            Kind::Mean => &["mean", "low", "high"],
-            Kind::Percent => &["percent"],
-        }
+/// A figure's printed cell.
+fn cell(figure: Figure) -> String {
+    match figure {
+        Figure::Empty => "-".to_owned(),
+        Figure::Rms(x) => compact(Some(x)),
+        Figure::Mean(m, None) => compact(Some(m)),
+        Figure::Mean(m, Some((l, h))) => format!(
+            "{} [{}, {}]",
+            compact(Some(m)),
+            compact(Some(l)),
+            compact(Some(h))
+        ),
+        Figure::Percent(p) => format!("{}%", compact(Some(p))),
     }
 }
 
-/// A column of a table: a metric name, its unit and its kind, in the order first met over the rows.
-#[derive(Clone, Debug, PartialEq, Eq)]
-struct Column {
-    name: String,
-    unit: String,
-    kind: Kind,
-}
-
-impl Column {
-    /// The heading of the printed column: the name and the unit.
-    fn heading(&self) -> String {
-        if self.unit.is_empty() {
-            self.name.clone()
-        } else {
-            format!("{} ({})", self.name, self.unit)
-        }
+/// A figure's CSV values, as many as its kind's suffixes (empty where there is none).
+fn values(figure: Figure, kind: FigureKind) -> Vec<Option<f64>> {
+    match figure {
+        Figure::Rms(x) | Figure::Percent(x) => vec![Some(x)],
+        Figure::Mean(m, band) => vec![Some(m), band.map(|b| b.0), band.map(|b| b.1)],
+        Figure::Empty => vec![None; suffixes(kind).len()],
     }
-
-    /// The metric's statistics at epoch k in summary `s`, if it records them.
-    fn at<'s>(&self, s: &'s Summary, k: usize) -> Option<(&'s RunningStats, Reduction)> {
-        let m = s
-            .metrics()
-            .iter()
-            .find(|m| m.name == self.name && Kind::of(m.reduction) == self.kind)?;
-        m.series.epochs().get(k).map(|e| (e, m.reduction))
-    }
-}
-
-/// The columns of a table: every metric of every row, once.
-fn columns(table: &Table) -> Vec<Column> {
-    let mut out: Vec<Column> = Vec::new();
-    for m in table.summaries.iter().flat_map(Summary::metrics) {
-        let column = Column {
-            name: m.name.clone(),
-            unit: m.unit.clone(),
-            kind: Kind::of(m.reduction),
-        };
-        if !out
-            .iter()
-            .any(|c| c.name == column.name && c.kind == column.kind)
-        {
-            out.push(column);
-        }
-    }
-    out
 }
 
 /// The number of epochs of a summary (of its epoch times).
@@ -538,46 +368,13 @@ fn compact(x: Option<f64>) -> String {
     }
 }
 
-impl Figure {
-    /// The printed cell.
-    fn cell(self) -> String {
-        match self {
-            Figure::Empty => "-".to_owned(),
-            Figure::Rms(x) => compact(Some(x)),
-            Figure::Mean(m, None) => compact(Some(m)),
-            Figure::Mean(m, Some((l, h))) => format!(
-                "{} [{}, {}]",
-                compact(Some(m)),
-                compact(Some(l)),
-                compact(Some(h))
-            ),
-            Figure::Percent(p) => format!("{}%", compact(Some(p))),
-        }
-    }
-
-    /// The CSV values, as many as its kind's suffixes (empty where there is none).
-    fn values(self, kind: Kind) -> Vec<Option<f64>> {
-        match (self, kind) {
-            (Figure::Rms(x) | Figure::Percent(x), _) => vec![Some(x)],
-            (Figure::Mean(m, band), _) => vec![Some(m), band.map(|b| b.0), band.map(|b| b.1)],
-            (Figure::Empty, kind) => vec![None; kind.suffixes().len()],
-        }
-    }
-}
-
-/// The figure of column `c` at epoch k of row `s` (empty when the row lacks it).
-fn figure_at(c: &Column, s: &Summary, k: usize) -> Figure {
-    c.at(s, k)
-        .map_or(Figure::Empty, |(stats, reduction)| figure(stats, reduction))
-}
-
 // ---------------------------------------------------------------------------------------------
 // The printed table
 
 /// The table as printed: the title, the figures at the final epoch, then the failures by reason and
 /// the non-finite values left out, row by row.
 fn render(table: &Table) -> String {
-    let columns = columns(table);
+    let columns = table.columns();
     let mut heading = vec![
         "filter".to_owned(),
         "runs".to_owned(),
@@ -594,7 +391,7 @@ fn render(table: &Table) -> String {
             s.run_count().to_string(),
             s.failure_count().to_string(),
         ];
-        row.extend(columns.iter().map(|c| figure_at(c, s, last).cell()));
+        row.extend(columns.iter().map(|c| cell(c.figure(s, last))));
         row.push(compact(s.timing().mean().map(|t| t * 1e9)));
         rows.push(row);
         if s.failure_count() > 0 {
@@ -610,7 +407,7 @@ fn render(table: &Table) -> String {
             notes.push(note);
         }
         for c in &columns {
-            if let Some((stats, _)) = c.at(s, last)
+            if let Some((stats, _)) = c.stats(s, last)
                 && stats.count() > 0
                 && stats.non_finite() > 0
             {
@@ -724,8 +521,8 @@ fn figure_headings(columns: &[Column]) -> Vec<String> {
     columns
         .iter()
         .flat_map(|c| {
-            c.kind.suffixes().iter().map(move |suffix| {
-                let unit = if c.unit.is_empty() || c.kind == Kind::Percent {
+            suffixes(c.kind).iter().map(move |suffix| {
+                let unit = if c.unit.is_empty() || c.kind == FigureKind::Percent {
                     String::new()
                 } else {
                     format!(" ({})", c.unit)
@@ -740,14 +537,14 @@ fn figure_headings(columns: &[Column]) -> Vec<String> {
 fn figure_cells(columns: &[Column], s: &Summary, k: usize) -> Vec<String> {
     columns
         .iter()
-        .flat_map(|c| figure_at(c, s, k).values(c.kind))
+        .flat_map(|c| values(c.figure(s, k), c.kind))
         .map(number)
         .collect()
 }
 
 /// `<name>_summary.csv`: per row its runs, failures, the final-epoch figures and the time per step.
 fn summary_csv(table: &Table) -> String {
-    let columns = columns(table);
+    let columns = table.columns();
     let mut out = ["filter", "runs", "failures"].join(",");
     for h in figure_headings(&columns) {
         let _ = write!(out, ",{h}");
@@ -770,7 +567,7 @@ fn summary_csv(table: &Table) -> String {
 /// `<name>_over_time.csv`: per row and epoch (at most [`MAX_CSV_EPOCHS`], evenly spaced), the
 /// epoch's mean time and every figure.
 fn over_time_csv(table: &Table) -> String {
-    let columns = columns(table);
+    let columns = table.columns();
     let mut out = String::from("filter,epoch,t");
     for h in figure_headings(&columns) {
         let _ = write!(out, ",{h}");
@@ -864,7 +661,7 @@ fn write_files(table: &Table, output: &mut Output) -> Result<(), String> {
     if let Some(svg) = plot_over_time(table).map_err(plot)? {
         output.write(&format!("{name}_over_time.svg"), svg.as_bytes())?;
     }
-    for comparison in run_comparisons(table) {
+    for comparison in table.run_comparisons() {
         let kind = comparison.kind();
         output.write(
             &run_file(table, &comparison.metric, kind, "csv"),
@@ -882,116 +679,12 @@ fn write_files(table: &Table, output: &mut Output) -> Result<(), String> {
 // ---------------------------------------------------------------------------------------------
 // Per-run values
 
-/// The probabilities of the per-run quantiles: the smallest value, 5 %, the quartiles, the median,
-/// 95 % and the largest value.
-const RUN_PROBABILITIES: [f64; 7] = [0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0];
-
 /// The headings of the per-run quantiles.
 const RUN_HEADINGS: [&str; 7] = ["min", "p5", "p25", "median", "p75", "p95", "max"];
-
-/// The quantiles over the runs of one metric kept per run, for each row of a table: of the rows'
-/// run values, or of their percentage differences from the reference row's.
-#[derive(Clone, Debug, PartialEq)]
-struct RunComparison {
-    /// The metric's name.
-    metric: String,
-    /// Its unit (`"%"` for percentage differences).
-    unit: String,
-    /// The reference row's label, when the rows are compared with it.
-    reference: Option<String>,
-    /// Per row: its label, the quantiles at [`RUN_PROBABILITIES`] (NaN without a value) and the
-    /// number of finite values they are of.
-    rows: Vec<(String, [f64; 7], usize)>,
-}
-
-impl RunComparison {
-    /// `relative` for percentage differences, `per_run` for run values.
-    fn kind(&self) -> &'static str {
-        if self.reference.is_some() {
-            "relative"
-        } else {
-            "per_run"
-        }
-    }
-
-    /// What the quantiles are of, with the unit.
-    fn describe(&self) -> String {
-        match &self.reference {
-            Some(r) => format!(
-                "percentage difference of {} from {r}, per run (%)",
-                self.metric
-            ),
-            None if self.unit.is_empty() => format!("{} per run", self.metric),
-            None => format!("{} per run ({})", self.metric, self.unit),
-        }
-    }
-}
-
-/// The names of the metrics kept per run in some row, in the order first met.
-fn per_run_metrics(table: &Table) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for m in table.summaries.iter().flat_map(Summary::metrics) {
-        if m.per_run.is_some() && !out.contains(&m.name) {
-            out.push(m.name.clone());
-        }
-    }
-    out
-}
 
 /// `<name>_<metric>_<kind>.<ending>`.
 fn run_file(table: &Table, metric: &str, kind: &str, ending: &str) -> String {
     format!("{}_{metric}_{kind}.{ending}", table.name)
-}
-
-/// The quantiles of `values` at [`RUN_PROBABILITIES`], with the number of finite values.
-fn run_quantiles(values: &[f64]) -> ([f64; 7], usize) {
-    let q = quantiles(values, &RUN_PROBABILITIES);
-    let mut out = [f64::NAN; 7];
-    out.copy_from_slice(&q);
-    (out, values.iter().filter(|v| v.is_finite()).count())
-}
-
-/// A comparison per metric kept per run: when the table's reference row keeps the metric, every
-/// other row that keeps it, by its percentage differences from the reference on the same runs;
-/// otherwise every row that keeps it, by its run values.
-fn run_comparisons(table: &Table) -> Vec<RunComparison> {
-    let mut out = Vec::new();
-    for metric in per_run_metrics(table) {
-        let reference = table.reference.and_then(|r| {
-            let s = table.summaries.get(r)?;
-            Some((r, s.label().name.clone(), s.run_values(&metric)?))
-        });
-        let unit = table
-            .summaries
-            .iter()
-            .flat_map(Summary::metrics)
-            .find(|m| m.name == metric)
-            .map(|m| m.unit.clone())
-            .unwrap_or_default();
-        let mut rows = Vec::new();
-        for (i, s) in table.summaries.iter().enumerate() {
-            let Some(values) = s.run_values(&metric) else {
-                continue;
-            };
-            let (q, n) = match &reference {
-                Some((r, _, _)) if *r == i => continue,
-                Some((_, _, base)) => run_quantiles(&relative_differences(base, values)),
-                None => run_quantiles(&values.values().iter().map(|v| v.1).collect::<Vec<_>>()),
-            };
-            rows.push((s.label().name.clone(), q, n));
-        }
-        out.push(RunComparison {
-            unit: if reference.is_some() {
-                "%".to_owned()
-            } else {
-                unit
-            },
-            reference: reference.map(|(_, label, _)| label),
-            metric,
-            rows,
-        });
-    }
-    out
 }
 
 /// A quantile for print: `-` for none.
@@ -1021,11 +714,7 @@ fn render_runs(table: &Table, c: &RunComparison) -> String {
         table.name,
         c.describe()
     );
-    if table
-        .summaries
-        .iter()
-        .any(|s| s.label().runs > MAX_KEPT_RUNS)
-    {
+    if table.keeps_only_some_runs() {
         let _ = writeln!(
             out,
             "(the runs kept: the first {MAX_KEPT_RUNS} of each row)"
@@ -1494,45 +1183,7 @@ fn plot_runs(table: &Table, c: &RunComparison) -> Plot<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use liebayes::experiments::{Metric, RunScores, StudyLabel};
-
-    /// The statistics of `values`.
-    fn stats(values: &[f64]) -> RunningStats {
-        let mut s = RunningStats::new();
-        for &v in values {
-            s.add(v);
-        }
-        s
-    }
-
-    #[test]
-    fn figures_follow_their_reduction() {
-        let values = [0.3, -1.2, 2.5, 0.7, -0.1];
-        let n = values.len() as f64;
-        let s = stats(&values);
-        let rms = (values.iter().map(|v| v * v).sum::<f64>() / n).sqrt();
-        assert!(
-            matches!(figure(&s, Reduction::RootMeanSquare), Figure::Rms(r) if (r - rms).abs() < 1e-15)
-        );
-        let mean = values.iter().sum::<f64>() / n;
-        let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-        let Figure::Mean(m, Some((l, h))) = figure(&s, Reduction::Mean) else {
-            panic!("a mean with a band")
-        };
-        assert!((m - mean).abs() < 1e-15);
-        assert!((h - l - 2.0 * 1.959_964 * sd / n.sqrt()).abs() < 1e-6);
-        let Figure::Mean(_, band) = figure(&s, Reduction::ChiSquare { dof: 2 }) else {
-            panic!("a mean")
-        };
-        assert_eq!(band, average_nees_band(2, 5).ok());
-        let rate = stats(&[1.0, 0.0, 0.0, 1.0]);
-        assert_eq!(figure(&rate, Reduction::Rate), Figure::Percent(50.0));
-        assert_eq!(figure(&stats(&[f64::NAN]), Reduction::Mean), Figure::Empty);
-        assert_eq!(
-            figure(&stats(&[4.0]), Reduction::Mean),
-            Figure::Mean(4.0, None)
-        );
-    }
+    use liebayes::experiments::{Metric, Reduction, RunScores, StudyLabel};
 
     #[test]
     fn numbers_are_compact() {
@@ -1628,27 +1279,6 @@ mod tests {
     }
 
     #[test]
-    fn shards_merge_to_the_whole_and_twice_is_refused() {
-        let whole = table(vec![summary("A", 0..10, 10)]);
-        let mut merged = table(vec![summary("A", 0..4, 10)]);
-        assert_eq!(missing_runs(&merged), ["synthetic A: runs 4..10 of 10"]);
-        absorb(&mut merged, &table(vec![summary("A", 7..10, 10)])).unwrap();
-        assert_eq!(missing_runs(&merged), ["synthetic A: runs 4..7 of 10"]);
-        let before = merged.clone();
-        assert!(absorb(&mut merged, &table(vec![summary("A", 7..10, 10)])).is_err());
-        assert!(absorb(&mut merged, &table(vec![summary("B", 4..7, 10)])).is_err());
-        assert_eq!(merged, before);
-        absorb(&mut merged, &table(vec![summary("A", 4..7, 10)])).unwrap();
-        assert!(missing_runs(&merged).is_empty());
-        // Everything but the measured timing is the whole study's, bit for bit.
-        assert_eq!(
-            serde_json::to_value(merged.summaries[0].metrics()).unwrap(),
-            serde_json::to_value(whole.summaries[0].metrics()).unwrap()
-        );
-        assert_eq!(merged.summaries[0].trace(), whole.summaries[0].trace());
-    }
-
-    #[test]
     fn a_trace_with_missing_values_survives_its_json() {
         let mut s = Summary::new(summary("A", 0..0, 1).label().clone(), 0..1);
         let scores = RunScores {
@@ -1665,22 +1295,6 @@ mod tests {
         let text = serde_json::to_string(&table(vec![s])).unwrap();
         let back: Table = serde_json::from_str(&text).unwrap();
         assert!(back.summaries[0].trace().unwrap().values[0].is_nan());
-    }
-
-    #[test]
-    fn malformed_tables_are_refused() {
-        let mut bad = table(vec![summary("A", 0..3, 3)]);
-        bad.name = "../escape".to_owned();
-        assert!(validate(&bad).is_err());
-        let mut json = serde_json::to_value(table(vec![summary("A", 0..3, 3)])).unwrap();
-        json["summaries"][0]["runs"] = serde_json::json!([{ "start": 2, "end": 1 }]);
-        // A summary is checked when read.
-        let reversed = serde_json::from_value::<Table>(json.clone()).unwrap_err();
-        assert!(reversed.to_string().contains("range 2..1"), "{reversed}");
-        json["summaries"][0]["runs"] = serde_json::json!([{ "start": 0, "end": 3 }]);
-        json["summaries"][0]["trace"]["values"] = serde_json::json!([1.0]);
-        let short = serde_json::from_value::<Table>(json).unwrap_err();
-        assert!(short.to_string().contains("trace: 1 values"), "{short}");
     }
 
     #[test]
@@ -1751,7 +1365,7 @@ mod tests {
 
     #[test]
     fn rows_are_compared_with_the_reference_run_by_run() {
-        let comparisons = run_comparisons(&compared(0..10, Some(0)));
+        let comparisons = compared(0..10, Some(0)).run_comparisons();
         assert_eq!(comparisons.len(), 1, "only x_error is kept per run");
         let c = &comparisons[0];
         assert_eq!((c.metric.as_str(), c.kind()), ("x_error", "relative"));
@@ -1783,7 +1397,7 @@ mod tests {
         assert_eq!(lines.len(), 3);
         assert!(lines[2].starts_with("C,0e0,4.5e1,") && lines[2].ends_with(",9e2,10"));
         // Without a reference: the run values themselves, every row.
-        let c = &run_comparisons(&compared(0..10, None))[0];
+        let c = &compared(0..10, None).run_comparisons()[0];
         assert_eq!(
             (c.kind(), c.unit.as_str(), c.rows.len()),
             ("per_run", "m", 3)
@@ -1797,10 +1411,10 @@ mod tests {
     fn merged_shards_give_the_whole_runs_per_run_csv() {
         let whole = compared(0..10, Some(1));
         let mut merged = compared(6..10, Some(1));
-        absorb(&mut merged, &compared(0..3, Some(1))).unwrap();
-        absorb(&mut merged, &compared(3..6, Some(1))).unwrap();
-        assert!(missing_runs(&merged).is_empty());
-        let csv = |t: &Table| run_comparisons(t).iter().map(runs_csv).collect::<Vec<_>>();
+        merged.merge(&compared(0..3, Some(1))).unwrap();
+        merged.merge(&compared(3..6, Some(1))).unwrap();
+        assert!(merged.missing_runs().is_empty());
+        let csv = |t: &Table| t.run_comparisons().iter().map(runs_csv).collect::<Vec<_>>();
         assert_eq!(csv(&merged), csv(&whole));
         // Through a file, with the reference row.
         let text = serde_json::to_string(&merged).unwrap();
@@ -1810,8 +1424,8 @@ mod tests {
         // Shards compared with different rows do not merge.
         let mut other = compared(0..3, Some(0));
         let before = other.clone();
-        let error = absorb(&mut other, &compared(3..6, Some(1))).unwrap_err();
-        assert!(error.contains("reference row"), "{error}");
+        let error = other.merge(&compared(3..6, Some(1))).unwrap_err();
+        assert!(error.to_string().contains("reference row"), "{error}");
         assert_eq!(other, before);
     }
 
@@ -1824,7 +1438,7 @@ mod tests {
             shard: Shard::WHOLE,
         };
         let bad = compared(0..10, Some(3));
-        let error = validate(&bad).unwrap_err();
+        let error = check_table(&bad).unwrap_err();
         assert!(error.contains("table synthetic") && error.contains("reference row 3"));
         let output = crate::output::prepare(&args).unwrap();
         assert!(emit(&[bad], &args, output).is_err());
@@ -1860,13 +1474,13 @@ mod tests {
         let mut json = serde_json::to_value(compared(0..10, None)).unwrap();
         json["summaries"][0]["metrics"][0]["name"] = serde_json::json!("a/b");
         let slash: Table = serde_json::from_value(json).unwrap();
-        assert!(validate(&slash).unwrap_err().contains("\"a/b\""));
+        assert!(check_table(&slash).unwrap_err().contains("\"a/b\""));
     }
 
     #[test]
     fn box_plots_label_every_row() {
         let t = compared(0..10, Some(0));
-        let c = &run_comparisons(&t)[0];
+        let c = &t.run_comparisons()[0];
         let svg = plot_runs(&t, c).unwrap();
         assert!(
             svg.starts_with("<svg") && svg.contains("Synthetic"),

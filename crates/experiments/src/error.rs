@@ -30,6 +30,9 @@ pub enum ExperimentError {
         #[source]
         source: liebayes_operators::OperatorError,
     },
+    /// A table (or another record of a study) that is not well formed.
+    #[error("{0}")]
+    Invalid(String),
     /// Two partial summaries that cannot be merged.
     #[error("cannot merge these summaries: {0}")]
     Incompatible(String),

@@ -22,6 +22,9 @@
 //!   [`Shard`] of the runs, in parallel with the `rayon` feature, into a [`Summary`] (per-epoch
 //!   [`MetricSeries`], per-run statistics, failures by reason, timing) that merges exactly: shards
 //!   run on different machines combine to one study's figures, bit for bit.
+//! * [`Table`]: the rows one report compares, checked, merged exactly from shards, with the runs
+//!   it misses, its columns, each metric's [`Figure`] by its [`Reduction`], and the run-by-run
+//!   [`RunComparison`] of its rows: what a renderer shows, computed here.
 //! * [`RunValues`]: each run's value of a metric marked [`Metric::per_run`] (its RMSE over the run,
 //!   say), kept for the first [`MAX_KEPT_RUNS`] runs, with their [`quantiles`] and their
 //!   [`relative_differences`] from a reference filter's values on the same runs.
@@ -49,6 +52,7 @@ mod shard;
 mod statistics;
 pub mod study;
 mod summary;
+pub mod table;
 #[cfg(feature = "proptest")]
 #[cfg_attr(docsrs, doc(cfg(feature = "proptest")))]
 pub mod testing;
@@ -61,10 +65,11 @@ pub use paired::{Paired, PairedEstimate};
 pub use record::{Recorded, Recording, record};
 pub use replay::{RunFailure, RunScores, Scenario, Step, StepOf, Trajectory, replay};
 pub use run_values::{MAX_KEPT_RUNS, RunValues, quantiles, relative_differences};
-pub use score::{ManifoldScorer, Metric, Reduction, Scorer};
+pub use score::{Figure, ManifoldScorer, Metric, Reduction, Scorer};
 pub use shard::{Shard, run_rngs};
 pub use statistics::RunningStats;
 pub use study::{MAX_RUNS, MAX_STUDY_EPOCHS, Study};
 pub use summary::{
     MAX_EPOCHS, MAX_FAILURE_REASONS, MetricSeries, StudyLabel, Summary, SummaryMetric, Trace,
 };
+pub use table::{Column, FigureKind, MissingRuns, RunComparison, Table};

@@ -1,8 +1,10 @@
 //! Scoring an estimate against the truth, through the manifold: named metrics written into a slice
 //! (no allocation per epoch), each with the rule that summarises it over runs.
 
+use crate::RunningStats;
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
+use liebayes_operators::evaluation::{Z_975, average_nees_band};
 use serde::{Deserialize, Serialize};
 
 /// How the values of a metric over the runs of a study are summarised at an epoch.
@@ -22,6 +24,61 @@ pub enum Reduction {
     },
     /// An indicator (0 or 1): its mean, as a rate.
     Rate,
+}
+
+impl Reduction {
+    /// The figure a table reports for statistics `stats` over the runs at one epoch:
+    /// `RootMeanSquare` → `√(Σx²/n)`; `Mean` → `x̄` with `x̄ ± 1.96 s/√n` (n ≥ 2); `ChiSquare { dof }`
+    /// → `x̄` with the exact two-sided 95 % band of the mean of n χ²(dof) values
+    /// ([`average_nees_band`]); `Rate` → `100 x̄` (percent). [`Figure::Empty`] without a finite value.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_experiments::{Figure, Reduction, RunningStats};
+    ///
+    /// let mut stats = RunningStats::new();
+    /// for v in [3.0, 4.0] {
+    ///     stats.add(v);
+    /// }
+    /// assert_eq!(Reduction::RootMeanSquare.figure(&stats), Figure::Rms(12.5_f64.sqrt()));
+    /// assert!(matches!(Reduction::Mean.figure(&stats), Figure::Mean(m, Some(_)) if m == 3.5));
+    /// ```
+    pub fn figure(self, stats: &RunningStats) -> Figure {
+        let (Some(mean), Some(mean_square)) = (stats.mean(), stats.mean_square()) else {
+            return Figure::Empty;
+        };
+        let n = stats.count();
+        match self {
+            Reduction::RootMeanSquare => Figure::Rms(mean_square.sqrt()),
+            Reduction::Mean => {
+                let half = stats
+                    .variance()
+                    .map(|v| Z_975 * (v / n as f64).sqrt())
+                    .filter(|h| h.is_finite());
+                Figure::Mean(mean, half.map(|h| (mean - h, mean + h)))
+            }
+            Reduction::ChiSquare { dof } => {
+                let band = usize::try_from(n)
+                    .ok()
+                    .and_then(|n| average_nees_band(dof, n).ok());
+                Figure::Mean(mean, band)
+            }
+            Reduction::Rate => Figure::Percent(100.0 * mean),
+        }
+    }
+}
+
+/// What a table reports of a metric at an epoch ([`Reduction::figure`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Figure {
+    /// No finite value at that epoch.
+    Empty,
+    /// A root mean square `√(Σx²/n)`.
+    Rms(f64),
+    /// A mean with its 95 % band, when it has one (a mean of one value has none).
+    Mean(f64, Option<(f64, f64)>),
+    /// A rate, in percent.
+    Percent(f64),
 }
 
 /// A named metric with its summary rule and its unit (for tables and plots).

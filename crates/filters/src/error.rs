@@ -4,7 +4,7 @@
 use crate::attitude::DataError;
 use liebayes_densities::DensityError;
 use liebayes_experiments::RunFailure;
-use liebayes_operators::OperatorError;
+use liebayes_operators::{MAX_ELEMENTS, OperatorError};
 use thiserror::Error;
 
 /// The filters crate's error: a setting out of its range, bad data, or a step of a filter that
@@ -75,4 +75,23 @@ pub(crate) fn positive_setting(
             expected: "a finite positive number",
         })
     }
+}
+
+/// Checks a count of particles (or cells, named by `what`) before anything is drawn.
+pub(crate) fn check_count(what: &'static str, n: usize) -> Result<(), OperatorError> {
+    if n == 0 {
+        return Err(OperatorError::OutOfRange {
+            what,
+            value: 0.0,
+            range: "at least 1",
+        });
+    }
+    if n > MAX_ELEMENTS {
+        return Err(OperatorError::TooLarge {
+            what,
+            value: n,
+            max: MAX_ELEMENTS,
+        });
+    }
+    Ok(())
 }

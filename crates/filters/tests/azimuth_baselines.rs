@@ -3,6 +3,7 @@
 //! report their wrapped-normal ρ, the study is reproducible and finds the exact filter consistent,
 //! and the particle-count search finds a count that matches the exact filter.
 
+use liebayes_experiments::search::SearchSettings;
 use liebayes_experiments::{
     ExperimentError, Metric, Paired, PairedEstimate, RecursiveFilter, Reduction, Scenario, Scorer,
     Shard, Study, Summary, replay,
@@ -204,10 +205,16 @@ fn the_particle_count_search_finds_a_count_that_matches_the_exact_filter() {
     let config = short(30.0);
     let scenario = AzimuthScenario::new(Motion::Circle, config).unwrap();
     let runs = Study::new("search", 40, 5, Shard::WHOLE).unwrap();
-    let search = particles_to_match(&scenario, &runs, 0.2, (25, 6400), 0.25, &|_| {}).unwrap();
+    let settings = |tolerance| SearchSettings {
+        tolerance,
+        low: 25,
+        high: 6400,
+        resolution: 0.25,
+    };
+    let search = particles_to_match(&scenario, &runs, settings(0.2), &|_| {}).unwrap();
     eprintln!("particle search: {search:?}");
     let count = search.count.expect("6400 particles match the exact filter");
-    let target = search.exact_rmse * 1.2;
+    let target = search.target * 1.2;
     let rmse_at = |n: u64| {
         let summary = study(
             Method::Particle(usize::try_from(n).unwrap()),
@@ -229,8 +236,8 @@ fn the_particle_count_search_finds_a_count_that_matches_the_exact_filter() {
     let below = search
         .tried
         .iter()
-        .filter(|t| t.0 < count)
-        .map(|t| t.0)
+        .filter(|t| t.count < count)
+        .map(|t| t.count)
         .max();
     if let Some(n) = below {
         let (rmse, failures) = rmse_at(n);
@@ -241,8 +248,8 @@ fn the_particle_count_search_finds_a_count_that_matches_the_exact_filter() {
     }
     let exact_rmse =
         final_azimuth_rmse(&study(Method::Exact, Motion::Circle, &config, 40, 5)).unwrap();
-    assert_eq!(exact_rmse, search.exact_rmse);
-    assert!(particles_to_match(&scenario, &runs, f64::NAN, (25, 100), 0.25, &|_| {}).is_err());
+    assert_eq!(exact_rmse, search.target);
+    assert!(particles_to_match(&scenario, &runs, settings(f64::NAN), &|_| {}).is_err());
     let still = AzimuthScenario::new(Motion::Static, config).unwrap();
-    assert!(particles_to_match(&still, &runs, 0.2, (25, 100), 0.25, &|_| {}).is_err());
+    assert!(particles_to_match(&still, &runs, settings(0.2), &|_| {}).is_err());
 }

@@ -5,20 +5,19 @@
 //! assumed 10 times too small or too large caught by the same band.
 
 use liebayes_experiments::testing::FilterLawSubject;
-use liebayes_experiments::{Nis, RecursiveFilter, Scorer, filter_laws};
+use liebayes_experiments::{Method as _, Nis, Scorer, filter_laws};
 use liebayes_filters::aoa::{
-    AngleNoise, AzEl, AzElModel, DataModel, Position, PositionEstimate, PositionScorer, Readings,
-    SquareTrack, TrackConfig, UnitVectorModel, angle_ekf, angle_particle_filter, angle_ukf,
-    vmf_ekf, vmf_particle_filter, vmf_ukf,
+    Algorithm, AzEl, DataModel, ModelChoice, Position, PositionEstimate, PositionFilter,
+    PositionScorer, Readings, SquareTrack, TrackConfig, TrackFilter,
 };
 use liebayes_filters::attitude::{
     AttitudeEstimate, AttitudeFilter, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario,
     Method, SimulationSettings,
 };
 use liebayes_filters::azimuth::{
-    AzimuthEstimate, AzimuthScenario, AzimuthScorer, Config, Method as AzimuthMethod, Motion,
-    PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess, ekf, exact, grid_filter,
-    marginalized_filter, particle_filter, ukf,
+    AzimuthEstimate, AzimuthFilter, AzimuthScenario, AzimuthScorer, Config,
+    Method as AzimuthMethod, Motion, OnScenario, PositionAzimuth, PositionMeasurement,
+    VelocityInput,
 };
 
 /// A filter's construction error.
@@ -54,50 +53,23 @@ impl AzimuthSubject {
     }
 }
 
-/// A boxed azimuth filter: every one reports an [`AzimuthEstimate`].
-type BoxedAzimuth = Box<
-    dyn RecursiveFilter<
-            Input = VelocityInput,
-            Measurement = Vector2<f64>,
-            Estimate = AzimuthEstimate,
-        > + Send,
->;
-
 impl FilterLawSubject for AzimuthSubject {
     type Scenario = AzimuthScenario;
-    type Filter = BoxedAzimuth;
+    type Filter = AzimuthFilter;
 
     fn scenario(&self) -> &AzimuthScenario {
         &self.scenario
     }
 
-    fn filter(&self, noise: f64, rng: &mut ChaCha8Rng) -> Result<BoxedAzimuth, BoxedError> {
-        let config = self.scenario.config();
-        let process = VelocityProcess::new(config.q)?;
-        let measurement = PositionMeasurement::new(config.sigma_m * noise)?;
-        let (r0, s0) = (Vector2::zeros(), config.sigma0);
-        Ok(match self.filter {
-            AzimuthMethod::Exact => Box::new(exact(process, measurement, r0, s0)?),
-            AzimuthMethod::Ekf => Box::new(ekf(process, measurement, r0, s0)?),
-            AzimuthMethod::Ukf => Box::new(ukf(process, measurement, r0, s0)?),
-            AzimuthMethod::Particle(n) => Box::new(particle_filter(
-                n,
-                process,
-                measurement,
-                r0,
-                s0,
-                rng.clone(),
-            )?),
-            AzimuthMethod::Grid(n) => Box::new(grid_filter(n, process, measurement, r0, s0)?),
-            AzimuthMethod::Marginalized(n) => Box::new(marginalized_filter(
-                n,
-                process,
-                measurement,
-                r0,
-                s0,
-                rng.clone(),
-            )?),
-        })
+    /// The method with the scenario's models, its measurement noise scaled.
+    fn filter(&self, noise: f64, rng: &mut ChaCha8Rng) -> Result<AzimuthFilter, BoxedError> {
+        let method = self.filter.on(&self.scenario)?;
+        let measurement = PositionMeasurement::new(self.scenario.config().sigma_m * noise)?;
+        Ok(OnScenario {
+            measurement,
+            ..method
+        }
+        .build(rng)?)
     }
 
     /// The position NEES `(E r − r)ᵀ (Cov r)⁻¹ (E r − r)`, χ²(2).
@@ -162,12 +134,8 @@ filter_laws!(
 /// model.
 #[derive(Clone, Copy, Debug)]
 enum Aoa {
-    VmfParticle(usize),
-    VmfEkf,
-    VmfUkf,
-    AngleParticle(usize),
-    AngleEkf,
-    AngleUkf,
+    Vmf(Algorithm),
+    Angle(Algorithm),
 }
 
 /// The concentration of the readings (von Mises-Fisher data, the paper's Model II), κ = 400:
@@ -196,56 +164,35 @@ impl AoaSubject {
     }
 }
 
-/// A boxed aoa filter: every one reports a [`PositionEstimate`].
-type BoxedAoa = Box<
-    dyn RecursiveFilter<Input = f64, Measurement = Readings<4>, Estimate = PositionEstimate> + Send,
->;
-
 impl FilterLawSubject for AoaSubject {
     type Scenario = SquareTrack<4>;
-    type Filter = BoxedAoa;
+    type Filter = PositionFilter;
 
     fn scenario(&self) -> &SquareTrack<4> {
         &self.track
     }
 
-    fn filter(&self, noise: f64, rng: &mut ChaCha8Rng) -> Result<BoxedAoa, BoxedError> {
-        let config = *self.track.config();
-        let process = config.random_walk()?;
-        let prior = config.prior(rng)?;
-        let anchors = *self.track.anchors();
-        let kappa = KAPPA / (noise * noise);
+    /// The filter on the track, its measurement noise scaled.
+    fn filter(&self, noise: f64, rng: &mut ChaCha8Rng) -> Result<PositionFilter, BoxedError> {
         let sigma = noise / KAPPA.sqrt();
-        let vmf = || UnitVectorModel::new(anchors, kappa);
-        let angle = || {
-            AzElModel::new(
-                anchors,
-                AngleNoise::Fixed {
+        let (algorithm, model) = match self.filter {
+            Aoa::Vmf(algorithm) => (
+                algorithm,
+                ModelChoice::Vmf {
+                    kappa: KAPPA / (noise * noise),
+                },
+            ),
+            Aoa::Angle(algorithm) => (
+                algorithm,
+                ModelChoice::AngleNominal {
                     sigma_az: sigma,
                     sigma_el: sigma,
                 },
-            )
+            ),
         };
-        Ok(match self.filter {
-            Aoa::VmfParticle(n) => Box::new(vmf_particle_filter(
-                vmf()?,
-                process,
-                &prior,
-                n,
-                rng.clone(),
-            )?),
-            Aoa::VmfEkf => Box::new(vmf_ekf::<4, 12>(vmf()?, process, &prior)?),
-            Aoa::VmfUkf => Box::new(vmf_ukf::<4, 12>(vmf()?, process, &prior)?),
-            Aoa::AngleParticle(n) => Box::new(angle_particle_filter(
-                angle()?,
-                process,
-                &prior,
-                n,
-                rng.clone(),
-            )?),
-            Aoa::AngleEkf => Box::new(angle_ekf::<4, 8>(angle()?, process, &prior)?),
-            Aoa::AngleUkf => Box::new(angle_ukf::<4, 8>(angle()?, process, &prior)?),
-        })
+        Ok(TrackFilter { algorithm, model }
+            .on(&self.track)?
+            .build(rng)?)
     }
 
     /// The position NEES `eᵀ (Cov θ)⁻¹ e`, χ²(3).
@@ -291,32 +238,32 @@ impl FilterLawSubject for AoaSubject {
 // collapse onto a few points (a step with no process noise) their covariance is singular.
 filter_laws!(
     aoa_vmf_ekf,
-    AoaSubject::new(Aoa::VmfEkf),
+    AoaSubject::new(Aoa::Vmf(Algorithm::Ekf)),
     known_inconsistent("NIS 0.75 per dof: 12 unit-vector components carry 8 dof")
 );
 filter_laws!(
     aoa_vmf_ukf,
-    AoaSubject::new(Aoa::VmfUkf),
+    AoaSubject::new(Aoa::Vmf(Algorithm::Ukf)),
     known_inconsistent("NIS 0.74 per dof: 12 unit-vector components carry 8 dof")
 );
 filter_laws!(
     aoa_vmf_particle,
-    AoaSubject::new(Aoa::VmfParticle(2000)),
+    AoaSubject::new(Aoa::Vmf(Algorithm::Particle(2000))),
     known_inconsistent("2000 particles: position NEES 1.31 per dof, above the band's 1.29")
 );
 filter_laws!(
     aoa_angle_ekf,
-    AoaSubject::new(Aoa::AngleEkf),
+    AoaSubject::new(Aoa::Angle(Algorithm::Ekf)),
     known_inconsistent("normal azimuth-elevation model: position NEES 374 per dof")
 );
 filter_laws!(
     aoa_angle_ukf,
-    AoaSubject::new(Aoa::AngleUkf),
+    AoaSubject::new(Aoa::Angle(Algorithm::Ukf)),
     known_inconsistent("normal azimuth-elevation model: position NEES 92 per dof")
 );
 filter_laws!(
     aoa_angle_particle,
-    AoaSubject::new(Aoa::AngleParticle(2000)),
+    AoaSubject::new(Aoa::Angle(Algorithm::Particle(2000))),
     known_inconsistent("2000 particles: NEES infinite in runs whose particles collapse")
 );
 

@@ -2,14 +2,17 @@
 //! for their parameters, and the study of one of them on a [`SquareTrack`].
 
 use super::data::DataModel;
-use super::estimate::PositionScorer;
+use super::estimate::{PositionEstimate, PositionScorer};
 use super::filter::{
     angle_ekf, angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
 };
-use super::model::{AngleNoise, AzElModel, UnitVectorModel};
+use super::model::{AngleNoise, AzElModel, Readings, UnitVectorModel};
 use super::noise::{AdaptiveSigmas, kappa_from_sigmas, sigma_from_kappa};
+use super::process::RandomWalk;
 use super::scenario::SquareTrack;
-use liebayes_experiments::{ExperimentError, Study, Summary};
+use super::scenario::TrackConfig;
+use liebayes_experiments::search::{SearchSettings, SizeSearch, smallest_to_match};
+use liebayes_experiments::{ExperimentError, RecursiveFilter, Study, Summary};
 use liebayes_operators::OperatorError;
 use rand_chacha::ChaCha8Rng;
 
@@ -110,98 +113,129 @@ impl TrackFilter {
         format!("{algorithm}-{}", self.model.name())
     }
 
+    /// This filter on `track`'s four anchors, with the track's random walk and prior: what a
+    /// study builds each run's filter from.
+    ///
+    /// # Errors
+    /// A model parameter out of range ([`UnitVectorModel::new`], [`AzElModel::new`]) or the
+    /// track's random walk ([`TrackConfig::random_walk`](super::TrackConfig::random_walk)).
+    pub fn on(&self, track: &SquareTrack<4>) -> Result<OnTrack, OperatorError> {
+        let anchors = *track.anchors();
+        let model = match &self.model {
+            ModelChoice::Vmf { kappa } => BuiltModel::Vmf(UnitVectorModel::new(anchors, *kappa)?),
+            ModelChoice::AngleNominal { sigma_az, sigma_el }
+            | ModelChoice::AngleFitted { sigma_az, sigma_el } => {
+                let noise = AngleNoise::Fixed {
+                    sigma_az: *sigma_az,
+                    sigma_el: *sigma_el,
+                };
+                BuiltModel::Angle(AzElModel::new(anchors, noise)?)
+            }
+            ModelChoice::AngleAdaptive(table) => BuiltModel::Angle(AzElModel::new(
+                anchors,
+                AngleNoise::Adaptive(table.clone()),
+            )?),
+        };
+        Ok(OnTrack {
+            label: self.label(),
+            algorithm: self.algorithm,
+            model,
+            process: track.config().random_walk()?,
+            config: *track.config(),
+        })
+    }
+
     /// Runs the study of this filter on `track` (four anchors: the Kalman filters stack 12 or 8
     /// values), every run from the prior [`TrackConfig::prior`](super::TrackConfig::prior) drawn from
     /// the run's filter stream, scored by [`PositionScorer`].
     ///
     /// # Errors
-    /// A model parameter out of range (before any run, as [`ExperimentError::Scenario`]), or
-    /// [`Study::run`]'s errors.
+    /// A model parameter out of range (before any run, as [`ExperimentError::Scenario`]), a
+    /// particle count refused ([`ExperimentError::Method`]), or [`Study::run_method`]'s errors.
     pub fn study(
         &self,
         track: &SquareTrack<4>,
         study: &Study,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<Summary, ExperimentError> {
-        let setting =
-            |e: OperatorError| ExperimentError::Scenario(format!("{}: {e}", self.label()));
-        let config = *track.config();
-        let process = config.random_walk().map_err(setting)?;
-        let anchors = *track.anchors();
-        let scorer = PositionScorer;
-        if let Algorithm::Particle(0) = self.algorithm {
-            return Err(setting(OperatorError::OutOfRange {
-                what: "number of particles",
-                value: 0.0,
-                range: "at least 1",
-            }));
-        }
-        let noise = match &self.model {
-            ModelChoice::Vmf { kappa } => {
-                let model = UnitVectorModel::new(anchors, *kappa).map_err(setting)?;
-                return match self.algorithm {
-                    Algorithm::Particle(n) => study.run(
-                        track,
-                        &|rng: &mut ChaCha8Rng| {
-                            let prior = config.prior(rng)?;
-                            vmf_particle_filter(model, process, &prior, n, rng.clone())
-                        },
-                        &scorer,
-                        progress,
-                    ),
-                    Algorithm::Ekf => study.run(
-                        track,
-                        &|rng: &mut ChaCha8Rng| {
-                            vmf_ekf::<4, 12>(model, process, &config.prior(rng)?)
-                        },
-                        &scorer,
-                        progress,
-                    ),
-                    Algorithm::Ukf => study.run(
-                        track,
-                        &|rng: &mut ChaCha8Rng| {
-                            vmf_ukf::<4, 12>(model, process, &config.prior(rng)?)
-                        },
-                        &scorer,
-                        progress,
-                    ),
-                };
-            }
-            ModelChoice::AngleNominal { sigma_az, sigma_el }
-            | ModelChoice::AngleFitted { sigma_az, sigma_el } => AngleNoise::Fixed {
-                sigma_az: *sigma_az,
-                sigma_el: *sigma_el,
-            },
-            ModelChoice::AngleAdaptive(table) => AngleNoise::Adaptive(table.clone()),
-        };
-        let model = AzElModel::new(anchors, noise).map_err(setting)?;
+        let method = self
+            .on(track)
+            .map_err(|e| ExperimentError::Scenario(format!("{}: {e}", self.label())))?;
+        study.run_method(track, &method, &PositionScorer, progress)
+    }
+}
+
+/// Any filter of a track: each reports a [`PositionEstimate`].
+pub type PositionFilter = Box<
+    dyn RecursiveFilter<Input = f64, Measurement = Readings<4>, Estimate = PositionEstimate> + Send,
+>;
+
+/// A measurement model built for a track's anchors.
+#[derive(Clone, Debug, PartialEq)]
+enum BuiltModel {
+    Vmf(UnitVectorModel<4>),
+    Angle(AzElModel<4>),
+}
+
+/// A [`TrackFilter`] on a track ([`TrackFilter::on`]): its models built for the track's anchors,
+/// the track's random walk and prior. What a study builds each run's filter from
+/// ([`Study::run_method`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OnTrack {
+    label: String,
+    algorithm: Algorithm,
+    model: BuiltModel,
+    process: RandomWalk,
+    config: TrackConfig,
+}
+
+impl liebayes_experiments::Method for OnTrack {
+    type Filter = PositionFilter;
+
+    fn label(&self) -> String {
+        self.label.clone()
+    }
+
+    fn validate(&self) -> Result<(), OperatorError> {
         match self.algorithm {
-            Algorithm::Particle(n) => study.run(
-                track,
-                &|rng: &mut ChaCha8Rng| {
-                    let prior = config.prior(rng)?;
-                    angle_particle_filter(model.clone(), process, &prior, n, rng.clone())
-                },
-                &scorer,
-                progress,
-            ),
-            Algorithm::Ekf => study.run(
-                track,
-                &|rng: &mut ChaCha8Rng| {
-                    angle_ekf::<4, 8>(model.clone(), process, &config.prior(rng)?)
-                },
-                &scorer,
-                progress,
-            ),
-            Algorithm::Ukf => study.run(
-                track,
-                &|rng: &mut ChaCha8Rng| {
-                    angle_ukf::<4, 8>(model.clone(), process, &config.prior(rng)?)
-                },
-                &scorer,
-                progress,
-            ),
+            Algorithm::Particle(n) => crate::error::check_count("number of particles", n),
+            Algorithm::Ekf | Algorithm::Ukf => Ok(()),
         }
+    }
+
+    /// The run's filter from the run's prior, drawn from `rng`; the particle filters then draw
+    /// their particles from `rng`'s copy.
+    fn build(&self, rng: &mut ChaCha8Rng) -> Result<PositionFilter, OperatorError> {
+        let prior = self.config.prior(rng)?;
+        let process = self.process;
+        Ok(match (&self.model, self.algorithm) {
+            (BuiltModel::Vmf(model), Algorithm::Particle(n)) => Box::new(vmf_particle_filter(
+                *model,
+                process,
+                &prior,
+                n,
+                rng.clone(),
+            )?),
+            (BuiltModel::Vmf(model), Algorithm::Ekf) => {
+                Box::new(vmf_ekf::<4, 12>(*model, process, &prior)?)
+            }
+            (BuiltModel::Vmf(model), Algorithm::Ukf) => {
+                Box::new(vmf_ukf::<4, 12>(*model, process, &prior)?)
+            }
+            (BuiltModel::Angle(model), Algorithm::Particle(n)) => Box::new(angle_particle_filter(
+                model.clone(),
+                process,
+                &prior,
+                n,
+                rng.clone(),
+            )?),
+            (BuiltModel::Angle(model), Algorithm::Ekf) => {
+                Box::new(angle_ekf::<4, 8>(model.clone(), process, &prior)?)
+            }
+            (BuiltModel::Angle(model), Algorithm::Ukf) => {
+                Box::new(angle_ukf::<4, 8>(model.clone(), process, &prior)?)
+            }
+        })
     }
 }
 
@@ -217,43 +251,14 @@ pub fn track_rmse(summary: &Summary) -> Option<f64> {
     (n > 0).then(|| (sum / f64::from(n)).sqrt())
 }
 
-/// How [`particles_to_match`] searches: within `(1 + tolerance)` of the reference RMSE, tolerance in
-/// (0, 10]; counts from `low` to `high`; stopping when the bracket is within the relative
-/// `resolution`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SearchSettings {
-    /// The RMSE tolerance (0.01: within 1 %).
-    pub tolerance: f64,
-    /// The smallest count tried.
-    pub low: u64,
-    /// The largest count tried.
-    pub high: u64,
-    /// The relative width at which the bisection stops, in (0, 1].
-    pub resolution: f64,
-}
-
-/// What [`particles_to_match`] found.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ParticleSearch {
-    /// The reference filter's [`track_rmse`] (m), the target.
-    pub reference_rmse: f64,
-    /// Every particle count tried, with its [`track_rmse`] (m; +∞ when no run gave one), its failed
-    /// runs and its filter time per step (s), in the order tried.
-    pub tried: Vec<(u64, f64, u64, f64)>,
-    /// The smallest count found whose RMSE is within the tolerance, `None` if `high` is not.
-    pub count: Option<u64>,
-}
-
-/// The smallest particle count in `[low, high]` (see [`SearchSettings`]) at which the particle filter with `model` comes
-/// within `(1 + tolerance)` of the reference study's [`track_rmse`] on the same runs (the study's
-/// seed and runs: run k of every study reads the same data), with no failed run, by doubling then
-/// bisection to the relative `resolution`
-/// ([`smallest_passing`](liebayes_experiments::search::smallest_passing)).
+/// The smallest particle count in `settings`' range at which the particle filter with `model`
+/// comes within `(1 + tolerance)` of the reference study's [`track_rmse`] (m) on the same runs (the
+/// study's seed and runs: run k of every study reads the same data), with no failed run, by
+/// [`smallest_to_match`](liebayes_experiments::search::smallest_to_match).
 ///
 /// # Errors
-/// [`ExperimentError::OutOfRange`] for a tolerance outside (0, 10] or NaN, a reference without
-/// per-run errors, or `high` above [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS); the search's
-/// and the studies' errors otherwise.
+/// [`ExperimentError::OutOfRange`] for a reference without per-run errors and settings outside the
+/// search's ranges; the studies' errors otherwise.
 pub fn particles_to_match(
     track: &SquareTrack<4>,
     model: &ModelChoice,
@@ -261,52 +266,23 @@ pub fn particles_to_match(
     reference: &Summary,
     settings: SearchSettings,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<ParticleSearch, ExperimentError> {
-    let SearchSettings {
-        tolerance,
-        low,
-        high,
-        resolution,
-    } = settings;
-    if !(tolerance > 0.0 && tolerance <= 10.0) {
-        return Err(ExperimentError::OutOfRange {
-            what: "RMSE tolerance",
-            value: tolerance.to_string(),
-            range: "(0, 10]",
-        });
-    }
-    let limit = u64::try_from(liebayes_operators::MAX_ELEMENTS).unwrap_or(u64::MAX);
-    if high > limit {
-        return Err(ExperimentError::OutOfRange {
-            what: "largest particle count",
-            value: high.to_string(),
-            range: "at most 2^30",
-        });
-    }
+) -> Result<SizeSearch, ExperimentError> {
     let reference_rmse = track_rmse(reference).ok_or(ExperimentError::OutOfRange {
         what: "reference study",
         value: reference.label().name.clone(),
         range: "a study whose runs kept their position_error",
     })?;
-    let mut tried = Vec::new();
-    let count = liebayes_experiments::search::smallest_passing(low, high, resolution, |n| {
-        // n ≤ high ≤ 2^30: it fits a usize.
-        let particles = usize::try_from(n).unwrap_or(usize::MAX);
-        let filter = TrackFilter {
-            algorithm: Algorithm::Particle(particles),
-            model: model.clone(),
-        };
-        let summary = filter.study(track, study, progress)?;
-        let rmse = track_rmse(&summary).unwrap_or(f64::INFINITY);
-        let seconds = summary.timing().mean().unwrap_or(f64::NAN);
-        tried.push((n, rmse, summary.failure_count(), seconds));
-        Ok::<_, ExperimentError>(
-            summary.failure_count() == 0 && rmse <= reference_rmse * (1.0 + tolerance),
-        )
-    })?;
-    Ok(ParticleSearch {
+    smallest_to_match(
         reference_rmse,
-        tried,
-        count,
-    })
+        settings,
+        |n| {
+            // n ≤ high ≤ MAX_ELEMENTS: it fits a usize.
+            let filter = TrackFilter {
+                algorithm: Algorithm::Particle(usize::try_from(n).unwrap_or(usize::MAX)),
+                model: model.clone(),
+            };
+            filter.study(track, study, progress)
+        },
+        track_rmse,
+    )
 }

@@ -42,8 +42,7 @@ pub use filter::{
     angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
 };
 pub use method::{
-    Algorithm, ModelChoice, ParticleSearch, SearchSettings, TrackFilter, particles_to_match,
-    track_rmse,
+    Algorithm, ModelChoice, OnTrack, PositionFilter, TrackFilter, particles_to_match, track_rmse,
 };
 pub use model::{
     AngleNoise, AzElModel, CheckedReadings, InWorldAxes, Position, Readings, StackedAngles,

@@ -3,10 +3,11 @@
 use super::estimate::AzimuthScorer;
 use super::scenario::AzimuthScenario;
 use super::{
-    AzimuthDensity, AzimuthExact, PositionMeasurement, VelocityProcess, ekf, grid_filter,
-    marginalized_filter, particle_filter, ukf,
+    AzimuthDensity, AzimuthEstimate, AzimuthExact, PositionMeasurement, VelocityInput,
+    VelocityProcess, ekf, grid_filter, marginalized_filter, particle_filter, ukf,
 };
-use liebayes_experiments::{ExperimentError, Recursive, Study, Summary};
+use liebayes_experiments::search::{SearchSettings, SizeSearch, smallest_to_match};
+use liebayes_experiments::{ExperimentError, Recursive, RecursiveFilter, Study, Summary};
 use liebayes_operators::OperatorError;
 use nalgebra::Vector2;
 use rand_chacha::ChaCha8Rng;
@@ -50,81 +51,115 @@ impl Method {
         match self {
             Method::Exact | Method::Ekf | Method::Ukf => Ok(()),
             Method::Particle(n) | Method::Marginalized(n) => {
-                super::particle::check_count("number of particles", n)
+                crate::error::check_count("number of particles", n)
             }
-            Method::Grid(n) => super::particle::check_count("number of grid cells", n),
+            Method::Grid(n) => crate::error::check_count("number of grid cells", n),
         }
+    }
+
+    /// This method with `scenario`'s settings (its process noise, measurement noise and prior):
+    /// what a study builds each run's filter from.
+    ///
+    /// # Errors
+    /// A process or measurement noise out of range ([`VelocityProcess::new`],
+    /// [`PositionMeasurement::new`]).
+    pub fn on(self, scenario: &AzimuthScenario) -> Result<OnScenario, OperatorError> {
+        let config = scenario.config();
+        Ok(OnScenario {
+            method: self,
+            process: VelocityProcess::new(config.q)?,
+            measurement: PositionMeasurement::new(config.sigma_m)?,
+            sigma0: config.sigma0,
+        })
     }
 
     /// Runs the study of this method on `scenario`: every run with the scenario's prior
     /// (`r ~ N(0, σ₀² I)`, A uniform), scored by [`AzimuthScorer`].
     ///
     /// # Errors
-    /// As [`Study::run`]; an invalid method size is an [`ExperimentError::Method`] (its source
-    /// the [`Method::validate`] error) before any run.
+    /// As [`Study::run_method`]; an invalid method size is an [`ExperimentError::Method`] (its
+    /// source the [`Method::validate`] error) before any run, a scenario setting out of range an
+    /// [`ExperimentError::Scenario`].
     pub fn study(
         self,
         scenario: &AzimuthScenario,
         study: &Study,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<Summary, ExperimentError> {
-        self.validate().map_err(|source| ExperimentError::Method {
-            label: self.label(),
-            source,
-        })?;
-        let config = scenario.config();
-        let (r0, s0) = (Vector2::zeros(), config.sigma0);
-        let settings = || -> Result<(VelocityProcess, PositionMeasurement), OperatorError> {
-            Ok((
-                VelocityProcess::new(config.q)?,
-                PositionMeasurement::new(config.sigma_m)?,
-            ))
-        };
-        let (process, measurement) =
-            settings().map_err(|e| ExperimentError::Scenario(e.to_string()))?;
-        let scorer = AzimuthScorer;
-        match self {
-            Method::Exact => study.run(
-                scenario,
-                &|_: &mut ChaCha8Rng| exact(process, measurement, r0, s0),
-                &scorer,
-                progress,
-            ),
-            Method::Ekf => study.run(
-                scenario,
-                &|_: &mut ChaCha8Rng| ekf(process, measurement, r0, s0),
-                &scorer,
-                progress,
-            ),
-            Method::Ukf => study.run(
-                scenario,
-                &|_: &mut ChaCha8Rng| ukf(process, measurement, r0, s0),
-                &scorer,
-                progress,
-            ),
-            Method::Particle(n) => study.run(
-                scenario,
-                &|rng: &mut ChaCha8Rng| {
-                    particle_filter(n, process, measurement, r0, s0, rng.clone())
-                },
-                &scorer,
-                progress,
-            ),
-            Method::Grid(n) => study.run(
-                scenario,
-                &|_: &mut ChaCha8Rng| grid_filter(n, process, measurement, r0, s0),
-                &scorer,
-                progress,
-            ),
-            Method::Marginalized(n) => study.run(
-                scenario,
-                &|rng: &mut ChaCha8Rng| {
-                    marginalized_filter(n, process, measurement, r0, s0, rng.clone())
-                },
-                &scorer,
-                progress,
-            ),
-        }
+        let method = self
+            .on(scenario)
+            .map_err(|e| ExperimentError::Scenario(e.to_string()))?;
+        study.run_method(scenario, &method, &AzimuthScorer, progress)
+    }
+}
+
+/// Any filter of azimuth alignment: each reports an [`AzimuthEstimate`].
+pub type AzimuthFilter = Box<
+    dyn RecursiveFilter<
+            Input = VelocityInput,
+            Measurement = Vector2<f64>,
+            Estimate = AzimuthEstimate,
+        > + Send,
+>;
+
+/// A [`Method`] with the models it runs with: the velocity process, the position measurement and
+/// the prior's position standard deviation σ₀ (the prior `r ~ N(0, σ₀² I)`, A uniform). What a
+/// study builds each run's filter from ([`Study::run_method`]); a filter assuming other noise than
+/// the scenario's (a mis-specified model) is one with other `process` or `measurement`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OnScenario {
+    /// The method.
+    pub method: Method,
+    /// The process model it assumes.
+    pub process: VelocityProcess,
+    /// The measurement model it assumes.
+    pub measurement: PositionMeasurement,
+    /// The prior position standard deviation σ₀ (m).
+    pub sigma0: f64,
+}
+
+impl liebayes_experiments::Method for OnScenario {
+    type Filter = AzimuthFilter;
+
+    fn label(&self) -> String {
+        self.method.label()
+    }
+
+    fn validate(&self) -> Result<(), OperatorError> {
+        self.method.validate()
+    }
+
+    /// The method's filter; the sampling filters draw their particles from `rng`'s copy.
+    fn build(&self, rng: &mut ChaCha8Rng) -> Result<AzimuthFilter, OperatorError> {
+        let Self {
+            method,
+            process,
+            measurement,
+            sigma0,
+        } = *self;
+        let r0 = Vector2::zeros();
+        Ok(match method {
+            Method::Exact => Box::new(exact(process, measurement, r0, sigma0)?),
+            Method::Ekf => Box::new(ekf(process, measurement, r0, sigma0)?),
+            Method::Ukf => Box::new(ukf(process, measurement, r0, sigma0)?),
+            Method::Particle(n) => Box::new(particle_filter(
+                n,
+                process,
+                measurement,
+                r0,
+                sigma0,
+                rng.clone(),
+            )?),
+            Method::Grid(n) => Box::new(grid_filter(n, process, measurement, r0, sigma0)?),
+            Method::Marginalized(n) => Box::new(marginalized_filter(
+                n,
+                process,
+                measurement,
+                r0,
+                sigma0,
+                rng.clone(),
+            )?),
+        })
     }
 }
 
@@ -157,74 +192,37 @@ pub fn final_azimuth_rmse(summary: &Summary) -> Option<f64> {
         .map(f64::sqrt)
 }
 
-/// What [`particles_to_match`] found.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ParticleSearch {
-    /// The exact filter's final azimuth RMSE (deg), the target.
-    pub exact_rmse: f64,
-    /// Every particle count tried, with its final azimuth RMSE (deg; +∞ when no run reported one)
-    /// and its number of failed runs, in the order tried.
-    pub tried: Vec<(u64, f64, u64)>,
-    /// The smallest count found whose RMSE is within the tolerance, `None` if `high` is not.
-    pub count: Option<u64>,
-}
-
-/// The smallest particle count in `[low, high]` at which the bootstrap particle filter's final
-/// azimuth RMSE on `scenario` is at most `(1 + tolerance)` times the exact filter's over the same
-/// runs, with no failed run (the exact posterior is optimal, so a particle filter approaches its
-/// RMSE from above), to
-/// the relative `resolution`, by doubling then bisection
-/// ([`smallest_passing`](liebayes_experiments::search::smallest_passing)): about
-/// `log₂(high/low) + log₂(1/resolution) + 2` studies of `study`'s runs.
+/// The smallest particle count in `settings`' range at which the bootstrap particle filter's
+/// final azimuth RMSE ([`final_azimuth_rmse`]) on `scenario` is at most `(1 + tolerance)` times
+/// the exact filter's over the same runs, with no failed run (the exact posterior is optimal, so a
+/// particle filter approaches its RMSE from above), by
+/// [`smallest_to_match`](liebayes_experiments::search::smallest_to_match): about
+/// `log₂(high/low) + log₂(1/resolution) + 2` studies of `study`'s runs. The search's target is the
+/// exact filter's RMSE (deg).
 ///
 /// # Errors
-/// [`ExperimentError::OutOfRange`] for a tolerance outside (0, 10] (NaN included), for
-/// `low`/`high`/`resolution` outside the search's ranges or a `high` above
-/// [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS), and when the scenario leaves the azimuth
-/// unobservable (no target); the studies' errors otherwise.
+/// [`ExperimentError::OutOfRange`] when the scenario leaves the azimuth unobservable (no target)
+/// and for settings outside the search's ranges; the studies' errors otherwise.
 pub fn particles_to_match(
     scenario: &AzimuthScenario,
     study: &Study,
-    tolerance: f64,
-    (low, high): (u64, u64),
-    resolution: f64,
+    settings: SearchSettings,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<ParticleSearch, ExperimentError> {
-    if !(tolerance > 0.0 && tolerance <= 10.0) {
-        return Err(ExperimentError::OutOfRange {
-            what: "RMSE tolerance",
-            value: tolerance.to_string(),
-            range: "(0, 10]",
-        });
-    }
-    let limit = u64::try_from(liebayes_operators::MAX_ELEMENTS).unwrap_or(u64::MAX);
-    if high > limit {
-        return Err(ExperimentError::OutOfRange {
-            what: "largest particle count",
-            value: high.to_string(),
-            range: "at most 2^30",
-        });
-    }
+) -> Result<SizeSearch, ExperimentError> {
     let exact = Method::Exact.study(scenario, study, progress)?;
     let exact_rmse = final_azimuth_rmse(&exact).ok_or(ExperimentError::OutOfRange {
         what: "scenario",
         value: scenario.motion().name().to_owned(),
         range: "a scenario where the azimuth is observable (circle, line)",
     })?;
-    let mut tried = Vec::new();
-    let count = liebayes_experiments::search::smallest_passing(low, high, resolution, |n| {
-        // n ≤ high ≤ 2^30: it fits a usize.
-        let particles = usize::try_from(n).unwrap_or(usize::MAX);
-        let summary = Method::Particle(particles).study(scenario, study, progress)?;
-        let rmse = final_azimuth_rmse(&summary).unwrap_or(f64::INFINITY);
-        tried.push((n, rmse, summary.failure_count()));
-        Ok::<_, ExperimentError>(
-            summary.failure_count() == 0 && rmse <= exact_rmse * (1.0 + tolerance),
-        )
-    })?;
-    Ok(ParticleSearch {
+    smallest_to_match(
         exact_rmse,
-        tried,
-        count,
-    })
+        settings,
+        |n| {
+            // n ≤ high ≤ MAX_ELEMENTS: it fits a usize.
+            let particles = usize::try_from(n).unwrap_or(usize::MAX);
+            Method::Particle(particles).study(scenario, study, progress)
+        },
+        final_azimuth_rmse,
+    )
 }

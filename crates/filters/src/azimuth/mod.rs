@@ -40,7 +40,9 @@ pub use estimate::{AzimuthEstimate, AzimuthMoments, AzimuthScorer, DIVERGENCE_TH
 pub use gaussian::{AzimuthEkf, AzimuthUkf, ekf, ukf};
 pub use grid::{AzimuthGrid, grid_filter, log_joint};
 pub use marginalized::{AzimuthMarginalized, marginalized_filter};
-pub use method::{Method, ParticleSearch, exact, final_azimuth_rmse, particles_to_match};
+pub use method::{
+    AzimuthFilter, Method, OnScenario, exact, final_azimuth_rmse, particles_to_match,
+};
 pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
 pub use particle::{AzimuthParticleFilter, particle_filter};
 pub use scenario::{AzimuthScenario, AzimuthSteps, Config, MAX_DT, Motion};

@@ -65,25 +65,6 @@ impl Likelihood<PositionAzimuth> for PositionMeasurement {
     }
 }
 
-/// Checks a count of particles (or cells, named by `what`) before anything is drawn.
-pub(super) fn check_count(what: &'static str, n: usize) -> Result<(), OperatorError> {
-    if n == 0 {
-        return Err(OperatorError::OutOfRange {
-            what,
-            value: 0.0,
-            range: "at least 1",
-        });
-    }
-    if n > MAX_ELEMENTS {
-        return Err(OperatorError::TooLarge {
-            what,
-            value: n,
-            max: MAX_ELEMENTS,
-        });
-    }
-    Ok(())
-}
-
 /// Checks the prior of the particle filters, r₀ finite and σ₀ in [1.5e-154, 1e150]; returns σ₀².
 pub(super) fn check_prior(r0: Vector2<f64>, sigma0: f64) -> Result<f64, OperatorError> {
     let variance = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
@@ -98,7 +79,7 @@ pub(super) fn check_prior(r0: Vector2<f64>, sigma0: f64) -> Result<f64, Operator
 
 /// n draws of `draw`, the count checked and the memory reserved first.
 pub(super) fn draws<T>(n: usize, mut draw: impl FnMut() -> T) -> Result<Vec<T>, OperatorError> {
-    check_count("number of particles", n)?;
+    crate::error::check_count("number of particles", n)?;
     let mut particles = Vec::new();
     particles
         .try_reserve_exact(n)
