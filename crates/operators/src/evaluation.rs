@@ -8,10 +8,9 @@
 //!   runs, `N · mean` is χ² with N d degrees of freedom when the posterior is Gaussian, which gives the
 //!   95 % band of [`average_nees_band`].
 //! * [`circular_consistency`]: the same question for an angle, without a Gaussian assumption.
-//! * [`MeanEstimate`]: a running mean with its 95 % confidence band (divergence rates, ratios).
 //!
-//! Every accumulator refuses a value that is not finite, or that would make its sums overflow, with
-//! an error, and is then unchanged.
+//! The statistics of many runs (means, RMS, bands of the mean, merged exactly across shards) are the
+//! experiment layer's `RunningStats`: one running-statistics type for the whole library.
 
 use crate::OperatorError;
 use crate::error::{all_finite, check_size};
@@ -313,58 +312,6 @@ pub fn circular_consistency(error: f64, rho: f64) -> Option<f64> {
     ((0.0..1.0).contains(&rho) && error.is_finite()).then(|| (1.0 - error.cos()) / (1.0 - rho))
 }
 
-/// A running mean (Welford) with the 95 % confidence band of the mean from the sample variance.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct MeanEstimate {
-    count: usize,
-    mean: f64,
-    sum_sq: f64,
-}
-
-impl MeanEstimate {
-    /// Adds a value.
-    ///
-    /// # Errors
-    /// [`OperatorError::NonFinite`] for a value that is not finite, or whose addition would make the
-    /// running mean or sum of squares overflow; the estimate is then unchanged.
-    pub fn add(&mut self, x: f64) -> Result<(), OperatorError> {
-        all_finite("value added to a mean estimate", [x].iter())?;
-        let count = self.count + 1;
-        let delta = x - self.mean;
-        let mean = self.mean + delta / count as f64;
-        let sum_sq = self.sum_sq + delta * (x - mean);
-        all_finite(
-            "running mean or sum of squares (the values are too large: rescale them)",
-            [delta, mean, sum_sq].iter(),
-        )?;
-        *self = Self {
-            count,
-            mean,
-            sum_sq,
-        };
-        Ok(())
-    }
-
-    /// The number of values.
-    pub fn count(&self) -> usize {
-        self.count
-    }
-
-    /// The mean, `None` with no values.
-    pub fn mean(&self) -> Option<f64> {
-        (self.count > 0).then_some(self.mean)
-    }
-
-    /// `mean ± 1.96 s / √n` (normal approximation of the mean's distribution); `None` below 2 values.
-    pub fn band(&self) -> Option<(f64, f64)> {
-        (self.count > 1).then(|| {
-            let n = self.count as f64;
-            let half = Z_975 * (self.sum_sq / (n - 1.0) / n).sqrt();
-            (self.mean - half, self.mean + half)
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -439,16 +386,7 @@ mod tests {
     }
 
     #[test]
-    fn means_and_circular_consistency() {
-        let mut m = MeanEstimate::default();
-        assert_eq!(m.mean(), None);
-        for x in [1.0, 2.0, 3.0, 4.0] {
-            m.add(x).unwrap();
-        }
-        assert_eq!(m.mean(), Some(2.5));
-        let (low, high) = m.band().unwrap();
-        let half = Z_975 * (5.0_f64 / 3.0 / 4.0).sqrt();
-        assert!((low - (2.5 - half)).abs() < 1e-12 && (high - (2.5 + half)).abs() < 1e-12);
+    fn circular_consistency_is_one_for_a_consistent_spread() {
         assert_eq!(circular_consistency(0.3, 1.0), None);
         assert!((circular_consistency(PI, 0.0).unwrap() - 2.0).abs() < 1e-15);
     }
