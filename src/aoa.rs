@@ -3,6 +3,7 @@
 //! exact posterior, `track` the square-track study (the paper's Fig. 4) with, optionally, a
 //! near-optimal reference and the particle count that matches it.
 
+use crate::error::{CliError, Context as _, failed};
 use crate::output::{self, OutputArgs};
 use crate::progress;
 use crate::report::{self, print, print_search};
@@ -54,7 +55,7 @@ pub enum AoaCommand {
 /// # Errors
 /// A setting out of range (before any work), a failed computation, or a file that cannot be
 /// written.
-pub fn run(args: &Args) -> Result<(), String> {
+pub fn run(args: &Args) -> Result<(), CliError> {
     match &args.command {
         AoaCommand::Table1(a) => table1(a),
         AoaCommand::Update(a) => update(a),
@@ -86,7 +87,7 @@ pub struct Table1Args {
 ///
 /// # Errors
 /// As [`run`].
-pub fn table1(args: &Table1Args) -> Result<(), String> {
+pub fn table1(args: &Table1Args) -> Result<(), CliError> {
     let n = samples("--samples", args.samples)?;
     let models = args.noise.models(args.data)?;
     let mut output = output::prepare(&whole(args.out.clone()))?;
@@ -94,9 +95,8 @@ pub fn table1(args: &Table1Args) -> Result<(), String> {
     let mut rows = Vec::new();
     for data in &models {
         let mut rng = ChaCha8Rng::seed_from_u64(args.seed);
-        let fit = fit_angle_sigmas(data, n, &mut rng).map_err(|e| e.to_string())?;
-        let comparison = compare_models(data, n, (fit.sigma_az, fit.sigma_el), &mut rng)
-            .map_err(|e| e.to_string())?;
+        let fit = fit_angle_sigmas(data, n, &mut rng)?;
+        let comparison = compare_models(data, n, (fit.sigma_az, fit.sigma_el), &mut rng)?;
         let paper = PAPER_TABLE1.iter().find(|c| c.data == data.name());
         for (i, row) in comparison.rows.iter().enumerate() {
             let parameters = match (row.sigmas, row.kappa) {
@@ -190,15 +190,15 @@ pub struct UpdateArgs {
 ///
 /// # Errors
 /// As [`run`].
-pub fn update(args: &UpdateArgs) -> Result<(), String> {
+pub fn update(args: &UpdateArgs) -> Result<(), CliError> {
     let n = particles("--particles", args.particles)?;
     let mut output = output::prepare(&whole(args.out.clone()))?;
     let rng = ChaCha8Rng::seed_from_u64(args.seed);
     let mut sheets = Vec::new();
     let mut plots = Vec::new();
     for (corrected, name) in [(true, "corrected"), (false, "literal")] {
-        let example = UpdateExample::paper(corrected).map_err(|e| e.to_string())?;
-        let rows = example.run(n, &rng).map_err(|e| e.to_string())?;
+        let example = UpdateExample::paper(corrected)?;
+        let rows = example.run(n, &rng)?;
         let elevation = example.reading.elevation;
         let title = format!(
             "AoA single update ({name} elevation {:.4} rad): prior N((0.3, -0.3, -2), 0.75^2 I), \
@@ -217,7 +217,8 @@ pub fn update(args: &UpdateArgs) -> Result<(), String> {
                 &segments,
                 (*example.anchor.position()).into(),
                 example.reading.unit_vector().into(),
-            )?,
+            )
+            .map_err(|e| failed(format!("plotting aoa_update_{name}"), e))?,
         ));
         sheets.push(Sheet {
             name: format!("aoa_update_{name}"),
@@ -260,7 +261,7 @@ pub fn update(args: &UpdateArgs) -> Result<(), String> {
 ///
 /// # Errors
 /// As [`run`].
-pub fn track(args: &TrackArgs) -> Result<(), String> {
+pub fn track(args: &TrackArgs) -> Result<(), CliError> {
     let plan = TrackPlan::new(args)?;
     let output = output::prepare(&args.output)?;
     let tables = plan.run(args.output.shard)?;
@@ -272,7 +273,7 @@ pub fn track(args: &TrackArgs) -> Result<(), String> {
 ///
 /// # Errors
 /// As [`run`].
-pub fn main_job(out: &std::path::Path) -> Result<(), String> {
+pub fn main_job(out: &std::path::Path) -> Result<(), CliError> {
     let noise = Noise { sigma_deg: 10.0 };
     table1(&Table1Args {
         data: Data::Both,
@@ -305,7 +306,7 @@ fn write_sheets(
     plots: &[(String, String)],
     folder: bool,
     output: &mut output::Output,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     if !folder {
         return Ok(());
     }
@@ -340,7 +341,7 @@ pub struct Noise {
 
 impl Noise {
     /// The data models chosen, checked.
-    fn models(&self, data: Data) -> Result<Vec<DataModel>, String> {
+    fn models(&self, data: Data) -> Result<Vec<DataModel>, CliError> {
         let sigma = self.sigma_deg.to_radians();
         let one = DataModel::NormalWithFlip {
             sigma_az: sigma,
@@ -356,7 +357,7 @@ impl Noise {
         };
         for m in &models {
             m.validate()
-                .map_err(|e| format!("--sigma-deg {}: {e}", self.sigma_deg))?;
+                .context(|| format!("--sigma-deg {}", self.sigma_deg))?;
         }
         Ok(models)
     }
@@ -371,30 +372,29 @@ fn file_name(data: &DataModel) -> &'static str {
 }
 
 /// Checks a sample count.
-fn samples(what: &str, n: usize) -> Result<usize, String> {
+fn samples(what: &str, n: usize) -> Result<usize, CliError> {
     if n == 0 || n > MAX_SAMPLES {
-        return Err(format!("{what} is {n}: it must be from 1 to {MAX_SAMPLES}"));
+        return Err(format!("{what} is {n}: it must be from 1 to {MAX_SAMPLES}").into());
     }
     Ok(n)
 }
 
 /// Checks a run count.
-fn runs(what: &str, n: u64, zero_allowed: bool) -> Result<u64, String> {
+fn runs(what: &str, n: u64, zero_allowed: bool) -> Result<u64, CliError> {
     if (n == 0 && !zero_allowed) || n > MAX_RUNS {
         return Err(format!(
             "{what} is {n}: it must be from {} to 2^40",
             u8::from(!zero_allowed)
-        ));
+        )
+        .into());
     }
     Ok(n)
 }
 
 /// Checks a particle count.
-fn particles(what: &str, n: usize) -> Result<usize, String> {
+fn particles(what: &str, n: usize) -> Result<usize, CliError> {
     if n == 0 || n > MAX_PARTICLES {
-        return Err(format!(
-            "{what} is {n}: it must be from 1 to {MAX_PARTICLES}"
-        ));
+        return Err(format!("{what} is {n}: it must be from 1 to {MAX_PARTICLES}").into());
     }
     Ok(n)
 }
@@ -497,7 +497,7 @@ impl TrackPlan {
     ///
     /// # Errors
     /// The first setting out of range, in one line that names it.
-    pub fn new(args: &TrackArgs) -> Result<Self, String> {
+    pub fn new(args: &TrackArgs) -> Result<Self, CliError> {
         let runs = runs("--runs", args.runs, false)?;
         let n = particles("--particles", args.particles)?;
         let fit = samples("--fit-samples", args.fit_samples)?;
@@ -513,7 +513,7 @@ impl TrackPlan {
                 return Err("--match-tolerance needs a reference: give --reference-runs".into());
             }
             if !(t > 0.0 && t <= 10.0) {
-                return Err(format!("--match-tolerance is {t}: it must be in (0, 10]"));
+                return Err(format!("--match-tolerance is {t}: it must be in (0, 10]").into());
             }
             if args.output.shard != Shard::WHOLE {
                 return Err(
@@ -525,7 +525,8 @@ impl TrackPlan {
             return Err(format!(
                 "--steps is {}: a study summarises at most {MAX_STUDY_EPOCHS} epochs",
                 args.steps
-            ));
+            )
+            .into());
         }
         let config = TrackConfig {
             epochs: args.steps,
@@ -538,12 +539,11 @@ impl TrackPlan {
         let mut studies = Vec::new();
         for data in args.noise.models(args.data)? {
             let track = SquareTrack::new(square_track_anchors(), data, config)
-                .map_err(|e| format!("--steps {}: {e}", args.steps))?;
+                .context(|| format!("--steps {}", args.steps))?;
             let mut rng = ChaCha8Rng::seed_from_u64(args.seed);
-            let fitted = fit_angle_sigmas(&data, fit, &mut rng)
-                .map(|f| (f.sigma_az, f.sigma_el))
-                .map_err(|e| e.to_string())?;
-            let models = ModelChoice::paper(&data, fitted).map_err(|e| e.to_string())?;
+            let fitted =
+                fit_angle_sigmas(&data, fit, &mut rng).map(|f| (f.sigma_az, f.sigma_el))?;
+            let models = ModelChoice::paper(&data, fitted)?;
             let mut filters = Vec::with_capacity(12);
             for model in models {
                 for algorithm in [Algorithm::Particle(n), Algorithm::Ekf, Algorithm::Ukf] {
@@ -573,7 +573,7 @@ impl TrackPlan {
     ///
     /// # Errors
     /// A study that cannot run (the message names the filter and the data model).
-    pub fn run(&self, shard: Shard) -> Result<Vec<Table>, String> {
+    pub fn run(&self, shard: Shard) -> Result<Vec<Table>, CliError> {
         let mut tables = Vec::new();
         for TrackStudies { track, filters } in &self.studies {
             let data = track.data();
@@ -583,7 +583,7 @@ impl TrackPlan {
             }
             let optimum = self
                 .reference
-                .map(|(runs, n)| -> Result<Table, String> {
+                .map(|(runs, n)| -> Result<Table, CliError> {
                     let reference = TrackFilter {
                         algorithm: Algorithm::Particle(n),
                         model: filters[0].model.clone(),
@@ -629,15 +629,15 @@ impl TrackPlan {
         label: &str,
         runs: u64,
         shard: Shard,
-    ) -> Result<liebayes::experiments::Summary, String> {
+    ) -> Result<liebayes::experiments::Summary, CliError> {
         let name = track.data().name();
         let study = Study::new(label.to_owned(), runs, self.seed, shard)
-            .map_err(|e| format!("{label} on {name}: {e}"))?;
+            .context(|| format!("{label} on {name}"))?;
         let range = shard.runs(runs);
         let bar = progress::bar(&format!("{label} {name}"), range.end - range.start);
         filter
             .study(track, &study, &bar)
-            .map_err(|e| format!("{label} on {name}: {e}"))
+            .context(|| format!("{label} on {name}"))
     }
 
     /// The particle-count search against the reference, printed.
@@ -648,10 +648,9 @@ impl TrackPlan {
         reference: &liebayes::experiments::Summary,
         runs: u64,
         tolerance: f64,
-    ) -> Result<(), String> {
+    ) -> Result<(), CliError> {
         let name = track.data().name();
-        let study = Study::new("PF-VMF search", runs, self.seed, Shard::WHOLE)
-            .map_err(|e| e.to_string())?;
+        let study = Study::new("PF-VMF search", runs, self.seed, Shard::WHOLE)?;
         let bar = progress::bar(&format!("search {name}"), runs);
         let settings = SearchSettings {
             tolerance,
@@ -660,7 +659,7 @@ impl TrackPlan {
             resolution: 0.1,
         };
         let found = particles_to_match(track, model, &study, reference, settings, &bar)
-            .map_err(|e| format!("{name}: {e}"))?;
+            .context(|| name.to_string())?;
         print_search(
             name,
             "track RMSE (m)",
@@ -674,11 +673,12 @@ impl TrackPlan {
 }
 
 /// `--reference-runs`: 0 (none) up to `--runs`.
-fn runs_at_most(n: u64, runs: u64) -> Result<u64, String> {
+fn runs_at_most(n: u64, runs: u64) -> Result<u64, CliError> {
     if n > runs {
         return Err(format!(
             "--reference-runs is {n}: at most --runs ({runs}), its runs are the study's first"
-        ));
+        )
+        .into());
     }
     Ok(n)
 }

@@ -3,6 +3,7 @@
 //! runs and their scores come from the library ([`evaluate`], [`Study`]); this module parses,
 //! dispatches and renders the tables, plots and files (written all or nothing).
 
+use crate::error::{CliError, Context as _};
 use crate::output::{self, OutputArgs};
 use crate::report::{emit, print};
 use crate::sheet::Sheet;
@@ -67,12 +68,12 @@ pub struct Args {
 }
 
 /// A method by name ([`METHOD_NAMES`]).
-fn parse_method(name: &str) -> Result<Method, String> {
-    Method::from_name(name).map_err(|e| e.to_string())
+fn parse_method(name: &str) -> Result<Method, CliError> {
+    Ok(Method::from_name(name)?)
 }
 
 /// The named methods, or `names` when none was given.
-fn methods_or(given: &[Method], names: &[&str]) -> Result<Vec<Method>, String> {
+fn methods_or(given: &[Method], names: &[&str]) -> Result<Vec<Method>, CliError> {
     if !given.is_empty() {
         return Ok(given.to_vec());
     }
@@ -84,7 +85,7 @@ fn methods_or(given: &[Method], names: &[&str]) -> Result<Vec<Method>, String> {
 /// # Errors
 /// Bad input (missing folder, no trial, malformed file), a failed filter, or a file that cannot be
 /// written; nothing is written then.
-pub fn run(args: &Args) -> Result<(), String> {
+pub fn run(args: &Args) -> Result<(), CliError> {
     let mut output = output::prepare(&whole(args.out.clone()))?;
     if let Some(dir) = &args.broad {
         let methods = methods_or(&args.methods, &DEFAULT_METHODS)?;
@@ -95,7 +96,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         let mut settings = SimulationSettings::default();
         if let Some(n) = args.samples {
             if n < 2 {
-                return Err(format!("--samples is {n}: it must be at least 2"));
+                return Err(format!("--samples is {n}: it must be at least 2").into());
             }
             settings.samples = n;
         }
@@ -120,7 +121,7 @@ const MAIN_JOB_STUDY_RUNS: u64 = 32;
 /// through the experiment layer, the EKF 9D on each: one table of per-epoch errors, reported σ
 /// and NEES. (The 6D heading starts at zero, which is the simulator's own start: its heading
 /// error would mean nothing here.)
-fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, String> {
+fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, CliError> {
     let params = AttitudeParams::default();
     let settings = SimulationSettings {
         field_offset: params.magnetometer.offset,
@@ -128,7 +129,7 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, S
     };
     let (rate, samples) = (settings.rate, settings.samples);
     let scenario = ImuScenario::new(settings, STUDY_MAGNETOMETER_EVERY)
-        .map_err(|e| format!("--simulate --runs: {e}"))?;
+        .context(|| "--simulate --runs".to_owned())?;
     let method = AtRate {
         method: Method::Ekf {
             params,
@@ -138,7 +139,7 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, S
     };
     let summary = Study::new("EKF 9D", runs, seed, Shard::WHOLE)
         .and_then(|s| s.run_method(&scenario, &method, &AttitudeScorer, &|_| {}))
-        .map_err(|e| format!("--simulate --runs {runs}: {e}"))?;
+        .context(|| format!("--simulate --runs {runs}"))?;
     Ok(Table {
         name: "attitude_study".to_owned(),
         title: format!(
@@ -157,7 +158,7 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, S
 ///
 /// # Errors
 /// As [`run`].
-pub fn main_job(out: &Path) -> Result<(), String> {
+pub fn main_job(out: &Path) -> Result<(), CliError> {
     let mut output = output::prepare(&whole(Some(out.to_path_buf())))?;
     let methods = methods_or(&[], &DEFAULT_METHODS)?;
     simulated(&SimulationSettings::default(), 1, &methods, &mut output)?;
@@ -185,9 +186,9 @@ pub fn main_job(out: &Path) -> Result<(), String> {
 }
 
 /// The sorted `*.mat` files of `dir`.
-fn broad_trials(dir: &Path) -> Result<Vec<PathBuf>, String> {
+fn broad_trials(dir: &Path) -> Result<Vec<PathBuf>, CliError> {
     let entries = std::fs::read_dir(dir)
-        .map_err(|e| format!("cannot read the BROAD folder {}: {e}", dir.display()))?;
+        .context(|| format!("cannot read the BROAD folder {}", dir.display()))?;
     let mut trials: Vec<PathBuf> = entries
         .filter_map(Result::ok)
         .map(|e| e.path())
@@ -195,10 +196,7 @@ fn broad_trials(dir: &Path) -> Result<Vec<PathBuf>, String> {
         .collect();
     trials.sort();
     if trials.is_empty() {
-        return Err(format!(
-            "the BROAD folder {} holds no .mat trial",
-            dir.display()
-        ));
+        return Err(format!("the BROAD folder {} holds no .mat trial", dir.display()).into());
     }
     Ok(trials)
 }
@@ -215,7 +213,7 @@ fn compare(
     methods: &[Method],
     title: &str,
     output: &mut output::Output,
-) -> Result<Evaluation, String> {
+) -> Result<Evaluation, CliError> {
     let writing = output.dir().is_some();
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let evaluation = evaluate(logs, methods, &mut |name, method, recording| {
@@ -237,8 +235,7 @@ fn compare(
             }
         }
         Ok(())
-    })
-    .map_err(|e| e.to_string())?;
+    })?;
     for (name, bytes) in files {
         output.write(&name, &bytes)?;
     }
@@ -335,16 +332,16 @@ fn broad(
     trials: &[PathBuf],
     methods: &[Method],
     output: &mut output::Output,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     let mut logs = Vec::with_capacity(trials.len());
     for path in trials {
-        let log = read_broad(path).map_err(|e| e.to_string())?;
+        let log = read_broad(path)?;
         let name = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
         output::check_name(&name)?;
-        logs.push((name, LogScenario::new(log).map_err(|e| e.to_string())?));
+        logs.push((name, LogScenario::new(log)?));
     }
     let evaluation = compare(&logs, methods, "BROAD", output)?;
     print(
@@ -356,8 +353,7 @@ fn broad(
         ));
     }
     if output.dir().is_some() {
-        let text =
-            serde_json::to_string_pretty(&summary_json(&evaluation)).map_err(|e| e.to_string())?;
+        let text = serde_json::to_string_pretty(&summary_json(&evaluation))?;
         output.write("broad.summary.json", text.as_bytes())?;
     }
     Ok(())
@@ -406,13 +402,10 @@ fn simulated(
     seed: u64,
     methods: &[Method],
     output: &mut output::Output,
-) -> Result<(), String> {
-    let log = simulate(settings, seed).map_err(|e| format!("--simulate: {e}"))?;
+) -> Result<(), CliError> {
+    let log = simulate(settings, seed).context(|| "--simulate".to_owned())?;
     let n = log.len();
-    let logs = vec![(
-        format!("simulated_seed{seed}"),
-        LogScenario::new(log).map_err(|e| e.to_string())?,
-    )];
+    let logs = vec![(format!("simulated_seed{seed}"), LogScenario::new(log)?)];
     compare(
         &logs,
         methods,
@@ -423,10 +416,10 @@ fn simulated(
 }
 
 /// `--csv`: the EKF (9D, or 6D without a magnetometer) on a user's log.
-fn csv(file: &Path, output: &mut output::Output) -> Result<(), String> {
+fn csv(file: &Path, output: &mut output::Output) -> Result<(), CliError> {
     let origin = file.display().to_string();
-    let reader = std::fs::File::open(file).map_err(|e| format!("{origin}: {e}"))?;
-    let log = read_imu_csv(std::io::BufReader::new(reader), &origin).map_err(|e| e.to_string())?;
+    let reader = std::fs::File::open(file).context(|| origin.clone())?;
+    let log = read_imu_csv(std::io::BufReader::new(reader), &origin)?;
     let name = if log.magnetometer().is_some() {
         "ekf-9d"
     } else {
@@ -434,8 +427,8 @@ fn csv(file: &Path, output: &mut output::Output) -> Result<(), String> {
     };
     let method = parse_method(name)?;
     let n = log.len();
-    let scenario = LogScenario::new(log).map_err(|e| e.to_string())?;
-    let recording = run_log(&origin, &scenario, &method).map_err(|e| e.to_string())?;
+    let scenario = LogScenario::new(log)?;
+    let recording = run_log(&origin, &scenario, &method)?;
     print(&format!("{} on {origin}: {n} samples", method.label()));
     if let Some(e) = liebayes::filters::attitude::LogScore::of(&recording).errors() {
         print(&format!(
@@ -444,7 +437,7 @@ fn csv(file: &Path, output: &mut output::Output) -> Result<(), String> {
         ));
     }
     if output.dir().is_some() {
-        let bytes = estimates_csv(&recording, &origin).map_err(|e| e.to_string())?;
+        let bytes = estimates_csv(&recording, &origin)?;
         let stem = file
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -548,6 +541,11 @@ mod tests {
         for name in METHOD_NAMES {
             assert!(parse_method(name).is_ok(), "{name}");
         }
-        assert!(parse_method("vqf").unwrap_err().contains("ekf-9d"));
+        assert!(
+            parse_method("vqf")
+                .unwrap_err()
+                .to_string()
+                .contains("ekf-9d")
+        );
     }
 }

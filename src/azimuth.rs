@@ -1,6 +1,7 @@
 //! `liebayes azimuth`: the azimuth-alignment study's settings, checked before any run, and the
 //! studies it runs (every filter on every chosen scenario), as tables for the report.
 
+use crate::error::{CliError, Context as _};
 use crate::output::OutputArgs;
 use crate::progress;
 use crate::report::print_search;
@@ -82,22 +83,23 @@ impl Default for Simulation {
 impl Simulation {
     /// The library's configuration, checked by the library, with a number of measurement epochs a
     /// study can summarise.
-    fn config(&self) -> Result<Config, String> {
+    fn config(&self) -> Result<Config, CliError> {
         let config = Config {
             sigma0: self.sigma0,
             sigma_m: self.sigma_m,
             q: self.q,
             dt: self.dt,
             measure_every: self.measure_every,
-            steps: Config::steps_for(self.duration, self.dt).map_err(|e| e.to_string())?,
+            steps: Config::steps_for(self.duration, self.dt)?,
         };
-        config.validate().map_err(|e| e.to_string())?;
+        config.validate()?;
         let epochs = config.steps.div_ceil(config.measure_every);
         if epochs > MAX_STUDY_EPOCHS {
             return Err(format!(
                 "{epochs} measurement epochs (duration / dt / measure-every) is more than a study \
                  summarises ({MAX_STUDY_EPOCHS}): shorten --duration or raise --measure-every"
-            ));
+            )
+            .into());
         }
         Ok(config)
     }
@@ -164,23 +166,25 @@ impl Args {
 }
 
 /// Checks a run count.
-fn runs(what: &str, runs: u64, zero_allowed: bool) -> Result<u64, String> {
+fn runs(what: &str, runs: u64, zero_allowed: bool) -> Result<u64, CliError> {
     if (runs == 0 && !zero_allowed) || runs > MAX_RUNS {
         return Err(format!(
             "{what} is {runs}: it must be from {} to 2^40",
             u8::from(!zero_allowed)
-        ));
+        )
+        .into());
     }
     Ok(runs)
 }
 
 /// Checks a filter size: the library's range, and at most [`MAX_FILTER_SIZE`].
-fn size(method: Method, what: &str, n: usize) -> Result<Method, String> {
-    method.validate().map_err(|e| format!("{what}: {e}"))?;
+fn size(method: Method, what: &str, n: usize) -> Result<Method, CliError> {
+    method.validate().context(|| what.to_string())?;
     if n > MAX_FILTER_SIZE {
         return Err(format!(
             "{what} is {n}: at most {MAX_FILTER_SIZE} (a study holds one filter per core)"
-        ));
+        )
+        .into());
     }
     Ok(method)
 }
@@ -199,7 +203,7 @@ impl Plan {
     ///
     /// # Errors
     /// The first setting out of range, in one line that names it.
-    pub fn new(args: &Args) -> Result<Plan, String> {
+    pub fn new(args: &Args) -> Result<Plan, CliError> {
         let config = args.simulation.config()?;
         let runs = runs("--runs", args.runs, false)?;
         let baseline = runs_checked(args.baseline_runs)?;
@@ -236,7 +240,7 @@ impl Plan {
             .scenario
             .motions()
             .iter()
-            .map(|&m| AzimuthScenario::new(m, config).map_err(|e| e.to_string()))
+            .map(|&m| AzimuthScenario::new(m, config))
             .collect::<Result<_, _>>()?;
         Ok(Plan {
             scenarios,
@@ -250,7 +254,7 @@ impl Plan {
     ///
     /// # Errors
     /// A study that cannot run (the message names the filter and the scenario).
-    pub fn run(&self, shard: Shard) -> Result<Vec<Table>, String> {
+    pub fn run(&self, shard: Shard) -> Result<Vec<Table>, CliError> {
         let mut tables = Vec::with_capacity(self.scenarios.len());
         for scenario in &self.scenarios {
             let name = scenario.motion().name();
@@ -258,13 +262,13 @@ impl Plan {
             for &(method, runs) in &self.methods {
                 let label = method.label();
                 let study = Study::new(label.clone(), runs, self.seed, shard)
-                    .map_err(|e| format!("{label} on {name}: {e}"))?;
+                    .context(|| format!("{label} on {name}"))?;
                 let range = shard.runs(runs);
                 let bar = progress::bar(&format!("{label} {name}"), range.end - range.start);
                 summaries.push(
                     method
                         .study(scenario, &study, &bar)
-                        .map_err(|e| format!("{label} on {name}: {e}"))?,
+                        .context(|| format!("{label} on {name}"))?,
                 );
             }
             tables.push(Table {
@@ -279,7 +283,7 @@ impl Plan {
 }
 
 /// `--baseline-runs`, which may be 0 (no baselines).
-fn runs_checked(n: u64) -> Result<u64, String> {
+fn runs_checked(n: u64) -> Result<u64, CliError> {
     runs("--baseline-runs", n, true)
 }
 
@@ -319,34 +323,29 @@ pub struct ParticleArgs {
 ///
 /// # Errors
 /// A setting out of range (before any run), or a study that cannot run.
-pub fn particles(args: &ParticleArgs) -> Result<(), String> {
+pub fn particles(args: &ParticleArgs) -> Result<(), CliError> {
     let config = args.simulation.config()?;
     let runs = runs("--runs", args.runs, false)?;
     if !(args.tolerance > 0.0 && args.tolerance <= 10.0) {
-        return Err(format!(
-            "--tolerance is {}: it must be in (0, 10]",
-            args.tolerance
-        ));
+        return Err(format!("--tolerance is {}: it must be in (0, 10]", args.tolerance).into());
     }
     if !(args.resolution > 0.0 && args.resolution <= 1.0) {
-        return Err(format!(
-            "--resolution is {}: it must be in (0, 1]",
-            args.resolution
-        ));
+        return Err(format!("--resolution is {}: it must be in (0, 1]", args.resolution).into());
     }
     let limit = MAX_FILTER_SIZE as u64;
     if args.low == 0 || args.low > args.high || args.high > limit {
         return Err(format!(
             "--low {} and --high {}: they must satisfy 1 <= low <= high <= {limit}",
             args.low, args.high
-        ));
+        )
+        .into());
     }
     let scenarios: Vec<AzimuthScenario> = args
         .scenario
         .motions()
         .iter()
         .filter(|&&m| m != Motion::Static)
-        .map(|&m| AzimuthScenario::new(m, config).map_err(|e| e.to_string()))
+        .map(|&m| AzimuthScenario::new(m, config))
         .collect::<Result<_, _>>()?;
     if scenarios.is_empty() {
         return Err(
@@ -355,8 +354,7 @@ pub fn particles(args: &ParticleArgs) -> Result<(), String> {
     }
     for scenario in &scenarios {
         let name = scenario.motion().name();
-        let study = Study::new("particle search", runs, args.seed, Shard::WHOLE)
-            .map_err(|e| e.to_string())?;
+        let study = Study::new("particle search", runs, args.seed, Shard::WHOLE)?;
         let bar = progress::bar(&format!("search {name}"), runs);
         let settings = SearchSettings {
             tolerance: args.tolerance,
@@ -364,8 +362,8 @@ pub fn particles(args: &ParticleArgs) -> Result<(), String> {
             high: args.high,
             resolution: args.resolution,
         };
-        let found = particles_to_match(scenario, &study, settings, &bar)
-            .map_err(|e| format!("{name}: {e}"))?;
+        let found =
+            particles_to_match(scenario, &study, settings, &bar).context(|| name.to_string())?;
         print_search(
             name,
             "final azimuth RMSE (deg)",

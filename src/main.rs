@@ -13,11 +13,13 @@
 mod aoa;
 mod attitude;
 mod azimuth;
+mod error;
 mod output;
 mod progress;
 mod report;
 mod sheet;
 
+use crate::error::CliError;
 use clap::{Parser, Subcommand};
 use liebayes::experiments::Shard;
 use std::path::PathBuf;
@@ -105,7 +107,7 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(message) => fail(&message),
+        Err(error) => fail(&error.to_string()),
     }
 }
 
@@ -118,7 +120,7 @@ fn fail(message: &str) -> ExitCode {
 
 /// `liebayes azimuth`: settings and output folder checked before any run, then the studies, then
 /// the report.
-fn study(args: &azimuth::Args) -> Result<(), String> {
+fn study(args: &azimuth::Args) -> Result<(), CliError> {
     let plan = azimuth::Plan::new(args)?;
     let output = output::prepare(&args.output)?;
     let tables = plan.run(args.output.shard)?;
@@ -126,7 +128,7 @@ fn study(args: &azimuth::Args) -> Result<(), String> {
 }
 
 /// `liebayes merge`: the folders checked, then read and merged, then reported as a whole run is.
-fn merge(args: &MergeArgs) -> Result<(), String> {
+fn merge(args: &MergeArgs) -> Result<(), CliError> {
     report::check_merge_folders(&args.dirs, &args.out)?;
     let settings = output::OutputArgs {
         out: Some(args.out.clone()),

@@ -1,6 +1,7 @@
 //! Where a command's files go, written all or nothing: every file goes under a temporary name in
 //! the output folder and is renamed into place only when the whole command has succeeded.
 
+use crate::error::{CliError, Context as _};
 use liebayes::experiments::Shard;
 use std::fs;
 use std::io::Write as _;
@@ -37,29 +38,29 @@ pub struct Output {
 /// # Errors
 /// A shard other than 1/1 without `--out` (its partial summary would be lost), or a folder that
 /// cannot be created or written; the message names the folder and the reason.
-pub fn prepare(args: &OutputArgs) -> Result<Output, String> {
+pub fn prepare(args: &OutputArgs) -> Result<Output, CliError> {
     let Some(dir) = &args.out else {
         if args.shard != Shard::WHOLE {
             return Err(format!(
                 "--shard {} needs --out DIR: a partial study is only useful saved, for `liebayes merge`",
                 args.shard
-            ));
+            ).into());
         }
         return Ok(Output {
             dir: None,
             pending: Vec::new(),
         });
     };
-    let cannot = |what: &str, e: std::io::Error| {
+    let cannot = |what: &str| {
         format!(
-            "cannot {what} the output folder {}: {e} (choose a writable --out DIR)",
+            "cannot {what} the output folder {} (choose a writable --out DIR)",
             dir.display()
         )
     };
-    fs::create_dir_all(dir).map_err(|e| cannot("create", e))?;
+    fs::create_dir_all(dir).context(|| cannot("create"))?;
     let probe = dir.join(format!(".liebayes-probe-{}", std::process::id()));
-    fs::File::create(&probe).map_err(|e| cannot("write into", e))?;
-    fs::remove_file(&probe).map_err(|e| cannot("write into", e))?;
+    fs::File::create(&probe).context(|| cannot("write into"))?;
+    fs::remove_file(&probe).context(|| cannot("write into"))?;
     Ok(Output {
         dir: Some(dir.clone()),
         pending: Vec::new(),
@@ -78,16 +79,17 @@ impl Output {
     ///
     /// # Errors
     /// No output folder, a bad or repeated name, or a failed write (the temporary is removed).
-    pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), String> {
+    pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), CliError> {
         let Some(dir) = &self.dir else {
-            return Err(format!("internal: {name} written without an output folder"));
+            return Err(format!("internal: {name} written without an output folder").into());
         };
         check_name(name)?;
         let target = dir.join(name);
         if self.pending.iter().any(|(_, t)| *t == target) {
             return Err(format!(
                 "internal: {name} written twice by one command (two tables of the same name?)"
-            ));
+            )
+            .into());
         }
         let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
         let written = fs::File::create(&temporary).and_then(|mut file| {
@@ -96,7 +98,7 @@ impl Output {
         });
         if let Err(e) = written {
             let _ = fs::remove_file(&temporary);
-            return Err(format!("writing {}: {e}", target.display()));
+            return Err(e).context(|| format!("writing {}", target.display()));
         }
         self.pending.push((temporary, target));
         Ok(())
@@ -107,7 +109,7 @@ impl Output {
     ///
     /// # Errors
     /// A rename that fails (the files not yet renamed are removed; those before it are in place).
-    pub fn commit(mut self) -> Result<Vec<PathBuf>, String> {
+    pub fn commit(mut self) -> Result<Vec<PathBuf>, CliError> {
         let mut done = Vec::with_capacity(self.pending.len());
         let pending = std::mem::take(&mut self.pending);
         let mut rest = pending.into_iter();
@@ -119,7 +121,8 @@ impl Output {
                     "moving {} into place: {e} ({} of the command's files were already in place)",
                     target.display(),
                     done.len()
-                ));
+                )
+                .into());
             }
             done.push(target);
         }
@@ -130,7 +133,7 @@ impl Output {
     ///
     /// # Errors
     /// As [`commit`](Self::commit).
-    pub fn finish(self) -> Result<(), String> {
+    pub fn finish(self) -> Result<(), CliError> {
         let dir = self.dir().map(|d| d.display().to_string());
         let written = self.commit()?;
         if let Some(dir) = dir {
@@ -153,7 +156,7 @@ impl Drop for Output {
 ///
 /// # Errors
 /// The name and the rule it breaks.
-pub fn check_name(name: &str) -> Result<(), String> {
+pub fn check_name(name: &str) -> Result<(), CliError> {
     let plain = name
         .bytes()
         .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-' || b == b'.');
@@ -161,7 +164,7 @@ pub fn check_name(name: &str) -> Result<(), String> {
         return Err(format!(
             "file name {name:?} is not a plain name (1 to {MAX_NAME} ASCII letters, digits, '_', '-' or \
              '.', not starting with '.')"
-        ));
+        ).into());
     }
     Ok(())
 }
@@ -233,7 +236,12 @@ mod tests {
         fs::create_dir_all(&dir).unwrap();
         fs::write(dir.join("file"), b"").unwrap();
         let error = prepare(&args(&dir.join("file").join("below"))).unwrap_err();
-        assert!(error.contains("cannot create the output folder"), "{error}");
+        assert!(
+            error
+                .to_string()
+                .contains("cannot create the output folder"),
+            "{error}"
+        );
         let partial = OutputArgs {
             out: None,
             shard: Shard::new(2, 3).unwrap(),
@@ -241,6 +249,7 @@ mod tests {
         assert!(
             prepare(&partial)
                 .unwrap_err()
+                .to_string()
                 .contains("--shard 2/3 needs --out")
         );
         let mut none = prepare(&OutputArgs {

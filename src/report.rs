@@ -8,6 +8,7 @@
 //! run is reported by the quantiles of its run values over the runs, as they are or as percentage
 //! differences from the table's reference row on the same runs, and drawn as box plots.
 
+use crate::error::{CliError, Context as _, failed};
 use crate::output::{Output, OutputArgs, check_name};
 use liebayes::experiments::search::SizeSearch;
 use liebayes::experiments::{
@@ -54,11 +55,11 @@ const JSON_ENDING: &str = ".summary.json";
 /// A table that is not well formed (a bad or repeated name, inconsistent run ranges or trace, a
 /// reference row that is not one of its rows), or a file that cannot be written; nothing is
 /// written then.
-pub fn emit(tables: &[Table], args: &OutputArgs, mut output: Output) -> Result<(), String> {
+pub fn emit(tables: &[Table], args: &OutputArgs, mut output: Output) -> Result<(), CliError> {
     for (i, table) in tables.iter().enumerate() {
         check_table(table)?;
         if tables[..i].iter().any(|t| t.name == table.name) {
-            return Err(format!("internal: two tables are named {:?}", table.name));
+            return Err(format!("internal: two tables are named {:?}", table.name).into());
         }
     }
     let missing: Vec<String> = tables
@@ -80,7 +81,7 @@ pub fn emit(tables: &[Table], args: &OutputArgs, mut output: Output) -> Result<(
     };
     for table in tables {
         let json = serde_json::to_string(table)
-            .map_err(|e| format!("internal: table {} to JSON: {e}", table.name))?;
+            .context(|| format!("internal: table {} to JSON", table.name))?;
         output.write(&format!("{}{JSON_ENDING}", table.name), json.as_bytes())?;
         if complete {
             write_files(table, &mut output)?;
@@ -171,18 +172,19 @@ pub fn print_search(
 ///
 /// # Errors
 /// A folder that cannot be read, or `out` among `dirs`.
-pub fn check_merge_folders(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
+pub fn check_merge_folders(dirs: &[PathBuf], out: &Path) -> Result<(), CliError> {
     let out = out.canonicalize().ok();
     for dir in dirs {
         let real = dir
             .canonicalize()
-            .map_err(|e| format!("cannot read the folder {}: {e}", dir.display()))?;
+            .context(|| format!("cannot read the folder {}", dir.display()))?;
         if out.as_ref() == Some(&real) {
             return Err(format!(
                 "--out {} is one of the folders to merge: choose another, its summaries would be \
                  replaced",
                 dir.display()
-            ));
+            )
+            .into());
         }
     }
     Ok(())
@@ -196,7 +198,7 @@ pub fn check_merge_folders(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
 /// A folder without summaries, a file too large, unreadable or not a table, tables of one name
 /// whose titles or rows differ, or rows that do not merge (different studies, or runs in common:
 /// the same shard given twice). The message names the file.
-pub fn merge(dirs: &[PathBuf]) -> Result<Vec<Table>, String> {
+pub fn merge(dirs: &[PathBuf]) -> Result<Vec<Table>, CliError> {
     let mut tables: Vec<Table> = Vec::new();
     for dir in dirs {
         for file in summary_files(dir)? {
@@ -204,7 +206,7 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Vec<Table>, String> {
             match tables.iter_mut().find(|t| t.name == table.name) {
                 Some(into) => {
                     into.merge(&table)
-                        .map_err(|e| format!("{}: {e}", file.display()))?;
+                        .context(|| format!("{}", file.display()))?;
                 }
                 None => tables.push(table),
             }
@@ -214,11 +216,11 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Vec<Table>, String> {
 }
 
 /// The `*.summary.json` files of a folder, sorted by name.
-fn summary_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
-    let cannot = |e: std::io::Error| format!("cannot read the folder {}: {e}", dir.display());
+fn summary_files(dir: &Path) -> Result<Vec<PathBuf>, CliError> {
+    let cannot = || format!("cannot read the folder {}", dir.display());
     let mut files = Vec::new();
-    for entry in std::fs::read_dir(dir).map_err(cannot)? {
-        let path = entry.map_err(cannot)?.path();
+    for entry in std::fs::read_dir(dir).context(cannot)? {
+        let path = entry.context(cannot)?.path();
         let is_summary = path
             .file_name()
             .and_then(|n| n.to_str())
@@ -228,7 +230,8 @@ fn summary_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
                 return Err(format!(
                     "{} holds more than {MAX_FILES_PER_FOLDER} summaries: split it",
                     dir.display()
-                ));
+                )
+                .into());
             }
             files.push(path);
         }
@@ -237,37 +240,36 @@ fn summary_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
         return Err(format!(
             "{} holds no *{JSON_ENDING} (give the --out folders of the shards)",
             dir.display()
-        ));
+        )
+        .into());
     }
     files.sort();
     Ok(files)
 }
 
 /// One JSON summary, size-checked before it is read, then checked whole.
-fn read_table(file: &Path) -> Result<Table, String> {
-    let cannot = |e: std::io::Error| format!("cannot read {}: {e}", file.display());
-    let handle = std::fs::File::open(file).map_err(cannot)?;
-    let size = handle.metadata().map_err(cannot)?.len();
+fn read_table(file: &Path) -> Result<Table, CliError> {
+    let cannot = || format!("cannot read {}", file.display());
+    let handle = std::fs::File::open(file).context(cannot)?;
+    let size = handle.metadata().context(cannot)?.len();
     if size > MAX_JSON_BYTES {
         return Err(format!(
             "{} is {size} bytes, more than the {MAX_JSON_BYTES} a summary may have",
             file.display()
-        ));
+        )
+        .into());
     }
     let mut text = String::new();
     handle
         .take(MAX_JSON_BYTES + 1)
         .read_to_string(&mut text)
-        .map_err(cannot)?;
+        .context(cannot)?;
     if text.len() as u64 > MAX_JSON_BYTES {
-        return Err(format!(
-            "{} grew beyond {MAX_JSON_BYTES} bytes",
-            file.display()
-        ));
+        return Err(format!("{} grew beyond {MAX_JSON_BYTES} bytes", file.display()).into());
     }
     let table: Table = serde_json::from_str(&text)
-        .map_err(|e| format!("{} is not a liebayes summary: {e}", file.display()))?;
-    check_table(&table).map_err(|e| format!("{}: {e}", file.display()))?;
+        .context(|| format!("{} is not a liebayes summary", file.display()))?;
+    check_table(&table).context(|| format!("{}", file.display()))?;
     Ok(table)
 }
 
@@ -287,10 +289,10 @@ fn distinct(values: impl Iterator<Item = u64>) -> Vec<u64> {
 
 /// Checks a table before anything of it is printed or written: the library's checks
 /// ([`Table::validate`]), and that every file it would write has a plain name.
-fn check_table(table: &Table) -> Result<(), String> {
-    table.validate().map_err(|e| e.to_string())?;
+fn check_table(table: &Table) -> Result<(), CliError> {
+    table.validate()?;
     check_name(&format!("{}{JSON_ENDING}", table.name))
-        .map_err(|e| format!("table name {:?}: {e}", table.name))?;
+        .context(|| format!("table name {:?}", table.name))?;
     for metric in table.per_run_metrics() {
         check_name(&run_file(table, &metric, "relative", "svg")).map_err(|e| {
             format!(
@@ -640,7 +642,7 @@ fn evenly(len: usize, max: usize) -> impl Iterator<Item = usize> {
 }
 
 /// Writes the CSV files and the plots of a complete table.
-fn write_files(table: &Table, output: &mut Output) -> Result<(), String> {
+fn write_files(table: &Table, output: &mut Output) -> Result<(), CliError> {
     let name = &table.name;
     output.write(
         &format!("{name}_summary.csv"),
@@ -654,7 +656,7 @@ fn write_files(table: &Table, output: &mut Output) -> Result<(), String> {
         &format!("{name}_first_run.csv"),
         first_run_csv(table).as_bytes(),
     )?;
-    let plot = |e: Box<dyn std::error::Error>| format!("plotting {name}: {e}");
+    let plot = |e: Box<dyn std::error::Error>| failed(format!("plotting {name}"), e);
     if let Some(svg) = plot_first_run(table).map_err(plot)? {
         output.write(&format!("{name}_first_run.svg"), svg.as_bytes())?;
     }
@@ -1438,7 +1440,7 @@ mod tests {
             shard: Shard::WHOLE,
         };
         let bad = compared(0..10, Some(3));
-        let error = check_table(&bad).unwrap_err();
+        let error = check_table(&bad).unwrap_err().to_string();
         assert!(error.contains("table synthetic") && error.contains("reference row 3"));
         let output = crate::output::prepare(&args).unwrap();
         assert!(emit(&[bad], &args, output).is_err());
@@ -1474,7 +1476,12 @@ mod tests {
         let mut json = serde_json::to_value(compared(0..10, None)).unwrap();
         json["summaries"][0]["metrics"][0]["name"] = serde_json::json!("a/b");
         let slash: Table = serde_json::from_value(json).unwrap();
-        assert!(check_table(&slash).unwrap_err().contains("\"a/b\""));
+        assert!(
+            check_table(&slash)
+                .unwrap_err()
+                .to_string()
+                .contains("\"a/b\"")
+        );
     }
 
     #[test]
