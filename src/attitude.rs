@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 /// The methods compared when none is named, in table order.
 const DEFAULT_METHODS: [&str; 4] = ["ekf-9d", "ekf-6d", "talk-9d", "madgwick-9d"];
 
-/// The methods of the main job's BROAD run: the talk filter (about 130 µs per sample) runs there on
+/// The methods of the main job's BROAD run: the talk filter (the slowest, docs/benchmarks.md) runs there on
 /// the simulated log only.
 const MAIN_JOB_BROAD_METHODS: [&str; 3] = ["ekf-9d", "ekf-6d", "madgwick-9d"];
 

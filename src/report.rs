@@ -422,9 +422,6 @@ fn render(table: &Table) -> String {
             }
         }
     }
-    let widths: Vec<usize> = (0..rows[0].len())
-        .map(|j| rows.iter().map(|r| r[j].chars().count()).max().unwrap_or(0))
-        .collect();
     let mut out = format!("\n{}\n", table.title);
     if let Some(t) = table
         .summaries
@@ -437,21 +434,7 @@ fn render(table: &Table) -> String {
             compact(Some(t))
         );
     }
-    for row in &rows {
-        let cells: Vec<String> = row
-            .iter()
-            .zip(&widths)
-            .enumerate()
-            .map(|(j, (cell, &w))| {
-                if j == 0 {
-                    format!("{cell:<w$}")
-                } else {
-                    format!("{cell:>w$}")
-                }
-            })
-            .collect();
-        let _ = writeln!(out, "{}", cells.join("  ").trim_end());
-    }
+    out.push_str(&aligned(&rows));
     for note in notes {
         let _ = writeln!(out, "{note}");
     }
@@ -465,6 +448,38 @@ fn render(table: &Table) -> String {
             let _ = writeln!(out, "{line}");
         }
         let _ = writeln!(out, "  ns/step: the filter's time per step (nanoseconds).");
+    }
+    out
+}
+
+/// Rows of cells as printed: each column as wide as its widest cell, the first left-aligned, the
+/// others right-aligned, two spaces apart, a line per row.
+pub fn aligned(rows: &[Vec<String>]) -> String {
+    let columns = rows.iter().map(Vec::len).max().unwrap_or(0);
+    let widths: Vec<usize> = (0..columns)
+        .map(|j| {
+            rows.iter()
+                .filter_map(|r| r.get(j))
+                .map(|c| c.chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut out = String::new();
+    for row in rows {
+        let cells: Vec<String> = row
+            .iter()
+            .zip(&widths)
+            .enumerate()
+            .map(|(j, (cell, &w))| {
+                if j == 0 {
+                    format!("{cell:<w$}")
+                } else {
+                    format!("{cell:>w$}")
+                }
+            })
+            .collect();
+        let _ = writeln!(out, "{}", cells.join("  ").trim_end());
     }
     out
 }
@@ -505,7 +520,7 @@ fn meaning(name: &str) -> Option<String> {
 // CSV
 
 /// A CSV field: quoted when it holds a comma, a quote or a line break.
-fn field(text: &str) -> String {
+pub fn field(text: &str) -> String {
     if text.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", text.replace('"', "\"\""))
     } else {
@@ -706,9 +721,6 @@ fn render_runs(table: &Table, c: &RunComparison) -> String {
         row.push(n.to_string());
         rows.push(row);
     }
-    let widths: Vec<usize> = (0..rows[0].len())
-        .map(|j| rows.iter().map(|r| r[j].chars().count()).max().unwrap_or(0))
-        .collect();
     let mut out = format!(
         "
 {}: {}
@@ -722,21 +734,7 @@ fn render_runs(table: &Table, c: &RunComparison) -> String {
             "(the runs kept: the first {MAX_KEPT_RUNS} of each row)"
         );
     }
-    for row in &rows {
-        let cells: Vec<String> = row
-            .iter()
-            .zip(&widths)
-            .enumerate()
-            .map(|(j, (cell, &w))| {
-                if j == 0 {
-                    format!("{cell:<w$}")
-                } else {
-                    format!("{cell:>w$}")
-                }
-            })
-            .collect();
-        let _ = writeln!(out, "{}", cells.join("  ").trim_end());
-    }
+    out.push_str(&aligned(&rows));
     out
 }
 

@@ -2,6 +2,7 @@
 //! and a figure of update segments in two projections. Used by the model comparison and the single
 //! update of `liebayes aoa`.
 
+use crate::report::{aligned, field};
 use plotters::prelude::*;
 
 /// A table of text cells: a file stem, a title, a header and rows of as many cells.
@@ -20,53 +21,19 @@ pub struct Sheet {
 impl Sheet {
     /// The table with its columns aligned, under its title.
     pub fn render(&self) -> String {
-        let columns = self.header.len();
-        let width: Vec<usize> = (0..columns)
-            .map(|c| {
-                self.rows
-                    .iter()
-                    .filter_map(|r| r.get(c))
-                    .chain(std::iter::once(&self.header[c]))
-                    .map(|s| s.chars().count())
-                    .max()
-                    .unwrap_or(0)
-            })
+        let rows: Vec<Vec<String>> = std::iter::once(&self.header)
+            .chain(&self.rows)
+            .cloned()
             .collect();
-        let line = |cells: &[String]| {
-            cells
-                .iter()
-                .zip(&width)
-                .enumerate()
-                .map(|(c, (s, w))| {
-                    if c == 0 {
-                        format!("{s:<w$}")
-                    } else {
-                        format!("{s:>w$}")
-                    }
-                })
-                .collect::<Vec<_>>()
-                .join("  ")
-        };
-        let mut text = format!("\n{}\n{}\n", self.title, line(&self.header));
-        for row in &self.rows {
-            text.push_str(&line(row));
-            text.push('\n');
-        }
-        text
+        format!("\n{}\n{}", self.title, aligned(&rows))
     }
 
-    /// The table as CSV (cells with a comma or a quote quoted).
+    /// The table as CSV (cells with a comma, a quote or a line break quoted).
     pub fn csv(&self) -> String {
-        let field = |s: &String| {
-            if s.contains([',', '"', '\n']) {
-                format!("\"{}\"", s.replace('"', "\"\""))
-            } else {
-                s.clone()
-            }
-        };
         let mut text = String::new();
         for row in std::iter::once(&self.header).chain(&self.rows) {
-            text.push_str(&row.iter().map(field).collect::<Vec<_>>().join(","));
+            let cells: Vec<String> = row.iter().map(|c| field(c)).collect();
+            text.push_str(&cells.join(","));
             text.push('\n');
         }
         text

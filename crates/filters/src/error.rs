@@ -95,3 +95,18 @@ pub(crate) fn check_count(what: &'static str, n: usize) -> Result<(), OperatorEr
     }
     Ok(())
 }
+
+/// n draws of `draw`, the count checked and the memory reserved first.
+pub(crate) fn draws<T>(n: usize, mut draw: impl FnMut() -> T) -> Result<Vec<T>, OperatorError> {
+    check_count("number of particles", n)?;
+    let mut particles = Vec::new();
+    particles
+        .try_reserve_exact(n)
+        .map_err(|_| OperatorError::TooLarge {
+            what: "number of particles (their memory cannot be allocated)",
+            value: n,
+            max: MAX_ELEMENTS,
+        })?;
+    particles.extend((0..n).map(|_| draw()));
+    Ok(particles)
+}

@@ -12,7 +12,7 @@ use super::process::RandomWalk;
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::Recursive;
 use liebayes_operators::particle::{ParticleSet, Resampling, Reweight, Sampled};
-use liebayes_operators::{Converted, Ekf, MAX_ELEMENTS, OperatorError, Ukf};
+use liebayes_operators::{Converted, Ekf, OperatorError, Ukf};
 use nalgebra::{Matrix3, Vector3};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -135,38 +135,17 @@ impl Prior {
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] for n = 0, [`OperatorError::TooLarge`] above
-    /// [`MAX_ELEMENTS`] or beyond the memory; checked before anything is drawn.
+    /// [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS) or beyond the memory; checked before
+    /// anything is drawn.
     pub fn particles(
         &self,
         n: usize,
         rng: &mut ChaCha8Rng,
     ) -> Result<ParticleSet<Position>, OperatorError> {
-        if n == 0 {
-            return Err(OperatorError::OutOfRange {
-                what: "number of particles",
-                value: 0.0,
-                range: "at least 1",
-            });
-        }
-        if n > MAX_ELEMENTS {
-            return Err(OperatorError::TooLarge {
-                what: "number of particles",
-                value: n,
-                max: MAX_ELEMENTS,
-            });
-        }
-        let mut particles = Vec::new();
-        particles
-            .try_reserve_exact(n)
-            .map_err(|_| OperatorError::TooLarge {
-                what: "number of particles (their memory cannot be allocated)",
-                value: n,
-                max: MAX_ELEMENTS,
-            })?;
-        particles.extend((0..n).map(|_| {
+        let particles = crate::error::draws(n, || {
             let draw = Vector3::from_fn(|_, _| StandardNormal.sample(&mut *rng));
             Position::new_unchecked(self.mean + draw * self.std)
-        }));
+        })?;
         ParticleSet::from_samples(particles)
     }
 }

@@ -3,8 +3,8 @@
 
 use super::estimate::{AzimuthEstimate, AzimuthMoments, azimuth_moment};
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
-use super::particle::{check_prior, draws};
-use crate::error::check_count;
+use super::particle::check_prior;
+use crate::error::{check_count, draws};
 use liebayes_densities::Gaussian;
 use liebayes_experiments::{Estimator, Recursive};
 use liebayes_manifolds::So2;

@@ -9,8 +9,8 @@ use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use super::scenario::normal2;
 use liebayes_experiments::{Estimator, Recursive};
 use liebayes_manifolds::So2;
+use liebayes_operators::OperatorError;
 use liebayes_operators::particle::{Likelihood, ParticleSet, Reweight, Sampled, SampledProcess};
-use liebayes_operators::{MAX_ELEMENTS, OperatorError};
 use nalgebra::Vector2;
 use rand::{Rng, RngCore};
 use rand_chacha::ChaCha8Rng;
@@ -77,27 +77,12 @@ pub(super) fn check_prior(r0: Vector2<f64>, sigma0: f64) -> Result<f64, Operator
     }
 }
 
-/// n draws of `draw`, the count checked and the memory reserved first.
-pub(super) fn draws<T>(n: usize, mut draw: impl FnMut() -> T) -> Result<Vec<T>, OperatorError> {
-    crate::error::check_count("number of particles", n)?;
-    let mut particles = Vec::new();
-    particles
-        .try_reserve_exact(n)
-        .map_err(|_| OperatorError::TooLarge {
-            what: "number of particles (their memory cannot be allocated)",
-            value: n,
-            max: MAX_ELEMENTS,
-        })?;
-    particles.extend((0..n).map(|_| draw()));
-    Ok(particles)
-}
-
 /// The particle filter with n particles drawn from the prior with `rng`, which it then keeps for
 /// its own draws.
 ///
 /// # Errors
 /// [`OperatorError::OutOfRange`] for n = 0 or σ₀ outside [1.5e-154, 1e150],
-/// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`] or more than the memory holds,
+/// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS) or more than the memory holds,
 /// [`OperatorError::NonFinite`] for a non-finite r₀; all checked before any particle is drawn.
 pub fn particle_filter(
     n: usize,
@@ -108,7 +93,7 @@ pub fn particle_filter(
     mut rng: ChaCha8Rng,
 ) -> Result<AzimuthParticleFilter, OperatorError> {
     check_prior(r0, sigma0)?;
-    let particles = draws(n, || {
+    let particles = crate::error::draws(n, || {
         state(
             r0 + normal2(&mut rng) * sigma0,
             So2::from_angle_unchecked(rng.random::<f64>() * 2.0 * PI),
