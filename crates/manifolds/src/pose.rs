@@ -40,6 +40,18 @@ pub(crate) fn theta_minus_sin_over_theta<T: Real>(theta: T, sin_theta: T) -> T {
     }
 }
 
+/// `t` with coordinates beyond the scalar's range (±∞ from an overflowing sum) saturated at the
+/// largest finite value.
+#[inline]
+pub(crate) fn saturated<T: Real, const N: usize>(t: SVector<T, N>) -> SVector<T, N> {
+    if t.iter().all(|x| nalgebra::ComplexField::is_finite(x)) {
+        t
+    } else {
+        let max = T::max_finite();
+        t.map(|x| x.clamp(-max, max))
+    }
+}
+
 /// `f(v)` for a map `f` linear in `v`, free of overflow into NaN for every finite `v`.
 ///
 /// When a component of `v` exceeds

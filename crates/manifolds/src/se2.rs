@@ -5,7 +5,7 @@ use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
 use crate::manifold::{Jacobian, Tangent};
 use crate::pose::{
     check_bottom_row, impl_pose_comparisons_and_conversions, linear_saturating, mul_saturating,
-    theta_minus_sin_over_theta,
+    saturated, theta_minus_sin_over_theta,
 };
 use crate::real::Real;
 use crate::so2::So2;
@@ -247,21 +247,23 @@ impl<T: Real> LieGroup<3> for Se2<T> {
         Self::new_unchecked(So2::identity(), Vector2::zeros())
     }
 
-    /// `(R₁ R₂, t₁ + R₁ t₂)`.
+    /// `(R₁ R₂, t₁ + R₁ t₂)`; a translation beyond the scalar's range saturates at its largest finite
+    /// value (never ±∞ or NaN).
     #[inline]
     fn compose(&self, other: &Self) -> Self {
         let r = self.rotation.as_unit_complex();
         Self::new_unchecked(
             self.rotation.compose(&other.rotation),
-            self.translation + r * other.translation,
+            saturated(self.translation + linear_saturating(&other.translation, |t| r * t)),
         )
     }
 
-    /// `(Rᵀ, −Rᵀ t)`.
+    /// `(Rᵀ, −Rᵀ t)`; saturating like [`compose`](Self::compose).
     #[inline]
     fn inverse(&self) -> Self {
         let r_inv = self.rotation.inverse();
-        Self::new_unchecked(r_inv, -(r_inv.as_unit_complex() * self.translation))
+        let r = r_inv.as_unit_complex();
+        Self::new_unchecked(r_inv, -linear_saturating(&self.translation, |t| r * t))
     }
 
     /// `(R(θ), V(θ) ρ)` from one `sin_cos(θ/2)`, with the Taylor series of V below the series angle.

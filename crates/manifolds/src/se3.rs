@@ -5,7 +5,7 @@ use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
 use crate::manifold::{Jacobian, Tangent};
 use crate::pose::{
     check_bottom_row, impl_pose_comparisons_and_conversions, linear_saturating, mul_saturating,
-    theta_minus_sin_over_theta,
+    saturated, theta_minus_sin_over_theta,
 };
 use crate::real::Real;
 use crate::rotation_vector;
@@ -148,18 +148,6 @@ impl<T: Real> Se3<T> {
     }
 }
 
-/// `t` with coordinates beyond the scalar's range (±∞ from an overflowing sum) saturated at the
-/// largest finite value.
-#[inline]
-fn saturated<T: Real>(t: Vector3<T>) -> Vector3<T> {
-    if t.iter().all(|x| nalgebra::ComplexField::is_finite(x)) {
-        t
-    } else {
-        let max = T::max_finite();
-        t.map(|x| x.clamp(-max, max))
-    }
-}
-
 /// The translation and rotation blocks `(ρ, φ)` of a tangent.
 #[inline]
 fn split<T: Real>(v: &Tangent<T, 6>) -> (Vector3<T>, Vector3<T>) {
@@ -271,7 +259,10 @@ impl<T: Real> LieGroup<6> for Se3<T> {
     fn compose(&self, other: &Self) -> Self {
         Self::new_unchecked(
             self.rotation.compose(&other.rotation),
-            saturated(self.translation + self.rotation.rotate(&other.translation)),
+            saturated(
+                self.translation
+                    + linear_saturating(&other.translation, |t| self.rotation.rotate(t)),
+            ),
         )
     }
 
@@ -280,7 +271,10 @@ impl<T: Real> LieGroup<6> for Se3<T> {
     #[inline]
     fn inverse(&self) -> Self {
         let r_inv = self.rotation.inverse();
-        Self::new_unchecked(r_inv, saturated(-r_inv.rotate(&self.translation)))
+        Self::new_unchecked(
+            r_inv,
+            -linear_saturating(&self.translation, |t| r_inv.rotate(t)),
+        )
     }
 
     /// `(exp(φ), V(φ) ρ)`, with the Taylor series of the coefficients below the series angle. Valid
@@ -324,7 +318,11 @@ impl<T: Real> LieGroup<6> for Se3<T> {
     /// `[[R, hat(t) R], [0, R]]`.
     fn adjoint(&self) -> Jacobian<T, 6, 6> {
         let r = self.rotation.to_matrix();
-        upper_block_triangular(&r, &(rotation_vector::hat(&self.translation) * r), &r)
+        upper_block_triangular(
+            &r,
+            &mul_saturating(&rotation_vector::hat(&self.translation), &r),
+            &r,
+        )
     }
 
     /// `Jr([ρ; φ]) = [[Jr(φ), Q(ρ, φ)], [0, Jr(φ)]]` with Jr(φ) of SO(3) and the coupling block Q

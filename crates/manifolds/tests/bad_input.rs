@@ -7,7 +7,7 @@
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{
     GroupAction, Left, LieGroup, Manifold, ManifoldError, MeanSettings, ProductManifold, Real, Rn,
-    S2, Se3, So2, So3, Su2, weighted_mean,
+    S2, Se2, Se3, So2, So3, Su2, weighted_mean,
 };
 use liebayes_reference::fuzz;
 use nalgebra::{Matrix2, Matrix3, Quaternion, SVector, Vector1, Vector2, Vector3, Vector6};
@@ -628,4 +628,23 @@ fn se3_near_the_largest_value_is_finite() {
             assert!(all_finite(j.iter().copied()), "Jacobian at {v:?}");
         }
     }
+}
+
+/// Found by the groups' bad-input law: `Se2::compose` and `inverse` rotated a translation of
+/// (MAX, MAX) into ±∞, and `Se3::adjoint` multiplied hat(t) R into ±∞ or NaN, for translations
+/// near the largest finite value. Each now saturates like `exp`.
+#[test]
+fn poses_with_the_largest_translations_compose_and_adjoin_finitely() {
+    let max = f64::MAX;
+    let half_turn = So2::from_angle(3.0).unwrap();
+    let x = Se2::new(half_turn, Vector2::new(max, max)).unwrap();
+    for y in [x.compose(&x), x.inverse(), x.inverse().compose(&x)] {
+        assert!(y.is_finite(), "{y:?}");
+    }
+    let turn = So3::from_rotation_vector(&Vector3::new(0.3, -1.0, 2.0)).unwrap();
+    let x = Se3::new(turn, Vector3::new(max, -max, max)).unwrap();
+    for y in [x.compose(&x), x.inverse(), x.inverse().compose(&x)] {
+        assert!(y.is_finite(), "{y:?}");
+    }
+    assert!(all_finite(x.adjoint().iter().copied()));
 }

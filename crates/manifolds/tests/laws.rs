@@ -4,7 +4,7 @@
 //! errors (`Left`), and products.
 
 use liebayes_manifolds::testing::laws::{
-    check_action, check_group, check_jacobians, check_manifold,
+    check_action, check_bad_input, check_group, check_jacobians, check_manifold,
 };
 use liebayes_manifolds::testing::{Tolerance, strategies as st};
 
@@ -35,6 +35,14 @@ macro_rules! group_laws {
                 #[test]
                 fn jacobians(a in $elem, b in $elem, v in $tangent) {
                     check_jacobians(&a, &b, &v, &Tolerance::<$t>::for_scalar())?;
+                }
+
+                #[test]
+                fn bad_input(
+                    x in $elem,
+                    v in prop_oneof![st::extreme_tangent::<$t, _>(), $tangent],
+                ) {
+                    check_bad_input(&x, &v)?;
                 }
 
                 $(

@@ -627,3 +627,52 @@ pub fn check_action<G: GroupAction<D, P> + LawSubject<D>, const D: usize, const 
     )?;
     Ok(())
 }
+
+/// The bad-input law of a group: at a valid element `x`, a tangent `v` of any finite magnitude
+/// ([`extreme_tangent`](crate::testing::strategies::extreme_tangent)) gives finite results from
+/// every operation (`exp`, `retract`, `compose`, `inverse`, `log`, `local`, the adjoint, `Jr` and
+/// `Jr⁻¹`): the crate's contract "no function panics or returns NaN for finite input". Elements are
+/// checked with [`Manifold::is_finite`], vectors and matrices entry by entry. A tangent with a NaN
+/// or an infinite component (the unchecked operations' precondition is finite input; raw numbers
+/// enter through the checked constructors) must not panic, whatever it returns.
+///
+/// # Errors
+/// The first operation whose result is not finite, with its input.
+pub fn check_bad_input<G: LieGroup<D>, const D: usize>(
+    x: &G,
+    v: &Tangent<G::Scalar, D>,
+) -> Result<(), TestCaseError> {
+    let finite_vector = |m: &Tangent<G::Scalar, D>| m.iter().all(ComplexField::is_finite);
+    let finite_matrix = |m: &Jacobian<G::Scalar, D, D>| m.iter().all(ComplexField::is_finite);
+    let e = G::exp(v);
+    let y = x.retract(v);
+    let z = x.compose(&e);
+    let results = (
+        e.log(),
+        x.local(&y),
+        y.local(x),
+        z.inverse(),
+        y.adjoint(),
+        G::right_jacobian(v),
+        G::right_jacobian_inverse(v),
+    );
+    if !v.iter().all(ComplexField::is_finite) {
+        return Ok(());
+    }
+    let (log, there, back, inverse, adjoint, jr, jr_inverse) = results;
+    for (what, ok) in [
+        ("exp(v)", e.is_finite()),
+        ("retract(x, v)", y.is_finite()),
+        ("x exp(v)", z.is_finite()),
+        ("(x exp(v))⁻¹", inverse.is_finite()),
+        ("log(exp(v))", finite_vector(&log)),
+        ("local(x, retract(x, v))", finite_vector(&there)),
+        ("local(retract(x, v), x)", finite_vector(&back)),
+        ("Ad(retract(x, v))", finite_matrix(&adjoint)),
+        ("Jr(v)", finite_matrix(&jr)),
+        ("Jr⁻¹(v)", finite_matrix(&jr_inverse)),
+    ] {
+        prop_assert!(ok, "{} is not finite for x = {:?}, v = {:?}", what, x, v);
+    }
+    Ok(())
+}

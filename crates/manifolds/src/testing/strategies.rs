@@ -285,3 +285,61 @@ where
 {
     (first, second).prop_map(|(a, b)| ProductManifold::<A, B, DA, DB, D>::join_tangent(&a, &b))
 }
+
+/// Extreme scalars, the bad-input law's raw numbers: NaN, ±∞, ±MAX, ±MIN_POSITIVE, subnormals
+/// (5e-324 and 1e-310 in f64), ±0, ±1e300, ±1e-300, ordinary values in [−10, 10], and log-uniform
+/// magnitudes from 1e-320 to 1e308 of either sign. Drawn in `f64` and rounded to the scalar type,
+/// where a finite value beyond the type's range saturates at its largest finite value (so the
+/// finite classes stay finite in f32).
+pub fn extreme<T: Real>() -> impl Strategy<Value = T> {
+    prop_oneof![
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(f64::NEG_INFINITY),
+        3 => extreme_finite_f64(),
+    ]
+    .prop_map(to_scalar::<T>)
+}
+
+/// The finite values of [`extreme`].
+pub fn extreme_finite<T: Real>() -> impl Strategy<Value = T> {
+    extreme_finite_f64().prop_map(to_scalar::<T>)
+}
+
+/// Tangent vectors whose components are each drawn from [`extreme_finite`]: every magnitude a
+/// finite tangent can have.
+pub fn extreme_tangent<T: Real, const D: usize>() -> impl Strategy<Value = SVector<T, D>> {
+    proptest::collection::vec(extreme_finite::<T>(), D).prop_map(|c| SVector::from_iterator(c))
+}
+
+/// The finite classes of [`extreme`], in f64.
+fn extreme_finite_f64() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        1 => Just(f64::MAX),
+        1 => Just(-f64::MAX),
+        1 => Just(f64::MIN_POSITIVE),
+        1 => Just(5e-324),
+        1 => Just(-1e-310),
+        1 => Just(0.0),
+        1 => Just(-0.0),
+        1 => Just(1e300),
+        1 => Just(-1e-300),
+        3 => -10.0..10.0_f64,
+        4 => (-320.0..308.0_f64, any::<bool>())
+            .prop_map(|(e, negative)| if negative { -(10f64.powf(e)) } else { 10f64.powf(e) }),
+    ]
+}
+
+/// `x` in the scalar type, a finite value beyond its range saturated at its largest finite value.
+fn to_scalar<T: Real>(x: f64) -> T {
+    let t = T::lit(x);
+    if x.is_finite() && !t.is_finite() {
+        if x > 0.0 {
+            T::max_finite()
+        } else {
+            -T::max_finite()
+        }
+    } else {
+        t
+    }
+}
