@@ -22,7 +22,8 @@ density_laws!(
     kl,
     entropy,
     rotated(ms::so2::<f64>()),
-    finite(st::von_mises(st::extreme_concentration()))
+    finite(st::von_mises(st::extreme_concentration())),
+    bad_input(st::von_mises_raw())
 );
 
 density_laws!(
@@ -31,7 +32,8 @@ density_laws!(
     product,
     kl,
     entropy,
-    rotated(ms::so2::<f64>())
+    rotated(ms::so2::<f64>()),
+    bad_input(st::gen_von_mises2_raw())
 );
 
 density_laws!(
@@ -41,7 +43,8 @@ density_laws!(
     kl,
     entropy,
     rotated(ms::so3::<f64>()),
-    finite(st::von_mises_fisher(st::extreme_concentration()))
+    finite(st::von_mises_fisher(st::extreme_concentration())),
+    bad_input(st::von_mises_fisher_raw())
 );
 
 density_laws!(
@@ -51,7 +54,8 @@ density_laws!(
     kl,
     entropy,
     rotated(ms::su2::<f64>()),
-    finite(st::bingham(liebayes_densities::Bingham::MAX_SPREAD))
+    finite(st::bingham(liebayes_densities::Bingham::MAX_SPREAD)),
+    bad_input(st::bingham_raw())
 );
 
 density_laws!(
@@ -60,39 +64,60 @@ density_laws!(
     kl,
     entropy,
     rotated(ms::so3::<f64>()),
-    finite(st::heat_kernel_so3(st::extreme_variance()))
+    finite(st::heat_kernel_so3(st::extreme_variance())),
+    bad_input(st::heat_kernel_so3_raw())
 );
 
-density_laws!(gaussian_1, st::gaussian::<1>(), product, kl, entropy);
+density_laws!(
+    gaussian_1,
+    st::gaussian::<1>(),
+    product,
+    kl,
+    entropy,
+    bad_input(st::gaussian_raw::<1>())
+);
 
-density_laws!(gaussian_3, st::gaussian::<3>(), product, kl, entropy);
+density_laws!(
+    gaussian_3,
+    st::gaussian::<3>(),
+    product,
+    kl,
+    entropy,
+    bad_input(st::gaussian_raw::<3>())
+);
 
 density_laws!(
     manifold_gaussian_so2,
     st::manifold_gaussian::<_, 1>(ms::so2::<f64>(), st::standard_deviation()),
     entropy,
-    rotated(ms::so2::<f64>())
+    rotated(ms::so2::<f64>()),
+    bad_input(st::manifold_gaussian_raw::<_, 1>(ms::so2::<f64>()))
 );
 
 density_laws!(
     manifold_gaussian_so3,
     st::manifold_gaussian::<_, 3>(ms::so3::<f64>(), st::standard_deviation()),
     entropy,
-    rotated(ms::so3::<f64>())
+    rotated(ms::so3::<f64>()),
+    bad_input(st::manifold_gaussian_raw::<_, 3>(ms::so3::<f64>()))
 );
 
 density_laws!(
     manifold_gaussian_world_frame_so3,
     st::manifold_gaussian::<_, 3>(ms::left(ms::so3::<f64>()), st::standard_deviation()),
     entropy,
-    rotated(ms::left(ms::so3::<f64>()))
+    rotated(ms::left(ms::so3::<f64>())),
+    bad_input(st::manifold_gaussian_raw::<_, 3>(
+        ms::left(ms::so3::<f64>())
+    ))
 );
 
 density_laws!(
     manifold_gaussian_rn,
     st::manifold_gaussian::<_, 3>(ms::rn::<f64, 3>(), wide_deviation()),
     entropy,
-    rotated(ms::rn::<f64, 3>())
+    rotated(ms::rn::<f64, 3>()),
+    bad_input(st::manifold_gaussian_raw::<_, 3>(ms::rn::<f64, 3>()))
 );
 
 density_laws!(
@@ -105,12 +130,23 @@ density_laws!(
     rotated(ms::product::<_, _, 3, 3, 6>(
         ms::so3::<f64>(),
         ms::rn::<f64, 3>()
-    ))
+    )),
+    bad_input(st::manifold_gaussian_raw::<_, 6>(ms::product::<
+        _,
+        _,
+        3,
+        3,
+        6,
+    >(
+        ms::so3::<f64>(),
+        ms::rn::<f64, 3>()
+    )))
 );
 
 density_laws!(
     harmonic_gaussian,
     st::harmonic_gaussian::<2>(st::concentration()),
     kl,
-    entropy
+    entropy,
+    bad_input(st::harmonic_gaussian_raw::<2>())
 );

@@ -5,6 +5,7 @@
 
 use liebayes_manifolds::testing::laws::{
     check_action, check_bad_input, check_group, check_jacobians, check_manifold,
+    check_manifold_bad_input,
 };
 use liebayes_manifolds::testing::{Tolerance, strategies as st};
 
@@ -179,6 +180,16 @@ mod s2_laws {
         fn manifold_f64(x in st::s2::<f64>(), y in st::s2::<f64>(), v in st::s2_tangent::<f64>()) {
             check_manifold(&x, &y, &v, &Tolerance::<f64>::for_scalar())?;
             basis_laws(&x, &v)?;
+        }
+
+        #[test]
+        fn bad_input_f64(x in st::s2::<f64>(), v in st::extreme_tangent::<f64, 2>()) {
+            check_manifold_bad_input(&x, &v)?;
+        }
+
+        #[test]
+        fn bad_input_f32(x in st::s2::<f32>(), v in st::extreme_tangent::<f32, 2>()) {
+            check_manifold_bad_input(&x, &v)?;
         }
 
         #[test]

@@ -45,6 +45,9 @@ pub const STANDARD_ERRORS: f64 = 5.0;
 /// Cases per law in [`density_laws!`](crate::density_laws), and for the sampler law, whose cases cost
 /// [`SAMPLES`] draws each.
 pub const CASES: u32 = 24;
+
+/// Cases of the bad-input law per family (cheap: most raw numbers are refused at once).
+pub const BAD_INPUT_CASES: u32 = 256;
 /// Cases of the sampler law in [`density_laws!`](crate::density_laws).
 pub const SAMPLER_CASES: u32 = 8;
 /// Draws per case of the sampler law in [`density_laws!`](crate::density_laws).
@@ -519,4 +522,24 @@ pub fn check_finite<P: DensitySubject, R: Rng + ?Sized>(
         }
     }
     Ok(())
+}
+
+/// **Bad input** (for a constructor fed raw numbers of every magnitude, NaN and ±∞ among them, by
+/// the `_raw` strategies): it refuses them with a typed error whose message says what is wrong, or
+/// returns a density that is [finite](check_finite) (ln Z, ln p at the mode and at draws, the
+/// draws' statistics). Never a panic, never a NaN.
+///
+/// # Errors
+/// The law's failure, with the numbers.
+pub fn check_bad_input<P: DensitySubject, E: std::fmt::Display, R: Rng + ?Sized>(
+    built: &Result<P, E>,
+    rng: &mut R,
+) -> Result<(), TestCaseError> {
+    match built {
+        Err(e) => {
+            prop_assert!(!e.to_string().is_empty(), "an error without a message");
+            Ok(())
+        }
+        Ok(p) => check_finite(p, rng),
+    }
 }

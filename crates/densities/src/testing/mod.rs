@@ -48,7 +48,11 @@ pub use proptest as __proptest;
 /// * `rotated(group_strategy)`: [`check_rotated`](crate::testing::laws::check_rotated) for group
 ///   elements from `group_strategy`;
 /// * `finite(extreme_strategy)`: [`check_finite`](crate::testing::laws::check_finite) on densities
-///   from a second strategy, for the ends of the accepted range that quadrature cannot resolve.
+///   from a second strategy, for the ends of the accepted range that quadrature cannot resolve;
+/// * `bad_input(raw_strategy)`: [`check_bad_input`](crate::testing::laws::check_bad_input) on what
+///   a constructor makes of raw numbers of every magnitude, NaN and ±∞ among them (the `_raw`
+///   strategies of [`strategies`](crate::testing::strategies)), with
+///   [`BAD_INPUT_CASES`](crate::testing::laws::BAD_INPUT_CASES) cases.
 ///
 /// The expansion refers to the caller's names through `use super::*`, so a strategy written with
 /// the caller's imports works as it is.
@@ -143,6 +147,16 @@ macro_rules! density_laws {
             #[test]
             fn finite(p in $extreme) {
                 $crate::testing::laws::check_finite(&p, &mut $crate::testing::laws::rng())?;
+            }
+        }
+    };
+    (@law bad_input, ($strategy:expr), $raw:expr) => {
+        $crate::testing::__proptest::proptest! {
+            #![proptest_config(ProptestConfig::with_cases($crate::testing::laws::BAD_INPUT_CASES))]
+
+            #[test]
+            fn bad_input(built in $raw) {
+                $crate::testing::laws::check_bad_input(&built, &mut $crate::testing::laws::rng())?;
             }
         }
     };

@@ -7,12 +7,12 @@
 //! finiteness can be checked.
 
 use crate::{
-    Bingham, Gaussian, GenVonMises2, HarmonicGaussian, HeatKernelSo3, ManifoldGaussian, VonMises,
-    VonMisesFisher,
+    Bingham, DensityError, Gaussian, GenVonMises2, HarmonicGaussian, HeatKernelSo3,
+    ManifoldGaussian, VonMises, VonMisesFisher,
 };
 use liebayes_manifolds::Manifold;
 use liebayes_manifolds::testing::strategies as manifold;
-use nalgebra::{Matrix4, SMatrix, SVector, Vector4};
+use nalgebra::{Matrix4, SMatrix, SVector, Vector2, Vector3, Vector4};
 use proptest::prelude::*;
 use std::fmt::Debug;
 
@@ -263,5 +263,105 @@ pub fn harmonic_gaussian<const N: usize>(
         .prop_map(|(angle, b, covariance)| {
             HarmonicGaussian::new(angle, SMatrix::from_column_slice(&b), covariance)
                 .expect("positive definite")
+        })
+}
+
+/// Raw numbers for the bad-input law: every magnitude from the smallest subnormal to f64::MAX of
+/// either sign, ±0, NaN and ±∞ (the manifolds crate's
+/// [`extreme`](liebayes_manifolds::testing::strategies::extreme)), mixed with ordinary numbers in
+/// [−10, 10] so that a constructor of several raw numbers is accepted often enough for its
+/// densities to be checked too (a NaN or ±∞ in one component in about one draw of 20).
+pub fn extreme() -> impl Strategy<Value = f64> + Clone {
+    prop_oneof![
+        1 => manifold::extreme::<f64>(),
+        1 => -10.0..10.0_f64,
+    ]
+}
+
+/// What a constructor makes of raw numbers: a density or the error refusing them.
+pub type Built<P> = Result<P, DensityError>;
+
+/// [`VonMises::from_natural`] of two raw numbers.
+pub fn von_mises_raw() -> impl Strategy<Value = Built<VonMises>> {
+    (extreme(), extreme()).prop_map(|(a, b)| VonMises::from_natural(Vector2::new(a, b)))
+}
+
+/// [`GenVonMises2::from_natural`] of four raw numbers.
+pub fn gen_von_mises2_raw() -> impl Strategy<Value = Built<GenVonMises2>> {
+    proptest::array::uniform4(extreme())
+        .prop_map(|[a, b, c, d]| GenVonMises2::from_natural(Vector2::new(a, b), Vector2::new(c, d)))
+}
+
+/// [`VonMisesFisher::from_natural`] of three raw numbers.
+pub fn von_mises_fisher_raw() -> impl Strategy<Value = Built<VonMisesFisher>> {
+    proptest::array::uniform3(extreme())
+        .prop_map(|[a, b, c]| VonMisesFisher::from_natural(Vector3::new(a, b, c)))
+}
+
+/// [`Bingham::from_natural`] of a symmetric matrix of ten raw numbers.
+pub fn bingham_raw() -> impl Strategy<Value = Built<Bingham>> {
+    proptest::collection::vec(extreme(), 10).prop_map(|upper| {
+        let mut m = Matrix4::zeros();
+        let mut k = 0;
+        for i in 0..4 {
+            for j in i..4 {
+                m[(i, j)] = upper[k];
+                m[(j, i)] = upper[k];
+                k += 1;
+            }
+        }
+        Bingham::from_natural(m)
+    })
+}
+
+/// [`HeatKernelSo3::new`] at any mean with a raw variance.
+pub fn heat_kernel_so3_raw() -> impl Strategy<Value = Built<HeatKernelSo3>> {
+    (manifold::so3::<f64>(), extreme()).prop_map(|(mean, s)| HeatKernelSo3::new(mean, s))
+}
+
+/// Raw covariances: half of them N × N matrices of raw entries (symmetric or not, mostly refused),
+/// half positive definite with raw standard deviations (accepted within the Gaussians' limits).
+pub fn raw_covariance<const N: usize>() -> impl Strategy<Value = SMatrix<f64, N, N>> {
+    prop_oneof![
+        proptest::collection::vec(extreme(), N * N)
+            .prop_map(|entries| SMatrix::<f64, N, N>::from_column_slice(&entries)),
+        covariance::<N>(prop_oneof![
+            1 => manifold::extreme_finite::<f64>().prop_map(f64::abs),
+            2 => (-3.0..3.0_f64).prop_map(|e| 10f64.powf(e)),
+        ]),
+    ]
+}
+
+/// [`Gaussian::new`] with a raw mean and a [`raw_covariance`].
+pub fn gaussian_raw<const N: usize>() -> impl Strategy<Value = Built<Gaussian<N>>> {
+    (
+        proptest::collection::vec(extreme(), N),
+        raw_covariance::<N>(),
+    )
+        .prop_map(|(mean, covariance)| Gaussian::new(SVector::from_column_slice(&mean), covariance))
+}
+
+/// [`ManifoldGaussian::new`] at means from `points` with a [`raw_covariance`].
+pub fn manifold_gaussian_raw<X, const D: usize>(
+    points: impl Strategy<Value = X>,
+) -> impl Strategy<Value = Built<ManifoldGaussian<X, D>>>
+where
+    X: Manifold<D, Scalar = f64> + Clone + Debug,
+{
+    (points, raw_covariance::<D>())
+        .prop_map(|(mean, covariance)| ManifoldGaussian::new(mean, covariance))
+}
+
+/// [`HarmonicGaussian::new`] with an angle from [`gen_von_mises2`], raw features and a
+/// [`raw_covariance`].
+pub fn harmonic_gaussian_raw<const N: usize>() -> impl Strategy<Value = Built<HarmonicGaussian<N>>>
+{
+    (
+        gen_von_mises2(concentration()),
+        proptest::collection::vec(extreme(), 3 * N),
+        raw_covariance::<N>(),
+    )
+        .prop_map(|(angle, b, covariance)| {
+            HarmonicGaussian::new(angle, SMatrix::from_column_slice(&b), covariance)
         })
 }

@@ -628,10 +628,48 @@ pub fn check_action<G: GroupAction<D, P> + LawSubject<D>, const D: usize, const 
     Ok(())
 }
 
-/// The bad-input law of a group: at a valid element `x`, a tangent `v` of any finite magnitude
-/// ([`extreme_tangent`](crate::testing::strategies::extreme_tangent)) gives finite results from
-/// every operation (`exp`, `retract`, `compose`, `inverse`, `log`, `local`, the adjoint, `Jr` and
-/// `Jr⁻¹`): the crate's contract "no function panics or returns NaN for finite input". Elements are
+/// The bad-input law of a manifold: at a valid point `x`, a tangent `v` of any finite magnitude
+/// ([`extreme_tangent`](crate::testing::strategies::extreme_tangent)) gives a finite
+/// `retract(x, v)` and finite `local` both ways between it and `x`: the crate's contract "no
+/// function panics or returns NaN for finite input". A tangent with a NaN or an infinite component
+/// must not panic, whatever it returns (the unchecked operations' precondition is finite input;
+/// raw numbers enter through the checked constructors).
+///
+/// # Errors
+/// The first operation whose result is not finite, with its input.
+pub fn check_manifold_bad_input<M: Manifold<D>, const D: usize>(
+    x: &M,
+    v: &Tangent<M::Scalar, D>,
+) -> Result<(), TestCaseError> {
+    let y = x.retract(v);
+    let (there, back) = (x.local(&y), y.local(x));
+    if !v.iter().all(ComplexField::is_finite) {
+        return Ok(());
+    }
+    prop_assert!(
+        y.is_finite(),
+        "retract(x, v) is not finite for x = {:?}, v = {:?}",
+        x,
+        v
+    );
+    for (what, w) in [
+        ("local(x, retract(x, v))", there),
+        ("local(retract(x, v), x)", back),
+    ] {
+        prop_assert!(
+            w.iter().all(ComplexField::is_finite),
+            "{} is not finite for x = {:?}, v = {:?}",
+            what,
+            x,
+            v
+        );
+    }
+    Ok(())
+}
+
+/// The bad-input law of a group: [`check_manifold_bad_input`], and at a valid element `x`, a
+/// tangent `v` of any finite magnitude gives finite results from every group operation (`exp`,
+/// `compose`, `inverse`, `log`, the adjoint, `Jr` and `Jr⁻¹`). Elements are
 /// checked with [`Manifold::is_finite`], vectors and matrices entry by entry. A tangent with a NaN
 /// or an infinite component (the unchecked operations' precondition is finite input; raw numbers
 /// enter through the checked constructors) must not panic, whatever it returns.
@@ -642,6 +680,7 @@ pub fn check_bad_input<G: LieGroup<D>, const D: usize>(
     x: &G,
     v: &Tangent<G::Scalar, D>,
 ) -> Result<(), TestCaseError> {
+    check_manifold_bad_input(x, v)?;
     let finite_vector = |m: &Tangent<G::Scalar, D>| m.iter().all(ComplexField::is_finite);
     let finite_matrix = |m: &Jacobian<G::Scalar, D, D>| m.iter().all(ComplexField::is_finite);
     let e = G::exp(v);

@@ -291,7 +291,7 @@ where
 /// magnitudes from 1e-320 to 1e308 of either sign. Drawn in `f64` and rounded to the scalar type,
 /// where a finite value beyond the type's range saturates at its largest finite value (so the
 /// finite classes stay finite in f32).
-pub fn extreme<T: Real>() -> impl Strategy<Value = T> {
+pub fn extreme<T: Real>() -> impl Strategy<Value = T> + Clone {
     prop_oneof![
         1 => Just(f64::NAN),
         1 => Just(f64::INFINITY),
@@ -302,7 +302,7 @@ pub fn extreme<T: Real>() -> impl Strategy<Value = T> {
 }
 
 /// The finite values of [`extreme`].
-pub fn extreme_finite<T: Real>() -> impl Strategy<Value = T> {
+pub fn extreme_finite<T: Real>() -> impl Strategy<Value = T> + Clone {
     extreme_finite_f64().prop_map(to_scalar::<T>)
 }
 
@@ -313,7 +313,7 @@ pub fn extreme_tangent<T: Real, const D: usize>() -> impl Strategy<Value = SVect
 }
 
 /// The finite classes of [`extreme`], in f64.
-fn extreme_finite_f64() -> impl Strategy<Value = f64> {
+fn extreme_finite_f64() -> impl Strategy<Value = f64> + Clone {
     prop_oneof![
         1 => Just(f64::MAX),
         1 => Just(-f64::MAX),
