@@ -43,11 +43,19 @@ pub fn enu_from_nwu() -> UnitQuaternion<f64> {
 /// `β ≥ 0`, a finite positive rate and readings within the sensors' limits.
 ///
 /// On the experiment layer, as the BROAD example evaluation runs it: the first sample sets the
-/// state ([`broad_initial_state`]) and every sample makes one step, `predict` with the sample's
-/// gyroscope and accelerometer (the 6D step) and, where the sample has a magnetometer reading,
-/// `update` with it, which makes that sample's step again from the state before it as the 9D step
-/// (the first sample's start is then taken with the magnetometer too). The estimate has no
-/// covariance.
+/// state ([`broad_initial_state`]) and every sample makes one step, the 9D step where `update`
+/// gives the sample's magnetometer reading (the first sample's start is then taken with the
+/// magnetometer too), else the 6D step with the sample's gyroscope and accelerometer alone. So
+/// that a sample costs one step, in 9D `predict` only keeps the sample and the state before it,
+/// and the step is made by the call that first needs it: `update` (the 9D step), the next
+/// `predict` (the 6D step of a sample without a reading) or `estimate` (which computes that 6D
+/// step without keeping it: read after every sample without a reading, such a sample costs two
+/// steps). A step made later is the same step, bit for bit. In 6D a reading changes nothing and
+/// `predict` makes the step at once. Every step is all or nothing, and a step that fails is
+/// reported by the call that makes it: `predict` makes the 9D filter's 6D step at once, to refuse
+/// the sample, when `(|ω|_∞ + β) Δt` exceeds 10³⁰⁰ (below it the step cannot overflow; what else
+/// could leave a non-finite state, a gradient norm below `β / f64::MAX` or a state stepped to
+/// exactly zero, is not met in practice). The estimate has no covariance.
 ///
 /// # Example
 /// ```
@@ -70,10 +78,24 @@ pub struct Madgwick {
     beta: f64,
     sensors: Sensors,
     interval: f64,
-    /// The state (NWU), `None` before the first sample.
-    q: Option<Vector4<f64>>,
-    /// The last sample and the state before it, until its magnetometer reading or the next sample.
-    last: Option<(ImuSample, Option<Vector4<f64>>)>,
+    /// The last sample, `None` before the first.
+    last: Option<Last>,
+}
+
+/// The bound on `(|ω|_∞ + β) Δt` below which [`Madgwick`]'s `predict` leaves the 6D step to the
+/// call that needs it: each component of `Δt (q̇_ω − β ∇/|∇|)` is at most that (`|q̇_ω| = |ω|/2`,
+/// `|β ∇/|∇|| = β`), so the step's `q + Δt (…)` of a unit q stays finite.
+const DEFERRED_BOUND: f64 = 1e300;
+
+/// [`Madgwick`]'s last sample with the state before it and, once made, its step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Last {
+    sample: ImuSample,
+    /// The state before the sample (NWU), `None` for the first sample (its start depends on its
+    /// magnetometer reading).
+    before: Option<Vector4<f64>>,
+    /// The state after the sample once its step is made, `None` while the step waits.
+    after: Option<Vector4<f64>>,
 }
 
 impl Madgwick {
@@ -97,15 +119,41 @@ impl Madgwick {
             beta,
             sensors,
             interval: 1.0 / rate,
-            q: None,
             last: None,
         })
     }
 
-    /// The state: the sensor frame w.r.t. NWU, `None` before the first sample.
+    /// The state: the sensor frame w.r.t. NWU, `None` before the first sample (or when the last
+    /// sample's waiting step, made for this, does not give a finite state).
     pub fn state(&self) -> Option<UnitQuaternion<f64>> {
-        self.q
-            .map(|q| UnitQuaternion::new_unchecked(Quaternion::new(q[0], q[1], q[2], q[3])))
+        self.current().ok().flatten().map(|q| unit(&q))
+    }
+
+    /// The state after the last sample, its 6D step made now if it waits; `None` before the
+    /// first sample.
+    fn current(&self) -> Result<Option<Vector4<f64>>, OperatorError> {
+        self.last
+            .as_ref()
+            .map(|last| match last.after {
+                Some(q) => Ok(q),
+                None => self.step_from(last.before, &last.sample, None),
+            })
+            .transpose()
+    }
+
+    /// The step of `sample` from the state `before`, or from the sample's start for the first
+    /// sample; the 9D step with `mag`.
+    fn step_from(
+        &self,
+        before: Option<Vector4<f64>>,
+        sample: &ImuSample,
+        mag: Option<&Vector3<f64>>,
+    ) -> Result<Vector4<f64>, OperatorError> {
+        let q = match before {
+            Some(q) => q,
+            None => Self::start(sample, mag)?,
+        };
+        self.checked_step(&q, sample, mag)
     }
 
     /// One step from the state `q` with the gyroscope, the accelerometer and, for the 9D step, the
@@ -175,30 +223,40 @@ impl RecursiveFilter for Madgwick {
 
     fn predict(&mut self, input: &ImuSample) -> Result<(), OperatorError> {
         input.check()?;
-        let before = match self.q {
+        let before = self.current()?;
+        let q = match before {
             Some(q) => q,
             None => Self::start(input, None)?,
         };
-        let next = self.checked_step(&before, input, None)?;
-        self.last = Some((*input, self.q));
-        self.q = Some(next);
+        let now = self.sensors == Sensors::SixD
+            || (input.gyro.amax() + self.beta) * self.interval > DEFERRED_BOUND;
+        let after = if now {
+            Some(self.checked_step(&q, input, None)?)
+        } else {
+            None
+        };
+        self.last = Some(Last {
+            sample: *input,
+            before,
+            after,
+        });
         Ok(())
     }
 
     fn update(&mut self, z: &Vector3<f64>) -> Result<Update, OperatorError> {
         check_reading("magnetometer reading", z, MAX_FIELD)?;
-        let Some((sample, before)) = self.last else {
+        let Some(last) = self.last else {
             return Err(OperatorError::NotReady {
                 what: "Madgwick's filter",
                 needs: "the sample (predict) the magnetometer reading belongs to",
             });
         };
         if self.sensors == Sensors::NineD {
-            let before = match before {
-                Some(q) => q,
-                None => Self::start(&sample, Some(z))?,
-            };
-            self.q = Some(self.checked_step(&before, &sample, Some(z))?);
+            let after = self.step_from(last.before, &last.sample, Some(z))?;
+            self.last = Some(Last {
+                after: Some(after),
+                ..last
+            });
         }
         Ok(Update {
             log_evidence: 0.0,
@@ -207,15 +265,20 @@ impl RecursiveFilter for Madgwick {
     }
 
     fn estimate(&self) -> Result<AttitudeEstimate, OperatorError> {
-        let q = self.state().ok_or(OperatorError::NotReady {
+        let q = self.current()?.ok_or(OperatorError::NotReady {
             what: "Madgwick's filter",
             needs: "a first sample (predict)",
         })?;
         Ok(AttitudeEstimate {
-            orientation: enu_from_nwu() * q,
+            orientation: enu_from_nwu() * unit(&q),
             covariance: None,
         })
     }
+}
+
+/// The state `q` (scalar first, unit) as a unit quaternion.
+fn unit(q: &Vector4<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::new_unchecked(Quaternion::new(q[0], q[1], q[2], q[3]))
 }
 
 /// `J_gᵀ f_g`: the gradient of ½|R(q)ᵀ ẑ − â|² in the polynomial forms of [`Madgwick`].

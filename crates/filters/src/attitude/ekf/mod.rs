@@ -85,8 +85,16 @@ struct Reading {
     age: usize,
 }
 
-/// The state of an initialised filter: everything a step changes, so that a failed step is undone
-/// by restoring a clone.
+/// One sample's turn, computed from the state without changing it: the block's rotation with the
+/// sample ([`Block::turned`]) and the orientation it gives.
+#[derive(Clone, Copy, Debug)]
+struct Turn {
+    rotation: UnitQuaternion<f64>,
+    orientation: UnitQuaternion<f64>,
+}
+
+/// The state of an initialised filter: everything a step changes, so that a step that can fail
+/// part-way is undone by restoring a clone ([`AttitudeEkf::transaction`]).
 #[derive(Clone, Debug)]
 struct Running {
     density: ManifoldGaussian<AttitudeState, STATE_DIM>,
@@ -249,7 +257,11 @@ impl AttitudeEkf {
         self.state.as_ref().ok_or(NOT_READY)
     }
 
-    /// Runs `step` on the state; on an error the state is restored to its value before it.
+    /// Runs `step` on the state; on an error the state is restored to its value before it. The
+    /// clone this costs (the density with its Cholesky factor and the orientation history, over
+    /// 2 kB) is paid only by the steps that can fail part-way, a block's end and a magnetometer
+    /// reading that initialises the heading or makes a heading update: per sample, the strapdown
+    /// and the reading's bookkeeping cannot fail once the sample is checked, and go without it.
     fn transaction<T>(
         &mut self,
         step: impl FnOnce(&Settings, &mut Running) -> Result<T, OperatorError>,
@@ -417,15 +429,21 @@ impl Running {
         }
     }
 
-    /// One sample's gyroscope and accelerometer: rest detection, strapdown, and at the end of a
-    /// block the covariance propagation and the velocity (and rest) updates.
-    fn imu_step(
-        &mut self,
-        settings: &Settings,
-        gyro: &Vector3<f64>,
-        acc: &Vector3<f64>,
-    ) -> Result<(), OperatorError> {
-        let dt = settings.dt;
+    /// The strapdown's [`Turn`] with a sample's gyroscope: the one part of a sample between blocks
+    /// that can come out non-finite, computed (and checked) before anything changes.
+    fn turn(&self, settings: &Settings, gyro: &Vector3<f64>) -> Turn {
+        let rotation = self.block.turned(gyro, settings.dt);
+        Turn {
+            rotation,
+            orientation: self.density.mean().first().inner().as_unit_quaternion() * rotation,
+        }
+    }
+
+    /// One sample's gyroscope and accelerometer between blocks, with its [`Turn`]: the rest
+    /// detector's low-pass, the sample joins the block and its orientation the history, and the
+    /// last magnetometer reading ages by a sample. Cannot fail.
+    fn strapdown(&mut self, settings: &Settings, sample: &ImuSample, turn: Turn) {
+        let (gyro, acc, dt) = (&sample.gyro, &sample.acc, settings.dt);
         if let (Some(s), Some(p)) = (&mut self.rest, &settings.params.rest) {
             let a = (dt / p.filter_tau).min(1.0);
             s.gyro += (gyro - s.gyro) * a;
@@ -434,44 +452,61 @@ impl Running {
                 (gyro - s.gyro).norm() < p.gyro_threshold && (acc - s.acc).norm() < p.acc_threshold;
             s.since = if still { s.since + dt } else { 0.0 };
         }
-        self.block.push(gyro, acc, dt);
+        self.block.push(turn.rotation, acc, dt);
         self.in_block += 1;
-        self.orientation =
-            self.density.mean().first().inner().as_unit_quaternion() * self.block.rotation;
+        self.orientation = turn.orientation;
         self.history[self.count % HISTORY] = self.orientation;
         self.count += 1;
         if let Some(reading) = &mut self.reading {
             reading.age += 1;
         }
-        if self.in_block >= settings.block_samples {
-            self.flush(settings)?;
-            self.blocks += 1;
-            if self.blocks % settings.velocity_every == 0 {
-                self.velocity_updates(settings)?;
-            }
-            if self.blocks % settings.mag_every == 0 {
-                self.heading_due = true;
-            }
+    }
+
+    /// Whether the next sample ends the block.
+    fn block_ends(&self, settings: &Settings) -> bool {
+        self.in_block + 1 >= settings.block_samples
+    }
+
+    /// The end of a block: the covariance propagation, the velocity (and rest) updates, and a
+    /// heading update falling due.
+    fn end_block(&mut self, settings: &Settings) -> Result<(), OperatorError> {
+        self.flush(settings)?;
+        self.blocks += 1;
+        if self.blocks % settings.velocity_every == 0 {
+            self.velocity_updates(settings)?;
+        }
+        if self.blocks % settings.mag_every == 0 {
+            self.heading_due = true;
         }
         Ok(())
     }
 
-    /// The magnetometer reading of the sample [`imu_step`](Self::imu_step) just processed (9D): the
-    /// first usable one initialises the heading; a heading update that fell due
-    /// since the last reading is made with it (after propagating the covariance over the samples of
-    /// the block so far). Returns the update's log evidence and NIS when one was applied.
+    /// A magnetometer reading's bookkeeping. A magnetometer slower than the gyroscope repeats its
+    /// last reading (sample and hold): a reading bit-identical to the last keeps its age, so that
+    /// it is lined up with the orientation of the sample it was taken at.
+    fn note_reading(&mut self, m: &Vector3<f64>) {
+        match &mut self.reading {
+            Some(r) if r.field == *m => {}
+            _ => self.reading = Some(Reading { field: *m, age: 0 }),
+        }
+    }
+
+    /// Whether a magnetometer reading now is only noted ([`note_reading`](Self::note_reading)):
+    /// the heading is initialised and no heading update is due. Such a step cannot fail.
+    fn only_notes_reading(&self) -> bool {
+        self.magnet.is_some() && !self.heading_due
+    }
+
+    /// The magnetometer reading of the sample just processed (9D): the first usable one
+    /// initialises the heading; a heading update that fell due since the last reading is made with
+    /// it (after propagating the covariance over the samples of the block so far). Returns the
+    /// update's log evidence and NIS when one was applied.
     fn magnetometer_step(
         &mut self,
         settings: &Settings,
         m: &Vector3<f64>,
     ) -> Result<Option<(f64, f64)>, OperatorError> {
-        // A magnetometer slower than the gyroscope repeats its last reading (sample and hold):
-        // a reading bit-identical to the last keeps its age, so that it is lined up with the
-        // orientation of the sample it was taken at.
-        match &mut self.reading {
-            Some(r) if r.field == *m => {}
-            _ => self.reading = Some(Reading { field: *m, age: 0 }),
-        }
+        self.note_reading(m);
         if self.magnet.is_none() {
             self.initialise_heading(settings, m)?;
             return Ok(None);
@@ -627,19 +662,18 @@ impl Running {
         self.magnet = Some(magnet);
         Ok(applied)
     }
+}
 
-    /// The result of a step is kept only if the state is still a valid density with a finite
-    /// orientation.
-    fn check(&self) -> Result<(), OperatorError> {
-        let q = self.orientation.coords;
-        if let Some(&value) = q.iter().find(|c| !c.is_finite()) {
-            return Err(OperatorError::NonFinite {
-                what: "attitude after the step",
-                value,
-            });
-        }
-        Ok(())
+/// The result of a step is kept only if the state is still a valid density (every density the
+/// state takes is checked when built) with a finite orientation.
+fn check_orientation(orientation: &UnitQuaternion<f64>) -> Result<(), OperatorError> {
+    if let Some(&value) = orientation.coords.iter().find(|c| !c.is_finite()) {
+        return Err(OperatorError::NonFinite {
+            what: "attitude after the step",
+            value,
+        });
     }
+    Ok(())
 }
 
 /// The production filter as the experiment layer drives it: [`predict`](RecursiveFilter::predict)
@@ -657,26 +691,43 @@ impl RecursiveFilter for AttitudeEkf {
     type Measurement = Vector3<f64>;
     type Estimate = AttitudeEstimate;
 
+    /// Between blocks the sample's orientation is computed and checked first, and the strapdown
+    /// then made in place; the sample that ends a block makes it and then propagates and
+    /// conditions in a [`transaction`](AttitudeEkf::transaction).
     fn predict(&mut self, input: &ImuSample) -> Result<(), OperatorError> {
         input.check()?;
-        if self.state.is_none() {
+        let Some(state) = &mut self.state else {
             self.state = Some(Running::initialise(&self.settings, &input.acc)?);
+            return Ok(());
+        };
+        let turn = state.turn(&self.settings, &input.gyro);
+        if !state.block_ends(&self.settings) {
+            check_orientation(&turn.orientation)?;
+            state.strapdown(&self.settings, input, turn);
             return Ok(());
         }
         self.transaction(|settings, s| {
-            s.imu_step(settings, &input.gyro, &input.acc)?;
-            s.check()
+            s.strapdown(settings, input, turn);
+            s.end_block(settings)?;
+            check_orientation(&s.orientation)
         })
     }
 
     fn update(&mut self, z: &Vector3<f64>) -> Result<Update, OperatorError> {
         check_reading("magnetometer reading", z, super::MAX_FIELD)?;
         let applied = if self.settings.sensors == Sensors::NineD {
-            self.transaction(|settings, s| {
-                let applied = s.magnetometer_step(settings, z)?;
-                s.check()?;
-                Ok(applied)
-            })?
+            let state = self.state.as_mut().ok_or(NOT_READY)?;
+            if state.only_notes_reading() {
+                // The orientation does not move: it is as checked at the last step.
+                state.note_reading(z);
+                None
+            } else {
+                self.transaction(|settings, s| {
+                    let applied = s.magnetometer_step(settings, z)?;
+                    check_orientation(&s.orientation)?;
+                    Ok(applied)
+                })?
+            }
         } else {
             self.running()?;
             None

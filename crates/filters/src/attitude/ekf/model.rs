@@ -67,9 +67,17 @@ impl Block {
         }
     }
 
-    /// Adds one sample: gyroscope ω, accelerometer f, interval Δt.
-    pub(crate) fn push(&mut self, gyro: &Vector3<f64>, acc: &Vector3<f64>, dt: f64) {
-        self.rotation *= UnitQuaternion::from_scaled_axis((gyro - self.bias) * dt);
+    /// `ΔR exp([ω − b̂]ₓ Δt)`: the rotation to the end of one more sample, gyroscope ω over the
+    /// interval Δt, for [`push`](Self::push). Apart, so that a filter can check the orientation it
+    /// gives before the block changes.
+    pub(crate) fn turned(&self, gyro: &Vector3<f64>, dt: f64) -> UnitQuaternion<f64> {
+        self.rotation * UnitQuaternion::from_scaled_axis((gyro - self.bias) * dt)
+    }
+
+    /// Adds one sample: its rotation `rotation` ([`turned`](Self::turned) with its gyroscope),
+    /// accelerometer f, interval Δt.
+    pub(crate) fn push(&mut self, rotation: UnitQuaternion<f64>, acc: &Vector3<f64>, dt: f64) {
+        self.rotation = rotation;
         let r = self.rotation.to_rotation_matrix().into_inner();
         self.velocity += r * acc * dt;
         self.bias_coupling += r * dt;
