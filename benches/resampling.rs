@@ -1,8 +1,9 @@
 //! Resampling cost against the particle count: every scheme is linear in N (sorted uniform draws by
 //! exponential spacings, the residual scheme's draws merged in index order), 1e6 and 1e8 particles.
 //!
-//! Run: `cargo bench --bench resampling` (figures in docs/benchmarks.md; the 1e8 case holds about
-//! 3.2 GB: the weights, their normalised copy, the draws and the indices).
+//! Run: `cargo bench --bench resampling` (figures in docs/benchmarks.md; the 1e8 case holds 1.6 GB,
+//! the weights and the indices, and 2.4 GB for the multinomial and residual schemes, whose sorted
+//! draws are stored).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use liebayes::operators::particle::{Resampling, resample_indices};

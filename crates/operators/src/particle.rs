@@ -31,7 +31,7 @@ use crate::traits::{condition_clone, propagate_clone};
 use crate::{Condition, Conditioned, Evidence, OperatorError, Propagate};
 use liebayes_manifolds::{Manifold, MeanSettings, weighted_mean};
 use rand::{Rng, RngCore};
-use resampling::{Workspace, resample_into};
+use resampling::{Weights, Workspace, resample_into};
 
 /// What a failed Bayes step of a particle set names.
 const LIKELIHOOD: &str = "particle log-likelihood";
@@ -75,7 +75,7 @@ pub struct ParticleSet<X> {
     weights: LogWeights,
     /// The resampled indices.
     indices: Vec<usize>,
-    /// The resampling's other buffers.
+    /// The resampling's other buffer.
     work: Workspace,
     /// The stepped or resampled particles, swapped with `particles`.
     spare: Vec<X>,
@@ -205,7 +205,7 @@ impl<X: Clone> ParticleSet<X> {
         // The weights are normalised, finite and not all zero (kept so by every step), and the
         // buffers have room for n: nothing here can fail.
         resample_into(
-            self.weights.linear(),
+            Weights::normalised(self.weights.linear()),
             n,
             scheme,
             rng,
