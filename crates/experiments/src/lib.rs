@@ -36,6 +36,16 @@
 //!   `RecursiveFilter` runs in one line: steps all or nothing on extreme inputs, NEES and NIS in
 //!   two-sided χ² bands, a mis-specified measurement noise caught.
 
+//!
+//! # Input contract
+//!
+//! A study's settings are checked before any run: at most [`MAX_RUNS`] = 2⁴⁰ runs, at most
+//! [`MAX_STUDY_EPOCHS`] epochs, a shard `K/N` with 1 ≤ K ≤ N; a metric series holds at most
+//! [`MAX_EPOCHS`] = 2²⁴ epochs, added in order, so its memory is that of the epochs added. A
+//! filter's failed step ends its run with a [`RunFailure`] (where and why), counted by reason, and
+//! a non-finite metric value is counted apart, never averaged into a figure. A [`Summary`] or a
+//! [`Table`] read from a file is checked whole before it is used (sums finite, counts consistent,
+//! min ≤ max, run ranges sorted and disjoint), and refused with the field that is wrong.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 mod error;

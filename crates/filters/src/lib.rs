@@ -12,6 +12,19 @@
 //! * [`attitude`]: IMU attitude: the data layer (IMU logs from the BROAD dataset and CSV files),
 //!   the BROAD error metric, Madgwick's filter as a baseline, the talk's Bingham filter and the
 //!   production error-state EKF.
+//!
+//! # Input contract
+//!
+//! Readings beyond a sensor's physical range are refused, by the readers (naming the file and the
+//! row) and by every filter step: gyroscope rates above [`attitude::MAX_ANGULAR_RATE`] = 1e4 rad/s,
+//! specific forces above [`attitude::MAX_SPECIFIC_FORCE`] = 1e4 m/s², magnetic fields above
+//! [`attitude::MAX_FIELD`] = 1e9; angle-of-arrival noise σ and κ within [`aoa::SIGMA_RANGE`] and
+//! [`aoa::KAPPA_RANGE`]. Files are checked before they are trusted: a BROAD `.mat` file at most
+//! [`attitude::MAX_MAT_FILE_BYTES`], its declared sizes against its length, a log at most
+//! [`attitude::MAX_SAMPLES`] samples, CSV lines of at most 4 096 bytes. Every filter's step is all
+//! or nothing: a non-finite or invalid result is an error ([`FilterError`], or the operators'
+//! error through the experiment layer) and the filter is left as it was; counts of particles and
+//! cells are checked against the operators' `MAX_ELEMENTS` before anything is allocated.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod aoa;

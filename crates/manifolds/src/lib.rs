@@ -23,7 +23,7 @@
 //! * Quaternions are Hamilton, scalar first in all I/O (`w, x, y, z`), rotating actively:
 //!   `R(q) v = q v q*`. Angles are radians.
 //!
-//! ## Validation
+//! ## Validation: the input contract
 //!
 //! Constructors from raw numbers check finiteness, unit norm, orthonormality and determinant against
 //! the tolerances of [`constants`] and return [`ManifoldError`]; `*_unchecked` constructors skip the

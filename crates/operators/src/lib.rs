@@ -40,6 +40,18 @@
 //!   statistic) and the estimation error on a manifold.
 //!
 //! The math of each is in `docs/operators/`; the filters crate composes them into applications.
+//!
+//! # Input contract
+//!
+//! Every step is all or nothing: it returns a finite, valid density (a finite mean on its
+//! manifold, a symmetric positive definite covariance, log weights that normalise with an effective
+//! sample size in [1, N]) with a finite log evidence, or a typed [`OperatorError`] saying what to
+//! fix, and a density stepped in place is unchanged. A model's output is checked before it is used:
+//! a process or measurement model returning NaN, ±∞ or a covariance that is not positive definite
+//! makes the step fail, never the density. Counts (particles, draws, grid cells) are checked against
+//! [`MAX_ELEMENTS`] = 2³⁰ before anything is allocated, and every iteration has a bound (the UKF's
+//! sigma points, the smoother's passes, the χ² quantile's bisection). The Gaussians' limits are the
+//! densities crate's (`MAX_SCALE` = 1e100).
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod converted;

@@ -693,7 +693,7 @@ impl RecursiveFilter for AttitudeEkf {
 
     /// Between blocks the sample's orientation is computed and checked first, and the strapdown
     /// then made in place; the sample that ends a block makes it and then propagates and
-    /// conditions in a [`transaction`](AttitudeEkf::transaction).
+    /// conditions on a copy of the state, kept only if every part succeeds.
     fn predict(&mut self, input: &ImuSample) -> Result<(), OperatorError> {
         input.check()?;
         let Some(state) = &mut self.state else {
