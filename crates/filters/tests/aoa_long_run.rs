@@ -27,7 +27,9 @@ const TEST_EPOCHS: u64 = 5_000;
 const KAPPA: f64 = 400.0;
 
 /// An estimate is valid: a finite mean, a finite symmetric covariance with no negative eigenvalue
-/// beyond rounding, positive definite when `definite`.
+/// beyond rounding (relative to its largest entry, and absolute below f64::MIN_POSITIVE: particles
+/// collapsed onto one point give a covariance of subnormal entries, whose eigenvalues carry
+/// rounding of that size), positive definite when `definite`.
 fn valid(e: &PositionEstimate, definite: bool) -> bool {
     let p = &e.covariance;
     let scale = p.amax();
@@ -35,7 +37,7 @@ fn valid(e: &PositionEstimate, definite: bool) -> bool {
     e.mean.iter().all(|x| x.is_finite())
         && p.iter().all(|x| x.is_finite())
         && (p - p.transpose()).amax() <= 1e-12 * scale
-        && eigenvalues.min() >= -1e-12 * scale
+        && eigenvalues.min() >= -(1e-12 * scale).max(f64::MIN_POSITIVE)
         && (!definite || p.cholesky().is_some())
 }
 

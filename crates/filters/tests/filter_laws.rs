@@ -214,7 +214,7 @@ impl FilterLawSubject for AoaSubject {
         e.mean.iter().all(|x| x.is_finite())
             && p.iter().all(|x| x.is_finite())
             && (p - p.transpose()).amax() <= 1e-12 * scale
-            && p.symmetric_eigenvalues().min() >= -1e-12 * scale
+            && p.symmetric_eigenvalues().min() >= -(1e-12 * scale).max(f64::MIN_POSITIVE)
     }
 
     fn corrupt_input(&self, _input: &f64, value: f64) -> f64 {
