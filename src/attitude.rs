@@ -173,8 +173,9 @@ pub fn main_job(out: &Path) -> Result<(), CliError> {
         PathBuf::from,
     );
     print(&format!(
-        "\nBROAD trials in {} (the talk filter, about 130 us per sample, runs on the simulated log \
-         only here; `liebayes attitude --broad DIR` runs every method):",
+        "\nBROAD trials in {} (the talk filter, hundreds of times slower per sample than the \
+         others, runs on the simulated log only here; `liebayes attitude --broad DIR` runs every \
+         method):",
         dir.display()
     ));
     broad(
