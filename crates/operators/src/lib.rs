@@ -36,6 +36,9 @@
 //!   Gaussian vector ([`HarmonicGaussian`](liebayes_densities::HarmonicGaussian));
 //! * [`converted`]: a model whose readings are converted once per step into the measurement its
 //!   step takes (one data stream, several models of it);
+//! * [`process_noise`]: a continuous model discretised (Van Loan), the white-noise blocks of the
+//!   constant-velocity and constant-acceleration models, and the transport of a covariance between
+//!   body-frame and world-frame errors (`Ad(x) P Ad(x)ᵀ`);
 //! * [`evaluation`]: the consistency metrics (NEES, NIS, their χ² bands, a circular consistency
 //!   statistic) and the estimation error on a manifold.
 //!
@@ -64,6 +67,7 @@ pub mod kalman;
 pub mod models;
 mod numerics;
 pub mod particle;
+pub mod process_noise;
 pub mod rao_blackwell;
 #[cfg(feature = "serde")]
 mod serde_impls;
