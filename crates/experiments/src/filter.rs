@@ -14,7 +14,8 @@ use liebayes_operators::{Condition, Innovation, OperatorError, Propagate};
 pub struct Nis {
     /// `νᵀ S⁻¹ ν`.
     pub value: f64,
-    /// The measurement dimension M.
+    /// Its degrees of freedom: the dimension of the measurement's manifold
+    /// ([`Innovation::dof`]).
     pub dof: usize,
 }
 
@@ -93,7 +94,7 @@ impl<const N: usize, const M: usize> StepReport for Innovation<N, M> {
     fn nis(&self) -> Option<Nis> {
         Some(Nis {
             value: Innovation::nis(self),
-            dof: M,
+            dof: self.dof(),
         })
     }
 }

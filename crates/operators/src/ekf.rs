@@ -111,6 +111,7 @@ where
             model.0.residual(z, &model.0.predict(mean)),
             &(h * pht + r),
             &pht,
+            model.0.dof(),
         )?;
         let posterior = checked_gaussian(
             mean.retract(&report.correction()),

@@ -16,9 +16,12 @@ use std::f64::consts::PI;
 /// * the gain K, with `μ⁺ = μ ⊞ K ν`;
 /// * the normalised innovation squared `NIS = νᵀ S⁻¹ ν`.
 ///
-/// For a consistent filter ν is zero-mean Gaussian with covariance S, so the NIS is χ² with M degrees
-/// of freedom, independent from step to step; averaged over n steps or runs it lies in the band of
-/// [`average_nees_band`](crate::evaluation::average_nees_band)`(M, n)` 95 % of the time. The fields
+/// For a consistent filter ν is zero-mean Gaussian with covariance S, so the NIS is χ² with as many
+/// degrees of freedom as the measurement's manifold has dimensions ([`dof`](Self::dof): M for a
+/// vector in R^M, 2 per unit vector of a model that stacks directions on the sphere S² as 3
+/// coordinates, see [`MeasurementModel::dof`](crate::MeasurementModel::dof)), independent from step
+/// to step; averaged over n steps or runs it lies in the band of
+/// [`average_nees_band`](crate::evaluation::average_nees_band)`(dof, n)` 95 % of the time. The fields
 /// are read-only: they are the quantities of one step and stay consistent with each other.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Innovation<const N: usize, const M: usize> {
@@ -26,17 +29,20 @@ pub struct Innovation<const N: usize, const M: usize> {
     covariance: SMatrix<f64, M, M>,
     gain: SMatrix<f64, N, M>,
     nis: f64,
+    dof: usize,
 }
 
 impl<const N: usize, const M: usize> Innovation<N, M> {
     /// The update from the innovation ν, its covariance S (symmetrised as `(S + Sᵀ)/2`) and the
     /// cross-covariance `C = Cov(δ, z)`: `K = C S⁻¹` by the Cholesky factor `S = L Lᵀ` (never
     /// inverted), `NIS = |L⁻¹ ν|²`, and the log evidence
-    /// `ln N(ν; 0, S) = −½ (NIS + ln det S + M ln 2π)`, returned beside the report.
+    /// `ln N(ν; 0, S) = −½ (NIS + ln det S + M ln 2π)`, returned beside the report. `dof` is the
+    /// dimension of the measurement's manifold (at most M).
     pub(crate) fn new(
         innovation: SVector<f64, M>,
         covariance: &SMatrix<f64, M, M>,
         cross_covariance: &SMatrix<f64, N, M>,
+        dof: usize,
     ) -> Result<(Self, f64), OperatorError> {
         all_finite(
             "innovation z - h(x) (the measurement model predicted a non-finite value)",
@@ -75,6 +81,7 @@ impl<const N: usize, const M: usize> Innovation<N, M> {
                 covariance,
                 gain,
                 nis,
+                dof: dof.min(M),
             },
             log_evidence,
         ))
@@ -96,9 +103,16 @@ impl<const N: usize, const M: usize> Innovation<N, M> {
     }
 
     /// `νᵀ S⁻¹ ν`, computed in the step from the Cholesky factor of S (one triangular solve, no
-    /// inverse): χ² with M degrees of freedom for a consistent filter.
+    /// inverse): χ² with [`dof`](Self::dof) degrees of freedom for a consistent filter.
     pub fn nis(&self) -> f64 {
         self.nis
+    }
+
+    /// The degrees of freedom of the NIS: the dimension of the manifold the measurement lives on
+    /// (M for a vector measurement, fewer when its M coordinates are constrained, as the 3
+    /// coordinates of a unit vector carry 2).
+    pub fn dof(&self) -> usize {
+        self.dof
     }
 
     /// K ν, the correction of the mean in the tangent space at the prior mean.

@@ -221,6 +221,7 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaus
             z - h * self.mean(),
             &(h * sigma_ht + model.noise),
             &sigma_ht,
+            M,
         )?;
         let covariance = joseph(sigma, report.gain(), h, &model.noise);
         let posterior = checked(

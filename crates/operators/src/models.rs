@@ -51,6 +51,15 @@ pub trait MeasurementModel<X: Manifold<D, Scalar = f64>, const D: usize, const M
     fn jacobian(&self, x: &X) -> SMatrix<f64, M, D> {
         numeric_measurement_jacobian(self, x)
     }
+
+    /// The dimension of the manifold the measurement lives on: the degrees of freedom of the NIS
+    /// ([`Innovation::dof`](crate::Innovation::dof)). M for a measurement in R^M (the default);
+    /// fewer when the M coordinates are constrained: a model stacking n unit vectors of S² as 3n
+    /// coordinates returns 2n, since the component of `z − ẑ` along ẑ is of second order in the
+    /// angle and adds nothing to the NIS's distribution to first order.
+    fn dof(&self) -> usize {
+        M
+    }
 }
 
 /// A model used by reference is the model: every method, the Jacobian included, is the referent's.
@@ -95,6 +104,10 @@ where
 
     fn jacobian(&self, x: &X) -> SMatrix<f64, M, D> {
         (**self).jacobian(x)
+    }
+
+    fn dof(&self) -> usize {
+        (**self).dof()
     }
 }
 

@@ -356,7 +356,8 @@ where
             cross += d * (rp - rm).transpose() * w;
         }
         let predicted = predicted.z;
-        let (report, log_evidence) = Innovation::new(h.residual(z, &predicted), &s, &cross)?;
+        let (report, log_evidence) =
+            Innovation::new(h.residual(z, &predicted), &s, &cross, h.dof())?;
         let gain = report.gain();
         let posterior = checked_gaussian(
             mu.retract(&report.correction()),

@@ -96,7 +96,8 @@ impl<const N: usize> Likelihood<Position> for UnitVectorModel<N> {
 }
 
 /// Equation (9) stacked: `z = [R₁ d₁; …; R_N d_N] + n`, `n ~ N(0, I/κ)`, M = 3N, with
-/// Algorithm 2's Jacobian `Rⱼ (I − dⱼ dⱼᵀ)/|θ − sⱼ|`. NaN at an anchor (the step then fails).
+/// Algorithm 2's Jacobian `Rⱼ (I − dⱼ dⱼᵀ)/|θ − sⱼ|`. NaN at an anchor (the step then fails). Each
+/// reading is a point of S², so the NIS has 2N degrees of freedom, not M = 3N.
 impl<const N: usize, const M: usize> MeasurementModel<Position, 3, M> for UnitVectorModel<N> {
     fn predict(&self, x: &Position) -> SVector<f64, M> {
         const {
@@ -122,6 +123,11 @@ impl<const N: usize, const M: usize> MeasurementModel<Position, 3, M> for UnitVe
                 .copy_from(&anchor.direction_jacobian(x.coords()));
         }
         h
+    }
+
+    /// 2N: the N readings are points of the sphere S² (a unit vector's 3 coordinates carry 2).
+    fn dof(&self) -> usize {
+        2 * N
     }
 }
 
