@@ -11,7 +11,9 @@
 //!   both, the exact single-update posterior by quadrature, and the square-track scenario;
 //! * [`attitude`]: IMU attitude: the data layer (IMU logs from the BROAD dataset and CSV files),
 //!   the BROAD error metric, Madgwick's filter as a baseline, the talk's Bingham filter and the
-//!   production error-state EKF.
+//!   production error-state EKF;
+//! * [`inertial`]: strapdown inertial navigation with position fixes and IMU biases, by the
+//!   error-state EKF and the invariant EKFs on SE_2(3), compared for consistency.
 //!
 //! # Input contract
 //!
@@ -31,6 +33,7 @@ pub mod aoa;
 pub mod attitude;
 pub mod azimuth;
 mod error;
+pub mod inertial;
 
 pub use error::FilterError;
 

@@ -1,0 +1,278 @@
+//! The strapdown process model ([`Strapdown`]) driven by IMU samples ([`ImuStep`]), and the
+//! position fix ([`PositionFix`]), each written once for every [`NavigationState`].
+
+use super::state::{NAVIGATION_DIM, Navigation, NavigationState};
+use crate::FilterError;
+use liebayes_manifolds::{LieGroup, So3};
+use liebayes_operators::{MeasurementModel, ProcessModel};
+use nalgebra::{SMatrix, SVector, Vector3};
+
+/// Gravity in the world frame (z up), m/s².
+pub const GRAVITY: Vector3<f64> = Vector3::new(0.0, 0.0, -9.81);
+
+/// The largest IMU step accepted (s).
+pub const MAX_STEP: f64 = 1.0;
+
+/// The largest angular rate (rad/s) and specific force (m/s²) an [`ImuStep`] accepts.
+pub const MAX_READING: f64 = 1e4;
+
+/// One IMU sample held over a step: the measured angular rate ω̃ (rad/s) and specific force f̃
+/// (m/s²), both in the body frame, and the step dt (s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuStep {
+    angular_rate: Vector3<f64>,
+    specific_force: Vector3<f64>,
+    dt: f64,
+}
+
+impl ImuStep {
+    /// The sample, checked: readings finite with components at most [`MAX_READING`] in size, dt in
+    /// (0, [`MAX_STEP`]].
+    ///
+    /// # Errors
+    /// [`FilterError::Setting`] naming the reading.
+    pub fn new(
+        angular_rate: Vector3<f64>,
+        specific_force: Vector3<f64>,
+        dt: f64,
+    ) -> Result<Self, FilterError> {
+        for (setting, reading) in [
+            ("angular_rate", angular_rate),
+            ("specific_force", specific_force),
+        ] {
+            if !reading.iter().all(|v| v.abs() <= MAX_READING) {
+                return Err(setting_error(
+                    setting,
+                    format!("{reading:?}"),
+                    "components finite, at most 1e4 in size",
+                ));
+            }
+        }
+        if !(dt > 0.0 && dt <= MAX_STEP) {
+            return Err(setting_error("dt", dt.to_string(), "a step in (0, 1] s"));
+        }
+        Ok(Self {
+            angular_rate,
+            specific_force,
+            dt,
+        })
+    }
+
+    /// ω̃ (rad/s, body frame).
+    pub fn angular_rate(&self) -> &Vector3<f64> {
+        &self.angular_rate
+    }
+
+    /// f̃ (m/s², body frame).
+    pub fn specific_force(&self) -> &Vector3<f64> {
+        &self.specific_force
+    }
+
+    /// dt (s).
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+}
+
+/// An [`ImuStep`] setting's error.
+fn setting_error(setting: &'static str, value: String, expected: &'static str) -> FilterError {
+    FilterError::Setting {
+        origin: "inertial::ImuStep",
+        setting,
+        value,
+        expected,
+    }
+}
+
+/// One strapdown step with the readings held over dt, corrected by the biases:
+/// `ω = ω̃ − b_g`, `a = R (f̃ − b_a) + g`, `R′ = R exp(ω dt)`, `v′ = v + a dt`,
+/// `p′ = p + v dt + ½ a dt²`; the biases are unchanged. Exact for readings that are constant over the
+/// step in a body whose attitude is constant too (first order in ω dt otherwise).
+pub fn integrate(
+    state: &Navigation,
+    angular_rate: &Vector3<f64>,
+    specific_force: &Vector3<f64>,
+    dt: f64,
+) -> Navigation {
+    let rate = angular_rate - state.gyro_bias;
+    let acceleration = state.rotation.rotate(&(specific_force - state.accel_bias)) + GRAVITY;
+    Navigation {
+        rotation: state.rotation.compose(&So3::exp(&(rate * dt))),
+        velocity: state.velocity + acceleration * dt,
+        position: state.position + state.velocity * dt + acceleration * (0.5 * dt * dt),
+        ..*state
+    }
+}
+
+/// The IMU's noise: white noise densities of the gyroscope (rad/s/√Hz) and the accelerometer
+/// (m/s²/√Hz), and the random walks of their biases (rad/s/√s, m/s²/√s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuNoise {
+    /// Gyroscope white noise density (rad/s/√Hz).
+    pub gyro: f64,
+    /// Accelerometer white noise density (m/s²/√Hz).
+    pub accel: f64,
+    /// Gyroscope bias random walk (rad/s/√s).
+    pub gyro_bias_walk: f64,
+    /// Accelerometer bias random walk (m/s²/√s).
+    pub accel_bias_walk: f64,
+}
+
+impl ImuNoise {
+    /// Checks that every density is finite and ≥ 0, and the white noises > 0.
+    ///
+    /// # Errors
+    /// [`FilterError::Setting`] naming the density.
+    pub fn validate(&self) -> Result<(), FilterError> {
+        for (setting, value, positive) in [
+            ("gyro", self.gyro, true),
+            ("accel", self.accel, true),
+            ("gyro_bias_walk", self.gyro_bias_walk, false),
+            ("accel_bias_walk", self.accel_bias_walk, false),
+        ] {
+            let ok = value.is_finite()
+                && value <= 1e6
+                && if positive { value > 0.0 } else { value >= 0.0 };
+            if !ok {
+                return Err(FilterError::Setting {
+                    origin: "inertial::ImuNoise",
+                    setting,
+                    value: value.to_string(),
+                    expected: "a finite density in (0, 1e6] ([0, 1e6] for a bias walk)",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The strapdown process on any [`NavigationState`] S: the transition is [`integrate`] with the
+/// sample's readings; the Jacobian F is the default central difference of
+/// `f(x ⊞ δ) ⊟ f(x)` (so each state's own error convention is linearised exactly as it is defined),
+/// and the noise is `Q = G Σ Gᵀ + diag(0, σ_bg² dt I, σ_ba² dt I)` with
+/// `Σ = diag(σ_g² I, σ_a² I)/dt` (the white noise densities over one sample) and
+/// `G = ∂[f(x, ũ + n) ⊟ f(x, ũ)]/∂n` by central differences: the readings' noise as the state's
+/// convention sees it (in the body frame for the error-state EKF's attitude, rotated into the
+/// world for a right-invariant error).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Strapdown {
+    noise: ImuNoise,
+}
+
+impl Strapdown {
+    /// The process with the IMU's noise.
+    ///
+    /// # Errors
+    /// As [`ImuNoise::validate`].
+    pub fn new(noise: ImuNoise) -> Result<Self, FilterError> {
+        noise.validate()?;
+        Ok(Self { noise })
+    }
+
+    /// The IMU's noise.
+    pub fn noise(&self) -> &ImuNoise {
+        &self.noise
+    }
+}
+
+/// The central-difference step of the readings' noise Jacobian G (rad/s and m/s²).
+const READING_STEP: f64 = 1e-6;
+
+impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
+    type Input = ImuStep;
+
+    fn transition(&self, x: &S, input: &ImuStep) -> S {
+        S::from_navigation(&integrate(
+            &x.navigation(),
+            &input.angular_rate,
+            &input.specific_force,
+            input.dt,
+        ))
+    }
+
+    fn noise(&self, x: &S, input: &ImuStep) -> SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM> {
+        let navigation = x.navigation();
+        let centre = S::from_navigation(&integrate(
+            &navigation,
+            &input.angular_rate,
+            &input.specific_force,
+            input.dt,
+        ));
+        let moved = |reading: usize, step: f64| {
+            let (mut rate, mut force) = (input.angular_rate, input.specific_force);
+            if reading < 3 {
+                rate[reading] += step;
+            } else {
+                force[reading - 3] += step;
+            }
+            centre.local(&S::from_navigation(&integrate(
+                &navigation,
+                &rate,
+                &force,
+                input.dt,
+            )))
+        };
+        let g =
+            SMatrix::<f64, NAVIGATION_DIM, 6>::from_columns(&std::array::from_fn::<_, 6, _>(|j| {
+                (moved(j, READING_STEP) - moved(j, -READING_STEP)) / (2.0 * READING_STEP)
+            }));
+        let reading_variance = SVector::<f64, 6>::from_fn(|i, _| {
+            let density = if i < 3 {
+                self.noise.gyro
+            } else {
+                self.noise.accel
+            };
+            density * density / input.dt
+        });
+        let mut q = g * SMatrix::from_diagonal(&reading_variance) * g.transpose();
+        for i in 0..6 {
+            let walk = if i < 3 {
+                self.noise.gyro_bias_walk
+            } else {
+                self.noise.accel_bias_walk
+            };
+            q[(9 + i, 9 + i)] += walk * walk * input.dt;
+        }
+        (q + q.transpose()) * 0.5
+    }
+}
+
+/// A position fix `z = p + n`, `n ~ N(0, σ² I)` (world frame, m), on any [`NavigationState`]; H is
+/// the default central difference, in the state's own error convention.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PositionFix {
+    sigma: f64,
+}
+
+impl PositionFix {
+    /// The fix with standard deviation σ per axis (m), in (0, 1e6].
+    ///
+    /// # Errors
+    /// [`FilterError::Setting`] for a σ outside that range.
+    pub fn new(sigma: f64) -> Result<Self, FilterError> {
+        if !(sigma > 0.0 && sigma <= 1e6) {
+            return Err(FilterError::Setting {
+                origin: "inertial::PositionFix",
+                setting: "sigma",
+                value: sigma.to_string(),
+                expected: "a standard deviation in (0, 1e6] m",
+            });
+        }
+        Ok(Self { sigma })
+    }
+
+    /// σ (m).
+    pub fn sigma(&self) -> f64 {
+        self.sigma
+    }
+}
+
+impl<S: NavigationState> MeasurementModel<S, NAVIGATION_DIM, 3> for PositionFix {
+    fn predict(&self, x: &S) -> Vector3<f64> {
+        x.navigation().position
+    }
+
+    fn noise(&self, _: &S) -> SMatrix<f64, 3, 3> {
+        SMatrix::identity() * (self.sigma * self.sigma)
+    }
+}
