@@ -67,6 +67,7 @@
 
 mod approx_impls;
 pub mod constants;
+mod dimension;
 mod error;
 mod left;
 mod lie_group;
@@ -75,11 +76,13 @@ mod mean;
 mod polar;
 mod pose;
 mod product;
+mod product_macro;
 mod real;
 mod rn;
 mod rotation_vector;
 mod s2;
 mod se2;
+mod se23;
 mod se3;
 #[cfg(feature = "serde")]
 mod serde_impls;
@@ -90,17 +93,21 @@ mod su2;
 #[cfg_attr(docsrs, doc(cfg(feature = "proptest")))]
 pub mod testing;
 
+pub use dimension::Dimension;
 pub use error::{ManifoldError, Readable};
 pub use left::Left;
 pub use lie_group::{GroupAction, LieGroup};
 pub use manifold::{Jacobian, Manifold, Tangent};
 pub use mean::{MeanSettings, weighted_mean};
 pub use product::ProductManifold;
+#[doc(hidden)]
+pub use product_macro::__private;
 pub use real::Real;
 pub use rn::Rn;
 pub use s2::S2;
 pub use se2::Se2;
 pub use se3::Se3;
+pub use se23::Se23;
 pub use so2::{So2, wrap_angle};
 pub use so3::So3;
 pub use su2::Su2;
@@ -109,6 +116,6 @@ pub use su2::Su2;
 pub mod prelude {
     pub use crate::{
         GroupAction, Left, LieGroup, Manifold, ManifoldError, MeanSettings, ProductManifold, Real,
-        Rn, S2, Se2, Se3, So2, So3, Su2, weighted_mean,
+        Rn, S2, Se2, Se3, Se23, So2, So3, Su2, product_manifold, weighted_mean,
     };
 }
