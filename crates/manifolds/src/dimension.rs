@@ -62,3 +62,32 @@ impl<A, B, const DA: usize, const DB: usize, const D: usize> Dimension
 {
     const DIM: usize = D;
 }
+
+#[cfg(test)]
+mod tests {
+    //! `Dimension::DIM` is the `D` of every space's `Manifold<D>` impl.
+    use super::*;
+    use crate::Manifold;
+
+    fn dimensions<M: Manifold<D> + Dimension, const D: usize>() -> (usize, usize) {
+        (<M as Dimension>::DIM, D)
+    }
+
+    #[test]
+    fn dimension_is_the_manifold_parameter() {
+        for (dim, d) in [
+            dimensions::<So2<f64>, 1>(),
+            dimensions::<So3<f32>, 3>(),
+            dimensions::<Su2<f64>, 3>(),
+            dimensions::<S2<f64>, 2>(),
+            dimensions::<Rn<f64, 7>, 7>(),
+            dimensions::<Se2<f64>, 3>(),
+            dimensions::<Se3<f64>, 6>(),
+            dimensions::<Se23<f32>, 9>(),
+            dimensions::<Left<Se23<f64>>, 9>(),
+            dimensions::<ProductManifold<So3<f64>, Rn<f64, 2>, 3, 2, 5>, 5>(),
+        ] {
+            assert_eq!(dim, d);
+        }
+    }
+}

@@ -161,17 +161,18 @@ pub mod __private {
 /// The `LieGroup` and `approx` impls carry their conditions as where-clauses, so a product with a
 /// factor that is not a group (for instance [`S2`](crate::S2)) is still a manifold, and only using it
 /// as a group fails to compile:
-/// ```compile_fail
+/// ```compile_fail,E0277
 /// use liebayes_manifolds::{LieGroup, Rn, S2, product_manifold};
 /// product_manifold! {
 ///     /// A direction and a bias: a manifold, not a group.
 ///     struct Pointing<f64> { direction: S2<f64>, bias: Rn<f64, 2> }
 /// }
-/// let _ = <Pointing as LieGroup<4>>::identity(); // S2<f64> is not a LieGroup
+/// // A manifold: x.retract(&v) and x.local(&y) work. But S2<f64> is not a LieGroup:
+/// let _ = <Pointing as LieGroup<4>>::identity();
 /// ```
 ///
 /// Factors of different scalar types do not build:
-/// ```compile_fail
+/// ```compile_fail,E0271
 /// use liebayes_manifolds::{Rn, So3, product_manifold};
 /// product_manifold! {
 ///     /// An f64 attitude with an f32 bias.
