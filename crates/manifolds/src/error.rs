@@ -83,14 +83,17 @@ pub enum ManifoldError {
         /// The determinant found.
         det: f64,
     },
-    /// A homogeneous transformation matrix whose bottom row is not `[0, …, 0, 1]`.
+    /// A homogeneous matrix whose last rows are not those of the identity (`[0, …, 0, 1]` for a
+    /// rigid motion, `[0, 0, 0, 1, 0]` and `[0, 0, 0, 0, 1]` for an extended pose).
     #[error(
-        "the bottom row of a homogeneous transformation must be [0, ..., 0, 1], but it deviates by \
-         {deviation:e}, above the tolerance {tolerance:e}: the matrix is not a rigid motion; pass \
-         [[R, t], [0, 1]] or build the pose from its rotation and translation with from_parts"
+        "the bottom rows of a homogeneous matrix must be those of the identity ([0, ..., 0, 1] for a \
+         rigid motion [[R, t], [0, 1]], [0, 0, 0, 1, 0] and [0, 0, 0, 0, 1] for an extended pose \
+         [[R, v, p], [0, 1, 0], [0, 0, 1]]), but they deviate by {deviation:e}, above the tolerance \
+         {tolerance:e}: the matrix is not an element of the group; pass the matrix in that form or \
+         build the element from its parts with from_parts"
     )]
     NotHomogeneous {
-        /// The largest absolute deviation of the bottom row from `[0, …, 0, 1]`.
+        /// The largest absolute deviation of the bottom rows from those of the identity.
         deviation: f64,
         /// The accepted deviation.
         tolerance: f64,

@@ -3,7 +3,7 @@
 use crate::lie_group::{GroupAction, LieGroup};
 use crate::manifold::{Jacobian, Manifold, Tangent};
 use crate::real::Real;
-use crate::{Rn, Se2, Se3, So2, So3, Su2};
+use crate::{Rn, Se2, Se3, Se23, So2, So3, Su2};
 use approx::{AbsDiffEq, RelativeEq};
 use nalgebra::SVector;
 
@@ -97,6 +97,7 @@ impl_from_left!(Su2<T>, [T: Real]);
 impl_from_left!(Rn<T, N>, [T: Real, const N: usize]);
 impl_from_left!(Se2<T>, [T: Real]);
 impl_from_left!(Se3<T>, [T: Real]);
+impl_from_left!(Se23<T>, [T: Real]);
 
 impl<G: LieGroup<D>, const D: usize> Manifold<D> for Left<G> {
     type Scalar = G::Scalar;

@@ -1,6 +1,6 @@
-//! What [`Se2`](crate::Se2) and [`Se3`](crate::Se3) share: the accurate `θ − sin θ`, products that
-//! cannot overflow into NaN for huge translations, the check of a homogeneous matrix's bottom row, and
-//! the comparisons and nalgebra conversions written once for both.
+//! What the poses [`Se2`](crate::Se2), [`Se3`](crate::Se3) and [`Se23`](crate::Se23) share: the
+//! accurate `θ − sin θ`, products that cannot overflow into NaN for huge translations, the check of a
+//! homogeneous matrix's bottom rows, and the comparisons and nalgebra conversions written once.
 
 use crate::error::ManifoldError;
 use crate::real::Real;
@@ -116,13 +116,14 @@ fn mul_huge<T: Real, const R: usize, const K: usize, const C: usize>(
     ((a / sa) * (b / sb)).map(|x| (x * small * large).clamp(-max, max))
 }
 
-/// Checks that the bottom row of a finite homogeneous matrix is `[0, …, 0, 1]` within
+/// Checks that the last `K` rows of a finite `N × N` matrix are those of the identity (`[0, …, 0, 1]`
+/// for a homogeneous rigid motion, `K = 1`; the two rows `[0, 0, 0, 1, 0]`, `[0, 0, 0, 0, 1]` of an
+/// extended pose, `K = 2`) within
 /// [`ORTHONORMAL_TOLERANCE`](crate::constants::Thresholds::ORTHONORMAL_TOLERANCE).
-pub(crate) fn check_bottom_row<T: Real, const N: usize>(
+pub(crate) fn check_bottom_rows<T: Real, const N: usize, const K: usize>(
     m: &SMatrix<T, N, N>,
 ) -> Result<(), ManifoldError> {
-    let mut bottom = m.row(N - 1).into_owned();
-    bottom[N - 1] -= T::one();
+    let bottom = m.fixed_rows::<K>(N - K) - SMatrix::<T, N, N>::identity().fixed_rows::<K>(N - K);
     let deviation = bottom.amax();
     if deviation > T::ORTHONORMAL_TOLERANCE {
         return Err(ManifoldError::NotHomogeneous {
@@ -133,15 +134,14 @@ pub(crate) fn check_bottom_row<T: Real, const N: usize>(
     Ok(())
 }
 
-/// Equality, `approx` comparisons and the nalgebra `Isometry` conversions of a pose type with fields
-/// `rotation` (a rotation type with its own equality: for SO(3), up to the quaternion sign) and
-/// `translation`.
-macro_rules! impl_pose_comparisons_and_conversions {
-    ($ty:ident, $rotation:ident, $unit:ident, $dim:literal) => {
-        /// Equal when the rotations are equal (as rotations) and the translations are equal.
+/// Equality and `approx` comparisons of a pose type with a field `rotation` (a rotation type with its
+/// own equality: for SO(3), up to the quaternion sign) and the vector fields listed.
+macro_rules! impl_pose_comparisons {
+    ($ty:ident, $($vector:ident),+) => {
+        /// Equal when the rotations are equal (as rotations) and the vectors are equal.
         impl<T: $crate::Real> PartialEq for $ty<T> {
             fn eq(&self, other: &Self) -> bool {
-                self.rotation == other.rotation && self.translation == other.translation
+                self.rotation == other.rotation $(&& self.$vector == other.$vector)+
             }
         }
 
@@ -150,10 +150,10 @@ macro_rules! impl_pose_comparisons_and_conversions {
             fn default_epsilon() -> T {
                 T::default_epsilon()
             }
-            /// Compares the rotations (as rotations) and the translations.
+            /// Compares the rotations (as rotations) and the vectors.
             fn abs_diff_eq(&self, other: &Self, epsilon: T) -> bool {
                 self.rotation.abs_diff_eq(&other.rotation, epsilon)
-                    && self.translation.abs_diff_eq(&other.translation, epsilon)
+                    $(&& self.$vector.abs_diff_eq(&other.$vector, epsilon))+
             }
             /// The negation of `abs_diff_eq`.
             fn abs_diff_ne(&self, other: &Self, epsilon: T) -> bool {
@@ -165,19 +165,25 @@ macro_rules! impl_pose_comparisons_and_conversions {
             fn default_max_relative() -> T {
                 T::default_max_relative()
             }
-            /// Compares the rotations (as rotations) and the translations.
+            /// Compares the rotations (as rotations) and the vectors.
             fn relative_eq(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
-                self.rotation
-                    .relative_eq(&other.rotation, epsilon, max_relative)
-                    && self
-                        .translation
-                        .relative_eq(&other.translation, epsilon, max_relative)
+                self.rotation.relative_eq(&other.rotation, epsilon, max_relative)
+                    $(&& self.$vector.relative_eq(&other.$vector, epsilon, max_relative))+
             }
             /// The negation of `relative_eq`.
             fn relative_ne(&self, other: &Self, epsilon: T, max_relative: T) -> bool {
                 !self.relative_eq(other, epsilon, max_relative)
             }
         }
+    };
+}
+pub(crate) use impl_pose_comparisons;
+
+/// [`impl_pose_comparisons`] and the nalgebra `Isometry` conversions of a rigid-motion type with
+/// fields `rotation` and `translation`.
+macro_rules! impl_pose_comparisons_and_conversions {
+    ($ty:ident, $rotation:ident, $unit:ident, $dim:literal) => {
+        $crate::pose::impl_pose_comparisons!($ty, translation);
 
         /// The same rigid motion, `p ↦ R p + t` (no cost, no check: nalgebra's unit types are trusted
         /// like the rotation type's own `From`).
@@ -270,14 +276,21 @@ mod tests {
     #[test]
     fn bottom_row_check() {
         let mut m = Matrix3::<f64>::identity();
-        assert!(check_bottom_row(&m).is_ok());
+        assert!(check_bottom_rows::<_, 3, 1>(&m).is_ok());
         m[(2, 0)] = 1e-3;
         assert!(matches!(
-            check_bottom_row(&m),
+            check_bottom_rows::<_, 3, 1>(&m),
             Err(ManifoldError::NotHomogeneous { .. })
         ));
         m[(2, 0)] = 0.0;
         m[(2, 2)] = 2.0;
-        assert!(check_bottom_row(&m).is_err());
+        assert!(check_bottom_rows::<_, 3, 1>(&m).is_err());
+        // Two rows: the last two of the identity.
+        let mut e = nalgebra::Matrix5::<f64>::identity();
+        e[(0, 3)] = 7.0;
+        assert!(check_bottom_rows::<_, 5, 2>(&e).is_ok());
+        e[(3, 4)] = 1e-3;
+        assert!(check_bottom_rows::<_, 5, 2>(&e).is_err());
+        assert!(check_bottom_rows::<_, 5, 1>(&e).is_ok());
     }
 }

@@ -4,7 +4,7 @@ use crate::error::{ManifoldError, check_finite};
 use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
 use crate::manifold::{Jacobian, Tangent};
 use crate::pose::{
-    check_bottom_row, impl_pose_comparisons_and_conversions, linear_saturating, mul_saturating,
+    check_bottom_rows, impl_pose_comparisons_and_conversions, linear_saturating, mul_saturating,
     saturated, theta_minus_sin_over_theta,
 };
 use crate::real::Real;
@@ -107,7 +107,7 @@ impl<T: Real> Se2<T> {
     /// [`ManifoldError::NotOrthonormal`] or [`ManifoldError::NotProperRotation`].
     pub fn from_matrix(m: &Matrix3<T>) -> Result<Self, ManifoldError> {
         check_finite("homogeneous matrix", m.iter())?;
-        check_bottom_row(m)?;
+        check_bottom_rows::<_, 3, 1>(m)?;
         Self::from_parts(
             &m.fixed_view::<2, 2>(0, 0).into_owned(),
             &m.fixed_view::<2, 1>(0, 2).into_owned(),

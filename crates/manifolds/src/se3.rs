@@ -4,7 +4,7 @@ use crate::error::{ManifoldError, check_finite};
 use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
 use crate::manifold::{Jacobian, Tangent};
 use crate::pose::{
-    check_bottom_row, impl_pose_comparisons_and_conversions, linear_saturating, mul_saturating,
+    check_bottom_rows, impl_pose_comparisons_and_conversions, linear_saturating, mul_saturating,
     saturated, theta_minus_sin_over_theta,
 };
 use crate::real::Real;
@@ -100,7 +100,7 @@ impl<T: Real> Se3<T> {
     /// [`ManifoldError::NotOrthonormal`] or [`ManifoldError::NotProperRotation`].
     pub fn from_matrix(m: &Matrix4<T>) -> Result<Self, ManifoldError> {
         check_finite("homogeneous matrix", m.iter())?;
-        check_bottom_row(m)?;
+        check_bottom_rows::<_, 4, 1>(m)?;
         Self::from_parts(
             &m.fixed_view::<3, 3>(0, 0).into_owned(),
             &m.fixed_view::<3, 1>(0, 3).into_owned(),
@@ -170,7 +170,7 @@ fn upper_block_triangular<T: Real>(a: &Matrix3<T>, b: &Matrix3<T>, d: &Matrix3<T
 /// `V(φ) ρ`, the translation of `exp([ρ; φ])`; `V(φ) = Jl(φ) = Jr(−φ)` of SO(3). Saturating for
 /// translations beyond the scalar's range.
 #[inline]
-fn exp_translation<T: Real>(phi: &Vector3<T>, rho: &Vector3<T>) -> Vector3<T> {
+pub(crate) fn exp_translation<T: Real>(phi: &Vector3<T>, rho: &Vector3<T>) -> Vector3<T> {
     let v = rotation_vector::right_jacobian(&-phi);
     linear_saturating(rho, |rho| v * rho)
 }
@@ -202,7 +202,7 @@ pub(crate) fn v_inverse_times<T: Real>(phi: &Vector3<T>, t: &Vector3<T>) -> Vect
 ///
 /// For a φ whose norm overflows (components near the largest finite value) the block is taken at
 /// φ/2: every coefficient is within O(1/θ) < 1e-307 of its limit at either angle.
-fn coupling<T: Real>(rho: &Vector3<T>, phi: &Vector3<T>) -> Matrix3<T> {
+pub(crate) fn coupling<T: Real>(rho: &Vector3<T>, phi: &Vector3<T>) -> Matrix3<T> {
     let theta = crate::real::stable_norm(phi);
     if !nalgebra::ComplexField::is_finite(&theta) {
         return coupling(rho, &(phi * T::lit(0.5)));

@@ -9,6 +9,7 @@
 //! | `S2` | `[x, y, z]` |
 //! | `Rn<N>` | `[x₁, …, x_N]` |
 //! | `Se2`, `Se3` | `{"rotation": …, "translation": [...]}` |
+//! | `Se23` | `{"rotation": [w, x, y, z], "velocity": [...], "position": [...]}` |
 //! | `Left<G>` | as `G` |
 //! | `ProductManifold` | `{"first": …, "second": …}` |
 //! | `MeanSettings` | `{"max_iterations": n, "tolerance": t}` |
@@ -18,7 +19,7 @@
 //! [`UNIT_NORM_TOLERANCE`](crate::constants::Thresholds::UNIT_NORM_TOLERANCE)), and reports their
 //! message as the format's error.
 
-use crate::{Left, MeanSettings, ProductManifold, Real, Rn, S2, Se2, Se3, So2, So3, Su2};
+use crate::{Left, MeanSettings, ProductManifold, Real, Rn, S2, Se2, Se3, Se23, So2, So3, Su2};
 use nalgebra::{SVector, Vector2, Vector3};
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -111,6 +112,34 @@ macro_rules! pose_serde {
 }
 pose_serde!(Se2, So2, Vector2);
 pose_serde!(Se3, So3, Vector3);
+
+/// The three parts of an extended pose, as written.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ExtendedPose<R, V> {
+    rotation: R,
+    velocity: V,
+    position: V,
+}
+
+impl<T: Real + Serialize> Serialize for Se23<T> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        ExtendedPose {
+            rotation: self.rotation(),
+            velocity: self.velocity(),
+            position: self.position(),
+        }
+        .serialize(serializer)
+    }
+}
+
+/// Read back through [`Se23::new`].
+impl<'de, T: Real + Deserialize<'de>> Deserialize<'de> for Se23<T> {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let x = ExtendedPose::<So3<T>, Vector3<T>>::deserialize(deserializer)?;
+        Se23::new(x.rotation, x.velocity, x.position).map_err(D::Error::custom)
+    }
+}
 
 impl<G: Serialize> Serialize for Left<G> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {

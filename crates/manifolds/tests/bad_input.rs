@@ -564,7 +564,7 @@ fn sphere_log_next_to_the_antipode_with_subnormal_components() {
 /// `is_finite` tells points built unchecked from NaN apart from valid ones, on every space.
 #[test]
 fn is_finite_flags_non_finite_coordinates() {
-    use liebayes_manifolds::{Se2, Se3};
+    use liebayes_manifolds::{Se2, Se3, Se23};
     let nan = f64::NAN;
     assert!(So2::<f64>::from_angle_unchecked(0.3).is_finite());
     assert!(!So2::<f64>::from_cos_sin_unchecked(nan, 0.0).is_finite());
@@ -581,6 +581,10 @@ fn is_finite_flags_non_finite_coordinates() {
     assert!(Se2::new_unchecked(rotation, Vector2::new(1.0, 2.0)).is_finite());
     assert!(!Se2::new_unchecked(rotation, Vector2::new(nan, 2.0)).is_finite());
     assert!(!Se3::new_unchecked(So3::<f64>::identity(), Vector3::new(0.0, nan, 0.0)).is_finite());
+    let (e, zero) = (So3::<f64>::identity(), Vector3::zeros());
+    assert!(Se23::new_unchecked(e, zero, zero).is_finite());
+    assert!(!Se23::new_unchecked(e, Vector3::new(nan, 0.0, 0.0), zero).is_finite());
+    assert!(!Se23::new_unchecked(e, zero, Vector3::new(0.0, 0.0, nan)).is_finite());
     assert!(!Left::new(So2::<f64>::from_cos_sin_unchecked(nan, 0.0)).is_finite());
     let product = |r: So2<f64>, t: f64| {
         ProductManifold::<_, _, 1, 1, 2>::new(r, Rn::<f64, 1>::new_unchecked(Vector1::new(t)))

@@ -128,6 +128,20 @@ group_laws!(
     st::point3::<f32>()
 );
 group_laws!(
+    se23_f64,
+    f64,
+    st::se23::<f64>(),
+    st::se23_tangent::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    se23_f32,
+    f32,
+    st::se23::<f32>(),
+    st::se23_tangent::<f32>(),
+    st::point3::<f32>()
+);
+group_laws!(
     r3_f64,
     f64,
     st::rn::<f64, 3>(),
@@ -286,6 +300,20 @@ group_laws!(
     st::se3_tangent::<f32>(),
     st::point3::<f32>()
 );
+group_laws!(
+    left_se23_f64,
+    f64,
+    st::left(st::se23::<f64>()),
+    st::se23_tangent::<f64>(),
+    st::point3::<f64>()
+);
+group_laws!(
+    left_se23_f32,
+    f32,
+    st::left(st::se23::<f32>()),
+    st::se23_tangent::<f32>(),
+    st::point3::<f32>()
+);
 
 /// Products: SO(3) × R³, SO(2) × R², Left<SO(3)> × R³ and (SO(3) × R³) × R², in both scalars.
 mod products {
@@ -364,4 +392,66 @@ mod products {
 
     product_laws!(f64);
     product_laws!(f32);
+}
+
+/// Named products of four factors (`product_manifold!`): SO(3) × R³ × R³ × R⁶, with body-frame and
+/// with world-frame (`Left`) attitude errors, in both scalars.
+mod named_products {
+    use super::*;
+    use liebayes_manifolds::{Left, Rn, So3, product_manifold};
+
+    macro_rules! nav_state_laws {
+        ($module:ident, $t:ident, $attitude:ty, $attitude_strategy:expr) => {
+            mod $module {
+                use super::*;
+
+                product_manifold! {
+                    /// Attitude, velocity, position and six biases.
+                    struct NavState<$t> {
+                        attitude: $attitude,
+                        velocity: Rn<$t, 3>,
+                        position: Rn<$t, 3>,
+                        bias: Rn<$t, 6>,
+                    }
+                }
+
+                fn states() -> impl Strategy<Value = NavState> {
+                    (
+                        $attitude_strategy,
+                        st::rn::<$t, 3>(),
+                        st::rn::<$t, 3>(),
+                        st::rn::<$t, 6>(),
+                    )
+                        .prop_map(NavState::from)
+                }
+
+                fn tangents() -> impl Strategy<Value = nalgebra::SVector<$t, 15>> {
+                    (
+                        st::rotation_vector::<$t>(),
+                        st::rn_tangent::<$t, 3>(),
+                        st::rn_tangent::<$t, 3>(),
+                        st::rn_tangent::<$t, 6>(),
+                    )
+                        .prop_map(|(a, v, p, b)| NavState::join_tangent(&a, &v, &p, &b))
+                }
+
+                group_laws!(laws, $t, states(), tangents());
+            }
+        };
+    }
+
+    nav_state_laws!(so3_f64, f64, So3<f64>, st::so3::<f64>());
+    nav_state_laws!(so3_f32, f32, So3<f32>, st::so3::<f32>());
+    nav_state_laws!(
+        left_so3_f64,
+        f64,
+        Left<So3<f64>>,
+        st::left(st::so3::<f64>())
+    );
+    nav_state_laws!(
+        left_so3_f32,
+        f32,
+        Left<So3<f32>>,
+        st::left(st::so3::<f32>())
+    );
 }

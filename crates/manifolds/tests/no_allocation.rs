@@ -1,12 +1,12 @@
 //! Every operation of the manifold layer runs without touching the heap: a counting global allocator
 //! sees zero allocations on the calling thread across exp, log, compose, inverse, act, retract,
-//! local and every Jacobian, for the groups, the groups with world-frame errors, products, and the
-//! weighted mean.
+//! local and every Jacobian, for the groups, the groups with world-frame errors, products (also those
+//! of `product_manifold!`), and the weighted mean.
 #![allow(unsafe_code)] // implementing GlobalAlloc is unsafe by definition; this wrapper only counts.
 
 use liebayes_manifolds::{
-    GroupAction, Left, LieGroup, Manifold, MeanSettings, ProductManifold, Rn, S2, So2, So3, Su2,
-    weighted_mean,
+    GroupAction, Left, LieGroup, Manifold, MeanSettings, ProductManifold, Rn, S2, Se23, So2, So3,
+    Su2, product_manifold, weighted_mean,
 };
 use nalgebra::{Vector1, Vector2, Vector3};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -37,6 +37,16 @@ unsafe impl GlobalAlloc for Counting {
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         // SAFETY: forwarded unchanged to the system allocator.
         unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+product_manifold! {
+    /// A state of four factors, built by the macro.
+    struct NavState<f64> {
+        attitude: Left<So3<f64>>,
+        velocity: Rn<f64, 3>,
+        position: Rn<f64, 3>,
+        bias: Rn<f64, 6>,
     }
 }
 
@@ -122,6 +132,15 @@ fn no_heap_allocation_in_any_operation() {
     };
     let v6 = nalgebra::SVector::<f64, 6>::from_fn(|i, _| 0.1 * i as f64);
     lie_ops(&attitude_bias(&v), &attitude_bias(&w), &v6);
+    let (v9, w9) = (
+        nalgebra::SVector::<f64, 9>::from_fn(|i, _| 0.3 - 0.1 * i as f64),
+        nalgebra::SVector::<f64, 9>::from_fn(|i, _| 0.05 * (i * i) as f64 - 0.4),
+    );
+    group_ops(&Se23::exp(&v9), &Se23::exp(&w9), &v9, &p);
+    let v15 = nalgebra::SVector::<f64, 15>::from_fn(|i, _| 0.1 - 0.02 * i as f64);
+    let (a, b) = (NavState::exp(&v15), NavState::exp(&-v15));
+    lie_ops(&a, &b, &v15);
+    black_box(NavState::split_tangent(&v15));
     let t = black_box(s2.retract(&Vector2::new(0.3, 0.2)));
     black_box(s2.local(&t));
     black_box(s2.tangent_basis());

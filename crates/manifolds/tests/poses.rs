@@ -1,14 +1,16 @@
-//! Properties specific to SE(2) and SE(3) beyond the law suite: exp against the matrix exponential,
+//! Properties specific to SE(2), SE(3) and SE₂(3) beyond the law suite: exp against the matrix exponential,
 //! the logarithm at and near a half turn, agreement with nalgebra's isometries and with the rotation
 //! groups, comparisons up to the quaternion sign, and bad input (NaN, infinities, non-orthonormal
 //! blocks, wrong bottom rows, tangents near the largest finite value).
 
 use approx::assert_relative_eq;
 use liebayes_manifolds::testing::strategies as st;
-use liebayes_manifolds::{GroupAction, LieGroup, Manifold, ManifoldError, Se2, Se3, So2, So3};
+use liebayes_manifolds::{
+    GroupAction, LieGroup, Manifold, ManifoldError, Se2, Se3, Se23, So2, So3,
+};
 use nalgebra::{
-    Isometry2, Isometry3, Matrix2, Matrix3, Matrix4, Point2, Point3, Quaternion, Vector2, Vector3,
-    Vector6,
+    Isometry2, Isometry3, Matrix2, Matrix3, Matrix4, Matrix5, Point2, Point3, Quaternion, SVector,
+    Vector2, Vector3, Vector6,
 };
 use proptest::prelude::*;
 use std::f64::consts::PI;
@@ -45,6 +47,11 @@ fn valid_se3(x: &Se3<f64>) -> bool {
     let q = x.rotation().to_quaternion_wxyz();
     let norm = Quaternion::new(q[0], q[1], q[2], q[3]).norm();
     finite(&q) && (norm - 1.0).abs() < 1e-12 && finite(x.translation().as_slice())
+}
+
+/// A valid extended pose: unit rotation (within 1e-12), finite velocity and position.
+fn valid_se23(x: &Se23<f64>) -> bool {
+    valid_se3(&x.pose()) && finite(x.velocity().as_slice())
 }
 
 fn valid_se2(x: &Se2<f64>) -> bool {
@@ -205,6 +212,106 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1024))]
+
+    /// The blocks of SE₂(3) are SE(3)'s: the pose `(R, p)` composes, inverts, acts and exponentiates
+    /// as [`Se3`] does, and the velocity follows the same formulas as the position.
+    #[test]
+    fn se23_blocks_are_poses(a in st::se23::<f64>(), b in st::se23::<f64>(), v in st::se23_tangent::<f64>(),
+                             p in st::point3::<f64>()) {
+        let scale = 1.0 + a.position().amax().max(a.velocity().amax()) + b.position().amax().max(b.velocity().amax());
+        let ab = a.compose(&b);
+        prop_assert_eq!(ab.pose(), a.pose().compose(&b.pose()));
+        let swapped = |x: &Se23<f64>| Se3::new_unchecked(*x.rotation(), *x.velocity());
+        prop_assert_eq!(swapped(&ab), swapped(&a).compose(&swapped(&b)));
+        prop_assert_eq!(a.inverse().pose(), a.pose().inverse());
+        prop_assert!((a.act(&p) - a.pose().act(&p)).norm() == 0.0);
+        let x = Se23::exp(&v);
+        let pose = Vector6::new(v[0], v[1], v[2], v[3], v[4], v[5]);
+        let velocity = Vector6::new(v[6], v[7], v[8], v[3], v[4], v[5]);
+        prop_assert_eq!(x.pose(), Se3::exp(&pose));
+        prop_assert!((x.velocity() - Se3::exp(&velocity).translation()).amax() <= 1e-15 * scale);
+        let log = a.log();
+        let pose_log = a.pose().log();
+        prop_assert!((log.fixed_rows::<6>(0) - pose_log).amax() == 0.0);
+        prop_assert!(valid_se23(&ab) && valid_se23(&a.inverse()) && valid_se23(&x));
+    }
+
+    /// exp agrees with the matrix exponential of hat(ξ) (nalgebra's Padé approximation).
+    #[test]
+    fn se23_exp_is_the_matrix_exponential(v in st::se23_tangent::<f64>()) {
+        prop_assume!(v.norm() < 25.0);
+        let scale = 1.0 + v.norm();
+        let expected = Se23::hat(&v).exp();
+        prop_assert!((Se23::exp(&v).to_matrix() - expected).amax() <= 1e-12 * scale * scale);
+    }
+
+    /// Matrices round-trip, and a perturbed entry is refused exactly when the matrix stops being an
+    /// extended pose (bottom rows, orthonormality, determinant, finiteness), with the matching error.
+    #[test]
+    fn se23_matrix_constructors(a in st::se23::<f64>(), i in 0usize..25, bad in raw(), flip in any::<bool>()) {
+        let m = a.to_matrix();
+        prop_assert!(Se23::from_matrix(&m).unwrap().distance(&a) <= 1e-12 * (1.0 + m.amax()));
+        prop_assert_eq!(Se23::from_matrix_unchecked(&m), Se23::from_matrix(&m).unwrap());
+        let mut m = m;
+        m[i] = bad;
+        if flip {
+            m.set_column(0, &-m.column(0));
+        }
+        let r = m.fixed_view::<3, 3>(0, 0).into_owned();
+        let bottom = (m.fixed_rows::<2>(3) - Matrix5::<f64>::identity().fixed_rows::<2>(3)).amax();
+        let is_finite = m.iter().all(|v| v.is_finite());
+        let rotation = (r.transpose() * r - Matrix3::identity()).amax() <= 1e-9 && (r.determinant() - 1.0).abs() <= 1e-9;
+        match Se23::from_matrix(&m) {
+            Ok(x) => { prop_assert!(is_finite && bottom <= 1e-9 && rotation); prop_assert!(valid_se23(&x)); }
+            Err(ManifoldError::NonFinite { .. }) => prop_assert!(!is_finite),
+            Err(ManifoldError::NotHomogeneous { deviation, .. }) => { prop_assert!(is_finite && bottom > 1e-9); prop_assert_eq!(deviation, bottom); }
+            Err(ManifoldError::NotOrthonormal { .. } | ManifoldError::NotProperRotation { .. }) => prop_assert!(is_finite && bottom <= 1e-9 && !rotation),
+            Err(e) => prop_assert!(false, "unexpected error {e}"),
+        }
+        let (v, p) = (m.fixed_view::<3, 1>(0, 3).into_owned(), m.fixed_view::<3, 1>(0, 4).into_owned());
+        prop_assert_eq!(Se23::from_parts(&r, &v, &p).is_ok(), is_finite_all(&r, &v) && finite(p.as_slice()) && rotation);
+    }
+
+    /// `new` refuses exactly the non-finite inputs.
+    #[test]
+    fn se23_part_constructors(x in raw(), y in raw(), z in raw(), r in st::so3::<f64>()) {
+        let w = Vector3::new(x, y, z);
+        let ok = finite(&[x, y, z]);
+        for (v, p) in [(w, Vector3::zeros()), (Vector3::zeros(), w)] {
+            match Se23::new(r, v, p) {
+                Ok(e) => { prop_assert!(ok); prop_assert!(valid_se23(&e)); }
+                Err(e) => { prop_assert!(!ok); prop_assert!(matches!(e, ManifoldError::NonFinite { .. }), "{}", e); }
+            }
+        }
+        let broken = So3::from_quaternion_unchecked(Quaternion::new(f64::NAN, 0.0, 0.0, 0.0));
+        prop_assert!(Se23::new(broken, Vector3::zeros(), Vector3::zeros()).is_err());
+    }
+
+    /// Tangents with components anywhere in the finite range: exp gives a valid element (velocities
+    /// and positions beyond the range saturate at the largest finite value), and nothing returns NaN.
+    #[test]
+    fn se23_huge_tangents_give_valid_elements(
+        c in proptest::array::uniform9(any_finite()), f in -1e3..1e3_f64,
+        x in st::se23::<f64>(), p in st::point3::<f64>(),
+    ) {
+        let mut moderate_rotation = SVector::<f64, 9>::from_column_slice(&c);
+        moderate_rotation[4] = f;
+        for v in [SVector::<f64, 9>::from_column_slice(&c), moderate_rotation] {
+            let y = Se23::exp(&v);
+            prop_assert!(valid_se23(&y), "exp({v}) = {y:?}");
+            prop_assert!(finite(y.log().as_slice()), "log(exp({v}))");
+            prop_assert!(no_nan(Se23::right_jacobian(&v).iter()), "Jr({v})");
+            prop_assert!(no_nan(Se23::right_jacobian_inverse(&v).iter()), "Jr^-1({v})");
+            prop_assert!(no_nan(x.j_retract_self(&v).iter()));
+            prop_assert!(no_nan(y.adjoint().iter()));
+            prop_assert!(no_nan(y.act(&p).iter()));
+            prop_assert!(valid_se23(&x.retract(&v)));
+        }
+    }
+}
+
 fn is_finite_all(r: &Matrix3<f64>, t: &Vector3<f64>) -> bool {
     r.iter().chain(t.iter()).all(|v| v.is_finite())
 }
@@ -311,4 +418,60 @@ fn errors_say_what_to_do() {
         ),
         "{e}"
     );
+}
+
+#[test]
+fn se23_right_perturbations_move_along_the_body_axes_and_compare_up_to_sign() {
+    let q = So3::from_axis_angle(&Vector3::new(1.0, 1.0, 0.0), 0.7).unwrap();
+    let x = Se23::new(q, Vector3::new(-1.0, 0.5, 0.0), Vector3::new(1.0, 2.0, 3.0)).unwrap();
+    let step = Vector3::new(0.1, -0.2, 0.3);
+    let mut position_step = SVector::<f64, 9>::zeros();
+    position_step.fixed_rows_mut::<3>(0).copy_from(&step);
+    let y = x.retract(&position_step);
+    assert_relative_eq!(
+        *y.position(),
+        x.position() + q.rotate(&step),
+        epsilon = 1e-15
+    );
+    assert_eq!(y.velocity(), x.velocity());
+    let minus_q = So3::from_quaternion_unchecked(-*q.as_unit_quaternion().quaternion());
+    let z = Se23::new(minus_q, *x.velocity(), *x.position()).unwrap();
+    assert_eq!(x, z);
+    assert_relative_eq!(x, z, epsilon = 1e-15);
+    assert!(!approx::relative_eq!(x, y, epsilon = 1e-6));
+    assert_relative_eq!(x, x.renormalized(), epsilon = 1e-15);
+    let e = Se23::from_matrix(&(Matrix5::identity() * 2.0)).unwrap_err();
+    assert!(matches!(e, ManifoldError::NotHomogeneous { .. }), "{e}");
+    assert!(
+        e.to_string().contains("[[R, v, p], [0, 1, 0], [0, 0, 1]]"),
+        "{e}"
+    );
+    let e = Se23::new(q, Vector3::new(f64::NAN, 0.0, 0.0), Vector3::zeros()).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ManifoldError::NonFinite {
+                what: "velocity",
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
+
+/// The log at and near a half turn keeps full accuracy in both linear blocks.
+#[test]
+fn se23_log_at_and_near_the_half_turn() {
+    let axis = Vector3::new(1.0, 2.0, -2.0) / 3.0;
+    for delta in [0.0, 1e-15, 1e-12, 1e-9] {
+        let phi = axis * (PI - delta);
+        let v = SVector::<f64, 9>::from_column_slice(&[
+            0.3, -2.0, 1.5, phi.x, phi.y, phi.z, 4.0, 0.5, -1.0,
+        ]);
+        let back = Se23::exp(&v).log();
+        assert!(
+            (back - v).norm() <= 16.0 * f64::EPSILON * v.norm(),
+            "delta {delta}: {back}"
+        );
+    }
 }

@@ -2,7 +2,9 @@
 #![cfg(feature = "serde")]
 
 use liebayes_manifolds::testing::strategies as st;
-use liebayes_manifolds::{Left, MeanSettings, ProductManifold, Rn, S2, Se2, Se3, So2, So3, Su2};
+use liebayes_manifolds::{
+    Left, MeanSettings, ProductManifold, Rn, S2, Se2, Se3, Se23, So2, So3, Su2,
+};
 use proptest::prelude::*;
 use serde::{Serialize, de::DeserializeOwned};
 use std::fmt::Debug;
@@ -46,6 +48,13 @@ proptest! {
     }
 
     #[test]
+    fn extended_poses(a in st::se23::<f64>(), b in st::se23::<f32>()) {
+        round_trip(&a)?;
+        round_trip(&b)?;
+        round_trip(&Left::new(a))?;
+    }
+
+    #[test]
     fn products(r in st::so3::<f64>(), b in st::rn::<f64, 3>(), t in st::rn::<f64, 2>()) {
         let inner = ProductManifold::<_, _, 3, 3, 6>::new(r, b);
         round_trip(&inner)?;
@@ -66,6 +75,16 @@ fn the_written_forms_are_the_documented_ones() {
         serde_json::to_string(&x).unwrap(),
         r#"{"rotation":[0.0,1.0],"translation":[1.0,2.0]}"#
     );
+    let e = Se23::new(
+        r,
+        nalgebra::Vector3::new(1.0, 2.0, 3.0),
+        nalgebra::Vector3::new(4.0, 5.0, 6.0),
+    )
+    .unwrap();
+    assert_eq!(
+        serde_json::to_string(&e).unwrap(),
+        r#"{"rotation":[1.0,0.0,0.0,0.0],"velocity":[1.0,2.0,3.0],"position":[4.0,5.0,6.0]}"#
+    );
     let settings = MeanSettings::<f64>::new(20, 1e-9).unwrap();
     assert_eq!(
         serde_json::to_string(&settings).unwrap(),
@@ -85,6 +104,16 @@ fn invalid_points_are_refused_with_the_constructors_message() {
     assert!(
         serde_json::from_str::<Se2<f64>>(
             r#"{"rotation":[1.0,0.0],"translation":[0.0,0.0],"scale":2.0}"#
+        )
+        .is_err()
+    );
+    let half =
+        r#"{"rotation":[0.5,0.0,0.0,0.0],"velocity":[0.0,0.0,0.0],"position":[0.0,0.0,0.0]}"#;
+    let not_unit = serde_json::from_str::<Se23<f64>>(half).unwrap_err();
+    assert!(not_unit.to_string().contains("unit norm"), "{not_unit}");
+    assert!(
+        serde_json::from_str::<Se23<f64>>(
+            r#"{"rotation":[1.0,0.0,0.0,0.0],"velocity":[0.0,0.0,0.0]}"#
         )
         .is_err()
     );

@@ -18,7 +18,7 @@ use nalgebra::{ComplexField, RealField, SMatrix, SVector};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
-use crate::{Se2, Se3, se2, se3};
+use crate::{Se2, Se3, Se23, se2, se3};
 use nalgebra::{Vector1, Vector3, Vector6};
 
 /// Tolerances fitting a scalar type, derived from its machine epsilon `eps`.
@@ -51,7 +51,8 @@ impl<T: Real> Tolerance<T> {
 /// What the law suite needs to know about a space beyond its traits: where its exp stops being
 /// injective and which tangent vectors reach the same point.
 pub trait LawSubject<const D: usize>: Manifold<D> {
-    /// The radius below which `local(x, retract(x, v)) == v` (π for SO(2), SO(3), S², SE(2), SE(3); 2π
+    /// The radius below which `local(x, retract(x, v)) == v` (π for SO(2), SO(3), S², SE(2), SE(3),
+    /// SE₂(3); 2π
     /// for SU(2)).
     fn injectivity_radius() -> Self::Scalar;
 
@@ -76,8 +77,8 @@ pub trait LawSubject<const D: usize>: Manifold<D> {
     fn coordinate_scale(&self) -> Self::Scalar;
 
     /// How far `v` reaches towards the injectivity radius: `|v| / injectivity_radius()` (the default),
-    /// for a product the largest ratio of its factors (whose blocks have radii of their own), for SE(2)
-    /// and SE(3) the rotation block's (their logarithms keep the rotation principal and leave the
+    /// for a product the largest ratio of its factors (whose blocks have radii of their own), for SE(2),
+    /// SE(3) and SE₂(3) the rotation block's (their logarithms keep the rotation principal and leave the
     /// translation block unbounded). `local` and `log` return tangents with a ratio of at most 1.
     fn injectivity_ratio(v: &Tangent<Self::Scalar, D>) -> Self::Scalar {
         v.norm() / Self::injectivity_radius()
@@ -322,6 +323,43 @@ impl<T: Real> LawSubject<6> for Se3<T> {
     }
     fn coordinate_scale(&self) -> T {
         T::one() + self.translation().amax()
+    }
+}
+
+/// SE₂(3): as SE(3), with both linear blocks recomputed, `ρ' = V(φ')⁻¹ p` and `ν' = V(φ')⁻¹ v`.
+impl<T: Real> LawSubject<9> for Se23<T> {
+    fn injectivity_radius() -> T {
+        T::pi()
+    }
+    fn injectivity_ratio(v: &Tangent<T, 9>) -> T {
+        v.fixed_rows::<3>(3).norm() / T::pi()
+    }
+    fn equivalent_tangent_near(v: &Tangent<T, 9>, reference: &Tangent<T, 9>) -> Tangent<T, 9> {
+        let phi = v.fixed_rows::<3>(3).into_owned();
+        match shifted_rotation(&phi, &reference.fixed_rows::<3>(3).into_owned()) {
+            None => *v,
+            Some(phi) => {
+                let x = Se23::exp(v);
+                let mut shifted = *v;
+                shifted
+                    .fixed_rows_mut::<3>(0)
+                    .copy_from(&se3::v_inverse_times(&phi, x.position()));
+                shifted.fixed_rows_mut::<3>(3).copy_from(&phi);
+                shifted
+                    .fixed_rows_mut::<3>(6)
+                    .copy_from(&se3::v_inverse_times(&phi, x.velocity()));
+                shifted
+            }
+        }
+    }
+    fn jacobian_is_regular(v: &Tangent<T, 9>) -> bool {
+        away_from_multiples(&v.fixed_rows::<3>(3).into_owned(), T::two_pi())
+    }
+    fn log_condition(_v: &Tangent<T, 9>) -> T {
+        T::one()
+    }
+    fn coordinate_scale(&self) -> T {
+        T::one() + self.position().amax().max(self.velocity().amax())
     }
 }
 

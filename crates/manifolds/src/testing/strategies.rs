@@ -11,7 +11,7 @@ use proptest::prelude::*;
 use std::f64::consts::{PI, TAU};
 use std::fmt::Debug;
 
-use crate::{Se2, Se3};
+use crate::{Se2, Se3, Se23};
 use nalgebra::Vector6;
 
 /// A unit vector of R³, uniform on the sphere (z uniform in [−1, 1], longitude uniform).
@@ -249,6 +249,48 @@ pub fn se3<T: Real>() -> impl Strategy<Value = Se3<T>> {
         4 => (so3::<T>(), translation3::<T>()).prop_map(|(r, t)| Se3::new_unchecked(r, t)),
         4 => se3_tangent::<T>().prop_map(|v| Se3::exp(&v)),
         1 => Just(Se3::identity()),
+    ]
+}
+
+/// Tangents of SE₂(3), `[ρ; φ; ν]`: the rotation block from [`rotation_vector`] (0, 1e-8, within
+/// 1e-12 of π, exactly π, 20, 30), the position and velocity blocks of uniform directions with norms
+/// from [`translation_magnitude`] (0, 1e-8, 20, 30), and whole tangents within 1e-8 of zero.
+pub fn se23_tangent<T: Real>() -> impl Strategy<Value = SVector<T, 9>> {
+    let linear =
+        || (unit_vector_f64(), translation_magnitude()).prop_map(|(u, n)| to_vector::<T>(u, n));
+    let stack = |rho: Vector3<T>, phi: Vector3<T>, nu: Vector3<T>| {
+        SVector::<T, 9>::from_fn(|i, _| [rho, phi, nu][i / 3][i % 3])
+    };
+    let small = (
+        unit_vector_f64(),
+        unit_vector_f64(),
+        unit_vector_f64(),
+        1e-10..=1e-8_f64,
+    )
+        .prop_map(move |(a, b, c, n)| {
+            let third = n / 3.0_f64.sqrt();
+            stack(
+                to_vector(a, third),
+                to_vector(b, third),
+                to_vector(c, third),
+            )
+        });
+    prop_oneof![
+        8 => (linear(), rotation_vector::<T>(), linear())
+            .prop_map(move |(rho, phi, nu)| stack(rho, phi, nu)),
+        1 => small,
+    ]
+}
+
+/// Elements of SE₂(3): a rotation from [`so3`] (uniform, near the identity, within 1e-12 of π,
+/// exactly π) with a velocity and a position from [`translation3`] (0, 1e-8, 20, 30, 1e3), exp of
+/// [`se23_tangent`] (within 1e-8 of the identity, tangents of norm 20 and 30), and the identity.
+pub fn se23<T: Real>() -> impl Strategy<Value = Se23<T>> {
+    prop_oneof![
+        4 => (so3::<T>(), translation3::<T>(), translation3::<T>())
+            .prop_map(|(r, v, p)| Se23::new_unchecked(r, v, p)),
+        4 => se23_tangent::<T>().prop_map(|v| Se23::exp(&v)),
+        1 => Just(Se23::identity()),
     ]
 }
 
