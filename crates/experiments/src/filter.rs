@@ -6,6 +6,7 @@
 //! density with its process and measurement models and steps it with
 //! [`Propagate`] and [`Condition`]: no second stepping API.
 
+use crate::Smoothing;
 use liebayes_operators::{Condition, Innovation, OperatorError, Propagate};
 
 /// The normalised innovation squared of one update, with its degrees of freedom (the measurement's
@@ -56,6 +57,12 @@ pub trait RecursiveFilter {
     /// When the state has no representable estimate (for example a covariance that is not
     /// positive definite).
     fn estimate(&self) -> Result<Self::Estimate, OperatorError>;
+
+    /// For a smoother, its [`Smoothing`]: the layer then also scores each step's smoothed
+    /// estimate (see [`Smoothed`](crate::Smoothed)). `None`, the default, for a filter.
+    fn smoothing(&mut self) -> Option<&mut dyn Smoothing<Estimate = Self::Estimate>> {
+        None
+    }
 }
 
 /// A boxed filter is a filter: an application whose methods build different filter types can
@@ -75,6 +82,10 @@ impl<F: RecursiveFilter + ?Sized> RecursiveFilter for Box<F> {
 
     fn estimate(&self) -> Result<Self::Estimate, OperatorError> {
         (**self).estimate()
+    }
+
+    fn smoothing(&mut self) -> Option<&mut dyn Smoothing<Estimate = Self::Estimate>> {
+        (**self).smoothing()
     }
 }
 
@@ -116,6 +127,7 @@ pub trait Estimator<Density> {
 /// The density is its own estimate (a Gaussian: its mean and covariance; any density, to inspect
 /// it after each update).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct AsIs;
 
 impl<D: Clone> Estimator<D> for AsIs {
@@ -129,7 +141,17 @@ impl<D: Clone> Estimator<D> for AsIs {
 /// A density with its process model `P`, its measurement model `M` and its [`Estimator`] `E`,
 /// stepped by the operator traits: `predict` is [`Propagate::propagate_in_place`], `update` is
 /// [`Condition::condition_in_place`] (particle sets and grids step without copying their buffers).
+///
+/// # Checkpoints
+/// With the `serde` feature a `Recursive` serializes as its four parts,
+/// `{"density": …, "process": …, "measurement": …, "estimator": …}`, where each part is serde
+/// (the densities and the linear models are, each read back through its validated
+/// constructor). Models that are closures (`ProcessFn`, `MeasurementFn`) or borrowed
+/// (`Ekf(&model)`) are not: checkpoint the [`density`](Self::density) alone, and resume with
+/// [`Recursive::with_estimator`] from the density read back and the models built again in code.
+/// Either way the resumed filter continues the run bit for bit (the tests check it).
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Recursive<Density, P, M, E = AsIs> {
     density: Density,
     process: P,

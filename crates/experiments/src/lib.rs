@@ -8,6 +8,10 @@
 //!   measurement returning its log evidence and NIS, an estimate with its uncertainty).
 //!   [`Recursive`] gives it to any density that steps through the operators' `Propagate` and
 //!   `Condition` (the Kalman filters on a manifold, the linear Kalman filter).
+//! * [`Smoothed`]: a smoother (the operators' RTS and fixed-lag smoothers) as a
+//!   `RecursiveFilter` whose forward pass is scored like any filter's and whose [`Smoothing`]
+//!   releases each step's smoothed estimate, scored by the same scorer under the names
+//!   `smoothed_<metric>` into the same run scores and summary ([`smoothing`]).
 //! * [`Method`]: one filter a study compares: its label, its settings checked before any run,
 //!   and the filter of each run built from the run's filter stream; [`Study::run_method`] runs it.
 //! * [`Paired`]: two filters on the same data, to compare an approximation with a reference at
@@ -59,6 +63,7 @@ mod run_values;
 pub mod score;
 pub mod search;
 mod shard;
+pub mod smoothing;
 mod statistics;
 pub mod study;
 mod summary;
@@ -77,6 +82,7 @@ pub use replay::{RunFailure, RunScores, Scenario, Step, StepOf, Trajectory, repl
 pub use run_values::{MAX_KEPT_RUNS, RunValues, quantiles, relative_differences};
 pub use score::{Figure, ManifoldScorer, Metric, Reduction, Scorer};
 pub use shard::{Shard, run_rngs};
+pub use smoothing::{Smoothed, Smoother, Smoothing};
 pub use statistics::RunningStats;
 pub use study::{MAX_RUNS, MAX_STUDY_EPOCHS, Study};
 pub use summary::{

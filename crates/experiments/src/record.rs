@@ -3,6 +3,7 @@
 
 use crate::filter::{RecursiveFilter, Update};
 use crate::replay::{RunFailure, Step};
+use crate::smoothing::Releases;
 use std::time::Instant;
 
 /// One step of a [`Recording`]: its time and truth as the steps gave them, the estimate after the
@@ -17,6 +18,10 @@ pub struct Recorded<T, E> {
     pub estimate: E,
     /// The update's report, `None` for a step without a measurement.
     pub update: Option<Update>,
+    /// For a smoother ([`RecursiveFilter::smoothing`]), the step's smoothed estimate as it
+    /// released it (from the whole run for the RTS smoother, from the L steps after it for the
+    /// fixed-lag one); `None` for a filter.
+    pub smoothed: Option<E>,
 }
 
 /// Every step of a run, in order, with the filter's time.
@@ -47,7 +52,7 @@ impl<T, E> Recording<T, E> {
 
 /// Runs `filter` through `steps` as [`replay`](crate::replay()) does (a predict with each step's
 /// input, then an update where it has a measurement) and keeps every step: its time, its truth,
-/// the estimate after it and the update's report. Memory grows with the number of steps: the
+/// the estimate after it and the update's report, and for a smoother its smoothed estimate. Memory grows with the number of steps: the
 /// capacity is reserved from the iterator's lower size bound, so a log's steps are reserved once.
 ///
 /// # Errors
@@ -91,7 +96,13 @@ where
     F::Measurement: Sized,
 {
     let steps = steps.into_iter();
-    let mut kept = Vec::with_capacity(steps.size_hint().0);
+    let mut kept: Vec<Recorded<T, F::Estimate>> = Vec::with_capacity(steps.size_hint().0);
+    let mut releases = Releases::new();
+    let keep = |kept: &mut Vec<Recorded<T, F::Estimate>>, i: usize, e| {
+        if let Some(step) = kept.get_mut(i) {
+            step.smoothed = Some(e);
+        }
+    };
     let start = Instant::now();
     for (index, step) in steps.enumerate() {
         let fail = |error| RunFailure {
@@ -110,8 +121,19 @@ where
             truth: step.truth,
             estimate,
             update,
+            smoothed: None,
         });
+        releases
+            .poll(filter, false, |i, e| keep(&mut kept, i, e))
+            .map_err(fail)?;
     }
+    releases
+        .poll(filter, true, |i, e| keep(&mut kept, i, e))
+        .map_err(|error| RunFailure {
+            step: kept.len().saturating_sub(1),
+            time: kept.last().map_or(f64::NAN, |s| s.time),
+            error,
+        })?;
     Ok(Recording {
         steps: kept,
         seconds: start.elapsed().as_secs_f64(),

@@ -3,6 +3,7 @@
 
 use crate::filter::RecursiveFilter;
 use crate::score::{Metric, Reduction, Scorer};
+use crate::smoothing::{Pending, Releases, smoothed_name};
 use crate::{ExperimentError, MAX_EPOCHS};
 use liebayes_operators::OperatorError;
 use rand_chacha::ChaCha8Rng;
@@ -59,11 +60,13 @@ pub trait Scenario: Sync {
 }
 
 /// A run's scores: per measurement epoch, its time, the scorer's metrics then the log evidence and
-/// the NIS (NaN where the filter has none); and the filter's time.
+/// the NIS (NaN where the filter has none), then, for a smoother, the scorer's metrics of the
+/// epoch's smoothed estimate under the names `smoothed_<metric>`; and the filter's time.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunScores {
     /// The metrics, the scorer's followed by `log_evidence` and `nis` (χ² with the
-    /// measurement's dimension; dimension 0 when the filter reports no NIS).
+    /// measurement's dimension; dimension 0 when the filter reports no NIS), and for a smoother
+    /// the scorer's again, prefixed `smoothed_`.
     pub metrics: Vec<Metric>,
     /// The time of each scored epoch (s).
     pub times: Vec<f64>,
@@ -102,6 +105,12 @@ pub struct RunFailure {
 /// where there is a measurement, an update and the scores of the estimate against the truth. The
 /// first [`MAX_EPOCHS`] epochs are scored (the filter runs on after them). The scores are kept only
 /// if every step succeeds; the first failure stops the run and is returned.
+///
+/// A smoother (a filter with [`RecursiveFilter::smoothing`], such as
+/// [`Smoothed`](crate::Smoothed)) is run the same way, and asked after every step, and once after
+/// the last, for the smoothed estimates it has made final: each measurement epoch's is scored
+/// against the epoch's truth by the same scorer, in the columns `smoothed_<metric>` (the truths
+/// of the epochs waiting for theirs are held until then). The smoothing counts as filter time.
 ///
 /// # Errors
 /// [`RunFailure`] at the first step, update or estimate that fails.
@@ -154,8 +163,20 @@ where
         Metric::new("log_evidence", Reduction::Mean, ""),
         Metric::new("nis", Reduction::ChiSquare { dof: 0 }, ""),
     ]);
+    // A smoother's smoothed estimates are scored in the columns after these, when released.
+    let smoothed_at = metrics.len();
+    if filter.smoothing().is_some() {
+        let names = metrics[..scored].iter().map(|m| Metric {
+            name: smoothed_name(m.name),
+            ..*m
+        });
+        metrics.extend(names.collect::<Vec<_>>());
+    }
     let width = metrics.len();
+    let smooths = width > smoothed_at;
     let (mut times, mut values) = (Vec::new(), Vec::new());
+    let mut pending = Pending::new(width, smoothed_at);
+    let mut releases = Releases::new();
     // The steps are drawn (simulated) a chunk at a time, untimed; the clock runs over the
     // filter's pass through each chunk, and the estimates and their scoring (not part of a filter
     // step, and only at measurement epochs) are timed apart and subtracted. So neither the
@@ -164,6 +185,7 @@ where
     let mut chunk = Vec::with_capacity(REPLAY_CHUNK);
     let (mut filtering, mut scoring) = (Duration::ZERO, Duration::ZERO);
     let mut count = 0usize;
+    let mut last_time = f64::NAN;
     loop {
         chunk.clear();
         chunk.extend(steps.by_ref().take(REPLAY_CHUNK));
@@ -171,35 +193,57 @@ where
             break;
         }
         let start = Instant::now();
-        for step in &chunk {
+        for step in chunk.drain(..) {
             let index = count;
             count += 1;
+            last_time = step.time;
             let fail = |error| RunFailure {
                 step: index,
                 time: step.time,
                 error,
             };
             filter.predict(&step.input).map_err(fail)?;
-            let Some(z) = &step.measurement else {
-                continue;
-            };
-            let update = filter.update(z).map_err(fail)?;
-            if times.len() >= MAX_EPOCHS {
-                continue;
+            if let Some(z) = &step.measurement {
+                let update = filter.update(z).map_err(fail)?;
+                if times.len() < MAX_EPOCHS {
+                    let clock = Instant::now();
+                    let estimate = filter.estimate().map_err(fail)?;
+                    let at = values.len();
+                    values.resize(at + width, f64::NAN);
+                    scorer.score(&step.truth, &estimate, &mut values[at..at + scored]);
+                    values[at + scored] = update.log_evidence;
+                    if let Some(nis) = update.nis {
+                        values[at + scored + 1] = nis.value;
+                        metrics[scored + 1].reduction = Reduction::ChiSquare { dof: nis.dof };
+                    }
+                    if smooths {
+                        pending.push(index, times.len(), step.truth);
+                    }
+                    times.push(step.time);
+                    scoring += clock.elapsed();
+                }
             }
-            let clock = Instant::now();
-            let estimate = filter.estimate().map_err(fail)?;
-            let at = values.len();
-            values.resize(at + width, f64::NAN);
-            scorer.score(&step.truth, &estimate, &mut values[at..at + scored]);
-            values[at + scored] = update.log_evidence;
-            if let Some(nis) = update.nis {
-                values[at + scored + 1] = nis.value;
-                metrics[scored + 1].reduction = Reduction::ChiSquare { dof: nis.dof };
+            if smooths {
+                releases
+                    .poll(filter, false, |i, e| {
+                        pending.score(scorer, &mut values, i, &e);
+                    })
+                    .map_err(fail)?;
             }
-            times.push(step.time);
-            scoring += clock.elapsed();
         }
+        filtering += start.elapsed();
+    }
+    if smooths {
+        let start = Instant::now();
+        releases
+            .poll(filter, true, |i, e| {
+                pending.score(scorer, &mut values, i, &e);
+            })
+            .map_err(|error| RunFailure {
+                step: count.saturating_sub(1),
+                time: last_time,
+                error,
+            })?;
         filtering += start.elapsed();
     }
     let filtering = filtering.saturating_sub(scoring);

@@ -550,6 +550,7 @@ fn recording(log: &ImuLog, estimates: &[AttitudeEstimate]) -> LogRecording {
                 truth: step.truth,
                 estimate: *estimate,
                 update: None,
+                smoothed: None,
             })
             .collect(),
         seconds: 1.0,

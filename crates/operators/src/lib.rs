@@ -25,6 +25,7 @@
 //!   its tangent space), with user [`ProcessModel`]s and [`MeasurementModel`]s ([`models`]: used by
 //!   reference, or written from closures with [`ProcessFn`] and [`MeasurementFn`]);
 //! * [`smoother`]: the Rauch-Tung-Striebel smoother for that Gaussian (EKF or UKF linearisation);
+//!   [`fixed_lag`]: its online form, the density of epoch k − L after epoch k, in memory bounded by L;
 //! * [`particle`]: the particle filter over any state type (log weights, four resampling schemes, ESS
 //!   threshold), propagated by sampling a [`SampledProcess`] ([`Sampled`]), conditioned by a
 //!   [`Likelihood`] ([`Reweight`]; `ReweightInParallel` with the `rayon` feature) or, for particles carrying
@@ -61,6 +62,7 @@ pub mod converted;
 pub mod ekf;
 mod error;
 pub mod evaluation;
+pub mod fixed_lag;
 pub mod grid;
 mod innovation;
 pub mod kalman;

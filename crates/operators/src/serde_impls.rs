@@ -9,6 +9,9 @@
 //! | [`LinearProcess<N>`] | `{"transition": F, "noise": Q}` |
 //! | [`LinearMeasurement<N, M>`] | `{"matrix": H, "noise": R}` |
 //! | [`Resampling`](crate::particle::Resampling) | `"Multinomial"`, `"Stratified"`, `"Systematic"` or `"Residual"` |
+//! | [`Prediction<X, D>`] | `{"density": N(μ′, P′), "cross_covariance": C}` |
+//! | [`RtsSmoother<X, D>`] | `{"filtered": [N(μ_f, P_f), …], "transitions": [Prediction, …]}` |
+//! | [`FixedLagSmoother<X, D>`] | `{"lag": L, "epoch": k, "filtered": [… the window …], "transitions": […]}` |
 //!
 //! A zero weight, `ln w = −∞`, is written as a missing value (`null` in JSON, which has no
 //! infinities), and read back as a zero weight. Matrices are nalgebra's serde form: their entries in column-major order. Particle and grid
@@ -16,13 +19,21 @@
 //! [`CircularGrid::from_log_weights`], which normalise the log weights again: a round trip keeps
 //! the points and payloads exactly and each log weight to within a few ulp of the normaliser
 //! `ln Σ wᵢ` (which is 0 up to rounding). The Gaussians the Kalman filters step are the densities
-//! crate's, with its own `serde` feature.
+//! crate's, with its own `serde` feature: a Gaussian is written as its mean and covariance and read
+//! back through its constructor, which factors the covariance again, deterministically. So the
+//! smoothers, read back through [`RtsSmoother::from_records`] and
+//! [`FixedLagSmoother::from_records`] (which check the record's shape and that every
+//! cross-covariance is finite), continue a checkpointed run bit for bit.
 
+use crate::fixed_lag::FixedLagSmoother;
 use crate::grid::CircularGrid;
 use crate::kalman::{LinearMeasurement, LinearProcess};
 use crate::particle::ParticleSet;
+use crate::smoother::{Prediction, RtsSmoother};
+use liebayes_densities::ManifoldGaussian;
+use liebayes_manifolds::Manifold;
 use nalgebra::SMatrix;
-use serde::de::Error as _;
+use serde::de::{DeserializeOwned, Error as _};
 use serde::ser::SerializeStruct;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
@@ -145,5 +156,108 @@ impl<'de, const N: usize, const M: usize> Deserialize<'de> for LinearMeasurement
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         let fields = MeasurementFields::<N, M>::deserialize(deserializer)?;
         LinearMeasurement::new(fields.matrix, fields.noise).map_err(D::Error::custom)
+    }
+}
+
+impl<X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned, const D: usize> Serialize
+    for Prediction<X, D>
+{
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut state = serializer.serialize_struct("Prediction", 2)?;
+        state.serialize_field("density", &self.density)?;
+        state.serialize_field("cross_covariance", &self.cross_covariance)?;
+        state.end()
+    }
+}
+
+/// The serialized fields of a [`Prediction`].
+#[derive(Deserialize)]
+#[serde(rename = "Prediction", deny_unknown_fields)]
+#[serde(bound(deserialize = "X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned"))]
+struct PredictionFields<X, const D: usize> {
+    density: ManifoldGaussian<X, D>,
+    cross_covariance: SMatrix<f64, D, D>,
+}
+
+impl<'de, X, const D: usize> Deserialize<'de> for Prediction<X, D>
+where
+    X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned,
+{
+    fn deserialize<De: Deserializer<'de>>(deserializer: De) -> Result<Self, De::Error> {
+        let fields = PredictionFields::<X, D>::deserialize(deserializer)?;
+        if let Some(value) = fields.cross_covariance.iter().find(|v| !v.is_finite()) {
+            return Err(De::Error::custom(format!(
+                "cross_covariance: entry {value} is not finite"
+            )));
+        }
+        Ok(Prediction {
+            density: fields.density,
+            cross_covariance: fields.cross_covariance,
+        })
+    }
+}
+
+impl<X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned, const D: usize> Serialize
+    for RtsSmoother<X, D>
+{
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut state = serializer.serialize_struct("RtsSmoother", 2)?;
+        state.serialize_field("filtered", self.filtered())?;
+        state.serialize_field("transitions", self.transitions())?;
+        state.end()
+    }
+}
+
+/// The serialized fields of an [`RtsSmoother`].
+#[derive(Deserialize)]
+#[serde(rename = "RtsSmoother", deny_unknown_fields)]
+#[serde(bound(deserialize = "X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned"))]
+struct RtsFields<X, const D: usize> {
+    filtered: Vec<ManifoldGaussian<X, D>>,
+    transitions: Vec<Prediction<X, D>>,
+}
+
+impl<'de, X, const D: usize> Deserialize<'de> for RtsSmoother<X, D>
+where
+    X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned,
+{
+    fn deserialize<De: Deserializer<'de>>(deserializer: De) -> Result<Self, De::Error> {
+        let fields = RtsFields::<X, D>::deserialize(deserializer)?;
+        RtsSmoother::from_records(fields.filtered, fields.transitions).map_err(De::Error::custom)
+    }
+}
+
+impl<X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned, const D: usize> Serialize
+    for FixedLagSmoother<X, D>
+{
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut state = serializer.serialize_struct("FixedLagSmoother", 4)?;
+        state.serialize_field("lag", &self.lag())?;
+        state.serialize_field("epoch", &self.epoch())?;
+        state.serialize_field("filtered", self.window_filtered())?;
+        state.serialize_field("transitions", self.window_transitions())?;
+        state.end()
+    }
+}
+
+/// The serialized fields of a [`FixedLagSmoother`].
+#[derive(Deserialize)]
+#[serde(rename = "FixedLagSmoother", deny_unknown_fields)]
+#[serde(bound(deserialize = "X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned"))]
+struct FixedLagFields<X, const D: usize> {
+    lag: usize,
+    epoch: u64,
+    filtered: Vec<ManifoldGaussian<X, D>>,
+    transitions: Vec<Prediction<X, D>>,
+}
+
+impl<'de, X, const D: usize> Deserialize<'de> for FixedLagSmoother<X, D>
+where
+    X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned,
+{
+    fn deserialize<De: Deserializer<'de>>(deserializer: De) -> Result<Self, De::Error> {
+        let f = FixedLagFields::<X, D>::deserialize(deserializer)?;
+        FixedLagSmoother::from_records(f.lag, f.epoch, f.filtered, f.transitions)
+            .map_err(De::Error::custom)
     }
 }

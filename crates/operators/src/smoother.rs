@@ -28,7 +28,7 @@
 //! Per step the recorder pushes one record (amortised allocation of its two vectors, none with
 //! [`RtsSmoother::with_capacity`]); the backward pass allocates its result once.
 
-use crate::error::{check_size, reserve, with_capacity};
+use crate::error::{all_finite, check_size, reserve, with_capacity};
 use crate::numerics::{Produced, checked_gaussian};
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
@@ -37,7 +37,7 @@ use nalgebra::{Cholesky, SMatrix};
 
 /// A Gaussian prediction `x′ ~ N(μ′, P′)` with the cross-covariance `C = Cov(δ, δ′)` of the state
 /// before (tangent at the prior mean) and after (tangent at μ′), the two things the smoother needs.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Prediction<X, const D: usize> {
     /// `N(μ′, P′)`.
     pub density: ManifoldGaussian<X, D>,
@@ -66,11 +66,60 @@ pub trait GaussianTransition<X: Manifold<D, Scalar = f64>, const D: usize> {
 /// What a smoother names when its record cannot grow.
 const RECORDS: &str = "number of smoother records";
 
-/// One transition `k → k+1` of the forward pass.
-#[derive(Clone, Debug)]
-struct Transition<X, const D: usize> {
-    predicted: ManifoldGaussian<X, D>,
-    cross: SMatrix<f64, D, D>,
+/// One step of the backward pass: the smoothed density of epoch k from the filtered density of
+/// epoch k, the transition `k → k+1` recorded from it, and the smoothed density of epoch k+1
+/// (see the module docs for the formulas).
+///
+/// # Errors
+/// [`OperatorError::NotPositiveDefinite`] when the smoothed covariance loses positive definiteness,
+/// [`OperatorError::NonFinitePoint`] for a smoothed mean that is not finite.
+pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
+    filtered: &ManifoldGaussian<X, D>,
+    transition: &Prediction<X, D>,
+    next: &ManifoldGaussian<X, D>,
+) -> Result<ManifoldGaussian<X, D>, OperatorError> {
+    let predicted = &transition.density;
+    // Gᵀ = P_p⁻¹ Cᵀ by the predicted density's Cholesky factor.
+    let gain = Cholesky::pack_dirty(*predicted.cholesky_factor())
+        .solve(&transition.cross_covariance.transpose())
+        .transpose();
+    let mean = filtered
+        .mean()
+        .retract(&(gain * predicted.mean().local(next.mean())));
+    let covariance = filtered.covariance()
+        + gain * (next.covariance() - predicted.covariance()) * gain.transpose();
+    checked_gaussian(
+        mean,
+        &covariance,
+        Produced {
+            mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
+            covariance: "smoothed covariance P_f + G (P_s - P_p) G^T (rounding on an \
+                         ill-conditioned model)",
+        },
+    )
+}
+
+/// Checks a record read back (a checkpoint): one more filtered density than transitions, at most
+/// [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) of them, every cross-covariance finite.
+pub(crate) fn check_records<X, const D: usize>(
+    filtered: &[ManifoldGaussian<X, D>],
+    transitions: &[Prediction<X, D>],
+) -> Result<(), OperatorError> {
+    check_size(RECORDS, transitions.len())?;
+    if filtered.len() != transitions.len() + 1 {
+        return Err(OperatorError::OutOfRange {
+            what: "number of filtered densities of a smoother record",
+            value: filtered.len() as f64,
+            range: "one more than the number of transitions",
+        });
+    }
+    for t in transitions {
+        all_finite(
+            "cross-covariance of a smoother record",
+            t.cross_covariance.iter(),
+        )?;
+    }
+    Ok(())
 }
 
 /// The forward pass of the RTS smoother: a Gaussian filter on a manifold that records what the
@@ -102,12 +151,12 @@ struct Transition<X, const D: usize> {
 /// // The first epoch has seen every reading: far tighter than its prior.
 /// assert!(smoothed[0].covariance()[0] < 0.1);
 /// ```
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RtsSmoother<X, const D: usize> {
     /// The filtered density of every epoch so far; the last is the current one.
     filtered: Vec<ManifoldGaussian<X, D>>,
     /// `transitions[k]` leads from epoch k to epoch k + 1.
-    transitions: Vec<Transition<X, D>>,
+    transitions: Vec<Prediction<X, D>>,
 }
 
 impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
@@ -138,6 +187,27 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
         })
     }
 
+    /// The recorder from a record read back (a checkpoint): the filtered density of every epoch
+    /// and the transitions between them, as [`filtered`](Self::filtered) and
+    /// [`transitions`](Self::transitions) gave them. Continuing it continues the recorded run bit
+    /// for bit.
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] unless there is exactly one more filtered density than
+    /// transitions, [`OperatorError::NonFinite`] for a cross-covariance entry that is not finite,
+    /// [`OperatorError::TooLarge`] for more than [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) transitions.
+    /// (The densities are valid by their own constructors.)
+    pub fn from_records(
+        filtered: Vec<ManifoldGaussian<X, D>>,
+        transitions: Vec<Prediction<X, D>>,
+    ) -> Result<Self, OperatorError> {
+        check_records(&filtered, &transitions)?;
+        Ok(Self {
+            filtered,
+            transitions,
+        })
+    }
+
     /// The current filtered density (the last epoch's).
     ///
     /// # Panics
@@ -151,6 +221,12 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
     /// The filtered densities, one per epoch (epoch 0 the prior, then one per propagation).
     pub fn filtered(&self) -> &[ManifoldGaussian<X, D>] {
         &self.filtered
+    }
+
+    /// The recorded transitions: `transitions()[k]` leads from epoch k to epoch k + 1 (the
+    /// predicted density of epoch k + 1 and the cross-covariance).
+    pub fn transitions(&self) -> &[Prediction<X, D>] {
+        &self.transitions
     }
 
     /// Propagates the current density to a new epoch with a Gaussian filter's prediction
@@ -167,10 +243,7 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
         reserve(&mut self.filtered, RECORDS, 1)?;
         reserve(&mut self.transitions, RECORDS, 1)?;
         self.filtered.push(step.density.clone());
-        self.transitions.push(Transition {
-            predicted: step.density,
-            cross: step.cross_covariance,
-        });
+        self.transitions.push(step);
         Ok(())
     }
 
@@ -209,25 +282,7 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
         let mut smoothed = Vec::with_capacity(self.filtered.len());
         let mut next = self.current().clone();
         for (filtered, transition) in self.filtered.iter().zip(&self.transitions).rev() {
-            let predicted = &transition.predicted;
-            // Gᵀ = P_p⁻¹ Cᵀ by the predicted density's Cholesky factor.
-            let gain = Cholesky::pack_dirty(*predicted.cholesky_factor())
-                .solve(&transition.cross.transpose())
-                .transpose();
-            let mean = filtered
-                .mean()
-                .retract(&(gain * predicted.mean().local(next.mean())));
-            let covariance = filtered.covariance()
-                + gain * (next.covariance() - predicted.covariance()) * gain.transpose();
-            let previous = checked_gaussian(
-                mean,
-                &covariance,
-                Produced {
-                    mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
-                    covariance: "smoothed covariance P_f + G (P_s - P_p) G^T (rounding on an \
-                                 ill-conditioned model)",
-                },
-            )?;
+            let previous = smooth_back(filtered, transition, &next)?;
             smoothed.push(std::mem::replace(&mut next, previous));
         }
         smoothed.push(next);

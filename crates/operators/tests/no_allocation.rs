@@ -1,7 +1,8 @@
 //! The in-place steps of the weighted containers run without touching the heap: a counting global
 //! allocator sees zero allocations on the calling thread across propagations (with and without resampling) and
 //! reweightings of a particle set, the marginalized particle filter's step, and the grid's payload
-//! steps, reweighting and diffusion (after the first diffusion, which allocates its workspace).
+//! steps, reweighting and diffusion (after the first diffusion, which allocates its workspace), and
+//! the fixed-lag smoother's steps and backward pass once its window is full.
 #![allow(unsafe_code)] // implementing GlobalAlloc is unsafe by definition; this wrapper only counts.
 
 use liebayes_densities::Gaussian;
@@ -144,4 +145,42 @@ fn in_place_steps_do_not_allocate() {
         allocations(|| assert!(grid.condition_in_place(&failing, &z).is_err())),
         0
     );
+}
+
+/// Once its window is full, the fixed-lag smoother's steps and backward pass reuse its ring
+/// buffers: no allocation per epoch.
+#[test]
+fn fixed_lag_steps_do_not_allocate_once_the_window_is_full() {
+    use liebayes_densities::ManifoldGaussian;
+    use liebayes_manifolds::Manifold;
+    use liebayes_operators::fixed_lag::FixedLagSmoother;
+    use liebayes_operators::{Ekf, MeasurementFn, ProcessFn};
+    use nalgebra::{Matrix1, Vector1};
+
+    let gyro = ProcessFn::new(
+        |x: &So2<f64>, rate: &f64| x.retract(&Vector1::new(*rate)),
+        |_, _| Matrix1::new(1e-3),
+    );
+    let compass = MeasurementFn::new(
+        |x: &So2<f64>| Vector1::new(x.angle()),
+        |_| Matrix1::new(0.01),
+    );
+    let prior = ManifoldGaussian::new(So2::from_angle_unchecked(0.0), Matrix1::new(1.0)).unwrap();
+    let mut smoother = FixedLagSmoother::new(prior, 8).unwrap();
+    let mut step = |k: u32| {
+        smoother.propagate(&Ekf(&gyro), &0.01).unwrap();
+        let reading = Vector1::new(0.01 * f64::from(k));
+        smoother.condition(&Ekf(&compass), &reading).unwrap();
+        black_box(
+            smoother
+                .smooth()
+                .unwrap()
+                .lagged()
+                .map(|s| s.covariance()[0]),
+        );
+    };
+    for k in 0..8 {
+        step(k);
+    }
+    assert_eq!(allocations(|| (8..200).for_each(&mut step)), 0);
 }

@@ -1,12 +1,18 @@
-//! serde round trips of the particle set, the grid and the linear models (feature `serde`), and
-//! refusal of invalid states on reading.
+//! serde round trips of the particle set, the grid, the linear models and the smoothers (feature
+//! `serde`), a smoother checkpointed mid-run and resumed giving the uninterrupted run's estimates
+//! bit for bit, and refusal of invalid states on reading.
 #![cfg(feature = "serde")]
 
+use liebayes_densities::ManifoldGaussian;
+use liebayes_manifolds::Manifold;
 use liebayes_manifolds::So2;
+use liebayes_operators::fixed_lag::FixedLagSmoother;
 use liebayes_operators::grid::CircularGrid;
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::particle::{ParticleSet, Resampling};
-use nalgebra::{Matrix2, Matrix2x3, Matrix3};
+use liebayes_operators::smoother::RtsSmoother;
+use liebayes_operators::{Ekf, MeasurementFn, ProcessFn, Ukf};
+use nalgebra::{Matrix1, Matrix2, Matrix2x3, Matrix3, Vector1};
 
 /// Log weights agree to a few ulp of their size: reading renormalises by `ln Σ wᵢ`, 0 up to rounding.
 fn assert_log_weights_close(a: &[f64], b: &[f64]) {
@@ -107,4 +113,67 @@ fn invalid_states_are_refused_with_the_constructors_message() {
     assert!(error.to_string().contains("covariance Q"), "{error}");
     let error = serde_json::from_str::<Resampling>(r#""Bootstrap""#).unwrap_err();
     assert!(error.to_string().contains("Systematic"), "{error}");
+}
+
+/// A deterministic compass reading at epoch k (the checkpoint's identity does not depend on it).
+fn reading(k: u32) -> Vector1<f64> {
+    Vector1::new(0.02 * f64::from(k) + 0.1 * (f64::from(k) * 1.7).sin())
+}
+
+#[test]
+fn smoothers_checkpointed_mid_run_resume_bit_for_bit() {
+    let gyro = ProcessFn::new(
+        |x: &So2<f64>, rate: &f64| x.retract(&Vector1::new(*rate)),
+        |_, _| Matrix1::new(1e-3),
+    );
+    let compass = MeasurementFn::new(
+        |x: &So2<f64>| Vector1::new(x.angle()),
+        |_| Matrix1::new(0.01),
+    );
+    let prior = ManifoldGaussian::new(So2::from_angle_unchecked(3.0), Matrix1::new(0.5)).unwrap();
+    let (epochs, checkpoint) = (40_u32, 17_u32);
+    // The RTS smoother: its whole record saved and read back at epoch 17.
+    let rts_step = |rts: &mut RtsSmoother<So2<f64>, 1>, k: u32| {
+        rts.propagate(&Ekf(&gyro), &0.02).unwrap();
+        rts.condition(&Ukf::new(&compass), &reading(k)).unwrap();
+    };
+    let mut whole = RtsSmoother::new(prior.clone());
+    let mut resumed = RtsSmoother::new(prior.clone());
+    for k in 1..=epochs {
+        rts_step(&mut whole, k);
+        rts_step(&mut resumed, k);
+        if k == checkpoint {
+            let text = serde_json::to_string(&resumed).unwrap();
+            resumed = serde_json::from_str(&text).unwrap();
+        }
+    }
+    assert_eq!(resumed, whole);
+    assert_eq!(resumed.smooth().unwrap(), whole.smooth().unwrap());
+    // The fixed-lag smoother: its window saved and read back, its lagged outputs compared at every
+    // epoch after.
+    let lagged =
+        |fixed: &mut FixedLagSmoother<So2<f64>, 1>| fixed.smooth().unwrap().lagged().cloned();
+    let mut whole = FixedLagSmoother::new(prior.clone(), 5).unwrap();
+    let mut resumed = whole.clone();
+    for k in 1..=epochs {
+        for fixed in [&mut whole, &mut resumed] {
+            fixed.propagate(&Ekf(&gyro), &0.02).unwrap();
+            fixed.condition(&Ekf(&compass), &reading(k)).unwrap();
+        }
+        if k == checkpoint {
+            let text = serde_json::to_string(&resumed).unwrap();
+            resumed = serde_json::from_str(&text).unwrap();
+        }
+        assert_eq!(lagged(&mut resumed), lagged(&mut whole), "epoch {k}");
+    }
+    assert!(lagged(&mut whole).is_some());
+    // Malformed records are refused with the constructors' messages.
+    let text = serde_json::to_string(&whole).unwrap();
+    let wrong_lag = text.replacen("\"lag\":5", "\"lag\":4", 1);
+    let error = serde_json::from_str::<FixedLagSmoother<So2<f64>, 1>>(&wrong_lag).unwrap_err();
+    assert!(error.to_string().contains("window"), "{error}");
+    let error =
+        serde_json::from_str::<RtsSmoother<So2<f64>, 1>>(r#"{"filtered": [], "transitions": []}"#)
+            .unwrap_err();
+    assert!(error.to_string().contains("filtered densities"), "{error}");
 }
