@@ -1,7 +1,9 @@
 //! [`NavigationEstimate`], what every inertial filter reports whatever its state's convention, and
 //! [`NavigationScorer`], which scores it against the truth in that convention.
 
-use super::state::{ErrorState, NAVIGATION_DIM, Navigation, NavigationState};
+use super::state::{
+    ErrorState, LeftInvariant, NAVIGATION_DIM, Navigation, NavigationState, RightInvariant,
+};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{Estimator, Metric, Reduction, Scorer};
 use liebayes_manifolds::LieGroup;
@@ -15,16 +17,23 @@ pub enum Convention {
     /// The error-state EKF ([`ErrorState`]): attitude error on the right, additive velocity and
     /// position errors.
     ErrorState,
+    /// The left-invariant EKF ([`LeftInvariant`]): the error `X̂⁻¹ X` on SE_2(3), in the body frame.
+    LeftInvariant,
+    /// The right-invariant EKF ([`RightInvariant`]): the error `X X̂⁻¹` on SE_2(3), in the world
+    /// frame.
+    RightInvariant,
 }
 
 impl Convention {
     /// Every convention.
-    pub const ALL: [Self; 1] = [Self::ErrorState];
+    pub const ALL: [Self; 3] = [Self::ErrorState, Self::LeftInvariant, Self::RightInvariant];
 
     /// A short label for tables.
     pub fn label(self) -> &'static str {
         match self {
             Self::ErrorState => "error-state EKF",
+            Self::LeftInvariant => "left-invariant EKF",
+            Self::RightInvariant => "right-invariant EKF",
         }
     }
 
@@ -32,6 +41,8 @@ impl Convention {
     pub fn error(self, estimate: &Navigation, truth: &Navigation) -> SVector<f64, NAVIGATION_DIM> {
         match self {
             Self::ErrorState => error_in::<ErrorState>(estimate, truth),
+            Self::LeftInvariant => error_in::<LeftInvariant>(estimate, truth),
+            Self::RightInvariant => error_in::<RightInvariant>(estimate, truth),
         }
     }
 }

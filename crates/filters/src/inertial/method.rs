@@ -2,7 +2,7 @@
 
 use super::estimate::{Convention, NavigationEstimate, ToNavigation};
 use super::scenario::{InertialConfig, InertialScenario};
-use super::state::{ErrorState, NAVIGATION_DIM, NavigationState};
+use super::state::{ErrorState, LeftInvariant, NAVIGATION_DIM, NavigationState, RightInvariant};
 use super::strapdown::{ImuStep, PositionFix, Strapdown};
 use crate::FilterError;
 use liebayes_densities::ManifoldGaussian;
@@ -40,6 +40,8 @@ pub struct InertialMethod {
 #[derive(Clone, Debug)]
 enum Prior {
     ErrorState(ManifoldGaussian<ErrorState, NAVIGATION_DIM>),
+    LeftInvariant(ManifoldGaussian<LeftInvariant, NAVIGATION_DIM>),
+    RightInvariant(ManifoldGaussian<RightInvariant, NAVIGATION_DIM>),
 }
 
 impl InertialMethod {
@@ -51,6 +53,8 @@ impl InertialMethod {
         let config: &InertialConfig = scenario.config();
         let prior = match convention {
             Convention::ErrorState => Prior::ErrorState(scenario.prior()?),
+            Convention::LeftInvariant => Prior::LeftInvariant(scenario.prior()?),
+            Convention::RightInvariant => Prior::RightInvariant(scenario.prior()?),
         };
         Ok(Self {
             convention,
@@ -64,6 +68,8 @@ impl InertialMethod {
     pub fn filter(&self) -> InertialFilter {
         match &self.prior {
             Prior::ErrorState(prior) => self.boxed(prior.clone()),
+            Prior::LeftInvariant(prior) => self.boxed(prior.clone()),
+            Prior::RightInvariant(prior) => self.boxed(prior.clone()),
         }
     }
 

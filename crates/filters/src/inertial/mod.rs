@@ -4,7 +4,9 @@
 //!
 //! * [`Navigation`], the state by its parts, and [`NavigationState`], a filter's representation of
 //!   it: [`ErrorState`] (the error-state EKF: attitude error on the right, additive velocity and
-//!   position errors);
+//!   position errors), [`LeftInvariant`] and [`RightInvariant`] (the invariant EKFs: the extended
+//!   pose on SE_2(3), [`Se23`](liebayes_manifolds::Se23), with its error on the right or on the
+//!   left), each with the biases beside it;
 //! * [`Strapdown`], the process driven by [`ImuStep`]s, and [`PositionFix`], written once for every
 //!   representation: the conventions differ in their manifold and nothing else, so the generic
 //!   [`Ekf`](liebayes_operators::Ekf) linearises each in its own error;
@@ -23,8 +25,10 @@ mod strapdown;
 
 pub use estimate::{Convention, NavigationEstimate, NavigationScorer, ToNavigation};
 pub use method::{InertialEkf, InertialFilter, InertialMethod};
-pub use scenario::{InertialConfig, InertialScenario, InertialSteps, PRIOR_DRAWS};
-pub use state::{ErrorState, NAVIGATION_DIM, Navigation, NavigationState};
+pub use scenario::{InertialConfig, InertialScenario, InertialSteps, InitialVelocity, PRIOR_DRAWS};
+pub use state::{
+    ErrorState, LeftInvariant, NAVIGATION_DIM, Navigation, NavigationState, RightInvariant,
+};
 pub use strapdown::{
     GRAVITY, ImuNoise, ImuStep, MAX_READING, MAX_STEP, PositionFix, Strapdown, integrate,
 };

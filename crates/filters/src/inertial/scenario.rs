@@ -16,10 +16,22 @@ use rand_distr::{Distribution, StandardNormal};
 /// ([`InertialScenario::prior`]).
 pub const PRIOR_DRAWS: usize = 20_000;
 
+/// How the initial velocity is uncertain.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InitialVelocity {
+    /// Known in the body frame (a vehicle moving forward, its heading unknown): the true velocity
+    /// is the prior's turned by the initial attitude error, plus Gaussian noise.
+    #[default]
+    Body,
+    /// Known in the world frame, independently of the attitude: the prior's plus Gaussian noise.
+    World,
+}
+
 /// The scenario's settings. The default: 60 s at 50 Hz, a position fix every second with
 /// σ = 0.5 m, a consumer-grade IMU (gyroscope 0.01 rad/s/√Hz, accelerometer 0.05 m/s²/√Hz,
 /// bias walks 1e-4 rad/s/√s and 1e-3 m/s²/√s), and an initial uncertainty of 30° in heading, 2°
-/// in roll and pitch, 0.3 m/s, 1 m, 0.01 rad/s and 0.1 m/s² (per axis, 1σ).
+/// in roll and pitch, 0.3 m/s (about a velocity known in the body frame), 1 m, 0.01 rad/s and
+/// 0.1 m/s² (per axis, 1σ).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InertialConfig {
     /// Length of a run (s).
@@ -32,6 +44,8 @@ pub struct InertialConfig {
     pub fix_sigma: f64,
     /// The IMU's noise, which the filters assume too.
     pub imu: ImuNoise,
+    /// Which frame the initial velocity is known in.
+    pub initial_velocity: InitialVelocity,
     /// Initial 1σ of the heading (rad), a rotation about the world's vertical.
     pub heading_sigma: f64,
     /// Initial 1σ of roll and pitch (rad), rotations about the world's horizontal axes.
@@ -59,6 +73,7 @@ impl Default for InertialConfig {
                 gyro_bias_walk: 1e-4,
                 accel_bias_walk: 1e-3,
             },
+            initial_velocity: InitialVelocity::Body,
             heading_sigma: 30f64.to_radians(),
             tilt_sigma: 2f64.to_radians(),
             velocity_sigma: 0.3,
@@ -148,7 +163,8 @@ impl InertialConfig {
 /// filters' own strapdown model ([`integrate`]) with the true readings; the IMU reports them plus
 /// the biases (random walks) and white noise; a fix of the position every `fix_every` samples.
 /// The initial truth is drawn around the prior mean: a heading, roll and pitch error in the world
-/// frame, and Gaussian velocity, position and bias errors.
+/// frame, the velocity known in the body or the world frame ([`InitialVelocity`]), and Gaussian
+/// velocity, position and bias errors.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InertialScenario {
     config: InertialConfig,
@@ -192,9 +208,13 @@ impl InertialScenario {
             c.heading_sigma * normal(),
         );
         let mut vector = |sigma: f64| Vector3::new(normal(), normal(), normal()) * sigma;
+        let attitude_error = So3::exp(&tilt);
         Navigation {
-            rotation: So3::exp(&tilt).compose(&mean.rotation),
-            velocity: mean.velocity + vector(c.velocity_sigma),
+            rotation: attitude_error.compose(&mean.rotation),
+            velocity: match c.initial_velocity {
+                InitialVelocity::World => mean.velocity,
+                InitialVelocity::Body => attitude_error.rotate(&mean.velocity),
+            } + vector(c.velocity_sigma),
             position: mean.position + vector(c.position_sigma),
             gyro_bias: vector(c.gyro_bias_sigma),
             accel_bias: vector(c.accel_bias_sigma),

@@ -1,7 +1,7 @@
 //! The navigation state, [`Navigation`], and the three ways a filter represents it, each a manifold
 //! of dimension 15 with the biases as its last six tangent coordinates ([`NavigationState`]).
 
-use liebayes_manifolds::{Manifold, ProductManifold, Rn, So3};
+use liebayes_manifolds::{Left, Manifold, Rn, Se23, So3, product_manifold};
 use nalgebra::{SVector, Vector3};
 
 /// A navigation state by its parts: the attitude (body to world), the velocity and the position
@@ -70,42 +70,112 @@ pub(crate) fn split_biases(biases: &SVector<f64, 6>) -> (Vector3<f64>, Vector3<f
     )
 }
 
-/// The error-state EKF's state: attitude with its error on the right (body frame, `R exp(δθ)`),
-/// velocity and position with additive errors, then the biases: tangent
-/// `[δθ; δv; δp; δb_g; δb_a]`.
-pub type ErrorState = ProductManifold<
-    ProductManifold<So3<f64>, Rn<f64, 6>, 3, 6, 9>,
-    Rn<f64, 6>,
-    9,
-    6,
-    NAVIGATION_DIM,
->;
+product_manifold! {
+    /// The error-state EKF's state: attitude with its error on the right (body frame,
+    /// `R exp(δθ)`), velocity and position with additive errors, then the biases: tangent
+    /// `[δθ; δv; δp; δb_g; δb_a]`.
+    pub struct ErrorState<f64> {
+        /// Body to world, errors on the right.
+        pub attitude: So3<f64>,
+        /// World frame (m/s).
+        pub velocity: Rn<f64, 3>,
+        /// World frame (m).
+        pub position: Rn<f64, 3>,
+        /// `[b_g; b_a]`.
+        pub biases: Rn<f64, 6>,
+    }
+}
 
 impl NavigationState for ErrorState {
     fn from_navigation(navigation: &Navigation) -> Self {
-        let linear = SVector::<f64, 6>::from_fn(|i, _| {
-            if i < 3 {
-                navigation.velocity[i]
-            } else {
-                navigation.position[i - 3]
-            }
-        });
         Self::new(
-            ProductManifold::new(navigation.rotation, Rn::new_unchecked(linear)),
+            navigation.rotation,
+            Rn::new_unchecked(navigation.velocity),
+            Rn::new_unchecked(navigation.position),
             Rn::new_unchecked(stacked_biases(navigation)),
         )
     }
 
     fn navigation(&self) -> Navigation {
-        let (motion, biases) = (self.first(), self.second());
-        let linear = motion.second().coords();
-        let (gyro_bias, accel_bias) = split_biases(biases.coords());
+        let (gyro_bias, accel_bias) = split_biases(self.biases().coords());
         Navigation {
-            rotation: *motion.first(),
-            velocity: linear.fixed_rows::<3>(0).into_owned(),
-            position: linear.fixed_rows::<3>(3).into_owned(),
+            rotation: *self.attitude(),
+            velocity: *self.velocity().coords(),
+            position: *self.position().coords(),
             gyro_bias,
             accel_bias,
         }
+    }
+}
+
+product_manifold! {
+    /// The left-invariant EKF's state: the extended pose on SE_2(3) with its error on the right,
+    /// `X exp(ξ)` (body frame, the crate's convention; a position fix is a left-invariant
+    /// observation of it, `p = X·[0; 0; 1]`), then the biases: tangent `[ρ; φ; ν; δb_g; δb_a]`
+    /// ([`Se23`]'s order).
+    pub struct LeftInvariant<f64> {
+        /// Attitude, velocity and position, errors on the right.
+        pub motion: Se23<f64>,
+        /// `[b_g; b_a]`.
+        pub biases: Rn<f64, 6>,
+    }
+}
+
+product_manifold! {
+    /// The right-invariant EKF's state: the extended pose on SE_2(3) with its error on the left,
+    /// `exp(ξ) X` (world frame, [`Left`]), whose propagation without biases does not depend on the
+    /// state at all, then the biases: tangent `[ρ; φ; ν; δb_g; δb_a]`.
+    pub struct RightInvariant<f64> {
+        /// Attitude, velocity and position, errors on the left.
+        pub motion: Left<Se23<f64>>,
+        /// `[b_g; b_a]`.
+        pub biases: Rn<f64, 6>,
+    }
+}
+
+/// The extended pose of a navigation state.
+fn extended_pose(navigation: &Navigation) -> Se23<f64> {
+    Se23::new_unchecked(
+        navigation.rotation,
+        navigation.velocity,
+        navigation.position,
+    )
+}
+
+/// The navigation state of an extended pose and stacked biases.
+fn from_pose(motion: &Se23<f64>, biases: &SVector<f64, 6>) -> Navigation {
+    let (gyro_bias, accel_bias) = split_biases(biases);
+    Navigation {
+        rotation: *motion.rotation(),
+        velocity: *motion.velocity(),
+        position: *motion.position(),
+        gyro_bias,
+        accel_bias,
+    }
+}
+
+impl NavigationState for LeftInvariant {
+    fn from_navigation(navigation: &Navigation) -> Self {
+        Self::new(
+            extended_pose(navigation),
+            Rn::new_unchecked(stacked_biases(navigation)),
+        )
+    }
+
+    fn navigation(&self) -> Navigation {
+        from_pose(self.motion(), self.biases().coords())
+    }
+}
+
+impl NavigationState for RightInvariant {
+    fn from_navigation(navigation: &Navigation) -> Self {
+        Self::new(
+            Left::new(extended_pose(navigation)),
+            Rn::new_unchecked(stacked_biases(navigation)),
+        )
+    }
+
+    fn navigation(&self) -> Navigation {
+        from_pose(self.motion().inner(), self.biases().coords())
     }
 }
