@@ -60,6 +60,7 @@ mod error;
 pub mod evaluation;
 pub mod grid;
 mod innovation;
+pub mod iterated_smoother;
 pub mod kalman;
 pub mod models;
 mod numerics;
