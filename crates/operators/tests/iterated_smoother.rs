@@ -197,7 +197,9 @@ fn block_solvers_agree_with_a_dense_solve() {
     check_solvers::<3>(25, 3);
     check_solvers::<6>(12, 4);
     check_solvers::<31>(5, 5);
-    // The default picks the backend by dimension.
+    // The default picks the backend by dimension: faer from 15 on.
+    assert_eq!(Backend::for_dimension(14), Backend::FixedSize);
+    assert_eq!(Backend::for_dimension(15), Backend::Faer);
     assert_eq!(
         random_normal_matrix::<3>(2, 6).factor().unwrap().backend(),
         Backend::FixedSize

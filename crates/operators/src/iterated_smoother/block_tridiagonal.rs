@@ -23,9 +23,9 @@ use faer::{Accum, Mat, Par, Side};
 use nalgebra::{Cholesky, DMatrix, SMatrix, SVector};
 
 /// The state dimension from which [`BlockTridiagonal::factor`] runs on faer rather than on
-/// nalgebra's fixed-size matrices: the crossover measured by the `smoother_solve` benchmark (see
-/// docs/benchmarks.md).
-pub const FAER_FROM_DIMENSION: usize = 30;
+/// nalgebra's fixed-size matrices: the `smoother_solve` benchmark measured nalgebra 2.4 to 5 times
+/// faster at D = 6 and faer faster at D = 15, 30 and 60 (see docs/benchmarks.md).
+pub const FAER_FROM_DIMENSION: usize = 15;
 
 /// The linear algebra the block recursion runs on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
