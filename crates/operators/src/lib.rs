@@ -65,6 +65,7 @@ pub mod evaluation;
 pub mod fixed_lag;
 pub mod grid;
 mod innovation;
+pub mod iterated_smoother;
 pub mod kalman;
 pub mod models;
 mod numerics;
