@@ -118,6 +118,12 @@ impl<G: LieGroup<D>, const D: usize> Manifold<D> for Left<G> {
     fn is_finite(&self) -> bool {
         self.0.is_finite()
     }
+
+    /// `Jl(v)`: `exp(v + δ) x = exp(Jl(v) δ) · exp(v) x`.
+    #[inline]
+    fn j_retract_tangent(&self, v: &Tangent<G::Scalar, D>) -> Jacobian<G::Scalar, D, D> {
+        G::left_jacobian(v)
+    }
 }
 
 impl<G: LieGroup<D>, const D: usize> LieGroup<D> for Left<G> {
@@ -222,12 +228,6 @@ impl<G: LieGroup<D>, const D: usize> LieGroup<D> for Left<G> {
     #[inline]
     fn j_retract_self(&self, v: &Tangent<G::Scalar, D>) -> Jacobian<G::Scalar, D, D> {
         G::exp(v).adjoint()
-    }
-
-    /// `Jl(v)`: `exp(v + δ) x = exp(Jl(v) δ) · exp(v) x`.
-    #[inline]
-    fn j_retract_tangent(&self, v: &Tangent<G::Scalar, D>) -> Jacobian<G::Scalar, D, D> {
-        G::left_jacobian(v)
     }
 
     /// `−Jr⁻¹(y ⊟ x)`: with `u = log(y x⁻¹)`, `log(y (exp(δ) x)⁻¹) = log(exp(u) exp(−δ)) = u − Jr⁻¹(u) δ`.

@@ -125,12 +125,6 @@ pub trait LieGroup<const D: usize>: Manifold<D> {
         Self::exp(&-v).adjoint()
     }
 
-    /// `J_retract_tangent`: Jacobian of `self ⊞ v` with respect to `v`; `Jr(v)` for the right
-    /// retraction.
-    fn j_retract_tangent(&self, v: &Tangent<Self::Scalar, D>) -> Jacobian<Self::Scalar, D, D> {
-        Self::right_jacobian(v)
-    }
-
     /// `J_local_self`: Jacobian of `other ⊟ self` with respect to `self`; `-Jl⁻¹(other ⊟ self)` for the
     /// right retraction.
     fn j_local_self(&self, other: &Self) -> Jacobian<Self::Scalar, D, D> {
@@ -187,6 +181,15 @@ macro_rules! impl_manifold_for_group {
             fn is_finite(&self) -> bool {
                 let $x = self;
                 $finite
+            }
+
+            /// `Jr(v)`: `x exp(v + δ) = x exp(v) exp(Jr(v) δ)`.
+            #[inline]
+            fn j_retract_tangent(
+                &self,
+                v: &$crate::manifold::Tangent<T, $dim>,
+            ) -> $crate::manifold::Jacobian<T, $dim, $dim> {
+                <Self as $crate::lie_group::LieGroup<$dim>>::right_jacobian(v)
             }
         }
     };

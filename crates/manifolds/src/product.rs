@@ -180,6 +180,16 @@ where
         self.first.is_finite() && self.second.is_finite()
     }
 
+    /// `diag(J_A(v_A), J_B(v_B))`.
+    #[inline]
+    fn j_retract_tangent(&self, v: &Tangent<A::Scalar, D>) -> Jacobian<A::Scalar, D, D> {
+        let (va, vb) = Self::split_tangent(v);
+        Self::block_diagonal(
+            &self.first.j_retract_tangent(&va),
+            &self.second.j_retract_tangent(&vb),
+        )
+    }
+
     /// `√(d_A² + d_B²)` with the factors' own distances (computed without overflow).
     fn distance(&self, other: &Self) -> A::Scalar {
         self.first
@@ -318,15 +328,6 @@ where
         Self::block_diagonal(
             &self.first.j_retract_self(&va),
             &self.second.j_retract_self(&vb),
-        )
-    }
-
-    #[inline]
-    fn j_retract_tangent(&self, v: &Tangent<A::Scalar, D>) -> Jacobian<A::Scalar, D, D> {
-        let (va, vb) = Self::split_tangent(v);
-        Self::block_diagonal(
-            &self.first.j_retract_tangent(&va),
-            &self.second.j_retract_tangent(&vb),
         )
     }
 

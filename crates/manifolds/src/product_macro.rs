@@ -317,6 +317,12 @@ macro_rules! product_manifold {
                 ))+
             }
 
+            /// Block-diagonal: every factor's own.
+            #[inline]
+            fn j_retract_tangent(&self, v: &$crate::Tangent<Self::Scalar, { $name::DIM }>) -> $crate::Jacobian<Self::Scalar, { $name::DIM }, { $name::DIM }> {
+                $crate::__product_diagonal!($name; $($field => <$ty as $crate::Manifold<{ <$ty as $crate::Dimension>::DIM }>>::j_retract_tangent(&self.$field, &$crate::__private::block(v, $field))),+)
+            }
+
             /// `√(Σ dᵢ²)` with the factors' own distances (computed without overflow).
             fn distance(&self, other: &Self) -> Self::Scalar {
                 let mut d = $crate::__private::zero::<Self::Scalar>();
@@ -452,11 +458,6 @@ macro_rules! __product_lie_group {
             #[inline]
             fn j_retract_self(&self, v: &$crate::Tangent<Self::Scalar, { $name::DIM }>) -> $crate::Jacobian<Self::Scalar, { $name::DIM }, { $name::DIM }> {
                 $crate::__product_diagonal!($name; $($field => <$ty as $crate::LieGroup<{ <$ty as $crate::Dimension>::DIM }>>::j_retract_self(&self.$field, &$crate::__private::block(v, $field))),+)
-            }
-
-            #[inline]
-            fn j_retract_tangent(&self, v: &$crate::Tangent<Self::Scalar, { $name::DIM }>) -> $crate::Jacobian<Self::Scalar, { $name::DIM }, { $name::DIM }> {
-                $crate::__product_diagonal!($name; $($field => <$ty as $crate::LieGroup<{ <$ty as $crate::Dimension>::DIM }>>::j_retract_tangent(&self.$field, &$crate::__private::block(v, $field))),+)
             }
 
             #[inline]

@@ -82,6 +82,12 @@ impl<T: Real, const N: usize> Manifold<N> for Rn<T, N> {
     fn is_finite(&self) -> bool {
         self.v.iter().all(nalgebra::ComplexField::is_finite)
     }
+
+    /// `I`: the retraction is `x + v`.
+    #[inline]
+    fn j_retract_tangent(&self, _: &Tangent<T, N>) -> crate::manifold::Jacobian<T, N, N> {
+        crate::manifold::Jacobian::identity()
+    }
 }
 
 impl<T: Real, const N: usize> LieGroup<N> for Rn<T, N> {

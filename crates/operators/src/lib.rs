@@ -26,6 +26,9 @@
 //!   reference, or written from closures with [`ProcessFn`] and [`MeasurementFn`]);
 //! * [`smoother`]: the Rauch-Tung-Striebel smoother for that Gaussian (EKF or UKF linearisation);
 //!   [`fixed_lag`]: its online form, the density of epoch k − L after epoch k, in memory bounded by L;
+//!   [`iterated_smoother`]: the MAP trajectory by Gauss-Newton relinearised over the whole run, its
+//!   block-tridiagonal normal equations solved with nalgebra's fixed-size blocks or, from dimension
+//!   15, faer's;
 //! * [`particle`]: the particle filter over any state type (log weights, four resampling schemes, ESS
 //!   threshold), propagated by sampling a [`SampledProcess`] ([`Sampled`]), conditioned by a
 //!   [`Likelihood`] ([`Reweight`]; `ReweightInParallel` with the `rayon` feature) or, for particles carrying
