@@ -4,16 +4,16 @@
 //!
 //! * **propagate**: `μ′ = f(μ, u)`, `P′ = F P Fᵀ + Q`, F the right Jacobian of the motion (and the
 //!   cross-covariance `Cov(δ, δ′) = P Fᵀ` for the [smoother](crate::smoother));
-//! * **condition**: `ν = z ⊟ h(μ)`, `S = H P Hᵀ + R`, `K = P Hᵀ S⁻¹`, `μ⁺ = μ ⊞ K ν`, and the
-//!   Joseph form `P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ`; log evidence `ln N(ν; 0, S)` (the linearised
-//!   model's, an approximation of `ln p(z)`); the report is the [`Innovation`] (ν, S, K, NIS).
-//!
-//! P⁺ is left in the tangent space at μ rather than transported to μ⁺ (the first-order "reset"
-//! `J_r(Kν) P⁺ J_r(Kν)ᵀ` is omitted); on Rⁿ and SO(2) the two coincide.
+//! * **condition**: `ν = z ⊟ h(μ)`, `S = H P Hᵀ + R`, `K = P Hᵀ S⁻¹`, `μ⁺ = μ ⊞ K ν`, the
+//!   Joseph form `P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ` of the errors about μ, carried to the
+//!   tangent space at μ⁺ by the reset `J(Kν) P⁺ J(Kν)ᵀ`, J the retraction's Jacobian
+//!   ([`Manifold::j_retract_tangent`]: `Jr` for a group, `Jl` for `Left`, `I` on Rⁿ and SO(2), where
+//!   the reset changes nothing); log evidence `ln N(ν; 0, S)` (the linearised model's, an
+//!   approximation of `ln p(z)`); the report is the [`Innovation`] (ν, S, K, NIS).
 
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, checked_gaussian};
+use crate::numerics::{Produced, checked_gaussian, reset};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -113,9 +113,10 @@ where
             &pht,
             model.0.dof(),
         )?;
+        let correction = report.correction();
         let posterior = checked_gaussian(
-            mean.retract(&report.correction()),
-            &joseph(p, report.gain(), &h, &r),
+            mean.retract(&correction),
+            &reset(mean, &correction, &joseph(p, report.gain(), &h, &r)),
             Produced {
                 mean: "the posterior mean mu ⊞ K nu",
                 covariance: "posterior covariance (Joseph form; check the measurement noise R and \

@@ -13,7 +13,8 @@
 //! * **condition**: `Zᵢ = h(χᵢ)`, ẑ the fixed point of `ẑ ← ẑ + Σ wᵢᵐ (Zᵢ ⊟ ẑ)` (the same
 //!   [`weighted_mean`], with the model's residual, which may wrap, as ⊟), `S = Σ wᵢᶜ rᵢ rᵢᵀ + R`,
 //!   `C = Σ wᵢᶜ dᵢ rᵢᵀ` with dᵢ the sigma offsets, `K = C S⁻¹`, `μ⁺ = μ ⊞ K (z ⊟ ẑ)`,
-//!   `P⁺ = P − K S Kᵀ`; log evidence `ln N(z ⊟ ẑ; 0, S)`; the report is the [`Innovation`] (ν, S, K,
+//!   `P⁺ = P − K S Kᵀ` carried to the tangent space at μ⁺ by the reset `J(Kν) P⁺ J(Kν)ᵀ` (as the
+//!   [EKF](crate::ekf)'s); log evidence `ln N(z ⊟ ẑ; 0, S)`; the report is the [`Innovation`] (ν, S, K,
 //!   NIS).
 //!
 //! Every image Yᵢ and Zᵢ is checked with [`Manifold::is_finite`] before it is averaged, and a mean that
@@ -24,7 +25,7 @@
 //! points live in arrays of size D.
 
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, checked_gaussian};
+use crate::numerics::{Produced, checked_gaussian, reset};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -359,9 +360,14 @@ where
         let (report, log_evidence) =
             Innovation::new(h.residual(z, &predicted), &s, &cross, h.dof())?;
         let gain = report.gain();
+        let correction = report.correction();
         let posterior = checked_gaussian(
-            mu.retract(&report.correction()),
-            &(self.covariance() - gain * report.covariance() * gain.transpose()),
+            mu.retract(&correction),
+            &reset(
+                mu,
+                &correction,
+                &(self.covariance() - gain * report.covariance() * gain.transpose()),
+            ),
             Produced {
                 mean: "the posterior mean mu ⊞ K nu",
                 covariance: "posterior covariance P - K S K^T (it lost positive definiteness; check R)",
