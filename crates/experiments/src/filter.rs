@@ -6,6 +6,7 @@
 //! density with its process and measurement models and steps it with
 //! [`Propagate`] and [`Condition`]: no second stepping API.
 
+use liebayes_operators::iterated::Iterated;
 use liebayes_operators::{Condition, Innovation, OperatorError, Propagate};
 
 /// The normalised innovation squared of one update, with its degrees of freedom (the measurement's
@@ -95,6 +96,13 @@ impl<const N: usize, const M: usize> StepReport for Innovation<N, M> {
             value: Innovation::nis(self),
             dof: M,
         })
+    }
+}
+
+/// The NIS of an iterated update's final linearisation.
+impl<const N: usize, const M: usize> StepReport for Iterated<N, M> {
+    fn nis(&self) -> Option<Nis> {
+        StepReport::nis(self.innovation())
     }
 }
 

@@ -102,7 +102,7 @@ where
 const JACOBIAN_STEP: f64 = 1e-6;
 
 /// `∂ g(x ⊞ δ) / ∂δ` at 0 by central differences with step 1e-6 (g(x) is assumed to be 0).
-fn numeric_jacobian<X: Manifold<D, Scalar = f64>, const D: usize, const K: usize>(
+pub(crate) fn numeric_jacobian<X: Manifold<D, Scalar = f64>, const D: usize, const K: usize>(
     x: &X,
     g: impl Fn(&X) -> SVector<f64, K>,
 ) -> SMatrix<f64, K, D> {

@@ -1,0 +1,603 @@
+//! Iterated updates on any [`Manifold`]: the iterated EKF ([`IteratedEkf`], Gauss-Newton on the
+//! MAP cost) and the iterated posterior linearisation ([`IteratedUkf`], sigma points of the current
+//! posterior approximation), both on [`ManifoldGaussian`].
+//!
+//! With the prior `x = μ ⊞ δ`, `δ ~ N(0, P)`, and the measurement `z = h(x) + n`, `n ~ N(0, R)`, the
+//! posterior of δ (in the tangent space at μ) is approximated around iterates δᵢ:
+//!
+//! * **iterated EKF**: the minimiser of the MAP cost
+//!   `J(δ) = ½ δᵀ P⁻¹ δ + ½ r(δ)ᵀ R⁻¹ r(δ)`, `r(δ) = z ⊟ h(μ ⊞ δ)`, by Gauss-Newton: h is linearised at
+//!   `xᵢ = μ ⊞ δᵢ`, `r(δ) ≈ rᵢ − Hᵢ (δ − δᵢ)` with `Hᵢ = H(xᵢ) J(δᵢ)` (the model's Jacobian chained
+//!   with the retraction's, [`RetractionJacobian`]), and the Kalman update of the prior with that
+//!   linear model proposes `δ̂ = Kᵢ νᵢ`, `νᵢ = rᵢ + Hᵢ δᵢ`, `Kᵢ = P Hᵢᵀ (Hᵢ P Hᵢᵀ + R)⁻¹`;
+//! * **iterated posterior linearisation** (García-Fernández, Svensson, Morelande and Särkkä, 2015):
+//!   h is linearised statistically, `h(μ ⊞ δ) ≈ A δ + b` with error covariance Ω, by the UKF's sigma
+//!   points of the current approximation `N(δᵢ, Pᵢ)`: `A = Ψᵀ Pᵢ⁻¹`, `b = ẑ − A δᵢ`,
+//!   `Ω = Φ − A Pᵢ Aᵀ` (ẑ, Φ, Ψ the sigma-point mean, covariance and cross-covariance); the Kalman
+//!   update of the prior with it proposes `δ̂ = K ν`, `ν = (z ⊟ ẑ) + A δᵢ`, `S = A P Aᵀ + Ω + R`,
+//!   and the next covariance `Pᵢ₊₁`.
+//!
+//! **Step control**: a proposed step `Δ = δ̂ − δᵢ` that would increase J is halved, at most
+//! [`MAX_HALVINGS`] times, so the cost never increases from iterate to iterate; when no halving
+//! decreases it, the iteration stops at δᵢ ([`Stop::NoDescent`]). **Stopping**: when the step's size
+//! in prior standard deviations, `|L⁻¹ Δ|` with `P = L Lᵀ`, is at most the tolerance
+//! ([`Stop::Converged`]), or after [`IterationSettings::max_iterations`] steps
+//! ([`Stop::IterationLimit`]).
+//!
+//! **The result**, at the final iterate δ* and its linearisation: the mean `μ ⊞ δ*`; the covariance of
+//! that linearisation's update (Joseph form `(I − K H) P (I − K H)ᵀ + K R Kᵀ` for the EKF, with
+//! `Ω + R` for R in the posterior linearisation), transported from the tangent space at μ to the one
+//! at the new mean, `J(δ*) P⁺ J(δ*)ᵀ` (first order: `(μ ⊞ δ) ⊟ (μ ⊞ δ*) ≈ J(δ*) (δ − δ*)`; see
+//! [`IterationSettings::with_transport`]); the log evidence `ln N(ν; 0, S)` of the final linear(ised)
+//! model, the Laplace-type approximation of `ln p(z)` at δ*; and an [`Iterated`] report (ν, S, K and
+//! the NIS of the final linearisation, the number of steps and why the iteration stopped).
+//!
+//! R is the model's noise at the prior mean, fixed over the iterations so that J is one function.
+//! On Rⁿ with a linear model both equal the Kalman update after one step. The math, with when to use
+//! which, is in `docs/operators/iterated.md`.
+
+use crate::error::all_finite;
+use crate::innovation::Innovation;
+use crate::kalman::joseph;
+use crate::models::{MeasurementModel, numeric_jacobian};
+use crate::numerics::{Produced, checked_gaussian};
+use crate::ukf::Ukf;
+use crate::{Condition, Conditioned, OperatorError};
+use liebayes_densities::ManifoldGaussian;
+use liebayes_manifolds::{
+    Left, LieGroup, Manifold, ProductManifold, Rn, S2, Se2, Se3, So2, So3, Su2,
+};
+use nalgebra::{Cholesky, SMatrix, SVector};
+
+/// The most halvings of one step before the iteration stops ([`Stop::NoDescent`]): the last step
+/// tried is 2⁻³⁰ ≈ 1e-9 of the proposed one.
+pub const MAX_HALVINGS: usize = 30;
+
+/// The largest accepted [`IterationSettings::max_iterations`].
+pub const MAX_ITERATIONS: usize = 1000;
+
+/// The Jacobian of the retraction in its tangent argument,
+/// `J(v) = ∂ [(x ⊞ (v + ε)) ⊟ (x ⊞ v)] / ∂ε` at ε = 0, that chains a model's Jacobian at `x ⊞ v`
+/// into the tangent space at x (`J(0) = I`).
+///
+/// The library's groups give the closed form (`Jr(v)` for the right retraction `x · exp(v)`, `Jl(v)`
+/// for [`Left`], block-diagonal on a [`ProductManifold`]); the default, used by [`S2`] and available
+/// to any manifold with an empty `impl`, is a central difference with step 1e-6 (error about 1e-10).
+pub trait RetractionJacobian<const D: usize>: Manifold<D, Scalar = f64> {
+    /// `J(v)`, valid for `|v|` below the injectivity radius.
+    fn retraction_jacobian(&self, v: &SVector<f64, D>) -> SMatrix<f64, D, D> {
+        let moved = self.retract(v);
+        numeric_jacobian(&Rn::new_unchecked(*v), |w: &Rn<f64, D>| {
+            moved.local(&self.retract(w.coords()))
+        })
+    }
+}
+
+/// The closed form `LieGroup::j_retract_tangent` of a group.
+macro_rules! group_retraction_jacobian {
+    ($($ty:ty, $dim:literal);* $(;)?) => {$(
+        /// `J(v) = Jr(v)`, the right Jacobian ([`LieGroup::j_retract_tangent`]).
+        impl RetractionJacobian<$dim> for $ty {
+            fn retraction_jacobian(&self, v: &SVector<f64, $dim>) -> SMatrix<f64, $dim, $dim> {
+                LieGroup::j_retract_tangent(self, v)
+            }
+        }
+    )*};
+}
+
+group_retraction_jacobian!(So2<f64>, 1; So3<f64>, 3; Su2<f64>, 3; Se2<f64>, 3; Se3<f64>, 6);
+
+/// `J(v) = I` (the retraction is `x + v`).
+impl<const N: usize> RetractionJacobian<N> for Rn<f64, N> {
+    fn retraction_jacobian(&self, _: &SVector<f64, N>) -> SMatrix<f64, N, N> {
+        SMatrix::identity()
+    }
+}
+
+/// `J(v) = Jl(v)` for `exp(v) · x` ([`LieGroup::j_retract_tangent`] of [`Left`]).
+impl<G: LieGroup<D, Scalar = f64>, const D: usize> RetractionJacobian<D> for Left<G> {
+    fn retraction_jacobian(&self, v: &SVector<f64, D>) -> SMatrix<f64, D, D> {
+        LieGroup::j_retract_tangent(self, v)
+    }
+}
+
+/// Central differences (the default).
+impl RetractionJacobian<2> for S2<f64> {}
+
+/// `diag(J_A(v_A), J_B(v_B))`: the product retracts factor by factor.
+impl<A, B, const DA: usize, const DB: usize, const D: usize> RetractionJacobian<D>
+    for ProductManifold<A, B, DA, DB, D>
+where
+    A: RetractionJacobian<DA>,
+    B: RetractionJacobian<DB>,
+{
+    fn retraction_jacobian(&self, v: &SVector<f64, D>) -> SMatrix<f64, D, D> {
+        let (va, vb) = Self::split_tangent(v);
+        let mut j = SMatrix::<f64, D, D>::zeros();
+        j.fixed_view_mut::<DA, DA>(0, 0)
+            .copy_from(&self.first().retraction_jacobian(&va));
+        j.fixed_view_mut::<DB, DB>(DA, DA)
+            .copy_from(&self.second().retraction_jacobian(&vb));
+        j
+    }
+}
+
+/// When an iteration stops: a tolerance on the step, a bound on the steps, and whether the
+/// covariance is transported to the posterior mean.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IterationSettings {
+    tolerance: f64,
+    max_iterations: usize,
+    transport: bool,
+}
+
+impl Default for IterationSettings {
+    /// Tolerance 1e-8 prior standard deviations, at most 20 steps, covariance transported: on the
+    /// attitude problems of the docs the iterated EKF converges in 3 to 6 steps.
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-8,
+            max_iterations: 20,
+            transport: true,
+        }
+    }
+}
+
+impl IterationSettings {
+    /// Stop when a step `Δ` is at most `tolerance` prior standard deviations (`|L⁻¹ Δ|`, `P = L Lᵀ`)
+    /// or after `max_iterations` steps; the covariance is transported (see
+    /// [`with_transport`](Self::with_transport)).
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for a NaN or infinite tolerance, [`OperatorError::OutOfRange`]
+    /// for a negative one or `max_iterations` outside `1..=`[`MAX_ITERATIONS`].
+    pub fn new(tolerance: f64, max_iterations: usize) -> Result<Self, OperatorError> {
+        all_finite("iteration tolerance", std::iter::once(&tolerance))?;
+        if tolerance < 0.0 {
+            return Err(OperatorError::OutOfRange {
+                what: "iteration tolerance",
+                value: tolerance,
+                range: "[0, infinity) prior standard deviations",
+            });
+        }
+        if !(1..=MAX_ITERATIONS).contains(&max_iterations) {
+            return Err(OperatorError::OutOfRange {
+                what: "maximum number of iterations",
+                value: max_iterations as f64,
+                range: "1 to 1000",
+            });
+        }
+        Ok(Self {
+            tolerance,
+            max_iterations,
+            transport: true,
+        })
+    }
+
+    /// The same settings with the posterior covariance transported to the tangent space at the new
+    /// mean, `J(δ*) P⁺ J(δ*)ᵀ` (`true`, the default), or left in the one at the prior mean
+    /// (`false`, as the one-pass [`Ekf`](crate::Ekf) does).
+    #[must_use]
+    pub fn with_transport(mut self, transport: bool) -> Self {
+        self.transport = transport;
+        self
+    }
+
+    /// The tolerance on a step, in prior standard deviations.
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+
+    /// The most steps.
+    pub fn max_iterations(&self) -> usize {
+        self.max_iterations
+    }
+
+    /// Whether the covariance is transported to the posterior mean.
+    pub fn transport(&self) -> bool {
+        self.transport
+    }
+}
+
+/// Why an iteration stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// The proposed step was within the tolerance: the iterate is a fixed point.
+    Converged,
+    /// [`IterationSettings::max_iterations`] steps were taken.
+    IterationLimit,
+    /// No halving of the proposed step ([`MAX_HALVINGS`]) decreased the cost: the iterate is a
+    /// minimum of J to rounding, or (posterior linearisation) its fixed point is not J's minimum.
+    NoDescent,
+}
+
+/// The report of an iterated update: the [`Innovation`] (ν, S, K, NIS) of the final linearisation,
+/// the number of steps taken and why the iteration stopped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Iterated<const N: usize, const M: usize> {
+    innovation: Innovation<N, M>,
+    iterations: usize,
+    stop: Stop,
+}
+
+impl<const N: usize, const M: usize> Iterated<N, M> {
+    /// ν, S, K and the NIS of the final linearisation: `ν = z ⊟ h(μ ⊞ δ*) + H δ*` (the innovation
+    /// of the linearised model against the prior), `K ν ≈ δ*` at convergence.
+    pub fn innovation(&self) -> &Innovation<N, M> {
+        &self.innovation
+    }
+
+    /// The NIS `νᵀ S⁻¹ ν` of the final linearisation.
+    pub fn nis(&self) -> f64 {
+        self.innovation.nis()
+    }
+
+    /// The steps taken (0 when the prior mean is already a fixed point).
+    pub fn iterations(&self) -> usize {
+        self.iterations
+    }
+
+    /// Why the iteration stopped.
+    pub fn stop(&self) -> Stop {
+        self.stop
+    }
+}
+
+/// A measurement model used by the iterated EKF: `density.condition(&IteratedEkf::new(&model), &z)`.
+/// M, the measurement dimension, is inferred from z. The state type needs a
+/// [`RetractionJacobian`] (every space of the library has one).
+///
+/// # Example
+/// ```
+/// use liebayes_operators::densities::ManifoldGaussian;
+/// use liebayes_operators::manifolds::Rn;
+/// use liebayes_operators::iterated::{IteratedEkf, Stop};
+/// use liebayes_operators::{Condition, MeasurementFn};
+/// use nalgebra::{Matrix1, Vector1};
+///
+/// // A range z = x² + n read as 9 from a prior at 2: the MAP is near 3, beyond one EKF step.
+/// let range = MeasurementFn::new(|x: &Rn<f64, 1>| Vector1::new(x.coords()[0].powi(2)), |_| {
+///     Matrix1::new(1e-4)
+/// });
+/// let prior = ManifoldGaussian::new(Rn::new(Vector1::new(2.0)).unwrap(), Matrix1::new(1.0)).unwrap();
+/// let step = prior.condition(&IteratedEkf::new(&range), &Vector1::new(9.0)).unwrap();
+/// assert!((step.posterior.mean().coords()[0] - 3.0).abs() < 1e-3);
+/// assert_eq!(step.report.stop(), Stop::Converged);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IteratedEkf<Model, const M: usize = 0> {
+    /// The measurement model.
+    pub model: Model,
+    /// When to stop.
+    pub settings: IterationSettings,
+}
+
+impl<Model, const M: usize> IteratedEkf<Model, M> {
+    /// The model with the default [`IterationSettings`].
+    pub fn new(model: Model) -> Self {
+        Self {
+            model,
+            settings: IterationSettings::default(),
+        }
+    }
+}
+
+/// A measurement model used by the iterated posterior linearisation, with the sigma points of a
+/// [`Ukf`] (its scaling and square root): `density.condition(&IteratedUkf::new(&model), &z)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IteratedUkf<Model, const M: usize = 0> {
+    /// The model and the sigma points' parameters.
+    pub ukf: Ukf<Model, M>,
+    /// When to stop.
+    pub settings: IterationSettings,
+}
+
+impl<Model, const M: usize> IteratedUkf<Model, M> {
+    /// The model with the default sigma points ([`Ukf::new`]) and [`IterationSettings`].
+    pub fn new(model: Model) -> Self {
+        Self {
+            ukf: Ukf::new(model),
+            settings: IterationSettings::default(),
+        }
+    }
+}
+
+/// The Kalman update of the prior by the model linearised at one iterate.
+struct Linearised<const D: usize, const M: usize> {
+    innovation: Innovation<D, M>,
+    log_evidence: f64,
+    /// `P⁺`, in the tangent space at μ.
+    covariance: SMatrix<f64, D, D>,
+}
+
+impl<const D: usize, const M: usize> Linearised<D, M> {
+    /// `δ̂ = K ν`, the proposed iterate.
+    fn proposal(&self) -> SVector<f64, D> {
+        self.innovation.gain() * self.innovation.innovation()
+    }
+}
+
+/// One conditioning problem: the prior, the model, the reading and the fixed noise R.
+struct Problem<'a, X: Manifold<D, Scalar = f64>, H, const D: usize, const M: usize> {
+    prior: &'a ManifoldGaussian<X, D>,
+    model: &'a H,
+    z: &'a SVector<f64, M>,
+    noise: SMatrix<f64, M, M>,
+    noise_factor: Cholesky<f64, nalgebra::Const<M>>,
+}
+
+impl<'a, X, H, const D: usize, const M: usize> Problem<'a, X, H, D, M>
+where
+    X: RetractionJacobian<D>,
+    H: MeasurementModel<X, D, M>,
+{
+    /// The problem, with z and R (at the prior mean) checked finite and R positive definite.
+    fn new(
+        prior: &'a ManifoldGaussian<X, D>,
+        model: &'a H,
+        z: &'a SVector<f64, M>,
+    ) -> Result<Self, OperatorError> {
+        all_finite("measurement z", z.iter())?;
+        let noise = model.noise(prior.mean());
+        all_finite("measurement noise R", noise.iter())?;
+        let noise_factor = Cholesky::new(noise).ok_or(OperatorError::NotPositiveDefinite {
+            what: "measurement noise R (the iterated update's cost needs R^-1)",
+        })?;
+        Ok(Self {
+            prior,
+            model,
+            z,
+            noise,
+            noise_factor,
+        })
+    }
+
+    /// `μ ⊞ δ`, checked finite.
+    fn point(&self, delta: &SVector<f64, D>) -> Result<X, OperatorError> {
+        let x = self.prior.mean().retract(delta);
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(OperatorError::NonFinitePoint {
+                what: "an iterate mu ⊞ delta of the iterated update",
+            })
+        }
+    }
+
+    /// `r = z ⊟ h(x)`, checked finite.
+    fn residual(&self, x: &X) -> Result<SVector<f64, M>, OperatorError> {
+        let r = self.model.residual(self.z, &self.model.predict(x));
+        all_finite(
+            "residual z - h(x) at an iterate (the measurement model predicted a non-finite value)",
+            r.iter(),
+        )?;
+        Ok(r)
+    }
+
+    /// `|L⁻¹ v|` with `P = L Lᵀ`: v in prior standard deviations.
+    fn prior_norm(&self, v: &SVector<f64, D>) -> f64 {
+        // The density's factor has a positive diagonal.
+        self.prior
+            .cholesky_factor()
+            .solve_lower_triangular_unchecked(v)
+            .norm()
+    }
+
+    /// `J(δ) = ½ |L_P⁻¹ δ|² + ½ |L_R⁻¹ r(δ)|²` (+∞ when it overflows).
+    fn cost(&self, delta: &SVector<f64, D>) -> Result<f64, OperatorError> {
+        let r = self.residual(&self.point(delta)?)?;
+        let data = self
+            .noise_factor
+            .l_dirty()
+            .solve_lower_triangular_unchecked(&r)
+            .norm_squared();
+        Ok(0.5 * (self.prior_norm(delta).powi(2) + data))
+    }
+
+    /// The first of `δ + Δ`, `δ + Δ/2`, … (at most [`MAX_HALVINGS`] halvings) whose cost is at most
+    /// `cost`, with its cost; `None` if there is none.
+    fn descend(
+        &self,
+        delta: &SVector<f64, D>,
+        cost: f64,
+        step: SVector<f64, D>,
+    ) -> Result<Option<(SVector<f64, D>, f64)>, OperatorError> {
+        let mut step = step;
+        for _ in 0..=MAX_HALVINGS {
+            let candidate = delta + step;
+            let candidate_cost = self.cost(&candidate)?;
+            if candidate_cost <= cost {
+                return Ok(Some((candidate, candidate_cost)));
+            }
+            step *= 0.5;
+        }
+        Ok(None)
+    }
+
+    /// The Kalman update of the prior by `z ≈ A δ + b + e`, `e ~ N(0, Ω)`, with `ν = (z ⊟ ẑ) + A δᵢ`
+    /// given as `residual + A δᵢ` (`Ω = 0` for the EKF).
+    fn update(
+        &self,
+        residual: SVector<f64, M>,
+        slope: &SMatrix<f64, M, D>,
+        delta: &SVector<f64, D>,
+        error: &SMatrix<f64, M, M>,
+    ) -> Result<Linearised<D, M>, OperatorError> {
+        all_finite("linearised measurement model (slope)", slope.iter())?;
+        let p = self.prior.covariance();
+        let pat = p * slope.transpose();
+        let noise = error + self.noise;
+        let (innovation, log_evidence) =
+            Innovation::new(residual + slope * delta, &(slope * pat + noise), &pat)?;
+        let covariance = joseph(p, innovation.gain(), slope, &noise);
+        all_finite("updated covariance of an iterate", covariance.iter())?;
+        Ok(Linearised {
+            innovation,
+            log_evidence,
+            covariance,
+        })
+    }
+}
+
+/// How an iterated update linearises the model at an iterate `N(δᵢ, Pᵢ)`.
+trait Linearisation<X: Manifold<D, Scalar = f64>, H, const D: usize, const M: usize> {
+    /// The Kalman update of the prior by the model linearised at the iterate.
+    fn linearise(
+        &self,
+        problem: &Problem<'_, X, H, D, M>,
+        delta: &SVector<f64, D>,
+        spread: &SMatrix<f64, D, D>,
+    ) -> Result<Linearised<D, M>, OperatorError>;
+}
+
+/// The iterated EKF's: `Hᵢ = H(μ ⊞ δᵢ) J(δᵢ)`, Ω = 0 (the spread is not used).
+impl<X, H, const D: usize, const M: usize> Linearisation<X, H, D, M> for IteratedEkf<H, M>
+where
+    X: RetractionJacobian<D>,
+    H: MeasurementModel<X, D, M>,
+{
+    fn linearise(
+        &self,
+        problem: &Problem<'_, X, H, D, M>,
+        delta: &SVector<f64, D>,
+        _: &SMatrix<f64, D, D>,
+    ) -> Result<Linearised<D, M>, OperatorError> {
+        let x = problem.point(delta)?;
+        let residual = problem.residual(&x)?;
+        let jacobian = self.model.jacobian(&x);
+        all_finite("measurement Jacobian H at an iterate", jacobian.iter())?;
+        let chain = problem.prior.mean().retraction_jacobian(delta);
+        all_finite("retraction Jacobian J(delta) at an iterate", chain.iter())?;
+        problem.update(residual, &(jacobian * chain), delta, &SMatrix::zeros())
+    }
+}
+
+/// The posterior linearisation's: the UKF's sigma-point moments of `N(δᵢ, Pᵢ)`.
+impl<X, H, const D: usize, const M: usize> Linearisation<X, H, D, M> for IteratedUkf<H, M>
+where
+    X: RetractionJacobian<D>,
+    H: MeasurementModel<X, D, M>,
+{
+    fn linearise(
+        &self,
+        problem: &Problem<'_, X, H, D, M>,
+        delta: &SVector<f64, D>,
+        spread: &SMatrix<f64, D, D>,
+    ) -> Result<Linearised<D, M>, OperatorError> {
+        let spread = ManifoldGaussian::new(problem.prior.mean().clone(), *spread)?;
+        let moments = self
+            .ukf
+            .measurement_moments(&spread, Some(delta), SMatrix::zeros())?;
+        let factor = spread.cholesky_factor();
+        // A = Ψᵀ Pᵢ⁻¹ by two triangular solves with Pᵢ = L Lᵀ (a positive diagonal).
+        let slope = factor
+            .tr_solve_lower_triangular_unchecked(
+                &factor.solve_lower_triangular_unchecked(&moments.cross),
+            )
+            .transpose();
+        let error = moments.covariance - slope * moments.cross;
+        let residual = problem.residual_from(&moments.predicted)?;
+        problem.update(residual, &slope, delta, &error)
+    }
+}
+
+impl<X, H, const D: usize, const M: usize> Problem<'_, X, H, D, M>
+where
+    X: RetractionJacobian<D>,
+    H: MeasurementModel<X, D, M>,
+{
+    /// `z ⊟ ẑ` for a predicted ẑ, checked finite.
+    fn residual_from(&self, predicted: &SVector<f64, M>) -> Result<SVector<f64, M>, OperatorError> {
+        let r = self.model.residual(self.z, predicted);
+        all_finite("residual z - z_hat of the sigma points", r.iter())?;
+        Ok(r)
+    }
+
+    /// The iteration (module docs): the final iterate δ*, its linearisation, the steps and the stop.
+    fn solve<L: Linearisation<X, H, D, M>>(
+        &self,
+        linearisation: &L,
+        settings: &IterationSettings,
+    ) -> Result<Conditioned<ManifoldGaussian<X, D>, Iterated<D, M>>, OperatorError> {
+        let mut delta = SVector::<f64, D>::zeros();
+        let mut cost = self.cost(&delta)?;
+        let mut current = linearisation.linearise(self, &delta, self.prior.covariance())?;
+        let mut iterations = 0;
+        let mut stop = Stop::IterationLimit;
+        while iterations < settings.max_iterations {
+            let step = current.proposal() - delta;
+            if self.prior_norm(&step) <= settings.tolerance {
+                stop = Stop::Converged;
+                break;
+            }
+            let Some((next, next_cost)) = self.descend(&delta, cost, step)? else {
+                stop = Stop::NoDescent;
+                break;
+            };
+            (delta, cost) = (next, next_cost);
+            current = linearisation.linearise(self, &delta, &current.covariance)?;
+            iterations += 1;
+        }
+        let mean = self.point(&delta)?;
+        let covariance = if settings.transport {
+            let j = self.prior.mean().retraction_jacobian(&delta);
+            j * current.covariance * j.transpose()
+        } else {
+            current.covariance
+        };
+        let posterior = checked_gaussian(
+            mean,
+            &covariance,
+            Produced {
+                mean: "the posterior mean mu ⊞ delta* of the iterated update",
+                covariance: "posterior covariance of the iterated update (check the measurement \
+                             noise R and the Jacobian H)",
+            },
+        )?;
+        Ok(Conditioned {
+            posterior,
+            log_evidence: current.log_evidence,
+            report: Iterated {
+                innovation: current.innovation,
+                iterations,
+                stop,
+            },
+        })
+    }
+}
+
+impl<X, H, const D: usize, const M: usize> Condition<IteratedEkf<H, M>> for ManifoldGaussian<X, D>
+where
+    X: RetractionJacobian<D>,
+    H: MeasurementModel<X, D, M>,
+{
+    type Measurement = SVector<f64, M>;
+    type Report = Iterated<D, M>;
+
+    /// Gauss-Newton on the MAP cost (module docs).
+    fn condition(
+        &self,
+        iterated: &IteratedEkf<H, M>,
+        z: &SVector<f64, M>,
+    ) -> Result<Conditioned<Self, Iterated<D, M>>, OperatorError> {
+        Problem::new(self, &iterated.model, z)?.solve(iterated, &iterated.settings)
+    }
+}
+
+impl<X, H, const D: usize, const M: usize> Condition<IteratedUkf<H, M>> for ManifoldGaussian<X, D>
+where
+    X: RetractionJacobian<D>,
+    H: MeasurementModel<X, D, M>,
+{
+    type Measurement = SVector<f64, M>;
+    type Report = Iterated<D, M>;
+
+    /// The iterated posterior linearisation (module docs).
+    fn condition(
+        &self,
+        iterated: &IteratedUkf<H, M>,
+        z: &SVector<f64, M>,
+    ) -> Result<Conditioned<Self, Iterated<D, M>>, OperatorError> {
+        Problem::new(self, iterated.ukf.model(), z)?.solve(iterated, &iterated.settings)
+    }
+}
