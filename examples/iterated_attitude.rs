@@ -109,10 +109,7 @@ impl ProcessModel<Biased, 6> for Gyro {
 
     fn transition(&self, x: &Biased, (rate, dt): &(Vector3<f64>, f64)) -> Biased {
         let turn = So3::exp(&((rate - x.second().coords()) * *dt));
-        Biased::new(
-            Left::new(x.first().inner().compose(&turn)),
-            x.second().clone(),
-        )
+        Biased::new(Left::new(x.first().inner().compose(&turn)), *x.second())
     }
 
     fn noise(&self, _: &Biased, (_, dt): &(Vector3<f64>, f64)) -> SMatrix<f64, 6, 6> {
@@ -346,7 +343,7 @@ where
 const ATTITUDE: Study = Study {
     readings: 11,
     runs: 200,
-    prior_sigma: 0.523_598_775_598_298_9, // 30°
+    prior_sigma: std::f64::consts::FRAC_PI_6, // 30°
     bias_sigma: 0.0,
 };
 
@@ -393,25 +390,27 @@ fn main() -> Result<(), OperatorError> {
         .map(|u| attitude_average(*u, &ATTITUDE))
         .collect::<Result<_, _>>()?;
     print!("| t (s) |");
-    UPDATES.iter().for_each(|u| print!(" {} |", u.name()));
+    for update in UPDATES {
+        print!(" {} |", update.name());
+    }
     println!();
     for reading in 0..ATTITUDE.readings {
         print!("| {:.1} |", reading as f64 * READ_EVERY as f64 * DT);
-        columns
-            .iter()
-            .for_each(|(nees, _)| print!(" {:.2} |", nees[reading]));
+        for (nees, _) in &columns {
+            print!(" {:.2} |", nees[reading]);
+        }
         println!();
     }
     let updates = (ATTITUDE.runs * ATTITUDE.readings) as f64;
     print!("| steps per update |");
-    columns
-        .iter()
-        .for_each(|(_, t)| print!(" {:.2} |", t.steps as f64 / updates));
+    for (_, tally) in &columns {
+        print!(" {:.2} |", tally.steps as f64 / updates);
+    }
     println!();
     print!("| updates not converged |");
-    columns
-        .iter()
-        .for_each(|(_, t)| print!(" {} |", t.unconverged));
+    for (_, tally) in &columns {
+        print!(" {} |", tally.unconverged);
+    }
     println!();
 
     let (low, high) = average_nees_band(6, BIASED.runs)?;
