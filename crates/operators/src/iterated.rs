@@ -17,10 +17,14 @@
 //!   update of the prior with it proposes `δ̂ = K ν`, `ν = (z ⊟ ẑ) + A δᵢ`, `S = A P Aᵀ + Ω + R`,
 //!   and the next covariance `Pᵢ₊₁`.
 //!
-//! **Step control**: a proposed step `Δ = δ̂ − δᵢ` that would increase J is halved, at most
-//! [`MAX_HALVINGS`] times, so the cost never increases from iterate to iterate; when no halving
-//! decreases it, the iteration stops at δᵢ ([`Stop::NoDescent`]). **Stopping**: when the step's size
-//! in prior standard deviations, `|L⁻¹ Δ|` with `P = L Lᵀ`, is at most the tolerance
+//! **Step control**: a proposed step that would increase the merit is halved, at most
+//! [`MAX_HALVINGS`] times, so the merit never increases from iterate to iterate; when no halving
+//! decreases it, the iteration stops ([`Stop::NoDescent`]). The iterated EKF's step is
+//! `Δ = δ̂ − δᵢ` and its merit the cost J. The posterior linearisation's iterate is the pair
+//! `(δᵢ, Pᵢ)` and its step `(Δ, Pᵢ₊₁ − Pᵢ)`; its fixed point is not J's minimum, so its merit is the
+//! length of its own proposed step, `(|L⁻¹ Δ|² + ‖L⁻¹ (Pᵢ₊₁ − Pᵢ) L⁻ᵀ‖²_F)^½` with `P = L Lᵀ`.
+//! **Stopping**: when the proposed step's length in prior standard deviations (`|L⁻¹ Δ|` for the
+//! iterated EKF, the joint length above for the posterior linearisation) is at most the tolerance
 //! ([`Stop::Converged`]), or after [`IterationSettings::max_iterations`] steps
 //! ([`Stop::IterationLimit`]).
 //!
@@ -133,8 +137,8 @@ pub struct IterationSettings {
 
 impl Default for IterationSettings {
     /// Tolerance 1e-6 prior standard deviations, at most 20 steps, covariance transported. A step of
-    /// 1e-6 σ changes J by about 1e-12, well above its rounding; much tighter tolerances end in
-    /// [`Stop::NoDescent`] when the cost's rounding hides the last decrease.
+    /// 1e-6 σ changes J by about 1e-12, well above its rounding; much tighter tolerances can end the
+    /// iterated EKF in [`Stop::NoDescent`] when the cost's rounding hides the last decrease.
     fn default() -> Self {
         Self {
             tolerance: 1e-6,
@@ -207,10 +211,9 @@ pub enum Stop {
     Converged,
     /// [`IterationSettings::max_iterations`] steps were taken.
     IterationLimit,
-    /// No halving of the proposed step ([`MAX_HALVINGS`]) decreased the cost: the iterate is a
-    /// minimum of J to rounding (a tolerance below J's rounding), or, for the posterior
-    /// linearisation, the iterate is where J stops decreasing on the way to its fixed point, which is
-    /// near J's minimum but not at it.
+    /// No halving of the proposed step ([`MAX_HALVINGS`]) decreased the merit: the iterate is a
+    /// minimum of J to rounding (a tolerance below J's rounding), or the posterior linearisation's
+    /// fixed-point iteration does not contract there.
     NoDescent,
 }
 
@@ -311,6 +314,22 @@ struct Linearised<const D: usize, const M: usize> {
     log_evidence: f64,
     /// `P⁺`, in the tangent space at μ.
     covariance: SMatrix<f64, D, D>,
+    /// The length of the proposed step in prior standard deviations: `|L⁻¹ Δ|` for the iterated
+    /// EKF; for the posterior linearisation, whose iterate is the pair (δ, P), the joint
+    /// `(|L⁻¹ Δ|² + ‖L⁻¹ (P⁺ − Pᵢ) L⁻ᵀ‖²_F)^½`.
+    step: f64,
+    /// What a step must not increase, at the iterate: J for the iterated EKF, the joint step for
+    /// the posterior linearisation (its fixed point is not J's minimum).
+    merit: f64,
+}
+
+/// How an iterate's merit is measured (see [`Linearised::merit`]).
+#[derive(Clone, Copy)]
+enum Merit<'a, const D: usize> {
+    /// The MAP cost J at the iterate.
+    Cost(f64),
+    /// The joint step from the iterate `(δᵢ, Pᵢ)`, given `Pᵢ`.
+    Step(&'a SMatrix<f64, D, D>),
 }
 
 impl<const D: usize, const M: usize> Linearised<D, M> {
@@ -386,45 +405,51 @@ where
             .norm()
     }
 
-    /// `J(δ) = ½ |L_P⁻¹ δ|² + ½ |L_R⁻¹ r(δ)|²` (+∞ when it overflows).
-    fn cost(&self, delta: &SVector<f64, D>) -> Result<f64, OperatorError> {
-        let r = self.residual(&self.point(delta)?)?;
+    /// `J(δ) = ½ |L_P⁻¹ δ|² + ½ |L_R⁻¹ r|²` for the residual `r = r(δ)` (+∞ when it overflows).
+    fn cost(&self, delta: &SVector<f64, D>, residual: &SVector<f64, M>) -> f64 {
         let data = self
             .noise_factor
             .l_dirty()
-            .solve_lower_triangular_unchecked(&r)
+            .solve_lower_triangular_unchecked(residual)
             .norm_squared();
-        Ok(0.5 * (self.prior_norm(delta).powi(2) + data))
+        0.5 * (self.prior_norm(delta).powi(2) + data)
     }
 
-    /// The first of `δ + Δ`, `δ + Δ/2`, … (at most [`MAX_HALVINGS`] halvings) whose cost is at most
-    /// `cost`, with its cost; `None` if there is none.
-    fn descend(
+    /// The first of the iterates `(δ + t Δ, P + t (P⁺ − P))`, t = 1, ½, ¼, … (at most
+    /// [`MAX_HALVINGS`] halvings; a convex combination of covariances is one) whose linearisation
+    /// has a merit of at most the current one, with that linearisation; `None` if there is none.
+    fn descend<L: Linearisation<X, H, D, M>>(
         &self,
-        delta: &SVector<f64, D>,
-        cost: f64,
-        step: SVector<f64, D>,
-    ) -> Result<Option<(SVector<f64, D>, f64)>, OperatorError> {
-        let mut step = step;
+        linearisation: &L,
+        iterate: &Iterate<D>,
+        current: &Linearised<D, M>,
+    ) -> Result<Option<(Iterate<D>, Linearised<D, M>)>, OperatorError> {
+        let mut step = current.proposal() - iterate.delta;
+        let mut spread_step = current.covariance - iterate.spread;
         for _ in 0..=MAX_HALVINGS {
-            let candidate = delta + step;
-            let candidate_cost = self.cost(&candidate)?;
-            if candidate_cost <= cost {
-                return Ok(Some((candidate, candidate_cost)));
+            let candidate = Iterate {
+                delta: iterate.delta + step,
+                spread: iterate.spread + spread_step,
+            };
+            let linearised = linearisation.linearise(self, &candidate)?;
+            if linearised.merit <= current.merit {
+                return Ok(Some((candidate, linearised)));
             }
             step *= 0.5;
+            spread_step *= 0.5;
         }
         Ok(None)
     }
 
     /// The Kalman update of the prior by `z ≈ A δ + b + e`, `e ~ N(0, Ω)`, with `ν = (z ⊟ ẑ) + A δᵢ`
-    /// given as `residual + A δᵢ` (`Ω = 0` for the EKF).
+    /// given as `residual + A δᵢ` (`Ω = 0` for the EKF), with the iterate's step and merit.
     fn update(
         &self,
         residual: SVector<f64, M>,
         slope: &SMatrix<f64, M, D>,
         delta: &SVector<f64, D>,
         error: &SMatrix<f64, M, M>,
+        merit: Merit<'_, D>,
     ) -> Result<Linearised<D, M>, OperatorError> {
         all_finite("linearised measurement model (slope)", slope.iter())?;
         let p = self.prior.covariance();
@@ -434,22 +459,41 @@ where
             Innovation::new(residual + slope * delta, &(slope * pat + noise), &pat)?;
         let covariance = joseph(p, innovation.gain(), slope, &noise);
         all_finite("updated covariance of an iterate", covariance.iter())?;
+        let mean_step = self.prior_norm(&(innovation.gain() * innovation.innovation() - delta));
+        let (step, merit) = match merit {
+            Merit::Cost(cost) => (mean_step, cost),
+            Merit::Step(spread) => {
+                // ‖L⁻¹ X L⁻ᵀ‖_F by two triangular solves (the factor has a positive diagonal).
+                let l = self.prior.cholesky_factor();
+                let half = l.solve_lower_triangular_unchecked(&(covariance - spread));
+                let whitened = l.solve_lower_triangular_unchecked(&half.transpose());
+                let step = mean_step.hypot(whitened.norm());
+                (step, step)
+            }
+        };
         Ok(Linearised {
             innovation,
             log_evidence,
             covariance,
+            step,
+            merit,
         })
     }
 }
 
-/// How an iterated update linearises the model at an iterate `N(δᵢ, Pᵢ)`.
+/// An iterate `N(δᵢ, Pᵢ)` in the tangent space at the prior mean (the iterated EKF uses δᵢ only).
+struct Iterate<const D: usize> {
+    delta: SVector<f64, D>,
+    spread: SMatrix<f64, D, D>,
+}
+
+/// How an iterated update linearises the model at an iterate.
 trait Linearisation<X: Manifold<D, Scalar = f64>, H, const D: usize, const M: usize> {
     /// The Kalman update of the prior by the model linearised at the iterate.
     fn linearise(
         &self,
         problem: &Problem<'_, X, H, D, M>,
-        delta: &SVector<f64, D>,
-        spread: &SMatrix<f64, D, D>,
+        iterate: &Iterate<D>,
     ) -> Result<Linearised<D, M>, OperatorError>;
 }
 
@@ -462,16 +506,23 @@ where
     fn linearise(
         &self,
         problem: &Problem<'_, X, H, D, M>,
-        delta: &SVector<f64, D>,
-        _: &SMatrix<f64, D, D>,
+        iterate: &Iterate<D>,
     ) -> Result<Linearised<D, M>, OperatorError> {
+        let delta = &iterate.delta;
         let x = problem.point(delta)?;
         let residual = problem.residual(&x)?;
         let jacobian = self.model.jacobian(&x);
         all_finite("measurement Jacobian H at an iterate", jacobian.iter())?;
         let chain = problem.prior.mean().retraction_jacobian(delta);
         all_finite("retraction Jacobian J(delta) at an iterate", chain.iter())?;
-        problem.update(residual, &(jacobian * chain), delta, &SMatrix::zeros())
+        let cost = problem.cost(delta, &residual);
+        problem.update(
+            residual,
+            &(jacobian * chain),
+            delta,
+            &SMatrix::zeros(),
+            Merit::Cost(cost),
+        )
     }
 }
 
@@ -484,10 +535,10 @@ where
     fn linearise(
         &self,
         problem: &Problem<'_, X, H, D, M>,
-        delta: &SVector<f64, D>,
-        spread: &SMatrix<f64, D, D>,
+        iterate: &Iterate<D>,
     ) -> Result<Linearised<D, M>, OperatorError> {
-        let spread = ManifoldGaussian::new(problem.prior.mean().clone(), *spread)?;
+        let delta = &iterate.delta;
+        let spread = ManifoldGaussian::new(problem.prior.mean().clone(), iterate.spread)?;
         let moments = self
             .ukf
             .measurement_moments(&spread, Some(delta), SMatrix::zeros())?;
@@ -500,7 +551,13 @@ where
             .transpose();
         let error = moments.covariance - slope * moments.cross;
         let residual = problem.residual_from(&moments.predicted)?;
-        problem.update(residual, &slope, delta, &error)
+        problem.update(
+            residual,
+            &slope,
+            delta,
+            &error,
+            Merit::Step(&iterate.spread),
+        )
     }
 }
 
@@ -522,25 +579,26 @@ where
         linearisation: &L,
         settings: &IterationSettings,
     ) -> Result<Conditioned<ManifoldGaussian<X, D>, Iterated<D, M>>, OperatorError> {
-        let mut delta = SVector::<f64, D>::zeros();
-        let mut cost = self.cost(&delta)?;
-        let mut current = linearisation.linearise(self, &delta, self.prior.covariance())?;
+        let mut iterate = Iterate {
+            delta: SVector::<f64, D>::zeros(),
+            spread: *self.prior.covariance(),
+        };
+        let mut current = linearisation.linearise(self, &iterate)?;
         let mut iterations = 0;
         let mut stop = Stop::IterationLimit;
         while iterations < settings.max_iterations {
-            let step = current.proposal() - delta;
-            if self.prior_norm(&step) <= settings.tolerance {
+            if current.step <= settings.tolerance {
                 stop = Stop::Converged;
                 break;
             }
-            let Some((next, next_cost)) = self.descend(&delta, cost, step)? else {
+            let Some((next, linearised)) = self.descend(linearisation, &iterate, &current)? else {
                 stop = Stop::NoDescent;
                 break;
             };
-            (delta, cost) = (next, next_cost);
-            current = linearisation.linearise(self, &delta, &current.covariance)?;
+            (iterate, current) = (next, linearised);
             iterations += 1;
         }
+        let delta = iterate.delta;
         let mean = self.point(&delta)?;
         let covariance = if settings.transport {
             let j = self.prior.mean().retraction_jacobian(&delta);
