@@ -24,6 +24,10 @@
 //!   [`ManifoldGaussian`](liebayes_densities::ManifoldGaussian) (mean on the manifold, covariance in
 //!   its tangent space), with user [`ProcessModel`]s and [`MeasurementModel`]s ([`models`]: used by
 //!   reference, or written from closures with [`ProcessFn`] and [`MeasurementFn`]);
+//! * [`iterated`]: iterated updates of that Gaussian on any manifold ([`IteratedEkf`]: Gauss-Newton on
+//!   the MAP cost with step control; [`IteratedUkf`]: iterated posterior linearisation with the
+//!   UKF's sigma points), for measurements precise enough that one linearisation at the prior mean
+//!   misleads;
 //! * [`smoother`]: the Rauch-Tung-Striebel smoother for that Gaussian (EKF or UKF linearisation);
 //!   [`fixed_lag`]: its online form, the density of epoch k − L after epoch k, in memory bounded by L;
 //!   [`iterated_smoother`]: the MAP trajectory by Gauss-Newton relinearised over the whole run, its
@@ -68,6 +72,7 @@ pub mod evaluation;
 pub mod fixed_lag;
 pub mod grid;
 mod innovation;
+pub mod iterated;
 pub mod iterated_smoother;
 pub mod kalman;
 pub mod models;
@@ -86,6 +91,7 @@ pub use ekf::Ekf;
 pub use error::{MAX_ELEMENTS, OperatorError};
 pub use grid::Diffusion;
 pub use innovation::Innovation;
+pub use iterated::{IteratedEkf, IteratedUkf};
 pub use models::{MeasurementFn, MeasurementModel, ProcessFn, ProcessModel};
 pub use particle::{
     Given, LabelModel, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess,

@@ -328,37 +328,14 @@ where
         z: &SVector<f64, M>,
     ) -> Result<Conditioned<Self, Innovation<D, M>>, OperatorError> {
         crate::error::all_finite("measurement z", z.iter())?;
-        let (gamma, w0m, w0c, w) = ukf.weights(D);
-        let offsets = sigma_offsets(self, gamma, ukf.root);
         let (mu, h) = (self.mean(), &ukf.model);
-        let centre = Measured::new(h.predict(mu), h);
-        let plus = offsets.map(|d| Measured::new(h.predict(&mu.retract(&d)), h));
-        let minus = offsets.map(|d| Measured::new(h.predict(&mu.retract(&-d)), h));
-        if !(centre.is_finite() && plus.iter().chain(&minus).all(Manifold::is_finite)) {
-            return Err(OperatorError::NonFinitePoint {
-                what: "a sigma point's predicted measurement h(chi)",
-            });
-        }
-        let predicted = weighted_mean(
-            &centre,
-            once((&centre, w0m)).chain(plus.iter().chain(&minus).map(|y| (y, w))),
-            MeanSettings::default(),
-        )
-        .map_err(|source| OperatorError::Manifold {
-            what: "the mean of the sigma points' predicted measurements",
-            source,
-        })?;
-        let r0 = predicted.local(&centre);
-        let mut s = r0 * r0.transpose() * w0c + h.noise(mu);
-        let mut cross = SMatrix::<f64, D, M>::zeros();
-        for (d, (zp, zm)) in offsets.iter().zip(plus.iter().zip(&minus)) {
-            let (rp, rm) = (predicted.local(zp), predicted.local(zm));
-            s += (rp * rp.transpose() + rm * rm.transpose()) * w;
-            cross += d * (rp - rm).transpose() * w;
-        }
-        let predicted = predicted.z;
-        let (report, log_evidence) =
-            Innovation::new(h.residual(z, &predicted), &s, &cross, h.dof())?;
+        let moments = ukf.measurement_moments(self, None, h.noise(mu))?;
+        let (report, log_evidence) = Innovation::new(
+            h.residual(z, &moments.predicted),
+            &moments.covariance,
+            &moments.cross,
+            h.dof(),
+        )?;
         let gain = report.gain();
         let correction = report.correction();
         let posterior = checked_gaussian(
@@ -377,6 +354,80 @@ where
             posterior,
             log_evidence,
             report,
+        })
+    }
+}
+
+/// The unscented moments of a measurement model, the statistical linearisation a sigma-point
+/// update is made of (the UKF's, and the iterated posterior linearisation's at each iterate).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MeasurementMoments<const D: usize, const M: usize> {
+    /// ẑ, the weighted mean of the `h(χᵢ)` (the fixed point with the model's residual as ⊟).
+    pub(crate) predicted: SVector<f64, M>,
+    /// `Σ wᵢᶜ rᵢ rᵢᵀ` plus the noise the caller passed, `rᵢ = h(χᵢ) ⊟ ẑ`.
+    pub(crate) covariance: SMatrix<f64, M, M>,
+    /// `Σ wᵢᶜ dᵢ rᵢᵀ`, dᵢ the sigma offsets.
+    pub(crate) cross: SMatrix<f64, D, M>,
+}
+
+impl<H, const M: usize> Ukf<H, M> {
+    /// The moments of `h(μ ⊞ δ)` for `δ ~ N(c, P)`, μ and P the mean and covariance of `spread`
+    /// and c the `centre` (zero, the UKF's case, when `None`): sigma points `μ ⊞ c` and
+    /// `μ ⊞ (c ± γ sⱼ)`, the images checked finite, ẑ their [`weighted_mean`], and the covariance
+    /// accumulated onto `noise` (R for an update, zero for a bare linearisation).
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinitePoint`] for an image that is not finite, [`OperatorError::Manifold`]
+    /// when their mean does not converge.
+    pub(crate) fn measurement_moments<X, const D: usize>(
+        &self,
+        spread: &ManifoldGaussian<X, D>,
+        centre: Option<&SVector<f64, D>>,
+        noise: SMatrix<f64, M, M>,
+    ) -> Result<MeasurementMoments<D, M>, OperatorError>
+    where
+        X: Manifold<D, Scalar = f64>,
+        H: MeasurementModel<X, D, M>,
+    {
+        let (gamma, w0m, w0c, w) = self.weights(D);
+        let offsets = sigma_offsets(spread, gamma, self.root);
+        let (mu, h) = (spread.mean(), &self.model);
+        let image = |v: SVector<f64, D>| {
+            let offset = centre.map_or(v, |c| c + v);
+            Measured::new(h.predict(&mu.retract(&offset)), h)
+        };
+        let centre_image = Measured::new(
+            h.predict(&centre.map_or_else(|| mu.clone(), |c| mu.retract(c))),
+            h,
+        );
+        let plus = offsets.map(image);
+        let minus = offsets.map(|d| image(-d));
+        if !(centre_image.is_finite() && plus.iter().chain(&minus).all(Manifold::is_finite)) {
+            return Err(OperatorError::NonFinitePoint {
+                what: "a sigma point's predicted measurement h(chi)",
+            });
+        }
+        let predicted = weighted_mean(
+            &centre_image,
+            once((&centre_image, w0m)).chain(plus.iter().chain(&minus).map(|y| (y, w))),
+            MeanSettings::default(),
+        )
+        .map_err(|source| OperatorError::Manifold {
+            what: "the mean of the sigma points' predicted measurements",
+            source,
+        })?;
+        let r0 = predicted.local(&centre_image);
+        let mut covariance = r0 * r0.transpose() * w0c + noise;
+        let mut cross = SMatrix::<f64, D, M>::zeros();
+        for (d, (zp, zm)) in offsets.iter().zip(plus.iter().zip(&minus)) {
+            let (rp, rm) = (predicted.local(zp), predicted.local(zm));
+            covariance += (rp * rp.transpose() + rm * rm.transpose()) * w;
+            cross += d * (rp - rm).transpose() * w;
+        }
+        Ok(MeasurementMoments {
+            predicted: predicted.z,
+            covariance,
+            cross,
         })
     }
 }

@@ -1,0 +1,600 @@
+//! Iterated updates on any [`Manifold`]: the iterated EKF ([`IteratedEkf`], Gauss-Newton on the
+//! MAP cost) and the iterated posterior linearisation ([`IteratedUkf`], sigma points of the current
+//! posterior approximation), both on [`ManifoldGaussian`].
+//!
+//! With the prior `x = μ ⊞ δ`, `δ ~ N(0, P)`, and the measurement `z = h(x) + n`, `n ~ N(0, R)`, the
+//! posterior of δ (in the tangent space at μ) is approximated around iterates δᵢ:
+//!
+//! * **iterated EKF**: the minimiser of the MAP cost
+//!   `J(δ) = ½ δᵀ P⁻¹ δ + ½ r(δ)ᵀ R⁻¹ r(δ)`, `r(δ) = z ⊟ h(μ ⊞ δ)`, by Gauss-Newton: h is linearised at
+//!   `xᵢ = μ ⊞ δᵢ`, `r(δ) ≈ rᵢ − Hᵢ (δ − δᵢ)` with `Hᵢ = H(xᵢ) J(δᵢ)` (the model's Jacobian chained
+//!   with the retraction's, [`Manifold::j_retract_tangent`]), and the Kalman update of the prior with that
+//!   linear model proposes `δ̂ = Kᵢ νᵢ`, `νᵢ = rᵢ + Hᵢ δᵢ`, `Kᵢ = P Hᵢᵀ (Hᵢ P Hᵢᵀ + R)⁻¹`;
+//! * **iterated posterior linearisation** (García-Fernández, Svensson, Morelande and Särkkä, 2015):
+//!   h is linearised statistically, `h(μ ⊞ δ) ≈ A δ + b` with error covariance Ω, by the UKF's sigma
+//!   points of the current approximation `N(δᵢ, Pᵢ)`: `A = Ψᵀ Pᵢ⁻¹`, `b = ẑ − A δᵢ`,
+//!   `Ω = Φ − A Pᵢ Aᵀ` (ẑ, Φ, Ψ the sigma-point mean, covariance and cross-covariance); the Kalman
+//!   update of the prior with it proposes `δ̂ = K ν`, `ν = (z ⊟ ẑ) + A δᵢ`, `S = A P Aᵀ + Ω + R`,
+//!   and the next covariance `Pᵢ₊₁`.
+//!
+//! **Step control**: a proposed step that would increase the merit is halved, at most
+//! [`MAX_HALVINGS`] times, so the merit never increases from iterate to iterate; when no halving
+//! decreases it, the iteration stops ([`Stop::NoDescent`]). The iterated EKF's step is
+//! `Δ = δ̂ − δᵢ` and its merit the cost J. The posterior linearisation's iterate is the pair
+//! `(δᵢ, Pᵢ)` and its step `(Δ, Pᵢ₊₁ − Pᵢ)`; its fixed point is not J's minimum, so its merit is the
+//! length of its own proposed step, `(|L⁻¹ Δ|² + ‖L⁻¹ (Pᵢ₊₁ − Pᵢ) L⁻ᵀ‖²_F)^½` with `P = L Lᵀ`.
+//! **Stopping**: when the proposed step's length in prior standard deviations (`|L⁻¹ Δ|` for the
+//! iterated EKF, the joint length above for the posterior linearisation) is at most the tolerance
+//! ([`Stop::Converged`]), or after [`IterationSettings::max_iterations`] steps
+//! ([`Stop::IterationLimit`]).
+//!
+//! **The result**, at the final iterate δ* and its linearisation: the mean `μ ⊞ δ*`; the covariance of
+//! that linearisation's update (Joseph form `(I − K H) P (I − K H)ᵀ + K R Kᵀ` for the EKF, with
+//! `Ω + R` for R in the posterior linearisation), transported from the tangent space at μ to the one
+//! at the new mean, `J(δ*) P⁺ J(δ*)ᵀ` (first order: `(μ ⊞ δ) ⊟ (μ ⊞ δ*) ≈ J(δ*) (δ − δ*)`; see
+//! [`IterationSettings::with_transport`]); the log evidence `ln N(ν; 0, S)` of the final linear(ised)
+//! model, the Laplace-type approximation of `ln p(z)` at δ*; and an [`Iterated`] report (ν, S, K and
+//! the NIS of the final linearisation, the number of steps and why the iteration stopped).
+//!
+//! R is the model's noise at the prior mean, fixed over the iterations so that J is one function.
+//! On Rⁿ with a linear model both equal the Kalman update after one step. The math, with when to use
+//! which, is in `docs/operators/iterated.md`.
+
+use crate::error::all_finite;
+use crate::innovation::Innovation;
+use crate::kalman::joseph;
+use crate::models::MeasurementModel;
+use crate::numerics::{Produced, checked_gaussian};
+use crate::ukf::Ukf;
+use crate::{Condition, Conditioned, OperatorError};
+use liebayes_densities::ManifoldGaussian;
+use liebayes_manifolds::Manifold;
+use nalgebra::{Cholesky, SMatrix, SVector};
+
+/// The most halvings of one step before the iteration stops ([`Stop::NoDescent`]): the last step
+/// tried is 2⁻³⁰ ≈ 1e-9 of the proposed one.
+pub const MAX_HALVINGS: usize = 30;
+
+/// The largest accepted [`IterationSettings::max_iterations`].
+pub const MAX_ITERATIONS: usize = 1000;
+
+/// When an iteration stops: a tolerance on the step, a bound on the steps, and whether the
+/// covariance is transported to the posterior mean.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IterationSettings {
+    tolerance: f64,
+    max_iterations: usize,
+    transport: bool,
+}
+
+impl Default for IterationSettings {
+    /// Tolerance 1e-6 prior standard deviations, at most 20 steps, covariance transported. A step of
+    /// 1e-6 σ changes J by about 1e-12, well above its rounding; much tighter tolerances can end the
+    /// iterated EKF in [`Stop::NoDescent`] when the cost's rounding hides the last decrease.
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-6,
+            max_iterations: 20,
+            transport: true,
+        }
+    }
+}
+
+impl IterationSettings {
+    /// Stop when a step `Δ` is at most `tolerance` prior standard deviations (`|L⁻¹ Δ|`, `P = L Lᵀ`)
+    /// or after `max_iterations` steps; the covariance is transported (see
+    /// [`with_transport`](Self::with_transport)).
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for a NaN or infinite tolerance, [`OperatorError::OutOfRange`]
+    /// for a negative one or `max_iterations` outside `1..=`[`MAX_ITERATIONS`].
+    pub fn new(tolerance: f64, max_iterations: usize) -> Result<Self, OperatorError> {
+        all_finite("iteration tolerance", std::iter::once(&tolerance))?;
+        if tolerance < 0.0 {
+            return Err(OperatorError::OutOfRange {
+                what: "iteration tolerance",
+                value: tolerance,
+                range: "[0, infinity) prior standard deviations",
+            });
+        }
+        if !(1..=MAX_ITERATIONS).contains(&max_iterations) {
+            return Err(OperatorError::OutOfRange {
+                what: "maximum number of iterations",
+                value: max_iterations as f64,
+                range: "1 to 1000",
+            });
+        }
+        Ok(Self {
+            tolerance,
+            max_iterations,
+            transport: true,
+        })
+    }
+
+    /// The same settings with the posterior covariance transported to the tangent space at the new
+    /// mean, `J(δ*) P⁺ J(δ*)ᵀ` (`true`, the default), or left in the one at the prior mean
+    /// (`false`, as the one-pass [`Ekf`](crate::Ekf) does).
+    #[must_use]
+    pub fn with_transport(mut self, transport: bool) -> Self {
+        self.transport = transport;
+        self
+    }
+
+    /// The tolerance on a step, in prior standard deviations.
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+
+    /// The most steps.
+    pub fn max_iterations(&self) -> usize {
+        self.max_iterations
+    }
+
+    /// Whether the covariance is transported to the posterior mean.
+    pub fn transport(&self) -> bool {
+        self.transport
+    }
+}
+
+/// Why an iteration stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// The proposed step was within the tolerance: the iterate is a fixed point.
+    Converged,
+    /// [`IterationSettings::max_iterations`] steps were taken.
+    IterationLimit,
+    /// No halving of the proposed step ([`MAX_HALVINGS`]) decreased the merit: the iterate is a
+    /// minimum of J to rounding (a tolerance below J's rounding), or the posterior linearisation's
+    /// fixed-point iteration does not contract there.
+    NoDescent,
+}
+
+/// The report of an iterated update: the [`Innovation`] (ν, S, K, NIS) of the final linearisation,
+/// the number of steps taken and why the iteration stopped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Iterated<const N: usize, const M: usize> {
+    innovation: Innovation<N, M>,
+    iterations: usize,
+    stop: Stop,
+}
+
+impl<const N: usize, const M: usize> Iterated<N, M> {
+    /// ν, S, K and the NIS of the final linearisation: `ν = z ⊟ h(μ ⊞ δ*) + H δ*` (the innovation
+    /// of the linearised model against the prior), `K ν ≈ δ*` at convergence.
+    pub fn innovation(&self) -> &Innovation<N, M> {
+        &self.innovation
+    }
+
+    /// The NIS `νᵀ S⁻¹ ν` of the final linearisation.
+    pub fn nis(&self) -> f64 {
+        self.innovation.nis()
+    }
+
+    /// The steps taken (0 when the prior mean is already a fixed point).
+    pub fn iterations(&self) -> usize {
+        self.iterations
+    }
+
+    /// Why the iteration stopped.
+    pub fn stop(&self) -> Stop {
+        self.stop
+    }
+}
+
+/// A measurement model used by the iterated EKF: `density.condition(&IteratedEkf::new(&model), &z)`.
+/// M, the measurement dimension, is inferred from z. The retraction's Jacobian is the state's
+/// [`Manifold::j_retract_tangent`] (closed form on every space of the library).
+///
+/// # Example
+/// ```
+/// use liebayes_operators::densities::ManifoldGaussian;
+/// use liebayes_operators::manifolds::Rn;
+/// use liebayes_operators::iterated::{IteratedEkf, Stop};
+/// use liebayes_operators::{Condition, MeasurementFn};
+/// use nalgebra::{Matrix1, Vector1};
+///
+/// // A range z = x² + n read as 9 from a prior at 2: the MAP is near 3, beyond one EKF step.
+/// let range = MeasurementFn::new(|x: &Rn<f64, 1>| Vector1::new(x.coords()[0].powi(2)), |_| {
+///     Matrix1::new(1e-4)
+/// });
+/// let prior = ManifoldGaussian::new(Rn::new(Vector1::new(2.0)).unwrap(), Matrix1::new(1.0)).unwrap();
+/// let step = prior.condition(&IteratedEkf::new(&range), &Vector1::new(9.0)).unwrap();
+/// assert!((step.posterior.mean().coords()[0] - 3.0).abs() < 1e-3);
+/// assert_eq!(step.report.stop(), Stop::Converged);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IteratedEkf<Model, const M: usize = 0> {
+    /// The measurement model.
+    pub model: Model,
+    /// When to stop.
+    pub settings: IterationSettings,
+}
+
+impl<Model, const M: usize> IteratedEkf<Model, M> {
+    /// The model with the default [`IterationSettings`].
+    pub fn new(model: Model) -> Self {
+        Self {
+            model,
+            settings: IterationSettings::default(),
+        }
+    }
+}
+
+/// A measurement model used by the iterated posterior linearisation, with the sigma points of a
+/// [`Ukf`] (its scaling and square root): `density.condition(&IteratedUkf::new(&model), &z)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IteratedUkf<Model, const M: usize = 0> {
+    /// The model and the sigma points' parameters.
+    pub ukf: Ukf<Model, M>,
+    /// When to stop.
+    pub settings: IterationSettings,
+}
+
+impl<Model, const M: usize> IteratedUkf<Model, M> {
+    /// The model with the default sigma points ([`Ukf::new`]) and [`IterationSettings`].
+    pub fn new(model: Model) -> Self {
+        Self {
+            ukf: Ukf::new(model),
+            settings: IterationSettings::default(),
+        }
+    }
+}
+
+/// The Kalman update of the prior by the model linearised at one iterate.
+struct Linearised<const D: usize, const M: usize> {
+    innovation: Innovation<D, M>,
+    log_evidence: f64,
+    /// `P⁺`, in the tangent space at μ.
+    covariance: SMatrix<f64, D, D>,
+    /// The length of the proposed step in prior standard deviations: `|L⁻¹ Δ|` for the iterated
+    /// EKF; for the posterior linearisation, whose iterate is the pair (δ, P), the joint
+    /// `(|L⁻¹ Δ|² + ‖L⁻¹ (P⁺ − Pᵢ) L⁻ᵀ‖²_F)^½`.
+    step: f64,
+    /// What a step must not increase, at the iterate: J for the iterated EKF, the joint step for
+    /// the posterior linearisation (its fixed point is not J's minimum).
+    merit: f64,
+}
+
+/// How an iterate's merit is measured (see [`Linearised::merit`]).
+#[derive(Clone, Copy)]
+enum Merit<'a, const D: usize> {
+    /// The MAP cost J at the iterate.
+    Cost(f64),
+    /// The joint step from the iterate `(δᵢ, Pᵢ)`, given `Pᵢ`.
+    Step(&'a SMatrix<f64, D, D>),
+}
+
+impl<const D: usize, const M: usize> Linearised<D, M> {
+    /// `δ̂ = K ν`, the proposed iterate.
+    fn proposal(&self) -> SVector<f64, D> {
+        self.innovation.gain() * self.innovation.innovation()
+    }
+}
+
+/// One conditioning problem: the prior, the model, the reading and the fixed noise R.
+struct Problem<'a, X: Manifold<D, Scalar = f64>, H, const D: usize, const M: usize> {
+    prior: &'a ManifoldGaussian<X, D>,
+    model: &'a H,
+    z: &'a SVector<f64, M>,
+    noise: SMatrix<f64, M, M>,
+    noise_factor: Cholesky<f64, nalgebra::Const<M>>,
+}
+
+impl<'a, X, H, const D: usize, const M: usize> Problem<'a, X, H, D, M>
+where
+    X: Manifold<D, Scalar = f64>,
+    H: MeasurementModel<X, D, M>,
+{
+    /// The problem, with z and R (at the prior mean) checked finite and R positive definite.
+    fn new(
+        prior: &'a ManifoldGaussian<X, D>,
+        model: &'a H,
+        z: &'a SVector<f64, M>,
+    ) -> Result<Self, OperatorError> {
+        all_finite("measurement z", z.iter())?;
+        let noise = model.noise(prior.mean());
+        all_finite("measurement noise R", noise.iter())?;
+        let noise_factor = Cholesky::new(noise).ok_or(OperatorError::NotPositiveDefinite {
+            what: "measurement noise R (the iterated update's cost needs R^-1)",
+        })?;
+        Ok(Self {
+            prior,
+            model,
+            z,
+            noise,
+            noise_factor,
+        })
+    }
+
+    /// `μ ⊞ δ`, checked finite.
+    fn point(&self, delta: &SVector<f64, D>) -> Result<X, OperatorError> {
+        let x = self.prior.mean().retract(delta);
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(OperatorError::NonFinitePoint {
+                what: "an iterate mu ⊞ delta of the iterated update",
+            })
+        }
+    }
+
+    /// `r = z ⊟ h(x)`, checked finite.
+    fn residual(&self, x: &X) -> Result<SVector<f64, M>, OperatorError> {
+        let r = self.model.residual(self.z, &self.model.predict(x));
+        all_finite(
+            "residual z - h(x) at an iterate (the measurement model predicted a non-finite value)",
+            r.iter(),
+        )?;
+        Ok(r)
+    }
+
+    /// `|L⁻¹ v|` with `P = L Lᵀ`: v in prior standard deviations.
+    fn prior_norm(&self, v: &SVector<f64, D>) -> f64 {
+        // The density's factor has a positive diagonal.
+        self.prior
+            .cholesky_factor()
+            .solve_lower_triangular_unchecked(v)
+            .norm()
+    }
+
+    /// `J(δ) = ½ |L_P⁻¹ δ|² + ½ |L_R⁻¹ r|²` for the residual `r = r(δ)` (+∞ when it overflows).
+    fn cost(&self, delta: &SVector<f64, D>, residual: &SVector<f64, M>) -> f64 {
+        let data = self
+            .noise_factor
+            .l_dirty()
+            .solve_lower_triangular_unchecked(residual)
+            .norm_squared();
+        0.5 * (self.prior_norm(delta).powi(2) + data)
+    }
+
+    /// The first of the iterates `(δ + t Δ, P + t (P⁺ − P))`, t = 1, ½, ¼, … (at most
+    /// [`MAX_HALVINGS`] halvings; a convex combination of covariances is one) whose linearisation
+    /// has a merit of at most the current one, with that linearisation; `None` if there is none.
+    fn descend<L: Linearisation<X, H, D, M>>(
+        &self,
+        linearisation: &L,
+        iterate: &Iterate<D>,
+        current: &Linearised<D, M>,
+    ) -> Result<Option<(Iterate<D>, Linearised<D, M>)>, OperatorError> {
+        let mut step = current.proposal() - iterate.delta;
+        let mut spread_step = current.covariance - iterate.spread;
+        for _ in 0..=MAX_HALVINGS {
+            let candidate = Iterate {
+                delta: iterate.delta + step,
+                spread: iterate.spread + spread_step,
+            };
+            let linearised = linearisation.linearise(self, &candidate)?;
+            if linearised.merit <= current.merit {
+                return Ok(Some((candidate, linearised)));
+            }
+            step *= 0.5;
+            spread_step *= 0.5;
+        }
+        Ok(None)
+    }
+
+    /// The Kalman update of the prior by `z ≈ A δ + b + e`, `e ~ N(0, Ω)`, with `ν = (z ⊟ ẑ) + A δᵢ`
+    /// given as `residual + A δᵢ` (`Ω = 0` for the EKF), with the iterate's step and merit.
+    fn update(
+        &self,
+        residual: SVector<f64, M>,
+        slope: &SMatrix<f64, M, D>,
+        delta: &SVector<f64, D>,
+        error: &SMatrix<f64, M, M>,
+        merit: Merit<'_, D>,
+    ) -> Result<Linearised<D, M>, OperatorError> {
+        all_finite("linearised measurement model (slope)", slope.iter())?;
+        let p = self.prior.covariance();
+        let pat = p * slope.transpose();
+        let noise = error + self.noise;
+        let (innovation, log_evidence) = Innovation::new(
+            residual + slope * delta,
+            &(slope * pat + noise),
+            &pat,
+            self.model.dof(),
+        )?;
+        let covariance = joseph(p, innovation.gain(), slope, &noise);
+        all_finite("updated covariance of an iterate", covariance.iter())?;
+        let mean_step = self.prior_norm(&(innovation.gain() * innovation.innovation() - delta));
+        let (step, merit) = match merit {
+            Merit::Cost(cost) => (mean_step, cost),
+            Merit::Step(spread) => {
+                // ‖L⁻¹ X L⁻ᵀ‖_F by two triangular solves (the factor has a positive diagonal).
+                let l = self.prior.cholesky_factor();
+                let half = l.solve_lower_triangular_unchecked(&(covariance - spread));
+                let whitened = l.solve_lower_triangular_unchecked(&half.transpose());
+                let step = mean_step.hypot(whitened.norm());
+                (step, step)
+            }
+        };
+        Ok(Linearised {
+            innovation,
+            log_evidence,
+            covariance,
+            step,
+            merit,
+        })
+    }
+}
+
+/// An iterate `N(δᵢ, Pᵢ)` in the tangent space at the prior mean (the iterated EKF uses δᵢ only).
+struct Iterate<const D: usize> {
+    delta: SVector<f64, D>,
+    spread: SMatrix<f64, D, D>,
+}
+
+/// How an iterated update linearises the model at an iterate.
+trait Linearisation<X: Manifold<D, Scalar = f64>, H, const D: usize, const M: usize> {
+    /// The Kalman update of the prior by the model linearised at the iterate.
+    fn linearise(
+        &self,
+        problem: &Problem<'_, X, H, D, M>,
+        iterate: &Iterate<D>,
+    ) -> Result<Linearised<D, M>, OperatorError>;
+}
+
+/// The iterated EKF's: `Hᵢ = H(μ ⊞ δᵢ) J(δᵢ)`, Ω = 0 (the spread is not used).
+impl<X, H, const D: usize, const M: usize> Linearisation<X, H, D, M> for IteratedEkf<H, M>
+where
+    X: Manifold<D, Scalar = f64>,
+    H: MeasurementModel<X, D, M>,
+{
+    fn linearise(
+        &self,
+        problem: &Problem<'_, X, H, D, M>,
+        iterate: &Iterate<D>,
+    ) -> Result<Linearised<D, M>, OperatorError> {
+        let delta = &iterate.delta;
+        let x = problem.point(delta)?;
+        let residual = problem.residual(&x)?;
+        let jacobian = self.model.jacobian(&x);
+        all_finite("measurement Jacobian H at an iterate", jacobian.iter())?;
+        let chain = problem.prior.mean().j_retract_tangent(delta);
+        all_finite("retraction Jacobian J(delta) at an iterate", chain.iter())?;
+        let cost = problem.cost(delta, &residual);
+        problem.update(
+            residual,
+            &(jacobian * chain),
+            delta,
+            &SMatrix::zeros(),
+            Merit::Cost(cost),
+        )
+    }
+}
+
+/// The posterior linearisation's: the UKF's sigma-point moments of `N(δᵢ, Pᵢ)`.
+impl<X, H, const D: usize, const M: usize> Linearisation<X, H, D, M> for IteratedUkf<H, M>
+where
+    X: Manifold<D, Scalar = f64>,
+    H: MeasurementModel<X, D, M>,
+{
+    fn linearise(
+        &self,
+        problem: &Problem<'_, X, H, D, M>,
+        iterate: &Iterate<D>,
+    ) -> Result<Linearised<D, M>, OperatorError> {
+        let delta = &iterate.delta;
+        let spread = ManifoldGaussian::new(problem.prior.mean().clone(), iterate.spread)?;
+        let moments = self
+            .ukf
+            .measurement_moments(&spread, Some(delta), SMatrix::zeros())?;
+        let factor = spread.cholesky_factor();
+        // A = Ψᵀ Pᵢ⁻¹ by two triangular solves with Pᵢ = L Lᵀ (a positive diagonal).
+        let slope = factor
+            .tr_solve_lower_triangular_unchecked(
+                &factor.solve_lower_triangular_unchecked(&moments.cross),
+            )
+            .transpose();
+        let error = moments.covariance - slope * moments.cross;
+        let residual = problem.residual_from(&moments.predicted)?;
+        problem.update(
+            residual,
+            &slope,
+            delta,
+            &error,
+            Merit::Step(&iterate.spread),
+        )
+    }
+}
+
+impl<X, H, const D: usize, const M: usize> Problem<'_, X, H, D, M>
+where
+    X: Manifold<D, Scalar = f64>,
+    H: MeasurementModel<X, D, M>,
+{
+    /// `z ⊟ ẑ` for a predicted ẑ, checked finite.
+    fn residual_from(&self, predicted: &SVector<f64, M>) -> Result<SVector<f64, M>, OperatorError> {
+        let r = self.model.residual(self.z, predicted);
+        all_finite("residual z - z_hat of the sigma points", r.iter())?;
+        Ok(r)
+    }
+
+    /// The iteration (module docs): the final iterate δ*, its linearisation, the steps and the stop.
+    fn solve<L: Linearisation<X, H, D, M>>(
+        &self,
+        linearisation: &L,
+        settings: &IterationSettings,
+    ) -> Result<Conditioned<ManifoldGaussian<X, D>, Iterated<D, M>>, OperatorError> {
+        let mut iterate = Iterate {
+            delta: SVector::<f64, D>::zeros(),
+            spread: *self.prior.covariance(),
+        };
+        let mut current = linearisation.linearise(self, &iterate)?;
+        let mut iterations = 0;
+        let mut stop = Stop::IterationLimit;
+        while iterations < settings.max_iterations {
+            if current.step <= settings.tolerance {
+                stop = Stop::Converged;
+                break;
+            }
+            let Some((next, linearised)) = self.descend(linearisation, &iterate, &current)? else {
+                stop = Stop::NoDescent;
+                break;
+            };
+            (iterate, current) = (next, linearised);
+            iterations += 1;
+        }
+        let delta = iterate.delta;
+        let mean = self.point(&delta)?;
+        let covariance = if settings.transport {
+            let j = self.prior.mean().j_retract_tangent(&delta);
+            j * current.covariance * j.transpose()
+        } else {
+            current.covariance
+        };
+        let posterior = checked_gaussian(
+            mean,
+            &covariance,
+            Produced {
+                mean: "the posterior mean mu ⊞ delta* of the iterated update",
+                covariance: "posterior covariance of the iterated update (check the measurement \
+                             noise R and the Jacobian H)",
+            },
+        )?;
+        Ok(Conditioned {
+            posterior,
+            log_evidence: current.log_evidence,
+            report: Iterated {
+                innovation: current.innovation,
+                iterations,
+                stop,
+            },
+        })
+    }
+}
+
+impl<X, H, const D: usize, const M: usize> Condition<IteratedEkf<H, M>> for ManifoldGaussian<X, D>
+where
+    X: Manifold<D, Scalar = f64>,
+    H: MeasurementModel<X, D, M>,
+{
+    type Measurement = SVector<f64, M>;
+    type Report = Iterated<D, M>;
+
+    /// Gauss-Newton on the MAP cost (module docs).
+    fn condition(
+        &self,
+        iterated: &IteratedEkf<H, M>,
+        z: &SVector<f64, M>,
+    ) -> Result<Conditioned<Self, Iterated<D, M>>, OperatorError> {
+        Problem::new(self, &iterated.model, z)?.solve(iterated, &iterated.settings)
+    }
+}
+
+impl<X, H, const D: usize, const M: usize> Condition<IteratedUkf<H, M>> for ManifoldGaussian<X, D>
+where
+    X: Manifold<D, Scalar = f64>,
+    H: MeasurementModel<X, D, M>,
+{
+    type Measurement = SVector<f64, M>;
+    type Report = Iterated<D, M>;
+
+    /// The iterated posterior linearisation (module docs).
+    fn condition(
+        &self,
+        iterated: &IteratedUkf<H, M>,
+        z: &SVector<f64, M>,
+    ) -> Result<Conditioned<Self, Iterated<D, M>>, OperatorError> {
+        Problem::new(self, iterated.ukf.model(), z)?.solve(iterated, &iterated.settings)
+    }
+}
