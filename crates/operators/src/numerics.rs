@@ -7,21 +7,6 @@ use liebayes_densities::{DensityError, ManifoldGaussian};
 use liebayes_manifolds::Manifold;
 use nalgebra::SMatrix;
 
-/// The covariance of the errors about `μ ⊞ c` of a density whose errors about μ have mean c and
-/// covariance P: `J(c) P J(c)ᵀ` with `J(c) = ∂[(μ ⊞ (c + ε)) ⊟ (μ ⊞ c)]/∂ε`
-/// ([`Manifold::j_retract_tangent`]), the first-order "reset" of an error-state update that moves
-/// the mean by the correction c. Exact on Rⁿ and SO(2) (J = I), first order in |c| on curved groups,
-/// where leaving it out is an error of order |c| relative to P (large on SE(3) and SE_2(3), whose J
-/// couples rotation and translation with the lever arm of the correction).
-pub(crate) fn reset<X: Manifold<D, Scalar = f64>, const D: usize>(
-    mean: &X,
-    correction: &nalgebra::SVector<f64, D>,
-    covariance: &SMatrix<f64, D, D>,
-) -> SMatrix<f64, D, D> {
-    let j = mean.j_retract_tangent(correction);
-    j * covariance * j.transpose()
-}
-
 /// What a step names when the Gaussian it produced is refused: the mean (a model returned a point
 /// that is not finite) or the covariance (non-finite, not positive definite), each with what to check.
 #[derive(Clone, Copy, Debug)]

@@ -13,8 +13,7 @@
 //! * **condition**: `Zᵢ = h(χᵢ)`, ẑ the fixed point of `ẑ ← ẑ + Σ wᵢᵐ (Zᵢ ⊟ ẑ)` (the same
 //!   [`weighted_mean`], with the model's residual, which may wrap, as ⊟), `S = Σ wᵢᶜ rᵢ rᵢᵀ + R`,
 //!   `C = Σ wᵢᶜ dᵢ rᵢᵀ` with dᵢ the sigma offsets, `K = C S⁻¹`, `μ⁺ = μ ⊞ K (z ⊟ ẑ)`,
-//!   `P⁺ = P − K S Kᵀ` carried to the tangent space at μ⁺ by the reset `J(Kν) P⁺ J(Kν)ᵀ` (as the
-//!   [EKF](crate::ekf)'s); log evidence `ln N(z ⊟ ẑ; 0, S)`; the report is the [`Innovation`] (ν, S, K,
+//!   `P⁺ = P − K S Kᵀ` (in the tangent space at μ, as the [EKF](crate::ekf)'s); log evidence `ln N(z ⊟ ẑ; 0, S)`; the report is the [`Innovation`] (ν, S, K,
 //!   NIS).
 //!
 //! Every image Yᵢ and Zᵢ is checked with [`Manifold::is_finite`] before it is averaged, and a mean that
@@ -25,7 +24,7 @@
 //! points live in arrays of size D.
 
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, checked_gaussian, reset};
+use crate::numerics::{Produced, checked_gaussian};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -337,14 +336,9 @@ where
             h.dof(),
         )?;
         let gain = report.gain();
-        let correction = report.correction();
         let posterior = checked_gaussian(
-            mu.retract(&correction),
-            &reset(
-                mu,
-                &correction,
-                &(self.covariance() - gain * report.covariance() * gain.transpose()),
-            ),
+            mu.retract(&report.correction()),
+            &(self.covariance() - gain * report.covariance() * gain.transpose()),
             Produced {
                 mean: "the posterior mean mu ⊞ K nu",
                 covariance: "posterior covariance P - K S K^T (it lost positive definiteness; check R)",
