@@ -7,6 +7,7 @@ use super::strapdown::{ImuStep, PositionFix, Strapdown};
 use crate::FilterError;
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{Recursive, RecursiveFilter};
+use liebayes_operators::iterated::IteratedEkf;
 use liebayes_operators::{Ekf, OperatorError};
 use nalgebra::Vector3;
 use rand_chacha::ChaCha8Rng;
@@ -18,19 +19,27 @@ pub type InertialFilter = Box<
         + Send,
 >;
 
-/// The EKF on the state S with the strapdown process and the position fix.
-pub type InertialEkf<S> = Recursive<
-    ManifoldGaussian<S, NAVIGATION_DIM>,
-    Ekf<Strapdown>,
-    Ekf<PositionFix, 3>,
-    ToNavigation,
->;
+/// The EKF on the state S with the strapdown process and the position fix, the fix's update `U`
+/// (`Ekf<PositionFix, 3>` or `IteratedEkf<PositionFix, 3>`).
+pub type InertialEkf<S, U = Ekf<PositionFix, 3>> =
+    Recursive<ManifoldGaussian<S, NAVIGATION_DIM>, Ekf<Strapdown>, U, ToNavigation>;
+
+/// How a filter conditions on a position fix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FixUpdate {
+    /// The one-pass EKF update, linearised at the predicted mean.
+    OnePass,
+    /// The iterated EKF update (Gauss-Newton to the MAP, the covariance transported to it), with
+    /// the default settings.
+    Iterated,
+}
 
 /// The EKF of a convention on a scenario: its models and its prior
 /// ([`InertialScenario::prior`]), computed once and cloned into each run's filter.
 #[derive(Clone, Debug)]
 pub struct InertialMethod {
     convention: Convention,
+    update: FixUpdate,
     process: Strapdown,
     fix: PositionFix,
     prior: Prior,
@@ -45,11 +54,16 @@ enum Prior {
 }
 
 impl InertialMethod {
-    /// The EKF of `convention` for `scenario`, assuming the scenario's IMU noise and fix σ.
+    /// The EKF of `convention` for `scenario` with the fix's `update`, assuming the scenario's IMU
+    /// noise and fix σ.
     ///
     /// # Errors
     /// When the prior's moments are not a valid covariance.
-    pub fn new(convention: Convention, scenario: &InertialScenario) -> Result<Self, FilterError> {
+    pub fn new(
+        convention: Convention,
+        update: FixUpdate,
+        scenario: &InertialScenario,
+    ) -> Result<Self, FilterError> {
         let config: &InertialConfig = scenario.config();
         let prior = match convention {
             Convention::ErrorState => Prior::ErrorState(scenario.prior()?),
@@ -58,6 +72,7 @@ impl InertialMethod {
         };
         Ok(Self {
             convention,
+            update,
             process: Strapdown::new(config.imu)?,
             fix: PositionFix::new(config.fix_sigma)?,
             prior,
@@ -78,12 +93,21 @@ impl InertialMethod {
         &self,
         prior: ManifoldGaussian<S, NAVIGATION_DIM>,
     ) -> InertialFilter {
-        Box::new(InertialEkf::with_estimator(
-            prior,
-            Ekf(self.process),
-            Ekf(self.fix),
-            ToNavigation(self.convention),
-        ))
+        let (process, estimator) = (Ekf(self.process), ToNavigation(self.convention));
+        match self.update {
+            FixUpdate::OnePass => Box::new(InertialEkf::with_estimator(
+                prior,
+                process,
+                Ekf(self.fix),
+                estimator,
+            )),
+            FixUpdate::Iterated => Box::new(InertialEkf::with_estimator(
+                prior,
+                process,
+                IteratedEkf::<_, 3>::new(self.fix),
+                estimator,
+            )),
+        }
     }
 }
 
@@ -91,7 +115,10 @@ impl liebayes_experiments::Method for InertialMethod {
     type Filter = InertialFilter;
 
     fn label(&self) -> String {
-        self.convention.label().to_owned()
+        match self.update {
+            FixUpdate::OnePass => self.convention.label().to_owned(),
+            FixUpdate::Iterated => format!("{}, iterated fix", self.convention.label()),
+        }
     }
 
     fn validate(&self) -> Result<(), OperatorError> {

@@ -24,7 +24,7 @@ mod state;
 mod strapdown;
 
 pub use estimate::{Convention, NavigationEstimate, NavigationScorer, ToNavigation};
-pub use method::{InertialEkf, InertialFilter, InertialMethod};
+pub use method::{FixUpdate, InertialEkf, InertialFilter, InertialMethod};
 pub use scenario::{InertialConfig, InertialScenario, InertialSteps, InitialVelocity, PRIOR_DRAWS};
 pub use state::{
     ErrorState, LeftInvariant, NAVIGATION_DIM, Navigation, NavigationState, RightInvariant,
