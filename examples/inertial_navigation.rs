@@ -91,7 +91,7 @@ fn main() {
     println!("{:>10}{:>10}{:>10}", "in band", "heading", "position");
     for (label, summary) in &results {
         let nees = per_epoch(summary, "nees_navigation");
-        print!("{:<36}", label);
+        print!("{label:<36}");
         for k in shown {
             print!("{:>8.2}", nees.get(k).copied().unwrap_or(f64::NAN));
         }
