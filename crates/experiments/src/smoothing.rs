@@ -7,12 +7,13 @@
 //! * [`Smoothing`]: what the layer asks of a smoother, the smoothed estimates that are final,
 //!   in step order; a [`RecursiveFilter`] offers it through
 //!   [`RecursiveFilter::smoothing`].
-//! * [`Smoothed`]: a [`Smoother`] (the operators' [`RtsSmoother`] and [`FixedLagSmoother`]) with its
+//! * [`Smoothed`]: a [`Smoother`] (the operators' [`RtsSmoother`], [`FixedLagSmoother`] and
+//!   [`IteratedSmoother`]) with its
 //!   process and measurement models and its [`Estimator`], the smoothing counterpart of
 //!   [`Recursive`](crate::Recursive).
 //!
-//! When a step's smoothed estimate is final depends on the smoother: the RTS smoother releases
-//! every step's at the end of the run (each given every measurement of the run); the fixed-lag
+//! When a step's smoothed estimate is final depends on the smoother: the RTS and the iterated
+//! smoothers release every step's at the end of the run (each given every measurement of the run); the fixed-lag
 //! smoother of lag L releases step k − L's after step k (given the measurements up to step k), and
 //! the last L steps' at the end of the run (given every measurement).
 
@@ -21,8 +22,10 @@ use crate::score::Scorer;
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
 use liebayes_operators::fixed_lag::FixedLagSmoother;
+use liebayes_operators::iterated_smoother::IteratedSmoother;
 use liebayes_operators::smoother::{GaussianTransition, RtsSmoother};
-use liebayes_operators::{Condition, OperatorError};
+use liebayes_operators::{Condition, Innovation, MeasurementModel, OperatorError, ProcessModel};
+use nalgebra::SVector;
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Mutex, PoisonError};
 
@@ -141,6 +144,61 @@ where
             return Ok(first);
         }
         let smoothed = self.smooth()?;
+        let skip = usize::try_from(first).unwrap_or(usize::MAX);
+        for density in smoothed.iter().skip(skip) {
+            each(density)?;
+        }
+        Ok(first.max(smoothed.len() as u64))
+    }
+}
+
+/// The iterated smoother: the EKF forward pass, and at the end of the run the MAP trajectory by
+/// Gauss-Newton with the default settings, given the raw models (not wrapped in `Ekf`).
+impl<X, U, P, H, const D: usize, const M: usize> Smoother<P, H> for IteratedSmoother<X, U, D, M>
+where
+    X: Manifold<D, Scalar = f64>,
+    U: Clone,
+    P: ProcessModel<X, D, Input = U>,
+    H: MeasurementModel<X, D, M>,
+{
+    type Input = U;
+    type Measurement = SVector<f64, M>;
+    type Density = ManifoldGaussian<X, D>;
+    type Report = Innovation<D, M>;
+
+    fn propagate(&mut self, process: &P, input: &U) -> Result<(), OperatorError> {
+        IteratedSmoother::propagate(self, process, input)
+    }
+
+    fn condition(
+        &mut self,
+        measurement: &H,
+        z: &SVector<f64, M>,
+    ) -> Result<(f64, Innovation<D, M>), OperatorError> {
+        let step = IteratedSmoother::condition(self, measurement, z)?;
+        Ok((step.log_evidence, step.report))
+    }
+
+    fn current(&self) -> &Self::Density {
+        self.forward().current()
+    }
+
+    fn epoch(&self) -> u64 {
+        self.forward().filtered().len() as u64 - 1
+    }
+
+    fn release(
+        &mut self,
+        process: &P,
+        measurement: &H,
+        first: u64,
+        end: bool,
+        each: &mut dyn FnMut(&Self::Density) -> Result<(), OperatorError>,
+    ) -> Result<u64, OperatorError> {
+        if !end {
+            return Ok(first);
+        }
+        let smoothed = self.smooth(process, measurement)?.densities;
         let skip = usize::try_from(first).unwrap_or(usize::MAX);
         for density in smoothed.iter().skip(skip) {
             each(density)?;
