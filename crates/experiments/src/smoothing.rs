@@ -143,13 +143,22 @@ where
         if !end {
             return Ok(first);
         }
-        let smoothed = self.smooth()?;
-        let skip = usize::try_from(first).unwrap_or(usize::MAX);
-        for density in smoothed.iter().skip(skip) {
-            each(density)?;
-        }
-        Ok(first.max(smoothed.len() as u64))
+        release_from(&self.smooth()?, first, each)
     }
+}
+
+/// Calls `each` with the smoothed densities of a whole run from epoch `first` on, and returns the
+/// next epoch to release.
+fn release_from<Density>(
+    smoothed: &[Density],
+    first: u64,
+    each: &mut dyn FnMut(&Density) -> Result<(), OperatorError>,
+) -> Result<u64, OperatorError> {
+    let skip = usize::try_from(first).unwrap_or(usize::MAX);
+    for density in smoothed.iter().skip(skip) {
+        each(density)?;
+    }
+    Ok(first.max(smoothed.len() as u64))
 }
 
 /// The iterated smoother: the EKF forward pass, and at the end of the run the MAP trajectory by
@@ -198,12 +207,7 @@ where
         if !end {
             return Ok(first);
         }
-        let smoothed = self.smooth(process, measurement)?.densities;
-        let skip = usize::try_from(first).unwrap_or(usize::MAX);
-        for density in smoothed.iter().skip(skip) {
-            each(density)?;
-        }
-        Ok(first.max(smoothed.len() as u64))
+        release_from(&self.smooth(process, measurement)?.densities, first, each)
     }
 }
 

@@ -5,8 +5,8 @@
 
 use liebayes_experiments::Scenario;
 use liebayes_filters::inertial::{
-    ErrorState, GRAVITY, ImuNoise, ImuStep, InertialConfig, InertialScenario, Navigation,
-    NavigationState, PositionFix, Strapdown, integrate,
+    ErrorState, GRAVITY, ImuNoise, ImuStep, InertialConfig, InertialScenario, InitialVelocity,
+    Navigation, NavigationState, PositionFix, Strapdown, integrate,
 };
 use liebayes_manifolds::{LieGroup, Manifold, So3};
 use liebayes_operators::{MeasurementModel, ProcessModel};
@@ -78,7 +78,11 @@ fn the_error_state_process_noise_is_the_analytic_one() {
 
 #[test]
 fn the_error_state_prior_has_the_moments_of_the_initial_distribution() {
-    let config = InertialConfig::default();
+    // The velocity known in the world frame: every error independent and Gaussian.
+    let config = InertialConfig {
+        initial_velocity: InitialVelocity::World,
+        ..InertialConfig::default()
+    };
     let scenario = InertialScenario::new(config).unwrap();
     let prior = scenario.prior::<ErrorState>().unwrap();
     let p = prior.covariance();
@@ -207,4 +211,26 @@ fn the_position_fix_predicts_the_position() {
     // Additive position error: H = [0, 0, I, 0, 0].
     assert!((h.fixed_view::<3, 3>(0, 6) - Matrix3::identity()).amax() < 1e-9);
     assert!(h.fixed_view::<3, 6>(0, 0).amax() < 1e-9 && h.fixed_view::<3, 6>(0, 9).amax() < 1e-9);
+}
+
+#[test]
+fn a_velocity_known_in_the_body_frame_couples_with_the_heading() {
+    // v = R_z(φ) v̂ + n with v̂ = 5 m/s along x: δv_y = 5 sin φ, and for φ ~ N(0, σ²),
+    // E[φ sin φ] = σ² exp(−σ²/2); E[sin² φ] = (1 − exp(−2σ²))/2.
+    let config = InertialConfig::default();
+    let scenario = InertialScenario::new(config).unwrap();
+    let p = *scenario.prior::<ErrorState>().unwrap().covariance();
+    let s2 = config.heading_sigma.powi(2);
+    let coupling = 5.0 * s2 * (-s2 / 2.0).exp();
+    assert!(
+        (p[(4, 2)] - coupling).abs() < 0.03 * coupling,
+        "{} vs {coupling}",
+        p[(4, 2)]
+    );
+    let spread = 25.0 * (1.0 - (-2.0 * s2).exp()) / 2.0 + config.velocity_sigma.powi(2);
+    assert!(
+        (p[(4, 4)] - spread).abs() < 0.03 * spread,
+        "{} vs {spread}",
+        p[(4, 4)]
+    );
 }
