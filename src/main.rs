@@ -5,7 +5,8 @@
 //! short angle-of-arrival run (model comparison, single update, 50 square-track runs) in
 //! `out/aoa/`, then the attitude filters on a simulated log and, when the BROAD folder beside the project (or
 //! `$LIEBAYES_BROAD_DIR`) holds BROAD's `.mat` trials, on those (else one line says it is skipped),
-//! files in `out/attitude/`. `liebayes attitude --broad DIR | --simulate | --csv FILE` runs it alone.
+//! files in `out/attitude/`, then the inertial filters (30 runs) in `out/inertial/`.
+//! `liebayes attitude --broad DIR | --simulate | --csv FILE` and `liebayes inertial` run them alone.
 //! `liebayes azimuth --help` lists the study's settings; `--shard K/N --out DIR` runs one part of
 //! it, and `liebayes merge DIR... --out DIR` combines the parts exactly. `liebayes particles`
 //! searches the particle count at which the particle filter matches the exact filter.
@@ -14,6 +15,7 @@ mod aoa;
 mod attitude;
 mod azimuth;
 mod error;
+mod inertial;
 mod output;
 mod progress;
 mod report;
@@ -43,6 +45,9 @@ enum Command {
     /// IMU attitude: the liebayes EKF, the talk's filter and Madgwick's on BROAD trials, a
     /// simulated log or a CSV log (exactly one of --broad DIR, --simulate, --csv FILE).
     Attitude(attitude::Args),
+    /// Inertial navigation with position fixes: the error-state EKF and the invariant EKFs on
+    /// SE_2(3), each with a one-pass and an iterated fix, on the same runs.
+    Inertial(inertial::Args),
     /// The bootstrap particle filter's particle count that matches the exact filter's azimuth RMSE.
     Particles(azimuth::ParticleArgs),
     /// Combines the partial summaries of shards (the --out folders of `--shard K/N` runs) into the
@@ -91,7 +96,10 @@ fn main() -> ExitCode {
             };
             let done = study(&args)
                 .and_then(|()| aoa::main_job(&PathBuf::from("out/aoa")))
-                .and_then(|()| attitude::main_job(&PathBuf::from("out/attitude")));
+                .and_then(|()| attitude::main_job(&PathBuf::from("out/attitude")))
+                .and_then(|()| {
+                    inertial::run(&inertial::Args::main_job(&PathBuf::from("out/inertial")))
+                });
             if done.is_ok() {
                 report::print(
                     "\nThe manifolds and densities at work: cargo run --release --example tour",
@@ -102,6 +110,7 @@ fn main() -> ExitCode {
         Some(Command::Azimuth(args)) => study(&args),
         Some(Command::Aoa(args)) => aoa::run(&args),
         Some(Command::Attitude(args)) => attitude::run(&args),
+        Some(Command::Inertial(args)) => inertial::run(&args),
         Some(Command::Particles(args)) => azimuth::particles(&args),
         Some(Command::Merge(args)) => merge(&args),
     };
