@@ -473,6 +473,39 @@ fn attitude_simulate_writes_its_files_and_prints_the_table() {
 }
 
 #[test]
+fn inertial_writes_its_table_and_refuses_bad_settings() {
+    let dir = folder("inertial");
+    let out = liebayes(&["inertial", "--runs", "2", "--out", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let printed = text(&out.stdout);
+    assert!(
+        printed.contains("right-invariant EKF, iterated fix")
+            && printed.contains("nees_navigation"),
+        "{printed}"
+    );
+    let names = files(&dir);
+    assert!(
+        names.contains(&"inertial.summary.json".to_owned()),
+        "{names:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let empty = folder("inertial-bad");
+    for (args, needle) in [
+        (vec!["inertial", "--runs", "0"], "--runs is 0"),
+        (
+            vec!["inertial", "--initial-velocity", "sideways"],
+            "sideways",
+        ),
+    ] {
+        let mut args = args;
+        let e = empty.to_str().unwrap();
+        args.extend(["--out", e]);
+        assert_fails(&liebayes(&args), needle);
+    }
+    assert!(files(&empty).is_empty());
+}
+
+#[test]
 fn attitude_bad_broad_folder_fails_with_one_line() {
     let dir = folder("attitude-bad");
     std::fs::create_dir_all(&dir).unwrap();
