@@ -1,0 +1,8 @@
+//! The manifolds area of the package (`liebayes.manifolds`).
+
+use pyo3::prelude::*;
+
+/// Adds the area's classes and functions to the extension module.
+pub(crate) fn register(_m: &Bound<'_, PyModule>) -> PyResult<()> {
+    Ok(())
+}
