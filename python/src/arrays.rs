@@ -11,7 +11,10 @@ use pyo3::prelude::*;
 ///
 /// # Errors
 /// `ValueError` naming `name` when the array is not `(n, 3)`.
-pub(crate) fn vectors3(name: &str, array: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Vector3<f64>>> {
+pub(crate) fn vectors3(
+    name: &str,
+    array: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<Vec<Vector3<f64>>> {
     let shape = array.shape();
     if shape[1] != 3 {
         return Err(PyValueError::new_err(format!(
@@ -33,10 +36,44 @@ pub(crate) fn rows<'py>(
     k: usize,
     mut row: impl FnMut(usize, &mut [f64]),
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let mut data = vec![0.0; n.checked_mul(k).ok_or_else(|| value_error("array too large"))?];
+    let mut data = vec![
+        0.0;
+        n.checked_mul(k)
+            .ok_or_else(|| value_error("array too large"))?
+    ];
     for (i, chunk) in data.chunks_exact_mut(k).enumerate() {
         row(i, chunk);
     }
-    PyArray1::from_vec(py, data)
-        .reshape([n, k])
+    PyArray1::from_vec(py, data).reshape([n, k])
+}
+
+/// Any array-like (a numpy array of any dtype and layout, a list of lists) as a read-only
+/// float64 2-D numpy array: a float64 array is taken as it is (no copy), anything else is converted
+/// once by `numpy.asarray(x, dtype=float64)`.
+///
+/// # Errors
+/// `ValueError` naming `name` when it cannot be converted or is not 2-D.
+pub(crate) fn float_array2<'py>(
+    name: &str,
+    value: &Bound<'py, PyAny>,
+) -> PyResult<PyReadonlyArray2<'py, f64>> {
+    if let Ok(array) = value.extract::<PyReadonlyArray2<'py, f64>>() {
+        return Ok(array);
+    }
+    let py = value.py();
+    let converted = py
+        .import("numpy")?
+        .call_method1("asarray", (value, "float64"))
+        .map_err(|e| PyValueError::new_err(format!("{name}: not an array of numbers ({e})")))?;
+    converted
+        .extract::<PyReadonlyArray2<'py, f64>>()
+        .map_err(|_| {
+            let ndim = converted
+                .getattr("ndim")
+                .and_then(|d| d.extract::<usize>())
+                .unwrap_or(0);
+            PyValueError::new_err(format!(
+                "{name}: expected a 2-D array (one row per element), got {ndim} dimension(s)"
+            ))
+        })
 }

@@ -1,8 +1,584 @@
-//! The attitude area of the package (`liebayes.attitude`).
+//! The attitude area (`liebayes.attitude`): the production IMU attitude filter with a batch API in
+//! the shape of VQF's (`AttitudeFilter(dt, **params).update_batch(gyr, acc, mag=None)`), its
+//! per-sample `update` for streaming, and the BROAD reader.
+//!
+//! The filter is the library's `AttitudeEkf`, stepped exactly as the library's `record` loop steps
+//! it (predict with the gyroscope and accelerometer, then the magnetometer reading, then the
+//! estimate), so its output equals the `liebayes attitude` binary's bit for bit.
 
+use crate::arrays::float_array2;
+use crate::errors::value_error;
+use liebayes_experiments::RecursiveFilter;
+use liebayes_filters::attitude::{
+    AttitudeEkf, AttitudeParams, ImuSample, MAX_SAMPLES, Propagation, Sensors,
+    read_broad as read_broad_log,
+};
+use nalgebra::{UnitQuaternion, Vector3};
+use numpy::ndarray::ArrayView2;
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
-/// Adds the area's classes and functions to the extension module.
-pub(crate) fn register(_m: &Bound<'_, PyModule>) -> PyResult<()> {
+/// Adds the attitude filter and the BROAD reader to the extension module.
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<AttitudeFilter>()?;
+    m.add_function(wrap_pyfunction!(read_broad, m)?)?;
     Ok(())
+}
+
+/// The keyword parameters `AttitudeFilter` accepts, in the order `params()` lists them.
+const PARAMETER_NAMES: [&str; 18] = [
+    "gyro_noise",
+    "rate_noise",
+    "bias_walk",
+    "estimate_bias",
+    "initial_bias_sigma",
+    "initial_tilt_sigma",
+    "initial_heading_sigma",
+    "velocity_bound",
+    "velocity_walk",
+    "velocity_interval",
+    "block",
+    "propagation",
+    "rest_detection",
+    "mag_heading_sigma",
+    "mag_interval",
+    "mag_delay",
+    "mag_offset",
+    "mag_disturbance_rejection",
+];
+
+/// The production attitude filter (an error-state EKF on SO(3) × gyro bias × velocity, with rest
+/// detection and magnetic-disturbance rejection): orientation of the IMU frame with respect to
+/// East-North-Up as unit quaternions `[w, x, y, z]` (scalar first), with the heading and tilt σ.
+///
+/// `AttitudeFilter(dt=None, *, rate=None, sensors=None, **params)`: give the sampling interval
+/// `dt` (s) or the `rate` (Hz), exactly one; `sensors` is `"9d"` (gyroscope, accelerometer,
+/// magnetometer) or `"6d"`, or `None` to decide at the first update (9D when it has a
+/// magnetometer); `params` are the keyword parameters listed by `AttitudeFilter.parameter_names()`
+/// (SI units, angles in rad), the rest at their defaults (`AttitudeFilter.default_params()`).
+#[pyclass(module = "liebayes._liebayes")]
+pub struct AttitudeFilter {
+    params: AttitudeParams,
+    rate: f64,
+    sensors: Option<Sensors>,
+    filter: Option<AttitudeEkf>,
+}
+
+/// The outputs of a batch, filled sample by sample (each a flat row-major buffer).
+struct Outputs {
+    quat: Vec<f64>,
+    heading_sigma: Vec<f64>,
+    tilt_sigma: Vec<f64>,
+    bias: Vec<f64>,
+    rest: Vec<bool>,
+    mag_disturbance: Vec<bool>,
+}
+
+impl Outputs {
+    fn with_capacity(n: usize) -> Self {
+        Self {
+            quat: Vec::with_capacity(4 * n),
+            heading_sigma: Vec::with_capacity(n),
+            tilt_sigma: Vec::with_capacity(n),
+            bias: Vec::with_capacity(3 * n),
+            rest: Vec::with_capacity(n),
+            mag_disturbance: Vec::with_capacity(n),
+        }
+    }
+}
+
+/// A sample's failure: its index and the library's message.
+struct Failure {
+    sample: usize,
+    message: String,
+}
+
+#[pymethods]
+impl AttitudeFilter {
+    #[new]
+    #[pyo3(signature = (dt = None, *, rate = None, sensors = None, **params))]
+    fn new(
+        dt: Option<f64>,
+        rate: Option<f64>,
+        sensors: Option<&str>,
+        params: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let rate = match (dt, rate) {
+            (Some(dt), None) if dt.is_finite() && dt > 0.0 => 1.0 / dt,
+            (None, Some(rate)) => rate,
+            (Some(dt), None) => {
+                return Err(PyValueError::new_err(format!(
+                    "AttitudeFilter: dt is {dt}, expected a finite positive sampling interval (s)"
+                )));
+            }
+            _ => {
+                return Err(PyValueError::new_err(
+                    "AttitudeFilter: give exactly one of dt (s) and rate (Hz)",
+                ));
+            }
+        };
+        let sensors = sensors.map(parse_sensors).transpose()?;
+        let mut p = AttitudeParams::default();
+        if let Some(params) = params {
+            for (key, value) in params.iter() {
+                set_param(&mut p, &key.extract::<String>()?, &value)?;
+            }
+        }
+        // Checks every setting and the rate now, not at the first sample.
+        AttitudeEkf::new(p.clone(), sensors.unwrap_or(Sensors::NineD), rate)
+            .map_err(value_error)?;
+        let filter = sensors
+            .map(|s| AttitudeEkf::new(p.clone(), s, rate).map_err(value_error))
+            .transpose()?;
+        Ok(Self {
+            params: p,
+            rate,
+            sensors,
+            filter,
+        })
+    }
+
+    /// The keyword parameters the constructor accepts.
+    #[staticmethod]
+    fn parameter_names() -> Vec<&'static str> {
+        PARAMETER_NAMES.to_vec()
+    }
+
+    /// The default parameters, as a dict of keyword parameters.
+    #[staticmethod]
+    fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+        params_dict(py, &AttitudeParams::default())
+    }
+
+    /// This filter's parameters, as a dict of keyword parameters.
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        params_dict(py, &self.params)
+    }
+
+    /// The sampling rate (Hz).
+    #[getter]
+    fn rate(&self) -> f64 {
+        self.rate
+    }
+
+    /// `"9d"`, `"6d"`, or `None` before the first update when it was not given.
+    #[getter]
+    fn sensors(&self) -> Option<&'static str> {
+        self.sensors.map(|s| match s {
+            Sensors::NineD => "9d",
+            Sensors::SixD => "6d",
+        })
+    }
+
+    /// Filters a batch of samples and returns, per sample, a dict of arrays: `quat` (n, 4)
+    /// (scalar first), `heading_sigma` and `tilt_sigma` (n,) (rad), `bias` (n, 3) (rad/s),
+    /// `rest` and `mag_disturbance` (n,) (bool). `gyr` (rad/s), `acc` (m/s²) and `mag` (any
+    /// unit, e.g. µT) are (n, 3) float64 arrays in the IMU's axes; without `mag` the filter is
+    /// 6D. The state carries over to the next call. All or nothing: on a refused sample the call
+    /// raises `ValueError` naming it and the filter is as it was before the call. The GIL is
+    /// released while filtering.
+    #[pyo3(signature = (gyr, acc, mag = None))]
+    fn update_batch<'py>(
+        &mut self,
+        py: Python<'py>,
+        gyr: &Bound<'py, PyAny>,
+        acc: &Bound<'py, PyAny>,
+        mag: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let gyr = float_array2("gyr", gyr)?;
+        let acc = float_array2("acc", acc)?;
+        let mag = mag
+            .filter(|m| !m.is_none())
+            .map(|m| float_array2("mag", m))
+            .transpose()?;
+        let n = gyr.shape()[0];
+        check_rows("gyr", &gyr, n)?;
+        check_rows("acc", &acc, n)?;
+        if let Some(mag) = &mag {
+            check_rows("mag", mag, n)?;
+        }
+        if n > MAX_SAMPLES {
+            return Err(PyValueError::new_err(format!(
+                "update_batch: {n} samples, at most {MAX_SAMPLES} in one call"
+            )));
+        }
+        let mut filter = self.filter_for(mag.is_some())?.clone();
+        let (g, a) = (gyr.as_array(), acc.as_array());
+        let m = mag.as_ref().map(PyReadonlyArray2::as_array);
+        let outputs = py.detach(|| run_batch(&mut filter, &g, &a, m.as_ref()));
+        let outputs = outputs.map_err(|f| {
+            PyValueError::new_err(format!(
+                "update_batch: sample {}: {} (the filter is as it was before the call)",
+                f.sample, f.message
+            ))
+        })?;
+        self.filter = Some(filter);
+        let dict = PyDict::new(py);
+        dict.set_item(
+            "quat",
+            PyArray1::from_vec(py, outputs.quat).reshape([n, 4])?,
+        )?;
+        dict.set_item(
+            "heading_sigma",
+            PyArray1::from_vec(py, outputs.heading_sigma),
+        )?;
+        dict.set_item("tilt_sigma", PyArray1::from_vec(py, outputs.tilt_sigma))?;
+        dict.set_item(
+            "bias",
+            PyArray1::from_vec(py, outputs.bias).reshape([n, 3])?,
+        )?;
+        dict.set_item("rest", PyArray1::from_vec(py, outputs.rest))?;
+        dict.set_item(
+            "mag_disturbance",
+            PyArray1::from_vec(py, outputs.mag_disturbance),
+        )?;
+        Ok(dict)
+    }
+
+    /// Filters one sample (for streaming use): `gyr` (rad/s), `acc` (m/s²) and `mag` as
+    /// 3-sequences. Read the result from `quat`, `heading_sigma`, `tilt_sigma`, `bias`, `rest`,
+    /// `mag_disturbance`. On a refused sample it raises `ValueError` and the state is unchanged.
+    #[pyo3(signature = (gyr, acc, mag = None))]
+    fn update(&mut self, gyr: [f64; 3], acc: [f64; 3], mag: Option<[f64; 3]>) -> PyResult<()> {
+        let filter = self.filter_for(mag.is_some())?;
+        let mut stepped = filter.clone();
+        step(
+            &mut stepped,
+            &ImuSample {
+                gyro: Vector3::from(gyr),
+                acc: Vector3::from(acc),
+            },
+            mag.map(Vector3::from).as_ref(),
+        )
+        .map_err(value_error)?;
+        self.filter = Some(stepped);
+        Ok(())
+    }
+
+    /// The orientation `[w, x, y, z]` after the last sample.
+    #[getter]
+    fn quat<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let q = self.estimate()?.0;
+        Ok(PyArray1::from_slice(py, &[q.w, q.i, q.j, q.k]))
+    }
+
+    /// The world-frame attitude error covariance (3, 3) (rad²) after the last sample.
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let p = self.estimate()?.1;
+        let rows: Vec<Vec<f64>> = (0..3)
+            .map(|i| (0..3).map(|j| p[(i, j)]).collect())
+            .collect();
+        PyArray2::from_vec2(py, &rows).map_err(value_error)
+    }
+
+    /// The heading σ (rad) after the last sample.
+    #[getter]
+    fn heading_sigma(&self) -> PyResult<f64> {
+        Ok(sigmas(&self.estimate()?.1).0)
+    }
+
+    /// The tilt σ (rad) after the last sample.
+    #[getter]
+    fn tilt_sigma(&self) -> PyResult<f64> {
+        Ok(sigmas(&self.estimate()?.1).1)
+    }
+
+    /// The estimated gyroscope bias (3,) (rad/s) after the last sample.
+    #[getter]
+    fn bias<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let b = self.running()?.bias().unwrap_or_else(Vector3::zeros);
+        Ok(PyArray1::from_slice(py, b.as_slice()))
+    }
+
+    /// Whether the last sample was detected as rest.
+    #[getter]
+    fn rest(&self) -> PyResult<bool> {
+        Ok(self.running()?.at_rest())
+    }
+
+    /// Whether the last magnetometer update was refused as magnetically disturbed (9D).
+    #[getter]
+    fn mag_disturbance(&self) -> PyResult<bool> {
+        Ok(self.running()?.magnetic_disturbance())
+    }
+
+    /// Forgets every sample: the next update starts the filter anew.
+    fn reset(&mut self) -> PyResult<()> {
+        self.filter = self
+            .sensors
+            .map(|s| AttitudeEkf::new(self.params.clone(), s, self.rate).map_err(value_error))
+            .transpose()?;
+        Ok(())
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "AttitudeFilter(rate={}, sensors={:?}, samples={})",
+            self.rate,
+            self.sensors().unwrap_or("undecided"),
+            if self
+                .filter
+                .as_ref()
+                .is_some_and(AttitudeEkf::is_initialised)
+            {
+                "some"
+            } else {
+                "none"
+            }
+        )
+    }
+}
+
+impl AttitudeFilter {
+    /// The filter, built at the first update with the sensors that update implies; refuses a
+    /// magnetometer given to a 6D filter or missing for a 9D one.
+    fn filter_for(&mut self, has_mag: bool) -> PyResult<&AttitudeEkf> {
+        let wanted = if has_mag {
+            Sensors::NineD
+        } else {
+            Sensors::SixD
+        };
+        let sensors = *self.sensors.get_or_insert(wanted);
+        if sensors != wanted {
+            return Err(PyValueError::new_err(if has_mag {
+                "AttitudeFilter: this filter is 6D and takes no magnetometer (build one with sensors=\"9d\")"
+            } else {
+                "AttitudeFilter: this filter is 9D and needs the magnetometer (mag=...)"
+            }));
+        }
+        if self.filter.is_none() {
+            self.filter = Some(
+                AttitudeEkf::new(self.params.clone(), sensors, self.rate).map_err(value_error)?,
+            );
+        }
+        self.filter
+            .as_ref()
+            .ok_or_else(|| PyValueError::new_err("AttitudeFilter: no filter"))
+    }
+
+    /// The filter once it has a sample.
+    fn running(&self) -> PyResult<&AttitudeEkf> {
+        self.filter
+            .as_ref()
+            .filter(|f| f.is_initialised())
+            .ok_or_else(|| {
+                PyValueError::new_err("AttitudeFilter: no sample yet (call update first)")
+            })
+    }
+
+    /// The orientation and world-frame covariance after the last sample.
+    fn estimate(&self) -> PyResult<(UnitQuaternion<f64>, nalgebra::Matrix3<f64>)> {
+        let e = self.running()?.estimate().map_err(value_error)?;
+        Ok((
+            e.orientation,
+            e.covariance.unwrap_or_else(nalgebra::Matrix3::zeros),
+        ))
+    }
+}
+
+/// One sample as the library's `record` loop steps it: predict, then the magnetometer reading.
+fn step(
+    filter: &mut AttitudeEkf,
+    sample: &ImuSample,
+    mag: Option<&Vector3<f64>>,
+) -> Result<(), liebayes_operators::OperatorError> {
+    filter.predict(sample)?;
+    if let Some(z) = mag {
+        filter.update(z)?;
+    }
+    Ok(())
+}
+
+/// `(heading σ, tilt σ)` (rad) of a world-frame covariance: `√P_zz`, `√(P_xx + P_yy)`.
+fn sigmas(p: &nalgebra::Matrix3<f64>) -> (f64, f64) {
+    let d = p.diagonal().map(|v| v.max(0.0));
+    (d[2].sqrt(), (d[0] + d[1]).sqrt())
+}
+
+/// Runs the filter over every sample, keeping each estimate; stops at the first refused sample.
+fn run_batch(
+    filter: &mut AttitudeEkf,
+    gyr: &ArrayView2<'_, f64>,
+    acc: &ArrayView2<'_, f64>,
+    mag: Option<&ArrayView2<'_, f64>>,
+) -> Result<Outputs, Failure> {
+    let n = gyr.nrows();
+    let mut out = Outputs::with_capacity(n);
+    let row = |a: &ArrayView2<'_, f64>, k: usize| Vector3::new(a[[k, 0]], a[[k, 1]], a[[k, 2]]);
+    for k in 0..n {
+        let fail = |e: liebayes_operators::OperatorError| Failure {
+            sample: k,
+            message: e.to_string(),
+        };
+        let sample = ImuSample {
+            gyro: row(gyr, k),
+            acc: row(acc, k),
+        };
+        let z = mag.map(|m| row(m, k));
+        step(filter, &sample, z.as_ref()).map_err(fail)?;
+        let e = filter.estimate().map_err(fail)?;
+        let q = e.orientation;
+        out.quat.extend_from_slice(&[q.w, q.i, q.j, q.k]);
+        let (heading, tilt) = sigmas(&e.covariance.unwrap_or_else(nalgebra::Matrix3::zeros));
+        out.heading_sigma.push(heading);
+        out.tilt_sigma.push(tilt);
+        out.bias
+            .extend_from_slice(filter.bias().unwrap_or_else(Vector3::zeros).as_slice());
+        out.rest.push(filter.at_rest());
+        out.mag_disturbance.push(filter.magnetic_disturbance());
+    }
+    Ok(out)
+}
+
+/// Refuses an array that is not `(n, 3)` with the batch's `n`.
+fn check_rows(name: &str, array: &PyReadonlyArray2<'_, f64>, n: usize) -> PyResult<()> {
+    let shape = array.shape();
+    if shape != [n, 3] {
+        return Err(PyValueError::new_err(format!(
+            "update_batch: {name} has shape {shape:?}, expected ({n}, 3) (one row per sample, \
+             as gyr)"
+        )));
+    }
+    Ok(())
+}
+
+fn parse_sensors(name: &str) -> PyResult<Sensors> {
+    match name {
+        "9d" | "9D" => Ok(Sensors::NineD),
+        "6d" | "6D" => Ok(Sensors::SixD),
+        _ => Err(PyValueError::new_err(format!(
+            "AttitudeFilter: sensors is {name:?}, expected \"9d\", \"6d\" or None"
+        ))),
+    }
+}
+
+/// Sets one keyword parameter (a value's range is checked when the filter is built).
+fn set_param(p: &mut AttitudeParams, key: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+    let number = || -> PyResult<f64> {
+        value
+            .extract::<f64>()
+            .map_err(|_| PyValueError::new_err(format!("AttitudeFilter: {key} must be a number")))
+    };
+    let flag = || -> PyResult<bool> {
+        value.extract::<bool>().map_err(|_| {
+            PyValueError::new_err(format!("AttitudeFilter: {key} must be True or False"))
+        })
+    };
+    let defaults = AttitudeParams::default();
+    match key {
+        "gyro_noise" => p.gyro_noise = number()?,
+        "rate_noise" => p.rate_noise = number()?,
+        "bias_walk" => p.bias_walk = number()?,
+        "estimate_bias" => p.estimate_bias = flag()?,
+        "initial_bias_sigma" => p.initial_bias_sigma = number()?,
+        "initial_tilt_sigma" => p.initial_tilt_sigma = number()?,
+        "initial_heading_sigma" => p.initial_heading_sigma = number()?,
+        "velocity_bound" => p.velocity_bound = number()?,
+        "velocity_walk" => p.velocity_walk = number()?,
+        "velocity_interval" => p.velocity_interval = number()?,
+        "block" => p.block = number()?,
+        "propagation" => {
+            p.propagation = match value.extract::<String>().as_deref() {
+                Ok("ekf") => Propagation::Ekf,
+                Ok("ukf") => Propagation::Ukf,
+                _ => {
+                    return Err(PyValueError::new_err(
+                        "AttitudeFilter: propagation must be \"ekf\" or \"ukf\"",
+                    ));
+                }
+            }
+        }
+        "rest_detection" => p.rest = flag()?.then(|| defaults.rest.clone()).flatten(),
+        "mag_heading_sigma" => p.magnetometer.heading_sigma = number()?,
+        "mag_interval" => p.magnetometer.interval = number()?,
+        "mag_delay" => p.magnetometer.delay = number()?,
+        "mag_offset" => {
+            p.magnetometer.offset = flag()?.then_some(defaults.magnetometer.offset).flatten();
+        }
+        "mag_disturbance_rejection" => {
+            p.magnetometer.disturbance = flag()?
+                .then_some(defaults.magnetometer.disturbance)
+                .flatten();
+        }
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "AttitudeFilter: unknown parameter {key:?}; the parameters are {}",
+                PARAMETER_NAMES.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The parameters as a dict of keyword parameters.
+fn params_dict<'py>(py: Python<'py>, p: &AttitudeParams) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("gyro_noise", p.gyro_noise)?;
+    d.set_item("rate_noise", p.rate_noise)?;
+    d.set_item("bias_walk", p.bias_walk)?;
+    d.set_item("estimate_bias", p.estimate_bias)?;
+    d.set_item("initial_bias_sigma", p.initial_bias_sigma)?;
+    d.set_item("initial_tilt_sigma", p.initial_tilt_sigma)?;
+    d.set_item("initial_heading_sigma", p.initial_heading_sigma)?;
+    d.set_item("velocity_bound", p.velocity_bound)?;
+    d.set_item("velocity_walk", p.velocity_walk)?;
+    d.set_item("velocity_interval", p.velocity_interval)?;
+    d.set_item("block", p.block)?;
+    d.set_item(
+        "propagation",
+        match p.propagation {
+            Propagation::Ekf => "ekf",
+            Propagation::Ukf => "ukf",
+        },
+    )?;
+    d.set_item("rest_detection", p.rest.is_some())?;
+    d.set_item("mag_heading_sigma", p.magnetometer.heading_sigma)?;
+    d.set_item("mag_interval", p.magnetometer.interval)?;
+    d.set_item("mag_delay", p.magnetometer.delay)?;
+    d.set_item("mag_offset", p.magnetometer.offset.is_some())?;
+    d.set_item(
+        "mag_disturbance_rejection",
+        p.magnetometer.disturbance.is_some(),
+    )?;
+    Ok(d)
+}
+
+/// Reads a BROAD trial (`.mat`) into a dict of numpy arrays: `rate` (Hz), `gyr` (n, 3) (rad/s),
+/// `acc` (n, 3) (m/s²), `mag` (n, 3) (µT) or `None`, `quat` (n, 4) the reference orientation
+/// (scalar first; rows of NaN where the capture lost it) or `None`, `movement` (n,) (bool) or
+/// `None`. Raises `ValueError` with the reader's message for a file it cannot use.
+#[pyfunction]
+// pyo3 extracts `str` and `os.PathLike` arguments as an owned `PathBuf`.
+#[allow(clippy::needless_pass_by_value)]
+fn read_broad<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let log = py.detach(|| read_broad_log(&path)).map_err(value_error)?;
+    let n = log.len();
+    let vectors = |v: &[Vector3<f64>]| -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let flat: Vec<f64> = v.iter().flat_map(|x| [x[0], x[1], x[2]]).collect();
+        PyArray1::from_vec(py, flat).reshape([n, 3])
+    };
+    let d = PyDict::new(py);
+    d.set_item("rate", log.rate())?;
+    d.set_item("gyr", vectors(log.gyroscope())?)?;
+    d.set_item("acc", vectors(log.accelerometer())?)?;
+    d.set_item("mag", log.magnetometer().map(vectors).transpose()?)?;
+    let quat = log
+        .reference()
+        .map(|r| {
+            let flat: Vec<f64> = r
+                .iter()
+                .flat_map(|q| q.map_or([f64::NAN; 4], |q| [q.w, q.i, q.j, q.k]))
+                .collect();
+            PyArray1::from_vec(py, flat).reshape([n, 4])
+        })
+        .transpose()?;
+    d.set_item("quat", quat)?;
+    d.set_item(
+        "movement",
+        log.movement().map(|m| PyArray1::from_slice(py, m)),
+    )?;
+    Ok(d)
 }

@@ -1,0 +1,84 @@
+"""IMU attitude: the production filter with a batch API like VQF's, and the BROAD reader."""
+
+from os import PathLike
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Array = npt.NDArray[np.float64]
+
+class AttitudeFilter:
+    """The production attitude filter: orientation of the IMU frame w.r.t. East-North-Up as unit
+    quaternions [w, x, y, z], with the heading and tilt sigma.
+
+    Give the sampling interval ``dt`` (s) or the ``rate`` (Hz), exactly one. ``sensors`` is
+    ``"9d"``, ``"6d"``, or ``None`` to decide at the first update (9D when it has a magnetometer).
+    ``params`` are keyword parameters (``parameter_names()``; SI units, angles in rad).
+    Raises ``ValueError`` for a parameter out of its range or an unknown name.
+    """
+
+    def __init__(
+        self,
+        dt: Optional[float] = None,
+        *,
+        rate: Optional[float] = None,
+        sensors: Optional[str] = None,
+        **params: Union[float, bool, str],
+    ) -> None: ...
+    @staticmethod
+    def parameter_names() -> List[str]:
+        """The keyword parameters the constructor accepts."""
+    @staticmethod
+    def default_params() -> Dict[str, Any]:
+        """The default parameters."""
+    def params(self) -> Dict[str, Any]:
+        """This filter's parameters."""
+    @property
+    def rate(self) -> float:
+        """The sampling rate (Hz)."""
+    @property
+    def sensors(self) -> Optional[str]:
+        """``"9d"``, ``"6d"``, or ``None`` before the first update when not given."""
+    def update_batch(
+        self, gyr: _Array, acc: _Array, mag: Optional[_Array] = None
+    ) -> Dict[str, npt.NDArray[Any]]:
+        """Filters (n, 3) arrays of gyroscope (rad/s), accelerometer (m/s^2) and magnetometer
+        readings; returns ``quat`` (n, 4), ``heading_sigma``, ``tilt_sigma`` (n,) (rad), ``bias``
+        (n, 3) (rad/s), ``rest``, ``mag_disturbance`` (n,) (bool). All or nothing: a refused
+        sample raises ``ValueError`` naming it and leaves the filter as before the call. The GIL is
+        released while filtering."""
+    def update(
+        self,
+        gyr: Sequence[float],
+        acc: Sequence[float],
+        mag: Optional[Sequence[float]] = None,
+    ) -> None:
+        """Filters one sample (streaming); a refused sample raises and leaves the state unchanged."""
+    @property
+    def quat(self) -> _Array:
+        """The orientation [w, x, y, z] after the last sample."""
+    @property
+    def covariance(self) -> _Array:
+        """The world-frame attitude error covariance (3, 3) (rad^2)."""
+    @property
+    def heading_sigma(self) -> float:
+        """The heading sigma (rad)."""
+    @property
+    def tilt_sigma(self) -> float:
+        """The tilt sigma (rad)."""
+    @property
+    def bias(self) -> _Array:
+        """The estimated gyroscope bias (3,) (rad/s)."""
+    @property
+    def rest(self) -> bool:
+        """Whether the last sample was detected as rest."""
+    @property
+    def mag_disturbance(self) -> bool:
+        """Whether the last magnetometer update was refused as disturbed."""
+    def reset(self) -> None:
+        """Forgets every sample."""
+
+def read_broad(path: Union[str, "PathLike[str]"]) -> Dict[str, Any]:
+    """Reads a BROAD trial (.mat): ``rate`` (Hz), ``gyr``, ``acc``, ``mag`` (n, 3) or None,
+    ``quat`` (n, 4) reference (NaN rows where lost) or None, ``movement`` (n,) bool or None."""
