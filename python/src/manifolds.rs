@@ -337,11 +337,11 @@ impl So3Ops {
         })
     }
 
-    /// log(R): the rotation vectors of rotation matrices, angle in [0, pi]. (3, 3) -> (3,),
+    /// log(r): the rotation vectors of rotation matrices, angle in [0, pi]. (3, 3) -> (3,),
     /// (n, 3, 3) -> (n, 3).
     #[staticmethod]
     fn log<'py>(r: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("R", r, MAT3)?;
+        let x = read("r", r, MAT3)?;
         map_elements(r.py(), [&x], VEC3, |[s], out| {
             put_vector(&rotation(0, s)?.log(), out);
             Ok(())
@@ -354,55 +354,60 @@ impl So3Ops {
     fn compose<'py>(a: &Bound<'py, PyAny>, b: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let (ea, eb) = (read("a", a, MAT3)?, read("b", b, MAT3)?);
         map_elements(a.py(), [&ea, &eb], MAT3, |[sa, sb], out| {
-            put_matrix(&rotation(0, sa)?.compose(&rotation(1, sb)?).to_matrix(), out);
+            put_matrix(
+                &rotation(0, sa)?.compose(&rotation(1, sb)?).to_matrix(),
+                out,
+            );
             Ok(())
         })
     }
 
-    /// inverse(R): the inverse rotations (the transposes).
+    /// inverse(r): the inverse rotations (the transposes).
     #[staticmethod]
     fn inverse<'py>(r: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("R", r, MAT3)?;
+        let x = read("r", r, MAT3)?;
         map_elements(r.py(), [&x], MAT3, |[s], out| {
             put_matrix(&rotation(0, s)?.inverse().to_matrix(), out);
             Ok(())
         })
     }
 
-    /// act(R, v): the rotated vectors `R v`. R (3, 3) or (n, 3, 3), v (3,) or (n, 3), broadcast.
+    /// act(r, v): the rotated vectors `R v`. R (3, 3) or (n, 3, 3), v (3,) or (n, 3), broadcast.
     #[staticmethod]
     fn act<'py>(r: &Bound<'py, PyAny>, v: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let (er, ev) = (read("R", r, MAT3)?, read("v", v, VEC3)?);
+        let (er, ev) = (read("r", r, MAT3)?, read("v", v, VEC3)?);
         map_elements(r.py(), [&er, &ev], VEC3, |[sr, sv], out| {
             put_vector(&rotation(0, sr)?.act(&point(1, sv)?), out);
             Ok(())
         })
     }
 
-    /// act_jacobian(R, v): `d(R v)/dR = -R hat(v)` for a right perturbation `R exp(w)`, shape
+    /// act_jacobian(r, v): `d(R v)/dR = -R hat(v)` for a right perturbation `R exp(w)`, shape
     /// (3, 3) per element (the Jacobian in v is R itself).
     #[staticmethod]
     fn act_jacobian<'py>(
         r: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (er, ev) = (read("R", r, MAT3)?, read("v", v, VEC3)?);
+        let (er, ev) = (read("r", r, MAT3)?, read("v", v, VEC3)?);
         map_elements(r.py(), [&er, &ev], MAT3, |[sr, sv], out| {
             put_matrix(&rotation(0, sr)?.j_act_self(&point(1, sv)?), out);
             Ok(())
         })
     }
 
-    /// retract(R, omega): `R exp(omega)`, the right perturbation. Broadcasts.
+    /// retract(r, omega): `R exp(omega)`, the right perturbation. Broadcasts.
     #[staticmethod]
     fn retract<'py>(
         r: &Bound<'py, PyAny>,
         omega: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (er, ev) = (read("R", r, MAT3)?, read("omega", omega, VEC3)?);
+        let (er, ev) = (read("r", r, MAT3)?, read("omega", omega, VEC3)?);
         map_elements(r.py(), [&er, &ev], MAT3, |[sr, sv], out| {
             put_matrix(
-                &rotation(0, sr)?.retract(&rotation_vector(1, sv)?).to_matrix(),
+                &rotation(0, sr)?
+                    .retract(&rotation_vector(1, sv)?)
+                    .to_matrix(),
                 out,
             );
             Ok(())
@@ -422,10 +427,7 @@ impl So3Ops {
     /// distance(a, b): the angle in [0, pi] of `aᵀ b`; a float for two single rotations, shape
     /// (n,) otherwise.
     #[staticmethod]
-    fn distance<'py>(
-        a: &Bound<'py, PyAny>,
-        b: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyAny>> {
+    fn distance<'py>(a: &Bound<'py, PyAny>, b: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let (ea, eb) = (read("a", a, MAT3)?, read("b", b, MAT3)?);
         map_elements(a.py(), [&ea, &eb], SCALAR, |[sa, sb], out| {
             out[0] = rotation(0, sa)?.distance(&rotation(1, sb)?);
@@ -433,10 +435,10 @@ impl So3Ops {
         })
     }
 
-    /// adjoint(R): the adjoint matrices `Ad(R)`, which for SO(3) is R itself (validated).
+    /// adjoint(r): the adjoint matrices `Ad(R)`, which for SO(3) is R itself (validated).
     #[staticmethod]
     fn adjoint<'py>(r: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("R", r, MAT3)?;
+        let x = read("r", r, MAT3)?;
         map_elements(r.py(), [&x], MAT3, |[s], out| {
             put_matrix(&rotation(0, s)?.adjoint(), out);
             Ok(())
@@ -475,14 +477,17 @@ impl So3Ops {
         so3_jacobian(omega, So3::<f64>::hat)
     }
 
-    /// vee(A): the vectors of the antisymmetric parts of 3×3 matrices (the inverse of hat on skew
+    /// vee(a): the vectors of the antisymmetric parts of 3×3 matrices (the inverse of hat on skew
     /// matrices). (3, 3) -> (3,), (n, 3, 3) -> (n, 3).
     #[staticmethod]
     fn vee<'py>(a: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("A", a, MAT3)?;
+        let x = read("a", a, MAT3)?;
         map_elements(a.py(), [&x], VEC3, |[s], out| {
             let m = finite_vector::<9>(0, "matrix", s)?;
-            put_vector(&So3::<f64>::vee(&Matrix3::from_row_slice(m.as_slice())), out);
+            put_vector(
+                &So3::<f64>::vee(&Matrix3::from_row_slice(m.as_slice())),
+                out,
+            );
             Ok(())
         })
     }
@@ -498,23 +503,24 @@ impl So3Ops {
         })
     }
 
-    /// to_quaternion(R): the unit quaternions `[w, x, y, z]` of rotation matrices, with `w >= 0`.
+    /// to_quaternion(r): the unit quaternions `[w, x, y, z]` of rotation matrices, with `w >= 0`.
     #[staticmethod]
     fn to_quaternion<'py>(r: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("R", r, MAT3)?;
+        let x = read("r", r, MAT3)?;
         map_elements(r.py(), [&x], VEC4, |[s], out| {
             out.copy_from_slice(&rotation(0, s)?.to_su2().to_quaternion_wxyz());
             Ok(())
         })
     }
 
-    /// orthonormalize(M): the rotation nearest to each matrix in the Frobenius norm (the polar
+    /// orthonormalize(m): the rotation nearest to each matrix in the Frobenius norm (the polar
     /// factor), for matrices that drifted from orthonormality. Refuses det M <= 0.
     #[staticmethod]
     fn orthonormalize<'py>(m: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("M", m, MAT3)?;
+        let x = read("m", m, MAT3)?;
         map_elements(m.py(), [&x], MAT3, |[s], out| {
-            let r = So3::from_matrix_orthonormalized(&Matrix3::from_row_slice(s)).map_err(fail(0))?;
+            let r =
+                So3::from_matrix_orthonormalized(&Matrix3::from_row_slice(s)).map_err(fail(0))?;
             put_matrix(&r.to_matrix(), out);
             Ok(())
         })
@@ -610,10 +616,10 @@ impl UnitQuaternionOps {
         })
     }
 
-    /// from_matrix(R): the unit quaternions of rotation matrices, the lift with `w >= 0`.
+    /// from_matrix(r): the unit quaternions of rotation matrices, the lift with `w >= 0`.
     #[staticmethod]
     fn from_matrix<'py>(r: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("R", r, MAT3)?;
+        let x = read("r", r, MAT3)?;
         map_elements(r.py(), [&x], VEC4, |[s], out| {
             out.copy_from_slice(&rotation(0, s)?.to_su2().to_quaternion_wxyz());
             Ok(())
@@ -695,10 +701,7 @@ impl S2Ops {
     /// distance(x, y): the great-circle angle in [0, pi]; a float for two single points, (n,)
     /// otherwise.
     #[staticmethod]
-    fn distance<'py>(
-        x: &Bound<'py, PyAny>,
-        y: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyAny>> {
+    fn distance<'py>(x: &Bound<'py, PyAny>, y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let (ex, ey) = (read("x", x, VEC3)?, read("y", y, VEC3)?);
         map_elements(x.py(), [&ex, &ey], SCALAR, |[sx, sy], out| {
             out[0] = sphere_point(0, sx)?.distance(&sphere_point(1, sy)?);
@@ -722,7 +725,8 @@ impl S2Ops {
     fn normalize<'py>(v: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let ev = read("v", v, VEC3)?;
         map_elements(v.py(), [&ev], VEC3, |[sv], out| {
-            let p = S2::from_vector_normalizing(&Vector3::from_column_slice(sv)).map_err(fail(0))?;
+            let p =
+                S2::from_vector_normalizing(&Vector3::from_column_slice(sv)).map_err(fail(0))?;
             put_vector(p.as_vector(), out);
             Ok(())
         })
@@ -738,7 +742,7 @@ impl S2Ops {
 /// Elements have shape (4, 4) or (n, 4, 4), checked: finite, bottom row `[0, 0, 0, 1]` and rotation
 /// block as for `So3` (tolerance 1e-9). Tangent vectors have shape (6,) or (n, 6) and put **the
 /// translation block first**: `xi = [rho; phi]`, `exp(xi) = (exp(phi), V(phi) rho)` with V the left
-/// Jacobian of SO(3). Perturbations are on the right (`retract(T, xi) = T exp(xi)`: rho is a
+/// Jacobian of SO(3). Perturbations are on the right (`retract(T, xi) = x exp(xi)`: rho is a
 /// displacement in the body frame) and the Jacobians are right Jacobians unless named left.
 #[pyclass(name = "Se3", module = "liebayes._liebayes", frozen)]
 struct Se3Ops;
@@ -756,11 +760,11 @@ impl Se3Ops {
         })
     }
 
-    /// log(T): the tangents `[rho; phi]` of homogeneous matrices, rotation angle in [0, pi].
+    /// log(x): the tangents `[rho; phi]` of homogeneous matrices, rotation angle in [0, pi].
     #[staticmethod]
-    fn log<'py>(t: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("T", t, MAT4)?;
-        map_elements(t.py(), [&x], VEC6, |[s], out| {
+    fn log<'py>(x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let ex = read("x", x, MAT4)?;
+        map_elements(x.py(), [&ex], VEC6, |[s], out| {
             put_vector(&pose(0, s)?.log(), out);
             Ok(())
         })
@@ -776,52 +780,46 @@ impl Se3Ops {
         })
     }
 
-    /// inverse(T): the inverse motions `[[Rᵀ, -Rᵀ t], [0, 1]]`.
+    /// inverse(x): the inverse motions `[[Rᵀ, -Rᵀ t], [0, 1]]`.
     #[staticmethod]
-    fn inverse<'py>(t: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("T", t, MAT4)?;
-        map_elements(t.py(), [&x], MAT4, |[s], out| {
+    fn inverse<'py>(x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let ex = read("x", x, MAT4)?;
+        map_elements(x.py(), [&ex], MAT4, |[s], out| {
             put_matrix(&pose(0, s)?.inverse().to_homogeneous(), out);
             Ok(())
         })
     }
 
-    /// act(T, p): the transformed points `R p + t`. Broadcasts.
+    /// act(x, p): the transformed points `R p + t`. Broadcasts.
     #[staticmethod]
-    fn act<'py>(t: &Bound<'py, PyAny>, p: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let (et, ep) = (read("T", t, MAT4)?, read("p", p, VEC3)?);
-        map_elements(t.py(), [&et, &ep], VEC3, |[st, sp], out| {
+    fn act<'py>(x: &Bound<'py, PyAny>, p: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let (et, ep) = (read("x", x, MAT4)?, read("p", p, VEC3)?);
+        map_elements(x.py(), [&et, &ep], VEC3, |[st, sp], out| {
             put_vector(&pose(0, st)?.act(&point(1, sp)?), out);
             Ok(())
         })
     }
 
-    /// act_jacobian(T, p): `d(T p)/dT = [R, -R hat(p)]` for a right perturbation, shape (3, 6) per
+    /// act_jacobian(x, p): `d(x p)/dx = [R, -R hat(p)]` for a right perturbation, shape (3, 6) per
     /// element (the Jacobian in p is R).
     #[staticmethod]
     fn act_jacobian<'py>(
-        t: &Bound<'py, PyAny>,
+        x: &Bound<'py, PyAny>,
         p: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (et, ep) = (read("T", t, MAT4)?, read("p", p, VEC3)?);
-        map_elements(t.py(), [&et, &ep], MAT3X6, |[st, sp], out| {
+        let (et, ep) = (read("x", x, MAT4)?, read("p", p, VEC3)?);
+        map_elements(x.py(), [&et, &ep], MAT3X6, |[st, sp], out| {
             put_matrix(&pose(0, st)?.j_act_self(&point(1, sp)?), out);
             Ok(())
         })
     }
 
-    /// retract(T, xi): `T exp(xi)`, the right perturbation. Broadcasts.
+    /// retract(x, xi): `x exp(xi)`, the right perturbation. Broadcasts.
     #[staticmethod]
-    fn retract<'py>(
-        t: &Bound<'py, PyAny>,
-        xi: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let (et, ev) = (read("T", t, MAT4)?, read("xi", xi, VEC6)?);
-        map_elements(t.py(), [&et, &ev], MAT4, |[st, sv], out| {
-            put_matrix(
-                &pose(0, st)?.retract(&twist(1, sv)?).to_homogeneous(),
-                out,
-            );
+    fn retract<'py>(x: &Bound<'py, PyAny>, xi: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let (et, ev) = (read("x", x, MAT4)?, read("xi", xi, VEC6)?);
+        map_elements(x.py(), [&et, &ev], MAT4, |[st, sv], out| {
+            put_matrix(&pose(0, st)?.retract(&twist(1, sv)?).to_homogeneous(), out);
             Ok(())
         })
     }
@@ -836,11 +834,11 @@ impl Se3Ops {
         })
     }
 
-    /// adjoint(T): `Ad(T) = [[R, hat(t) R], [0, R]]`, shape (6, 6) per element.
+    /// adjoint(x): `Ad(x) = [[R, hat(t) R], [0, R]]`, shape (6, 6) per element.
     #[staticmethod]
-    fn adjoint<'py>(t: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("T", t, MAT4)?;
-        map_elements(t.py(), [&x], MAT6, |[s], out| {
+    fn adjoint<'py>(x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let ex = read("x", x, MAT4)?;
+        map_elements(x.py(), [&ex], MAT6, |[s], out| {
             put_matrix(&pose(0, s)?.adjoint(), out);
             Ok(())
         })
@@ -850,13 +848,17 @@ impl Se3Ops {
     /// element.
     #[staticmethod]
     fn right_jacobian<'py>(xi: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        se3_matrix(xi, MAT6, |v, out| put_matrix(&Se3::<f64>::right_jacobian(v), out))
+        se3_matrix(xi, MAT6, |v, out| {
+            put_matrix(&Se3::<f64>::right_jacobian(v), out)
+        })
     }
 
     /// left_jacobian(xi): `Jl(xi) = Jr(-xi)`, with `exp(xi + d) = exp(Jl d + O(d²)) exp(xi)`.
     #[staticmethod]
     fn left_jacobian<'py>(xi: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        se3_matrix(xi, MAT6, |v, out| put_matrix(&Se3::<f64>::left_jacobian(v), out))
+        se3_matrix(xi, MAT6, |v, out| {
+            put_matrix(&Se3::<f64>::left_jacobian(v), out)
+        })
     }
 
     /// right_jacobian_inverse(xi): `Jr(xi)⁻¹`, singular at rotation angles 2 pi k (k >= 1).
@@ -881,26 +883,29 @@ impl Se3Ops {
         se3_matrix(xi, MAT4, |v, out| put_matrix(&Se3::<f64>::hat(v), out))
     }
 
-    /// vee(A): `[A[0:3, 3]; vee(antisymmetric part of A[0:3, 0:3])]` of 4×4 matrices, (6,) per
+    /// vee(a): `[A[0:3, 3]; vee(antisymmetric part of A[0:3, 0:3])]` of 4×4 matrices, (6,) per
     /// element (the inverse of hat on the algebra).
     #[staticmethod]
     fn vee<'py>(a: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = read("A", a, MAT4)?;
+        let x = read("a", a, MAT4)?;
         map_elements(a.py(), [&x], VEC6, |[s], out| {
             let m = finite_vector::<16>(0, "matrix", s)?;
-            put_vector(&Se3::<f64>::vee(&Matrix4::from_row_slice(m.as_slice())), out);
+            put_vector(
+                &Se3::<f64>::vee(&Matrix4::from_row_slice(m.as_slice())),
+                out,
+            );
             Ok(())
         })
     }
 
-    /// from_rotation_translation(R, t): the homogeneous matrices `[[R, t], [0, 1]]` of rotation
+    /// from_rotation_translation(r, t): the homogeneous matrices `[[R, t], [0, 1]]` of rotation
     /// matrices (3, 3) and translations (3,), checked like every input. Broadcasts.
     #[staticmethod]
     fn from_rotation_translation<'py>(
         r: &Bound<'py, PyAny>,
         t: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (er, et) = (read("R", r, MAT3)?, read("t", t, VEC3)?);
+        let (er, et) = (read("r", r, MAT3)?, read("t", t, VEC3)?);
         map_elements(r.py(), [&er, &et], MAT4, |[sr, st], out| {
             let translation = finite_vector::<3>(1, "translation", st)?;
             let x = Se3::from_parts(&Matrix3::from_row_slice(sr), &translation).map_err(fail(0))?;
