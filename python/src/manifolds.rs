@@ -17,11 +17,12 @@ use crate::errors::value_error;
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, ManifoldError, S2, Se3, So3, Su2};
 use nalgebra::{Matrix3, Matrix4, SMatrix, SVector, Vector2, Vector3, Vector6};
 use numpy::{
-    PyArray1, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray,
+    PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray,
     PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyFloat};
 
 /// Adds the area's classes to the extension module.
@@ -93,12 +94,13 @@ fn float_array<'py>(
             )));
         }
     }
+    static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
     kwargs.set_item("order", "C")?;
-    let converted = py
-        .import("numpy")?
-        .call_method("asarray", (obj,), Some(&kwargs))?;
+    let converted = ASARRAY
+        .import(py, "numpy", "asarray")?
+        .call((obj,), Some(&kwargs))?;
     converted.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
         PyTypeError::new_err(format!("{name}: could not read it as an array of float64"))
     })
@@ -200,18 +202,29 @@ fn map_elements<'py, const N: usize>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let count = broadcast_count(&inputs)?;
     let width: usize = out_shape.iter().product();
-    let len = count
-        .unwrap_or(1)
-        .checked_mul(width)
-        .ok_or_else(|| value_error("the result would be too large"))?;
+    let mut shape = Vec::with_capacity(out_shape.len() + 1);
+    if let Some(n) = count {
+        shape.push(n);
+    }
+    shape.extend_from_slice(out_shape);
+    // Allocated by numpy (a MemoryError rather than an abort when it does not fit, and numpy's
+    // allocator, which asks for huge pages on large arrays) and filled in place below.
+    static ZEROS: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+    let result = ZEROS
+        .import(py, "numpy", "zeros")?
+        .call1((shape,))?
+        .cast_into::<PyArrayDyn<f64>>()
+        .map_err(|_| value_error("numpy.zeros did not return an array of float64"))?;
     let mut slices: [&[f64]; N] = [&[]; N];
     for (slot, input) in slices.iter_mut().zip(inputs) {
         *slot = input.array.as_slice().map_err(value_error)?;
     }
     let widths: [usize; N] = std::array::from_fn(|j| inputs[j].width);
     let batched: [bool; N] = std::array::from_fn(|j| inputs[j].count.is_some());
-    let result = py.detach(move || -> Result<Vec<f64>, (usize, Failure)> {
-        let mut out = vec![0.0; len];
+    let mut writer = result.try_readwrite().map_err(value_error)?;
+    let out = writer.as_slice_mut().map_err(value_error)?;
+    let filled = py.detach(|| -> Result<(), (usize, Failure)> {
+        // A zero width (no output numbers) cannot occur: every output has at least one number.
         for (i, chunk) in out.chunks_exact_mut(width).enumerate() {
             let element: [&[f64]; N] = std::array::from_fn(|j| {
                 let k = if batched[j] { i } else { 0 };
@@ -219,9 +232,9 @@ fn map_elements<'py, const N: usize>(
             });
             f(element, chunk).map_err(|failure| (i, failure))?;
         }
-        Ok(out)
+        Ok(())
     });
-    let out = result.map_err(|(i, failure)| {
+    filled.map_err(|(i, failure)| {
         let input = inputs[failure.arg];
         if input.count.is_some() {
             value_error(format!("{}[{i}]: {}", input.name, failure.message))
@@ -232,12 +245,8 @@ fn map_elements<'py, const N: usize>(
     if count.is_none() && out_shape.is_empty() {
         return Ok(PyFloat::new(py, out[0]).into_any());
     }
-    let mut shape = Vec::with_capacity(out_shape.len() + 1);
-    if let Some(n) = count {
-        shape.push(n);
-    }
-    shape.extend_from_slice(out_shape);
-    Ok(PyArray1::from_vec(py, out).reshape(shape)?.into_any())
+    drop(writer);
+    Ok(result.into_any())
 }
 
 /// Writes a matrix into `out` in C (row-major) order.
@@ -331,7 +340,7 @@ impl So3Ops {
     fn exp<'py>(omega: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let v = read("omega", omega, VEC3)?;
         map_elements(omega.py(), [&v], MAT3, |[s], out| {
-            let r = So3::from_rotation_vector(&rotation_vector(0, s)?).map_err(fail(0))?;
+            let r = So3::from_rotation_vector(&Vector3::from_column_slice(s)).map_err(fail(0))?;
             put_matrix(&r.to_matrix(), out);
             Ok(())
         })
@@ -559,7 +568,7 @@ impl UnitQuaternionOps {
     fn exp<'py>(omega: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let v = read("omega", omega, VEC3)?;
         map_elements(omega.py(), [&v], VEC4, |[s], out| {
-            let q = Su2::from_rotation_vector(&rotation_vector(0, s)?).map_err(fail(0))?;
+            let q = Su2::from_rotation_vector(&Vector3::from_column_slice(s)).map_err(fail(0))?;
             out.copy_from_slice(&q.to_quaternion_wxyz());
             Ok(())
         })
