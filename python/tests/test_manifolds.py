@@ -120,6 +120,11 @@ def test_so3_single_element_shapes_and_lists():
     big = rotation_vectors(10, 2)
     np.testing.assert_array_equal(So3.exp(big[::2]), So3.exp(big)[::2])
     np.testing.assert_array_equal(So3.exp(np.asfortranarray(big)), So3.exp(big))
+    np.testing.assert_array_equal(So3.exp(big.astype(">f8")), So3.exp(big))
+    np.testing.assert_array_equal(So3.exp(big.astype(np.float32)), So3.exp(big.astype(np.float32).astype(float)))
+    frozen = big.copy()
+    frozen.flags.writeable = False
+    np.testing.assert_array_equal(So3.exp(frozen), So3.exp(big))
     mats = So3.exp(big)
     np.testing.assert_array_equal(So3.log(mats.transpose(0, 2, 1)), So3.log(np.ascontiguousarray(mats.transpose(0, 2, 1))))
 
