@@ -72,6 +72,12 @@ fn shape_text(shape: &[usize], batch: bool) -> String {
     }
 }
 
+/// `numpy.asarray`, looked up once.
+static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+
+/// `numpy.zeros`, looked up once.
+static ZEROS: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+
 /// The argument as a C-contiguous `float64` array: the array itself when it already is one,
 /// otherwise one conversion by `numpy.asarray(obj, dtype=float64, order="C")` (lists, integer or `float32` arrays,
 /// strided views). Arrays whose dtype is not real-valued (complex, bool, object, strings) raise
@@ -94,7 +100,6 @@ fn float_array<'py>(
             )));
         }
     }
-    static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
     kwargs.set_item("order", "C")?;
@@ -209,7 +214,6 @@ fn map_elements<'py, const N: usize>(
     shape.extend_from_slice(out_shape);
     // Allocated by numpy (a MemoryError rather than an abort when it does not fit, and numpy's
     // allocator, which asks for huge pages on large arrays) and filled in place below.
-    static ZEROS: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
     let result = ZEROS
         .import(py, "numpy", "zeros")?
         .call1((shape,))?
@@ -858,7 +862,7 @@ impl Se3Ops {
     #[staticmethod]
     fn right_jacobian<'py>(xi: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         se3_matrix(xi, MAT6, |v, out| {
-            put_matrix(&Se3::<f64>::right_jacobian(v), out)
+            put_matrix(&Se3::<f64>::right_jacobian(v), out);
         })
     }
 
@@ -866,7 +870,7 @@ impl Se3Ops {
     #[staticmethod]
     fn left_jacobian<'py>(xi: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         se3_matrix(xi, MAT6, |v, out| {
-            put_matrix(&Se3::<f64>::left_jacobian(v), out)
+            put_matrix(&Se3::<f64>::left_jacobian(v), out);
         })
     }
 
