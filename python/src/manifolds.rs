@@ -78,7 +78,8 @@ static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 /// `numpy.zeros`, looked up once.
 static ZEROS: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 
-/// The argument as a C-contiguous `float64` array: the array itself when it already is one,
+/// The argument as an aligned C-contiguous `float64` array: the array itself when it already is
+/// one,
 /// otherwise one conversion by `numpy.asarray(obj, dtype=float64, order="C")` (lists, integer or `float32` arrays,
 /// strided views). Arrays whose dtype is not real-valued (complex, bool, object, strings) raise
 /// `TypeError` instead of being cast.
@@ -88,7 +89,7 @@ fn float_array<'py>(
     obj: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     if let Ok(array) = obj.cast::<PyArrayDyn<f64>>() {
-        if array.is_c_contiguous() {
+        if array.is_c_contiguous() && array.is_aligned() {
             return Ok(array.clone());
         }
     }
@@ -106,9 +107,17 @@ fn float_array<'py>(
     let converted = ASARRAY
         .import(py, "numpy", "asarray")?
         .call((obj,), Some(&kwargs))?;
-    converted.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
+    let array = converted.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
         PyTypeError::new_err(format!("{name}: could not read it as an array of float64"))
-    })
+    })?;
+    if array.is_aligned() {
+        return Ok(array);
+    }
+    // A misaligned buffer (a view into raw bytes at an odd offset) is copied into a fresh array.
+    array
+        .call_method0("copy")?
+        .cast_into::<PyArrayDyn<f64>>()
+        .map_err(|_| PyTypeError::new_err(format!("{name}: could not copy it as float64")))
 }
 
 /// One argument: a single element of a fixed shape or a batch of them, read in place.

@@ -122,6 +122,11 @@ def test_so3_single_element_shapes_and_lists():
     np.testing.assert_array_equal(So3.exp(np.asfortranarray(big)), So3.exp(big))
     np.testing.assert_array_equal(So3.exp(big.astype(">f8")), So3.exp(big))
     np.testing.assert_array_equal(So3.exp(big.astype(np.float32)), So3.exp(big.astype(np.float32).astype(float)))
+    raw = np.zeros(big.size * 8 + 1, dtype=np.uint8)
+    misaligned = np.frombuffer(raw.data, dtype=np.float64, offset=1, count=big.size).reshape(big.shape)
+    misaligned[...] = big
+    assert not misaligned.flags.aligned
+    np.testing.assert_array_equal(So3.exp(misaligned), So3.exp(big))
     frozen = big.copy()
     frozen.flags.writeable = False
     np.testing.assert_array_equal(So3.exp(frozen), So3.exp(big))
