@@ -486,3 +486,16 @@ def test_bad_shapes_and_dtypes_raise():
         So3.exp(None)
     with pytest.raises(TypeError):
         So3.exp()  # pylint: disable=no-value-for-parameter
+
+
+def test_extreme_finite_inputs_give_finite_results():
+    huge = np.array([[1e300, -1e300, 1e300], [1e-300, 0.0, 0.0], [np.pi, 0.0, 0.0]])
+    for out in [So3.exp(huge), So3.right_jacobian(huge), UnitQuaternion.exp(huge), So3.log(So3.exp(huge))]:
+        assert np.all(np.isfinite(out))
+    np.testing.assert_allclose(So3.exp(huge) @ So3.exp(huge).transpose(0, 2, 1), np.tile(np.eye(3), (3, 1, 1)), atol=1e-15)
+    xi = np.array([[1e300, 1e300, -1e300, 0.1, 0.2, 0.3], [1.0, 2.0, 3.0, 1e300, 0.0, 0.0]])
+    assert np.all(np.isfinite(Se3.exp(xi)))
+    assert np.all(np.isfinite(Se3.right_jacobian(xi)))
+    x = np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(np.linalg.norm(S2.exp(x, [1e300, 0.0, 0.0])), 1.0, atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(S2.retract(x, [1e-300, 1e300])), 1.0, atol=1e-15)
