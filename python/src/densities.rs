@@ -45,10 +45,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// `obj` as a read-only `float64` array: a `float64` array is read in place; anything else numpy
 /// converts (lists, integer arrays) is converted once; the rest is a `ValueError` naming `name`.
-fn float_array<'py>(
-    name: &str,
-    obj: &Bound<'py, PyAny>,
-) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+fn float_array<'py>(name: &str, obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
     if let Ok(array) = obj.extract::<PyReadonlyArrayDyn<'py, f64>>() {
         return Ok(array);
     }
@@ -62,9 +59,9 @@ fn float_array<'py>(
                 "{name}: expected an array of float64 (or values numpy converts to float64): {e}"
             ))
         })?;
-    converted.extract::<PyReadonlyArrayDyn<'py, f64>>().map_err(|e| {
-        PyValueError::new_err(format!("{name}: expected an array of float64: {e}"))
-    })
+    converted
+        .extract::<PyReadonlyArrayDyn<'py, f64>>()
+        .map_err(|e| PyValueError::new_err(format!("{name}: expected an array of float64: {e}")))
 }
 
 /// The components of a fixed-size parameter (a mean vector, a matrix) in row-major order, with
@@ -115,7 +112,11 @@ struct Points<'a> {
 }
 
 /// The points of `view`, whose trailing dimensions must be `point_shape`.
-fn points<'a>(name: &str, view: ArrayViewD<'a, f64>, point_shape: &[usize]) -> PyResult<Points<'a>> {
+fn points<'a>(
+    name: &str,
+    view: &ArrayViewD<'a, f64>,
+    point_shape: &[usize],
+) -> PyResult<Points<'a>> {
     let shape = view.shape().to_vec();
     let k = point_shape.len();
     if shape.len() < k || shape[shape.len() - k..] != *point_shape {
@@ -170,7 +171,7 @@ fn map_points<'py, P, E: std::fmt::Display>(
         leading,
         data,
         width,
-    } = points(name, array.as_array(), point_shape)?;
+    } = points(name, &array.as_array(), point_shape)?;
     let n = leading.iter().product::<usize>();
     let data: &[f64] = &data;
     let result = py.detach(|| -> Result<Vec<f64>, PointError> {
@@ -194,15 +195,14 @@ fn map_points<'py, P, E: std::fmt::Display>(
     if leading.is_empty() {
         return Ok(PyFloat::new(py, values.first().copied().unwrap_or(f64::NAN)).into_any());
     }
-    Ok(PyArray1::from_vec(py, values)
-        .reshape(leading)?
-        .into_any())
+    Ok(PyArray1::from_vec(py, values).reshape(leading)?.into_any())
 }
 
 /// A length as a `usize`, refusing negative values with a `ValueError`.
 fn count(name: &str, n: i64) -> PyResult<usize> {
-    usize::try_from(n)
-        .map_err(|_| PyValueError::new_err(format!("{name} must be a non-negative integer, got {n}")))
+    usize::try_from(n).map_err(|_| {
+        PyValueError::new_err(format!("{name} must be a non-negative integer, got {n}"))
+    })
 }
 
 /// A 63-bit seed drawn from a `numpy.random.Generator` (`rng.integers(0, 2**63)`); anything else
@@ -216,7 +216,8 @@ fn seed_from(rng: &Bound<'_, PyAny>) -> PyResult<u64> {
             rng.get_type().name()?
         )));
     }
-    rng.call_method1("integers", (0_u64, 1_u64 << 63))?.extract::<u64>()
+    rng.call_method1("integers", (0_u64, 1_u64 << 63))?
+        .extract::<u64>()
 }
 
 /// `n` draws of `density` written by `put` (`width` numbers each) from the ChaCha8 stream seeded by
@@ -253,7 +254,11 @@ fn draw<'py, D: Density + Sync>(
 }
 
 /// A new `float64` array of `shape` from row-major values.
-fn array_of<'py>(py: Python<'py>, values: Vec<f64>, shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
+fn array_of<'py>(
+    py: Python<'py>,
+    values: Vec<f64>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
     Ok(PyArray1::from_vec(py, values)
         .reshape(shape.to_vec())?
         .into_any())
@@ -264,7 +269,9 @@ fn matrix_array<'py, const R: usize, const C: usize>(
     py: Python<'py>,
     m: &SMatrix<f64, R, C>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let values = (0..R).flat_map(|i| (0..C).map(move |j| m[(i, j)])).collect();
+    let values = (0..R)
+        .flat_map(|i| (0..C).map(move |j| m[(i, j)]))
+        .collect();
     array_of(py, values, &[R, C])
 }
 
@@ -415,7 +422,9 @@ impl PyVonMises {
         let array = float_array("samples", samples)?;
         let angles: Vec<f64> = array.as_array().iter().copied().collect();
         if angles.is_empty() {
-            return Err(PyValueError::new_err("samples: at least one sample is needed"));
+            return Err(PyValueError::new_err(
+                "samples: at least one sample is needed",
+            ));
         }
         if let Some((i, a)) = angles.iter().enumerate().find(|(_, a)| !a.is_finite()) {
             return Err(PyValueError::new_err(format!(
@@ -455,7 +464,10 @@ impl PyVonMises {
     fn product(&self, other: &Bound<'_, Self>) -> PyResult<(Self, f64)> {
         let other = &other.get().inner;
         let joint = self.inner.product(other).map_err(value_error)?;
-        let evidence = self.inner.log_product_integral(other).map_err(value_error)?;
+        let evidence = self
+            .inner
+            .log_product_integral(other)
+            .map_err(value_error)?;
         Ok((Self { inner: joint }, evidence))
     }
 
@@ -579,7 +591,10 @@ impl PyVonMisesFisher {
     fn product(&self, other: &Bound<'_, Self>) -> PyResult<(Self, f64)> {
         let other = &other.get().inner;
         let joint = self.inner.product(other).map_err(value_error)?;
-        let evidence = self.inner.log_product_integral(other).map_err(value_error)?;
+        let evidence = self
+            .inner
+            .log_product_integral(other)
+            .map_err(value_error)?;
         Ok((Self { inner: joint }, evidence))
     }
 
@@ -696,9 +711,13 @@ impl PyBingham {
     ) -> PyResult<Self> {
         let v = parameter("measured", measured, &[3])?;
         let h = parameter("reference", reference, &[3])?;
-        Bingham::from_direction(&Vector3::from_row_slice(&v), &Vector3::from_row_slice(&h), sigma)
-            .map(|inner| Self { inner })
-            .map_err(value_error)
+        Bingham::from_direction(
+            &Vector3::from_row_slice(&v),
+            &Vector3::from_row_slice(&h),
+            sigma,
+        )
+        .map(|inner| Self { inner })
+        .map_err(value_error)
     }
 
     /// The uniform distribution on S³.
@@ -726,10 +745,12 @@ impl PyBingham {
                 shape_text(array.shape())
             )));
         }
-        let pts = points("samples", array.as_array(), &[4])?;
+        let pts = points("samples", &array.as_array(), &[4])?;
         let n = pts.leading[0];
         if n == 0 {
-            return Err(PyValueError::new_err("samples: at least one sample is needed"));
+            return Err(PyValueError::new_err(
+                "samples: at least one sample is needed",
+            ));
         }
         let w = fit_weights(weights, &[n])?;
         let data: &[f64] = &pts.data;
@@ -746,9 +767,8 @@ impl PyBingham {
             }
             Ok(s)
         });
-        let scatter = scatter.map_err(|e| {
-            PyValueError::new_err(format!("samples[{}]: {}", e.index, e.message))
-        })?;
+        let scatter = scatter
+            .map_err(|e| PyValueError::new_err(format!("samples[{}]: {}", e.index, e.message)))?;
         Bingham::from_second_moment(scatter)
             .map(|inner| Self { inner })
             .map_err(value_error)
@@ -774,7 +794,10 @@ impl PyBingham {
     fn product(&self, other: &Bound<'_, Self>) -> PyResult<(Self, f64)> {
         let other = &other.get().inner;
         let joint = self.inner.product(other).map_err(value_error)?;
-        let evidence = self.inner.log_product_integral(other).map_err(value_error)?;
+        let evidence = self
+            .inner
+            .log_product_integral(other)
+            .map_err(value_error)?;
         Ok((Self { inner: joint }, evidence))
     }
 
@@ -916,12 +939,20 @@ impl PyHeatKernelSo3 {
     }
 
     /// The density of the rotation angle of `mean⁻¹ R` at angles `t` in [0, π] (any shape).
-    fn angle_pdf<'py>(&self, py: Python<'py>, t: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    fn angle_pdf<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         map_angles(py, t, |a| self.inner.angle_pdf(a))
     }
 
     /// The CDF of the rotation angle at angles `t` in [0, π] (any shape).
-    fn angle_cdf<'py>(&self, py: Python<'py>, t: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    fn angle_cdf<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         map_angles(py, t, |a| self.inner.angle_cdf(a))
     }
 
