@@ -510,3 +510,28 @@ def test_inputs_numpy_converts_and_strided_views_are_accepted():
     wide[:, ::2] = [0, 0, 1.0]
     np.testing.assert_allclose(p.log_pdf(wide[:, ::2]), p.log_pdf(np.tile([0, 0, 1.0], (4, 1))))
     assert p.log_pdf(np.zeros((0, 3))).shape == (0,)
+
+
+def test_read_only_fortran_and_byte_swapped_arrays_give_the_same_values():
+    p = HeatKernelSo3(random_rotation(20), 0.3)
+    r = p.sample(50, np.random.default_rng(21))
+    ref = p.log_pdf(r)
+    np.testing.assert_array_equal(p.log_pdf(np.asfortranarray(r)), ref)
+    np.testing.assert_array_equal(p.log_pdf(r.astype(">f8")), ref)
+    frozen = r.copy()
+    frozen.flags.writeable = False
+    np.testing.assert_array_equal(p.log_pdf(frozen), ref)
+    # A broadcast view (stride 0) of one point.
+    np.testing.assert_array_equal(p.log_pdf(np.broadcast_to(r[0], (7, 3, 3))), np.full(7, ref[0]))
+
+
+def test_log_pdf_from_several_threads_matches_the_serial_values():
+    from concurrent.futures import ThreadPoolExecutor
+
+    p = VonMisesFisher([0.0, 0.0, 1.0], 4.0)
+    chunks = [p.sample(50_000, np.random.default_rng(s)) for s in range(4)]
+    serial = [p.log_pdf(c) for c in chunks]
+    with ThreadPoolExecutor(4) as pool:
+        parallel = list(pool.map(p.log_pdf, chunks))
+    for a, b in zip(serial, parallel):
+        np.testing.assert_array_equal(a, b)
