@@ -8,18 +8,22 @@
 //! [`run_rngs`], and the scores of a user's estimates go through the same scorers into the same
 //! [`Summary`].
 
+// pyo3 extracts every argument of a Python function by value (an array borrow, a list of names):
+// the signatures cannot take references.
+#![allow(clippy::needless_pass_by_value)]
+
 use crate::errors::value_error;
 use liebayes_experiments::{
-    AsIs, Estimator, Figure, Method as _, Reduction, RecursiveFilter, RunScores, Scenario, Scorer,
+    AsIs, Estimator, Figure, Method as _, RecursiveFilter, Reduction, RunScores, Scenario, Scorer,
     Shard, Step, Study, StudyLabel, Summary, record, run_rngs,
 };
+use liebayes_filters::aoa::AdaptiveSigmas;
 use liebayes_filters::aoa::{
-    Algorithm, AngleNoise, Anchor, AzEl, AzElModel, DataModel, ModelChoice, PositionEstimate,
-    PositionScorer, Prior, RandomWalk, Readings, SquareTrack, TrackConfig, TrackFilter,
-    TruthModel, UnitVectorModel, angle_ekf, angle_particle_filter, angle_ukf, fit_angle_sigmas,
+    Algorithm, Anchor, AngleNoise, AzEl, AzElModel, DataModel, ModelChoice, PositionEstimate,
+    PositionScorer, Prior, RandomWalk, Readings, SquareTrack, TrackConfig, TrackFilter, TruthModel,
+    UnitVectorModel, angle_ekf, angle_particle_filter, angle_ukf, fit_angle_sigmas,
     square_track_anchors, vmf_ekf, vmf_particle_filter, vmf_ukf,
 };
-use liebayes_filters::aoa::AdaptiveSigmas;
 use liebayes_filters::azimuth::{
     AzimuthDensity, AzimuthEstimate, AzimuthExact, AzimuthMoments, AzimuthScenario, AzimuthScorer,
     Config, Method, Motion, PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess,
@@ -28,7 +32,9 @@ use liebayes_filters::azimuth::{
 use liebayes_manifolds::{Rn, So2, So3};
 use liebayes_operators::OperatorError;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
-use numpy::{AllowTypeChange, PyArray1, PyArrayLike1, PyArrayLike2, PyArrayLikeDyn, PyArrayMethods};
+use numpy::{
+    AllowTypeChange, PyArray1, PyArrayLike1, PyArrayLike2, PyArrayLikeDyn, PyArrayMethods,
+};
 use numpy::{PyUntypedArrayMethods, ndarray::ArrayViewD};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -94,7 +100,10 @@ fn check_shape(name: &str, shape: &[usize], expected: &[Option<usize>]) -> PyRes
 }
 
 /// A 1-d array-like of exactly `n` floats.
-fn fixed<const N: usize>(name: &str, a: &PyArrayLike1<'_, f64, AllowTypeChange>) -> PyResult<[f64; N]> {
+fn fixed<const N: usize>(
+    name: &str,
+    a: &PyArrayLike1<'_, f64, AllowTypeChange>,
+) -> PyResult<[f64; N]> {
     check_shape(name, a.shape(), &[Some(N)])?;
     let view = a.as_array();
     Ok(std::array::from_fn(|i| view[i]))
@@ -242,7 +251,10 @@ fn scored_summary<T, E, Sc: Scorer<T, E>>(
 }
 
 /// Epoch times: given (checked to have `epochs` values) or 0, 1, 2, ….
-fn epoch_times(times: Option<PyArrayLike1<'_, f64, AllowTypeChange>>, epochs: usize) -> PyResult<Vec<f64>> {
+fn epoch_times(
+    times: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
+    epochs: usize,
+) -> PyResult<Vec<f64>> {
     match times {
         Some(t) => {
             check_shape("times", t.shape(), &[Some(epochs)])?;
@@ -272,10 +284,7 @@ fn azimuth_estimate_dict<'py>(
     estimate: &AzimuthEstimate,
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item(
-        "azimuth",
-        estimate.azimuth.map_or(f64::NAN, |a| a.angle()),
-    )?;
+    d.set_item("azimuth", estimate.azimuth.map_or(f64::NAN, |a| a.angle()))?;
     d.set_item("concentration", density.azimuth().concentration())?;
     d.set_item("rho", estimate.rho)?;
     d.set_item("circular_variance", estimate.circular_variance)?;
@@ -326,7 +335,11 @@ impl ExactAzimuthFilter {
     }
 
     /// Propagates over `dt` seconds with the velocity `velocity` (2,) in platform axes.
-    fn predict(&mut self, velocity: PyArrayLike1<'_, f64, AllowTypeChange>, dt: f64) -> PyResult<()> {
+    fn predict(
+        &mut self,
+        velocity: PyArrayLike1<'_, f64, AllowTypeChange>,
+        dt: f64,
+    ) -> PyResult<()> {
         let velocity = Vector2::from(fixed::<2>("velocity", &velocity)?);
         self.filter
             .predict(&VelocityInput { velocity, dt })
@@ -378,20 +391,31 @@ impl ExactAzimuthFilter {
             .map_err(value_error)?;
         let mut estimates = Vec::with_capacity(n);
         for step in &recording.steps {
-            estimates.push(AzimuthMoments.estimate(&step.estimate).map_err(value_error)?);
+            estimates.push(
+                AzimuthMoments
+                    .estimate(&step.estimate)
+                    .map_err(value_error)?,
+            );
         }
         self.filter = filter.estimated_by(AzimuthMoments);
-        let densities: Vec<&AzimuthDensity> =
-            recording.steps.iter().map(|s| &s.estimate).collect();
+        let densities: Vec<&AzimuthDensity> = recording.steps.iter().map(|s| &s.estimate).collect();
         let out = PyDict::new(py);
         let scalar = |f: &dyn Fn(usize) -> f64| (0..n).map(f).collect::<Vec<f64>>();
         out.set_item(
             "azimuth",
-            array(py, scalar(&|i| estimates[i].azimuth.map_or(f64::NAN, |a| a.angle())), &[n])?,
+            array(
+                py,
+                scalar(&|i| estimates[i].azimuth.map_or(f64::NAN, |a| a.angle())),
+                &[n],
+            )?,
         )?;
         out.set_item(
             "concentration",
-            array(py, scalar(&|i| densities[i].azimuth().concentration()), &[n])?,
+            array(
+                py,
+                scalar(&|i| densities[i].azimuth().concentration()),
+                &[n],
+            )?,
         )?;
         out.set_item("rho", array(py, scalar(&|i| estimates[i].rho), &[n])?)?;
         out.set_item(
@@ -408,19 +432,32 @@ impl ExactAzimuthFilter {
             "cov_r",
             array(
                 py,
-                flat(n, 4, |i, o| o.copy_from_slice(&row_major2(&estimates[i].cov_r))),
+                flat(n, 4, |i, o| {
+                    o.copy_from_slice(&row_major2(&estimates[i].cov_r));
+                }),
                 &[n, 2, 2],
             )?,
         )?;
         out.set_item(
             "a",
-            array(py, flat(n, 2, |i, o| o.copy_from_slice(densities[i].a().as_slice())), &[n, 2])?,
+            array(
+                py,
+                flat(n, 2, |i, o| o.copy_from_slice(densities[i].a().as_slice())),
+                &[n, 2],
+            )?,
         )?;
         out.set_item(
             "c",
-            array(py, flat(n, 2, |i, o| o.copy_from_slice(densities[i].c().as_slice())), &[n, 2])?,
+            array(
+                py,
+                flat(n, 2, |i, o| o.copy_from_slice(densities[i].c().as_slice())),
+                &[n, 2],
+            )?,
         )?;
-        out.set_item("sigma2", array(py, scalar(&|i| densities[i].sigma2()), &[n])?)?;
+        out.set_item(
+            "sigma2",
+            array(py, scalar(&|i| densities[i].sigma2()), &[n])?,
+        )?;
         out.set_item(
             "log_evidence",
             array(
@@ -550,7 +587,9 @@ fn azimuth_method(name: &str) -> PyResult<Method> {
         }
     };
     if parts.next().is_some() || (size.is_some() && matches!(kind, "exact" | "ekf" | "ukf")) {
-        return Err(bad(format!("method {name:?}: unexpected text after the name")));
+        return Err(bad(format!(
+            "method {name:?}: unexpected text after the name"
+        )));
     }
     method.validate().map_err(value_error)?;
     Ok(method)
@@ -642,7 +681,10 @@ fn azimuth_runs<'py>(
     start
         .checked_add(runs as u64)
         .ok_or_else(|| bad("start + runs overflows"))?;
-    let per_run = check_size("the runs", runs.checked_mul(steps).and_then(|v| v.checked_mul(2)))?;
+    let per_run = check_size(
+        "the runs",
+        runs.checked_mul(steps).and_then(|v| v.checked_mul(2)),
+    )?;
     let simulated = py.detach(|| -> Result<_, liebayes_experiments::ExperimentError> {
         let mut truth = Vec::with_capacity(per_run);
         let mut z = Vec::with_capacity(per_run);
@@ -711,8 +753,16 @@ fn score_azimuth<'py>(
     check_shape("truth_azimuth", truth_azimuth.shape(), &[Some(runs)])?;
     check_shape("azimuth", azimuth.shape(), &[Some(runs), Some(epochs)])?;
     check_shape("rho", rho.shape(), &[Some(runs), Some(epochs)])?;
-    check_shape("mean_r", mean_r.shape(), &[Some(runs), Some(epochs), Some(2)])?;
-    check_shape("cov_r", cov_r.shape(), &[Some(runs), Some(epochs), Some(2), Some(2)])?;
+    check_shape(
+        "mean_r",
+        mean_r.shape(),
+        &[Some(runs), Some(epochs), Some(2)],
+    )?;
+    check_shape(
+        "cov_r",
+        cov_r.shape(),
+        &[Some(runs), Some(epochs), Some(2), Some(2)],
+    )?;
     if let Some(v) = &circular_variance {
         check_shape("circular_variance", v.shape(), &[Some(runs), Some(epochs)])?;
     }
@@ -737,7 +787,13 @@ fn score_azimuth<'py>(
         let a = az[[run, k]];
         let r = rh[[run, k]];
         let variance = cv.as_ref().map_or_else(
-            || if r > 0.0 { -2.0 * r.ln() } else { f64::INFINITY },
+            || {
+                if r > 0.0 {
+                    -2.0 * r.ln()
+                } else {
+                    f64::INFINITY
+                }
+            },
             |v| v[[run, k]],
         );
         let estimate = AzimuthEstimate {
@@ -831,9 +887,9 @@ fn build_anchored<const N: usize, const M3: usize, const M2: usize>(
         (AoaModel::Angles(noise), algorithm) => {
             let model = AzElModel::new(anchors, noise.clone())?;
             match algorithm {
-                Algorithm::Particle(n) => Box::new(Anchored::<N>(Box::new(
-                    angle_particle_filter(model, process, prior, n, rng)?,
-                ))),
+                Algorithm::Particle(n) => Box::new(Anchored::<N>(Box::new(angle_particle_filter(
+                    model, process, prior, n, rng,
+                )?))),
                 Algorithm::Ekf => Box::new(Anchored::<N>(Box::new(angle_ekf::<N, M2>(
                     model, process, prior,
                 )?))),
@@ -990,7 +1046,9 @@ impl AoaFilter {
         };
         let model = match kind.as_str() {
             "VMF" => AoaModel::Vmf(kappa.ok_or_else(|| {
-                bad(format!("filter {name:?}: the von Mises-Fisher model needs kappa"))
+                bad(format!(
+                    "filter {name:?}: the von Mises-Fisher model needs kappa"
+                ))
             })?),
             "AE-ADAPTIVE" => {
                 let (a, e) = sigmas()?;
@@ -1215,7 +1273,10 @@ fn aoa_runs<'py>(
     start
         .checked_add(runs as u64)
         .ok_or_else(|| bad("start + runs overflows"))?;
-    let size = check_size("the runs", runs.checked_mul(steps).and_then(|v| v.checked_mul(8)))?;
+    let size = check_size(
+        "the runs",
+        runs.checked_mul(steps).and_then(|v| v.checked_mul(8)),
+    )?;
     let config = *track.config();
     let simulated = py.detach(|| -> Result<_, String> {
         let mut truths = Vec::with_capacity(size / 8 * 3);
@@ -1224,7 +1285,9 @@ fn aoa_runs<'py>(
         let (mut times, mut deltas) = (Vec::new(), Vec::new());
         for run in 0..runs as u64 {
             let (mut simulation, mut filter_stream) = run_rngs(seed, start + run);
-            let prior = config.prior(&mut filter_stream).map_err(|e| e.to_string())?;
+            let prior = config
+                .prior(&mut filter_stream)
+                .map_err(|e| e.to_string())?;
             priors.extend_from_slice(prior.mean().as_slice());
             for step in track.simulate(&mut simulation).map_err(|e| e.to_string())? {
                 if run == 0 {
@@ -1260,11 +1323,16 @@ fn aoa_runs<'py>(
 /// The square track's anchors: positions (4, 3) and world-to-anchor rotations (4, 3, 3).
 fn track_arrays(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)> {
     let anchors = square_track_anchors();
-    let positions = flat(4, 3, |j, o| o.copy_from_slice(anchors[j].position().as_slice()));
+    let positions = flat(4, 3, |j, o| {
+        o.copy_from_slice(anchors[j].position().as_slice());
+    });
     let rotations = flat(4, 9, |j, o| {
         o.copy_from_slice(&row_major3(anchors[j].rotation_matrix()));
     });
-    Ok((array(py, positions, &[4, 3])?, array(py, rotations, &[4, 3, 3])?))
+    Ok((
+        array(py, positions, &[4, 3])?,
+        array(py, rotations, &[4, 3, 3])?,
+    ))
 }
 
 /// The anchors of the square-track scenario: `(positions (4, 3), rotations (4, 3, 3))`.
