@@ -1009,6 +1009,15 @@ impl AoaFilter {
             .get_mut()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
+
+    /// The current estimate (the lock is only contended if another thread steps the filter).
+    fn current(&self) -> PyResult<PositionEstimate> {
+        self.filter
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .estimate()
+            .map_err(value_error)
+    }
 }
 
 #[pymethods]
@@ -1120,15 +1129,15 @@ impl AoaFilter {
 
     /// The posterior mean (3,).
     #[getter]
-    fn mean<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let e = self.inner().estimate().map_err(value_error)?;
+    fn mean<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let e = self.current()?;
         array(py, e.mean.iter().copied().collect(), &[3])
     }
 
     /// The posterior covariance (3, 3).
     #[getter]
-    fn covariance<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let e = self.inner().estimate().map_err(value_error)?;
+    fn covariance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let e = self.current()?;
         array(py, row_major3(&e.covariance), &[3, 3])
     }
 

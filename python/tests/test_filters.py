@@ -199,14 +199,29 @@ def test_study_shapes_bands_and_a_misspecified_filter():
     lo, hi = chi2_mean_band(2, runs)
     np.testing.assert_allclose(exact["bands"]["nees_position"][-1], [lo, hi], rtol=1e-6)
     nees = exact["metrics"]["nees_position"]
+    # 95 % of the epochs are expected in the band; the epochs of a run are correlated, so over
+    # seeds 1 to 6 the fraction ranged from 0.75 to 1.
     inside = (nees >= lo) & (nees <= hi)
-    assert inside.mean() >= 0.8 and inside[-1]
+    assert inside.mean() >= 0.7
     # A filter told the measurements are four times more precise than they are is inconsistent.
     wrong = lf.azimuth_study(
         "circle", ["exact"], runs, seed=2, filter_sigma_m=0.25, **settings
     )["exact"]["metrics"]["nees_position"]
     outside = (wrong < lo) | (wrong > hi)
-    assert outside.mean() >= 0.8 and wrong[-1] > hi
+    assert outside.mean() >= 0.9 and wrong[-1] > hi
+    # The same runs through the Python filter: numpy's NEES averages to the study's at every
+    # epoch, and each run's mean NEES (independent over runs) averages to 2, E NEES of the exact
+    # posterior, two-sided; the mis-specified filter's does not.
+    data = lf.azimuth_runs("circle", runs, seed=2, **settings)
+    m = data["measured"]
+    for sigma_m, study_nees in ((1.0, nees), (0.25, wrong)):
+        est = exact_on_runs(data, sigma_m=sigma_m)
+        e = est["mean_r"] - data["truth_r"][:, m]
+        per_epoch = np.einsum("rki,rkij,rkj->rk", e, np.linalg.inv(est["cov_r"]), e)
+        np.testing.assert_allclose(per_epoch.mean(0), study_nees, rtol=1e-10)
+        per_run = per_epoch.mean(1)
+        t = (per_run.mean() - 2.0) / (per_run.std(ddof=1) / math.sqrt(runs))
+        assert (abs(t) < 4) == (sigma_m == 1.0), (sigma_m, t)
 
 
 def test_exposed_runs_are_the_study_runs():
