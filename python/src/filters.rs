@@ -43,8 +43,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::sync::Mutex;
 
-/// The most values (runs × steps × components) an exposed set of simulated runs may hold: 2²⁸
-/// doubles, 2 GB. More is refused before anything is simulated.
+/// The most values (runs × steps × components, all arrays together) an exposed set of simulated
+/// runs may hold: 2²⁸ doubles, 2 GB. More is refused before anything is simulated.
 const MAX_VALUES: usize = 1 << 28;
 
 /// The most anchors of an [`AoaFilter`] (the Kalman filters stack 3 values per anchor).
@@ -681,14 +681,15 @@ fn azimuth_runs<'py>(
     start
         .checked_add(runs as u64)
         .ok_or_else(|| bad("start + runs overflows"))?;
-    let per_run = check_size(
+    // Truth, velocity and measurements: six values per step.
+    let per_array = check_size(
         "the runs",
-        runs.checked_mul(steps).and_then(|v| v.checked_mul(2)),
-    )?;
+        runs.checked_mul(steps).and_then(|v| v.checked_mul(6)),
+    )? / 3;
     let simulated = py.detach(|| -> Result<_, liebayes_experiments::ExperimentError> {
-        let mut truth = Vec::with_capacity(per_run);
-        let mut z = Vec::with_capacity(per_run);
-        let mut velocity = Vec::with_capacity(per_run);
+        let mut truth = Vec::with_capacity(per_array);
+        let mut z = Vec::with_capacity(per_array);
+        let mut velocity = Vec::with_capacity(per_array);
         let mut azimuths = Vec::with_capacity(runs);
         let (mut times, mut dts, mut measured) = (Vec::new(), Vec::new(), Vec::new());
         for run in 0..runs as u64 {
@@ -1282,14 +1283,15 @@ fn aoa_runs<'py>(
     start
         .checked_add(runs as u64)
         .ok_or_else(|| bad("start + runs overflows"))?;
+    // Truth and four readings: eleven values per step.
     let size = check_size(
         "the runs",
-        runs.checked_mul(steps).and_then(|v| v.checked_mul(8)),
-    )?;
+        runs.checked_mul(steps).and_then(|v| v.checked_mul(11)),
+    )? / 11;
     let config = *track.config();
     let simulated = py.detach(|| -> Result<_, String> {
-        let mut truths = Vec::with_capacity(size / 8 * 3);
-        let mut readings = Vec::with_capacity(size);
+        let mut truths = Vec::with_capacity(size * 3);
+        let mut readings = Vec::with_capacity(size * 8);
         let mut priors = Vec::with_capacity(runs * 3);
         let (mut times, mut deltas) = (Vec::new(), Vec::new());
         for run in 0..runs as u64 {
