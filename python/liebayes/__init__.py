@@ -14,6 +14,7 @@ Areas:
 Every library error is raised as ``ValueError`` with the library's message.
 """
 
+from . import attitude, densities, filters, manifolds
 from ._liebayes import __version__
 
-__all__ = ["__version__"]
+__all__ = ["__version__", "attitude", "densities", "filters", "manifolds"]

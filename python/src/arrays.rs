@@ -2,10 +2,16 @@
 //! allocated, with errors that name the argument and the shape expected.
 
 use crate::errors::value_error;
-use nalgebra::Vector3;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use liebayes_manifolds::{ManifoldError, S2, So3, Su2};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use numpy::{
+    PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArray2,
+    PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
+};
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::PyDict;
 
 /// The rows of an `(n, 3)` array as 3-vectors (one pass over the array, read in place).
 ///
@@ -30,12 +36,12 @@ pub(crate) fn vectors3(
 }
 
 /// An `(n, k)` array of rows given by `row(i, out)`, filled in place.
-pub(crate) fn rows<'py>(
-    py: Python<'py>,
+pub(crate) fn rows(
+    py: Python<'_>,
     n: usize,
     k: usize,
     mut row: impl FnMut(usize, &mut [f64]),
-) -> PyResult<Bound<'py, PyArray2<f64>>> {
+) -> PyResult<Bound<'_, PyArray2<f64>>> {
     let mut data = vec![
         0.0;
         n.checked_mul(k)
@@ -47,33 +53,99 @@ pub(crate) fn rows<'py>(
     PyArray1::from_vec(py, data).reshape([n, k])
 }
 
-/// Any array-like (a numpy array of any dtype and layout, a list of lists) as a read-only
-/// float64 2-D numpy array: a float64 array is taken as it is (no copy), anything else is converted
-/// once by `numpy.asarray(x, dtype=float64)`.
-///
-/// # Errors
-/// `ValueError` naming `name` when it cannot be converted or is not 2-D.
-pub(crate) fn float_array2<'py>(
+/// A shape as Python writes it, with `n` for the batch axis when `batch` is set: `(3,)`, `(n, 3, 3)`.
+pub(crate) fn shape_text(shape: &[usize], batch: bool) -> String {
+    let mut parts: Vec<String> = shape.iter().map(ToString::to_string).collect();
+    if batch {
+        parts.insert(0, "n".to_owned());
+    }
+    if parts.len() == 1 {
+        format!("({},)", parts[0])
+    } else {
+        format!("({})", parts.join(", "))
+    }
+}
+
+/// `numpy.asarray`, looked up once.
+static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+
+/// The argument as an aligned C-contiguous `float64` array: the array itself when it already is
+/// one,
+/// otherwise one conversion by `numpy.asarray(obj, dtype=float64, order="C")` (lists, integer or `float32` arrays,
+/// strided views). Arrays whose dtype is not real-valued (complex, bool, object, strings) raise
+/// `TypeError` instead of being cast.
+pub(crate) fn float_array<'py>(
     name: &str,
-    value: &Bound<'py, PyAny>,
-) -> PyResult<PyReadonlyArray2<'py, f64>> {
-    if let Ok(array) = value.extract::<PyReadonlyArray2<'py, f64>>() {
+    obj: &Bound<'py, PyAny>,
+) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+    contiguous_float64(name, obj)?
+        .try_readonly()
+        .map_err(value_error)
+}
+
+/// [`float_array`] before it is borrowed.
+fn contiguous_float64<'py>(
+    name: &str,
+    obj: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let py = obj.py();
+    if let Ok(array) = obj.cast::<PyArrayDyn<f64>>() {
+        if array.is_c_contiguous() && array.is_aligned() {
+            return Ok(array.clone());
+        }
+    }
+    if let Ok(array) = obj.cast::<PyUntypedArray>() {
+        let dtype = array.dtype();
+        if !matches!(dtype.kind(), b'f' | b'i' | b'u') {
+            return Err(PyTypeError::new_err(format!(
+                "{name}: expected an array of real numbers (float64), got dtype {dtype}"
+            )));
+        }
+    }
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    kwargs.set_item("order", "C")?;
+    let converted = ASARRAY
+        .import(py, "numpy", "asarray")?
+        .call((obj,), Some(&kwargs))?;
+    let array = converted.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
+        PyTypeError::new_err(format!("{name}: could not read it as an array of float64"))
+    })?;
+    if array.is_aligned() {
         return Ok(array);
     }
-    let py = value.py();
-    let converted = py
-        .import("numpy")?
-        .call_method1("asarray", (value, "float64"))
-        .map_err(|e| PyValueError::new_err(format!("{name}: not an array of numbers ({e})")))?;
-    converted
-        .extract::<PyReadonlyArray2<'py, f64>>()
-        .map_err(|_| {
-            let ndim = converted
-                .getattr("ndim")
-                .and_then(|d| d.extract::<usize>())
-                .unwrap_or(0);
-            PyValueError::new_err(format!(
-                "{name}: expected a 2-D array (one row per element), got {ndim} dimension(s)"
-            ))
-        })
+    // A misaligned buffer (a view into raw bytes at an odd offset) is copied into a fresh array.
+    array
+        .call_method0("copy")?
+        .cast_into::<PyArrayDyn<f64>>()
+        .map_err(|_| PyTypeError::new_err(format!("{name}: could not copy it as float64")))
+}
+
+/// A rotation matrix (row-major, 9 numbers), checked by the library (finite, orthonormal, det +1).
+pub(crate) fn rotation(s: &[f64]) -> Result<So3<f64>, ManifoldError> {
+    So3::from_matrix(&Matrix3::from_row_slice(s))
+}
+
+/// A unit quaternion `[w, x, y, z]`, checked by the library (finite, unit norm).
+pub(crate) fn quaternion(s: &[f64]) -> Result<Su2<f64>, ManifoldError> {
+    Su2::from_quaternion_wxyz(s[0], s[1], s[2], s[3])
+}
+
+/// A point of S² (a unit 3-vector), checked by the library (finite, unit norm).
+pub(crate) fn sphere_point(s: &[f64]) -> Result<S2<f64>, ManifoldError> {
+    S2::new(Vector3::new(s[0], s[1], s[2]))
+}
+
+/// Writes a matrix into `out`, row-major.
+pub(crate) fn put_matrix<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>, out: &mut [f64]) {
+    for (r, row) in out.chunks_exact_mut(C).enumerate() {
+        for (c, value) in row.iter_mut().enumerate() {
+            *value = m[(r, c)];
+        }
+    }
+}
+
+/// Writes a vector into `out`.
+pub(crate) fn put_vector<const R: usize>(v: &SVector<f64, R>, out: &mut [f64]) {
+    out.copy_from_slice(v.as_slice());
 }

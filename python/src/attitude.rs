@@ -6,7 +6,7 @@
 //! it (predict with the gyroscope and accelerometer, then the magnetometer reading, then the
 //! estimate), so its output equals the `liebayes attitude` binary's bit for bit.
 
-use crate::arrays::float_array2;
+use crate::arrays::float_array;
 use crate::errors::value_error;
 use liebayes_experiments::RecursiveFilter;
 use liebayes_filters::attitude::{
@@ -14,8 +14,8 @@ use liebayes_filters::attitude::{
     read_broad as read_broad_log,
 };
 use nalgebra::{UnitQuaternion, Vector3};
-use numpy::ndarray::ArrayView2;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::ndarray::{ArrayView2, Ix2};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -187,13 +187,13 @@ impl AttitudeFilter {
         acc: &Bound<'py, PyAny>,
         mag: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let gyr = float_array2("gyr", gyr)?;
-        let acc = float_array2("acc", acc)?;
+        let gyr = float_array("gyr", gyr)?;
+        let acc = float_array("acc", acc)?;
         let mag = mag
             .filter(|m| !m.is_none())
-            .map(|m| float_array2("mag", m))
+            .map(|m| float_array("mag", m))
             .transpose()?;
-        let n = gyr.shape()[0];
+        let n = gyr.shape().first().copied().unwrap_or(0);
         check_rows("gyr", &gyr, n)?;
         check_rows("acc", &acc, n)?;
         if let Some(mag) = &mag {
@@ -205,8 +205,8 @@ impl AttitudeFilter {
             )));
         }
         let mut filter = self.filter_for(mag.is_some())?.clone();
-        let (g, a) = (gyr.as_array(), acc.as_array());
-        let m = mag.as_ref().map(PyReadonlyArray2::as_array);
+        let (g, a) = (matrix(&gyr)?, matrix(&acc)?);
+        let m = mag.as_ref().map(matrix).transpose()?;
         let outputs = py.detach(|| run_batch(&mut filter, &g, &a, m.as_ref()));
         let outputs = outputs.map_err(|f| {
             PyValueError::new_err(format!(
@@ -433,8 +433,16 @@ fn run_batch(
     Ok(out)
 }
 
+/// A 2-D array's view (its shape checked by [`check_rows`] before).
+fn matrix<'a>(array: &'a PyReadonlyArrayDyn<'_, f64>) -> PyResult<ArrayView2<'a, f64>> {
+    array
+        .as_array()
+        .into_dimensionality::<Ix2>()
+        .map_err(value_error)
+}
+
 /// Refuses an array that is not `(n, 3)` with the batch's `n`.
-fn check_rows(name: &str, array: &PyReadonlyArray2<'_, f64>, n: usize) -> PyResult<()> {
+fn check_rows(name: &str, array: &PyReadonlyArrayDyn<'_, f64>, n: usize) -> PyResult<()> {
     let shape = array.shape();
     if shape != [n, 3] {
         return Err(PyValueError::new_err(format!(

@@ -10,8 +10,11 @@
 //! Draws come from the library's ChaCha8 stream, seeded by one 63-bit integer drawn from the caller's
 //! `numpy.random.Generator`, so the same generator state gives the same draws.
 
+use crate::arrays::{
+    float_array, put_matrix, put_vector, quaternion, rotation, shape_text, sphere_point,
+};
 use crate::errors::value_error;
-use liebayes_densities::manifolds::{S2, So2, So3, Su2};
+use liebayes_densities::manifolds::{ManifoldError, S2, So2, So3, Su2};
 use liebayes_densities::special::bingham_log_normalizer_and_moments;
 use liebayes_densities::{
     Bingham, Convolve, Density, DensityError, Entropy, HeatKernelSo3, KlDivergence,
@@ -19,7 +22,7 @@ use liebayes_densities::{
 };
 use nalgebra::{Matrix2, Matrix3, Matrix4, SMatrix, Vector2, Vector3, Vector4};
 use numpy::ndarray::ArrayViewD;
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyFloat;
@@ -43,27 +46,6 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 // Arrays in and out.
 // ---------------------------------------------------------------------------------------------
 
-/// `obj` as a read-only `float64` array: a `float64` array is read in place; anything else numpy
-/// converts (lists, integer arrays) is converted once; the rest is a `ValueError` naming `name`.
-fn float_array<'py>(name: &str, obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
-    if let Ok(array) = obj.extract::<PyReadonlyArrayDyn<'py, f64>>() {
-        return Ok(array);
-    }
-    let py = obj.py();
-    let numpy = PyModule::import(py, "numpy")?;
-    let converted = numpy
-        .getattr("asarray")?
-        .call1((obj, numpy.getattr("float64")?))
-        .map_err(|e| {
-            PyValueError::new_err(format!(
-                "{name}: expected an array of float64 (or values numpy converts to float64): {e}"
-            ))
-        })?;
-    converted
-        .extract::<PyReadonlyArrayDyn<'py, f64>>()
-        .map_err(|e| PyValueError::new_err(format!("{name}: expected an array of float64: {e}")))
-}
-
 /// The components of a fixed-size parameter (a mean vector, a matrix) in row-major order, with
 /// the shape checked exactly; every component must be finite.
 fn parameter(name: &str, obj: &Bound<'_, PyAny>, shape: &[usize]) -> PyResult<Vec<f64>> {
@@ -71,8 +53,8 @@ fn parameter(name: &str, obj: &Bound<'_, PyAny>, shape: &[usize]) -> PyResult<Ve
     if array.shape() != shape {
         return Err(PyValueError::new_err(format!(
             "{name}: expected an array of shape {}, got {}",
-            shape_text(shape),
-            shape_text(array.shape())
+            shape_text(shape, false),
+            shape_text(array.shape(), false)
         )));
     }
     let values: Vec<f64> = array.as_array().iter().copied().collect();
@@ -82,22 +64,6 @@ fn parameter(name: &str, obj: &Bound<'_, PyAny>, shape: &[usize]) -> PyResult<Ve
         )));
     }
     Ok(values)
-}
-
-/// A shape as Python writes it: `(3,)`, `(n, 4)`.
-fn shape_text(shape: &[usize]) -> String {
-    match shape {
-        [] => "()".to_string(),
-        [one] => format!("({one},)"),
-        _ => format!(
-            "({})",
-            shape
-                .iter()
-                .map(ToString::to_string)
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
-    }
 }
 
 /// A batch of points read in place: the leading (batch) shape and the components, contiguous and
@@ -132,7 +98,7 @@ fn points<'a>(
         };
         return Err(PyValueError::new_err(format!(
             "{name}: expected {expected}, got {}",
-            shape_text(&shape)
+            shape_text(&shape, false)
         )));
     }
     let leading = shape[..shape.len() - k].to_vec();
@@ -293,8 +259,8 @@ fn fit_weights(weights: Option<&Bound<'_, PyAny>>, shape: &[usize]) -> PyResult<
     if array.shape() != shape {
         return Err(PyValueError::new_err(format!(
             "weights: expected an array of shape {}, one per sample, got {}",
-            shape_text(shape),
-            shape_text(array.shape())
+            shape_text(shape, false),
+            shape_text(array.shape(), false)
         )));
     }
     let values: Vec<f64> = array.as_array().iter().copied().collect();
@@ -322,34 +288,14 @@ fn angle(s: &[f64]) -> Result<So2<f64>, DensityError> {
     Ok(So2::from_angle(s[0])?)
 }
 
-/// A unit 3-vector, checked by `S2::new` (finite, unit norm to 1e-9).
-fn sphere_point(s: &[f64]) -> Result<S2<f64>, DensityError> {
-    Ok(S2::new(Vector3::new(s[0], s[1], s[2]))?)
-}
-
-/// A unit quaternion `(w, x, y, z)`, checked by `Su2::from_quaternion_wxyz`.
-fn quaternion(s: &[f64]) -> Result<Su2<f64>, DensityError> {
-    Ok(Su2::from_quaternion_wxyz(s[0], s[1], s[2], s[3])?)
-}
-
-/// A rotation matrix (row-major), checked by `So3::from_matrix` (finite, orthonormal, det +1).
-fn rotation(s: &[f64]) -> Result<So3<f64>, DensityError> {
-    Ok(So3::from_matrix(&Matrix3::from_row_slice(s))?)
-}
-
 /// A rotation written as its row-major matrix.
 fn put_rotation(r: &So3<f64>, out: &mut [f64]) {
-    let m = r.to_matrix();
-    for i in 0..3 {
-        for j in 0..3 {
-            out[3 * i + j] = m[(i, j)];
-        }
-    }
+    put_matrix(&r.to_matrix(), out);
 }
 
 /// A point of S² written as its unit vector.
 fn put_sphere_point(x: &S2<f64>, out: &mut [f64]) {
-    out.copy_from_slice(x.as_vector().as_slice());
+    put_vector(x.as_vector(), out);
 }
 
 /// A unit quaternion written scalar first.
@@ -362,7 +308,7 @@ fn single_point<P>(
     name: &str,
     obj: &Bound<'_, PyAny>,
     shape: &[usize],
-    parse: impl Fn(&[f64]) -> Result<P, DensityError>,
+    parse: impl Fn(&[f64]) -> Result<P, ManifoldError>,
 ) -> PyResult<P> {
     let values = parameter(name, obj, shape)?;
     parse(&values).map_err(|e| PyValueError::new_err(format!("{name}: {e}")))
@@ -742,7 +688,7 @@ impl PyBingham {
         if array.ndim() != 2 || array.shape()[1] != 4 {
             return Err(PyValueError::new_err(format!(
                 "samples: expected an array of shape (n, 4), got {}",
-                shape_text(array.shape())
+                shape_text(array.shape(), false)
             )));
         }
         let pts = points("samples", &array.as_array(), &[4])?;

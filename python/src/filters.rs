@@ -155,6 +155,18 @@ fn reduction_name(r: Reduction) -> String {
     }
 }
 
+/// Each method's summary as [`summary_dict`] writes it, keyed by its label.
+fn summaries_dict<'py>(
+    py: Python<'py>,
+    summaries: &[(String, Summary)],
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    for (label, summary) in summaries {
+        out.set_item(label, summary_dict(py, summary)?)?;
+    }
+    Ok(out)
+}
+
 /// A library summary as the dict a study returns per method: its label, runs and failures, the
 /// epoch times, each metric's figure per epoch (its reduction over the runs, [`Reduction::figure`]),
 /// the 95 % bands where the figure has one, the count of finite values, units and reductions.
@@ -648,11 +660,7 @@ fn azimuth_study<'py>(
             .map_err(value_error)?;
         summaries.push((label.clone(), summary));
     }
-    let out = PyDict::new(py);
-    for (label, summary) in &summaries {
-        out.set_item(label, summary_dict(py, summary)?)?;
-    }
-    Ok(out)
+    summaries_dict(py, &summaries)
 }
 
 /// The simulated runs of a built-in azimuth scenario, as a study draws them.
@@ -1254,11 +1262,7 @@ fn aoa_study<'py>(
             .map_err(value_error)?;
         summaries.push((label.clone(), summary));
     }
-    let out = PyDict::new(py);
-    for (label, summary) in &summaries {
-        out.set_item(label, summary_dict(py, summary)?)?;
-    }
-    Ok(out)
+    summaries_dict(py, &summaries)
 }
 
 /// The simulated runs of the square track, with each run's prior mean, as a study draws them.

@@ -13,17 +13,15 @@
 //!
 //! The maths is the library's (`liebayes_manifolds`); this file only moves numbers in and out.
 
+use crate::arrays::{self, float_array, put_matrix, put_vector, shape_text};
 use crate::errors::value_error;
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, ManifoldError, S2, Se3, So3, Su2};
-use nalgebra::{Matrix3, Matrix4, SMatrix, SVector, Vector2, Vector3, Vector6};
-use numpy::{
-    PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray,
-    PyUntypedArrayMethods,
-};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use nalgebra::{Matrix3, Matrix4, SVector, Vector2, Vector3, Vector6};
+use numpy::{PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyDict, PyFloat};
+use pyo3::types::PyFloat;
 
 /// Adds the area's classes to the extension module.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -59,66 +57,8 @@ const MAT4: &[usize] = &[4, 4];
 /// Shape of a 6×6 matrix.
 const MAT6: &[usize] = &[6, 6];
 
-/// A shape as Python writes it, with `n` for the batch axis when `batch` is set: `(3,)`, `(n, 3, 3)`.
-fn shape_text(shape: &[usize], batch: bool) -> String {
-    let mut parts: Vec<String> = shape.iter().map(ToString::to_string).collect();
-    if batch {
-        parts.insert(0, "n".to_owned());
-    }
-    if parts.len() == 1 {
-        format!("({},)", parts[0])
-    } else {
-        format!("({})", parts.join(", "))
-    }
-}
-
-/// `numpy.asarray`, looked up once.
-static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
-
 /// `numpy.zeros`, looked up once.
 static ZEROS: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
-
-/// The argument as an aligned C-contiguous `float64` array: the array itself when it already is
-/// one,
-/// otherwise one conversion by `numpy.asarray(obj, dtype=float64, order="C")` (lists, integer or `float32` arrays,
-/// strided views). Arrays whose dtype is not real-valued (complex, bool, object, strings) raise
-/// `TypeError` instead of being cast.
-fn float_array<'py>(
-    py: Python<'py>,
-    name: &str,
-    obj: &Bound<'py, PyAny>,
-) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    if let Ok(array) = obj.cast::<PyArrayDyn<f64>>() {
-        if array.is_c_contiguous() && array.is_aligned() {
-            return Ok(array.clone());
-        }
-    }
-    if let Ok(array) = obj.cast::<PyUntypedArray>() {
-        let dtype = array.dtype();
-        if !matches!(dtype.kind(), b'f' | b'i' | b'u') {
-            return Err(PyTypeError::new_err(format!(
-                "{name}: expected an array of real numbers (float64), got dtype {dtype}"
-            )));
-        }
-    }
-    let kwargs = PyDict::new(py);
-    kwargs.set_item("dtype", "float64")?;
-    kwargs.set_item("order", "C")?;
-    let converted = ASARRAY
-        .import(py, "numpy", "asarray")?
-        .call((obj,), Some(&kwargs))?;
-    let array = converted.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
-        PyTypeError::new_err(format!("{name}: could not read it as an array of float64"))
-    })?;
-    if array.is_aligned() {
-        return Ok(array);
-    }
-    // A misaligned buffer (a view into raw bytes at an odd offset) is copied into a fresh array.
-    array
-        .call_method0("copy")?
-        .cast_into::<PyArrayDyn<f64>>()
-        .map_err(|_| PyTypeError::new_err(format!("{name}: could not copy it as float64")))
-}
 
 /// One argument: a single element of a fixed shape or a batch of them, read in place.
 struct Elements<'py> {
@@ -135,13 +75,8 @@ struct Elements<'py> {
 impl<'py> Elements<'py> {
     /// Reads `obj` as one element of shape `shape` or a batch `(n, *shape)`, checking the shape
     /// before anything is read.
-    fn read(
-        py: Python<'py>,
-        name: &'static str,
-        obj: &Bound<'py, PyAny>,
-        shape: &[usize],
-    ) -> PyResult<Self> {
-        let array = float_array(py, name, obj)?;
+    fn read(name: &'static str, obj: &Bound<'py, PyAny>, shape: &[usize]) -> PyResult<Self> {
+        let array = float_array(name, obj)?;
         let got = array.shape();
         let count = if got == shape {
             None
@@ -155,7 +90,6 @@ impl<'py> Elements<'py> {
                 shape_text(got, false)
             )));
         };
-        let array = array.try_readonly().map_err(value_error)?;
         Ok(Self {
             name,
             array,
@@ -262,20 +196,6 @@ fn map_elements<'py, const N: usize>(
     Ok(result.into_any())
 }
 
-/// Writes a matrix into `out` in C (row-major) order.
-fn put_matrix<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>, out: &mut [f64]) {
-    for (r, row) in out.chunks_exact_mut(C).enumerate() {
-        for (c, value) in row.iter_mut().enumerate() {
-            *value = m[(r, c)];
-        }
-    }
-}
-
-/// Writes a vector into `out`.
-fn put_vector<const R: usize>(v: &SVector<f64, R>, out: &mut [f64]) {
-    out.copy_from_slice(v.as_slice());
-}
-
 /// A vector of finite numbers, as the library reports a non-finite component.
 fn finite_vector<const R: usize>(
     arg: usize,
@@ -295,17 +215,17 @@ fn rotation_vector(arg: usize, s: &[f64]) -> Result<Vector3<f64>, Failure> {
 
 /// A rotation matrix, checked by the library (finite, orthonormal, determinant +1).
 fn rotation(arg: usize, s: &[f64]) -> Result<So3<f64>, Failure> {
-    So3::from_matrix(&Matrix3::from_row_slice(s)).map_err(fail(arg))
+    arrays::rotation(s).map_err(fail(arg))
 }
 
 /// A unit quaternion `[w, x, y, z]`, checked by the library (finite, unit norm).
 fn quaternion(arg: usize, s: &[f64]) -> Result<Su2<f64>, Failure> {
-    Su2::from_quaternion_wxyz(s[0], s[1], s[2], s[3]).map_err(fail(arg))
+    arrays::quaternion(s).map_err(fail(arg))
 }
 
 /// A point of S², checked by the library (finite, unit norm).
 fn sphere_point(arg: usize, s: &[f64]) -> Result<S2<f64>, Failure> {
-    S2::new(Vector3::from_column_slice(s)).map_err(fail(arg))
+    arrays::sphere_point(s).map_err(fail(arg))
 }
 
 /// A homogeneous 4×4 matrix of SE(3), checked by the library (finite, bottom row, rotation block).
@@ -329,7 +249,7 @@ fn read<'py>(
     obj: &Bound<'py, PyAny>,
     shape: &[usize],
 ) -> PyResult<Elements<'py>> {
-    Elements::read(obj.py(), name, obj, shape)
+    Elements::read(name, obj, shape)
 }
 
 // ---------------------------------------------------------------------------------------------
