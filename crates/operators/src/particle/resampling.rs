@@ -181,13 +181,47 @@ pub(super) fn resample_into<R: Rng + ?Sized>(
             let points = (0..n).map(|k| (k as f64 + rng.random::<f64>()) / nf);
             select(weights, unfixed, last(), points, n, out);
         }
-        Resampling::Systematic => {
-            let u = rng.random::<f64>();
-            let points = (0..n).map(|k| (k as f64 + u) / nf);
-            select(weights, unfixed, last(), points, n, out);
-        }
+        Resampling::Systematic => systematic(weights, n, rng.random::<f64>(), out),
         Resampling::Residual => residual(weights, n, rng, &mut work.sums, out),
     }
+}
+
+/// Copies of its index each particle writes without looking at its count (the systematic scheme's
+/// counts are ⌊N wᵢ⌋ or ⌈N wᵢ⌉, so a particle rarely has more).
+const COPIES: usize = 4;
+
+/// The systematic points `(k + u)/N` counted instead of merged: the points below the cumulative
+/// weight `Cᵢ` are the k with `k < N Cᵢ − u`, so particle i's copies fill `out[sᵢ₋₁, sᵢ)` with
+/// `sᵢ = ⌈N Cᵢ − u⌉` clamped to [0, N]. Each particle writes [`COPIES`] copies at `sᵢ₋₁` whatever its
+/// count (a particle without copies is overwritten by the next one, which starts at the same place;
+/// the copies past a particle's end by the particles after it), and only a particle with more copies
+/// writes the rest: one pass over the weights without a data-dependent branch per particle (but
+/// within [`COPIES`] of the end, where the copies would not fit). The last particle of positive
+/// weight takes the points past the rounded total.
+fn systematic(weights: Weights<'_>, n: usize, u: f64, out: &mut Vec<usize>) {
+    let nf = n as f64;
+    let last = last_positive(weights.iter());
+    out.clear();
+    out.resize(n, 0);
+    let mut cumulative = 0.0;
+    let mut start = 0;
+    for (i, w) in weights.iter().enumerate().take(last + 1) {
+        cumulative += w;
+        // In [0, N] before the cast: exact.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let end = (nf * cumulative - u).ceil().clamp(0.0, nf) as usize;
+        if start + COPIES <= n {
+            out[start..start + COPIES].fill(i);
+            if end > start + COPIES {
+                out[start + COPIES..end].fill(i);
+            }
+        } else {
+            // The last few draws: no room for the unconditional copies.
+            out[start..end].fill(i);
+        }
+        start = end;
+    }
+    out[start..].fill(last);
 }
 
 /// ⌊N wᵢ⌋ copies of each particle (at most N in all: the bound absorbs the rounding of N wᵢ), and
