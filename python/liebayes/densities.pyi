@@ -89,6 +89,14 @@ class VonMisesFisher:
     @staticmethod
     def uniform() -> "VonMisesFisher":
         """The uniform distribution, ``1/(4π)``."""
+    @staticmethod
+    def fit(samples: ArrayLike, weights: Optional[ArrayLike] = None) -> "VonMisesFisher":
+        """Maximum-likelihood fit to unit vectors ``samples`` (shape ``(n, 3)``) with optional
+        non-negative ``weights`` (shape ``(n,)``): ``μ`` the direction of the weighted mean,
+        ``κ = A₃⁻¹(|mean|)`` (``coth κ − 1/κ = |mean|``).
+
+        Raises ``ValueError`` for non-unit samples, no samples, bad weights, or samples that all
+        coincide (infinite concentration)."""
     def log_pdf(self, x: ArrayLike) -> FloatOrArray:
         """``ln p(x)`` for unit vectors of shape ``(3,)`` or ``(..., 3)``."""
     def sample(self, n: int, rng: np.random.Generator) -> Array:

@@ -279,6 +279,51 @@ fn fit_weights(weights: Option<&Bound<'_, PyAny>>, shape: &[usize]) -> PyResult<
     Ok(values)
 }
 
+/// The weighted mean `Σ wᵢ f(xᵢ) / Σ wᵢ` of a feature of the samples `(n, width)`, each validated
+/// by `parse` (a bad one raises `ValueError` naming its index), with the GIL released: the sufficient
+/// statistic of a maximum-likelihood fit.
+fn sample_mean<P, T>(
+    py: Python<'_>,
+    samples: &Bound<'_, PyAny>,
+    weights: Option<&Bound<'_, PyAny>>,
+    width: usize,
+    parse: fn(&[f64]) -> Result<P, ManifoldError>,
+    feature: impl Fn(&P) -> T + Sync,
+) -> PyResult<T>
+where
+    T: Default + std::ops::AddAssign + std::ops::Mul<f64, Output = T> + Send,
+{
+    let array = float_array("samples", samples)?;
+    if array.ndim() != 2 || array.shape()[1] != width {
+        return Err(PyValueError::new_err(format!(
+            "samples: expected an array of shape (n, {width}), got {}",
+            shape_text(array.shape(), false)
+        )));
+    }
+    let pts = points("samples", &array.as_array(), &[width])?;
+    let n = pts.leading[0];
+    if n == 0 {
+        return Err(PyValueError::new_err(
+            "samples: at least one sample is needed",
+        ));
+    }
+    let w = fit_weights(weights, &[n])?;
+    let data: &[f64] = &pts.data;
+    let mean = py.detach(|| -> Result<T, PointError> {
+        let total: f64 = w.iter().sum();
+        let mut sum = T::default();
+        for (index, (chunk, wi)) in data.chunks_exact(width).zip(&w).enumerate() {
+            let x = parse(chunk).map_err(|e| PointError {
+                index,
+                message: e.to_string(),
+            })?;
+            sum += feature(&x) * (wi / total);
+        }
+        Ok(sum)
+    });
+    mean.map_err(|e| PyValueError::new_err(format!("samples[{}]: {}", e.index, e.message)))
+}
+
 // ---------------------------------------------------------------------------------------------
 // Points of each space.
 // ---------------------------------------------------------------------------------------------
@@ -518,6 +563,22 @@ impl PyVonMisesFisher {
         }
     }
 
+    /// The maximum-likelihood fit to unit vectors `samples` (shape `(n, 3)`) with optional
+    /// non-negative `weights` (n,): the library's `from_first_moment` of the weighted mean
+    /// `Σ wᵢ xᵢ / Σ wᵢ` (`μ` its direction, `κ = A₃⁻¹(|mean|)`).
+    #[staticmethod]
+    #[pyo3(signature = (samples, weights = None))]
+    fn fit(
+        py: Python<'_>,
+        samples: &Bound<'_, PyAny>,
+        weights: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let m = sample_mean(py, samples, weights, 3, sphere_point, |x| *x.as_vector())?;
+        VonMisesFisher::from_first_moment(m)
+            .map(|inner| Self { inner })
+            .map_err(value_error)
+    }
+
     /// `ln p(x)` for unit vectors `x` of shape `(3,)` or `(..., 3)`.
     fn log_pdf<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         map_points(py, "x", x, &[3], sphere_point, |p| self.inner.log_pdf(p))
@@ -684,37 +745,10 @@ impl PyBingham {
         samples: &Bound<'_, PyAny>,
         weights: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let array = float_array("samples", samples)?;
-        if array.ndim() != 2 || array.shape()[1] != 4 {
-            return Err(PyValueError::new_err(format!(
-                "samples: expected an array of shape (n, 4), got {}",
-                shape_text(array.shape(), false)
-            )));
-        }
-        let pts = points("samples", &array.as_array(), &[4])?;
-        let n = pts.leading[0];
-        if n == 0 {
-            return Err(PyValueError::new_err(
-                "samples: at least one sample is needed",
-            ));
-        }
-        let w = fit_weights(weights, &[n])?;
-        let data: &[f64] = &pts.data;
-        let scatter = py.detach(|| -> Result<Matrix4<f64>, PointError> {
-            let total: f64 = w.iter().sum();
-            let mut s = Matrix4::zeros();
-            for (index, (chunk, wi)) in data.chunks_exact(4).zip(&w).enumerate() {
-                let q = quaternion(chunk).map_err(|e| PointError {
-                    index,
-                    message: e.to_string(),
-                })?;
-                let v = Vector4::from(q.to_quaternion_wxyz());
-                s += v * v.transpose() * (wi / total);
-            }
-            Ok(s)
-        });
-        let scatter = scatter
-            .map_err(|e| PyValueError::new_err(format!("samples[{}]: {}", e.index, e.message)))?;
+        let scatter = sample_mean(py, samples, weights, 4, quaternion, |q| {
+            let v = Vector4::from(q.to_quaternion_wxyz());
+            v * v.transpose()
+        })?;
         Bingham::from_second_moment(scatter)
             .map(|inner| Self { inner })
             .map_err(value_error)

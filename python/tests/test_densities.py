@@ -168,6 +168,28 @@ def test_von_mises_fit_matches_scipy_mle():
 # ------------------------------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("kappa", [0.5, 20.0, 3000.0])
+def test_von_mises_fisher_fit_matches_scipy_mle(kappa):
+    mu = np.array([0.6, -0.48, 0.64])
+    data = VonMisesFisher(mu, kappa).sample(2000, np.random.default_rng(5))
+    fitted = VonMisesFisher.fit(data)
+    loc, k = stats.vonmises_fisher.fit(data)
+    assert fitted.concentration == pytest.approx(k, rel=1e-6)
+    np.testing.assert_allclose(fitted.mean, loc, atol=1e-9)
+    # The estimate is near the truth (2000 samples: κ within 10 %, the mean within 5 σ).
+    assert fitted.concentration == pytest.approx(kappa, rel=0.1)
+    assert np.degrees(np.arccos(min(1.0, fitted.mean @ mu))) < 5 * np.degrees(1 / np.sqrt(2000 * kappa)) + 1
+    # Integer weights are duplicated samples; a fit to other data is not this fit.
+    w = np.arange(2000) % 3
+    np.testing.assert_allclose(VonMisesFisher.fit(data, w).natural,
+                               VonMisesFisher.fit(np.repeat(data, w, axis=0)).natural, rtol=1e-10)
+    assert abs(VonMisesFisher.fit(data[:100]).concentration / fitted.concentration - 1) > 1e-4
+    with pytest.raises(ValueError, match="samples"):
+        VonMisesFisher.fit(np.zeros((3, 3)))
+    with pytest.raises(ValueError):
+        VonMisesFisher.fit(np.tile(mu, (5, 1)))  # all equal: infinite concentration
+
+
 @pytest.mark.parametrize("kappa", [0.1, 5.0, 500.0])
 def test_von_mises_fisher_log_pdf_matches_scipy(kappa):
     mu = np.array([0.3, -0.4, np.sqrt(1 - 0.25)])

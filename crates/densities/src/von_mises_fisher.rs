@@ -85,6 +85,38 @@ impl VonMisesFisher {
         })
     }
 
+    /// The maximum-likelihood fit to a first moment `m = E[x]` (|m| < 1), the weighted mean of unit
+    /// vectors: `κ = A₃⁻¹(|m|)` ([`vmf_mean_resultant_inverse`](special::vmf_mean_resultant_inverse)),
+    /// `μ = m/|m|`; the uniform distribution for m = 0.
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] for a non-finite component, [`DensityError::OutOfRange`] unless
+    /// `|m| < 1`.
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::VonMisesFisher;
+    /// use liebayes_manifolds::S2;
+    /// use nalgebra::Vector3;
+    /// let p = VonMisesFisher::new(S2::new(Vector3::x()).unwrap(), 25.0).unwrap();
+    /// let fitted = VonMisesFisher::from_first_moment(p.first_moment()).unwrap();
+    /// assert!((fitted.concentration() / 25.0 - 1.0).abs() < 1e-12);
+    /// ```
+    pub fn from_first_moment(m: Vector3<f64>) -> Result<Self, DensityError> {
+        for &v in m.iter() {
+            finite("first moment component", v)?;
+        }
+        let r = m.norm();
+        let kappa = special::vmf_mean_resultant_inverse(r)?;
+        if kappa == 0.0 {
+            return Ok(Self::uniform());
+        }
+        Ok(Self {
+            mean: S2::new_unchecked(m / r),
+            kappa,
+        })
+    }
+
     /// The uniform distribution on the sphere, `1/(4π)`.
     pub fn uniform() -> Self {
         Self {

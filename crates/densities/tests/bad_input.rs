@@ -146,7 +146,7 @@ fn special_functions() {
         (value(), value(), any::<u32>(), 0..200_000_u32),
         |(k, r, n, small_n)| {
             type F = fn(f64) -> Result<f64, liebayes_densities::DensityError>;
-            let functions: [(&str, F); 9] = [
+            let functions: [(&str, F); 10] = [
                 ("log_i0", special::log_i0),
                 ("log_i0_scaled", special::log_i0_scaled),
                 ("a1", special::a1),
@@ -155,6 +155,10 @@ fn special_functions() {
                 ("a1_derivative", special::a1_derivative),
                 ("a1_inverse", special::a1_inverse),
                 ("vmf_mean_resultant", special::vmf_mean_resultant),
+                (
+                    "vmf_mean_resultant_inverse",
+                    special::vmf_mean_resultant_inverse,
+                ),
                 ("vmf_log_normalizer", special::vmf_log_normalizer),
             ];
             for (name, f) in functions {
@@ -315,6 +319,9 @@ fn von_mises_fisher() {
                 }),
                 call("VonMisesFisher::from_natural", move || {
                     VonMisesFisher::from_natural(Vector3::new(b[0], b[1], b[2]))
+                }),
+                call("VonMisesFisher::from_first_moment", move || {
+                    VonMisesFisher::from_first_moment(Vector3::new(b[0], b[1], b[2]))
                 }),
                 Ok(VonMisesFisher::uniform()),
             ];

@@ -73,3 +73,65 @@ fn inverse_of_a1_rejects_values_outside_its_range() {
         assert!(error.to_string().contains("[0, 1)"), "{error}");
     }
 }
+
+/// κ with `coth κ − 1/κ = r` for the f64 value of r, solved with mpmath at 50 digits (findroot on the
+/// closed form; below r = 1e-10 on its series `κ/3 − κ³/45 + 2κ⁵/945`), the digits as mpmath printed
+/// them.
+#[allow(clippy::unreadable_literal, clippy::excessive_precision)]
+const INVERSE_A3: [(f64, f64); 14] = [
+    (1e-300, 3.0000000000000000752e-300),
+    (1e-12, 2.9999999999999999397e-12),
+    (1e-06, 3.0000000000017998642e-6),
+    (0.001, 0.0030000018000016972071),
+    (0.1, 0.30181714920633811476),
+    (0.3, 0.95314947285740590895),
+    (0.4999, 1.7962391006706549795),
+    (0.5, 1.7967559847237130411),
+    (0.7, 3.3035444901007656993),
+    (0.9, 9.9999995877689540078),
+    (0.99, 99.999999999999911182),
+    (0.999999, 999999.99997124433548),
+    (0.9999999999, 9999999172.5963584688),
+    (0.99999999999999, 100079991719344.35556),
+];
+
+#[test]
+fn inverse_of_the_vmf_mean_resultant_matches_mpmath() {
+    for (r, expected) in INVERSE_A3 {
+        let got = special::vmf_mean_resultant_inverse(r).expect("r in [0, 1)");
+        let error = common::relative_error(got, expected);
+        assert!(
+            error <= 1e-13,
+            "A3^-1({r}) = {got}, mpmath {expected}, error {error:e}"
+        );
+        // A wrong inverse (the 2-D one) is far off: the check can fail.
+        if r > 0.01 {
+            let other = special::a1_inverse(r).expect("r in [0, 1)");
+            assert!(common::relative_error(other, expected) > 1e-3, "{r}");
+        }
+    }
+    for r in [-0.1, 1.0, 1.5, f64::NAN, f64::INFINITY] {
+        let error = special::vmf_mean_resultant_inverse(r).expect_err("outside [0, 1)");
+        assert!(error.to_string().contains("[0, 1)"), "{error}");
+    }
+}
+
+#[test]
+fn inverse_of_the_vmf_mean_resultant_round_trips() {
+    let mut kappa = 1e-300_f64;
+    while kappa < 1e15 {
+        let r = special::vmf_mean_resultant(kappa).unwrap();
+        if r < 1.0 {
+            let back = special::vmf_mean_resultant_inverse(r).unwrap();
+            // r's rounding (half an ulp) is amplified by the condition number r / (κ A₃'(κ)), about
+            // κ as r → 1.
+            let tolerance = 1e-13 + 2.0 * kappa.max(1.0) * f64::EPSILON;
+            let error = common::relative_error(back, kappa);
+            assert!(
+                error <= tolerance,
+                "kappa {kappa}: back {back}, error {error:e}"
+            );
+        }
+        kappa *= 3.7;
+    }
+}
