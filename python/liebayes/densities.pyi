@@ -225,6 +225,13 @@ class ManifoldGaussianSo3:
 
     def __init__(self, mean: ArrayLike, cov: ArrayLike) -> None:
         """Rotation matrix ``mean`` (3, 3) and symmetric positive definite ``cov`` (3, 3)."""
+    @staticmethod
+    def fit(samples: ArrayLike, weights: Optional[ArrayLike] = None) -> "ManifoldGaussianSo3":
+        """The moment fit to rotation matrices ``samples`` (shape ``(n, 3, 3)``) with optional non-negative ``weights``
+        (shape ``(n,)``): the weighted mean on the manifold (where the weighted tangent residuals
+        average to zero) and the weighted scatter of the residuals; the maximum-likelihood fit as
+        the spread goes to zero. Raises ``ValueError`` for invalid samples or weights, or too few
+        distinct samples for a positive definite covariance."""
     def log_pdf(self, r: ArrayLike) -> FloatOrArray:
         """``ln p(R)`` for rotation matrices of shape ``(3, 3)`` or ``(..., 3, 3)``."""
     def mahalanobis_squared(self, r: ArrayLike) -> FloatOrArray:
@@ -252,6 +259,13 @@ class ManifoldGaussianS2:
 
     def __init__(self, mean: ArrayLike, cov: ArrayLike) -> None:
         """Unit vector ``mean`` (3,) and symmetric positive definite ``cov`` (2, 2)."""
+    @staticmethod
+    def fit(samples: ArrayLike, weights: Optional[ArrayLike] = None) -> "ManifoldGaussianS2":
+        """The moment fit to unit vectors ``samples`` (shape ``(n, 3)``) with optional non-negative ``weights``
+        (shape ``(n,)``): the weighted mean on the manifold (where the weighted tangent residuals
+        average to zero) and the weighted scatter of the residuals; the maximum-likelihood fit as
+        the spread goes to zero. Raises ``ValueError`` for invalid samples or weights, or too few
+        distinct samples for a positive definite covariance."""
     def log_pdf(self, x: ArrayLike) -> FloatOrArray:
         """``ln p(x)`` for unit vectors of shape ``(3,)`` or ``(..., 3)``."""
     def mahalanobis_squared(self, x: ArrayLike) -> FloatOrArray:

@@ -279,28 +279,25 @@ fn fit_weights(weights: Option<&Bound<'_, PyAny>>, shape: &[usize]) -> PyResult<
     Ok(values)
 }
 
-/// The weighted mean `Σ wᵢ f(xᵢ) / Σ wᵢ` of a feature of the samples `(n, width)`, each validated
-/// by `parse` (a bad one raises `ValueError` naming its index), with the GIL released: the sufficient
-/// statistic of a maximum-likelihood fit.
-fn sample_mean<P, T>(
+/// The samples of a fit, `(n, *point_shape)`, each validated by `parse` with the GIL released (a
+/// bad one raises `ValueError` naming its index), and their weights ([`fit_weights`]).
+fn fit_samples<P: Send>(
     py: Python<'_>,
     samples: &Bound<'_, PyAny>,
     weights: Option<&Bound<'_, PyAny>>,
-    width: usize,
+    point_shape: &[usize],
     parse: fn(&[f64]) -> Result<P, ManifoldError>,
-    feature: impl Fn(&P) -> T + Sync,
-) -> PyResult<T>
-where
-    T: Default + std::ops::AddAssign + std::ops::Mul<f64, Output = T> + Send,
-{
+) -> PyResult<(Vec<P>, Vec<f64>)> {
     let array = float_array("samples", samples)?;
-    if array.ndim() != 2 || array.shape()[1] != width {
+    if array.ndim() != point_shape.len() + 1 || array.shape()[1..] != *point_shape {
         return Err(PyValueError::new_err(format!(
-            "samples: expected an array of shape (n, {width}), got {}",
+            "samples: expected an array of shape {}, got {}",
+            shape_text(point_shape, true),
             shape_text(array.shape(), false)
         )));
     }
-    let pts = points("samples", &array.as_array(), &[width])?;
+    let width: usize = point_shape.iter().product();
+    let pts = points("samples", &array.as_array(), point_shape)?;
     let n = pts.leading[0];
     if n == 0 {
         return Err(PyValueError::new_err(
@@ -309,19 +306,20 @@ where
     }
     let w = fit_weights(weights, &[n])?;
     let data: &[f64] = &pts.data;
-    let mean = py.detach(|| -> Result<T, PointError> {
-        let total: f64 = w.iter().sum();
-        let mut sum = T::default();
-        for (index, (chunk, wi)) in data.chunks_exact(width).zip(&w).enumerate() {
-            let x = parse(chunk).map_err(|e| PointError {
-                index,
-                message: e.to_string(),
-            })?;
-            sum += feature(&x) * (wi / total);
-        }
-        Ok(sum)
+    let parsed = py.detach(|| {
+        data.chunks_exact(width)
+            .enumerate()
+            .map(|(index, chunk)| {
+                parse(chunk).map_err(|e| PointError {
+                    index,
+                    message: e.to_string(),
+                })
+            })
+            .collect::<Result<Vec<P>, PointError>>()
     });
-    mean.map_err(|e| PyValueError::new_err(format!("samples[{}]: {}", e.index, e.message)))
+    let xs = parsed
+        .map_err(|e| PyValueError::new_err(format!("samples[{}]: {}", e.index, e.message)))?;
+    Ok((xs, w))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -573,7 +571,11 @@ impl PyVonMisesFisher {
         samples: &Bound<'_, PyAny>,
         weights: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let m = sample_mean(py, samples, weights, 3, sphere_point, |x| *x.as_vector())?;
+        let (xs, w) = fit_samples(py, samples, weights, &[3], sphere_point)?;
+        let total: f64 = w.iter().sum();
+        let m = xs.iter().zip(&w).fold(Vector3::zeros(), |m, (x, wi)| {
+            m + x.as_vector() * (wi / total)
+        });
         VonMisesFisher::from_first_moment(m)
             .map(|inner| Self { inner })
             .map_err(value_error)
@@ -745,10 +747,12 @@ impl PyBingham {
         samples: &Bound<'_, PyAny>,
         weights: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let scatter = sample_mean(py, samples, weights, 4, quaternion, |q| {
+        let (qs, w) = fit_samples(py, samples, weights, &[4], quaternion)?;
+        let total: f64 = w.iter().sum();
+        let scatter = qs.iter().zip(&w).fold(Matrix4::zeros(), |s, (q, wi)| {
             let v = Vector4::from(q.to_quaternion_wxyz());
-            v * v.transpose()
-        })?;
+            s + v * v.transpose() * (wi / total)
+        });
         Bingham::from_second_moment(scatter)
             .map(|inner| Self { inner })
             .map_err(value_error)
@@ -1006,6 +1010,22 @@ impl PyManifoldGaussianSo3 {
             .map_err(value_error)
     }
 
+    /// The moment fit to rotation matrices `samples` (shape `(n, 3, 3)`) with optional non-negative `weights` (n,): the library's
+    /// `ManifoldGaussian::fit`, the weighted mean on the manifold and the weighted scatter of the
+    /// tangent residuals (the maximum-likelihood fit as the spread goes to zero).
+    #[staticmethod]
+    #[pyo3(signature = (samples, weights = None))]
+    fn fit(
+        py: Python<'_>,
+        samples: &Bound<'_, PyAny>,
+        weights: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let (xs, w) = fit_samples(py, samples, weights, &[3, 3], rotation)?;
+        py.detach(|| ManifoldGaussian::fit(&xs, &w))
+            .map(|inner| Self { inner })
+            .map_err(value_error)
+    }
+
     /// `ln p(R)` for rotation matrices `r` of shape `(3, 3)` or `(..., 3, 3)`.
     fn log_pdf<'py>(&self, py: Python<'py>, r: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         map_points(py, "r", r, &[3, 3], rotation, |p| self.inner.log_pdf(p))
@@ -1101,6 +1121,22 @@ impl PyManifoldGaussianS2 {
         let mean = single_point("mean", mean, &[3], sphere_point)?;
         let p = Matrix2::from_row_slice(&parameter("cov", cov, &[2, 2])?);
         ManifoldGaussian::new(mean, p)
+            .map(|inner| Self { inner })
+            .map_err(value_error)
+    }
+
+    /// The moment fit to unit vectors `samples` (shape `(n, 3)`) with optional non-negative `weights` (n,): the library's
+    /// `ManifoldGaussian::fit`, the weighted mean on the manifold and the weighted scatter of the
+    /// tangent residuals (the maximum-likelihood fit as the spread goes to zero).
+    #[staticmethod]
+    #[pyo3(signature = (samples, weights = None))]
+    fn fit(
+        py: Python<'_>,
+        samples: &Bound<'_, PyAny>,
+        weights: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let (xs, w) = fit_samples(py, samples, weights, &[3], sphere_point)?;
+        py.detach(|| ManifoldGaussian::fit(&xs, &w))
             .map(|inner| Self { inner })
             .map_err(value_error)
     }

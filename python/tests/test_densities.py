@@ -422,6 +422,32 @@ def test_manifold_gaussian_so3_against_numpy_and_scipy():
     assert g.compose(g).covariance.shape == (3, 3)
 
 
+def test_manifold_gaussian_fits_against_scipy_residuals():
+    m = random_rotation(15)
+    x = ManifoldGaussianSo3(m, P3).sample(20000, np.random.default_rng(16))
+    fit = ManifoldGaussianSo3.fit(x)
+    # scipy's residuals at the fitted mean average to zero, and their scatter is the covariance.
+    d = Rotation.from_matrix(np.einsum("ji,njk->nik", fit.mean, x)).as_rotvec()
+    np.testing.assert_allclose(d.mean(axis=0), 0.0, atol=1e-10)
+    np.testing.assert_allclose(fit.covariance, d.T @ d / len(d), rtol=1e-9, atol=1e-14)
+    assert np.max(np.abs(fit.covariance - P3)) < 0.003
+    assert np.max(np.abs(fit.covariance - 1.2 * P3)) > 0.006
+    w = np.arange(200) % 3
+    a = ManifoldGaussianSo3.fit(x[:200], w)
+    b = ManifoldGaussianSo3.fit(np.repeat(x[:200], w, axis=0))
+    np.testing.assert_allclose(a.covariance, b.covariance, rtol=1e-9)
+    with pytest.raises(ValueError, match="samples"):
+        ManifoldGaussianSo3.fit(x[:, :2])
+    with pytest.raises(ValueError):
+        ManifoldGaussianSo3.fit(x[:2])  # two rotations: a singular covariance
+    mu = np.array([0.0, 0.6, 0.8])
+    s2 = ManifoldGaussianS2(mu, np.array([[0.02, 0.005], [0.005, 0.01]]))
+    y = s2.sample(20000, np.random.default_rng(17))
+    fit2 = ManifoldGaussianS2.fit(y)
+    assert np.degrees(np.arccos(min(1.0, fit2.mean @ mu))) < 0.2
+    np.testing.assert_allclose(fit2.covariance, s2.covariance, atol=0.001)
+
+
 def test_manifold_gaussian_s2_against_numpy():
     mu = np.array([0.6, 0.0, -0.8])
     p2 = np.array([[0.02, 0.005], [0.005, 0.01]])

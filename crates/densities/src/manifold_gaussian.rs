@@ -4,7 +4,7 @@
 use crate::error::DensityError;
 use crate::gaussian::{MAX_SCALE, within_scale};
 use crate::traits::{Density, Entropy, Rotate};
-use liebayes_manifolds::{Jacobian, LieGroup, Manifold};
+use liebayes_manifolds::{Jacobian, LieGroup, Manifold, MeanSettings};
 use nalgebra::{Cholesky, SMatrix, SVector};
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -167,6 +167,58 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
             cholesky,
             log_det,
         })
+    }
+
+    /// The moment fit to weighted samples on the manifold: the mean μ is the weighted mean, the point
+    /// where the weighted tangent residuals `μ ⊟ xᵢ` average to zero
+    /// ([`weighted_mean`](liebayes_manifolds::weighted_mean) from the first sample), and
+    /// `P = Σ wᵢ (μ ⊟ xᵢ)(μ ⊟ xᵢ)ᵀ / Σ wᵢ`. It is the maximum-likelihood fit of `μ ⊞ N(0, P)` as
+    /// the spread goes to zero, and an approximation for wide ones (residuals beyond the injectivity
+    /// radius, e.g. rotations more than π apart, are wrapped by `local`).
+    ///
+    /// # Errors
+    /// [`DensityError::OutOfRange`] for no samples, a length that differs from the weights' or a
+    /// negative weight; the mean's errors ([`DensityError::Manifold`]: non-finite or degenerate
+    /// weights, no convergence); [`new`](Self::new)'s errors for the fitted P (fewer distinct samples
+    /// than the dimension needs give a P that is not positive definite).
+    ///
+    /// # Example
+    /// ```
+    /// use liebayes_densities::ManifoldGaussian;
+    /// use liebayes_manifolds::{LieGroup, Manifold, So3};
+    /// use nalgebra::{Matrix3, Vector3};
+    /// let mean = So3::exp(&Vector3::new(0.3, -0.2, 1.0));
+    /// let steps = [Vector3::x(), -Vector3::x(), Vector3::y(), -Vector3::y(), Vector3::z(), -Vector3::z()];
+    /// let samples: Vec<So3<f64>> = steps.iter().map(|d| mean.retract(&(d * 0.01))).collect();
+    /// let fit = ManifoldGaussian::<So3<f64>, 3>::fit(&samples, &[1.0; 6])?;
+    /// assert!(fit.mean().local(&mean).norm() < 1e-12);
+    /// assert!((fit.covariance() - Matrix3::identity() * (1e-4 / 3.0)).norm() < 1e-12);
+    /// # Ok::<(), liebayes_densities::DensityError>(())
+    /// ```
+    pub fn fit(samples: &[X], weights: &[f64]) -> Result<Self, DensityError> {
+        let (Some(first), true) = (samples.first(), samples.len() == weights.len()) else {
+            return Err(DensityError::OutOfRange {
+                what: "number of samples to fit (the weights must have one per sample)",
+                value: samples.len() as f64,
+                range: "at least 1, as many as the weights",
+            });
+        };
+        if let Some(&w) = weights.iter().find(|w| **w < 0.0) {
+            return Err(DensityError::OutOfRange {
+                what: "weight of a sample to fit",
+                value: w,
+                range: "[0, infinity)",
+            });
+        }
+        let pairs = samples.iter().zip(weights.iter().copied());
+        let mean =
+            liebayes_manifolds::weighted_mean(first, pairs.clone(), MeanSettings::default())?;
+        let total: f64 = weights.iter().sum();
+        let covariance = pairs.fold(SMatrix::<f64, D, D>::zeros(), |p, (x, w)| {
+            let r = mean.local(x);
+            p + r * r.transpose() * (w / total)
+        });
+        Self::new(mean, covariance)
     }
 
     /// μ, the mean on the manifold.
