@@ -322,6 +322,13 @@ fn fit_samples<P: Send>(
     Ok((xs, w))
 }
 
+/// The normalised product of two densities of a family and its log evidence `ln ∫ p q`.
+fn product_with_evidence<D: Product>(p: &D, q: &D) -> PyResult<(D, f64)> {
+    let joint = p.product(q).map_err(value_error)?;
+    let evidence = p.log_product_integral(q).map_err(value_error)?;
+    Ok((joint, evidence))
+}
+
 // ---------------------------------------------------------------------------------------------
 // Points of each space.
 // ---------------------------------------------------------------------------------------------
@@ -451,13 +458,8 @@ impl PyVonMises {
 
     /// The normalised product `p q / ∫ p q` and the log evidence `ln ∫ p q dθ`.
     fn product(&self, other: &Bound<'_, Self>) -> PyResult<(Self, f64)> {
-        let other = &other.get().inner;
-        let joint = self.inner.product(other).map_err(value_error)?;
-        let evidence = self
-            .inner
-            .log_product_integral(other)
-            .map_err(value_error)?;
-        Ok((Self { inner: joint }, evidence))
+        let (inner, evidence) = product_with_evidence(&self.inner, &other.get().inner)?;
+        Ok((Self { inner }, evidence))
     }
 
     /// `ln Z = ln(2π I₀(κ))`.
@@ -598,13 +600,8 @@ impl PyVonMisesFisher {
 
     /// The normalised product and the log evidence `ln ∫ p q dS`.
     fn product(&self, other: &Bound<'_, Self>) -> PyResult<(Self, f64)> {
-        let other = &other.get().inner;
-        let joint = self.inner.product(other).map_err(value_error)?;
-        let evidence = self
-            .inner
-            .log_product_integral(other)
-            .map_err(value_error)?;
-        Ok((Self { inner: joint }, evidence))
+        let (inner, evidence) = product_with_evidence(&self.inner, &other.get().inner)?;
+        Ok((Self { inner }, evidence))
     }
 
     /// `ln Z = ln(4π sinh κ / κ)`.
@@ -776,13 +773,8 @@ impl PyBingham {
 
     /// The normalised product (`M₁ + M₂`) and the log evidence `ln ∫ p q`.
     fn product(&self, other: &Bound<'_, Self>) -> PyResult<(Self, f64)> {
-        let other = &other.get().inner;
-        let joint = self.inner.product(other).map_err(value_error)?;
-        let evidence = self
-            .inner
-            .log_product_integral(other)
-            .map_err(value_error)?;
-        Ok((Self { inner: joint }, evidence))
+        let (inner, evidence) = product_with_evidence(&self.inner, &other.get().inner)?;
+        Ok((Self { inner }, evidence))
     }
 
     /// `ln K(z)` against the uniform probability measure on S³.
