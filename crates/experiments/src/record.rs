@@ -7,7 +7,8 @@ use crate::smoothing::Releases;
 use std::time::Instant;
 
 /// One step of a [`Recording`]: its time and truth as the steps gave them, the estimate after the
-/// step (after its update, where it had a measurement) and what the update reported.
+/// step (after its update, where it had a measurement) and what the update reported (a smoother's
+/// smoothed estimates are kept apart, in [`Recording::smoothed`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Recorded<T, E> {
     /// Time (s) at the end of the step.
@@ -18,10 +19,6 @@ pub struct Recorded<T, E> {
     pub estimate: E,
     /// The update's report, `None` for a step without a measurement.
     pub update: Option<Update>,
-    /// For a smoother ([`RecursiveFilter::smoothing`]), the step's smoothed estimate as it
-    /// released it (from the whole run for the RTS smoother, from the L steps after it for the
-    /// fixed-lag one); `None` for a filter.
-    pub smoothed: Option<E>,
 }
 
 /// Every step of a run, in order, with the filter's time.
@@ -29,6 +26,11 @@ pub struct Recorded<T, E> {
 pub struct Recording<T, E> {
     /// The steps.
     pub steps: Vec<Recorded<T, E>>,
+    /// For a smoother ([`RecursiveFilter::smoothing`]), `smoothed[k]` is step k's smoothed estimate
+    /// as it released it (from the whole run for the RTS smoother, from the L steps after it for
+    /// the fixed-lag one): one per step at the end of a run. Empty for a filter, so that a filter's
+    /// recording does not carry a second estimate per step.
+    pub smoothed: Vec<E>,
     /// Wall-clock time of the filter's steps and estimates (s), the steps' drawing excluded.
     pub seconds: f64,
 }
@@ -97,10 +99,12 @@ where
 {
     let steps = steps.into_iter();
     let mut kept: Vec<Recorded<T, F::Estimate>> = Vec::with_capacity(steps.size_hint().0);
+    let mut smoothed: Vec<F::Estimate> = Vec::new();
     let mut releases = Releases::new();
-    let keep = |kept: &mut Vec<Recorded<T, F::Estimate>>, i: usize, e| {
-        if let Some(step) = kept.get_mut(i) {
-            step.smoothed = Some(e);
+    // A smoother releases its estimates in step order, from step 0.
+    let keep = |smoothed: &mut Vec<F::Estimate>, i: usize, e| {
+        if i == smoothed.len() {
+            smoothed.push(e);
         }
     };
     let start = Instant::now();
@@ -121,14 +125,13 @@ where
             truth: step.truth,
             estimate,
             update,
-            smoothed: None,
         });
         releases
-            .poll(filter, false, |i, e| keep(&mut kept, i, e))
+            .poll(filter, false, |i, e| keep(&mut smoothed, i, e))
             .map_err(fail)?;
     }
     releases
-        .poll(filter, true, |i, e| keep(&mut kept, i, e))
+        .poll(filter, true, |i, e| keep(&mut smoothed, i, e))
         .map_err(|error| RunFailure {
             step: kept.len().saturating_sub(1),
             time: kept.last().map_or(f64::NAN, |s| s.time),
@@ -136,6 +139,7 @@ where
         })?;
     Ok(Recording {
         steps: kept,
+        smoothed,
         seconds: start.elapsed().as_secs_f64(),
     })
 }

@@ -349,8 +349,9 @@ fn a_recorded_run_holds_each_steps_smoothed_estimate() {
     // The prior's epoch is not a step: the first lagged output is epoch 0's.
     let outputs = &lagged[1..];
     assert_eq!(outputs.len(), steps.len());
-    for (k, (step, expected)) in recorded.steps.iter().zip(outputs).enumerate() {
-        assert_eq!(step.smoothed.as_ref(), Some(expected), "step {k}");
+    assert_eq!(recorded.smoothed.len(), steps.len());
+    for (k, (smoothed, expected)) in recorded.smoothed.iter().zip(outputs).enumerate() {
+        assert_eq!(smoothed, expected, "step {k}");
     }
     let mut whole = RtsSmoother::new(heading_prior());
     let (process, sensor) = heading_models();
@@ -361,11 +362,8 @@ fn a_recorded_run_holds_each_steps_smoothed_estimate() {
         }
     }
     let smoothed = whole.smooth().unwrap();
-    for (k, step) in rts.steps.iter().enumerate() {
-        assert_eq!(
-            step.smoothed.as_ref(),
-            Some(&smoothed[k + 1]),
-            "RTS step {k}"
-        );
+    assert_eq!(rts.smoothed.len(), rts.steps.len());
+    for (k, step) in rts.smoothed.iter().enumerate() {
+        assert_eq!(step, &smoothed[k + 1], "RTS step {k}");
     }
 }

@@ -550,9 +550,9 @@ fn recording(log: &ImuLog, estimates: &[AttitudeEstimate]) -> LogRecording {
                 truth: step.truth,
                 estimate: *estimate,
                 update: None,
-                smoothed: None,
             })
             .collect(),
+        smoothed: Vec::new(),
         seconds: 1.0,
     }
 }
