@@ -132,6 +132,17 @@ fn flat(n: usize, k: usize, f: impl Fn(usize, &mut [f64])) -> Vec<f64> {
     data
 }
 
+/// Checks a request for the runs `start..start + runs`: at least one, and the end representable.
+fn check_runs(start: u64, runs: usize) -> PyResult<()> {
+    if runs == 0 {
+        return Err(bad("runs is 0: it must be at least 1"));
+    }
+    start
+        .checked_add(runs as u64)
+        .map(|_| ())
+        .ok_or_else(|| bad("start + runs overflows"))
+}
+
 /// Checks that `count` values fit [`MAX_VALUES`].
 fn check_size(what: &str, count: Option<usize>) -> PyResult<usize> {
     match count {
@@ -683,12 +694,7 @@ fn azimuth_runs<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let scenario = azimuth_scenario(scenario, duration, dt, measure_every, sigma0, sigma_m, q)?;
     let steps = scenario.config().steps;
-    if runs == 0 {
-        return Err(bad("runs is 0: it must be at least 1"));
-    }
-    start
-        .checked_add(runs as u64)
-        .ok_or_else(|| bad("start + runs overflows"))?;
+    check_runs(start, runs)?;
     // Truth, velocity and measurements: six values per step.
     let per_array = check_size(
         "the runs",
@@ -1281,12 +1287,7 @@ fn aoa_runs<'py>(
     truth: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let track = aoa_track(data, sigma_deg, steps, truth)?;
-    if runs == 0 {
-        return Err(bad("runs is 0: it must be at least 1"));
-    }
-    start
-        .checked_add(runs as u64)
-        .ok_or_else(|| bad("start + runs overflows"))?;
+    check_runs(start, runs)?;
     // Truth and four readings: eleven values per step.
     let size = check_size(
         "the runs",
