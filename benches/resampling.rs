@@ -1,12 +1,14 @@
-//! Resampling cost against the particle count: every scheme is linear in N (sorted uniform draws by
-//! exponential spacings, the residual scheme's draws merged in index order), 1e6 and 1e8 particles.
+//! Resampling cost against the particle count: every scheme is linear in N (each particle's draws
+//! counted from its cumulative weight, the multinomial points sorted by exponential spacings), 1e6
+//! and 1e8 particles; `resample_indices` allocates its result (the first touch of fresh pages is part
+//! of its cost), a `Resampler` reuses its buffers from call to call.
 //!
 //! Run: `cargo bench --bench resampling` (figures in docs/benchmarks.md; the 1e8 case holds 1.6 GB,
 //! the weights and the indices, and 2.4 GB for the multinomial and residual schemes, whose sorted
-//! draws are stored).
+//! draws are stored, twice that with a resampler's buffers beside them).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use liebayes::operators::particle::{Resampling, resample_indices};
+use liebayes::operators::particle::{Resampler, Resampling, resample_indices};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
@@ -27,6 +29,18 @@ fn resampling(c: &mut Criterion) {
             g.bench_function(format!("{scheme:?}, {n:e} particles"), |b| {
                 b.iter(|| resample_indices(black_box(&weights), n, scheme, &mut rng).unwrap());
             });
+            let mut resampler = Resampler::with_capacity(n).expect("room for the draws");
+            g.bench_function(
+                format!("{scheme:?} reusing buffers, {n:e} particles"),
+                |b| {
+                    b.iter(|| {
+                        resampler
+                            .draw(black_box(&weights), n, scheme, &mut rng)
+                            .map(|indices| indices[n / 2])
+                            .unwrap()
+                    });
+                },
+            );
         }
     }
     g.finish();

@@ -11,7 +11,8 @@
 //!   marginalized particle filter): each payload conditioned exactly with the model of its label,
 //!   reweighted by that conditioning's log evidence;
 //! * four resampling schemes ([`Resampling`]), by hand with [`ParticleSet::resample`] or as part of
-//!   a propagation; [`resample_indices`] for weights held elsewhere.
+//!   a propagation; a [`Resampler`] (or its one-off form [`resample_indices`]) for weights held
+//!   elsewhere.
 //!
 //! Every step is all or nothing (a failed step leaves particles and weights as they were) and,
 //! through the in-place methods, allocates nothing: the set keeps its buffers between steps.
@@ -23,7 +24,7 @@ pub use models::{
     Given, LabelModel, Likelihood, LikelihoodFn, Reweight, SampleFn, Sampled, SampledProcess,
     finite_point,
 };
-pub use resampling::{Resampling, resample_indices};
+pub use resampling::{Resampler, Resampling, resample_indices};
 
 use crate::error::with_capacity;
 use crate::numerics::{LogWeights, Passes};
@@ -31,7 +32,7 @@ use crate::traits::{condition_clone, propagate_clone};
 use crate::{Condition, Conditioned, Evidence, OperatorError, Propagate};
 use liebayes_manifolds::{Manifold, MeanSettings, weighted_mean};
 use rand::{Rng, RngCore};
-use resampling::{Weights, Workspace, resample_into};
+use resampling::Weights;
 
 /// What a failed Bayes step of a particle set names.
 const LIKELIHOOD: &str = "particle log-likelihood";
@@ -73,10 +74,8 @@ pub struct ParticleSet<X> {
     /// The normalised log weights, with the buffer a Bayes step fills (also the weights' buffer when
     /// resampling), so that no step allocates.
     weights: LogWeights,
-    /// The resampled indices.
-    indices: Vec<usize>,
-    /// The resampling's other buffer.
-    work: Workspace,
+    /// The resampling's buffers.
+    resampler: Resampler,
     /// The stepped or resampled particles, swapped with `particles`.
     spare: Vec<X>,
 }
@@ -99,8 +98,7 @@ impl<X: Clone> ParticleSet<X> {
         }
         Ok(Self {
             weights: LogWeights::uniform(PARTICLES, n)?,
-            indices: with_capacity(PARTICLES, n)?,
-            work: Workspace::for_particles(PARTICLES, n)?,
+            resampler: Resampler::with_capacity(n)?,
             spare: with_capacity(PARTICLES, n)?,
             particles,
         })
@@ -193,25 +191,23 @@ impl<X: Clone> ParticleSet<X> {
     pub fn resample<R: Rng + ?Sized>(&mut self, scheme: Resampling, rng: &mut R) {
         self.draw_indices(scheme, rng);
         self.spare.clear();
-        self.spare
-            .extend(self.indices.iter().map(|&i| self.particles[i].clone()));
+        self.spare.extend(
+            self.resampler
+                .indices()
+                .iter()
+                .map(|&i| self.particles[i].clone()),
+        );
         std::mem::swap(&mut self.particles, &mut self.spare);
         self.weights.reset_uniform();
     }
 
-    /// The indices of a resampling with `scheme` into `self.indices`, the particles untouched.
+    /// The indices of a resampling with `scheme` into the resampler, the particles untouched.
     fn draw_indices<R: Rng + ?Sized>(&mut self, scheme: Resampling, rng: &mut R) {
         let n = self.particles.len();
         // The weights are normalised, finite and not all zero (kept so by every step), and the
         // buffers have room for n: nothing here can fail.
-        resample_into(
-            Weights::normalised(self.weights.linear()),
-            n,
-            scheme,
-            rng,
-            &mut self.work,
-            &mut self.indices,
-        );
+        self.resampler
+            .draw_checked(Weights::normalised(self.weights.linear()), n, scheme, rng);
     }
 
     /// `Σ wᵢ f(xᵢ)`.
@@ -300,7 +296,7 @@ where
         let process = model.process();
         self.spare.clear();
         if resample {
-            for &i in &self.indices {
+            for &i in self.resampler.indices() {
                 self.spare
                     .push(process.sample(&self.particles[i], input, rng)?);
             }

@@ -176,8 +176,8 @@ fn particle_run(steps: u64) {
         }
         truth = truth.retract(&Vector1::new(rate + 0.01 * normal(&mut rng)));
         let walk = SampleFn::new(move |x: &So2<f64>, (): &(), r: &mut dyn RngCore| {
-            let mut draw = ChaCha8Rng::seed_from_u64(r.next_u64());
-            Ok(x.retract(&Vector1::new(rate + 0.02 * normal(&mut draw))))
+            let e: f64 = r.sample(StandardNormal);
+            Ok(x.retract(&Vector1::new(rate + 0.02 * e)))
         });
         let before = (set.particles().to_vec(), set.log_weights().to_vec());
         let sampler = Sampled::new(&walk, ChaCha8Rng::seed_from_u64(k));

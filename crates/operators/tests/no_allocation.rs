@@ -10,7 +10,7 @@ use liebayes_manifolds::So2;
 use liebayes_operators::grid::{CircularGrid, Diffusion};
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::particle::{
-    Given, LikelihoodFn, ParticleSet, Resampling, Reweight, SampleFn, Sampled,
+    Given, LikelihoodFn, ParticleSet, Resampler, Resampling, Reweight, SampleFn, Sampled,
 };
 use liebayes_operators::{Condition, OperatorError, Propagate};
 use nalgebra::{Matrix2, Vector2};
@@ -95,6 +95,26 @@ fn in_place_steps_do_not_allocate() {
     assert_eq!(
         allocations(|| set.resample(Resampling::Residual, &mut rng)),
         0
+    );
+    // A resampler with room for 1000 draws allocates for none of its calls up to 1000 (every scheme,
+    // and a smaller draw after a larger one), and grows once for more.
+    let weights: Vec<f64> = (0..700).map(|i| f64::from(i % 13)).collect();
+    let mut resampler = Resampler::with_capacity(1000).unwrap();
+    for scheme in [
+        Resampling::Multinomial,
+        Resampling::Stratified,
+        Resampling::Systematic,
+        Resampling::Residual,
+    ] {
+        for n in [1000, 10, 999] {
+            let count = allocations(|| {
+                black_box(resampler.draw(&weights, n, scheme, &mut rng).unwrap());
+            });
+            assert_eq!(count, 0, "{scheme:?}, {n} draws");
+        }
+    }
+    assert!(
+        allocations(|| drop(resampler.draw(&weights, 1001, Resampling::Residual, &mut rng))) > 0
     );
 
     let prior = Gaussian::new(Vector2::new(1.0, 0.0), Matrix2::identity()).unwrap();

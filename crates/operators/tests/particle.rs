@@ -73,6 +73,115 @@ fn systematic_and_residual_keep_the_floor_of_n_w() {
     }
 }
 
+/// Each scheme's copies have the variance its construction gives (20 000 resamplings of 10 draws
+/// from weights whose N·Cᵢ = 1.3, 3.5, 6.6, 10 fall in different strata), within 10 % (more than five
+/// standard errors of a sample variance here), and the stratified and residual schemes are not
+/// mistaken for the multinomial one:
+/// * multinomial: N wᵢ (1 − wᵢ);
+/// * stratified: the draws up to particle i are ⌊N Cᵢ⌋ plus one with probability fᵢ = N Cᵢ − ⌊N Cᵢ⌋,
+///   independently from stratum to stratum, so a count's variance is fᵢ(1 − fᵢ) + fᵢ₋₁(1 − fᵢ₋₁);
+/// * systematic: the count ⌈N Cᵢ − u⌉ − ⌈N Cᵢ₋₁ − u⌉ averaged over a grid of 10⁵ offsets u;
+/// * residual: ⌊N wᵢ⌋ plus a multinomial count of R = N − Σ⌊N wⱼ⌋ draws from the residuals.
+#[test]
+fn each_scheme_has_the_variance_of_its_construction() {
+    let weights = [0.13, 0.22, 0.31, 0.34];
+    let n = 10;
+    let nf = n as f64;
+    let repetitions = 20_000;
+    let cumulative = [1.3, 3.5, 6.6, 10.0];
+    let bernoulli = |f: f64| f * (1.0 - f);
+    let multinomial: Vec<f64> = weights.iter().map(|w| nf * w * (1.0 - w)).collect();
+    let fractions = [0.3, 0.5, 0.6, 0.0];
+    let stratified: Vec<f64> = (0..4)
+        .map(|i| {
+            bernoulli(fractions[i])
+                + if i > 0 {
+                    bernoulli(fractions[i - 1])
+                } else {
+                    0.0
+                }
+        })
+        .collect();
+    let grid = 100_000;
+    let systematic: Vec<f64> = (0..4)
+        .map(|i| {
+            let counts: Vec<f64> = (0..grid)
+                .map(|k| {
+                    let u = (f64::from(k) + 0.5) / f64::from(grid);
+                    let below = |c: f64| (c - u).ceil().clamp(0.0, nf);
+                    below(cumulative[i]) - if i > 0 { below(cumulative[i - 1]) } else { 0.0 }
+                })
+                .collect();
+            let mean = counts.iter().sum::<f64>() / f64::from(grid);
+            counts.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / f64::from(grid)
+        })
+        .collect();
+    let residuals = [0.3, 0.2, 0.1, 0.4];
+    let residual: Vec<f64> = residuals.iter().map(|&r| bernoulli(r)).collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    let variances = |scheme, rng: &mut ChaCha8Rng| -> Vec<f64> {
+        let mut sums = [(0.0, 0.0); 4];
+        for _ in 0..repetitions {
+            let indices = resample_indices(&weights, n, scheme, rng).unwrap();
+            for (i, (s, s2)) in sums.iter_mut().enumerate() {
+                let c = indices.iter().filter(|&&j| j == i).count() as f64;
+                *s += c;
+                *s2 += c * c;
+            }
+        }
+        let r = f64::from(repetitions);
+        sums.iter()
+            .map(|(s, s2)| s2 / r - (s / r).powi(2))
+            .collect()
+    };
+    let within = |measured: &[f64], expected: &[f64]| {
+        measured
+            .iter()
+            .zip(expected)
+            .all(|(m, e)| (m - e).abs() <= 0.1 * e)
+    };
+    for (scheme, expected) in [
+        (Resampling::Multinomial, &multinomial),
+        (Resampling::Stratified, &stratified),
+        (Resampling::Systematic, &systematic),
+        (Resampling::Residual, &residual),
+    ] {
+        let measured = variances(scheme, &mut rng);
+        assert!(
+            within(&measured, expected),
+            "{scheme:?}: {measured:?} vs {expected:?}"
+        );
+        if scheme != Resampling::Multinomial {
+            assert!(!within(&measured, &multinomial), "{scheme:?}: {measured:?}");
+        }
+    }
+    // The stratified scheme is not the systematic one (0.46 against 0.16 for the second particle).
+    assert!(!within(
+        &variances(Resampling::Stratified, &mut rng),
+        &systematic
+    ));
+}
+
+/// Weights 1 : 3 : 0 : 4 scaled by a power of two (exact) from the smallest subnormal to where their
+/// sum overflows give the same draws from the same generator state.
+#[test]
+fn weights_at_any_scale_give_the_same_draws() {
+    for scheme in SCHEMES {
+        let draws = |scale: f64| {
+            let weights = [scale, 3.0 * scale, 0.0, 4.0 * scale];
+            resample_indices(&weights, 1000, scheme, &mut ChaCha8Rng::seed_from_u64(8)).unwrap()
+        };
+        let plain = draws(1.0);
+        // 2⁻¹⁰⁷⁴, the smallest subnormal, then 2⁻¹⁰⁰⁰ … 2¹⁰²¹.
+        let scales = [f64::from_bits(1)]
+            .into_iter()
+            .chain([-1000, -900, -1, 1, 900, 1020, 1021].map(|e| 2f64.powi(e)));
+        for scale in scales {
+            assert_eq!(draws(scale), plain, "{scheme:?} {scale:e}");
+        }
+    }
+}
+
 /// x ~ N(1, 4), z = x + N(0, 1), z = 3: the exact posterior is N(2.6, 0.8) and ln p(z) = ln N(3; 1, 5).
 /// 20 000 prior particles estimate both within Monte Carlo error.
 #[test]

@@ -2,7 +2,7 @@
 //! calls.
 
 use crate::OperatorError;
-use crate::error::{check_size, reserve, with_capacity};
+use crate::error::check_size;
 use rand::Rng;
 use rand_distr::Exp1;
 
@@ -26,67 +26,143 @@ pub enum Resampling {
     Residual,
 }
 
-/// The indices of n draws from `weights` by `scheme`, in increasing order (empty for n = 0). The
-/// weights need not be normalised: each is read as `(wᵢ / max w) / Σⱼ (wⱼ / max w)`, so that any
-/// finite non-negative weights with a positive sum (1e300, f64::MAX, subnormals) give draws in
-/// proportion to them. Two passes over the weights (the checks with the largest weight, the total)
-/// precede the drawing pass; nothing is copied. Allocates its result (and, for the multinomial and
-/// residual schemes, the sorted draws); [`ParticleSet::resample`](super::ParticleSet::resample)
-/// reuses buffers instead.
+/// The indices of n draws from `weights` by `scheme`, in increasing order (empty for n = 0): the
+/// one-off form of [`Resampler::draw`], which keeps its buffers for the next call. Allocates its
+/// result (and, for the multinomial and residual schemes, the sorted draws).
 ///
 /// # Errors
-/// [`OperatorError::OutOfRange`] for no weights (with n > 0) or a negative weight,
-/// [`OperatorError::NonFinite`] for a NaN or infinite weight or weights that are all zero,
-/// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the result
-/// cannot be allocated; all checked before anything is allocated.
+/// As [`Resampler::draw`].
 pub fn resample_indices<R: Rng + ?Sized>(
     weights: &[f64],
     n: usize,
     scheme: Resampling,
     rng: &mut R,
 ) -> Result<Vec<usize>, OperatorError> {
-    const DRAWS: &str = "number of resampled draws";
-    check_size(DRAWS, n)?;
-    if n == 0 {
-        return Ok(Vec::new());
-    }
-    let weights = Weights::checked(weights)?;
-    let mut indices = with_capacity(DRAWS, n)?;
-    let mut work = Workspace::default();
-    if matches!(scheme, Resampling::Multinomial | Resampling::Residual) {
-        reserve(&mut work.sums, DRAWS, n)?;
-    }
-    resample_into(weights, n, scheme, rng, &mut work, &mut indices);
-    Ok(indices)
+    let mut resampler = Resampler::default();
+    resampler.draw(weights, n, scheme, rng)?;
+    Ok(resampler.indices)
 }
 
-/// Finite non-negative weights, not all zero, normalised as they are read:
-/// `wᵢ = (rawᵢ / largest) / total` with `total = Σ rawᵢ / largest` in [1, len], so that no weight up
-/// to f64::MAX overflows the total.
+/// Resampling that keeps its buffers from one call to the next: once it has drawn n indices by a
+/// scheme, no later call for up to n draws allocates (a particle set keeps one for its own
+/// resampling).
+///
+/// ```
+/// use liebayes_operators::particle::{Resampler, Resampling};
+/// use rand::SeedableRng;
+///
+/// let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+/// let mut resampler = Resampler::with_capacity(4)?;
+/// // Weights need not be normalised; a particle of weight zero is never drawn.
+/// let indices = resampler.draw(&[1.0, 0.0, 3.0], 4, Resampling::Systematic, &mut rng)?;
+/// assert_eq!(indices.len(), 4);
+/// assert_eq!(indices.iter().filter(|&&i| i == 2).count(), 3);
+/// # Ok::<(), liebayes_operators::OperatorError>(())
+/// ```
+#[derive(Clone, Debug, Default)]
+pub struct Resampler {
+    /// The drawn indices, with room for [`COPIES`] more.
+    indices: Vec<usize>,
+    /// The sorted points of the multinomial and residual schemes (partial sums of exponential
+    /// spacings), followed by [`WINDOW`] infinities.
+    points: Vec<f64>,
+}
+
+impl Resampler {
+    /// A resampler with room for n draws by any scheme, so that no call for up to n draws allocates.
+    ///
+    /// # Errors
+    /// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the
+    /// buffers cannot be allocated.
+    pub fn with_capacity(n: usize) -> Result<Self, OperatorError> {
+        let mut resampler = Self::default();
+        resampler.reserve(n, true)?;
+        Ok(resampler)
+    }
+
+    /// The indices of n draws from `weights` by `scheme`, in increasing order (empty for n = 0),
+    /// valid until the next call. The weights need not be normalised: any finite non-negative
+    /// weights with a positive sum (1e300, f64::MAX, subnormals) give draws in proportion to them.
+    /// One pass checks the weights, finds the largest and sums them (a second sums them scaled by a
+    /// power of two when that sum overflows or the weights are tiny), one more draws; nothing is
+    /// copied and no scheme sorts: time linear in n and the number of weights.
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for no weights (with n > 0) or a negative weight,
+    /// [`OperatorError::NonFinite`] for a NaN or infinite weight or weights that are all zero,
+    /// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the
+    /// buffers cannot grow to n; all checked before anything is allocated or drawn.
+    pub fn draw<R: Rng + ?Sized>(
+        &mut self,
+        weights: &[f64],
+        n: usize,
+        scheme: Resampling,
+        rng: &mut R,
+    ) -> Result<&[usize], OperatorError> {
+        check_size(DRAWS, n)?;
+        if n == 0 {
+            self.indices.clear();
+            return Ok(&self.indices);
+        }
+        let weights = Weights::checked(weights)?;
+        self.reserve(
+            n,
+            matches!(scheme, Resampling::Multinomial | Resampling::Residual),
+        )?;
+        Ok(self.draw_checked(weights, n, scheme, rng))
+    }
+
+    /// The indices of the last draw.
+    pub(super) fn indices(&self) -> &[usize] {
+        &self.indices
+    }
+
+    /// Room for n indices and, with `points`, n sorted points.
+    fn reserve(&mut self, n: usize, points: bool) -> Result<(), OperatorError> {
+        check_size(DRAWS, n)?;
+        grow(&mut self.indices, n + COPIES)?;
+        if points {
+            grow(&mut self.points, n + WINDOW)?;
+        }
+        Ok(())
+    }
+}
+
+/// What `resample_indices` calls its draws in errors.
+const DRAWS: &str = "number of resampled draws";
+
+/// Below this largest weight, or when the plain sum overflows, the weights are summed and read
+/// scaled by a power of two (so that `N / total` stays finite).
+const TINY: f64 = 1e-270;
+
+/// Finite non-negative weights, not all zero, read as `wᵢ = rawᵢ · scale / total` with
+/// `total = Σ rawᵢ · scale`: `scale` is 1 unless the weights are tiny (below [`TINY`]) or their sum
+/// overflows, when it is a power of two (exact scaling) that brings the largest weight near 1.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Weights<'a> {
     raw: &'a [f64],
-    largest: f64,
+    scale: f64,
     total: f64,
 }
 
 impl<'a> Weights<'a> {
-    /// Weights that are already normalised (as a particle set keeps them), read as they are:
-    /// dividing by 1 is exact.
+    /// Weights that are already normalised (as a particle set keeps them), read as they are.
     pub(super) fn normalised(raw: &'a [f64]) -> Self {
         Self {
             raw,
-            largest: 1.0,
+            scale: 1.0,
             total: 1.0,
         }
     }
 
-    /// Checks the weights (and finds the largest) in one pass, then sums them in a second.
+    /// Checks the weights, finds the largest and sums them in one pass (four sums side by side);
+    /// sums them again scaled when the plain sum overflows or the weights are tiny.
     ///
     /// # Errors
     /// As [`resample_indices`].
     fn checked(raw: &'a [f64]) -> Result<Self, OperatorError> {
         const WEIGHT: &str = "resampling weight";
+        const LANES: usize = 4;
         if raw.is_empty() {
             return Err(OperatorError::OutOfRange {
                 what: "number of weights to resample from",
@@ -94,9 +170,21 @@ impl<'a> Weights<'a> {
                 range: "at least 1",
             });
         }
-        let (largest, valid) = raw.iter().fold((0.0_f64, true), |(largest, valid), &w| {
-            (largest.max(w), valid & (0.0..=f64::MAX).contains(&w))
-        });
+        let (mut largest, mut sum, mut valid) = ([0.0_f64; LANES], [0.0_f64; LANES], true);
+        let chunks = raw.chunks_exact(LANES);
+        let tail = chunks.remainder();
+        for chunk in chunks {
+            for ((l, s), &w) in largest.iter_mut().zip(&mut sum).zip(chunk) {
+                *l = l.max(w);
+                *s += w;
+                valid &= (0.0..=f64::MAX).contains(&w);
+            }
+        }
+        for (l, (s, &w)) in largest.iter_mut().zip(sum.iter_mut().zip(tail)) {
+            *l = l.max(w);
+            *s += w;
+            valid &= (0.0..=f64::MAX).contains(&w);
+        }
         if !valid {
             // The first non-finite weight, else the first negative one.
             return Err(match raw.iter().find(|w| !w.is_finite()) {
@@ -111,123 +199,198 @@ impl<'a> Weights<'a> {
                 },
             });
         }
+        let largest = largest.into_iter().fold(0.0, f64::max);
         if largest == 0.0 {
             return Err(OperatorError::NonFinite {
                 what: "total resampling weight (every weight is zero)",
                 value: 0.0,
             });
         }
-        let total = raw.iter().map(|w| w / largest).sum();
-        Ok(Self {
-            raw,
-            largest,
-            total,
-        })
-    }
-
-    /// The normalised weights wᵢ, in index order.
-    fn iter(self) -> impl DoubleEndedIterator<Item = f64> + ExactSizeIterator + 'a {
-        self.raw.iter().map(move |w| w / self.largest / self.total)
-    }
-}
-
-/// The buffer reused from one resampling to the next: the partial sums of the exponential spacings
-/// of the multinomial (and residual) draws.
-#[derive(Clone, Debug, Default)]
-pub(super) struct Workspace {
-    sums: Vec<f64>,
-}
-
-impl Workspace {
-    /// The buffer for resampling n particles, allocated once, so that no resampling of a set of n
-    /// particles allocates.
-    ///
-    /// # Errors
-    /// [`OperatorError::TooLarge`] when it cannot be allocated.
-    pub(super) fn for_particles(what: &'static str, n: usize) -> Result<Self, OperatorError> {
-        Ok(Self {
-            sums: with_capacity(what, n)?,
-        })
-    }
-}
-
-/// n draws from `weights` into `out` (cleared first), with the workspace's buffer (which must have
-/// room for n for the multinomial and residual schemes, or it grows). One pass over the weights
-/// draws and merges, normalising each weight as it is read; the stratified and systematic points
-/// are generated in that pass, the multinomial ones (exponential spacings) need their total first
-/// and are stored.
-pub(super) fn resample_into<R: Rng + ?Sized>(
-    weights: Weights<'_>,
-    n: usize,
-    scheme: Resampling,
-    rng: &mut R,
-    work: &mut Workspace,
-    out: &mut Vec<usize>,
-) {
-    out.clear();
-    if n == 0 {
-        return;
-    }
-    let nf = n as f64;
-    let unfixed = |w| (w, 0);
-    let last = || last_positive(weights.iter());
-    match scheme {
-        Resampling::Multinomial => {
-            let total = exponential_sums(n, rng, &mut work.sums);
-            let points = work.sums.iter().map(|s| s / total);
-            select(weights, unfixed, last(), points, n, out);
+        let total: f64 = sum.into_iter().sum();
+        if total.is_finite() && largest >= TINY {
+            return Ok(Self {
+                raw,
+                scale: 1.0,
+                total,
+            });
         }
-        Resampling::Stratified => {
-            let points = (0..n).map(|k| (k as f64 + rng.random::<f64>()) / nf);
-            select(weights, unfixed, last(), points, n, out);
-        }
-        Resampling::Systematic => systematic(weights, n, rng.random::<f64>(), out),
-        Resampling::Residual => residual(weights, n, rng, &mut work.sums, out),
+        // Powers of two: scaling by them is exact (but for weights that underflow, below 2⁻¹⁰⁷⁴
+        // of the largest). The largest weight becomes at most 2⁴²⁴ or at least 2⁻⁴⁷⁴.
+        let scale = if largest < TINY {
+            2f64.powi(600)
+        } else {
+            2f64.powi(-600)
+        };
+        let total = raw.iter().map(|w| w * scale).sum();
+        Ok(Self { raw, scale, total })
+    }
+
+    /// `factor / total`, finite for factors up to 2⁵⁰⁰ (the total is at least [`TINY`], or 2⁻⁴⁷⁴
+    /// when scaled), for [`Weights::scaled`].
+    fn per(self, factor: f64) -> f64 {
+        factor / self.total
+    }
+
+    /// A raw weight's normalised weight times `factor`, with `per = self.per(factor)`. Two products:
+    /// `scale · per` alone can overflow (subnormal weights have a total near 2⁻¹⁰⁷⁴).
+    fn scaled(self, raw: f64, per: f64) -> f64 {
+        raw * self.scale * per
+    }
+
+    /// The index of the last particle whose `positive` holds (0 if none).
+    fn last(self, positive: impl Fn(f64) -> bool) -> usize {
+        self.raw.iter().rposition(|&w| positive(w)).unwrap_or(0)
     }
 }
 
-/// Copies of its index each particle writes without looking at its count (the systematic scheme's
-/// counts are ⌊N wᵢ⌋ or ⌈N wᵢ⌉, so a particle rarely has more).
+/// Sorted points are stored followed by this many infinite ones, so that a window of this many
+/// points from any point up to the last is in the buffer.
+const WINDOW: usize = 4;
+
+/// Makes room for `capacity` elements in an emptied `buffer` (nothing to do when it has it).
+///
+/// # Errors
+/// [`OperatorError::TooLarge`] when it cannot be allocated.
+fn grow<T>(buffer: &mut Vec<T>, capacity: usize) -> Result<(), OperatorError> {
+    buffer.clear();
+    buffer
+        .try_reserve_exact(capacity)
+        .map_err(|_| OperatorError::TooLarge {
+            what: DRAWS,
+            value: capacity,
+            max: crate::MAX_ELEMENTS,
+        })
+}
+
+impl Resampler {
+    /// n ≥ 1 draws from checked `weights` into the indices (the buffers must have room for n, or
+    /// they grow). Each scheme counts, for particle i, how many of its sorted points lie below the
+    /// cumulative weight `Cᵢ = w₀ + … + wᵢ` (summed in index order): that count is where particle
+    /// i's copies end. The last particle of positive weight takes the points past the rounded total.
+    pub(super) fn draw_checked<R: Rng + ?Sized>(
+        &mut self,
+        weights: Weights<'_>,
+        n: usize,
+        scheme: Resampling,
+        rng: &mut R,
+    ) -> &[usize] {
+        let out = &mut self.indices;
+        out.clear();
+        let nf = n as f64;
+        match scheme {
+            Resampling::Multinomial => {
+                let points = &mut self.points;
+                let total = exponential_sums(n, rng, points);
+                let mut next = 0;
+                by_counts(weights, n, total, out, |c| {
+                    next = points_below(points, next, c);
+                    next
+                });
+            }
+            Resampling::Stratified => {
+                let seed = rng.next_u64();
+                by_counts(weights, n, nf, out, |c| {
+                    // Point k = (k + Uₖ)/N of stratum k lies below Cᵢ iff k < ⌊N Cᵢ⌋, or k = ⌊N Cᵢ⌋ and
+                    // Uₖ < N Cᵢ − ⌊N Cᵢ⌋.
+                    let (k, whole) = floor_count(c.min(nf));
+                    k + usize::from(k < n && stratum_uniform(seed, k) < c - whole)
+                });
+            }
+            Resampling::Systematic => {
+                let u = rng.random::<f64>();
+                by_counts(weights, n, nf, out, |c| {
+                    // Points (k + u)/N below Cᵢ: k < N Cᵢ − u.
+                    let x = (c - u).clamp(0.0, nf);
+                    let (k, whole) = floor_count(x);
+                    k + usize::from(whole < x)
+                });
+            }
+            Resampling::Residual => residual(weights, n, rng, &mut self.points, out),
+        }
+        out
+    }
+}
+
+/// ⌊x⌋ of a count x in [0, 2⁵³], as an index and as a float. The casts truncate, which is the floor
+/// there, and go through i64, whose conversions are single instructions on x86-64 (a call to `floor`
+/// would be a library call on the baseline target, and usize conversions take several steps).
+#[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+fn floor_count(x: f64) -> (usize, f64) {
+    let k = x as i64;
+    (k as usize, k as f64)
+}
+
+/// Copies of its index each particle writes without looking at its count (a particle rarely has
+/// more: the systematic scheme gives ⌊N wᵢ⌋ or ⌈N wᵢ⌉ copies, the others about N wᵢ on average).
 const COPIES: usize = 4;
 
-/// The systematic points `(k + u)/N` counted instead of merged: the points below the cumulative
-/// weight `Cᵢ` are the k with `k < N Cᵢ − u`, so particle i's copies fill `out[sᵢ₋₁, sᵢ)` with
-/// `sᵢ = ⌈N Cᵢ − u⌉` clamped to [0, N]. Each particle writes [`COPIES`] copies at `sᵢ₋₁` whatever its
-/// count (a particle without copies is overwritten by the next one, which starts at the same place;
-/// the copies past a particle's end by the particles after it), and only a particle with more copies
-/// writes the rest: one pass over the weights without a data-dependent branch per particle (but
-/// within [`COPIES`] of the end, where the copies would not fit). The last particle of positive
-/// weight takes the points past the rounded total.
-fn systematic(weights: Weights<'_>, n: usize, u: f64, out: &mut Vec<usize>) {
-    let nf = n as f64;
-    let last = last_positive(weights.iter());
-    out.clear();
-    out.resize(n, 0);
-    let mut cumulative = 0.0;
-    let mut start = 0;
-    for (i, w) in weights.iter().enumerate().take(last + 1) {
-        cumulative += w;
-        // In [0, N] before the cast: exact.
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let end = (nf * cumulative - u).ceil().clamp(0.0, nf) as usize;
-        if start + COPIES <= n {
-            out[start..start + COPIES].fill(i);
-            if end > start + COPIES {
-                out[start + COPIES..end].fill(i);
-            }
-        } else {
-            // The last few draws: no room for the unconditional copies.
-            out[start..end].fill(i);
-        }
-        start = end;
+/// Appends copies of particle i to `out` until it holds `end`. It appends [`COPIES`] copies whatever
+/// the count and then shortens or lengthens `out` to `end`, so that the common counts (zero to
+/// [`COPIES`]) take no data-dependent branch, and each slot of `out` is written once or twice, never
+/// cleared first. `out` has room for [`COPIES`] more than the draws, so nothing is reallocated.
+#[inline]
+fn push_copies(out: &mut Vec<usize>, end: usize, i: usize) {
+    out.extend_from_slice(&[i; COPIES]);
+    if end > out.len() {
+        out.resize(end, i);
+    } else {
+        out.truncate(end);
     }
-    out[start..].fill(last);
+}
+
+/// The draws of the multinomial, stratified and systematic schemes: particle i's copies end where
+/// `end(Cᵢ)` says, `Cᵢ` the cumulative weight in units of `factor` (the points' total); the last
+/// particle of positive weight takes every draw left, up to n. One pass over the weights up to that
+/// particle. `end` must not decrease.
+fn by_counts(
+    weights: Weights<'_>,
+    n: usize,
+    factor: f64,
+    out: &mut Vec<usize>,
+    mut end: impl FnMut(f64) -> usize,
+) {
+    let last = weights.last(|w| w > 0.0);
+    let per = weights.per(factor);
+    let mut cumulative = 0.0;
+    for (i, &raw) in weights.raw[..last].iter().enumerate() {
+        cumulative += weights.scaled(raw, per);
+        let stop = end(cumulative).clamp(out.len(), n);
+        push_copies(out, stop, i);
+    }
+    out.resize(n, last);
+}
+
+/// The k-th of the stratified scheme's uniforms, in [0, 1): SplitMix64's k-th output from `seed`
+/// (one 64-bit draw of the caller's generator), its top 53 bits. Drawn by index, so that each
+/// particle finds the one uniform it needs without the others being stored.
+fn stratum_uniform(seed: u64, k: usize) -> f64 {
+    let mut z = seed.wrapping_add((k as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    (z >> 11) as f64 * f64::EPSILON / 2.0
+}
+
+/// The index past the sorted points from `from` on that lie below `threshold`: the points are read
+/// [`WINDOW`] at a time and counted, so that the loop goes round again only for a particle with
+/// [`WINDOW`] or more draws (the buffer's infinite padding ends it).
+#[inline]
+fn points_below(points: &[f64], from: usize, threshold: f64) -> usize {
+    let mut next = from;
+    while let Some(window) = points.get(next..next + WINDOW) {
+        let below = window.iter().filter(|&&p| p < threshold).count();
+        next += below;
+        if below < WINDOW {
+            break;
+        }
+    }
+    next
 }
 
 /// ⌊N wᵢ⌋ copies of each particle (at most N in all: the bound absorbs the rounding of N wᵢ), and
-/// the remaining R = N − Σ ⌊N wᵢ⌋ draws multinomially from the residuals `rᵢ = N wᵢ − ⌊N wᵢ⌋`,
-/// normalised by their sum: one pass for the floors and that sum, one to draw and merge in index
-/// order; time linear in N and the number of particles.
+/// the remaining R = N − Σ ⌊N wᵢ⌋ draws multinomially from the residuals `rᵢ = N wᵢ − ⌊N wᵢ⌋`: one
+/// pass for the floors and the residuals' total, one to count each particle's draws; time linear in
+/// N and the number of particles.
 fn residual<R: Rng + ?Sized>(
     weights: Weights<'_>,
     n: usize,
@@ -235,53 +398,61 @@ fn residual<R: Rng + ?Sized>(
     sums: &mut Vec<f64>,
     out: &mut Vec<usize>,
 ) {
-    let nf = n as f64;
-    // With normalised weights ⌊N wᵢ⌋ ≤ N wᵢ, so the floors sum to at most N up to rounding.
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let floor = |w: f64| (nf * w).floor() as usize;
-    let residual = |w: f64| nf * w - (nf * w).floor();
-    let (floors, total) = weights.iter().fold((0_usize, 0.0), |(floors, total), w| {
-        (floors.saturating_add(floor(w)), total + residual(w))
-    });
+    let per = weights.per(n as f64);
+    // (⌊N wᵢ⌋, N wᵢ − ⌊N wᵢ⌋). With normalised weights ⌊N wᵢ⌋ ≤ N wᵢ ≤ N (up to rounding): the
+    // cast is exact.
+    let split = |w: f64| {
+        let x = weights.scaled(w, per);
+        let (floor, whole) = floor_count(x);
+        (floor, x - whole)
+    };
+    let (floors, total) = weights
+        .raw
+        .iter()
+        .fold((0_usize, 0.0), |(floors, total), &w| {
+            let (floor, residual) = split(w);
+            (floors.saturating_add(floor), total + residual)
+        });
     let rest = n.saturating_sub(floors);
-    // The R draws as sorted points in [0, 1], and the particle that takes the points past the
-    // rounded total of the residuals.
-    let (points_total, last) = if rest == 0 {
-        sums.clear();
-        (1.0, 0)
-    } else if total > 0.0 {
-        let points_total = exponential_sums(rest, rng, sums);
-        (
-            points_total,
-            last_positive(weights.iter().map(|w| residual(w) / total)),
-        )
+    let points_total = exponential_sums(rest, rng, sums);
+    // The particle that takes the points past the rounded total of the residuals: the last with a
+    // positive residual, or, when every N wᵢ was an integer up to rounding (the floors fell short of
+    // N only by that rounding), the heaviest.
+    let last = if total > 0.0 {
+        weights.last(|w| split(w).1 > 0.0)
     } else {
-        // Every N wᵢ was an integer up to rounding: the floors fell short of N only by that
-        // rounding, and the heaviest particle takes the rest (every point goes past the residuals'
-        // total, zero).
-        sums.clear();
-        sums.resize(rest, 0.0);
-        let heaviest = weights
+        weights
+            .raw
             .iter()
             .enumerate()
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map_or(0, |(i, _)| i);
-        (1.0, heaviest)
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map_or(0, |(i, _)| i)
     };
-    let divisor = if total > 0.0 { total } else { 1.0 };
-    select(
-        weights,
-        |w| (residual(w) / divisor, floor(w)),
-        last,
-        sums.iter().map(|s| s / points_total),
-        n,
-        out,
-    );
+    let factor = if total > 0.0 {
+        points_total / total
+    } else {
+        0.0
+    };
+    let (mut cumulative, mut next) = (0.0, 0);
+    for (i, &w) in weights.raw.iter().enumerate() {
+        let (floor, residual) = split(w);
+        cumulative += residual * factor;
+        let before = next;
+        next = if i == last {
+            rest
+        } else {
+            points_below(sums, next, cumulative)
+        };
+        let stop = (out.len().saturating_add(floor) + (next - before)).min(n);
+        push_copies(out, stop, i);
+    }
+    out.resize(n, last);
 }
 
-/// The partial sums `Sₖ = E₁ + … + Eₖ` of n independent Exp(1) draws into `sums` (cleared first),
-/// and `Sₙ₊₁`: by Rényi's representation `(S₁, …, Sₙ) / Sₙ₊₁` is distributed as the order statistics
-/// of n uniform draws on [0, 1], sorted in time linear in n.
+/// The partial sums `Sₖ = E₁ + … + Eₖ` of n independent Exp(1) draws into `sums` (cleared first,
+/// then followed by [`WINDOW`] infinities), and `Sₙ₊₁`: by Rényi's representation
+/// `(S₁, …, Sₙ) / Sₙ₊₁` is distributed as the order statistics of n uniform draws on [0, 1], sorted
+/// in time linear in n.
 fn exponential_sums<R: Rng + ?Sized>(n: usize, rng: &mut R, sums: &mut Vec<f64>) -> f64 {
     sums.clear();
     let mut sum = 0.0;
@@ -289,85 +460,6 @@ fn exponential_sums<R: Rng + ?Sized>(n: usize, rng: &mut R, sums: &mut Vec<f64>)
         sum += rng.sample::<f64, _>(Exp1);
         sum
     }));
+    sums.extend([f64::INFINITY; WINDOW]);
     sum + rng.sample::<f64, _>(Exp1)
-}
-
-/// The index of the last positive weight (0 if none).
-fn last_positive(mut weights: impl DoubleEndedIterator<Item = f64> + ExactSizeIterator) -> usize {
-    weights.rposition(|w| w > 0.0).unwrap_or(0)
-}
-
-/// Weights normalised, accumulated and merged this many at a time (on the stack): the divisions of a
-/// block run side by side, and the merge reads finished cumulative sums.
-const BLOCK: usize = 256;
-
-/// Merges sorted points in [0, 1] with the cumulative weights `Cᵢ = w₀ + … + wᵢ` (summed in index
-/// order) of `(wᵢ, fixedᵢ) = split(weightᵢ)`, appending for each particle i its `fixedᵢ` copies
-/// (capped so that `out` holds at most `draws`), then one copy per point p < Cᵢ not taken before;
-/// particle `last` takes every point left, so that a point past the rounded total goes to the last
-/// particle of positive weight, never to a trailing particle of weight zero.
-fn select(
-    weights: Weights<'_>,
-    split: impl Fn(f64) -> (f64, usize),
-    last: usize,
-    points: impl Iterator<Item = f64>,
-    draws: usize,
-    out: &mut Vec<usize>,
-) {
-    let mut points = Blocks::new(points);
-    let mut cumulative = [0.0; BLOCK];
-    let mut fixed = [0; BLOCK];
-    let mut sum = 0.0;
-    for (b, raw) in weights.raw.chunks(BLOCK).enumerate() {
-        let (cumulative, fixed) = (&mut cumulative[..raw.len()], &mut fixed[..raw.len()]);
-        for ((c, f), w) in cumulative.iter_mut().zip(fixed.iter_mut()).zip(raw) {
-            (*c, *f) = split(w / weights.largest / weights.total);
-        }
-        for c in cumulative.iter_mut() {
-            sum += *c;
-            *c = sum;
-        }
-        for ((i, &c), &f) in (b * BLOCK..).zip(cumulative.iter()).zip(fixed.iter()) {
-            out.extend(std::iter::repeat_n(i, f.min(draws - out.len())));
-            while points.next_if(|p| p < c || i == last) {
-                out.push(i);
-            }
-        }
-    }
-}
-
-/// Points drawn a block at a time (the draws of a block run side by side, and the merge reads
-/// finished values).
-struct Blocks<I> {
-    source: I,
-    block: [f64; BLOCK],
-    len: usize,
-    next: usize,
-}
-
-impl<I: Iterator<Item = f64>> Blocks<I> {
-    fn new(source: I) -> Self {
-        Self {
-            source,
-            block: [0.0; BLOCK],
-            len: 0,
-            next: 0,
-        }
-    }
-
-    /// Takes the next point if there is one and `take` holds for it.
-    fn next_if(&mut self, take: impl Fn(f64) -> bool) -> bool {
-        if self.next == self.len {
-            self.len = self
-                .block
-                .iter_mut()
-                .zip(&mut self.source)
-                .map(|(slot, p)| *slot = p)
-                .count();
-            self.next = 0;
-        }
-        let taken = self.next < self.len && take(self.block[self.next]);
-        self.next += usize::from(taken);
-        taken
-    }
 }
