@@ -10,7 +10,8 @@ use rand_distr::Exp1;
 /// expected number of copies is N wᵢ); they differ in variance and cost:
 ///
 /// * `Multinomial`: N independent draws; the highest variance.
-/// * `Stratified`: one uniform draw in each of the N strata [k/N, (k+1)/N).
+/// * `Stratified`: one uniform draw in each of the N strata [k/N, (k+1)/N) (the N uniforms are
+///   SplitMix64's outputs from one 64-bit draw of the caller's generator, each found by its index).
 /// * `Systematic`: one uniform offset u, points (k + u)/N; each particle gets ⌊N wᵢ⌋ or ⌈N wᵢ⌉ copies.
 /// * `Residual`: ⌊N wᵢ⌋ copies each, then the remainder multinomially from the residual weights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -115,6 +116,53 @@ impl Resampler {
     /// The indices of the last draw.
     pub(super) fn indices(&self) -> &[usize] {
         &self.indices
+    }
+
+    /// n ≥ 1 draws from checked `weights` into the indices (the buffers must have room for n, or
+    /// they grow). Each scheme counts, for particle i, how many of its sorted points lie below the
+    /// cumulative weight `Cᵢ = w₀ + … + wᵢ` (summed in index order): that count is where particle
+    /// i's copies end. The last particle of positive weight takes the points past the rounded total.
+    pub(super) fn draw_checked<R: Rng + ?Sized>(
+        &mut self,
+        weights: Weights<'_>,
+        n: usize,
+        scheme: Resampling,
+        rng: &mut R,
+    ) -> &[usize] {
+        let out = &mut self.indices;
+        out.clear();
+        let nf = n as f64;
+        match scheme {
+            Resampling::Multinomial => {
+                let points = &mut self.points;
+                let total = exponential_sums(n, rng, points);
+                let mut next = 0;
+                by_counts(weights, n, total, out, |c| {
+                    next = points_below(points, next, c);
+                    next
+                });
+            }
+            Resampling::Stratified => {
+                let seed = rng.next_u64();
+                by_counts(weights, n, nf, out, |c| {
+                    // Point k = (k + Uₖ)/N of stratum k lies below Cᵢ iff k < ⌊N Cᵢ⌋, or k = ⌊N Cᵢ⌋ and
+                    // Uₖ < N Cᵢ − ⌊N Cᵢ⌋.
+                    let (k, whole) = floor_count(c.min(nf));
+                    k + usize::from(k < n && stratum_uniform(seed, k) < c - whole)
+                });
+            }
+            Resampling::Systematic => {
+                let u = rng.random::<f64>();
+                by_counts(weights, n, nf, out, |c| {
+                    // Points (k + u)/N below Cᵢ: k < N Cᵢ − u.
+                    let x = (c - u).clamp(0.0, nf);
+                    let (k, whole) = floor_count(x);
+                    k + usize::from(whole < x)
+                });
+            }
+            Resampling::Residual => residual(weights, n, rng, &mut self.points, out),
+        }
+        out
     }
 
     /// Room for n indices and, with `points`, n sorted points.
@@ -260,55 +308,6 @@ fn grow<T>(buffer: &mut Vec<T>, capacity: usize) -> Result<(), OperatorError> {
             value: capacity,
             max: crate::MAX_ELEMENTS,
         })
-}
-
-impl Resampler {
-    /// n ≥ 1 draws from checked `weights` into the indices (the buffers must have room for n, or
-    /// they grow). Each scheme counts, for particle i, how many of its sorted points lie below the
-    /// cumulative weight `Cᵢ = w₀ + … + wᵢ` (summed in index order): that count is where particle
-    /// i's copies end. The last particle of positive weight takes the points past the rounded total.
-    pub(super) fn draw_checked<R: Rng + ?Sized>(
-        &mut self,
-        weights: Weights<'_>,
-        n: usize,
-        scheme: Resampling,
-        rng: &mut R,
-    ) -> &[usize] {
-        let out = &mut self.indices;
-        out.clear();
-        let nf = n as f64;
-        match scheme {
-            Resampling::Multinomial => {
-                let points = &mut self.points;
-                let total = exponential_sums(n, rng, points);
-                let mut next = 0;
-                by_counts(weights, n, total, out, |c| {
-                    next = points_below(points, next, c);
-                    next
-                });
-            }
-            Resampling::Stratified => {
-                let seed = rng.next_u64();
-                by_counts(weights, n, nf, out, |c| {
-                    // Point k = (k + Uₖ)/N of stratum k lies below Cᵢ iff k < ⌊N Cᵢ⌋, or k = ⌊N Cᵢ⌋ and
-                    // Uₖ < N Cᵢ − ⌊N Cᵢ⌋.
-                    let (k, whole) = floor_count(c.min(nf));
-                    k + usize::from(k < n && stratum_uniform(seed, k) < c - whole)
-                });
-            }
-            Resampling::Systematic => {
-                let u = rng.random::<f64>();
-                by_counts(weights, n, nf, out, |c| {
-                    // Points (k + u)/N below Cᵢ: k < N Cᵢ − u.
-                    let x = (c - u).clamp(0.0, nf);
-                    let (k, whole) = floor_count(x);
-                    k + usize::from(whole < x)
-                });
-            }
-            Resampling::Residual => residual(weights, n, rng, &mut self.points, out),
-        }
-        out
-    }
 }
 
 /// ⌊x⌋ of a count x in [0, 2⁵³], as an index and as a float. The casts truncate, which is the floor
