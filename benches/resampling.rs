@@ -1,11 +1,10 @@
 //! Resampling cost against the particle count: every scheme is linear in N (each particle's draws
-//! counted from its cumulative weight, the multinomial points sorted by exponential spacings), 1e6
-//! and 1e8 particles; `resample_indices` allocates its result (the first touch of fresh pages is part
-//! of its cost), a `Resampler` reuses its buffers from call to call.
+//! counted from its cumulative weight, the multinomial points sorted by exponential spacings drawn
+//! a block at a time), 1e6 and 1e8 particles; `resample_indices` allocates its result (the first
+//! touch of fresh pages is part of its cost), a `Resampler` reuses its buffers from call to call.
 //!
 //! Run: `cargo bench --bench resampling` (figures in docs/benchmarks.md; the 1e8 case holds 1.6 GB,
-//! the weights and the indices, and 2.4 GB for the multinomial and residual schemes, whose sorted
-//! draws are stored, twice that with a resampler's buffers beside them).
+//! the weights and the indices, 2.4 GB with a resampler's buffers beside them).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use liebayes::operators::particle::{Resampler, Resampling, resample_indices};

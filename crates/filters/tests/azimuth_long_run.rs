@@ -15,7 +15,9 @@
 //! `LIEBAYES_LONG_RUN_STEPS=100000000 cargo test --release -p liebayes-filters --test
 //! azimuth_long_run -- --ignored --nocapture` (figures in docs/reliability.md).
 
-use liebayes_experiments::{Method as _, RecursiveFilter, Scenario};
+mod common;
+
+use liebayes_experiments::Method as _;
 use liebayes_filters::azimuth::{AzimuthEstimate, AzimuthScenario, Config, Method, Motion};
 use nalgebra::Vector2;
 use rand::{Rng, SeedableRng};
@@ -24,23 +26,17 @@ use rand_chacha::ChaCha8Rng;
 /// Steps of the test-sized runs.
 const TEST_STEPS: u64 = 5_000;
 
-/// An estimate is valid: a finite position mean, a finite symmetric covariance with no negative
-/// eigenvalue beyond rounding (relative to its largest entry, absolute below f64::MIN_POSITIVE),
-/// positive definite when `definite`; ρ in [0, 1] and a circular variance in [0, ∞].
+/// An estimate is valid: a finite position mean and a valid covariance (positive definite when
+/// `definite`), ρ in [0, 1] and a circular variance in [0, ∞].
 fn valid(e: &AzimuthEstimate, definite: bool) -> bool {
-    let p = &e.cov_r;
-    let scale = p.amax();
     e.mean_r.iter().all(|x| x.is_finite())
-        && p.iter().all(|x| x.is_finite())
-        && (p - p.transpose()).amax() <= 1e-12 * scale
-        && p.symmetric_eigenvalues().min() >= -(1e-12 * scale).max(f64::MIN_POSITIVE)
-        && (!definite || p.cholesky().is_some())
+        && common::valid_covariance(&e.cov_r, definite)
         && (0.0..=1.0).contains(&e.rho)
         && e.circular_variance >= 0.0
 }
 
-/// Steps `method` through `steps` steps of alternating circle and line runs; returns the refused
-/// steps.
+/// Steps `method` through `steps` steps of alternating circle and line runs, every 7th
+/// measurement replaced by a position up to 10 km away; returns the refused steps.
 fn run(method: Method, steps: u64) -> u64 {
     let config = Config {
         steps: 1000,
@@ -56,46 +52,14 @@ fn run(method: Method, steps: u64) -> u64 {
         .expect("valid settings")
         .build(&mut rng)
         .expect("a filter");
-    let (mut done, mut refused, mut measured) = (0_u64, 0_u64, 0_u64);
-    for scenario in scenarios.iter().cycle() {
-        let run: Vec<_> = scenario
-            .simulate(&mut rng)
-            .expect("a run of the scenario")
-            .collect();
-        for step in run {
-            if done == steps {
-                return refused;
-            }
-            let before = filter.estimate().ok();
-            if filter.predict(&step.input).is_err() {
-                refused += 1;
-                assert_eq!(
-                    filter.estimate().ok(),
-                    before,
-                    "step {done}: a refused predict"
-                );
-            }
-            if let Some(mut z) = step.measurement {
-                if measured % 7 == 0 {
-                    z = Vector2::new(wild.random_range(-1e4..1e4), wild.random_range(-1e4..1e4));
-                }
-                measured += 1;
-                let before = filter.estimate().ok();
-                if filter.update(&z).is_err() {
-                    refused += 1;
-                    assert_eq!(
-                        filter.estimate().ok(),
-                        before,
-                        "step {done}: a refused update"
-                    );
-                }
-            }
-            let estimate = filter.estimate().expect("an estimate");
-            assert!(valid(&estimate, definite), "step {done}: {estimate:?}");
-            done += 1;
+    let corrupt = |z: &mut Vector2<f64>, measured: u64| {
+        if measured % 7 == 0 {
+            *z = Vector2::new(wild.random_range(-1e4..1e4), wild.random_range(-1e4..1e4));
         }
-    }
-    refused
+    };
+    common::run(&mut *filter, &scenarios, steps, &mut rng, corrupt, |e| {
+        valid(e, definite)
+    })
 }
 
 /// The six filters, with the sizes the studies use.
@@ -119,10 +83,7 @@ fn every_filter_stays_valid() {
 #[test]
 #[ignore = "the long run, by hand: LIEBAYES_LONG_RUN_STEPS=100000000"]
 fn long_runs() {
-    let steps = std::env::var("LIEBAYES_LONG_RUN_STEPS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(100_000_000);
+    let steps = common::long_run_steps();
     for method in METHODS {
         let steps = match method {
             Method::Exact | Method::Ekf | Method::Ukf => steps,

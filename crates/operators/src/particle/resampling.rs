@@ -3,15 +3,15 @@
 
 use crate::OperatorError;
 use crate::error::check_size;
-use rand::Rng;
-use rand_distr::Exp1;
+use rand::{Rng, RngCore};
+use rand_distr::{Distribution, Exp1, Gamma};
 
 /// How to resample N particles from normalised weights wᵢ. All four are unbiased (each particle's
 /// expected number of copies is N wᵢ); they differ in variance and cost:
 ///
-/// * `Multinomial`: N independent draws; the highest variance.
-/// * `Stratified`: one uniform draw in each of the N strata [k/N, (k+1)/N) (the N uniforms are
-///   SplitMix64's outputs from one 64-bit draw of the caller's generator, each found by its index).
+/// * `Multinomial`: N independent draws; the highest variance. Drawn sorted, as exponential
+///   spacings a block at a time (see [`Resampler::draw`]).
+/// * `Stratified`: one uniform draw in each of the N strata [k/N, (k+1)/N).
 /// * `Systematic`: one uniform offset u, points (k + u)/N; each particle gets ⌊N wᵢ⌋ or ⌈N wᵢ⌉ copies.
 /// * `Residual`: ⌊N wᵢ⌋ copies each, then the remainder multinomially from the residual weights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,7 +29,7 @@ pub enum Resampling {
 
 /// The indices of n draws from `weights` by `scheme`, in increasing order (empty for n = 0): the
 /// one-off form of [`Resampler::draw`], which keeps its buffers for the next call. Allocates its
-/// result (and, for the multinomial and residual schemes, the sorted draws).
+/// result (and, for the multinomial and residual schemes, the sums of their blocks of sorted draws and one block).
 ///
 /// # Errors
 /// As [`Resampler::draw`].
@@ -64,9 +64,10 @@ pub fn resample_indices<R: Rng + ?Sized>(
 pub struct Resampler {
     /// The drawn indices, with room for [`COPIES`] more.
     indices: Vec<usize>,
-    /// The sorted points of the multinomial and residual schemes (partial sums of exponential
-    /// spacings), followed by [`WINDOW`] infinities.
-    points: Vec<f64>,
+    /// The sum of each block's spacings, for the multinomial and residual schemes.
+    block_sums: Vec<f64>,
+    /// One block of their sorted points, followed by [`WINDOW`] infinities.
+    block: Vec<f64>,
 }
 
 impl Resampler {
@@ -76,6 +77,7 @@ impl Resampler {
     /// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or when the
     /// buffers cannot be allocated.
     pub fn with_capacity(n: usize) -> Result<Self, OperatorError> {
+        check_size(DRAWS, n)?;
         let mut resampler = Self::default();
         resampler.reserve(n, true)?;
         Ok(resampler)
@@ -87,6 +89,14 @@ impl Resampler {
     /// One pass checks the weights, finds the largest and sums them (a second sums them scaled by a
     /// power of two when that sum overflows or the weights are tiny), one more draws; nothing is
     /// copied and no scheme sorts: time linear in n and the number of weights.
+    ///
+    /// The random numbers: the systematic scheme takes one uniform from `rng`; the other schemes
+    /// take one 64-bit seed from `rng` and draw from SplitMix64 started there (the stratified
+    /// scheme finds the uniform of stratum k as SplitMix64's k-th output, by its index). The
+    /// multinomial scheme, and the residual scheme's remainder, draw their sorted points by Rényi's
+    /// representation, in blocks of 1024: each block's sum of exponential spacings is one
+    /// Gamma draw, and the spacings inside it are fresh exponential draws scaled to that sum (the
+    /// normalised spacings are independent of their sum), so only one block is held at a time.
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] for no weights (with n > 0) or a negative weight,
@@ -134,13 +144,9 @@ impl Resampler {
         let nf = n as f64;
         match scheme {
             Resampling::Multinomial => {
-                let points = &mut self.points;
-                let total = exponential_sums(n, rng, points);
-                let mut next = 0;
-                by_counts(weights, n, total, out, |c| {
-                    next = points_below(points, next, c);
-                    next
-                });
+                let (mut points, total) =
+                    SortedPoints::new(n, rng, &mut self.block_sums, &mut self.block);
+                by_counts(weights, n, total, out, |c| points.below(c));
             }
             Resampling::Stratified => {
                 let seed = rng.next_u64();
@@ -148,7 +154,7 @@ impl Resampler {
                     // Point k = (k + Uₖ)/N of stratum k lies below Cᵢ iff k < ⌊N Cᵢ⌋, or k = ⌊N Cᵢ⌋ and
                     // Uₖ < N Cᵢ − ⌊N Cᵢ⌋.
                     let (k, whole) = floor_count(c.min(nf));
-                    k + usize::from(k < n && stratum_uniform(seed, k) < c - whole)
+                    k + usize::from(k < n && SplitMix64::uniform_at(seed, k) < c - whole)
                 });
             }
             Resampling::Systematic => {
@@ -160,17 +166,20 @@ impl Resampler {
                     k + usize::from(whole < x)
                 });
             }
-            Resampling::Residual => residual(weights, n, rng, &mut self.points, out),
+            Resampling::Residual => {
+                residual(weights, n, rng, &mut self.block_sums, &mut self.block, out);
+            }
         }
         out
     }
 
-    /// Room for n indices and, with `points`, n sorted points.
+    /// Room for n indices and, with `points`, the blocks of n sorted points (n below
+    /// [`MAX_ELEMENTS`](crate::MAX_ELEMENTS), checked by the caller).
     fn reserve(&mut self, n: usize, points: bool) -> Result<(), OperatorError> {
-        check_size(DRAWS, n)?;
         grow(&mut self.indices, n + COPIES)?;
         if points {
-            grow(&mut self.points, n + WINDOW)?;
+            grow(&mut self.block_sums, n.div_ceil(BLOCK))?;
+            grow(&mut self.block, BLOCK + WINDOW)?;
         }
         Ok(())
     }
@@ -359,15 +368,160 @@ fn by_counts(
     out.resize(n, last);
 }
 
-/// The k-th of the stratified scheme's uniforms, in [0, 1): SplitMix64's k-th output from `seed`
-/// (one 64-bit draw of the caller's generator), its top 53 bits. Drawn by index, so that each
-/// particle finds the one uniform it needs without the others being stored.
-fn stratum_uniform(seed: u64, k: usize) -> f64 {
-    let mut z = seed.wrapping_add((k as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^= z >> 31;
-    (z >> 11) as f64 * f64::EPSILON / 2.0
+/// SplitMix64 (Steele, Lea and Flood, "Fast splittable pseudorandom number generators", 2014):
+/// a 64-bit counter advanced by the golden-ratio increment and mixed, so that its k-th output can
+/// also be found directly by index. A small fast generator for the schemes' many draws, started
+/// from one draw of the caller's generator.
+#[derive(Clone, Copy, Debug)]
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    const INCREMENT: u64 = 0x9e37_79b9_7f4a_7c15;
+
+    /// The generator's k-th output (k = 0 first) from `seed`, the top 53 bits as a uniform in
+    /// [0, 1).
+    fn uniform_at(seed: u64, k: usize) -> f64 {
+        let state = seed.wrapping_add((k as u64).wrapping_add(1).wrapping_mul(Self::INCREMENT));
+        (Self::mix(state) >> 11) as f64 * (f64::EPSILON / 2.0)
+    }
+
+    fn mix(mut z: u64) -> u64 {
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+}
+
+impl RngCore for SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(Self::INCREMENT);
+        Self::mix(self.0)
+    }
+
+    #[allow(clippy::cast_possible_truncation)]
+    fn next_u32(&mut self) -> u32 {
+        (self.next_u64() >> 32) as u32
+    }
+
+    fn fill_bytes(&mut self, dst: &mut [u8]) {
+        for chunk in dst.chunks_mut(8) {
+            let bytes = self.next_u64().to_le_bytes();
+            chunk.copy_from_slice(&bytes[..chunk.len()]);
+        }
+    }
+}
+
+/// Sorted points are drawn this many at a time (8 KiB, held in the first-level cache while it is
+/// counted), so that N points take N/[`BLOCK`] stored sums instead of N stored points.
+const BLOCK: usize = 1024;
+
+/// The partial sums `Sₖ = E₁ + … + Eₖ` of n independent Exp(1) draws, read in increasing order, and
+/// `Sₙ₊₁`: by Rényi's representation `(S₁, …, Sₙ) / Sₙ₊₁` is distributed as the order statistics of
+/// n uniform draws on [0, 1], sorted in time linear in n. Drawn a block at a time: the sums of the
+/// blocks first (one Gamma draw each, their total plus one more exponential is `Sₙ₊₁`), then each
+/// block's spacings when the count reaches it, as [`BLOCK`] exponential draws scaled to the block's
+/// sum.
+struct SortedPoints<'a> {
+    rng: SplitMix64,
+    /// Each block's sum.
+    sums: &'a [f64],
+    /// The current block's points, then [`WINDOW`] infinities.
+    block: &'a mut Vec<f64>,
+    /// The blocks drawn so far.
+    blocks: usize,
+    /// The points before the current block, and their last (the sum of the blocks so far).
+    before: usize,
+    start: f64,
+    /// The points left to draw, and the current block's first point not yet counted.
+    left: usize,
+    next: usize,
+}
+
+impl<'a> SortedPoints<'a> {
+    /// n sorted points from a seed drawn from `rng`, in the buffers (which must have room for
+    /// n / [`BLOCK`] sums and a block, or they grow), and their scale `Sₙ₊₁`.
+    fn new<R: Rng + ?Sized>(
+        n: usize,
+        rng: &mut R,
+        sums: &'a mut Vec<f64>,
+        block: &'a mut Vec<f64>,
+    ) -> (Self, f64) {
+        let mut rng = SplitMix64(rng.next_u64());
+        sums.clear();
+        let mut total = 0.0;
+        for start in (0..n).step_by(BLOCK) {
+            // A block of k spacings sums to a Gamma(k, 1) draw (a shape of at least 1 is always
+            // valid: the mean in its place is never taken).
+            let size = (BLOCK.min(n - start)) as f64;
+            let sum = Gamma::new(size, 1.0).map_or(size, |g| g.sample(&mut rng));
+            sums.push(sum);
+            total += sum;
+        }
+        total += rng.sample::<f64, _>(Exp1);
+        block.clear();
+        block.extend([f64::INFINITY; WINDOW]);
+        let points = Self {
+            rng,
+            sums,
+            block,
+            blocks: 0,
+            before: 0,
+            start: 0.0,
+            left: n,
+            next: 0,
+        };
+        (points, total)
+    }
+
+    /// The number of points below `threshold`; thresholds must not decrease from call to call.
+    #[inline]
+    fn below(&mut self, threshold: f64) -> usize {
+        self.next = points_below(self.block, self.next, threshold);
+        if self.next + WINDOW == self.block.len() && self.left > 0 {
+            self.below_in_next_blocks(threshold);
+        }
+        self.before + self.next
+    }
+
+    /// Draws blocks and counts on while every point of the current one is below `threshold` (at
+    /// most once per block).
+    #[inline(never)]
+    fn below_in_next_blocks(&mut self, threshold: f64) {
+        for _ in 0..self.sums.len() {
+            self.before += self.block.len() - WINDOW;
+            self.draw_block();
+            self.next = points_below(self.block, 0, threshold);
+            if self.next + WINDOW < self.block.len() || self.left == 0 {
+                break;
+            }
+        }
+    }
+
+    /// The next block's points: its exponential spacings' partial sums scaled to the block's sum
+    /// (the last point is the block's end exactly, so the points increase across blocks too).
+    fn draw_block(&mut self) {
+        let size = BLOCK.min(self.left);
+        let (start, sum) = (self.start, self.sums[self.blocks]);
+        let end = start + sum;
+        let mut partial = 0.0;
+        self.block.clear();
+        self.block.extend((0..size).map(|_| {
+            partial += self.rng.sample::<f64, _>(Exp1);
+            partial
+        }));
+        let scale = if partial > 0.0 { sum / partial } else { 0.0 };
+        for point in self.block.iter_mut() {
+            *point = (start + *point * scale).min(end);
+        }
+        if let Some(last) = self.block.last_mut() {
+            *last = end;
+        }
+        self.block.extend([f64::INFINITY; WINDOW]);
+        self.blocks += 1;
+        self.start = end;
+        self.left -= size;
+        self.next = 0;
+    }
 }
 
 /// The index past the sorted points from `from` on that lie below `threshold`: the points are read
@@ -395,6 +549,7 @@ fn residual<R: Rng + ?Sized>(
     n: usize,
     rng: &mut R,
     sums: &mut Vec<f64>,
+    block: &mut Vec<f64>,
     out: &mut Vec<usize>,
 ) {
     let per = weights.per(n as f64);
@@ -413,7 +568,7 @@ fn residual<R: Rng + ?Sized>(
             (floors.saturating_add(floor), total + residual)
         });
     let rest = n.saturating_sub(floors);
-    let points_total = exponential_sums(rest, rng, sums);
+    let (mut points, points_total) = SortedPoints::new(rest, rng, sums, block);
     // The particle that takes the points past the rounded total of the residuals: the last with a
     // positive residual, or, when every N wᵢ was an integer up to rounding (the floors fell short of
     // N only by that rounding), the heaviest.
@@ -440,25 +595,10 @@ fn residual<R: Rng + ?Sized>(
         next = if i == last {
             rest
         } else {
-            points_below(sums, next, cumulative)
+            points.below(cumulative)
         };
         let stop = (out.len().saturating_add(floor) + (next - before)).min(n);
         push_copies(out, stop, i);
     }
     out.resize(n, last);
-}
-
-/// The partial sums `Sₖ = E₁ + … + Eₖ` of n independent Exp(1) draws into `sums` (cleared first,
-/// then followed by [`WINDOW`] infinities), and `Sₙ₊₁`: by Rényi's representation
-/// `(S₁, …, Sₙ) / Sₙ₊₁` is distributed as the order statistics of n uniform draws on [0, 1], sorted
-/// in time linear in n.
-fn exponential_sums<R: Rng + ?Sized>(n: usize, rng: &mut R, sums: &mut Vec<f64>) -> f64 {
-    sums.clear();
-    let mut sum = 0.0;
-    sums.extend((0..n).map(|_| {
-        sum += rng.sample::<f64, _>(Exp1);
-        sum
-    }));
-    sums.extend([f64::INFINITY; WINDOW]);
-    sum + rng.sample::<f64, _>(Exp1)
 }
