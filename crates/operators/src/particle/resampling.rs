@@ -29,7 +29,8 @@ pub enum Resampling {
 
 /// The indices of n draws from `weights` by `scheme`, in increasing order (empty for n = 0): the
 /// one-off form of [`Resampler::draw`], which keeps its buffers for the next call. Allocates its
-/// result (and, for the multinomial and residual schemes, the sums of their blocks of sorted draws and one block).
+/// result (and, for the multinomial and residual schemes, one block of sorted draws and the sums of
+/// the blocks).
 ///
 /// # Errors
 /// As [`Resampler::draw`].
