@@ -101,6 +101,8 @@ fn bingham(c: &mut Criterion) {
         [0.0, -0.5, -1.0, -2.0],
         [0.0, -20.0, -300.0, -1000.0],
         [0.0, -2000.0, -5000.0, -1e4],
+        [0.0, -3.7e8, -6.1e8, -1e9],
+        [0.0, -3.7e11, -6.1e11, -1e12],
     ] {
         g.bench_function(format!("normaliser + gradient alone, z {z:?}"), |b| {
             b.iter(|| special::bingham_log_normalizer_and_moments(black_box(&z)));

@@ -18,7 +18,7 @@ use std::sync::OnceLock;
 /// `∂K/∂z₀,₁ = ∫ (t/2)(1 ± A(u)) …`, `∂K/∂z₂,₃ = ∫ ((1−t)/2)(1 ± A(w)) …` with `A = I₁/I₀`,
 /// `u = t (z₀ − z₁)/2`, `w = (1−t)(z₂ − z₃)/2`. The integrand has boundary layers of width 1/|z| at both
 /// ends (the exponential at t = 1, the scaled Bessel functions' t^(−½)-like rise), which the tanh-sinh
-/// rule resolves with its double-exponentially clustered nodes (53 to 417 of them, by the eigenvalue
+/// rule resolves with its double-exponentially clustered nodes (53 to 833 of them, by the eigenvalue
 /// spread, see `nodes_for_spread`); Ĩ and A come from [`scaled_i0_i1`](crate::special::scaled_i0_i1)'s
 /// polynomial pieces, with `1 − A` summed without cancellation. Every reference case is within 2e-13
 /// (ln K) and 1.4e-14 (moments, relative).
@@ -78,19 +78,31 @@ struct Node {
 /// The rule for an eigenvalue spread `z_max − z_min`, each step the coarsest whose ln K and moments
 /// were measured (300 random eigenvalue sets per spread, against the rule with half the step) within
 /// 1e-14: step 1/8 (53 nodes) to 10, 1/16 (105 nodes) to 300, 1/32 (209 nodes) to 3e4, 1/64 (417
-/// nodes) beyond. At 1e6 step 1/32 still agrees with 1/64 to 4e-10.
+/// nodes) to 1e8, 1/128 (833 nodes) beyond. The boundary layer at t = 1 has width 1/spread; in the
+/// rule's variable it sits where sinh s ≈ ln(spread)/π, and the step there must shrink as that
+/// grows: at 1e9, 1/64 agrees with 1/512 to 2e-13 (moments), at 1e12 to 1.4e-14 only at 1/96;
+/// 1/128 agrees with 1/512 to 5e-15 up to 1e14 and 2.4e-14 at 1e16.
 fn nodes_for_spread(spread: f64) -> &'static [Node] {
-    static RULES: OnceLock<[Vec<Node>; 4]> = OnceLock::new();
-    let [h8, h16, h32, h64] =
-        RULES.get_or_init(|| [tanh_sinh(8), tanh_sinh(16), tanh_sinh(32), tanh_sinh(64)]);
+    static RULES: OnceLock<[Vec<Node>; 5]> = OnceLock::new();
+    let [h8, h16, h32, h64, h128] = RULES.get_or_init(|| {
+        [
+            tanh_sinh(8),
+            tanh_sinh(16),
+            tanh_sinh(32),
+            tanh_sinh(64),
+            tanh_sinh(128),
+        ]
+    });
     if spread <= 10.0 {
         h8
     } else if spread <= 300.0 {
         h16
     } else if spread <= 3e4 {
         h32
-    } else {
+    } else if spread <= 1e8 {
         h64
+    } else {
+        h128
     }
 }
 

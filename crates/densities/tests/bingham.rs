@@ -5,7 +5,7 @@
 
 mod common;
 
-use liebayes_densities::{Bingham, Density, Entropy, KlDivergence, Product, Rotate};
+use liebayes_densities::{Bingham, Density, Entropy, KlDivergence, Product, Rotate, special};
 use liebayes_manifolds::Su2;
 use liebayes_manifolds::testing::strategies as st;
 use nalgebra::{Matrix4, Quaternion, Vector4};
@@ -211,6 +211,89 @@ proptest! {
             prop_assert!((got - expected).abs() <= 1e-6 * (1.0 + expected.abs()), "z_{k}: {got} vs {expected}");
         }
         prop_assert!((fitted.second_moment() - b.second_moment()).amax() <= 1e-9);
+    }
+}
+
+/// The normaliser and its gradient at spreads 1e3 to 1e12 against 60-digit values
+/// (`tests/data/bingham_spread.json`, made by `tools/bingham_spread_reference.py`: the Bessel form
+/// for the other pairing of the eigenvalues, {0, 2} and {1, 3}, by mpmath's adaptive quadrature,
+/// the moments by central differences), seven shapes per spread: ln K within 1e-13 of
+/// max(1, |ln K|), and every second moment, the smallest (about 1/(2 spread)) included, within
+/// 1e-12 relative.
+#[test]
+fn matches_the_reference_up_to_the_largest_spread() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/bingham_spread.json"
+    );
+    let text = std::fs::read_to_string(path)
+        .expect("tests/data/bingham_spread.json is part of the repository");
+    let reference: serde_json::Value = text.parse().expect("valid JSON");
+    let number = |v: &serde_json::Value| -> f64 { v.as_str().unwrap().parse().unwrap() };
+    let (mut worst_log, mut worst_moment) = (0.0_f64, 0.0_f64);
+    for case in reference["cases"].as_array().unwrap() {
+        let z: Vec<f64> = case["z"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let z = [z[0], z[1], z[2], z[3]];
+        let (log_k, moments) = special::bingham_log_normalizer_and_moments(&z).unwrap();
+        let expected = number(&case["log_normalizer"]);
+        let error = (log_k - expected).abs() / expected.abs().max(1.0);
+        assert!(
+            error <= 1e-13,
+            "ln K at {z:?}: {log_k} vs {expected} ({error:e})"
+        );
+        worst_log = worst_log.max(error);
+        for (k, m) in moments.iter().enumerate() {
+            let expected = number(&case["moments"][k]);
+            let error = common::relative_error(*m, expected);
+            assert!(
+                error <= 1e-12,
+                "E[q_{k}²] at {z:?}: {m} vs {expected} ({error:e})"
+            );
+            worst_moment = worst_moment.max(error);
+        }
+    }
+    println!("worst relative error: ln K {worst_log:.1e}, moments {worst_moment:.1e}");
+}
+
+/// The fit inverts the moments at every concentration up to the largest spread: for seven shapes
+/// (one, two or three large gaps, a unit gap, two close middle eigenvalues, a generic set) at
+/// spreads 1e3, 1e6, 1e9, 1e11 and 0.99e12 (a fit at exactly the largest spread, 1e12, may land a
+/// rounding beyond it and be refused), the fit of the diagonal scatter `diag(E[uₖ²])` returns the
+/// eigenvalues to 1e-10 relative, and its moments agree to 1e-10 relative (the small ones, about
+/// 1/(2·spread), included).
+#[test]
+fn fit_inverts_the_moments_up_to_the_largest_spread() {
+    for s in [1e3, 1e6, 1e9, 1e11, 0.99e12] {
+        for l in [
+            [-s, -s, -s],
+            [0.0, 0.0, -s],
+            [0.0, -s, -s],
+            [-s / 3.0, -2.0 * s / 3.0, -s],
+            [-1.0, -s / 2.0, -s],
+            [-s * 1e-3, -s * 1e-3 - 1.0, -s],
+            [-0.37 * s, -0.61 * s, -s],
+        ] {
+            let b = diagonal([0.0, l[0], l[1], l[2]]);
+            let moments = b.eigen_moments();
+            let fitted = Bingham::from_second_moment(Matrix4::from_diagonal(&moments)).unwrap();
+            for k in 1..4 {
+                let (got, expected) = (fitted.eigenvalues()[k], b.eigenvalues()[k]);
+                assert!(
+                    (got - expected).abs() <= 1e-10 * (1.0 + expected.abs()),
+                    "spread {s:e}, {l:?}: z_{k} {got} vs {expected}"
+                );
+                let (got, expected) = (fitted.eigen_moments()[k], moments[k]);
+                assert!(
+                    common::relative_error(got, expected) <= 1e-10,
+                    "spread {s:e}, {l:?}: E[u_{k}²] {got} vs {expected}"
+                );
+            }
+        }
     }
 }
 
