@@ -1,7 +1,7 @@
 //! Test support shared by the crates' test suites: the independent reference vectors kept in this
-//! crate's `data/` folder (numbers computed outside this project; `data/README.md` says how), which
-//! ship with the repository so every checkout runs every reference check, and the bad-input
-//! harness [`fuzz`]. Not published; a dev-dependency only.
+//! crate's `data/` folder (numbers computed independently of this project's code; `data/README.md`
+//! says how), which ship with the repository so every checkout runs every reference check, and
+//! the bad-input harness [`fuzz`]. Not published; a dev-dependency only.
 
 use std::path::PathBuf;
 

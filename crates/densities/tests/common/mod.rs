@@ -3,6 +3,6 @@
 #![allow(dead_code)] // each test binary uses a different subset of these helpers
 
 #[allow(unused_imports)] // each test binary uses a different subset
-pub use liebayes_reference::{fuzz, reference, relative_error};
+pub use liebayes_reference::{Value, fuzz, numbers, reference, relative_error};
 
 pub mod quadrature;
