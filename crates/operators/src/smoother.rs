@@ -279,14 +279,35 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
     /// [`OperatorError::NotPositiveDefinite`] when a smoothed covariance loses positive definiteness
     /// (rounding on ill-conditioned models) or a predicted covariance cannot be factored.
     pub fn smooth(&self) -> Result<Vec<ManifoldGaussian<X, D>>, OperatorError> {
-        let mut smoothed = Vec::with_capacity(self.filtered.len());
-        let mut next = self.current().clone();
-        for (filtered, transition) in self.filtered.iter().zip(&self.transitions).rev() {
-            let previous = smooth_back(filtered, transition, &next)?;
-            smoothed.push(std::mem::replace(&mut next, previous));
-        }
-        smoothed.push(next);
-        smoothed.reverse();
-        Ok(smoothed)
+        smooth_records(&self.filtered, &self.transitions)
     }
+}
+
+/// The backward pass over a record kept by a filter of its own (a filter whose state is more than
+/// the Gaussian, such as one that must undo a failed step, keeps the densities the forward pass of
+/// [`RtsSmoother`] would have kept): `filtered[k]` the filtered density of epoch k,
+/// `transitions[k]` the transition from epoch k to k + 1 recorded from it. Returns the smoothed
+/// density of every epoch, in order (the last equals the last filtered density).
+///
+/// # Errors
+/// [`OperatorError::OutOfRange`] unless there is exactly one more filtered density than
+/// transitions, [`OperatorError::NonFinite`] for a cross-covariance entry that is not finite;
+/// otherwise as [`RtsSmoother::smooth`].
+pub fn smooth_records<X: Manifold<D, Scalar = f64>, const D: usize>(
+    filtered: &[ManifoldGaussian<X, D>],
+    transitions: &[Prediction<X, D>],
+) -> Result<Vec<ManifoldGaussian<X, D>>, OperatorError> {
+    check_records(filtered, transitions)?;
+    let Some((last, earlier)) = filtered.split_last() else {
+        return Ok(Vec::new());
+    };
+    let mut smoothed = with_capacity(RECORDS, filtered.len())?;
+    let mut next = last.clone();
+    for (filtered, transition) in earlier.iter().zip(transitions).rev() {
+        let previous = smooth_back(filtered, transition, &next)?;
+        smoothed.push(std::mem::replace(&mut next, previous));
+    }
+    smoothed.push(next);
+    smoothed.reverse();
+    Ok(smoothed)
 }

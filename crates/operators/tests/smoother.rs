@@ -10,7 +10,7 @@
 
 use liebayes_densities::{Density, Gaussian, ManifoldGaussian};
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, Rn, So2, So3};
-use liebayes_operators::smoother::RtsSmoother;
+use liebayes_operators::smoother::{RtsSmoother, smooth_records};
 use liebayes_operators::{Ekf, MeasurementFn, OperatorError, ProcessFn, Ukf};
 use nalgebra::{
     DMatrix, DVector, Matrix1, Matrix2, Matrix3, RowVector2, SMatrix, SVector, Vector1, Vector2,
@@ -143,6 +143,16 @@ fn linear_smoothing_equals_batch_least_squares() {
             rts.current().mean().coords()
         );
         assert!(smoothed[0].covariance()[(0, 0)] < rts.filtered()[0].covariance()[(0, 0)]);
+        // The backward pass over a record kept elsewhere is the recorder's, and a record with
+        // mismatched lengths is refused.
+        assert_eq!(
+            smooth_records(rts.filtered(), rts.transitions()).unwrap(),
+            smoothed
+        );
+        assert!(matches!(
+            smooth_records(&rts.filtered()[1..], rts.transitions()),
+            Err(OperatorError::OutOfRange { .. })
+        ));
     }
 }
 
