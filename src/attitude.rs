@@ -11,8 +11,8 @@ use liebayes::experiments::Table;
 use liebayes::experiments::{Shard, Study};
 use liebayes::filters::attitude::{
     AtRate, AttitudeParams, AttitudeScorer, Evaluation, ImuScenario, LogRecording, LogScenario,
-    Method, Sensors, SimulationSettings, read_broad, read_imu_csv, run_log, sample_errors,
-    simulate, write_estimates_csv,
+    Method, Sensors, SimulationSettings, estimates, read_broad, read_imu_csv, run_log,
+    sample_errors, simulate, write_estimates_csv,
 };
 use liebayes::filters::{FilterError, attitude::evaluate};
 use plotters::prelude::*;
@@ -23,13 +23,17 @@ const DEFAULT_METHODS: [&str; 4] = ["ekf-9d", "ekf-6d", "talk-9d", "madgwick-9d"
 
 /// The methods of the main job's BROAD run: the talk filter (the slowest, docs/benchmarks.md) runs there on
 /// the simulated log only.
-const MAIN_JOB_BROAD_METHODS: [&str; 3] = ["ekf-9d", "ekf-6d", "madgwick-9d"];
+const MAIN_JOB_BROAD_METHODS: [&str; 4] = ["ekf-9d", "ekf-6d", "ekf-offline-9d", "madgwick-9d"];
+
+/// The methods of `--offline`: the production filter's smoothed estimates.
+const OFFLINE_METHODS: [&str; 2] = ["ekf-offline-9d", "ekf-offline-6d"];
 
 /// VQF's published mean errors on BROAD's twelve undisturbed/disturbed trials (BROAD's README):
 /// (label, total, heading, inclination) in degrees.
-const VQF_PUBLISHED: [(&str, f64, f64, f64); 2] = [
+const VQF_PUBLISHED: [(&str, f64, f64, f64); 3] = [
     ("VQF 9D default", 2.76, 2.61, 0.70),
     ("VQF 9D tauAcc=3 tauMag=20", 2.44, 2.27, 0.70),
+    ("offline VQF 9D (acausal)", 2.25, 2.16, 0.49),
 ];
 
 /// `liebayes attitude`: exactly one of --broad, --simulate, --csv.
@@ -47,9 +51,14 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
     /// A method to run (repeat for several; default ekf-9d, ekf-6d, talk-9d, madgwick-9d): one of
-    /// ekf-9d, ekf-6d, talk-9d, talk-6d, madgwick-9d, madgwick-6d.
+    /// ekf-9d, ekf-6d, ekf-offline-9d, ekf-offline-6d, talk-9d, talk-6d, madgwick-9d, madgwick-6d.
     #[arg(long = "method", value_name = "NAME", value_parser = parse_method)]
     pub methods: Vec<Method>,
+    /// The offline estimate: the production filter's smoother over the whole log, every sample
+    /// given every sample (ekf-offline-9d and ekf-offline-6d; with --csv, the one the log's
+    /// sensors allow).
+    #[arg(long, conflicts_with_all = ["methods", "runs"])]
+    pub offline: bool,
     /// The simulation's seed.
     #[arg(long, default_value_t = 1, requires = "simulate")]
     pub seed: u64,
@@ -87,11 +96,16 @@ fn methods_or(given: &[Method], names: &[&str]) -> Result<Vec<Method>, CliError>
 /// written; nothing is written then.
 pub fn run(args: &Args) -> Result<(), CliError> {
     let mut output = output::prepare(&whole(args.out.clone()))?;
+    let defaults: &[&str] = if args.offline {
+        &OFFLINE_METHODS
+    } else {
+        &DEFAULT_METHODS
+    };
     if let Some(dir) = &args.broad {
-        let methods = methods_or(&args.methods, &DEFAULT_METHODS)?;
+        let methods = methods_or(&args.methods, defaults)?;
         broad(&broad_trials(dir)?, &methods, &mut output)?;
     } else if let Some(file) = &args.csv {
-        csv(file, &mut output)?;
+        csv(file, args.offline, &mut output)?;
     } else {
         let mut settings = SimulationSettings::default();
         if let Some(n) = args.samples {
@@ -104,7 +118,7 @@ pub fn run(args: &Args) -> Result<(), CliError> {
             let table = study(&settings, runs, args.seed)?;
             return emit(&[table], &whole(args.out.clone()), output);
         }
-        let methods = methods_or(&args.methods, &DEFAULT_METHODS)?;
+        let methods = methods_or(&args.methods, defaults)?;
         simulated(&settings, args.seed, &methods, &mut output)?;
     }
     output.finish()
@@ -416,17 +430,18 @@ fn simulated(
     Ok(())
 }
 
-/// `--csv`: the EKF (9D, or 6D without a magnetometer) on a user's log.
-fn csv(file: &Path, output: &mut output::Output) -> Result<(), CliError> {
+/// `--csv`: the EKF (9D, or 6D without a magnetometer; `offline`: its smoother) on a user's log.
+fn csv(file: &Path, offline: bool, output: &mut output::Output) -> Result<(), CliError> {
     let origin = file.display().to_string();
     let reader = std::fs::File::open(file).context(|| origin.clone())?;
     let log = read_imu_csv(std::io::BufReader::new(reader), &origin)?;
-    let name = if log.magnetometer().is_some() {
-        "ekf-9d"
+    let sensors = if log.magnetometer().is_some() {
+        "9d"
     } else {
-        "ekf-6d"
+        "6d"
     };
-    let method = parse_method(name)?;
+    let filter = if offline { "ekf-offline" } else { "ekf" };
+    let method = parse_method(&format!("{filter}-{sensors}"))?;
     let n = log.len();
     let scenario = LogScenario::new(log)?;
     let recording = run_log(&origin, &scenario, &method)?;
@@ -450,10 +465,8 @@ fn csv(file: &Path, output: &mut output::Output) -> Result<(), CliError> {
 
 /// A run's estimates as the CSV file `write_estimates_csv` writes (`origin` names it in errors).
 fn estimates_csv(recording: &LogRecording, origin: &str) -> Result<Vec<u8>, FilterError> {
-    let (times, orientations): (Vec<f64>, Vec<_>) = recording
-        .steps
-        .iter()
-        .map(|s| (s.time, s.estimate.orientation))
+    let (times, orientations): (Vec<f64>, Vec<_>) = estimates(recording)
+        .map(|(s, e)| (s.time, e.orientation))
         .unzip();
     let mut bytes = Vec::new();
     write_estimates_csv(&mut bytes, &times, &orientations, origin)?;
@@ -473,14 +486,14 @@ fn errors_svg(name: &str, label: &str, recording: &LogRecording) -> Result<Strin
         for (i, (panel, axis)) in panels.iter().zip(["heading", "inclination"]).enumerate() {
             let mut errors = Vec::new();
             let mut band = Vec::new();
-            for step in &recording.steps {
+            for (step, estimate) in estimates(recording) {
                 let Some(truth) = &step.truth else { continue };
-                let e = sample_errors(&step.estimate.orientation, truth);
+                let e = sample_errors(&estimate.orientation, truth);
                 errors.push((
                     step.time,
                     if i == 0 { e.heading } else { e.inclination }.to_degrees(),
                 ));
-                if let Some((h, t)) = step.estimate.sigmas() {
+                if let Some((h, t)) = estimate.sigmas() {
                     band.push((step.time, 2.0 * if i == 0 { h } else { t }.to_degrees()));
                 }
             }

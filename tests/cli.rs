@@ -540,13 +540,14 @@ fn write_imu_csv(path: &Path, log: &liebayes::filters::attitude::ImuLog) {
 }
 
 /// `--csv` round trip: a simulated log written as CSV, run by the binary, its estimates read back
-/// equal the library's run on the same file bit for bit (9D with a magnetometer, 6D without); a
-/// malformed file fails with one line naming the line and writes nothing.
+/// equal the library's run on the same file bit for bit (9D with a magnetometer, 6D without; the
+/// filter's, and with `--offline` the smoother's); a malformed file fails with one line naming the
+/// line and writes nothing.
 #[test]
 fn attitude_csv_round_trip() {
     use liebayes::filters::attitude::{
-        ImuLog, LogScenario, Method, SimulationSettings, read_estimates_csv, read_imu_csv, run_log,
-        simulate,
+        ImuLog, LogScenario, Method, SimulationSettings, estimates, read_estimates_csv,
+        read_imu_csv, run_log, simulate,
     };
     let dir = folder("attitude-csv");
     let settings = SimulationSettings {
@@ -561,17 +562,26 @@ fn attitude_csv_round_trip() {
         None,
     )
     .unwrap();
-    for (stem, log, method) in [("nine", &simulated, "ekf-9d"), ("six", &six, "ekf-6d")] {
+    for (stem, log, method, offline) in [
+        ("nine", &simulated, "ekf-9d", false),
+        ("six", &six, "ekf-6d", false),
+        ("nine", &simulated, "ekf-offline-9d", true),
+        ("six", &six, "ekf-offline-6d", true),
+    ] {
         let input = dir.join(format!("{stem}.csv"));
         write_imu_csv(&input, log);
-        let out_dir = dir.join(format!("{stem}-out"));
-        let out = liebayes(&[
+        let out_dir = dir.join(format!("{method}-out"));
+        let mut args = vec![
             "attitude",
             "--csv",
             input.to_str().unwrap(),
             "--out",
             out_dir.to_str().unwrap(),
-        ]);
+        ];
+        if offline {
+            args.push("--offline");
+        }
+        let out = liebayes(&args);
         assert!(out.status.success(), "{}", text(&out.stderr));
         assert!(
             text(&out.stdout).contains("600 samples"),
@@ -585,8 +595,8 @@ fn attitude_csv_round_trip() {
         let scenario = LogScenario::new(log).unwrap();
         let expected = run_log("in", &scenario, &Method::from_name(method).unwrap()).unwrap();
         assert_eq!(written.orientations.len(), 600);
-        for (w, e) in written.orientations.iter().zip(&expected.steps) {
-            let e = e.estimate.orientation;
+        for (w, (_, e)) in written.orientations.iter().zip(estimates(&expected)) {
+            let e = e.orientation;
             assert!(
                 w.coords == e.coords || w.coords == -e.coords,
                 "{w:?} vs {e:?}"
@@ -666,6 +676,18 @@ fn attitude_broad_one_trial() {
     assert!(summary["nees"]["EKF 9D"].is_array(), "{summary}");
     assert!(summary["nees"]["Madgwick 9D"].is_null(), "{summary}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `--offline` names its methods itself: with `--method` it is refused in one line.
+#[test]
+fn attitude_offline_with_a_method_is_refused() {
+    let out = liebayes(&["attitude", "--simulate", "--offline", "--method", "ekf-9d"]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.contains("--offline") && stderr.trim().lines().count() == 1,
+        "{stderr}"
+    );
 }
 
 #[test]

@@ -4,10 +4,12 @@
 Runs VQF (the authors' C++ through the batch API of the PyPI package `vqf`, 9D and 6D, default
 parameters, online) on every BROAD trial in a folder, times it, runs `liebayes attitude --broad` on
 the same folder in the same invocation, and prints one table with BROAD's metric (total / heading /
-inclination RMSE, degrees) and the throughput ratio.
+inclination RMSE, degrees) and the throughput ratio. With `--offline`, the offline estimates
+instead: VQF's acausal `offlineVQF` (the same package, default parameters) against
+`liebayes attitude --broad DIR --offline` (the production filter's RTS smoother).
 
     pip install vqf==2.1.2 scipy
-    python3 tools/attitude_peers.py --broad DIR [--liebayes target/release/liebayes] [--out DIR]
+    python3 tools/attitude_peers.py --broad DIR [--offline] [--liebayes target/release/liebayes] [--out DIR]
 
 Not part of the test suite (it needs the two Python packages and the data).
 """
@@ -22,7 +24,7 @@ import time
 
 import numpy as np
 import scipy.io
-from vqf import VQF
+from vqf import VQF, offlineVQF
 
 
 def errors(est, ref, movement):
@@ -63,14 +65,17 @@ def load(path):
     }
 
 
-def run_vqf(trial, nine_d):
+def run_vqf(trial, nine_d, offline):
     ts = 1.0 / trial["rate"]
-    vqf = VQF(ts)
     start = time.perf_counter()
-    if nine_d:
-        out = vqf.updateBatch(trial["gyr"], trial["acc"], trial["mag"])
+    if offline:
+        # The offline variant computes 6D and 9D in one pass; without a magnetometer, the 6D.
+        mag = trial["mag"] if nine_d else None
+        out = offlineVQF(trial["gyr"], trial["acc"], mag, ts)
+    elif nine_d:
+        out = VQF(ts).updateBatch(trial["gyr"], trial["acc"], trial["mag"])
     else:
-        out = vqf.updateBatch(trial["gyr"], trial["acc"])
+        out = VQF(ts).updateBatch(trial["gyr"], trial["acc"])
     elapsed = time.perf_counter() - start
     return out["quat9D" if nine_d else "quat6D"], elapsed
 
@@ -81,11 +86,14 @@ def main():
     parser.add_argument("--liebayes", default="target/release/liebayes", help="the liebayes binary")
     parser.add_argument("--out", help="folder for liebayes' output (default: a temporary folder)")
     parser.add_argument("--repeats", type=int, default=5, help="timed repetitions of each batch")
+    parser.add_argument("--offline", action="store_true",
+                        help="the offline (acausal) estimates: offlineVQF and liebayes --offline")
     args = parser.parse_args()
 
     trials = sorted(f for f in os.listdir(args.broad) if f.endswith(".mat"))
     if not trials:
         sys.exit(f"no .mat files in {args.broad}")
+    vqf_name = "offline VQF" if args.offline else "VQF"
     rows, timing = [], {"9D": [0.0, 0], "6D": [0.0, 0]}
     for name in trials:
         trial = load(os.path.join(args.broad, name))
@@ -93,22 +101,24 @@ def main():
         for label, nine_d in (("9D", True), ("6D", False)):
             best = math.inf
             for _ in range(max(1, args.repeats)):
-                quat, elapsed = run_vqf(trial, nine_d)
+                quat, elapsed = run_vqf(trial, nine_d, args.offline)
                 best = min(best, elapsed)
             timing[label][0] += best
             timing[label][1] += len(trial["gyr"])
-            row["VQF " + label] = errors(quat, trial["ref"], trial["movement"])
+            row[f"{vqf_name} {label}"] = errors(quat, trial["ref"], trial["movement"])
         rows.append(row)
 
     out = args.out or tempfile.mkdtemp(prefix="liebayes_attitude_")
     cmd = [args.liebayes, "attitude", "--broad", args.broad, "--out", out]
+    if args.offline:
+        cmd.append("--offline")
     print("running:", " ".join(cmd), flush=True)
     subprocess.run(cmd, check=True, stdout=sys.stderr)
     with open(os.path.join(out, "broad.summary.json")) as f:
         ours = json.load(f)
 
     by_trial = {t["trial"]: t for t in ours["trials"]}
-    methods = ["VQF 9D", "VQF 6D"] + ours["methods"]
+    methods = [f"{vqf_name} 9D", f"{vqf_name} 6D"] + ours["methods"]
     print()
     print("| trial | " + " | ".join(methods) + " |")
     print("|---|" + "---|" * len(methods))
@@ -132,10 +142,10 @@ def main():
     for label in ("9D", "6D"):
         seconds, samples = timing[label]
         vqf_rate = samples / seconds
-        print(f"  VQF {label} (C++ batch API): {vqf_rate / 1e6:.2f} M/s")
+        print(f"  {vqf_name} {label} (C++): {vqf_rate / 1e6:.2f} M/s")
         for m, rate in ours["throughput"].items():
             if m.endswith(label):
-                print(f"  {m}: {rate / 1e6:.2f} M/s, {rate / vqf_rate:.2f} x VQF {label}")
+                print(f"  {m}: {rate / 1e6:.2f} M/s, {rate / vqf_rate:.2f} x {vqf_name} {label}")
     for m, rate in ours["throughput"].items():
         if not (m.endswith("9D") or m.endswith("6D")):
             print(f"  {m}: {rate / 1e6:.3f} M/s")

@@ -9,14 +9,16 @@ use liebayes_filters::FilterError;
 use liebayes_filters::attitude::{
     AttitudeEkf, AttitudeEstimate, AttitudeParams, AttitudeScorer, AttitudeState, BROAD_BETA,
     Block, BlockProcess, FieldOffset, Heading, ImuLog, ImuSample, LogRecording, LogScenario,
-    LogScore, Method, Propagation, STATE_DIM, Sensors, SimulationSettings, TrialErrors, evaluate,
-    read_broad, run_log, simulate,
+    LogScore, Method, Propagation, STATE_DIM, Sensors, SimulationSettings, TrialErrors, run_log,
+    simulate,
 };
 use liebayes_manifolds::{Left, Manifold, Rn, So3};
 use liebayes_operators::evaluation::chi_square_quantile;
 use liebayes_operators::{MeasurementModel, ProcessModel};
-use liebayes_reference::broad::{TRIALS, data_dir};
+use liebayes_reference::broad::data_dir;
 use nalgebra::{Matrix3, SVector, UnitQuaternion, Vector3};
+
+mod broad;
 
 fn block() -> Block {
     let mut b = Block {
@@ -427,39 +429,15 @@ fn broad_beats_vqf() {
     let Some(dir) = data_dir() else {
         return;
     };
-    let logs: Vec<(String, LogScenario)> = TRIALS
-        .iter()
-        .map(|trial| {
-            let log = read_broad(dir.join(format!("{trial}.mat"))).unwrap();
-            ((*trial).to_owned(), LogScenario::new(log).unwrap())
-        })
-        .collect();
-    let methods = [Method::from_name("ekf-9d").unwrap()];
-    let evaluation = evaluate(&logs, &methods, &mut |_, _, _| Ok(())).unwrap();
-    for (trial, row) in evaluation.trials.iter().zip(&evaluation.scores) {
-        let e = row[0].errors().unwrap();
-        let [heading, tilt, _] = row[0].nees().unwrap();
-        println!(
-            "{trial}: {:.2} / {:.2} / {:.2}, NEES heading {heading:.2} (χ²(1)) tilt {tilt:.2} \
-             (χ²(2))",
-            e.total, e.heading, e.inclination
-        );
-    }
-    let [total, heading, inclination] = evaluation.mean_errors(0).unwrap();
-    println!("mean: {total:.2} / {heading:.2} / {inclination:.2}");
+    let [total, ..] = broad::scores(&dir, "ekf-9d");
     assert!(total < 2.44, "mean total RMSE {total}");
 }
 
 /// The production filter's noise chosen by leave-one-trial-out cross-validation over the twelve
-/// BROAD trials (9D, causal). Four settings take every combination of a grid (108 settings), the
-/// rest stay at their defaults: the gyroscope's angle random walk from its physical white noise
-/// (about 1e-4 rad/√s, the rest phases' Allan deviation) up to twice the default 4.5e-3 (which
-/// absorbs unmodelled errors in motion); the rate-proportional noise (scale factor and axis
-/// errors), 0.004 to 0.016; the magnetometer's heading σ, 12° to 48°; the bounded-velocity σ, 0.5
-/// to 2 m/s. For each trial the setting with the lowest
-/// mean total RMSE over the other eleven is chosen and scored on it; the mean of those held-out
-/// scores is the cross-validated figure, and the held-out runs' heading and tilt NEES are pooled
-/// (per degree of freedom: 1 is consistent). About a minute in release:
+/// BROAD trials (9D, causal), over the grid of `broad::noise_grid` (108 settings): for each trial
+/// the setting with the lowest mean total RMSE over the other eleven is chosen and scored on it;
+/// the mean of those held-out scores is the cross-validated figure, and the held-out runs' heading
+/// and tilt NEES are pooled (per degree of freedom: 1 is consistent). About a minute in release:
 /// `LIEBAYES_BROAD_DIR=… cargo test --release -p liebayes-filters --test attitude_ekf --
 /// --ignored broad_cross_validated --nocapture`.
 #[test]
@@ -468,83 +446,9 @@ fn broad_cross_validated() {
     let Some(dir) = data_dir() else {
         return;
     };
-    let logs: Vec<(String, LogScenario)> = TRIALS
-        .iter()
-        .map(|trial| {
-            let log = read_broad(dir.join(format!("{trial}.mat"))).unwrap();
-            ((*trial).to_owned(), LogScenario::new(log).unwrap())
-        })
-        .collect();
-    let mut grid = Vec::new();
-    for gyro_noise in [1e-4, 1e-3, 4.5e-3, 9e-3] {
-        for rate_noise in [0.004, 0.008, 0.016] {
-            for heading_deg in [12.0_f64, 24.0, 48.0] {
-                for velocity_bound in [0.5, 1.0, 2.0] {
-                    let mut params = AttitudeParams {
-                        gyro_noise,
-                        rate_noise,
-                        velocity_bound,
-                        ..AttitudeParams::default()
-                    };
-                    params.magnetometer.heading_sigma = heading_deg.to_radians();
-                    grid.push(params);
-                }
-            }
-        }
-    }
-    let methods: Vec<Method> = grid.iter().map(|p| ekf(p, Sensors::NineD)).collect();
-    let evaluation = evaluate(&logs, &methods, &mut |_, _, _| Ok(())).unwrap();
-    let total = |t: usize, s: usize| {
-        evaluation.scores[t][s]
-            .errors()
-            .map_or(f64::INFINITY, |e| e.total)
-    };
-    let mut held_out = [0.0_f64; 3];
-    let mut pooled: Option<LogScore> = None;
-    for (t, trial) in evaluation.trials.iter().enumerate() {
-        let others = |s: usize| -> f64 {
-            (0..logs.len())
-                .filter(|&u| u != t)
-                .map(|u| total(u, s))
-                .sum()
-        };
-        let best = (0..grid.len())
-            .min_by(|&a, &b| others(a).total_cmp(&others(b)))
-            .unwrap();
-        let score = &evaluation.scores[t][best];
-        let e = score.errors().unwrap();
-        let [heading, tilt, _] = score.nees().unwrap();
-        let p = &grid[best];
-        println!(
-            "| {trial} | {:.1e} / {} / {:.0} / {} | {:.2} / {:.2} / {:.2} | {heading:.2} / {:.2} |",
-            p.gyro_noise,
-            p.rate_noise,
-            p.magnetometer.heading_sigma.to_degrees(),
-            p.velocity_bound,
-            e.total,
-            e.heading,
-            e.inclination,
-            tilt / 2.0
-        );
-        for (sum, x) in held_out.iter_mut().zip([e.total, e.heading, e.inclination]) {
-            *sum += x / logs.len() as f64;
-        }
-        match &mut pooled {
-            Some(pooled) => pooled.merge(score),
-            None => pooled = Some(score.clone()),
-        }
-    }
-    let [heading, tilt, _] = pooled.unwrap().nees().unwrap();
-    let in_sample = (0..grid.len())
-        .map(|s| (0..logs.len()).map(|t| total(t, s)).sum::<f64>() / logs.len() as f64)
-        .fold(f64::INFINITY, f64::min);
-    println!(
-        "cross-validated mean (12): {:.2} / {:.2} / {:.2}; pooled NEES heading {heading:.2}, tilt \
-         {:.2} per degree of freedom; best in-sample mean {in_sample:.2}",
-        held_out[0],
-        held_out[1],
-        held_out[2],
-        tilt / 2.0
-    );
-    assert!(held_out[0].is_finite());
+    let [total, ..] = broad::cross_validate(&broad::logs(&dir), |params| Method::Ekf {
+        params,
+        sensors: Sensors::NineD,
+    });
+    assert!(total.is_finite());
 }

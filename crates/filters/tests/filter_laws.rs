@@ -305,21 +305,27 @@ impl FilterLawSubject for AttitudeSubject {
     }
 
     fn filter(&self, noise: f64, _rng: &mut ChaCha8Rng) -> Result<AttitudeFilter, BoxedError> {
-        let method = match Method::from_name(self.name).expect("a method") {
-            Method::Ekf {
-                mut params,
-                sensors,
-            } => {
-                if self.nine_d() {
-                    params.magnetometer.heading_sigma *= noise;
-                    if let Some(offset) = &mut params.magnetometer.offset {
-                        offset.sigma *= noise;
-                    }
-                } else {
-                    params.velocity_bound *= noise;
+        let nine_d = self.nine_d();
+        let scaled = |mut params: AttitudeParams| {
+            if nine_d {
+                params.magnetometer.heading_sigma *= noise;
+                if let Some(offset) = &mut params.magnetometer.offset {
+                    offset.sigma *= noise;
                 }
-                Method::Ekf { params, sensors }
+            } else {
+                params.velocity_bound *= noise;
             }
+            params
+        };
+        let method = match Method::from_name(self.name).expect("a method") {
+            Method::Ekf { params, sensors } => Method::Ekf {
+                params: scaled(params),
+                sensors,
+            },
+            Method::EkfOffline { params, sensors } => Method::EkfOffline {
+                params: scaled(params),
+                sensors,
+            },
             Method::Talk {
                 mut params,
                 sensors,
@@ -374,6 +380,12 @@ impl FilterLawSubject for AttitudeSubject {
 }
 
 filter_laws!(attitude_ekf_9d, AttitudeSubject::new("ekf-9d", 5_714, 100));
+// The offline filter's forward pass, with its record and rollback (its smoothed estimates have
+// their own tests, `attitude_offline.rs`).
+filter_laws!(
+    attitude_ekf_offline_9d,
+    AttitudeSubject::new("ekf-offline-9d", 5_714, 100)
+);
 filter_laws!(
     attitude_ekf_6d,
     AttitudeSubject::new("ekf-6d", 5_714, 100),

@@ -7,7 +7,7 @@ use super::method::Method;
 use super::metric::TrialErrors;
 use super::scenario::LogScenario;
 use crate::error::FilterError;
-use liebayes_experiments::{Recording, RunningStats, Scorer, record};
+use liebayes_experiments::{Recorded, Recording, RunningStats, Scorer, record};
 use nalgebra::UnitQuaternion;
 
 /// A recorded log's run: the estimate after every sample, with its truth where it counts.
@@ -25,18 +25,39 @@ pub struct LogScore {
     pub seconds: f64,
 }
 
+/// Each step of a recording with the method's estimate of it: the smoothed estimate of an offline
+/// method (one that released them, [`Method::EkfOffline`]), the filter's own otherwise.
+pub fn estimates(
+    recording: &LogRecording,
+) -> impl Iterator<
+    Item = (
+        &Recorded<Option<UnitQuaternion<f64>>, AttitudeEstimate>,
+        &AttitudeEstimate,
+    ),
+> {
+    let smoothed = !recording.smoothed.is_empty();
+    recording.steps.iter().enumerate().map(move |(k, step)| {
+        let estimate = if smoothed {
+            recording.smoothed.get(k).unwrap_or(&step.estimate)
+        } else {
+            &step.estimate
+        };
+        (step, estimate)
+    })
+}
+
 impl LogScore {
-    /// The scores of a recording.
+    /// The scores of a recording, of the method's estimates ([`estimates`]).
     pub fn of(recording: &LogRecording) -> Self {
         let metrics =
             Scorer::<Option<UnitQuaternion<f64>>, AttitudeEstimate>::metrics(&AttitudeScorer);
         let mut stats = vec![RunningStats::new(); metrics.len()];
         let mut values = vec![0.0; metrics.len()];
-        for step in &recording.steps {
+        for (step, estimate) in estimates(recording) {
             if step.truth.is_none() {
                 continue;
             }
-            AttitudeScorer.score(&step.truth, &step.estimate, &mut values);
+            AttitudeScorer.score(&step.truth, estimate, &mut values);
             for (s, v) in stats.iter_mut().zip(&values) {
                 s.add(*v);
             }
@@ -129,6 +150,48 @@ impl Evaluation {
         Some(sums.map(|s| s / n))
     }
 
+    /// Leave-one-log-out cross-validation of a choice among the methods (settings of a filter,
+    /// say): for each log, the method whose mean total RMSE over the *other* logs is lowest, and
+    /// its score on the held-out log. `None` with fewer than two logs, no method, or a log with a
+    /// missing score.
+    pub fn leave_one_out(&self) -> Option<CrossValidation> {
+        let logs = self.scores.len();
+        if logs < 2 || self.methods.is_empty() {
+            return None;
+        }
+        let mut totals = vec![vec![0.0; self.methods.len()]; logs];
+        for (row, scores) in totals.iter_mut().zip(&self.scores) {
+            for (t, score) in row.iter_mut().zip(scores) {
+                *t = score.errors()?.total;
+            }
+        }
+        let column: Vec<f64> = (0..self.methods.len())
+            .map(|j| totals.iter().map(|row| row[j]).sum())
+            .collect();
+        let mut chosen = Vec::with_capacity(logs);
+        let mut sums = [0.0; 3];
+        let mut pooled: Option<LogScore> = None;
+        for (row, scores) in totals.iter().zip(&self.scores) {
+            let others = |j: usize| column[j] - row[j];
+            let best = (0..self.methods.len()).min_by(|&a, &b| others(a).total_cmp(&others(b)))?;
+            let score = &scores[best];
+            let e = score.errors()?;
+            for (sum, x) in sums.iter_mut().zip([e.total, e.heading, e.inclination]) {
+                *sum += x / logs as f64;
+            }
+            match &mut pooled {
+                Some(p) => p.merge(score),
+                None => pooled = Some(score.clone()),
+            }
+            chosen.push(best);
+        }
+        Some(CrossValidation {
+            chosen,
+            mean_errors: sums,
+            pooled: pooled?,
+        })
+    }
+
     /// Method `j`'s scores pooled over every log (its pooled NEES and total throughput).
     pub fn pooled(&self, j: usize) -> Option<LogScore> {
         let mut rows = self.scores.iter();
@@ -138,6 +201,18 @@ impl Evaluation {
         }
         Some(pooled)
     }
+}
+
+/// The result of [`Evaluation::leave_one_out`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct CrossValidation {
+    /// For each log, the index of the method chosen on the other logs.
+    pub chosen: Vec<usize>,
+    /// BROAD's mean over the logs of each held-out RMSE (total, heading, inclination; deg): the
+    /// cross-validated figure.
+    pub mean_errors: [f64; 3],
+    /// The held-out scores pooled over the logs (their NEES).
+    pub pooled: LogScore,
 }
 
 /// Runs every method on every `(name, log)` ([`run_log`]), scores each run ([`LogScore`]) and

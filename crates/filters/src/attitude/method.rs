@@ -6,7 +6,7 @@ use super::estimate::{AttitudeEstimate, ImuSample};
 use super::madgwick::{BROAD_BETA, Madgwick};
 use super::talk::{TalkFilter, TalkParams};
 use crate::error::FilterError;
-use liebayes_experiments::{RecursiveFilter, Update};
+use liebayes_experiments::{RecursiveFilter, Smoothing, Update};
 use liebayes_operators::OperatorError;
 use nalgebra::Vector3;
 use rand_chacha::ChaCha8Rng;
@@ -18,6 +18,14 @@ use rand_chacha::ChaCha8Rng;
 pub enum Method {
     /// The production filter ([`AttitudeEkf`]).
     Ekf {
+        /// Its parameters.
+        params: AttitudeParams,
+        /// Its sensors.
+        sensors: Sensors,
+    },
+    /// The production filter's offline estimate ([`AttitudeEkf::offline`]): every sample's
+    /// smoothed estimate, given the whole log; scored by those.
+    EkfOffline {
         /// Its parameters.
         params: AttitudeParams,
         /// Its sensors.
@@ -40,9 +48,11 @@ pub enum Method {
 }
 
 /// The names [`Method::from_name`] accepts, in the order the reports list them.
-pub const METHOD_NAMES: [&str; 6] = [
+pub const METHOD_NAMES: [&str; 8] = [
     "ekf-9d",
     "ekf-6d",
+    "ekf-offline-9d",
+    "ekf-offline-6d",
     "talk-9d",
     "talk-6d",
     "madgwick-9d",
@@ -51,7 +61,7 @@ pub const METHOD_NAMES: [&str; 6] = [
 
 impl Method {
     /// The method of a name in [`METHOD_NAMES`] with its default settings (the EKF's
-    /// [`AttitudeParams::default`], the talk filter's [`TalkParams::default`], Madgwick's
+    /// [`AttitudeParams::default`], the offline EKF's [`AttitudeParams::offline`], the talk filter's [`TalkParams::default`], Madgwick's
     /// [`BROAD_BETA`]).
     ///
     /// # Errors
@@ -70,11 +80,15 @@ impl Method {
             "6d" => Some(Sensors::SixD),
             _ => None,
         };
-        let parsed = name.split_once('-').and_then(|(filter, suffix)| {
+        let parsed = name.rsplit_once('-').and_then(|(filter, suffix)| {
             let sensors = sensors(suffix)?;
             match filter {
                 "ekf" => Some(Method::Ekf {
                     params: AttitudeParams::default(),
+                    sensors,
+                }),
+                "ekf-offline" => Some(Method::EkfOffline {
+                    params: AttitudeParams::offline(),
                     sensors,
                 }),
                 "talk" => Some(Method::Talk {
@@ -92,7 +106,8 @@ impl Method {
             origin: "attitude method",
             setting: "name",
             value: format!("{name:?}"),
-            expected: "one of ekf-9d, ekf-6d, talk-9d, talk-6d, madgwick-9d, madgwick-6d",
+            expected: "one of ekf-9d, ekf-6d, ekf-offline-9d, ekf-offline-6d, talk-9d, talk-6d, \
+                       madgwick-9d, madgwick-6d",
         })
     }
 
@@ -100,15 +115,17 @@ impl Method {
     pub fn sensors(&self) -> Sensors {
         match self {
             Method::Ekf { sensors, .. }
+            | Method::EkfOffline { sensors, .. }
             | Method::Talk { sensors, .. }
             | Method::Madgwick { sensors, .. } => *sensors,
         }
     }
 
-    /// A short label: `EKF 9D`, `talk filter 6D`, `Madgwick 9D`.
+    /// A short label: `EKF 9D`, `EKF offline 9D`, `talk filter 6D`, `Madgwick 9D`.
     pub fn label(&self) -> String {
         let name = match self {
             Method::Ekf { .. } => "EKF",
+            Method::EkfOffline { .. } => "EKF offline",
             Method::Talk { .. } => "talk filter",
             Method::Madgwick { .. } => "Madgwick",
         };
@@ -127,6 +144,9 @@ impl Method {
         Ok(match self {
             Method::Ekf { params, sensors } => {
                 AttitudeFilter::Ekf(AttitudeEkf::new(params.clone(), *sensors, rate)?)
+            }
+            Method::EkfOffline { params, sensors } => {
+                AttitudeFilter::Ekf(AttitudeEkf::offline(params.clone(), *sensors, rate)?)
             }
             Method::Talk { params, sensors } => {
                 AttitudeFilter::Talk(TalkFilter::new(params, *sensors, rate)?)
@@ -151,7 +171,7 @@ impl Method {
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum AttitudeFilter {
-    /// The production filter.
+    /// The production filter (causal or offline).
     Ekf(AttitudeEkf),
     /// The talk's filter.
     Talk(TalkFilter),
@@ -185,6 +205,13 @@ impl RecursiveFilter for AttitudeFilter {
             AttitudeFilter::Ekf(f) => f.estimate(),
             AttitudeFilter::Talk(f) => f.estimate(),
             AttitudeFilter::Madgwick(f) => f.estimate(),
+        }
+    }
+
+    fn smoothing(&mut self) -> Option<&mut dyn Smoothing<Estimate = AttitudeEstimate>> {
+        match self {
+            AttitudeFilter::Ekf(f) => f.smoothing(),
+            AttitudeFilter::Talk(_) | AttitudeFilter::Madgwick(_) => None,
         }
     }
 }

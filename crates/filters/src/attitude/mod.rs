@@ -41,7 +41,9 @@ pub use ekf::{
     STATE_DIM, Sensors, VELOCITY,
 };
 pub use estimate::{AttitudeEstimate, AttitudeScorer, ImuSample};
-pub use evaluation::{Evaluation, LogRecording, LogScore, evaluate, run_log};
+pub use evaluation::{
+    CrossValidation, Evaluation, LogRecording, LogScore, estimates, evaluate, run_log,
+};
 pub use madgwick::{BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu};
 pub use method::{AtRate, AttitudeFilter, METHOD_NAMES, Method};
 pub use metric::{SampleErrors, TrialErrors, sample_errors};

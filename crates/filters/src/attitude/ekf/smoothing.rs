@@ -1,0 +1,197 @@
+//! The offline attitude estimate: the production filter's forward pass recorded, the
+//! Rauch-Tung-Striebel backward pass over its epochs, and each sample's orientation integrated
+//! from the smoothed state of the epoch before it.
+//!
+//! An *epoch* is a density of the filter's Gaussian: after each covariance propagation (a block's
+//! end, or a partial block before a heading update) and each renewal of the field offset, with the
+//! updates made at it. A filter built by [`AttitudeEkf::offline`](super::AttitudeEkf::offline)
+//! keeps, for every transition `k → k+1`, the filtered density of epoch k and the prediction with
+//! its cross-covariance `Cov(δ_k, δ_k+1)` ([`Prediction`]), and every sample's gyroscope. At the
+//! end of the run ([`Smoothing::release`]) the backward pass
+//! ([`smooth_records`]) gives every epoch's smoothed density, and sample j after epoch k (at
+//! sample `s_k`, up to the next epoch) the strapdown from it with the smoothed bias `b_k`:
+//! `R_j = R_k Π_{i = s_k+1..j} exp([ωᵢ − b_k]ₓ Δt)`, the orientation the filter's own strapdown
+//! would have given from the smoothed state. Samples before the first epoch (in 9D, before the
+//! heading is initialised) are integrated back from it. Each sample reports its epoch's smoothed
+//! attitude covariance.
+
+use super::model::{AttitudeState, STATE_DIM, attitude_block, in_rest};
+use super::{AttitudeEkf, BIAS, Running};
+use crate::attitude::estimate::AttitudeEstimate;
+use liebayes_densities::ManifoldGaussian;
+use liebayes_experiments::Smoothing;
+use liebayes_operators::OperatorError;
+use liebayes_operators::smoother::{Prediction, smooth_records};
+use nalgebra::{UnitQuaternion, Vector3};
+
+type Density = ManifoldGaussian<AttitudeState, STATE_DIM>;
+
+/// What a step of the filter did to its Gaussian that the backward pass must know, kept in the
+/// step's state until the step succeeds.
+// Held inline in a journal whose room is reused from step to step: boxing the large variant would
+// allocate at every epoch.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+pub(super) enum Entry {
+    /// A transition from the density `before`, the epoch of sample `at`.
+    Transition {
+        before: Density,
+        at: usize,
+        prediction: Prediction<AttitudeState, STATE_DIM>,
+    },
+    /// The heading was initialised: the epochs before are not smoothed (their heading was
+    /// unknown, and the initialisation is not a transition).
+    Restart,
+}
+
+/// What the offline filter keeps of its forward pass.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Record {
+    /// The filtered density of each epoch that a transition left, its sample, the transition.
+    filtered: Vec<Density>,
+    epochs: Vec<usize>,
+    transitions: Vec<Prediction<AttitudeState, STATE_DIM>>,
+    /// The first epoch smoothed.
+    start: usize,
+    /// Every sample's gyroscope (rad/s).
+    gyro: Vec<Vector3<f64>>,
+    /// The samples whose smoothed estimates were released.
+    released: usize,
+}
+
+/// What a record names when it cannot grow.
+const RECORD: &str = "number of samples recorded by the offline attitude filter";
+
+impl Record {
+    /// Room for one more sample and the entries a step makes (at most two transitions: a
+    /// propagation and a renewal of the field offset), so that keeping them cannot fail.
+    pub(super) fn reserve(&mut self) -> Result<(), OperatorError> {
+        let samples = self.gyro.len().saturating_add(1);
+        let too_large = |_| OperatorError::TooLarge {
+            what: RECORD,
+            value: samples,
+            max: liebayes_operators::MAX_ELEMENTS,
+        };
+        self.gyro.try_reserve(1).map_err(too_large)?;
+        self.filtered.try_reserve(2).map_err(too_large)?;
+        self.epochs.try_reserve(2).map_err(too_large)?;
+        self.transitions.try_reserve(2).map_err(too_large)
+    }
+
+    /// Keeps a successful step's sample (a prediction's gyroscope, if any) and entries (within the
+    /// room [`reserve`](Self::reserve) made).
+    pub(super) fn keep(&mut self, gyro: Option<&Vector3<f64>>, entries: &mut Vec<Entry>) {
+        if let Some(gyro) = gyro {
+            self.gyro.push(*gyro);
+        }
+        for entry in entries.drain(..) {
+            match entry {
+                Entry::Transition {
+                    before,
+                    at,
+                    prediction,
+                } => {
+                    self.filtered.push(before);
+                    self.epochs.push(at);
+                    self.transitions.push(prediction);
+                }
+                Entry::Restart => self.start = self.transitions.len(),
+            }
+        }
+    }
+
+    /// Appends every sample's smoothed estimate to `out`, the current state `now` being the last
+    /// epoch's filtered density; `dt` the sampling interval.
+    fn smooth(
+        &mut self,
+        now: &Running,
+        dt: f64,
+        out: &mut Vec<AttitudeEstimate>,
+    ) -> Result<(), OperatorError> {
+        // The current density is the last epoch's, for the backward pass only.
+        self.reserve()?;
+        self.filtered.push(now.density.clone());
+        let smoothed = smooth_records(
+            &self.filtered[self.start..],
+            &self.transitions[self.start..],
+        );
+        self.filtered.pop();
+        let smoothed = smoothed?;
+        let epochs: Vec<usize> = self.epochs[self.start..]
+            .iter()
+            .copied()
+            .chain([now.at])
+            .collect();
+        out.reserve(self.gyro.len());
+        for (k, (density, &at)) in smoothed.iter().zip(&epochs).enumerate() {
+            let end = epochs.get(k + 1).map_or(self.gyro.len(), |&next| next);
+            let (orientation, bias) = epoch_state(density);
+            let covariance = Some(attitude_block(density.covariance()));
+            if k == 0 {
+                // The samples before the first epoch, integrated back from it.
+                let mut q = orientation;
+                let mut before = Vec::with_capacity(at);
+                for gyro in self.gyro[1..=at.min(self.gyro.len() - 1)].iter().rev() {
+                    q *= turn(gyro, &bias, dt).inverse();
+                    before.push(AttitudeEstimate {
+                        orientation: q,
+                        covariance,
+                    });
+                }
+                out.extend(before.into_iter().rev());
+            }
+            let mut q = orientation;
+            for j in at..end.max(at) {
+                if j > at {
+                    q *= turn(&self.gyro[j], &bias, dt);
+                }
+                out.push(AttitudeEstimate {
+                    orientation: q,
+                    covariance,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The orientation and gyro bias of a density's mean.
+fn epoch_state(density: &Density) -> (UnitQuaternion<f64>, Vector3<f64>) {
+    let mean = density.mean();
+    let bias = mean
+        .second()
+        .coords()
+        .fixed_rows::<3>(in_rest(BIAS.start))
+        .into_owned();
+    (*mean.first().inner().as_unit_quaternion(), bias)
+}
+
+/// One sample's strapdown rotation `exp([ω − b]ₓ Δt)`.
+fn turn(gyro: &Vector3<f64>, bias: &Vector3<f64>, dt: f64) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_scaled_axis((gyro - bias) * dt)
+}
+
+/// The offline filter's smoothed estimates: every sample's at the end of the run (from every
+/// sample of it), none before. A filter built by [`AttitudeEkf::new`] does not smooth
+/// ([`RecursiveFilter::smoothing`](liebayes_experiments::RecursiveFilter::smoothing) is `None`).
+impl Smoothing for AttitudeEkf {
+    type Estimate = AttitudeEstimate;
+
+    fn release(&mut self, end: bool, out: &mut Vec<AttitudeEstimate>) -> Result<(), OperatorError> {
+        let (Some(record), Some(now)) = (&mut self.record, &self.state) else {
+            return Ok(());
+        };
+        if !end || record.released == record.gyro.len() {
+            return Ok(());
+        }
+        let first = out.len();
+        if let Err(e) = record.smooth(now, self.settings.dt, out) {
+            out.truncate(first);
+            return Err(e);
+        }
+        // Each sample's estimate is released once.
+        out.drain(first..first + record.released);
+        record.released = record.gyro.len();
+        Ok(())
+    }
+}
