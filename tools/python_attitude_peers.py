@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The Python attitude API beside VQF's, in one invocation: samples per second of
-`liebayes.attitude.AttitudeFilter.update_batch` and `vqf.VQF.updateBatch` (the authors' C++) on the
-same BROAD trial, 9D and 6D, and BROAD's error of each (total / heading / inclination RMSE, deg).
+`liebayes.attitude.AttitudeFilter.update_batch` and `vqf.VQF.updateBatch` (the authors' C++), and
+of the offline estimates `liebayes.attitude.offline_attitude` and `vqf.offlineVQF`, on the same
+BROAD trial, 9D and 6D, and BROAD's error of each (total / heading / inclination RMSE, deg).
 
     pip install ./python vqf==2.1.2
     python3 tools/python_attitude_peers.py [TRIAL.mat ...] [--repeats 5]
@@ -13,7 +14,7 @@ import pathlib
 import time
 
 import numpy as np
-from vqf import VQF
+from vqf import VQF, offlineVQF
 
 import liebayes.attitude as att
 
@@ -70,6 +71,10 @@ def main():
             "vqf 9D (updateBatch)": lambda: VQF(dt).updateBatch(gyr, acc, mag)["quat9D"],
             "liebayes 6D": lambda: att.AttitudeFilter(dt).update_batch(gyr, acc)["quat"],
             "vqf 6D (updateBatch)": lambda: VQF(dt).updateBatch(gyr, acc)["quat6D"],
+            "liebayes offline 9D": lambda: att.offline_attitude(gyr, acc, mag, dt=dt)["quat"],
+            "offlineVQF 9D": lambda: offlineVQF(gyr, acc, mag, dt)["quat9D"],
+            "liebayes offline 6D": lambda: att.offline_attitude(gyr, acc, dt=dt)["quat"],
+            "offlineVQF 6D": lambda: offlineVQF(gyr, acc, None, dt)["quat6D"],
         }
         for label, run in runs.items():
             fastest, median, quat = best_time(run, args.repeats)

@@ -6,8 +6,12 @@
     out = f.update_batch(log["gyr"], log["acc"], log["mag"])
     out["quat"]          # (n, 4), scalar first, IMU frame w.r.t. East-North-Up
     out["heading_sigma"] # (n,), rad
+
+    # The offline estimate of the whole recording (every sample given every sample), like
+    # VQF's offlineVQF:
+    smoothed = att.offline_attitude(log["gyr"], log["acc"], log["mag"], rate=log["rate"])
 """
 
-from ._liebayes import AttitudeFilter, read_broad
+from ._liebayes import AttitudeFilter, offline_attitude, offline_default_params, read_broad
 
-__all__ = ["AttitudeFilter", "read_broad"]
+__all__ = ["AttitudeFilter", "offline_attitude", "offline_default_params", "read_broad"]

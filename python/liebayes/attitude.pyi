@@ -1,4 +1,5 @@
-"""IMU attitude: the production filter with a batch API like VQF's, and the BROAD reader."""
+"""IMU attitude: the production filter with a batch API like VQF's, its offline estimate, and the
+BROAD reader."""
 
 from os import PathLike
 from typing import Any, Dict, List, Optional, Sequence, Union
@@ -78,6 +79,24 @@ class AttitudeFilter:
         """Whether the last magnetometer update was refused as disturbed."""
     def reset(self) -> None:
         """Forgets every sample."""
+
+def offline_attitude(
+    gyr: npt.ArrayLike,
+    acc: npt.ArrayLike,
+    mag: Optional[npt.ArrayLike] = None,
+    *,
+    dt: Optional[float] = None,
+    rate: Optional[float] = None,
+    **params: Any,
+) -> Dict[str, _Array]:
+    """The offline estimate of a whole recording (the production filter's RTS smoother: every
+    sample given every sample), like VQF's ``offlineVQF``: ``quat`` (n, 4) scalar first, IMU frame
+    w.r.t. East-North-Up, ``heading_sigma`` and ``tilt_sigma`` (n,) rad. Without ``mag``, 6D.
+    Exactly one of ``dt`` (s) and ``rate`` (Hz); ``params`` as ``AttitudeFilter``'s, the rest at
+    ``offline_default_params()``. Raises ``ValueError`` naming a refused sample."""
+
+def offline_default_params() -> Dict[str, Any]:
+    """The default keyword parameters of ``offline_attitude``."""
 
 def read_broad(path: Union[str, "PathLike[str]"]) -> Dict[str, Any]:
     """Reads a BROAD trial (.mat): ``rate`` (Hz), ``gyr``, ``acc``, ``mag`` (n, 3) or None,

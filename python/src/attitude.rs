@@ -8,9 +8,9 @@
 
 use crate::arrays::float_array;
 use crate::errors::value_error;
-use liebayes_experiments::RecursiveFilter;
+use liebayes_experiments::{RecursiveFilter, Smoothing};
 use liebayes_filters::attitude::{
-    AttitudeEkf, AttitudeParams, ImuSample, MAX_SAMPLES, Propagation, Sensors,
+    AttitudeEkf, AttitudeEstimate, AttitudeParams, ImuSample, MAX_SAMPLES, Propagation, Sensors,
     read_broad as read_broad_log,
 };
 use nalgebra::{UnitQuaternion, Vector3};
@@ -23,6 +23,8 @@ use pyo3::types::PyDict;
 /// Adds the attitude filter and the BROAD reader to the extension module.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<AttitudeFilter>()?;
+    m.add_function(wrap_pyfunction!(offline_attitude, m)?)?;
+    m.add_function(wrap_pyfunction!(offline_default_params, m)?)?;
     m.add_function(wrap_pyfunction!(read_broad, m)?)?;
     Ok(())
 }
@@ -105,27 +107,9 @@ impl AttitudeFilter {
         sensors: Option<&str>,
         params: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let rate = match (dt, rate) {
-            (Some(dt), None) if dt.is_finite() && dt > 0.0 => 1.0 / dt,
-            (None, Some(rate)) => rate,
-            (Some(dt), None) => {
-                return Err(PyValueError::new_err(format!(
-                    "AttitudeFilter: dt is {dt}, expected a finite positive sampling interval (s)"
-                )));
-            }
-            _ => {
-                return Err(PyValueError::new_err(
-                    "AttitudeFilter: give exactly one of dt (s) and rate (Hz)",
-                ));
-            }
-        };
+        let rate = rate_of("AttitudeFilter", dt, rate)?;
         let sensors = sensors.map(parse_sensors).transpose()?;
-        let mut p = AttitudeParams::default();
-        if let Some(params) = params {
-            for (key, value) in params.iter() {
-                set_param(&mut p, &key.extract::<String>()?, &value)?;
-            }
-        }
+        let p = with_params(AttitudeParams::default(), params)?;
         // Checks every setting and the rate now, not at the first sample.
         AttitudeEkf::new(p.clone(), sensors.unwrap_or(Sensors::NineD), rate)
             .map_err(value_error)?;
@@ -377,6 +361,136 @@ impl AttitudeFilter {
             e.covariance.unwrap_or_else(nalgebra::Matrix3::zeros),
         ))
     }
+}
+
+/// The sampling rate (Hz) from exactly one of `dt` (s) and `rate`; `origin` names the caller.
+fn rate_of(origin: &str, dt: Option<f64>, rate: Option<f64>) -> PyResult<f64> {
+    match (dt, rate) {
+        (Some(dt), None) if dt.is_finite() && dt > 0.0 => Ok(1.0 / dt),
+        (None, Some(rate)) => Ok(rate),
+        (Some(dt), None) => Err(PyValueError::new_err(format!(
+            "{origin}: dt is {dt}, expected a finite positive sampling interval (s)"
+        ))),
+        _ => Err(PyValueError::new_err(format!(
+            "{origin}: give exactly one of dt (s) and rate (Hz)"
+        ))),
+    }
+}
+
+/// `base` with the keyword parameters set (`AttitudeFilter.parameter_names()`).
+fn with_params(
+    mut base: AttitudeParams,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<AttitudeParams> {
+    if let Some(params) = params {
+        for (key, value) in params.iter() {
+            set_param(&mut base, &key.extract::<String>()?, &value)?;
+        }
+    }
+    Ok(base)
+}
+
+/// The offline attitude estimate of a whole recording (the production filter's RTS smoother,
+/// every sample given every sample; the library's `AttitudeEkf::offline`, equal to
+/// `liebayes attitude --offline` bit for bit), in the shape of VQF's `offlineVQF`:
+/// `offline_attitude(gyr, acc, mag=None, *, dt=None, rate=None, **params)` returns a dict of
+/// arrays, `quat` (n, 4) (scalar first, the IMU frame w.r.t. East-North-Up), `heading_sigma` and
+/// `tilt_sigma` (n,) (rad). `gyr` (rad/s), `acc` (m/s²) and `mag` are (n, 3) float64 arrays;
+/// without `mag` it is 6D. Give exactly one of `dt` (s) and `rate` (Hz); `params` as
+/// `AttitudeFilter`'s, the rest at the offline defaults (`offline_default_params()`: the physical
+/// gyroscope noise, chosen by cross-validation on BROAD). A refused sample raises `ValueError`
+/// naming it. The GIL is released while filtering.
+#[pyfunction]
+#[pyo3(signature = (gyr, acc, mag = None, *, dt = None, rate = None, **params))]
+fn offline_attitude<'py>(
+    py: Python<'py>,
+    gyr: &Bound<'py, PyAny>,
+    acc: &Bound<'py, PyAny>,
+    mag: Option<&Bound<'py, PyAny>>,
+    dt: Option<f64>,
+    rate: Option<f64>,
+    params: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    const ORIGIN: &str = "offline_attitude";
+    let rate = rate_of(ORIGIN, dt, rate)?;
+    let p = with_params(AttitudeParams::offline(), params)?;
+    let gyr = float_array("gyr", gyr)?;
+    let acc = float_array("acc", acc)?;
+    let mag = mag
+        .filter(|m| !m.is_none())
+        .map(|m| float_array("mag", m))
+        .transpose()?;
+    let n = gyr.shape().first().copied().unwrap_or(0);
+    check_rows("gyr", &gyr, n)?;
+    check_rows("acc", &acc, n)?;
+    if let Some(mag) = &mag {
+        check_rows("mag", mag, n)?;
+    }
+    if n > MAX_SAMPLES {
+        return Err(PyValueError::new_err(format!(
+            "{ORIGIN}: {n} samples, at most {MAX_SAMPLES} in one call"
+        )));
+    }
+    let sensors = if mag.is_some() {
+        Sensors::NineD
+    } else {
+        Sensors::SixD
+    };
+    let mut filter = AttitudeEkf::offline(p, sensors, rate).map_err(value_error)?;
+    let (g, a) = (matrix(&gyr)?, matrix(&acc)?);
+    let m = mag.as_ref().map(matrix).transpose()?;
+    let smoothed = py.detach(|| smooth_batch(&mut filter, &g, &a, m.as_ref()));
+    let smoothed = smoothed.map_err(|f| {
+        PyValueError::new_err(format!("{ORIGIN}: sample {}: {}", f.sample, f.message))
+    })?;
+    let mut quat = Vec::with_capacity(4 * n);
+    let (mut heading_sigma, mut tilt_sigma) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for e in &smoothed {
+        let q = e.orientation;
+        quat.extend_from_slice(&[q.w, q.i, q.j, q.k]);
+        let (heading, tilt) = sigmas(&e.covariance.unwrap_or_else(nalgebra::Matrix3::zeros));
+        heading_sigma.push(heading);
+        tilt_sigma.push(tilt);
+    }
+    let dict = PyDict::new(py);
+    dict.set_item("quat", PyArray1::from_vec(py, quat).reshape([n, 4])?)?;
+    dict.set_item("heading_sigma", PyArray1::from_vec(py, heading_sigma))?;
+    dict.set_item("tilt_sigma", PyArray1::from_vec(py, tilt_sigma))?;
+    Ok(dict)
+}
+
+/// The default keyword parameters of `offline_attitude`, as a dict.
+#[pyfunction]
+fn offline_default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    params_dict(py, &AttitudeParams::offline())
+}
+
+/// Steps the offline filter over every sample, then releases every sample's smoothed estimate.
+fn smooth_batch(
+    filter: &mut AttitudeEkf,
+    gyr: &ArrayView2<'_, f64>,
+    acc: &ArrayView2<'_, f64>,
+    mag: Option<&ArrayView2<'_, f64>>,
+) -> Result<Vec<AttitudeEstimate>, Failure> {
+    let row = |a: &ArrayView2<'_, f64>, k: usize| Vector3::new(a[[k, 0]], a[[k, 1]], a[[k, 2]]);
+    let n = gyr.nrows();
+    for k in 0..n {
+        let sample = ImuSample {
+            gyro: row(gyr, k),
+            acc: row(acc, k),
+        };
+        let z = mag.map(|m| row(m, k));
+        step(filter, &sample, z.as_ref()).map_err(|e| Failure {
+            sample: k,
+            message: e.to_string(),
+        })?;
+    }
+    let mut out = Vec::with_capacity(n);
+    filter.release(true, &mut out).map_err(|e| Failure {
+        sample: n.saturating_sub(1),
+        message: e.to_string(),
+    })?;
+    Ok(out)
 }
 
 /// One sample as the library's `record` loop steps it: predict, then the magnetometer reading.

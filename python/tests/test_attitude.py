@@ -58,6 +58,40 @@ def test_batch_equals_binary_bit_for_bit(log, broad_trial, liebayes_bin, tmp_pat
     assert not np.array_equal(nine["quat"], six["quat"])
 
 
+def test_offline_equals_binary_bit_for_bit(log, broad_trial, liebayes_bin, tmp_path):
+    trials = tmp_path / "trials"
+    trials.mkdir()
+    (trials / broad_trial.name).symlink_to(broad_trial)
+    out = tmp_path / "out"
+    subprocess.run(
+        [liebayes_bin, "attitude", "--broad", str(trials), "--offline", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    stem = broad_trial.stem
+    nine = att.offline_attitude(log["gyr"], log["acc"], log["mag"], rate=log["rate"])
+    six = att.offline_attitude(log["gyr"], log["acc"], rate=log["rate"])
+    for ours, name in ((nine, "ekf-offline-9d"), (six, "ekf-offline-6d")):
+        theirs = read_estimates(out / f"{stem}.{name}.csv")
+        assert np.array_equal(ours["quat"], theirs), name
+    n = log["gyr"].shape[0]
+    assert nine["heading_sigma"].shape == (n,) and np.all(nine["tilt_sigma"] > 0)
+    # The smoothed estimate is not the filter's.
+    causal = att.AttitudeFilter(rate=log["rate"]).update_batch(log["gyr"], log["acc"], log["mag"])
+    assert not np.array_equal(causal["quat"], nine["quat"])
+
+
+def test_offline_refuses_bad_input(log):
+    gyr = log["gyr"][:2000].copy()
+    gyr[123, 0] = 1e200
+    with pytest.raises(ValueError, match="sample 123"):
+        att.offline_attitude(gyr, log["acc"][:2000], log["mag"][:2000], rate=log["rate"])
+    with pytest.raises(ValueError, match="dt"):
+        att.offline_attitude(log["gyr"], log["acc"], dt=-1.0)
+    with pytest.raises(ValueError):
+        att.offline_attitude(log["gyr"], log["acc"], rate=log["rate"], gyro_noise=-1.0)
+    assert att.offline_default_params()["gyro_noise"] == pytest.approx(1e-4)
+
+
 def test_outputs_and_accuracy(log):
     out = att.AttitudeFilter(rate=log["rate"]).update_batch(log["gyr"], log["acc"], log["mag"])
     n = log["gyr"].shape[0]
