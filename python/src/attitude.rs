@@ -30,7 +30,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// The keyword parameters `AttitudeFilter` accepts, in the order `params()` lists them.
-const PARAMETER_NAMES: [&str; 18] = [
+const PARAMETER_NAMES: [&str; 19] = [
     "gyro_noise",
     "rate_noise",
     "bias_walk",
@@ -40,6 +40,7 @@ const PARAMETER_NAMES: [&str; 18] = [
     "initial_heading_sigma",
     "velocity_bound",
     "velocity_walk",
+    "position_bound",
     "velocity_interval",
     "block",
     "propagation",
@@ -600,6 +601,7 @@ fn set_param(p: &mut AttitudeParams, key: &str, value: &Bound<'_, PyAny>) -> PyR
         "initial_heading_sigma" => p.initial_heading_sigma = number()?,
         "velocity_bound" => p.velocity_bound = number()?,
         "velocity_walk" => p.velocity_walk = number()?,
+        "position_bound" => p.position_bound = number()?,
         "velocity_interval" => p.velocity_interval = number()?,
         "block" => p.block = number()?,
         "propagation" => {
@@ -647,6 +649,7 @@ fn params_dict<'py>(py: Python<'py>, p: &AttitudeParams) -> PyResult<Bound<'py, 
     d.set_item("initial_heading_sigma", p.initial_heading_sigma)?;
     d.set_item("velocity_bound", p.velocity_bound)?;
     d.set_item("velocity_walk", p.velocity_walk)?;
+    d.set_item("position_bound", p.position_bound)?;
     d.set_item("velocity_interval", p.velocity_interval)?;
     d.set_item("block", p.block)?;
     d.set_item(

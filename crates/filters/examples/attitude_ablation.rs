@@ -82,6 +82,10 @@ fn variants() -> Vec<(&'static str, Method)> {
             changed(|p| p.magnetometer.disturbance = None),
         ),
         (
+            "9D, no position bound (σ 1 km)",
+            changed(|p| p.position_bound = 1e3),
+        ),
+        (
             "9D, no field offset state",
             changed(|p| p.magnetometer.offset = None),
         ),

@@ -24,6 +24,7 @@ fn block() -> Block {
     let mut b = Block {
         rotation: UnitQuaternion::identity(),
         velocity: Vector3::zeros(),
+        position: Vector3::zeros(),
         bias_coupling: Matrix3::zeros(),
         duration: 0.0,
         bias: Vector3::new(0.01, -0.02, 0.005),
@@ -36,6 +37,7 @@ fn block() -> Block {
         b.rotation *= UnitQuaternion::from_scaled_axis((w - b.bias) * dt);
         let r = b.rotation.to_rotation_matrix().into_inner();
         b.velocity += r * f * dt;
+        b.position += b.velocity * dt;
         b.bias_coupling += r * dt;
         b.duration += dt;
     }
@@ -47,7 +49,9 @@ fn state() -> AttitudeState {
         Left::new(So3::from_unit_quaternion(
             UnitQuaternion::from_euler_angles(0.3, -0.7, 2.0),
         )),
-        Rn::new_unchecked(SVector::<f64, 6>::new(0.01, -0.02, 0.005, 0.2, -0.1, 0.03)),
+        Rn::new_unchecked(SVector::<f64, 8>::from_column_slice(&[
+            0.01, -0.02, 0.005, 0.2, -0.1, 0.03, 0.4, -0.3,
+        ])),
     )
 }
 
@@ -76,7 +80,8 @@ fn block_jacobian_matches_finite_differences() {
         let minus = y.local(&process.transition(&x.retract(&-d), &u));
         let column = (plus - minus) / (2.0 * h);
         for i in 0..STATE_DIM {
-            let velocity = (6..8).contains(&i);
+            // The velocity and position rows (the accelerometer's integrals).
+            let velocity = (6..8).contains(&i) || (9..11).contains(&i);
             let omitted_heading = velocity && j == 2;
             let omitted_bias = velocity && (3..6).contains(&j);
             let tol = if omitted_heading {

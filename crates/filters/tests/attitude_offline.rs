@@ -180,8 +180,8 @@ fn smoothed_nees(model: &AttitudeParams, simulated_as: &AttitudeParams, runs: u6
 /// and the tilt NEES (χ²(2)) halfway through, per degree of freedom, stay below the 99.9 %
 /// quantiles of χ²(24)/24 and χ²(48)/48 and above 0.1 (a σ at most about three times the error:
 /// the filter's noise figures are a real IMU's, larger than the simulator's, so it is cautious
-/// here, as the filter is; measured: heading 1.12, tilt 0.14; with the offline settings
-/// `AttitudeParams::offline`, whose velocity σ is twice the default, tilt 0.094). A wrong model
+/// here, as the filter is; measured: heading 1.11, tilt 0.13; with the offline settings
+/// `AttitudeParams::offline`, whose velocity σ is four times the default, tilt 0.076). A wrong model
 /// must fail the band: the smoother that ignores the field's heading offset (which the simulated
 /// field carries) is over-confident in heading.
 #[test]

@@ -37,8 +37,8 @@ pub use data::{
 };
 pub use ekf::{
     ATTITUDE, AttitudeEkf, AttitudeParams, AttitudeState, BIAS, Block, BlockProcess,
-    DisturbanceParams, FieldOffset, Heading, MagnetometerParams, OFFSET, Propagation, RestParams,
-    STATE_DIM, Sensors, VELOCITY,
+    DisturbanceParams, FieldOffset, Heading, MagnetometerParams, OFFSET, POSITION, Propagation,
+    RestParams, STATE_DIM, Sensors, VELOCITY,
 };
 pub use estimate::{AttitudeEstimate, AttitudeScorer, ImuSample};
 pub use evaluation::{

@@ -41,25 +41,32 @@ pub fn scores(dir: &Path, name: &str) -> [f64; 3] {
 }
 
 /// The production filter's settings that cannot be read off the sensors' physics, every
-/// combination of: the gyroscope's angle random walk from its physical white noise (about 1e-4
-/// rad/√s, the rest phases' Allan deviation) up to twice the default 4.5e-3 (which absorbs
+/// combination of: the gyroscope's angle random walk at its physical white noise (1e-4 rad/√s,
+/// the rest phases' Allan deviation), the default 4.5e-3 and twice that (inflated values absorb
 /// unmodelled errors in motion); the rate-proportional noise (scale factor and axis errors), 0.004
-/// to 0.016; the magnetometer's heading σ, 12° to 48°; the bounded-velocity σ, 0.5 to 2 m/s. The
-/// rest at their defaults: 108 settings.
+/// and 0.008; the magnetometer's heading σ, 12° and 24°; the bounded-velocity σ, 0.5 to 2 m/s; the
+/// velocity's random walk, 0.1 and 0.3 m/s/√s; the bounded-position σ, 0.3 to 1 m. The rest at
+/// their defaults: 216 settings.
 pub fn noise_grid() -> Vec<AttitudeParams> {
     let mut grid = Vec::new();
-    for gyro_noise in [1e-4, 1e-3, 4.5e-3, 9e-3] {
-        for rate_noise in [0.004, 0.008, 0.016] {
-            for heading_deg in [12.0_f64, 24.0, 48.0] {
+    for gyro_noise in [1e-4, 4.5e-3, 9e-3] {
+        for rate_noise in [0.004, 0.008] {
+            for heading_deg in [12.0_f64, 24.0] {
                 for velocity_bound in [0.5, 1.0, 2.0] {
-                    let mut params = AttitudeParams {
-                        gyro_noise,
-                        rate_noise,
-                        velocity_bound,
-                        ..AttitudeParams::default()
-                    };
-                    params.magnetometer.heading_sigma = heading_deg.to_radians();
-                    grid.push(params);
+                    for velocity_walk in [0.1, 0.3] {
+                        for position_bound in [0.3, 0.5, 1.0] {
+                            let mut params = AttitudeParams {
+                                gyro_noise,
+                                rate_noise,
+                                velocity_bound,
+                                velocity_walk,
+                                position_bound,
+                                ..AttitudeParams::default()
+                            };
+                            params.magnetometer.heading_sigma = heading_deg.to_radians();
+                            grid.push(params);
+                        }
+                    }
                 }
             }
         }
@@ -89,11 +96,14 @@ pub fn cross_validate(
         let [heading, tilt, _] = row[best].nees().expect("a covariance");
         let p = &grid[best];
         println!(
-            "| {trial} | {:.1e} / {} / {:.0} / {} | {:.2} / {:.2} / {:.2} | {heading:.2} / {:.2} |",
+            "| {trial} | {:.1e} / {} / {:.0} / {} / {} / {} | {:.2} / {:.2} / {:.2} | {heading:.2} \
+             / {:.2} |",
             p.gyro_noise,
             p.rate_noise,
             p.magnetometer.heading_sigma.to_degrees(),
             p.velocity_bound,
+            p.velocity_walk,
+            p.position_bound,
             e.total,
             e.heading,
             e.inclination,

@@ -1,7 +1,8 @@
 //! The production attitude filter: an error-state EKF on attitude × gyro bias × horizontal
-//! velocity × the local magnetic field's heading offset, composed from the library's parts
-//! ([`ManifoldGaussian`] on a [`ProductManifold`](liebayes_manifolds::ProductManifold) of
-//! [`Left`]`<So3>` (world-frame attitude error) and `Rn<6>`, propagated and conditioned by the
+//! velocity × the local magnetic field's heading offset × horizontal position, composed from the
+//! library's parts ([`ManifoldGaussian`] on a
+//! [`ProductManifold`](liebayes_manifolds::ProductManifold) of [`Left`]`<So3>` (world-frame
+//! attitude error) and `Rn<8>`, propagated and conditioned by the
 //! [`Ekf`] operators), with what real IMU data needs (the math and the measured figures are in the
 //! attitude page of the project's documentation, `docs/filters/attitude.md`):
 //!
@@ -12,6 +13,10 @@
 //!   interval says that a hand-held sensor does not run away; the velocity's error grows as
 //!   `g × δθ`, so this observes the tilt without ever reading a single accelerometer sample as the
 //!   gravity direction (linear accelerations average out instead of tilting the estimate);
+//! * **bounded position**: the horizontal position integrates the velocity, and the
+//!   pseudo-measurement `p = 0 ± σ_p` made with the velocity's says that a hand-held sensor stays
+//!   within reach of where it started: a tilt error makes it drift as `½ g δθ t²`, a back-and-forth
+//!   motion does not;
 //! * **rest detection**: gyroscope and accelerometer within thresholds of their low-passed values
 //!   for a minimum time; at rest, the low-passed gyroscope measures the bias and the velocity is
 //!   zero to a tight σ;
@@ -44,9 +49,10 @@ use liebayes_operators::smoother::{GaussianTransition, Prediction};
 use liebayes_operators::{Condition, Ekf, MeasurementModel, OperatorError, Ukf};
 use magnetometer::{FieldReference, Magnetometer, Verdict};
 pub use model::{
-    ATTITUDE, AttitudeState, BIAS, Block, BlockProcess, Heading, OFFSET, STATE_DIM, VELOCITY,
+    ATTITUDE, AttitudeState, BIAS, Block, BlockProcess, Heading, OFFSET, POSITION, STATE_DIM,
+    VELOCITY,
 };
-use model::{RestBias, ZeroVelocity, attitude_block, in_rest};
+use model::{RestBias, ZeroPosition, ZeroVelocity, attitude_block, in_rest};
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 pub use params::{
     AttitudeParams, DisturbanceParams, FieldOffset, MagnetometerParams, Propagation, RestParams,
@@ -203,8 +209,8 @@ impl AttitudeEkf {
     /// The offline filter: the same filter, which also records its forward pass so that at the
     /// end of a run it releases every sample's smoothed estimate, given every sample of the run
     /// (the [`Smoothing`] of the experiment layer; the forward pass's estimates are the causal
-    /// filter's, bit for bit). The record grows by about 4 kB per epoch (a block, 0.04 s) and 24
-    /// bytes per sample: about 100 kB per second of data.
+    /// filter's, bit for bit). The record grows by about 5 kB per epoch (a block, 0.04 s) and 24
+    /// bytes per sample: about 130 kB per second of data.
     ///
     /// # Errors
     /// As [`new`](Self::new).
@@ -358,10 +364,13 @@ impl Running {
         for i in VELOCITY {
             sigma[i] = p.velocity_bound;
         }
+        for i in POSITION {
+            sigma[i] = p.position_bound;
+        }
         sigma[OFFSET] = p.magnetometer.offset.as_ref().map_or(1e-9, |f| f.sigma);
         let mean = AttitudeState::new(
             Left::new(So3::from_unit_quaternion(tilt)),
-            Rn::new_unchecked(SVector::<f64, 6>::zeros()),
+            Rn::new_unchecked(SVector::<f64, 8>::zeros()),
         );
         let density =
             ManifoldGaussian::new(mean, SMatrix::from_diagonal(&sigma.component_mul(&sigma)))?;
@@ -417,6 +426,9 @@ impl Running {
         rotate
             .fixed_view_mut::<2, 2>(VELOCITY.start, VELOCITY.start)
             .copy_from(&horizontal);
+        rotate
+            .fixed_view_mut::<2, 2>(POSITION.start, POSITION.start)
+            .copy_from(&horizontal);
         let mut cov = rotate * self.density.covariance() * rotate.transpose();
         let orientation = turn * self.orientation;
         let sigma = settings.params.initial_heading_sigma;
@@ -439,10 +451,12 @@ impl Running {
         cov[(heading, heading)] = a.dot(&row) + sigma * sigma;
         let mean = self.density.mean();
         let mut rest = *mean.second().coords();
-        let velocity = in_rest(VELOCITY.start);
-        let v = horizontal * Vector2::new(rest[velocity], rest[velocity + 1]);
-        rest[velocity] = v.x;
-        rest[velocity + 1] = v.y;
+        for pair in [VELOCITY.start, POSITION.start] {
+            let i = in_rest(pair);
+            let v = horizontal * Vector2::new(rest[i], rest[i + 1]);
+            rest[i] = v.x;
+            rest[i + 1] = v.y;
+        }
         let start = turn * mean.first().inner().as_unit_quaternion();
         let next = ManifoldGaussian::new(
             AttitudeState::new(
@@ -681,6 +695,14 @@ impl Running {
         self.condition(
             settings,
             ZeroVelocity { sigma },
+            &Vector2::zeros(),
+            f64::INFINITY,
+        )?;
+        self.condition(
+            settings,
+            ZeroPosition {
+                sigma: settings.params.position_bound,
+            },
             &Vector2::zeros(),
             f64::INFINITY,
         )?;

@@ -11,12 +11,13 @@ use std::ops::Range;
 
 /// The filter's state: attitude (IMU frame w.r.t. ENU, error `R = exp([δθ]ₓ) R̂` in the world
 /// frame) × (gyro bias b (rad/s, IMU frame), horizontal velocity v (m/s, East, North), the local
-/// field's heading offset c (rad, the field's heading east of true north)); tangent order
-/// (δθ, δb, δv, δc): [`ATTITUDE`], [`BIAS`], [`VELOCITY`], [`OFFSET`].
-pub type AttitudeState = ProductManifold<Left<So3<f64>>, Rn<f64, 6>, 3, 6, 9>;
+/// field's heading offset c (rad, the field's heading east of true north), horizontal position p
+/// (m, East, North, from the start)); tangent order (δθ, δb, δv, δc, δp): [`ATTITUDE`], [`BIAS`],
+/// [`VELOCITY`], [`OFFSET`], [`POSITION`].
+pub type AttitudeState = ProductManifold<Left<So3<f64>>, Rn<f64, 8>, 3, 8, 11>;
 
 /// The state's dimension.
-pub const STATE_DIM: usize = 9;
+pub const STATE_DIM: usize = 11;
 
 /// Tangent indices of the world-frame attitude error δθ (x, y: tilt; z: heading).
 pub const ATTITUDE: Range<usize> = 0..3;
@@ -26,6 +27,8 @@ pub const BIAS: Range<usize> = 3..6;
 pub const VELOCITY: Range<usize> = 6..8;
 /// Tangent index of the field's heading offset c.
 pub const OFFSET: usize = 8;
+/// Tangent indices of the horizontal position (East, North; m, from the start).
+pub const POSITION: Range<usize> = 9..11;
 
 /// Index of a tangent coordinate (of the bias, velocity or offset) in the `Rn<6>` factor.
 pub(crate) const fn in_rest(tangent: usize) -> usize {
@@ -40,14 +43,16 @@ pub(crate) fn attitude_block(p: &SMatrix<f64, STATE_DIM, STATE_DIM>) -> Matrix3<
 
 /// The preintegrated increments of one block of gyroscope and accelerometer samples, in the IMU
 /// frame at the block's start (`ΔRᵢ` the rotation from the start to sample i):
-/// `ΔR = Π exp([ωᵢ − b̂]ₓ Δt)`, `Δv = Σ ΔRᵢ fᵢ Δt`, `B = Σ ΔRᵢ Δt`, `T = n Δt`, with the bias `b̂`
-/// they were integrated with.
+/// `ΔR = Π exp([ωᵢ − b̂]ₓ Δt)`, `Δv = Σ ΔRᵢ fᵢ Δt`, `Δp = Σ Δvᵢ Δt` (`Δvᵢ` the sum up to sample
+/// i), `B = Σ ΔRᵢ Δt`, `T = n Δt`, with the bias `b̂` they were integrated with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Block {
     /// `ΔR`.
     pub rotation: UnitQuaternion<f64>,
     /// `Δv` (m/s, start frame).
     pub velocity: Vector3<f64>,
+    /// `Δp = Σ Δvᵢ Δt` (m, start frame): the velocity increments integrated.
+    pub position: Vector3<f64>,
     /// `B` (s): how the bias moves the attitude.
     pub bias_coupling: Matrix3<f64>,
     /// `T` (s).
@@ -61,6 +66,7 @@ impl Block {
         Self {
             rotation: UnitQuaternion::identity(),
             velocity: Vector3::zeros(),
+            position: Vector3::zeros(),
             bias_coupling: Matrix3::zeros(),
             duration: 0.0,
             bias,
@@ -80,6 +86,7 @@ impl Block {
         self.rotation = rotation;
         let r = self.rotation.to_rotation_matrix().into_inner();
         self.velocity += r * acc * dt;
+        self.position += self.velocity * dt;
         self.bias_coupling += r * dt;
         self.duration += dt;
     }
@@ -87,11 +94,13 @@ impl Block {
 
 /// The block's process model on [`AttitudeState`]:
 /// `R′ = exp(−[R B (b − b̂)]ₓ) R ΔR`, `b′ = b`, `v′ = v + (R Δv)_xy`, `c′ = a c` with
-/// `a = exp(−T/τ_c)`; noise `diag((σ_g² + s² |ω̄|²) T I₃, σ_b² T I₃, σ_v² T I₂, σ_c² (1 − a²))`
-/// (|ω̄| the block's mean rate); Jacobian (world-frame error) `∂δθ′/∂δb = −R B`,
-/// `∂δv′/∂δθ = −[R Δv]ₓ` restricted to the two tilt columns (the accelerometer never turns the
-/// heading: its horizontal part is velocity, not direction, information), `∂δc′/∂δc = a`. The
-/// bias's second-order effect on v inside a block is omitted.
+/// `a = exp(−T/τ_c)`, `p′ = p + v T + (R Δp)_xy`; noise `(σ_g² + s² |ω̄|²) T I₃` on the attitude,
+/// `σ_b² T I₃` on the bias, `σ_c² (1 − a²)` on the offset and the velocity's random walk with the
+/// position it integrates to, `σ_v² [T, T²/2; T²/2, T³/3]` per axis (|ω̄| the block's mean rate);
+/// Jacobian (world-frame error) `∂δθ′/∂δb = −R B`, `∂δv′/∂δθ = −[R Δv]ₓ` and
+/// `∂δp′/∂δθ = −[R Δp]ₓ` restricted to the two tilt columns (the accelerometer never turns the
+/// heading: its horizontal part is velocity, not direction, information), `∂δp′/∂δv = T I`,
+/// `∂δc′/∂δc = a`. The bias's second-order effect on v and p inside a block is omitted.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlockProcess {
     /// Gyroscope angle random walk (rad/√s).
@@ -125,9 +134,13 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         let turn = r * (u.bias_coupling * (bias - u.bias)).into_owned();
         let attitude = UnitQuaternion::from_scaled_axis(-turn) * r * u.rotation;
         let dv = r * u.velocity;
+        let dp = r * u.position;
         let mut next = *rest;
-        next[in_rest(VELOCITY.start)] += dv.x;
-        next[in_rest(VELOCITY.start) + 1] += dv.y;
+        let (v, p) = (in_rest(VELOCITY.start), in_rest(POSITION.start));
+        next[p] += rest[v] * u.duration + dp.x;
+        next[p + 1] += rest[v + 1] * u.duration + dp.y;
+        next[v] += dv.x;
+        next[v + 1] += dv.y;
         next[in_rest(OFFSET)] *= self.offset_decay(u.duration);
         AttitudeState::new(
             Left::new(So3::from_unit_quaternion(attitude)),
@@ -148,8 +161,13 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         for i in BIAS {
             q[(i, i)] = self.bias_walk * self.bias_walk * t;
         }
-        for i in VELOCITY {
-            q[(i, i)] = self.velocity_walk * self.velocity_walk * t;
+        // The velocity's random walk and the position it integrates to: `σ² [T, T²/2; T²/2, T³/3]`.
+        let walk = self.velocity_walk * self.velocity_walk;
+        for (v, p) in VELOCITY.zip(POSITION) {
+            q[(v, v)] = walk * t;
+            q[(v, p)] = walk * t * t / 2.0;
+            q[(p, v)] = walk * t * t / 2.0;
+            q[(p, p)] = walk * t * t * t / 3.0;
         }
         if let Some(f) = &self.offset {
             let a = self.offset_decay(t);
@@ -168,6 +186,12 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         // −[a]ₓ, rows x and y, columns of the two tilt components.
         f[(VELOCITY.start, ATTITUDE.start + 1)] = a.z;
         f[(VELOCITY.start + 1, ATTITUDE.start)] = -a.z;
+        let d = r * u.position;
+        f[(POSITION.start, ATTITUDE.start + 1)] = d.z;
+        f[(POSITION.start + 1, ATTITUDE.start)] = -d.z;
+        for (v, p) in VELOCITY.zip(POSITION) {
+            f[(p, v)] = u.duration;
+        }
         f[(OFFSET, OFFSET)] = self.offset_decay(u.duration);
         f
     }
@@ -196,6 +220,34 @@ impl MeasurementModel<AttitudeState, STATE_DIM, 2> for ZeroVelocity {
     fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 2, STATE_DIM> {
         let mut h = SMatrix::<f64, 2, STATE_DIM>::zeros();
         for (row, column) in VELOCITY.enumerate() {
+            h[(row, column)] = 1.0;
+        }
+        h
+    }
+}
+
+/// The bounded-position pseudo-measurement `z = p = 0`, noise `σ² I₂`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ZeroPosition {
+    /// σ of each component (m).
+    pub sigma: f64,
+}
+
+impl MeasurementModel<AttitudeState, STATE_DIM, 2> for ZeroPosition {
+    fn predict(&self, x: &AttitudeState) -> SVector<f64, 2> {
+        x.second()
+            .coords()
+            .fixed_rows::<2>(in_rest(POSITION.start))
+            .into_owned()
+    }
+
+    fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 2, 2> {
+        SMatrix::<f64, 2, 2>::identity() * (self.sigma * self.sigma)
+    }
+
+    fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 2, STATE_DIM> {
+        let mut h = SMatrix::<f64, 2, STATE_DIM>::zeros();
+        for (row, column) in POSITION.enumerate() {
             h[(row, column)] = 1.0;
         }
         h
