@@ -16,7 +16,7 @@ use liebayes_manifolds::{Left, Manifold, Rn, So3};
 use liebayes_operators::evaluation::chi_square_quantile;
 use liebayes_operators::{MeasurementModel, ProcessModel};
 use liebayes_reference::broad::data_dir;
-use nalgebra::{Matrix3, SVector, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod broad;
 
@@ -100,6 +100,33 @@ fn block_jacobian_matches_finite_differences() {
             );
         }
     }
+}
+
+/// The block process's sparse covariance propagation equals the dense products with its
+/// Jacobian, `F P Fᵀ` and `P Fᵀ`, to rounding, for a covariance with every entry non-zero.
+#[test]
+fn sparse_covariance_propagation_equals_the_dense_products() {
+    let process = BlockProcess {
+        gyro_noise: 0.004,
+        rate_noise: 0.004,
+        bias_walk: 1e-5,
+        velocity_walk: 0.3,
+        offset: Some(FieldOffset {
+            sigma: 0.07,
+            correlation_time: 50.0,
+        }),
+    };
+    let (x, u) = (state(), block());
+    let a = SMatrix::<f64, STATE_DIM, STATE_DIM>::from_fn(|i, j| {
+        ((i * 7 + j * 3) as f64 * 0.37).sin() + if i == j { 4.0 } else { 0.0 }
+    });
+    let p = a * a.transpose();
+    let f = process.jacobian(&x, &u);
+    let (propagated, cross) = process.propagate_covariance(&x, &u, &p);
+    let (dense, dense_cross) = (f * p * f.transpose(), p * f.transpose());
+    let scale = dense.amax();
+    assert!((propagated - dense).amax() <= 1e-13 * scale);
+    assert!((cross - dense_cross).amax() <= 1e-13 * dense_cross.amax());
 }
 
 /// The heading measurement's Jacobian against central differences of its prediction: −1 on the

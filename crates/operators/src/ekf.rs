@@ -63,11 +63,10 @@ where
         input: &P::Input,
     ) -> Result<Prediction<X, D>, OperatorError> {
         let mean = prior.mean();
-        let f = self.0.jacobian(mean, input);
-        let cross = prior.covariance() * f.transpose();
+        let (propagated, cross) = self.0.propagate_covariance(mean, input, prior.covariance());
         let density = checked_gaussian(
             self.0.transition(mean, input),
-            &(f * cross + self.0.noise(mean, input)),
+            &(propagated + self.0.noise(mean, input)),
             Produced {
                 mean: "the predicted mean f(mu, u) of the process model",
                 covariance: "predicted covariance F P F^T + Q (check the process noise Q and the \

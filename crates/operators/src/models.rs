@@ -30,6 +30,22 @@ pub trait ProcessModel<X: Manifold<D, Scalar = f64>, const D: usize> {
     fn jacobian(&self, x: &X, input: &Self::Input) -> SMatrix<f64, D, D> {
         numeric_process_jacobian(self, x, input)
     }
+
+    /// `(F P Fᵀ, P Fᵀ)` for the covariance P of a prior with mean x: the EKF's propagated
+    /// covariance before the noise, and the cross-covariance `Cov(δ, δ′)` the smoothers keep. The
+    /// default multiplies by the dense [`jacobian`](Self::jacobian); a model whose Jacobian is
+    /// sparse (the identity and a few entries, as most strapdown models') overrides it to skip the
+    /// zeros on a hot path, with the same result up to rounding.
+    fn propagate_covariance(
+        &self,
+        x: &X,
+        input: &Self::Input,
+        p: &SMatrix<f64, D, D>,
+    ) -> (SMatrix<f64, D, D>, SMatrix<f64, D, D>) {
+        let f = self.jacobian(x, input);
+        let cross = p * f.transpose();
+        (f * cross, cross)
+    }
 }
 
 /// A measurement `z = h(x) + n`, `n ~ N(0, R)`, with z in R^M and an innovation `z ⊟ ẑ` that may wrap
@@ -80,6 +96,15 @@ where
 
     fn jacobian(&self, x: &X, input: &P::Input) -> SMatrix<f64, D, D> {
         (**self).jacobian(x, input)
+    }
+
+    fn propagate_covariance(
+        &self,
+        x: &X,
+        input: &P::Input,
+        p: &SMatrix<f64, D, D>,
+    ) -> (SMatrix<f64, D, D>, SMatrix<f64, D, D>) {
+        (**self).propagate_covariance(x, input, p)
     }
 }
 
