@@ -35,6 +35,7 @@ fn attitude(c: &mut Criterion) {
     for (id, name, scenario) in [
         ("ekf_9d", "ekf-9d", &minute),
         ("ekf_6d", "ekf-6d", &minute),
+        ("ekf_offline_9d", "ekf-offline-9d", &minute),
         ("madgwick_9d", "madgwick-9d", &minute),
         ("talk_filter_9d", "talk-9d", &short),
     ] {

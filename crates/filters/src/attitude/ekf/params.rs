@@ -174,18 +174,16 @@ impl Default for AttitudeParams {
 impl AttitudeParams {
     /// The offline estimate's settings ([`AttitudeEkf::offline`](super::AttitudeEkf::offline)):
     /// the defaults with the gyroscope's angle random walk at its physical white noise (1e-4
-    /// rad/√s, the Allan deviation of BROAD's rest phases), the rate-proportional noise 0.008, the
-    /// bounded-velocity σ 2 m/s and the bounded-position σ 0.3 m. Chosen by leave-one-trial-out
-    /// cross-validation on the twelve BROAD trials over a grid of 216 settings: nine of the twelve
-    /// held-out trials chose this one (the other three the position σ 0.5 m). A smoother sees each
-    /// heading error from both sides in time, so it needs no inflated gyroscope noise to follow the
-    /// magnetometer.
+    /// rad/√s, the Allan deviation of BROAD's rest phases), the rate-proportional noise 0.008 and
+    /// the bounded-velocity σ 2 m/s. Chosen by leave-one-trial-out cross-validation on the twelve
+    /// BROAD trials over a grid of 432 settings: every held-out trial chose this one. A smoother
+    /// sees each heading error from both sides in time, so it needs no inflated gyroscope noise to
+    /// follow the magnetometer.
     pub fn offline() -> Self {
         Self {
             gyro_noise: 1e-4,
             rate_noise: 0.008,
             velocity_bound: 2.0,
-            position_bound: 0.3,
             ..Self::default()
         }
     }
