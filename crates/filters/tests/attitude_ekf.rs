@@ -210,7 +210,7 @@ fn upper(dof: f64) -> f64 {
 /// Nor uselessly loose: above 0.1 (a reported σ at most about three times the error). That lower
 /// end is a usefulness floor, not a χ² quantile: the filter's noise figures are those of a real
 /// IMU, larger than the simulator's, so it is cautious here (measured per degree of freedom:
-/// heading 0.46, tilt 0.23, below the 0.46 lower end of the tilt's two-sided 99.9 % band).
+/// heading 0.44, tilt 0.24, below the 0.46 lower end of the tilt's two-sided 99.9 % band).
 #[test]
 fn simulated_nees_is_in_the_chi_square_band() {
     let runs = 24;

@@ -209,8 +209,8 @@ impl AttitudeEkf {
     /// The offline filter: the same filter, which also records its forward pass so that at the
     /// end of a run it releases every sample's smoothed estimate, given every sample of the run
     /// (the [`Smoothing`] of the experiment layer; the forward pass's estimates are the causal
-    /// filter's, bit for bit). The record grows by about 5 kB per epoch (a block, 0.04 s) and 24
-    /// bytes per sample: about 130 kB per second of data.
+    /// filter's, bit for bit). The record grows by about 5 kB per epoch (a block, 0.08 s) and 24
+    /// bytes per sample: about 70 kB per second of data.
     ///
     /// # Errors
     /// As [`new`](Self::new).
