@@ -92,6 +92,44 @@ impl Outputs {
     }
 }
 
+/// A batch's arrays, each (n, 3) float64 (`mag` absent for 6D), checked before any work.
+struct Batch<'py> {
+    gyr: PyReadonlyArrayDyn<'py, f64>,
+    acc: PyReadonlyArrayDyn<'py, f64>,
+    mag: Option<PyReadonlyArrayDyn<'py, f64>>,
+    n: usize,
+}
+
+impl<'py> Batch<'py> {
+    /// The arrays of a call from `origin`: every one (n, 3) with the same n, at most
+    /// [`MAX_SAMPLES`] rows; a `mag` of `None` is 6D.
+    fn read(
+        origin: &str,
+        gyr: &Bound<'py, PyAny>,
+        acc: &Bound<'py, PyAny>,
+        mag: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Self> {
+        let gyr = float_array("gyr", gyr)?;
+        let acc = float_array("acc", acc)?;
+        let mag = mag
+            .filter(|m| !m.is_none())
+            .map(|m| float_array("mag", m))
+            .transpose()?;
+        let n = gyr.shape().first().copied().unwrap_or(0);
+        check_rows("gyr", &gyr, n)?;
+        check_rows("acc", &acc, n)?;
+        if let Some(mag) = &mag {
+            check_rows("mag", mag, n)?;
+        }
+        if n > MAX_SAMPLES {
+            return Err(PyValueError::new_err(format!(
+                "{origin}: {n} samples, at most {MAX_SAMPLES} in one call"
+            )));
+        }
+        Ok(Self { gyr, acc, mag, n })
+    }
+}
+
 /// A sample's failure: its index and the library's message.
 struct Failure {
     sample: usize,
@@ -172,23 +210,7 @@ impl AttitudeFilter {
         acc: &Bound<'py, PyAny>,
         mag: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let gyr = float_array("gyr", gyr)?;
-        let acc = float_array("acc", acc)?;
-        let mag = mag
-            .filter(|m| !m.is_none())
-            .map(|m| float_array("mag", m))
-            .transpose()?;
-        let n = gyr.shape().first().copied().unwrap_or(0);
-        check_rows("gyr", &gyr, n)?;
-        check_rows("acc", &acc, n)?;
-        if let Some(mag) = &mag {
-            check_rows("mag", mag, n)?;
-        }
-        if n > MAX_SAMPLES {
-            return Err(PyValueError::new_err(format!(
-                "update_batch: {n} samples, at most {MAX_SAMPLES} in one call"
-            )));
-        }
+        let Batch { gyr, acc, mag, n } = Batch::read("update_batch", gyr, acc, mag)?;
         let mut filter = self.filter_for(mag.is_some())?.clone();
         let (g, a) = (matrix(&gyr)?, matrix(&acc)?);
         let m = mag.as_ref().map(matrix).transpose()?;
@@ -415,23 +437,7 @@ fn offline_attitude<'py>(
     const ORIGIN: &str = "offline_attitude";
     let rate = rate_of(ORIGIN, dt, rate)?;
     let p = with_params(AttitudeParams::offline(), params)?;
-    let gyr = float_array("gyr", gyr)?;
-    let acc = float_array("acc", acc)?;
-    let mag = mag
-        .filter(|m| !m.is_none())
-        .map(|m| float_array("mag", m))
-        .transpose()?;
-    let n = gyr.shape().first().copied().unwrap_or(0);
-    check_rows("gyr", &gyr, n)?;
-    check_rows("acc", &acc, n)?;
-    if let Some(mag) = &mag {
-        check_rows("mag", mag, n)?;
-    }
-    if n > MAX_SAMPLES {
-        return Err(PyValueError::new_err(format!(
-            "{ORIGIN}: {n} samples, at most {MAX_SAMPLES} in one call"
-        )));
-    }
+    let Batch { gyr, acc, mag, n } = Batch::read(ORIGIN, gyr, acc, mag)?;
     let sensors = if mag.is_some() {
         Sensors::NineD
     } else {

@@ -36,16 +36,21 @@ def test_read_broad_arrays(log):
     np.testing.assert_allclose(np.linalg.norm(log["quat"][known], axis=1), 1.0, atol=1e-9)
 
 
-def test_batch_equals_binary_bit_for_bit(log, broad_trial, liebayes_bin, tmp_path):
+def run_binary(liebayes_bin, broad_trial, tmp_path, *flags):
+    """`liebayes attitude --broad` on the one trial with `flags`; the estimates' folder."""
     trials = tmp_path / "trials"
     trials.mkdir()
     (trials / broad_trial.name).symlink_to(broad_trial)
     out = tmp_path / "out"
     subprocess.run(
-        [liebayes_bin, "attitude", "--broad", str(trials), "--method", "ekf-9d",
-         "--method", "ekf-6d", "--out", str(out)],
+        [liebayes_bin, "attitude", "--broad", str(trials), *flags, "--out", str(out)],
         check=True, capture_output=True,
     )
+    return out
+
+
+def test_batch_equals_binary_bit_for_bit(log, broad_trial, liebayes_bin, tmp_path):
+    out = run_binary(liebayes_bin, broad_trial, tmp_path, "--method", "ekf-9d", "--method", "ekf-6d")
     stem = broad_trial.stem
     nine = att.AttitudeFilter(rate=log["rate"]).update_batch(log["gyr"], log["acc"], log["mag"])
     six = att.AttitudeFilter(rate=log["rate"]).update_batch(log["gyr"], log["acc"])
@@ -59,14 +64,7 @@ def test_batch_equals_binary_bit_for_bit(log, broad_trial, liebayes_bin, tmp_pat
 
 
 def test_offline_equals_binary_bit_for_bit(log, broad_trial, liebayes_bin, tmp_path):
-    trials = tmp_path / "trials"
-    trials.mkdir()
-    (trials / broad_trial.name).symlink_to(broad_trial)
-    out = tmp_path / "out"
-    subprocess.run(
-        [liebayes_bin, "attitude", "--broad", str(trials), "--offline", "--out", str(out)],
-        check=True, capture_output=True,
-    )
+    out = run_binary(liebayes_bin, broad_trial, tmp_path, "--offline")
     stem = broad_trial.stem
     nine = att.offline_attitude(log["gyr"], log["acc"], log["mag"], rate=log["rate"])
     six = att.offline_attitude(log["gyr"], log["acc"], rate=log["rate"])

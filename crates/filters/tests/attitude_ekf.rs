@@ -55,11 +55,9 @@ fn state() -> AttitudeState {
     )
 }
 
-/// The analytic Jacobian of the block's process against central differences of the transition,
-/// except the omitted second-order entries (bias on velocity), which must be small.
-#[test]
-fn block_jacobian_matches_finite_differences() {
-    let process = BlockProcess {
+/// A block process with every noise term and the field offset's decay.
+fn process() -> BlockProcess {
+    BlockProcess {
         gyro_noise: 0.004,
         rate_noise: 0.004,
         bias_walk: 1e-5,
@@ -68,8 +66,14 @@ fn block_jacobian_matches_finite_differences() {
             sigma: 0.07,
             correlation_time: 50.0,
         }),
-    };
-    let (x, u) = (state(), block());
+    }
+}
+
+/// The analytic Jacobian of the block's process against central differences of the transition,
+/// except the omitted second-order entries (bias on velocity), which must be small.
+#[test]
+fn block_jacobian_matches_finite_differences() {
+    let (process, x, u) = (process(), state(), block());
     let f = process.jacobian(&x, &u);
     let y = process.transition(&x, &u);
     let h = 1e-6;
@@ -106,17 +110,7 @@ fn block_jacobian_matches_finite_differences() {
 /// Jacobian, `F P Fᵀ` and `P Fᵀ`, to rounding, for a covariance with every entry non-zero.
 #[test]
 fn sparse_covariance_propagation_equals_the_dense_products() {
-    let process = BlockProcess {
-        gyro_noise: 0.004,
-        rate_noise: 0.004,
-        bias_walk: 1e-5,
-        velocity_walk: 0.3,
-        offset: Some(FieldOffset {
-            sigma: 0.07,
-            correlation_time: 50.0,
-        }),
-    };
-    let (x, u) = (state(), block());
+    let (process, x, u) = (process(), state(), block());
     let a = SMatrix::<f64, STATE_DIM, STATE_DIM>::from_fn(|i, j| {
         ((i * 7 + j * 3) as f64 * 0.37).sin() + if i == j { 4.0 } else { 0.0 }
     });

@@ -184,10 +184,10 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         f
     }
 
-    /// `F P Fᵀ` and `P Fᵀ` with F the identity plus its 16 entries off the identity (listed in
-    /// [`jacobian`](ProcessModel::jacobian)'s terms above): each entry adds one scaled column of P
-    /// to `P Fᵀ`, and one scaled row of that to `F P Fᵀ`, a few hundred operations instead of two
-    /// dense products.
+    /// `F P Fᵀ` and `P Fᵀ` with F the identity plus its 16 entries off the identity (the terms of
+    /// the Jacobian in the type's docs): each entry adds one scaled column of P to `P Fᵀ`, and
+    /// one scaled row of that to `F P Fᵀ`, a few hundred operations instead of two dense
+    /// products.
     fn propagate_covariance(
         &self,
         x: &AttitudeState,
