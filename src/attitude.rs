@@ -67,7 +67,8 @@ pub struct Args {
     pub samples: Option<usize>,
     /// With --simulate: a study of this many independent simulated runs through the experiment
     /// layer instead (the field offset the filter models, a magnetometer reading every 10th
-    /// sample; the EKF 9D): errors against the reported σ over time, NEES against χ² bands.
+    /// sample; the EKF 9D told the simulated sensor noise): errors against the reported σ over
+    /// time, NEES against χ² bands.
     #[arg(long, requires = "simulate", value_name = "N")]
     pub runs: Option<u64>,
     /// Folder for the estimates CSV files, error plots and `broad.summary.json` (nothing is
@@ -132,15 +133,16 @@ const STUDY_MAGNETOMETER_EVERY: usize = 10;
 const MAIN_JOB_STUDY_RUNS: u64 = 32;
 
 /// `runs` independent simulated logs of `settings` (with the field offset the filter models)
-/// through the experiment layer, the EKF 9D on each: one table of per-epoch errors, reported σ
-/// and NEES. (The 6D heading starts at zero, which is the simulator's own start: its heading
-/// error would mean nothing here.)
+/// through the experiment layer, the EKF 9D told the simulator's sensor noise
+/// (`SimulationSettings::matched_noise`) on each: one table of per-epoch errors, reported σ and
+/// NEES. (The 6D heading starts at zero, which is the simulator's own start: its heading error
+/// would mean nothing here.)
 fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, CliError> {
-    let params = AttitudeParams::default();
     let settings = SimulationSettings {
-        field_offset: params.magnetometer.offset,
+        field_offset: AttitudeParams::default().magnetometer.offset,
         ..settings.clone()
     };
+    let params = settings.matched_noise(AttitudeParams::default());
     let (rate, samples) = (settings.rate, settings.samples);
     let scenario = ImuScenario::new(settings, STUDY_MAGNETOMETER_EVERY)
         .context(|| "--simulate --runs".to_owned())?;
@@ -158,8 +160,8 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, C
         name: "attitude_study".to_owned(),
         title: format!(
             "Attitude study: {runs} simulated runs of {samples} samples at {rate:.1} Hz (field \
-             offset as modelled, a magnetometer reading every {STUDY_MAGNETOMETER_EVERY} samples), \
-             seed {seed}"
+             offset as modelled, a magnetometer reading every {STUDY_MAGNETOMETER_EVERY} samples, \
+             the filter told the simulated sensor noise), seed {seed}"
         ),
         summaries: vec![summary],
         reference: None,

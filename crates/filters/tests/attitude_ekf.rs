@@ -196,30 +196,33 @@ fn upper(dof: f64) -> f64 {
     chi_square_quantile(Z_999, dof).unwrap() / dof
 }
 
-/// Independent runs on simulated data whose field has the heading offset the filter models: the
-/// final sample's heading NEES `δθ_z²/P_zz` (χ²(1) when consistent) and tilt NEES
+/// The 0.1 % quantile of the same, `q₀.₀₀₁(dof)/dof`.
+fn lower(dof: f64) -> f64 {
+    chi_square_quantile(-Z_999, dof).unwrap() / dof
+}
+
+/// Independent runs on simulated data whose field has the heading offset the filter models, the
+/// filter told the simulator's own sensor noise (`SimulationSettings::matched_noise`): the final
+/// sample's heading NEES `δθ_z²/P_zz` (χ²(1) when consistent) and tilt NEES
 /// `δθ_xyᵀ P_xy⁻¹ δθ_xy` (χ²(2)), δθ the world-frame error. Over n runs their sums are χ²(n) and
-/// χ²(2n); per degree of freedom (the tilt's mean halved) the filter must not be over-confident:
-/// the means stay below the 99.9 % quantiles of χ²(n)/n (n = 24: 2.13) and χ²(2n)/(2n) (1.75).
-/// Nor uselessly loose: above 0.1 (a reported σ at most about three times the error). That lower
-/// end is a usefulness floor, not a χ² quantile: the filter's noise figures are those of a real
-/// IMU, larger than the simulator's, so it is cautious here (measured per degree of freedom:
-/// heading 0.44, tilt 0.24, below the 0.46 lower end of the tilt's two-sided 99.9 % band).
+/// χ²(2n); per degree of freedom (the tilt's mean halved) the heading's mean lies in the two-sided
+/// 99.8 % band of χ²(n)/n (n = 24: 0.44 to 2.13; measured 0.52), and the tilt's stays below the
+/// 99.9 % quantile of χ²(2n)/(2n) (1.75) and above 0.1 (a reported σ at most about three times
+/// the error). That lower end is a usefulness floor, not a χ² quantile: the velocity bound (2 m/s)
+/// is set for real hand-held motion, not the simulator's sinusoids, so the tilt σ is cautious
+/// here (measured 0.12 per degree of freedom).
 #[test]
 fn simulated_nees_is_in_the_chi_square_band() {
     let runs = 24;
-    let params = AttitudeParams::default();
+    let settings = SimulationSettings {
+        samples: 6000,
+        field_offset: AttitudeParams::default().magnetometer.offset,
+        ..SimulationSettings::default()
+    };
+    let params = settings.matched_noise(AttitudeParams::default());
     let (mut heading, mut tilt) = (0.0, 0.0);
     for seed in 0..runs {
-        let log = simulate(
-            &SimulationSettings {
-                samples: 6000,
-                field_offset: params.magnetometer.offset,
-                ..SimulationSettings::default()
-            },
-            seed,
-        )
-        .expect("a simulated log");
+        let log = simulate(&settings, seed).expect("a simulated log");
         let recording = run(&log, &ekf(&params, Sensors::NineD));
         let last = recording.steps.last().expect("steps");
         let truth = last.truth.expect("a simulated truth");
@@ -234,7 +237,7 @@ fn simulated_nees_is_in_the_chi_square_band() {
          {heading_upper:.3}), tilt {tilt:.3} (upper {tilt_upper:.3})"
     );
     assert!(
-        heading > 0.1 && heading < heading_upper,
+        heading > lower(n) && heading < heading_upper,
         "heading NEES {heading}"
     );
     assert!(tilt > 0.1 && tilt < tilt_upper, "tilt NEES per dof {tilt}");

@@ -306,7 +306,9 @@ impl FilterLawSubject for AttitudeSubject {
 
     fn filter(&self, noise: f64, _rng: &mut ChaCha8Rng) -> Result<AttitudeFilter, BoxedError> {
         let nine_d = self.nine_d();
-        let scaled = |mut params: AttitudeParams| {
+        let sim = self.scenario.settings();
+        let scaled = |params: AttitudeParams| {
+            let mut params = sim.matched_noise(params);
             if nine_d {
                 params.magnetometer.heading_sigma *= noise;
                 if let Some(offset) = &mut params.magnetometer.offset {

@@ -1,7 +1,7 @@
 //! [`simulate`]: an IMU log with its true orientation, from [`SimulationSettings`].
 
 use super::data::{DataError, ImuLog, MAX_SAMPLES};
-use super::ekf::FieldOffset;
+use super::ekf::{AttitudeParams, FieldOffset};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -78,6 +78,22 @@ impl Default for SimulationSettings {
             field_offset: None,
             initial_orientation: UnitQuaternion::identity(),
         }
+    }
+}
+
+impl SimulationSettings {
+    /// `params` with the sensor noise these settings simulate: the gyroscope's angle random walk
+    /// `σ_g / √rate` (rad/√s) and the heading σ of one magnetometer sample `σ_m / |m_h|` (rad, m_h
+    /// the earth field's horizontal part). The other settings model what a real IMU has and the
+    /// simulator does not (scale-factor errors, the time-correlated errors the velocity bound
+    /// forgives) and are kept: this is the filter to check for consistency on simulated logs.
+    pub fn matched_noise(&self, params: AttitudeParams) -> AttitudeParams {
+        let mut params = AttitudeParams {
+            gyro_noise: self.gyro_noise / self.rate.sqrt(),
+            ..params
+        };
+        params.magnetometer.heading_sigma = self.mag_noise / self.earth_field.xy().norm();
+        params
     }
 }
 
