@@ -142,7 +142,9 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, C
         field_offset: AttitudeParams::default().magnetometer.offset,
         ..settings.clone()
     };
-    let params = settings.matched_noise(AttitudeParams::default());
+    let params = settings
+        .matched_noise(AttitudeParams::default())
+        .context(|| "--simulate --runs".to_owned())?;
     let (rate, samples) = (settings.rate, settings.samples);
     let scenario = ImuScenario::new(settings, STUDY_MAGNETOMETER_EVERY)
         .context(|| "--simulate --runs".to_owned())?;

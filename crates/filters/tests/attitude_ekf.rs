@@ -201,6 +201,45 @@ fn lower(dof: f64) -> f64 {
     chi_square_quantile(-Z_999, dof).unwrap() / dof
 }
 
+/// The filter told a simulation's sensor noise: the gyroscope's angle random walk and one
+/// magnetometer sample's heading σ; refused where the simulation has no noise to tell, no
+/// horizontal field to measure a heading from, or settings the simulator refuses.
+#[test]
+fn matched_noise_is_the_simulators_or_refused() {
+    let base = SimulationSettings::default();
+    let p = base.matched_noise(AttitudeParams::default()).unwrap();
+    assert_eq!(p.gyro_noise, base.gyro_noise / base.rate.sqrt());
+    assert_eq!(
+        p.magnetometer.heading_sigma,
+        base.mag_noise / base.earth_field.xy().norm()
+    );
+    assert_eq!(p.velocity_bound, AttitudeParams::default().velocity_bound);
+    let refused = [
+        SimulationSettings {
+            gyro_noise: 0.0,
+            ..base.clone()
+        },
+        SimulationSettings {
+            mag_noise: 0.0,
+            ..base.clone()
+        },
+        SimulationSettings {
+            earth_field: Vector3::new(0.0, 0.0, -50.0),
+            ..base.clone()
+        },
+        SimulationSettings {
+            rate: f64::NAN,
+            ..base.clone()
+        },
+    ];
+    for settings in refused {
+        assert!(matches!(
+            settings.matched_noise(AttitudeParams::default()),
+            Err(FilterError::Setting { .. } | FilterError::Data(_))
+        ));
+    }
+}
+
 /// Independent runs on simulated data whose field has the heading offset the filter models, the
 /// filter told the simulator's own sensor noise (`SimulationSettings::matched_noise`): the final
 /// sample's heading NEES `δθ_z²/P_zz` (χ²(1) when consistent) and tilt NEES
@@ -219,7 +258,9 @@ fn simulated_nees_is_in_the_chi_square_band() {
         field_offset: AttitudeParams::default().magnetometer.offset,
         ..SimulationSettings::default()
     };
-    let params = settings.matched_noise(AttitudeParams::default());
+    let params = settings
+        .matched_noise(AttitudeParams::default())
+        .expect("matched settings");
     let (mut heading, mut tilt) = (0.0, 0.0);
     for seed in 0..runs {
         let log = simulate(&settings, seed).expect("a simulated log");

@@ -188,7 +188,9 @@ fn smoothed_nees(model: &AttitudeParams, simulated_as: &AttitudeParams, runs: u6
 fn simulated_smoothed_nees_is_in_the_chi_square_band() {
     let runs = 24;
     let n = runs as f64;
-    let params = SimulationSettings::default().matched_noise(AttitudeParams::default());
+    let params = SimulationSettings::default()
+        .matched_noise(AttitudeParams::default())
+        .expect("matched settings");
     let (heading, tilt) = smoothed_nees(&params, &params, runs);
     println!("smoothed NEES per dof: heading {heading:.3}, tilt {tilt:.3}");
     assert!(heading > 0.1 && heading < upper(n), "heading {heading}");

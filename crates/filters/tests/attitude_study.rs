@@ -98,7 +98,9 @@ fn study_nees_stays_in_the_band() {
         field_offset: AttitudeParams::default().magnetometer.offset,
         ..SimulationSettings::default()
     };
-    let params = settings.matched_noise(AttitudeParams::default());
+    let params = settings
+        .matched_noise(AttitudeParams::default())
+        .expect("matched settings");
     let rate = settings.rate;
     let scenario = ImuScenario::new(settings, 10).unwrap();
     let runs = 64;

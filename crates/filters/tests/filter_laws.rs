@@ -307,8 +307,8 @@ impl FilterLawSubject for AttitudeSubject {
     fn filter(&self, noise: f64, _rng: &mut ChaCha8Rng) -> Result<AttitudeFilter, BoxedError> {
         let nine_d = self.nine_d();
         let sim = self.scenario.settings();
-        let scaled = |params: AttitudeParams| {
-            let mut params = sim.matched_noise(params);
+        let scaled = |params: AttitudeParams| -> Result<AttitudeParams, BoxedError> {
+            let mut params = sim.matched_noise(params)?;
             if nine_d {
                 params.magnetometer.heading_sigma *= noise;
                 if let Some(offset) = &mut params.magnetometer.offset {
@@ -317,15 +317,15 @@ impl FilterLawSubject for AttitudeSubject {
             } else {
                 params.velocity_bound *= noise;
             }
-            params
+            Ok(params)
         };
         let method = match Method::from_name(self.name).expect("a method") {
             Method::Ekf { params, sensors } => Method::Ekf {
-                params: scaled(params),
+                params: scaled(params)?,
                 sensors,
             },
             Method::EkfOffline { params, sensors } => Method::EkfOffline {
-                params: scaled(params),
+                params: scaled(params)?,
                 sensors,
             },
             Method::Talk {

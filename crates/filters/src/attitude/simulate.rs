@@ -2,6 +2,7 @@
 
 use super::data::{DataError, ImuLog, MAX_SAMPLES};
 use super::ekf::{AttitudeParams, FieldOffset};
+use crate::error::FilterError;
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -87,13 +88,20 @@ impl SimulationSettings {
     /// the earth field's horizontal part). The other settings model what a real IMU has and the
     /// simulator does not (scale-factor errors, the time-correlated errors the velocity bound
     /// forgives) and are kept: this is the filter to check for consistency on simulated logs.
-    pub fn matched_noise(&self, params: AttitudeParams) -> AttitudeParams {
+    ///
+    /// # Errors
+    /// [`FilterError::Data`] for settings [`simulate`] refuses; [`FilterError::Setting`] when the
+    /// result is not a valid filter setting (a simulator without gyroscope or magnetometer noise,
+    /// or an earth field without a horizontal part: no heading to measure).
+    pub fn matched_noise(&self, params: AttitudeParams) -> Result<AttitudeParams, FilterError> {
+        check_settings(self)?;
         let mut params = AttitudeParams {
             gyro_noise: self.gyro_noise / self.rate.sqrt(),
             ..params
         };
         params.magnetometer.heading_sigma = self.mag_noise / self.earth_field.xy().norm();
-        params
+        params.validate()?;
+        Ok(params)
     }
 }
 
