@@ -422,8 +422,7 @@ fn with_params(
 /// without `mag` it is 6D. Give exactly one of `dt` (s) and `rate` (Hz); `params` as
 /// `AttitudeFilter`'s, the rest at the offline defaults (`offline_default_params()`: the filter's,
 /// but for a magnetometer trusted twice as much and 0.04 s blocks, chosen by cross-validation on
-/// BROAD). A refused sample raises `ValueError`
-/// naming it. The GIL is released while filtering.
+/// BROAD). A refused sample raises `ValueError` naming it. The GIL is released while filtering.
 #[pyfunction]
 #[pyo3(signature = (gyr, acc, mag = None, *, dt = None, rate = None, **params))]
 fn offline_attitude<'py>(
