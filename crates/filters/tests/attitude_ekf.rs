@@ -492,8 +492,8 @@ fn a_huge_gyroscope_reading_is_refused_bit_for_bit() {
     assert_eq!(bits(&f.estimate().unwrap()), before);
 }
 
-/// The twelve BROAD trials, one parameter set, causal: the 9D filter's mean total RMSE is below
-/// tuned VQF's 2.44° (VQF default 2.76°), and its per-trial heading and tilt NEES are reported.
+/// The twelve BROAD trials (when `$LIEBAYES_BROAD_DIR` names them), one parameter set, causal:
+/// the 9D filter's mean total RMSE is below tuned VQF's 2.44° (VQF default 2.76°).
 #[test]
 fn broad_beats_vqf() {
     let Some(dir) = data_dir() else {
@@ -504,7 +504,7 @@ fn broad_beats_vqf() {
 }
 
 /// The production filter's noise chosen by leave-one-trial-out cross-validation over the twelve
-/// BROAD trials (9D, causal), over the grid of `broad::noise_grid` (108 settings): for each trial
+/// BROAD trials (9D, causal), over the grid of `broad::noise_grid` (432 settings): for each trial
 /// the setting with the lowest mean total RMSE over the other eleven is chosen and scored on it;
 /// the mean of those held-out scores is the cross-validated figure, and the held-out runs' heading
 /// and tilt NEES are pooled (per degree of freedom: 1 is consistent). About a minute in release:

@@ -52,7 +52,7 @@ pub use model::{
     ATTITUDE, AttitudeState, BIAS, Block, BlockProcess, Heading, OFFSET, POSITION, STATE_DIM,
     VELOCITY,
 };
-use model::{RestBias, ZeroPosition, ZeroVelocity, attitude_block, in_rest};
+use model::{RestBias, ZeroPair, attitude_block, in_rest};
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 pub use params::{
     AttitudeParams, DisturbanceParams, FieldOffset, MagnetometerParams, Propagation, RestParams,
@@ -694,15 +694,13 @@ impl Running {
         };
         self.condition(
             settings,
-            ZeroVelocity { sigma },
+            ZeroPair::velocity(sigma),
             &Vector2::zeros(),
             f64::INFINITY,
         )?;
         self.condition(
             settings,
-            ZeroPosition {
-                sigma: settings.params.position_bound,
-            },
+            ZeroPair::position(settings.params.position_bound),
             &Vector2::zeros(),
             f64::INFINITY,
         )?;

@@ -247,47 +247,40 @@ impl BlockProcess {
     }
 }
 
-/// The bounded-velocity (and, at rest, zero-velocity) pseudo-measurement `z = v = 0`, noise
-/// `σ² I₂`.
+/// A pseudo-measurement that a horizontal pair of the state is zero, `z = x[pair] = 0`, noise
+/// `σ² I₂`: the bounded velocity ([`ZeroPair::velocity`]; at rest, zero velocity) and the bounded
+/// position ([`ZeroPair::position`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct ZeroVelocity {
-    /// σ of each component (m/s).
-    pub sigma: f64,
+pub(crate) struct ZeroPair {
+    /// The tangent index of the pair's first component.
+    start: usize,
+    /// σ of each component (m/s or m).
+    sigma: f64,
 }
 
-impl MeasurementModel<AttitudeState, STATE_DIM, 2> for ZeroVelocity {
-    fn predict(&self, x: &AttitudeState) -> SVector<f64, 2> {
-        x.second()
-            .coords()
-            .fixed_rows::<2>(in_rest(VELOCITY.start))
-            .into_owned()
-    }
-
-    fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 2, 2> {
-        SMatrix::<f64, 2, 2>::identity() * (self.sigma * self.sigma)
-    }
-
-    fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 2, STATE_DIM> {
-        let mut h = SMatrix::<f64, 2, STATE_DIM>::zeros();
-        for (row, column) in VELOCITY.enumerate() {
-            h[(row, column)] = 1.0;
+impl ZeroPair {
+    /// `v = 0 ± σ` (m/s).
+    pub(crate) fn velocity(sigma: f64) -> Self {
+        Self {
+            start: VELOCITY.start,
+            sigma,
         }
-        h
+    }
+
+    /// `p = 0 ± σ` (m).
+    pub(crate) fn position(sigma: f64) -> Self {
+        Self {
+            start: POSITION.start,
+            sigma,
+        }
     }
 }
 
-/// The bounded-position pseudo-measurement `z = p = 0`, noise `σ² I₂`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct ZeroPosition {
-    /// σ of each component (m).
-    pub sigma: f64,
-}
-
-impl MeasurementModel<AttitudeState, STATE_DIM, 2> for ZeroPosition {
+impl MeasurementModel<AttitudeState, STATE_DIM, 2> for ZeroPair {
     fn predict(&self, x: &AttitudeState) -> SVector<f64, 2> {
         x.second()
             .coords()
-            .fixed_rows::<2>(in_rest(POSITION.start))
+            .fixed_rows::<2>(in_rest(self.start))
             .into_owned()
     }
 
@@ -297,8 +290,8 @@ impl MeasurementModel<AttitudeState, STATE_DIM, 2> for ZeroPosition {
 
     fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 2, STATE_DIM> {
         let mut h = SMatrix::<f64, 2, STATE_DIM>::zeros();
-        for (row, column) in POSITION.enumerate() {
-            h[(row, column)] = 1.0;
+        for row in 0..2 {
+            h[(row, self.start + row)] = 1.0;
         }
         h
     }
