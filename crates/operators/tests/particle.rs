@@ -198,7 +198,8 @@ fn each_scheme_has_the_variance_of_its_construction() {
 
 /// The multinomial and residual schemes draw their sorted points in blocks of 1024: with 3000
 /// particles (weights ∝ 1 + i mod 7) and 3000 draws, the multinomial points span three blocks and
-/// the residual remainder (R ≈ 1286) two. The draws in each quarter of the particles have the mean
+/// the residual remainder (R ≈ 1286) two, and the count runs in two halves meeting at particle
+/// 1499, inside the second quarter. The draws in each quarter of the particles have the mean
 /// N W (within five standard errors) and the variance of the construction (within 10 %: 4000
 /// resamplings, 4.5 standard errors of a sample variance), and the two are not mistaken for each
 /// other (quarter variances near 562 and 241).
@@ -234,6 +235,72 @@ fn sorted_points_across_blocks_have_the_multinomial_law() {
         );
         let wrong = group_variances(&weights, n, &groups, other);
         assert!(!within(&variances, &wrong), "{scheme:?}: {variances:?}");
+    }
+}
+
+/// From 2048 weighted particles on, the multinomial and residual counts run in two halves that
+/// meet at the cumulative weight of the first half. Where that weight is all, none, or one
+/// particle on either side of the meeting point, the draws are still n sorted indices of
+/// weighted particles, and the residual scheme still gives each particle its ⌊N wᵢ⌋ copies.
+#[test]
+fn the_two_halves_of_a_large_count_meet_exactly() {
+    let size = 5000;
+    let middle = (size - 1) / 2;
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let random: Vec<f64> = (0..size)
+        .map(|i| if i % 7 == 0 { 0.0 } else { rng.random::<f64>() })
+        .collect();
+    // All the weight in the first fifth, and a trace on the last particle.
+    let front: Vec<f64> = (0..size)
+        .map(|i| match i {
+            _ if i < 1000 => 1.0,
+            _ if i == size - 1 => 1e-300,
+            _ => 0.0,
+        })
+        .collect();
+    // No weight in the first half.
+    let back: Vec<f64> = (0..size).map(|i| f64::from(u8::from(i >= 3000))).collect();
+    // Two spikes on either side of the meeting point, and a little everywhere.
+    let spikes: Vec<f64> = (0..size)
+        .map(|i| {
+            if i == middle - 1 || i == middle {
+                1.0
+            } else {
+                1e-4
+            }
+        })
+        .collect();
+    for (name, weights) in [
+        ("random", &random),
+        ("front", &front),
+        ("back", &back),
+        ("spikes", &spikes),
+    ] {
+        let total: f64 = weights.iter().sum();
+        for scheme in [Resampling::Multinomial, Resampling::Residual] {
+            for n in [1, 3, 2500, 5000, 12_345] {
+                let indices = resample_indices(weights, n, scheme, &mut rng).unwrap();
+                assert_eq!(indices.len(), n, "{name} {scheme:?} {n}");
+                assert!(
+                    indices.windows(2).all(|w| w[0] <= w[1]),
+                    "{name} {scheme:?} {n}"
+                );
+                assert!(
+                    indices.iter().all(|&i| weights[i] > 0.0),
+                    "{name} {scheme:?} {n}"
+                );
+                if scheme == Resampling::Residual {
+                    let mut copies = vec![0_usize; size];
+                    for &i in &indices {
+                        copies[i] += 1;
+                    }
+                    for (i, (&c, &w)) in copies.iter().zip(weights.iter()).enumerate() {
+                        let floor = (n as f64 * w / total * (1.0 - 1e-12)).floor();
+                        assert!(c as f64 >= floor, "{name} {n}: particle {i} {c} < {floor}");
+                    }
+                }
+            }
+        }
     }
 }
 
