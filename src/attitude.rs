@@ -11,8 +11,8 @@ use liebayes::experiments::Table;
 use liebayes::experiments::{Shard, Study};
 use liebayes::filters::attitude::{
     AtRate, AttitudeParams, AttitudeScorer, Evaluation, ImuScenario, LogRecording, LogScenario,
-    Method, Sensors, SimulationSettings, estimates, read_broad, read_imu_csv, run_log,
-    sample_errors, simulate, write_estimates_csv,
+    MEASURED_FIELD_OFFSET, Method, Sensors, SimulationSettings, estimates, read_broad,
+    read_imu_csv, run_log, sample_errors, simulate, write_estimates_csv,
 };
 use liebayes::filters::{FilterError, attitude::evaluate};
 use plotters::prelude::*;
@@ -139,7 +139,7 @@ const MAIN_JOB_STUDY_RUNS: u64 = 32;
 /// would mean nothing here.)
 fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, CliError> {
     let settings = SimulationSettings {
-        field_offset: AttitudeParams::default().magnetometer.offset,
+        field_offset: Some(MEASURED_FIELD_OFFSET),
         ..settings.clone()
     };
     let params = settings

@@ -30,7 +30,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// The keyword parameters `AttitudeFilter` accepts, in the order `params()` lists them.
-const PARAMETER_NAMES: [&str; 19] = [
+const PARAMETER_NAMES: [&str; 20] = [
     "gyro_noise",
     "rate_noise",
     "bias_walk",
@@ -50,6 +50,7 @@ const PARAMETER_NAMES: [&str; 19] = [
     "mag_delay",
     "mag_offset",
     "mag_disturbance_rejection",
+    "tilt_variance_scale",
 ];
 
 /// The production attitude filter (an error-state EKF on SO(3) × gyro bias × velocity, with rest
@@ -148,7 +149,7 @@ impl AttitudeFilter {
     ) -> PyResult<Self> {
         let rate = rate_of("AttitudeFilter", dt, rate)?;
         let sensors = sensors.map(parse_sensors).transpose()?;
-        let p = with_params(AttitudeParams::default(), params)?;
+        let p = with_params(&AttitudeParams::default(), params)?;
         // Checks every setting and the rate now, not at the first sample.
         AttitudeEkf::new(p.clone(), sensors.unwrap_or(Sensors::NineD), rate)
             .map_err(value_error)?;
@@ -400,17 +401,19 @@ fn rate_of(origin: &str, dt: Option<f64>, rate: Option<f64>) -> PyResult<f64> {
     }
 }
 
-/// `base` with the keyword parameters set (`AttitudeFilter.parameter_names()`).
+/// `base` with the keyword parameters set (`AttitudeFilter.parameter_names()`); a part switched
+/// on by a flag takes its settings from `base`.
 fn with_params(
-    mut base: AttitudeParams,
+    base: &AttitudeParams,
     params: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<AttitudeParams> {
+    let mut p = base.clone();
     if let Some(params) = params {
         for (key, value) in params.iter() {
-            set_param(&mut base, &key.extract::<String>()?, &value)?;
+            set_param(&mut p, base, &key.extract::<String>()?, &value)?;
         }
     }
-    Ok(base)
+    Ok(p)
 }
 
 /// The offline attitude estimate of a whole recording (the production filter's RTS smoother,
@@ -436,7 +439,7 @@ fn offline_attitude<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     const ORIGIN: &str = "offline_attitude";
     let rate = rate_of(ORIGIN, dt, rate)?;
-    let p = with_params(AttitudeParams::offline(), params)?;
+    let p = with_params(&AttitudeParams::offline(), params)?;
     let Batch { gyr, acc, mag, n } = Batch::read(ORIGIN, gyr, acc, mag)?;
     let sensors = if mag.is_some() {
         Sensors::NineD
@@ -584,8 +587,14 @@ fn parse_sensors(name: &str) -> PyResult<Sensors> {
     }
 }
 
-/// Sets one keyword parameter (a value's range is checked when the filter is built).
-fn set_param(p: &mut AttitudeParams, key: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+/// Sets one keyword parameter (a value's range is checked when the filter is built); a flag that
+/// switches a part on takes its settings from `defaults`.
+fn set_param(
+    p: &mut AttitudeParams,
+    defaults: &AttitudeParams,
+    key: &str,
+    value: &Bound<'_, PyAny>,
+) -> PyResult<()> {
     let number = || -> PyResult<f64> {
         value
             .extract::<f64>()
@@ -596,7 +605,6 @@ fn set_param(p: &mut AttitudeParams, key: &str, value: &Bound<'_, PyAny>) -> PyR
             PyValueError::new_err(format!("AttitudeFilter: {key} must be True or False"))
         })
     };
-    let defaults = AttitudeParams::default();
     match key {
         "gyro_noise" => p.gyro_noise = number()?,
         "rate_noise" => p.rate_noise = number()?,
@@ -633,6 +641,7 @@ fn set_param(p: &mut AttitudeParams, key: &str, value: &Bound<'_, PyAny>) -> PyR
                 .then_some(defaults.magnetometer.disturbance)
                 .flatten();
         }
+        "tilt_variance_scale" => p.tilt_variance_scale = number()?,
         _ => {
             return Err(PyValueError::new_err(format!(
                 "AttitudeFilter: unknown parameter {key:?}; the parameters are {}",
@@ -674,6 +683,7 @@ fn params_dict<'py>(py: Python<'py>, p: &AttitudeParams) -> PyResult<Bound<'py, 
         "mag_disturbance_rejection",
         p.magnetometer.disturbance.is_some(),
     )?;
+    d.set_item("tilt_variance_scale", p.tilt_variance_scale)?;
     Ok(d)
 }
 

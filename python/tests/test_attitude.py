@@ -90,6 +90,17 @@ def test_offline_refuses_bad_input(log):
     assert att.offline_default_params()["gyro_noise"] == pytest.approx(1e-4)
 
 
+def test_offline_defaults_passed_back_change_nothing(log):
+    # A flag that switches a part on (the field offset) takes the offline settings' own values
+    # (σ_c 4°), not the causal filter's (1°).
+    n = 3000
+    gyr, acc, mag = log["gyr"][:n], log["acc"][:n], log["mag"][:n]
+    plain = att.offline_attitude(gyr, acc, mag, rate=log["rate"])
+    again = att.offline_attitude(gyr, acc, mag, rate=log["rate"], **att.offline_default_params())
+    assert np.array_equal(plain["quat"], again["quat"])
+    assert np.array_equal(plain["heading_sigma"], again["heading_sigma"])
+
+
 def test_outputs_and_accuracy(log):
     out = att.AttitudeFilter(rate=log["rate"]).update_batch(log["gyr"], log["acc"], log["mag"])
     n = log["gyr"].shape[0]

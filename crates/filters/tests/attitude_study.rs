@@ -7,7 +7,7 @@
 use liebayes_experiments::{RecursiveFilter, Scenario, Shard, Study, replay};
 use liebayes_filters::attitude::{
     AtRate, AttitudeEkf, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario, LogScenario,
-    Method, Sensors, SimulationSettings, run_log, simulate,
+    MEASURED_FIELD_OFFSET, Method, Sensors, SimulationSettings, run_log, simulate,
 };
 use liebayes_operators::evaluation::chi_square_quantile;
 
@@ -86,16 +86,17 @@ fn recursive_filter_refuses_bad_input() {
 /// * the heading's is within the two-sided 99.8 % band of χ²(64)/64 at every epoch (measured
 ///   1.00 to 1.14 in [0.54, 1.64]): consistent both ways;
 /// * the tilt's and the whole attitude's stay below the band's upper end at every epoch (not
-///   over-confident), and their average over the epochs is above 0.1 (a reported σ at most about
-///   three times the error: not uselessly loose). That floor is not a χ² quantile: the filter is
-///   knowingly cautious in tilt here, its velocity bound (2 m/s) being set for real hand-held
-///   motion, not the simulator's sinusoids (measured averages: tilt 0.10, whole 0.42 per degree
-///   of freedom, below the band's lower ends 0.66 and 0.71).
+///   over-confident), and their average over the epochs is above the band's lower end (each
+///   epoch's mean has the band's law when the filter is consistent, so their average lies in it
+///   too; measured: tilt 0.49 to 1.06, average 0.74 against 0.66; whole 0.68 to 1.06, average
+///   0.85 against 0.71). The tilt is so with the reported tilt variance calibrated on BROAD
+///   (`AttitudeParams::tilt_variance_scale`); the filter's own covariance gave averages of 0.10
+///   and 0.42.
 #[test]
 fn study_nees_stays_in_the_band() {
     let settings = SimulationSettings {
         samples: 8572,
-        field_offset: AttitudeParams::default().magnetometer.offset,
+        field_offset: Some(MEASURED_FIELD_OFFSET),
         ..SimulationSettings::default()
     };
     let params = settings
@@ -162,7 +163,11 @@ fn study_nees_stays_in_the_band() {
              {average:.3} (band {:.3?})",
             band((d + 1) as f64)
         );
-        assert!(average > 0.1, "{name}: average per dof {average}");
+        let (low, _) = band((d + 1) as f64);
+        assert!(
+            average > low,
+            "{name}: average per dof {average} below {low}"
+        );
     }
 }
 

@@ -12,7 +12,7 @@ use liebayes_filters::aoa::{
 };
 use liebayes_filters::attitude::{
     AttitudeEstimate, AttitudeFilter, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario,
-    Method, SimulationSettings,
+    MEASURED_FIELD_OFFSET, Method, SimulationSettings,
 };
 use liebayes_filters::azimuth::{
     AzimuthEstimate, AzimuthFilter, AzimuthScenario, AzimuthScorer, Config,
@@ -285,7 +285,7 @@ impl AttitudeSubject {
     fn new(name: &'static str, samples: usize, runs: u64) -> Self {
         let settings = SimulationSettings {
             samples,
-            field_offset: AttitudeParams::default().magnetometer.offset,
+            field_offset: Some(MEASURED_FIELD_OFFSET),
             ..SimulationSettings::default()
         };
         Self {
@@ -388,11 +388,15 @@ filter_laws!(
     attitude_ekf_offline_9d,
     AttitudeSubject::new("ekf-offline-9d", 5_714, 100)
 );
+// 6D: with the reported tilt variance calibrated on BROAD (`AttitudeParams::tilt_variance_scale`)
+// the tilt NEES is in the band here (the filter's own covariance gave 0.16 per dof), but the law's
+// wrong model, a velocity bound ten times wider, passes it too: the bound barely moves the tilt on
+// the simulated motion, so the law cannot tell a right model from a wrong one.
 filter_laws!(
     attitude_ekf_6d,
     AttitudeSubject::new("ekf-6d", 5_714, 100),
     known_inconsistent(
-        "6D tilt NEES 0.16 per dof: the velocity bound is cautious on the simulated motion"
+        "6D tilt NEES in the band, but a 10x velocity bound passes too (0.82 per dof)"
     )
 );
 // The talk's filter is about 300 times slower per sample than the EKF: its laws run on 30 runs

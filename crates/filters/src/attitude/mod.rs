@@ -48,5 +48,5 @@ pub use madgwick::{BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu};
 pub use method::{AtRate, AttitudeFilter, METHOD_NAMES, Method};
 pub use metric::{SampleErrors, TrialErrors, sample_errors};
 pub use scenario::{ImuScenario, ImuSteps, LogScenario, LogSteps};
-pub use simulate::{Disturbance, SimulationSettings, simulate};
+pub use simulate::{Disturbance, MEASURED_FIELD_OFFSET, SimulationSettings, simulate};
 pub use talk::{TalkFilter, TalkParams, field_reference_from};

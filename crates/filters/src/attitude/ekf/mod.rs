@@ -272,8 +272,9 @@ impl AttitudeEkf {
     }
 
     /// The attitude marginal as a Bingham density on the unit quaternion, with the second moments
-    /// of the Gaussian's attitude part (the body-frame covariance `R̂ᵀ P_θθ R̂` of a left-translated
-    /// diffusion about `R̂`), as the talk's filter represents its state.
+    /// of the attitude covariance the estimate reports (the body-frame covariance `R̂ᵀ P_θθ R̂` of a
+    /// left-translated diffusion about `R̂`, P_θθ as [`AttitudeParams::tilt_variance_scale`]
+    /// calibrates it), as the talk's filter represents its state.
     ///
     /// # Errors
     /// [`OperatorError::NotReady`] before the first sample; [`FilterError::Density`] outside the
@@ -281,7 +282,12 @@ impl AttitudeEkf {
     pub fn attitude_bingham(&self) -> Result<Bingham, FilterError> {
         let s = self.running()?;
         let r = s.orientation.to_rotation_matrix().into_inner();
-        let body = r.transpose() * attitude_block(s.density.covariance()) * r;
+        let body = r.transpose()
+            * self
+                .settings
+                .params
+                .reported(&attitude_block(s.density.covariance()))
+            * r;
         Ok(Bingham::from_diffusion_moment_matched(
             &Su2::from_unit_quaternion(s.orientation),
             &body,
@@ -855,7 +861,11 @@ impl RecursiveFilter for AttitudeEkf {
         let s = self.running()?;
         Ok(AttitudeEstimate {
             orientation: s.orientation,
-            covariance: Some(attitude_block(s.density.covariance())),
+            covariance: Some(
+                self.settings
+                    .params
+                    .reported(&attitude_block(s.density.covariance())),
+            ),
         })
     }
 

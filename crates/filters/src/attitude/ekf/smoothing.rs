@@ -16,7 +16,7 @@
 //! attitude covariance.
 
 use super::model::{AttitudeState, STATE_DIM, attitude_block, in_rest};
-use super::{AttitudeEkf, BIAS, Running};
+use super::{AttitudeEkf, AttitudeParams, BIAS, Running};
 use crate::attitude::estimate::AttitudeEstimate;
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::Smoothing;
@@ -101,11 +101,13 @@ impl Record {
     }
 
     /// Appends every sample's smoothed estimate to `out`, the current state `now` being the last
-    /// epoch's filtered density; `dt` the sampling interval.
+    /// epoch's filtered density; `dt` the sampling interval, `params` the filter's (for the
+    /// covariance it reports).
     fn smooth(
         &mut self,
         now: &Running,
         dt: f64,
+        params: &AttitudeParams,
         out: &mut Vec<AttitudeEstimate>,
     ) -> Result<(), OperatorError> {
         // The current density is the last epoch's, for the backward pass only.
@@ -126,7 +128,7 @@ impl Record {
         for (k, (density, &at)) in smoothed.iter().zip(&epochs).enumerate() {
             let end = epochs.get(k + 1).map_or(self.gyro.len(), |&next| next);
             let (orientation, bias) = epoch_state(density);
-            let covariance = Some(attitude_block(density.covariance()));
+            let covariance = Some(params.reported(&attitude_block(density.covariance())));
             if k == 0 {
                 // The samples before the first epoch, integrated back from it.
                 let mut q = orientation;
@@ -185,7 +187,7 @@ impl Smoothing for AttitudeEkf {
             return Ok(());
         }
         let first = out.len();
-        if let Err(e) = record.smooth(now, self.settings.dt, out) {
+        if let Err(e) = record.smooth(now, self.settings.dt, &self.settings.params, out) {
             out.truncate(first);
             return Err(e);
         }
