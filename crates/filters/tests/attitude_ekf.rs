@@ -246,8 +246,8 @@ fn matched_noise_is_the_simulators_or_refused() {
 /// `δθ_xyᵀ P_xy⁻¹ δθ_xy` (χ²(2)), δθ the world-frame error. Over n runs their sums are χ²(n) and
 /// χ²(2n); per degree of freedom (the tilt's mean halved) each lies in the two-sided 99.8 % band
 /// of χ²(n)/n or χ²(2n)/(2n) (n = 24: heading 0.44 to 2.13, measured 0.52; tilt 0.52 to 1.75,
-/// measured 0.84). The tilt is so with the reported tilt variance calibrated on BROAD
-/// (`AttitudeParams::tilt_variance_scale`, κ = 0.14), a check of that calibration on data it was
+/// measured 0.79). The tilt is so with the reported tilt variance calibrated on BROAD
+/// (`AttitudeParams::tilt_variance_scale`, κ = 0.13), a check of that calibration on data it was
 /// not chosen on: the filter's own tilt covariance gave 0.12 per degree of freedom.
 #[test]
 fn simulated_nees_is_in_the_chi_square_band() {
@@ -555,15 +555,15 @@ fn broad_beats_vqf() {
 }
 
 /// The production filter's noise chosen by leave-one-trial-out cross-validation over the twelve
-/// BROAD trials (9D, causal), over the grid of `broad::noise_grid` (1296 settings): for each trial
+/// BROAD trials (9D, causal), over the grid of `broad::noise_grid` (1728 settings): for each trial
 /// the setting with the lowest mean total RMSE over the other eleven is chosen and scored on it;
 /// the mean of those held-out scores is the cross-validated figure, and the held-out runs' heading
 /// and tilt NEES are pooled (per degree of freedom: 1 is consistent), with the reported tilt
-/// variance's factor cross-validated too. About seven minutes in release:
+/// variance's factor cross-validated too. About eleven minutes in release:
 /// `LIEBAYES_BROAD_DIR=… cargo test --release -p liebayes-filters --test attitude_ekf --
 /// --ignored broad_cross_validated --nocapture`.
 #[test]
-#[ignore = "about seven minutes in release"]
+#[ignore = "about eleven minutes in release"]
 fn broad_cross_validated() {
     let Some(dir) = data_dir() else {
         return;

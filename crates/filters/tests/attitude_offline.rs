@@ -184,10 +184,10 @@ fn smoothed_nees(model: &AttitudeParams, simulated_as: &AttitudeParams, runs: u6
 /// The smoother's reported σ on simulated data, the filter told the simulator's sensor noise
 /// (`SimulationSettings::matched_noise`): over 24 independent runs the heading NEES (χ²(1)) and
 /// the tilt NEES (χ²(2)) halfway through, per degree of freedom, lie within the two-sided 99.8 %
-/// bands of χ²(24)/24 and χ²(48)/48 (0.44 to 2.13, 0.52 to 1.75; measured: heading 1.48, tilt
-/// 0.95 with the reported tilt variance calibrated on BROAD, 0.13 with the filter's own). A wrong
+/// bands of χ²(24)/24 and χ²(48)/48 (0.44 to 2.13, 0.52 to 1.75; measured: heading 1.35, tilt
+/// 0.99 with the reported tilt variance calibrated on BROAD, 0.13 with the filter's own). A wrong
 /// model must fail the band: the smoother that ignores the field's heading offset (which the
-/// simulated field carries) is over-confident in heading (measured 2.86).
+/// simulated field carries) is over-confident in heading (measured 2.48).
 #[test]
 fn simulated_smoothed_nees_is_in_the_chi_square_band() {
     let runs = 24;
@@ -230,12 +230,12 @@ fn broad_offline_beats_offline_vqf() {
 }
 
 /// The offline estimate's noise chosen by leave-one-trial-out cross-validation over the twelve
-/// BROAD trials, on the same grid as the causal filter's (`broad::noise_grid`, 1296 settings),
-/// each with the offline settings' covariance blocks (0.04 s). About 20 minutes in release:
+/// BROAD trials, on the same grid as the causal filter's (`broad::noise_grid`, 1728 settings),
+/// each with the offline settings' covariance blocks (0.04 s). About 25 minutes in release:
 /// `LIEBAYES_BROAD_DIR=… cargo test --release -p liebayes-filters --test attitude_offline --
 /// --ignored broad_offline_cross_validated --nocapture`.
 #[test]
-#[ignore = "about 20 minutes in release"]
+#[ignore = "about 25 minutes in release"]
 fn broad_offline_cross_validated() {
     let Some(dir) = data_dir() else {
         return;

@@ -396,7 +396,7 @@ filter_laws!(
     attitude_ekf_6d,
     AttitudeSubject::new("ekf-6d", 5_714, 100),
     known_inconsistent(
-        "6D tilt NEES in the band, but a 10x velocity bound passes too (0.82 per dof)"
+        "6D tilt NEES in the band, but the wrong model (a 10x velocity bound) passes too"
     )
 );
 // The talk's filter is about 300 times slower per sample than the EKF: its laws run on 30 runs

@@ -137,15 +137,16 @@ pub struct AttitudeParams {
 
 impl Default for AttitudeParams {
     /// The settings chosen by leave-one-trial-out cross-validation on the twelve BROAD trials
-    /// over a grid of 1296 (gyroscope angle random walk, rate noise, heading σ, velocity bound,
-    /// velocity walk, position bound, field offset σ_c): the gyroscope's physical white noise
-    /// 1e-4 rad/√s (the Allan deviation of BROAD's rest phases), rate noise 0.008, heading σ 24°,
-    /// velocity bound 2 m/s, velocity walk 0.05 m/s/√s, position bound 0.5 m, σ_c 1°, the best on
-    /// all twelve (cross-validated mean RMSE 1.93° total, 0.71° inclination; held-out pooled
-    /// heading NEES 0.57). The reported tilt variance's factor κ = 0.14 is cross-validated with
-    /// them (held-out tilt NEES 1.08 per degree of freedom). The rest are physical or measured:
-    /// the magnetometer's delay and rate, the field offset's correlation time, the rest
-    /// detector's thresholds.
+    /// over a grid of 1728 (gyroscope angle random walk, rate noise, heading σ, velocity bound,
+    /// velocity walk, position bound, field offset σ_c, velocity-update interval): the
+    /// gyroscope's physical white noise 1e-4 rad/√s (the Allan deviation of BROAD's rest
+    /// phases), rate noise 0.008, heading σ 24°, velocity bound 2 m/s, velocity walk
+    /// 0.05 m/s/√s, position bound 1 m, σ_c 1°, updates every 0.25 s: the choice of six folds
+    /// and the best on all twelve (cross-validated mean RMSE 1.91° total, 0.68° inclination;
+    /// held-out pooled heading NEES 0.60). The reported tilt variance's factor κ = 0.13 is
+    /// cross-validated with them (held-out tilt NEES 1.12 per degree of freedom). The rest are
+    /// physical or measured: the magnetometer's delay and rate, the field offset's correlation
+    /// time, the rest detector's thresholds.
     fn default() -> Self {
         Self {
             gyro_noise: 1e-4,
@@ -157,8 +158,8 @@ impl Default for AttitudeParams {
             initial_heading_sigma: 10f64.to_radians(),
             velocity_bound: 2.0,
             velocity_walk: 0.05,
-            position_bound: 0.5,
-            velocity_interval: 0.5,
+            position_bound: 1.0,
+            velocity_interval: 0.25,
             block: 0.08,
             propagation: Propagation::Ekf,
             rest: Some(RestParams {
@@ -187,7 +188,7 @@ impl Default for AttitudeParams {
                     first_field_time: 5.0,
                 }),
             },
-            tilt_variance_scale: 0.14,
+            tilt_variance_scale: 0.13,
         }
     }
 }
@@ -195,10 +196,11 @@ impl Default for AttitudeParams {
 impl AttitudeParams {
     /// The offline estimate's settings ([`AttitudeEkf::offline`](super::AttitudeEkf::offline)):
     /// the defaults with the magnetometer's heading σ 12°, the velocity random walk 0.3 m/s/√s,
-    /// the covariance propagated every 0.04 s, the field offset's σ_c 4° and the reported tilt
+    /// the position bound 0.5 m, velocity updates every 0.5 s, the covariance propagated every
+    /// 0.04 s, the field offset's σ_c 4° and the reported tilt
     /// variance's factor 0.13 (the smoother's own tilt σ is 2.8 times its error; cross-validated
     /// with the factor: tilt NEES 1.00 per degree of freedom). Chosen by leave-one-trial-out cross-validation on
-    /// the twelve BROAD trials over the causal filter's grid of 1296 settings with 0.04 s blocks:
+    /// the twelve BROAD trials over a grid of 1296 settings with 0.04 s blocks (the causal grid's values, σ_c 1°, 2° and 4°, updates every 0.5 s):
     /// ten of the twelve held-out trials chose this one, the best on all twelve (cross-validated
     /// 1.65° total; on the earlier 432-setting grid, σ_c 4° throughout, every trial chose it:
     /// 1.59°; with the default 0.08 s blocks the choices scatter, at 2.8 times the speed). A smoother sees each
@@ -206,6 +208,8 @@ impl AttitudeParams {
     pub fn offline() -> Self {
         let mut params = Self {
             velocity_walk: 0.3,
+            position_bound: 0.5,
+            velocity_interval: 0.5,
             block: 0.04,
             tilt_variance_scale: 0.13,
             ..Self::default()
