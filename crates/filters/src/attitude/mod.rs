@@ -37,8 +37,8 @@ pub use data::{
 };
 pub use ekf::{
     ATTITUDE, AttitudeEkf, AttitudeParams, AttitudeState, BIAS, Block, BlockProcess,
-    DisturbanceParams, FieldOffset, Heading, MagnetometerParams, OFFSET, POSITION, Propagation,
-    RestParams, STATE_DIM, Sensors, VELOCITY,
+    DisturbanceParams, FieldOffset, Heading, MEASURED_FIELD_OFFSET, MagnetometerParams, OFFSET,
+    POSITION, Propagation, RestParams, STATE_DIM, Sensors, VELOCITY,
 };
 pub use estimate::{AttitudeEstimate, AttitudeScorer, ImuSample};
 pub use evaluation::{
@@ -48,5 +48,5 @@ pub use madgwick::{BROAD_BETA, Madgwick, broad_initial_state, enu_from_nwu};
 pub use method::{AtRate, AttitudeFilter, METHOD_NAMES, Method};
 pub use metric::{SampleErrors, TrialErrors, sample_errors};
 pub use scenario::{ImuScenario, ImuSteps, LogScenario, LogSteps};
-pub use simulate::{Disturbance, MEASURED_FIELD_OFFSET, SimulationSettings, simulate};
+pub use simulate::{Disturbance, SimulationSettings, simulate};
 pub use talk::{TalkFilter, TalkParams, field_reference_from};

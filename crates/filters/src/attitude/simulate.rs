@@ -7,7 +7,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 
 /// A magnetic disturbance: the field `offset` (µT, ENU) added to the earth field from `start` to
 /// `end` (s).
@@ -81,16 +81,6 @@ impl Default for SimulationSettings {
         }
     }
 }
-
-/// The heading offset process of a real local field as measured on BROAD (σ 4°: the RMS of the
-/// 10-s offsets between the magnetometer's heading and the reference's, 3.5°, rounded up;
-/// correlation time 120 s): the field the consistency checks simulate. The filter's default σ_c
-/// is smaller (1°, chosen by cross-validation on the attitude's RMSE); told this process
-/// ([`SimulationSettings::matched_noise`]), it models the simulated field exactly.
-pub const MEASURED_FIELD_OFFSET: FieldOffset = FieldOffset {
-    sigma: 4.0 * PI / 180.0,
-    correlation_time: 120.0,
-};
 
 impl SimulationSettings {
     /// `params` with the sensor noise these settings simulate: the gyroscope's angle random walk

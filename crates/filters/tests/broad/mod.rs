@@ -2,7 +2,7 @@
 //! noise settings and its leave-one-trial-out cross-validation.
 
 use liebayes_filters::attitude::{
-    AttitudeParams, FieldOffset, LogScenario, Method, evaluate, read_broad,
+    AttitudeParams, FieldOffset, LogScenario, MEASURED_FIELD_OFFSET, Method, evaluate, read_broad,
 };
 use liebayes_reference::broad::TRIALS;
 use std::path::Path;
@@ -77,7 +77,7 @@ pub fn noise_grid() -> Vec<AttitudeParams> {
                                     params.magnetometer.heading_sigma = heading_deg.to_radians();
                                     params.magnetometer.offset = Some(FieldOffset {
                                         sigma: offset_deg.to_radians(),
-                                        correlation_time: 120.0,
+                                        ..MEASURED_FIELD_OFFSET
                                     });
                                     grid.push(params);
                                 }

@@ -461,8 +461,8 @@ const BLOCK: usize = 1024;
 
 /// The count's runs over the particles, stepped in turn, each with its own block of points: a
 /// run's next count starts from where its last one ended, a chain of dependent loads and
-/// comparisons, and two chains side by side take 0.73 s for 1e8 multinomial draws where one
-/// took 0.91 s.
+/// comparisons, and two chains side by side take 0.72 s for 1e8 multinomial draws where one
+/// took 0.89 s.
 const RUNS: usize = 2;
 
 /// Below this many weighted particles the count is one run: two runs draw the block where they

@@ -55,8 +55,8 @@ pub use model::{
 use model::{RestBias, ZeroPair, attitude_block, in_rest};
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 pub use params::{
-    AttitudeParams, DisturbanceParams, FieldOffset, MagnetometerParams, Propagation, RestParams,
-    Sensors,
+    AttitudeParams, DisturbanceParams, FieldOffset, MEASURED_FIELD_OFFSET, MagnetometerParams,
+    Propagation, RestParams, Sensors,
 };
 use smoothing::{Entry, Record};
 use std::f64::consts::PI;

@@ -71,6 +71,18 @@ pub struct FieldOffset {
     pub correlation_time: f64,
 }
 
+/// The heading offset process of a real local field as measured on BROAD (σ 4°: the RMS of the
+/// 10-s offsets between the magnetometer's heading and the reference's, 3.5°, rounded up;
+/// correlation time 120 s): the offline estimate's (chosen by cross-validation) and the field
+/// the consistency checks simulate. The causal filter's default σ_c is smaller (1°, chosen by
+/// cross-validation); told this process
+/// ([`SimulationSettings::matched_noise`](crate::attitude::SimulationSettings::matched_noise)),
+/// it models the simulated field exactly.
+pub const MEASURED_FIELD_OFFSET: FieldOffset = FieldOffset {
+    sigma: 4.0 * std::f64::consts::PI / 180.0,
+    correlation_time: 120.0,
+};
+
 /// The magnetometer's use (9D).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MagnetometerParams {
@@ -174,7 +186,7 @@ impl Default for AttitudeParams {
                 heading_sigma: 24f64.to_radians(),
                 offset: Some(FieldOffset {
                     sigma: 1f64.to_radians(),
-                    correlation_time: 120.0,
+                    ..MEASURED_FIELD_OFFSET
                 }),
                 interval: 0.5,
                 delay: 0.012,
@@ -197,14 +209,15 @@ impl AttitudeParams {
     /// The offline estimate's settings ([`AttitudeEkf::offline`](super::AttitudeEkf::offline)):
     /// the defaults with the magnetometer's heading σ 12°, the velocity random walk 0.3 m/s/√s,
     /// the position bound 0.5 m, velocity updates every 0.5 s, the covariance propagated every
-    /// 0.04 s, the field offset's σ_c 4° and the reported tilt
+    /// 0.04 s, the field offset [`MEASURED_FIELD_OFFSET`] (σ_c 4°) and the reported tilt
     /// variance's factor 0.13 (the smoother's own tilt σ is 2.8 times its error; cross-validated
-    /// with the factor: tilt NEES 1.00 per degree of freedom). Chosen by leave-one-trial-out cross-validation on
-    /// the twelve BROAD trials over a grid of 1296 settings with 0.04 s blocks (the causal grid's values, σ_c 1°, 2° and 4°, updates every 0.5 s):
-    /// ten of the twelve held-out trials chose this one, the best on all twelve (cross-validated
-    /// 1.65° total; on the earlier 432-setting grid, σ_c 4° throughout, every trial chose it:
-    /// 1.59°; with the default 0.08 s blocks the choices scatter, at 2.8 times the speed). A smoother sees each
-    /// heading error from both sides in time, so it can trust the magnetometer more.
+    /// with the factor: tilt NEES 1.00 per degree of freedom). Chosen by leave-one-trial-out
+    /// cross-validation on the twelve BROAD trials over a grid of 1296 settings with 0.04 s
+    /// blocks (the causal grid's values with σ_c 1°, 2° and 4° and updates every 0.5 s): ten of
+    /// the twelve held-out trials chose this one, the best on all twelve (cross-validated 1.65°
+    /// total; on the earlier 432-setting grid, σ_c 4° throughout, every trial chose it: 1.59°;
+    /// with the default 0.08 s blocks the choices scatter, at 2.8 times the speed). A smoother
+    /// sees each heading error from both sides in time, so it can trust the magnetometer more.
     pub fn offline() -> Self {
         let mut params = Self {
             velocity_walk: 0.3,
@@ -215,10 +228,7 @@ impl AttitudeParams {
             ..Self::default()
         };
         params.magnetometer.heading_sigma = 12f64.to_radians();
-        params.magnetometer.offset = Some(FieldOffset {
-            sigma: 4f64.to_radians(),
-            correlation_time: 120.0,
-        });
+        params.magnetometer.offset = Some(MEASURED_FIELD_OFFSET);
         params
     }
 
