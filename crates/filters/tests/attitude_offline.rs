@@ -6,9 +6,9 @@
 
 use liebayes_experiments::{RecursiveFilter, Scorer, Smoothing};
 use liebayes_filters::attitude::{
-    AttitudeEkf, AttitudeEstimate, AttitudeParams, AttitudeScorer, ImuLog, ImuSample, LogRecording,
-    LogScenario, LogScore, MagnetometerParams, Method, Sensors, SimulationSettings, run_log,
-    simulate,
+    AttitudeEkf, AttitudeEstimate, AttitudeParams, AttitudeScorer, FieldOffset, ImuLog, ImuSample,
+    LogRecording, LogScenario, LogScore, MEASURED_FIELD_OFFSET, MagnetometerParams, Method,
+    Sensors, SimulationSettings, run_log, simulate,
 };
 use liebayes_operators::evaluation::chi_square_quantile;
 use liebayes_reference::broad::data_dir;
@@ -230,20 +230,62 @@ fn broad_offline_beats_offline_vqf() {
 }
 
 /// The offline estimate's noise chosen by leave-one-trial-out cross-validation over the twelve
-/// BROAD trials, on the same grid as the causal filter's (`broad::noise_grid`, 1728 settings),
-/// each with the offline settings' covariance blocks (0.04 s). About 25 minutes in release:
+/// BROAD trials, on the grid around the offline settings (`offline_grid`, 288 settings).
+/// About six minutes in release:
 /// `LIEBAYES_BROAD_DIR=… cargo test --release -p liebayes-filters --test attitude_offline --
 /// --ignored broad_offline_cross_validated --nocapture`.
 #[test]
-#[ignore = "about 25 minutes in release"]
+#[ignore = "about six minutes in release"]
 fn broad_offline_cross_validated() {
     let Some(dir) = data_dir() else {
         return;
     };
-    let block = AttitudeParams::offline().block;
-    let [total, ..] = broad::cross_validate(&broad::logs(&dir), |params| Method::EkfOffline {
-        params: AttitudeParams { block, ..params },
-        sensors: Sensors::NineD,
+    let [total, ..] = broad::cross_validate(&broad::logs(&dir), &offline_grid(), |params| {
+        Method::EkfOffline {
+            params,
+            sensors: Sensors::NineD,
+        }
     });
     assert!(total.is_finite());
+}
+
+/// The offline estimate's settings that cannot be read off the sensors' physics, around
+/// [`AttitudeParams::offline`]: the gyroscope's angle random walk at its physical white noise
+/// (1e-4 rad/√s), every combination of: the rate-proportional noise, 0.004 and 0.008; the
+/// magnetometer's heading σ, 12° and 24°; the bounded-velocity σ, 1 to 4 m/s; the velocity's
+/// random walk, 0.1 and 0.3 m/s/√s; the bounded-position σ, 0.5 to 2 m; the field offset's σ_c,
+/// 2° and 4° (the RMS of BROAD's measured 10-s offsets); the bounded-velocity updates' interval,
+/// 0.25 and 0.5 s; with the offline covariance blocks (0.04 s) and κ = 1: 288 settings.
+fn offline_grid() -> Vec<AttitudeParams> {
+    let mut grid = Vec::new();
+    for rate_noise in [0.004, 0.008] {
+        for heading_deg in [12.0_f64, 24.0] {
+            for velocity_bound in [1.0, 2.0, 4.0] {
+                for velocity_walk in [0.1, 0.3] {
+                    for position_bound in [0.5, 1.0, 2.0] {
+                        for offset_deg in [2.0_f64, 4.0] {
+                            for velocity_interval in [0.25, 0.5] {
+                                let mut params = AttitudeParams {
+                                    rate_noise,
+                                    velocity_bound,
+                                    velocity_walk,
+                                    position_bound,
+                                    velocity_interval,
+                                    tilt_variance_scale: 1.0,
+                                    ..AttitudeParams::offline()
+                                };
+                                params.magnetometer.heading_sigma = heading_deg.to_radians();
+                                params.magnetometer.offset = Some(FieldOffset {
+                                    sigma: offset_deg.to_radians(),
+                                    ..MEASURED_FIELD_OFFSET
+                                });
+                                grid.push(params);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    grid
 }

@@ -113,7 +113,10 @@ impl SimulationSettings {
 ///
 /// * truth: `q_{k+1} = q_k ⊗ exp(ω_k Δt)`, ω_k the true body rate (held over the interval);
 /// * gyroscope: `ω_k + b_k + σ_g n`, b the bias random walk;
-/// * accelerometer: `R(q_k)ᵀ (a_k + g ẑ) + σ_a n`, a_k the linear acceleration (ENU);
+/// * accelerometer: `R(q_{k+½})ᵀ (a_{k+½} + g ẑ) + σ_a n`, a the linear acceleration (ENU),
+///   both at the interval's middle (`q_{k+½} = q_k ⊗ exp(ω_k Δt/2)`, `t_k + Δt/2`): like the
+///   gyroscope's, the sample is the interval's mean (to second order in the turn), as the filters
+///   take it;
 /// * magnetometer: `R(q_k)ᵀ (Rz(−c_k) m_E + d(t_k)) + σ_m n`, d the disturbance active at `t_k`
 ///   and c the field's heading offset (east of north): `c_0 ~ N(0, σ_c²)`,
 ///   `c_{k+1} = a c_k + √(1 − a²) σ_c n`, `a = exp(−Δt/τ_c)` (0 without `field_offset`);
@@ -162,10 +165,11 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
     );
     for k in 0..n {
         let t = k as f64 * dt;
+        let middle = t + 0.5 * dt;
         let linear = Vector3::from_fn(|i, _| {
             waves[i]
                 .iter()
-                .map(|(amplitude, f, phase)| amplitude * (TAU * f * t + phase).sin())
+                .map(|(amplitude, f, phase)| amplitude * (TAU * f * middle + phase).sin())
                 .sum()
         });
         let disturbance: Vector3<f64> = s
@@ -175,8 +179,12 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
             .map(|d| d.offset)
             .sum();
         let to_sensor = q.inverse();
+        let halfway = q * UnitQuaternion::from_scaled_axis(omega * (0.5 * dt));
         gyr.push(omega + bias + normal(&mut rng) * s.gyro_noise);
-        acc.push(to_sensor * (linear + Vector3::z() * s.gravity) + normal(&mut rng) * s.acc_noise);
+        acc.push(
+            halfway.inverse() * (linear + Vector3::z() * s.gravity)
+                + normal(&mut rng) * s.acc_noise,
+        );
         let field = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), -offset) * s.earth_field;
         mag.push(to_sensor * (field + disturbance) + normal(&mut rng) * s.mag_noise);
         truth.push(Some(q));

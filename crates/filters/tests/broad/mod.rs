@@ -1,9 +1,7 @@
-//! What the attitude filters' BROAD tests share: the twelve trials read as scenarios, the grid of
-//! noise settings and its leave-one-trial-out cross-validation.
+//! What the attitude filters' BROAD tests share: the twelve trials read as scenarios, and the
+//! leave-one-trial-out cross-validation of a grid of noise settings.
 
-use liebayes_filters::attitude::{
-    AttitudeParams, FieldOffset, LogScenario, MEASURED_FIELD_OFFSET, Method, evaluate, read_broad,
-};
+use liebayes_filters::attitude::{AttitudeParams, LogScenario, Method, evaluate, read_broad};
 use liebayes_reference::broad::TRIALS;
 use std::path::Path;
 
@@ -42,56 +40,7 @@ pub fn scores(dir: &Path, name: &str) -> [f64; 3] {
     mean
 }
 
-/// The production filter's settings that cannot be read off the sensors' physics, every
-/// combination of: the gyroscope's angle random walk at its physical white noise (1e-4 rad/√s,
-/// the rest phases' Allan deviation), the default 4.5e-3, twice and four times that (inflated
-/// values absorb unmodelled errors in motion); the rate-proportional noise (scale factor and axis
-/// errors), 0.004 and 0.008; the magnetometer's heading σ, 12° and 24°; the bounded-velocity σ, 1
-/// to 4 m/s; the velocity's random walk, 0.05 to 0.3 m/s/√s; the bounded-position σ, 0.5 to 2 m;
-/// the field offset's σ_c, 1° and 2° (4°, the RMS of BROAD's measured 10-s offsets, was chosen
-/// by one fold of twelve on a grid with it); the bounded-velocity updates' interval, 0.25 and
-/// 0.5 s. The reported covariance is the filter's own (κ = 1: [`cross_validate`] calibrates it),
-/// the rest at their defaults: 1728 settings. (A first grid of 216 settings, velocity σ from 0.5 to
-/// 2 m/s, walk 0.1 and 0.3, position σ from 0.3 to 1 m, gyroscope up to 9e-3, had most held-out
-/// choices on its edges; this one extends it past them.)
-pub fn noise_grid() -> Vec<AttitudeParams> {
-    let mut grid = Vec::new();
-    for gyro_noise in [1e-4, 4.5e-3, 9e-3, 1.8e-2] {
-        for rate_noise in [0.004, 0.008] {
-            for heading_deg in [12.0_f64, 24.0] {
-                for velocity_bound in [1.0, 2.0, 4.0] {
-                    for velocity_walk in [0.05, 0.1, 0.3] {
-                        for position_bound in [0.5, 1.0, 2.0] {
-                            for offset_deg in [1.0_f64, 2.0] {
-                                for velocity_interval in [0.25, 0.5] {
-                                    let mut params = AttitudeParams {
-                                        gyro_noise,
-                                        rate_noise,
-                                        velocity_bound,
-                                        velocity_walk,
-                                        position_bound,
-                                        velocity_interval,
-                                        tilt_variance_scale: 1.0,
-                                        ..AttitudeParams::default()
-                                    };
-                                    params.magnetometer.heading_sigma = heading_deg.to_radians();
-                                    params.magnetometer.offset = Some(FieldOffset {
-                                        sigma: offset_deg.to_radians(),
-                                        ..MEASURED_FIELD_OFFSET
-                                    });
-                                    grid.push(params);
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    }
-    grid
-}
-
-/// Runs `method` with every setting of [`noise_grid`] on every log and cross-validates the choice
+/// Runs `method` with every setting of `grid` on every log and cross-validates the choice
 /// (`Evaluation::leave_one_out`): prints each held-out trial's choice and score, and the
 /// cross-validated mean with the pooled NEES per degree of freedom; returns the cross-validated
 /// mean (total, heading, inclination).
@@ -103,9 +52,9 @@ pub fn noise_grid() -> Vec<AttitudeParams> {
 /// NEES divided by it are pooled; it prints them per trial and pooled, and κ from all twelve.
 pub fn cross_validate(
     logs: &[(String, LogScenario)],
+    grid: &[AttitudeParams],
     method: impl Fn(AttitudeParams) -> Method,
 ) -> [f64; 3] {
-    let grid = noise_grid();
     let methods: Vec<Method> = grid.iter().cloned().map(method).collect();
     let evaluation = evaluate(logs, &methods, &mut |_, _, _| Ok(())).expect("the runs");
     let cv = evaluation.leave_one_out().expect("scored logs");

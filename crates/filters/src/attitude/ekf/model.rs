@@ -43,7 +43,7 @@ pub(crate) fn attitude_block(p: &SMatrix<f64, STATE_DIM, STATE_DIM>) -> Matrix3<
 
 /// The preintegrated increments of one block of gyroscope and accelerometer samples, in the IMU
 /// frame at the block's start (`ΔRᵢ` the rotation from the start to sample i):
-/// `ΔR = Π exp([ωᵢ − b̂]ₓ Δt)`, `Δv = Σ ΔRᵢ fᵢ Δt`, `Δp = Σ Δvᵢ Δt` (`Δvᵢ` the sum up to sample
+/// `ΔR = Π exp([ωᵢ − b̂]ₓ Δt)`, `Δv = Σ ½ (ΔRᵢ₋₁ + ΔRᵢ) fᵢ Δt`, `Δp = Σ Δvᵢ Δt` (`Δvᵢ` the sum up to sample
 /// i), `B = Σ ΔRᵢ Δt`, `T = n Δt`, with the bias `b̂` they were integrated with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Block {
@@ -81,11 +81,15 @@ impl Block {
     }
 
     /// Adds one sample: its rotation `rotation` ([`turned`](Self::turned) with its gyroscope),
-    /// accelerometer f, interval Δt.
+    /// accelerometer f, interval Δt. Both sensors' samples are taken as their means over the
+    /// same interval, through which the sensor turns from `ΔRᵢ₋₁` to `ΔRᵢ`, so the specific force
+    /// is rotated by the interval's mean rotation, `½ (ΔRᵢ₋₁ + ΔRᵢ)` (the trapezoid rule, exact to
+    /// second order in the turn |ω| Δt).
     pub(crate) fn push(&mut self, rotation: UnitQuaternion<f64>, acc: &Vector3<f64>, dt: f64) {
+        let before = self.rotation.to_rotation_matrix().into_inner();
         self.rotation = rotation;
         let r = self.rotation.to_rotation_matrix().into_inner();
-        self.velocity += r * acc * dt;
+        self.velocity += (before + r) * acc * (0.5 * dt);
         self.position += self.velocity * dt;
         self.bias_coupling += r * dt;
         self.duration += dt;

@@ -153,10 +153,10 @@ impl Default for AttitudeParams {
     /// velocity walk, position bound, field offset σ_c, velocity-update interval): the
     /// gyroscope's physical white noise 1e-4 rad/√s (the Allan deviation of BROAD's rest
     /// phases), rate noise 0.008, heading σ 24°, velocity bound 2 m/s, velocity walk
-    /// 0.05 m/s/√s, position bound 1 m, σ_c 1°, updates every 0.25 s: the choice of six folds
-    /// and the best on all twelve (cross-validated mean RMSE 1.91° total, 0.68° inclination;
-    /// held-out pooled heading NEES 0.60). The reported tilt variance's factor κ = 0.13 is
-    /// cross-validated with them (held-out tilt NEES 1.12 per degree of freedom). The rest are
+    /// 0.05 m/s/√s, position bound 1 m, σ_c 2°, updates every 0.25 s: the choice of nine folds
+    /// and the best on all twelve (cross-validated mean RMSE 1.87° total, 0.64° inclination;
+    /// held-out pooled heading NEES 0.59). The reported tilt variance's factor κ = 0.13 is
+    /// cross-validated with them (held-out tilt NEES 1.10 per degree of freedom). The rest are
     /// physical or measured: the magnetometer's delay and rate, the field offset's correlation
     /// time, the rest detector's thresholds.
     fn default() -> Self {
@@ -185,7 +185,7 @@ impl Default for AttitudeParams {
             magnetometer: MagnetometerParams {
                 heading_sigma: 24f64.to_radians(),
                 offset: Some(FieldOffset {
-                    sigma: 1f64.to_radians(),
+                    sigma: 2f64.to_radians(),
                     ..MEASURED_FIELD_OFFSET
                 }),
                 interval: 0.5,
@@ -207,22 +207,21 @@ impl Default for AttitudeParams {
 
 impl AttitudeParams {
     /// The offline estimate's settings ([`AttitudeEkf::offline`](super::AttitudeEkf::offline)):
-    /// the defaults with the magnetometer's heading σ 12°, the velocity random walk 0.3 m/s/√s,
-    /// the position bound 0.5 m, velocity updates every 0.5 s, the covariance propagated every
-    /// 0.04 s, the field offset [`MEASURED_FIELD_OFFSET`] (σ_c 4°) and the reported tilt
-    /// variance's factor 0.13 (the smoother's own tilt σ is 2.8 times its error; cross-validated
-    /// with the factor: tilt NEES 1.00 per degree of freedom). Chosen by leave-one-trial-out
-    /// cross-validation on the twelve BROAD trials over a grid of 1296 settings with 0.04 s
-    /// blocks (the causal grid's values with σ_c 1°, 2° and 4° and updates every 0.5 s): ten of
-    /// the twelve held-out trials chose this one, the best on all twelve (cross-validated 1.65°
-    /// total; on the earlier 432-setting grid, σ_c 4° throughout, every trial chose it: 1.59°;
-    /// with the default 0.08 s blocks the choices scatter, at 2.8 times the speed). A smoother
-    /// sees each heading error from both sides in time, so it can trust the magnetometer more.
+    /// the defaults with the magnetometer's heading σ 12°, the velocity bound 1 m/s and its random
+    /// walk 0.3 m/s/√s, the position bound 0.5 m, the covariance propagated every 0.04 s, the
+    /// field offset [`MEASURED_FIELD_OFFSET`] (σ_c 4°) and the reported tilt variance's factor
+    /// 0.13 (the smoother's own tilt σ is 2.7 times its error; cross-validated with the factor:
+    /// tilt NEES 1.05 per degree of freedom). Chosen by leave-one-trial-out cross-validation on
+    /// the twelve BROAD trials over a grid of 288 settings around them (rate noise, heading σ,
+    /// velocity bound and walk, position bound, σ_c 2° or 4°, updates every 0.25 or 0.5 s): eight
+    /// of the twelve held-out trials chose this one, the best on all twelve (cross-validated
+    /// 1.67° total, 0.51° inclination). A smoother sees each heading error from both sides in
+    /// time, so it can trust the magnetometer more.
     pub fn offline() -> Self {
         let mut params = Self {
+            velocity_bound: 1.0,
             velocity_walk: 0.3,
             position_bound: 0.5,
-            velocity_interval: 0.5,
             block: 0.04,
             tilt_variance_scale: 0.13,
             ..Self::default()
