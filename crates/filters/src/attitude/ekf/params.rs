@@ -74,7 +74,7 @@ pub struct FieldOffset {
 /// The heading offset process of a real local field as measured on BROAD (σ 4°: the RMS of the
 /// 10-s offsets between the magnetometer's heading and the reference's, 3.5°, rounded up;
 /// correlation time 120 s): the offline estimate's (chosen by cross-validation) and the field
-/// the consistency checks simulate. The causal filter's default σ_c is smaller (1°, chosen by
+/// the consistency checks simulate. The causal filter's default σ_c is smaller (2°, chosen by
 /// cross-validation); told this process
 /// ([`SimulationSettings::matched_noise`](crate::attitude::SimulationSettings::matched_noise)),
 /// it models the simulated field exactly.
