@@ -30,11 +30,12 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// The keyword parameters `AttitudeFilter` accepts, in the order `params()` lists them.
-const PARAMETER_NAMES: [&str; 20] = [
+const PARAMETER_NAMES: [&str; 21] = [
     "gyro_noise",
     "rate_noise",
     "bias_walk",
     "estimate_bias",
+    "imu_delay",
     "initial_bias_sigma",
     "initial_tilt_sigma",
     "initial_heading_sigma",
@@ -610,6 +611,7 @@ fn set_param(
         "rate_noise" => p.rate_noise = number()?,
         "bias_walk" => p.bias_walk = number()?,
         "estimate_bias" => p.estimate_bias = flag()?,
+        "imu_delay" => p.imu_delay = number()?,
         "initial_bias_sigma" => p.initial_bias_sigma = number()?,
         "initial_tilt_sigma" => p.initial_tilt_sigma = number()?,
         "initial_heading_sigma" => p.initial_heading_sigma = number()?,
@@ -659,6 +661,7 @@ fn params_dict<'py>(py: Python<'py>, p: &AttitudeParams) -> PyResult<Bound<'py, 
     d.set_item("rate_noise", p.rate_noise)?;
     d.set_item("bias_walk", p.bias_walk)?;
     d.set_item("estimate_bias", p.estimate_bias)?;
+    d.set_item("imu_delay", p.imu_delay)?;
     d.set_item("initial_bias_sigma", p.initial_bias_sigma)?;
     d.set_item("initial_tilt_sigma", p.initial_tilt_sigma)?;
     d.set_item("initial_heading_sigma", p.initial_heading_sigma)?;

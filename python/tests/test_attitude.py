@@ -164,7 +164,8 @@ def test_refused_sample_leaves_the_filter_as_it_was(log):
     {}, {"dt": 0.0}, {"dt": float("nan")}, {"dt": 0.01, "rate": 100.0}, {"rate": -1.0},
     {"dt": 0.01, "gyro_noise": -1.0}, {"dt": 0.01, "no_such_parameter": 1.0},
     {"dt": 0.01, "propagation": "kalman"}, {"dt": 0.01, "sensors": "7d"},
-    {"dt": 0.01, "mag_delay": 2.0}, {"dt": 0.01, "estimate_bias": "yes"},
+    {"dt": 0.01, "mag_delay": 2.0}, {"dt": 0.01, "imu_delay": 0.5},
+    {"dt": 0.01, "estimate_bias": "yes"},
 ])
 def test_bad_settings_raise(kwargs):
     with pytest.raises(ValueError):

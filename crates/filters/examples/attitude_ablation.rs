@@ -12,23 +12,14 @@
 use liebayes_filters::attitude::{
     AttitudeParams, LogScenario, Method, Propagation, Sensors, evaluate, read_broad,
 };
-use std::path::PathBuf;
 
 fn main() {
-    let dir = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .or_else(liebayes_reference::broad::data_dir);
-    let Some(dir) = dir else {
-        eprintln!("no BROAD folder: give it as the argument or set LIEBAYES_BROAD_DIR");
-        std::process::exit(2);
-    };
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .expect("readable folder")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "mat"))
-        .collect();
-    files.sort();
+    let files = liebayes_reference::broad::folder_trials(std::env::args().nth(1)).unwrap_or_else(
+        |message| {
+            eprintln!("{message}");
+            std::process::exit(2);
+        },
+    );
     let logs: Vec<(String, LogScenario)> = files
         .iter()
         .map(|p| {
@@ -93,6 +84,7 @@ fn variants() -> Vec<(&'static str, Method)> {
             "9D, no magnetometer delay",
             changed(|p| p.magnetometer.delay = 0.0),
         ),
+        ("9D, no IMU delay", changed(|p| p.imu_delay = 0.0)),
         (
             "9D, UKF propagation",
             changed(|p| p.propagation = Propagation::Ukf),

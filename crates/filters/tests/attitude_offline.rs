@@ -6,9 +6,9 @@
 
 use liebayes_experiments::{RecursiveFilter, Scorer, Smoothing};
 use liebayes_filters::attitude::{
-    AttitudeEkf, AttitudeEstimate, AttitudeParams, AttitudeScorer, FieldOffset, ImuLog, ImuSample,
-    LogRecording, LogScenario, LogScore, MEASURED_FIELD_OFFSET, MagnetometerParams, Method,
-    Sensors, SimulationSettings, run_log, simulate,
+    AttitudeEkf, AttitudeEstimate, AttitudeParams, AttitudeScorer, ImuLog, ImuSample, LogRecording,
+    LogScenario, LogScore, MagnetometerParams, Method, Sensors, SimulationSettings, run_log,
+    simulate,
 };
 use liebayes_operators::evaluation::chi_square_quantile;
 use liebayes_reference::broad::data_dir;
@@ -257,35 +257,17 @@ fn broad_offline_cross_validated() {
 /// 2° and 4° (the RMS of BROAD's measured 10-s offsets); the bounded-velocity updates' interval,
 /// 0.25 and 0.5 s; with the offline covariance blocks (0.04 s) and κ = 1: 288 settings.
 fn offline_grid() -> Vec<AttitudeParams> {
-    let mut grid = Vec::new();
-    for rate_noise in [0.004, 0.008] {
-        for heading_deg in [12.0_f64, 24.0] {
-            for velocity_bound in [1.0, 2.0, 4.0] {
-                for velocity_walk in [0.1, 0.3] {
-                    for position_bound in [0.5, 1.0, 2.0] {
-                        for offset_deg in [2.0_f64, 4.0] {
-                            for velocity_interval in [0.25, 0.5] {
-                                let mut params = AttitudeParams {
-                                    rate_noise,
-                                    velocity_bound,
-                                    velocity_walk,
-                                    position_bound,
-                                    velocity_interval,
-                                    tilt_variance_scale: 1.0,
-                                    ..AttitudeParams::offline()
-                                };
-                                params.magnetometer.heading_sigma = heading_deg.to_radians();
-                                params.magnetometer.offset = Some(FieldOffset {
-                                    sigma: offset_deg.to_radians(),
-                                    ..MEASURED_FIELD_OFFSET
-                                });
-                                grid.push(params);
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    }
-    grid
+    broad::grid(
+        &AttitudeParams::offline(),
+        &broad::Axes {
+            gyro_noise: &[1e-4],
+            rate_noise: &[0.004, 0.008],
+            heading_deg: &[12.0, 24.0],
+            velocity_bound: &[1.0, 2.0, 4.0],
+            velocity_walk: &[0.1, 0.3],
+            position_bound: &[0.5, 1.0, 2.0],
+            offset_deg: &[2.0, 4.0],
+            velocity_interval: &[0.25, 0.5],
+        },
+    )
 }

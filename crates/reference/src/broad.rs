@@ -1,7 +1,8 @@
 //! Where the test suites find the BROAD recordings (real IMU data with optical ground truth): two
 //! trials ship with the repository in `data/broad/` ([`SHIPPED`], [`shipped_dir`]), so every
 //! checkout runs the real-data tests on them; the twelve trials the project's figures are measured
-//! on ([`TRIALS`]) are read from `$LIEBAYES_BROAD_DIR` when it is set ([`data_dir`]).
+//! on ([`TRIALS`]) are read from `$LIEBAYES_BROAD_DIR` when it is set ([`data_dir`]); the
+//! examples take any folder of them ([`folder_trials`]).
 
 use std::path::PathBuf;
 
@@ -85,4 +86,25 @@ pub fn trials() -> Vec<(&'static str, PathBuf)> {
         .iter()
         .map(|name| (*name, dir.join(format!("{name}.mat"))))
         .collect()
+}
+
+/// The `.mat` files of the folder `arg` names (an example's first argument), else of
+/// `$LIEBAYES_BROAD_DIR`, sorted by name.
+///
+/// # Errors
+/// A message saying what to give when neither names a folder, or that the folder cannot be read.
+pub fn folder_trials(arg: Option<String>) -> Result<Vec<PathBuf>, String> {
+    let dir = arg
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os(VARIABLE).map(PathBuf::from))
+        .ok_or(format!(
+            "no BROAD folder: give it as the argument or set {VARIABLE}"
+        ))?;
+    let entries = std::fs::read_dir(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "mat"))
+        .collect();
+    files.sort();
+    Ok(files)
 }

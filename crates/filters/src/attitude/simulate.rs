@@ -84,7 +84,7 @@ impl Default for SimulationSettings {
 
 impl SimulationSettings {
     /// `params` with the sensor noise these settings simulate: the gyroscope's angle random walk
-    /// `σ_g / √rate` (rad/√s), the heading σ of one magnetometer sample `σ_m / |m_h|` (rad, m_h
+    /// `σ_g / √rate` (rad/√s), no IMU delay (the simulated samples are not late), the heading σ of one magnetometer sample `σ_m / |m_h|` (rad, m_h
     /// the earth field's horizontal part) and, when the simulated field has one, its heading
     /// offset's process. The other settings model what a real IMU has and the simulator does not
     /// (scale-factor errors, the time-correlated errors the velocity bound forgives) and are kept:
@@ -98,6 +98,7 @@ impl SimulationSettings {
         check_settings(self)?;
         let mut params = AttitudeParams {
             gyro_noise: self.gyro_noise / self.rate.sqrt(),
+            imu_delay: 0.0,
             ..params
         };
         params.magnetometer.heading_sigma = self.mag_noise / self.earth_field.xy().norm();

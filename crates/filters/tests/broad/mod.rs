@@ -1,7 +1,9 @@
 //! What the attitude filters' BROAD tests share: the twelve trials read as scenarios, and the
 //! leave-one-trial-out cross-validation of a grid of noise settings.
 
-use liebayes_filters::attitude::{AttitudeParams, LogScenario, Method, evaluate, read_broad};
+use liebayes_filters::attitude::{
+    AttitudeParams, FieldOffset, LogScenario, MEASURED_FIELD_OFFSET, Method, evaluate, read_broad,
+};
 use liebayes_reference::broad::TRIALS;
 use std::path::Path;
 
@@ -38,6 +40,56 @@ pub fn scores(dir: &Path, name: &str) -> [f64; 3] {
     let mean = evaluation.mean_errors(0).expect("scored");
     println!("mean: {:.2} / {:.2} / {:.2}", mean[0], mean[1], mean[2]);
     mean
+}
+
+/// The values a grid gives each setting that cannot be read off the sensors' physics (the heading
+/// σ and the field offset's σ_c in degrees).
+pub struct Axes {
+    pub gyro_noise: &'static [f64],
+    pub rate_noise: &'static [f64],
+    pub heading_deg: &'static [f64],
+    pub velocity_bound: &'static [f64],
+    pub velocity_walk: &'static [f64],
+    pub position_bound: &'static [f64],
+    pub offset_deg: &'static [f64],
+    pub velocity_interval: &'static [f64],
+}
+
+/// Every combination of `axes` (the first axis outermost), the rest as in `base`, each reporting
+/// the filter's own covariance (κ = 1: [`cross_validate`] calibrates it).
+pub fn grid(base: &AttitudeParams, axes: &Axes) -> Vec<AttitudeParams> {
+    let mut grid = vec![AttitudeParams {
+        tilt_variance_scale: 1.0,
+        ..base.clone()
+    }];
+    let mut along = |values: &[f64], set: fn(&mut AttitudeParams, f64)| {
+        grid = grid
+            .iter()
+            .flat_map(|p| {
+                values.iter().map(move |&v| {
+                    let mut p = p.clone();
+                    set(&mut p, v);
+                    p
+                })
+            })
+            .collect();
+    };
+    along(axes.gyro_noise, |p, v| p.gyro_noise = v);
+    along(axes.rate_noise, |p, v| p.rate_noise = v);
+    along(axes.heading_deg, |p, v| {
+        p.magnetometer.heading_sigma = v.to_radians();
+    });
+    along(axes.velocity_bound, |p, v| p.velocity_bound = v);
+    along(axes.velocity_walk, |p, v| p.velocity_walk = v);
+    along(axes.position_bound, |p, v| p.position_bound = v);
+    along(axes.offset_deg, |p, v| {
+        p.magnetometer.offset = Some(FieldOffset {
+            sigma: v.to_radians(),
+            ..MEASURED_FIELD_OFFSET
+        });
+    });
+    along(axes.velocity_interval, |p, v| p.velocity_interval = v);
+    grid
 }
 
 /// Runs `method` with every setting of `grid` on every log and cross-validates the choice

@@ -114,6 +114,9 @@ struct Running {
     at: usize,
     /// The current orientation (strapdown between blocks).
     orientation: UnitQuaternion<f64>,
+    /// The last sample's bias-corrected rate `ω − b̂`, which carries the reported orientation
+    /// over the gyroscope's delay.
+    rate: Vector3<f64>,
     block: Block,
     in_block: usize,
     /// Samples processed.
@@ -271,8 +274,9 @@ impl AttitudeEkf {
             .is_some_and(|m| m.disturbed)
     }
 
-    /// The attitude marginal as a Bingham density on the unit quaternion, with the second moments
-    /// of the attitude covariance the estimate reports (the body-frame covariance `R̂ᵀ P_θθ R̂` of a
+    /// The attitude marginal as a Bingham density on the unit quaternion about the estimate's
+    /// orientation `R̂` (carried over the IMU's delay), with the second moments of the attitude
+    /// covariance the estimate reports (the body-frame covariance `R̂ᵀ P_θθ R̂` of a
     /// left-translated diffusion about `R̂`, P_θθ as [`AttitudeParams::tilt_variance_scale`]
     /// calibrates it), as the talk's filter represents its state.
     ///
@@ -281,7 +285,8 @@ impl AttitudeEkf {
     /// Bingham's range (a variance below about 2e-6 rad²).
     pub fn attitude_bingham(&self) -> Result<Bingham, FilterError> {
         let s = self.running()?;
-        let r = s.orientation.to_rotation_matrix().into_inner();
+        let orientation = s.reported_orientation(&self.settings);
+        let r = orientation.to_rotation_matrix().into_inner();
         let body = r.transpose()
             * self
                 .settings
@@ -289,7 +294,7 @@ impl AttitudeEkf {
                 .reported(&attitude_block(s.density.covariance()))
             * r;
         Ok(Bingham::from_diffusion_moment_matched(
-            &Su2::from_unit_quaternion(s.orientation),
+            &Su2::from_unit_quaternion(orientation),
             &body,
         )?)
     }
@@ -343,9 +348,16 @@ const NOT_READY: OperatorError = OperatorError::NotReady {
 };
 
 impl Running {
+    /// The orientation an estimate reports: the strapdown's, carried over the IMU's delay d to the
+    /// last sample's time stamp, `R̂ exp([ω − b̂]ₓ d)` ([`AttitudeParams::imu_delay`]).
+    fn reported_orientation(&self, settings: &Settings) -> UnitQuaternion<f64> {
+        self.orientation * UnitQuaternion::from_scaled_axis(self.rate * settings.params.imu_delay)
+    }
+
     /// The first sample: the tilt from the accelerometer, the heading unknown (σ π) until the
     /// first magnetometer reading (9D) or zero (6D).
-    fn initialise(settings: &Settings, acc: &Vector3<f64>) -> Result<Self, OperatorError> {
+    fn initialise(settings: &Settings, sample: &ImuSample) -> Result<Self, OperatorError> {
+        let acc = &sample.acc;
         let up = scaled_unit(acc).ok_or(OperatorError::OutOfRange {
             what: "accelerometer (the first reading's norm)",
             value: acc.norm(),
@@ -382,6 +394,7 @@ impl Running {
             ManifoldGaussian::new(mean, SMatrix::from_diagonal(&sigma.component_mul(&sigma)))?;
         let mut state = Self {
             orientation: tilt,
+            rate: sample.gyro,
             block: Block::empty(Vector3::zeros()),
             in_block: 0,
             count: 1,
@@ -524,6 +537,7 @@ impl Running {
                 (gyro - s.gyro).norm() < p.gyro_threshold && (acc - s.acc).norm() < p.acc_threshold;
             s.since = if still { s.since + dt } else { 0.0 };
         }
+        self.rate = gyro - self.block.bias;
         self.block.push(turn.rotation, acc, dt);
         self.in_block += 1;
         self.orientation = turn.orientation;
@@ -816,7 +830,7 @@ impl RecursiveFilter for AttitudeEkf {
                 state.strapdown(&self.settings, input, turn);
             }
         } else {
-            self.state = Some(Running::initialise(&self.settings, &input.acc)?);
+            self.state = Some(Running::initialise(&self.settings, input)?);
         }
         self.keep(Some(&input.gyro));
         Ok(())
@@ -860,7 +874,7 @@ impl RecursiveFilter for AttitudeEkf {
     fn estimate(&self) -> Result<AttitudeEstimate, OperatorError> {
         let s = self.running()?;
         Ok(AttitudeEstimate {
-            orientation: s.orientation,
+            orientation: s.reported_orientation(&self.settings),
             covariance: Some(
                 self.settings
                     .params

@@ -112,6 +112,16 @@ pub struct AttitudeParams {
     pub bias_walk: f64,
     /// Whether the gyro bias is estimated.
     pub estimate_bias: bool,
+    /// How late the IMU's samples are against their time stamps (s): the gyroscope's sample k is
+    /// the mean rate over the interval ending `imu_delay` before `t_k`, the accelerometer's the
+    /// mean over the same interval (a digital low-pass filter's group delay, or a clock offset; 0
+    /// for the interval ending at `t_k`). The filter integrates the samples as they come, so its
+    /// orientation after sample k is the sensor's at `t_k − d`; the estimate it reports is carried
+    /// forward to `t_k` with the sample's bias-corrected rate, `R̂ exp([ω_k − b̂]ₓ d)`. (The
+    /// magnetometer's [`delay`](MagnetometerParams::delay) is counted from the gyroscope's
+    /// sample.) In [0, 0.1] s; the default, 2.3 ms (0.67 samples), is BROAD's, measured by
+    /// cross-correlating its gyroscope with the rate of its optical reference.
+    pub imu_delay: f64,
     /// Initial σ of the gyro bias (rad/s).
     pub initial_bias_sigma: f64,
     /// Initial σ of each tilt component (rad).
@@ -140,7 +150,7 @@ pub struct AttitudeParams {
     /// `D = diag(√κ, √κ, 1)` on the world-frame attitude covariance (the horizontal x–y block
     /// scaled by κ, its cross-covariance with the heading by √κ, the heading's variance kept). The
     /// filter's steps use its own covariance, that of its bounded-velocity model, whose bound
-    /// cross-validation sets wide for the best attitude (2 m/s): its tilt σ is then about 2.7
+    /// cross-validation sets wide for the best attitude (4 m/s): its tilt σ is then about 2.8
     /// times the error. κ calibrates what is reported, chosen by leave-one-trial-out
     /// cross-validation to make the held-out tilt NEES one per degree of freedom. In [1e-6, 1e6];
     /// 1 reports the filter's own covariance.
@@ -152,23 +162,24 @@ impl Default for AttitudeParams {
     /// over a grid of 1728 (gyroscope angle random walk, rate noise, heading σ, velocity bound,
     /// velocity walk, position bound, field offset σ_c, velocity-update interval): the
     /// gyroscope's physical white noise 1e-4 rad/√s (the Allan deviation of BROAD's rest
-    /// phases), rate noise 0.008, heading σ 24°, velocity bound 2 m/s, velocity walk
+    /// phases), rate noise 0.008, heading σ 24°, velocity bound 4 m/s, velocity walk
     /// 0.05 m/s/√s, position bound 1 m, σ_c 2°, updates every 0.25 s: the choice of nine folds
-    /// and the best on all twelve (cross-validated mean RMSE 1.87° total, 0.64° inclination;
-    /// held-out pooled heading NEES 0.59). The reported tilt variance's factor κ = 0.13 is
-    /// cross-validated with them (held-out tilt NEES 1.10 per degree of freedom). The rest are
-    /// physical or measured: the magnetometer's delay and rate, the field offset's correlation
-    /// time, the rest detector's thresholds.
+    /// and the best on all twelve (cross-validated mean RMSE 1.76° total, 0.49° inclination;
+    /// held-out pooled heading NEES 0.59). The reported tilt variance's factor κ = 0.11 is
+    /// cross-validated with them (held-out tilt NEES 1.19 per degree of freedom). The rest are
+    /// physical or measured: the IMU's and the magnetometer's delays, the magnetometer's rate,
+    /// the field offset's correlation time, the rest detector's thresholds.
     fn default() -> Self {
         Self {
             gyro_noise: 1e-4,
             rate_noise: 0.008,
             bias_walk: 0.001f64.to_radians(),
             estimate_bias: true,
+            imu_delay: 0.0023,
             initial_bias_sigma: 0.5f64.to_radians(),
             initial_tilt_sigma: 10f64.to_radians(),
             initial_heading_sigma: 10f64.to_radians(),
-            velocity_bound: 2.0,
+            velocity_bound: 4.0,
             velocity_walk: 0.05,
             position_bound: 1.0,
             velocity_interval: 0.25,
@@ -200,7 +211,7 @@ impl Default for AttitudeParams {
                     first_field_time: 5.0,
                 }),
             },
-            tilt_variance_scale: 0.13,
+            tilt_variance_scale: 0.11,
         }
     }
 }
@@ -210,20 +221,20 @@ impl AttitudeParams {
     /// the defaults with the magnetometer's heading σ 12°, the velocity bound 1 m/s and its random
     /// walk 0.3 m/s/√s, the position bound 0.5 m, the covariance propagated every 0.04 s, the
     /// field offset [`MEASURED_FIELD_OFFSET`] (σ_c 4°) and the reported tilt variance's factor
-    /// 0.13 (the smoother's own tilt σ is 2.7 times its error; cross-validated with the factor:
-    /// tilt NEES 1.05 per degree of freedom). Chosen by leave-one-trial-out cross-validation on
+    /// 0.10 (the smoother's own tilt σ is 2.7 times its error; cross-validated with the factor:
+    /// tilt NEES 1.07 per degree of freedom). Chosen by leave-one-trial-out cross-validation on
     /// the twelve BROAD trials over a grid of 288 settings around them (rate noise, heading σ,
-    /// velocity bound and walk, position bound, σ_c 2° or 4°, updates every 0.25 or 0.5 s): eight
-    /// of the twelve held-out trials chose this one, the best on all twelve (cross-validated
-    /// 1.67° total, 0.51° inclination). A smoother sees each heading error from both sides in
-    /// time, so it can trust the magnetometer more.
+    /// velocity bound and walk, position bound, σ_c 2° or 4°, updates every 0.25 or 0.5 s): six
+    /// of the twelve held-out trials chose this one and three more the same with a heading σ of
+    /// 24° (cross-validated 1.58° total, 0.39° inclination). A smoother sees each heading error
+    /// from both sides in time, so it can trust the magnetometer more.
     pub fn offline() -> Self {
         let mut params = Self {
             velocity_bound: 1.0,
             velocity_walk: 0.3,
             position_bound: 0.5,
             block: 0.04,
-            tilt_variance_scale: 0.13,
+            tilt_variance_scale: 0.10,
             ..Self::default()
         };
         params.magnetometer.heading_sigma = 12f64.to_radians();
@@ -243,7 +254,7 @@ impl AttitudeParams {
     ///
     /// # Errors
     /// [`FilterError::Setting`] naming the first setting that is not finite and positive (the
-    /// magnetometer delay: in [0, 1] s).
+    /// gyroscope's delay: in [0, 0.1] s; the magnetometer's: in [0, 1] s).
     pub fn validate(&self) -> Result<(), FilterError> {
         let o = "AttitudeParams";
         for (name, v) in [
@@ -266,14 +277,23 @@ impl AttitudeParams {
         ] {
             positive_setting(o, name, v)?;
         }
-        if !(self.magnetometer.delay.is_finite() && (0.0..=1.0).contains(&self.magnetometer.delay))
-        {
-            return Err(FilterError::Setting {
-                origin: o,
-                setting: "magnetometer.delay",
-                value: self.magnetometer.delay.to_string(),
-                expected: "a delay in [0, 1] s",
-            });
+        for (setting, delay, expected, max) in [
+            ("imu_delay", self.imu_delay, "a delay in [0, 0.1] s", 0.1),
+            (
+                "magnetometer.delay",
+                self.magnetometer.delay,
+                "a delay in [0, 1] s",
+                1.0,
+            ),
+        ] {
+            if !(0.0..=max).contains(&delay) {
+                return Err(FilterError::Setting {
+                    origin: o,
+                    setting,
+                    value: delay.to_string(),
+                    expected,
+                });
+            }
         }
         if !(1e-6..=1e6).contains(&self.tilt_variance_scale) {
             return Err(FilterError::Setting {

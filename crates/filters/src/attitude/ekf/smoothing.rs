@@ -12,8 +12,9 @@
 //! sample `s_k`, up to the next epoch) the strapdown from it with the smoothed bias `b_k`:
 //! `R_j = R_k Π_{i = s_k+1..j} exp([ωᵢ − b_k]ₓ Δt)`, the orientation the filter's own strapdown
 //! would have given from the smoothed state. Samples before the first epoch (in 9D, before the
-//! heading is initialised) are integrated back from it. Each sample reports its epoch's smoothed
-//! attitude covariance.
+//! heading is initialised) are integrated back from it. Each sample reports `R_j` carried over
+//! the gyroscope's delay d, `R_j exp([ω_j − b_k]ₓ d)`, as the filter reports its own
+//! ([`AttitudeParams::imu_delay`]), and its epoch's smoothed attitude covariance.
 
 use super::model::{AttitudeState, STATE_DIM, attitude_block, in_rest};
 use super::{AttitudeEkf, AttitudeParams, BIAS, Running};
@@ -125,20 +126,23 @@ impl Record {
             .chain([now.at])
             .collect();
         out.reserve(self.gyro.len());
+        let delay = params.imu_delay;
         for (k, (density, &at)) in smoothed.iter().zip(&epochs).enumerate() {
             let end = epochs.get(k + 1).map_or(self.gyro.len(), |&next| next);
             let (orientation, bias) = epoch_state(density);
             let covariance = Some(params.reported(&attitude_block(density.covariance())));
+            // Sample j's estimate, carried over the gyroscope's delay as the filter's is.
+            let estimate = |q: UnitQuaternion<f64>, j: usize| AttitudeEstimate {
+                orientation: q * turn(&self.gyro[j], &bias, delay),
+                covariance,
+            };
             if k == 0 {
                 // The samples before the first epoch, integrated back from it.
                 let mut q = orientation;
                 let mut before = Vec::with_capacity(at);
-                for gyro in self.gyro[1..=at.min(self.gyro.len() - 1)].iter().rev() {
-                    q *= turn(gyro, &bias, dt).inverse();
-                    before.push(AttitudeEstimate {
-                        orientation: q,
-                        covariance,
-                    });
+                for j in (1..=at.min(self.gyro.len() - 1)).rev() {
+                    q *= turn(&self.gyro[j], &bias, dt).inverse();
+                    before.push(estimate(q, j - 1));
                 }
                 out.extend(before.into_iter().rev());
             }
@@ -147,10 +151,7 @@ impl Record {
                 if j > at {
                     q *= turn(&self.gyro[j], &bias, dt);
                 }
-                out.push(AttitudeEstimate {
-                    orientation: q,
-                    covariance,
-                });
+                out.push(estimate(q, j));
             }
         }
         Ok(())
