@@ -84,8 +84,8 @@ impl Default for SimulationSettings {
 
 impl SimulationSettings {
     /// `params` with the sensor noise these settings simulate: the gyroscope's angle random walk
-    /// `σ_g / √rate` (rad/√s), no IMU delay (the simulated samples are not late), the heading σ of one magnetometer sample `σ_m / |m_h|` (rad, m_h
-    /// the earth field's horizontal part) and, when the simulated field has one, its heading
+    /// `σ_g / √rate` (rad/√s), no IMU delay (the simulated samples are not late), the heading σ
+    /// of one magnetometer sample `σ_m / |m_h|` (rad, m_h the earth field's horizontal part) and, when the simulated field has one, its heading
     /// offset's process. The other settings model what a real IMU has and the simulator does not
     /// (scale-factor errors, the time-correlated errors the velocity bound forgives) and are kept:
     /// this is the filter to check for consistency on simulated logs.

@@ -115,7 +115,7 @@ struct Running {
     /// The current orientation (strapdown between blocks).
     orientation: UnitQuaternion<f64>,
     /// The last sample's bias-corrected rate `ω − b̂`, which carries the reported orientation
-    /// over the gyroscope's delay.
+    /// over the IMU's delay.
     rate: Vector3<f64>,
     block: Block,
     in_block: usize,

@@ -43,8 +43,8 @@ pub(crate) fn attitude_block(p: &SMatrix<f64, STATE_DIM, STATE_DIM>) -> Matrix3<
 
 /// The preintegrated increments of one block of gyroscope and accelerometer samples, in the IMU
 /// frame at the block's start (`ΔRᵢ` the rotation from the start to sample i):
-/// `ΔR = Π exp([ωᵢ − b̂]ₓ Δt)`, `Δv = Σ ½ (ΔRᵢ₋₁ + ΔRᵢ) fᵢ Δt`, `Δp = Σ Δvᵢ Δt` (`Δvᵢ` the sum up to sample
-/// i), `B = Σ ΔRᵢ Δt`, `T = n Δt`, with the bias `b̂` they were integrated with.
+/// `ΔR = Π exp([ωᵢ − b̂]ₓ Δt)`, `Δv = Σ ½ (ΔRᵢ₋₁ + ΔRᵢ) fᵢ Δt`, `Δp = Σ Δvᵢ Δt` (`Δvᵢ` the sum
+/// up to sample i), `B = Σ ΔRᵢ Δt`, `T = n Δt`, with the bias `b̂` they were integrated with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Block {
     /// `ΔR`.

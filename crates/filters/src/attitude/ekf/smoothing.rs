@@ -13,7 +13,7 @@
 //! `R_j = R_k Π_{i = s_k+1..j} exp([ωᵢ − b_k]ₓ Δt)`, the orientation the filter's own strapdown
 //! would have given from the smoothed state. Samples before the first epoch (in 9D, before the
 //! heading is initialised) are integrated back from it. Each sample reports `R_j` carried over
-//! the gyroscope's delay d, `R_j exp([ω_j − b_k]ₓ d)`, as the filter reports its own
+//! the IMU's delay d, `R_j exp([ω_j − b_k]ₓ d)`, as the filter reports its own
 //! ([`AttitudeParams::imu_delay`]), and its epoch's smoothed attitude covariance.
 
 use super::model::{AttitudeState, STATE_DIM, attitude_block, in_rest};
@@ -131,7 +131,7 @@ impl Record {
             let end = epochs.get(k + 1).map_or(self.gyro.len(), |&next| next);
             let (orientation, bias) = epoch_state(density);
             let covariance = Some(params.reported(&attitude_block(density.covariance())));
-            // Sample j's estimate, carried over the gyroscope's delay as the filter's is.
+            // Sample j's estimate, carried over the IMU's delay as the filter's is.
             let estimate = |q: UnitQuaternion<f64>, j: usize| AttitudeEstimate {
                 orientation: q * turn(&self.gyro[j], &bias, delay),
                 covariance,
