@@ -90,6 +90,18 @@ fn exp(c: &mut Criterion) {
         Rotation3::from_scaled_axis(*v)
     });
     g.finish();
+    // One sample's turn of a strapdown integrator, |ω| Δt: the same directions with angles in
+    // [0, 0.2), exp's series range.
+    let small: Vec<_> = x.v.iter().map(|v| v * (0.2 / 3.1)).collect();
+    let mut g = group(c, "exp_small_angle");
+    batch(&mut g, "So3", &small, So3::exp);
+    batch(
+        &mut g,
+        "nalgebra UnitQuaternion::from_scaled_axis",
+        &small,
+        |v| UnitQuaternion::from_scaled_axis(*v),
+    );
+    g.finish();
 }
 
 fn log(c: &mut Criterion) {

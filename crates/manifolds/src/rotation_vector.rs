@@ -10,8 +10,10 @@
 //! Writing the coefficients against the unit-axis matrix U keeps them bounded for any finite v
 //! (no 0 · ∞ for huge tangents), and every function works from the half angle θ/2 = |v/2|, which is
 //! finite for every finite v (|v| itself overflows when the components approach the largest finite
-//! value). Below [`Thresholds::SERIES_ANGLE`](crate::constants::Thresholds) the Taylor series of the
-//! coefficients of hat(v) and hat(v)² are used instead.
+//! value). Below [`Thresholds::EXP_SERIES_ANGLE`](crate::constants::Thresholds) exp takes its
+//! coefficients from their Taylor series, and below
+//! [`Thresholds::SERIES_ANGLE`](crate::constants::Thresholds) the Jacobians take the Taylor series
+//! of the coefficients of hat(v) and hat(v)².
 
 use crate::real::{Real, stable_norm as norm};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
@@ -43,21 +45,32 @@ fn half<T: Real>(v: &Vector3<T>) -> (Vector3<T>, T) {
 }
 
 /// The unit quaternion of a rotation vector, valid for every finite `v` (period 4π in θ).
+///
+/// Below [`EXP_SERIES_ANGLE`](crate::constants::Thresholds::EXP_SERIES_ANGLE) the half-angle
+/// cosine and the quotient sin(h)/h (h = θ/2) come from their Taylor series in h² = |v/2|², which
+/// needs no square root and no `sin_cos`; above it, from `sin_cos` of the stable norm.
 #[inline]
 pub(crate) fn exp<T: Real>(v: &Vector3<T>) -> UnitQuaternion<T> {
-    let (half_v, h) = half(v);
-    let (s, c) = h.sin_cos();
-    // k = sin(θ/2) / (θ/2) = 1 − h²/6 + h⁴/120 − … with h = θ/2. Both candidates are computed and one
-    // is selected: with sin and cos in one basic block the compiler fuses them into a single `sincos`
-    // call (the discarded quotient may be 0/0 at θ = 0; it is never used). `h + h` is θ, or +∞ for
-    // tangents whose norm overflows, which take the closed form.
-    let h2 = h * h;
-    let series = T::one() - h2 / T::lit(6.0) + h2 * h2 / T::lit(120.0);
-    let direct = s / h;
-    let k = if h + h < T::SERIES_ANGLE {
-        series
+    let half_v = v * T::lit(0.5);
+    let h2 = half_v.norm_squared();
+    let limit = T::EXP_SERIES_ANGLE * T::lit(0.5);
+    // A NaN or an overflowed h² fails the comparison and takes the closed form.
+    let (c, k) = if h2 < limit * limit {
+        // cos h = Σ (−h²)ⁿ / (2n)!, sin h / h = Σ (−h²)ⁿ / (2n + 1)!, n = 0..4 (Horner).
+        let term = |a: f64| T::lit(a);
+        let c = T::one()
+            - h2 * (term(0.5)
+                - h2 * (term(1.0 / 24.0) - h2 * (term(1.0 / 720.0) - h2 * term(1.0 / 40_320.0))));
+        let k = T::one()
+            - h2 * (term(1.0 / 6.0)
+                - h2 * (term(1.0 / 120.0)
+                    - h2 * (term(1.0 / 5040.0) - h2 * term(1.0 / 362_880.0))));
+        (c, k)
     } else {
-        direct
+        // `h` is finite for every finite v (|v| itself may overflow) and at least 0.1 here.
+        let h = norm(&half_v);
+        let (s, c) = h.sin_cos();
+        (c, s / h)
     };
     UnitQuaternion::new_unchecked(Quaternion::new(c, half_v.x * k, half_v.y * k, half_v.z * k))
 }
@@ -220,7 +233,7 @@ macro_rules! quaternion_group_methods {
             Self::from_unit_quaternion(self.q.inverse())
         }
 
-        /// `exp(v) = (cos(θ/2), sin(θ/2) v/θ)`, θ = |v|, with the Taylor series below the series angle.
+        /// `exp(v) = (cos(θ/2), sin(θ/2) v/θ)`, θ = |v|, with the Taylor series below the exp series angle.
         #[inline]
         fn exp(v: &$crate::Tangent<T, 3>) -> Self {
             Self::from_unit_quaternion($crate::rotation_vector::exp(v))
@@ -408,11 +421,42 @@ mod tests {
         }
     }
 
+    /// exp's half-angle cosine and sine, on both sides of its series threshold (0.2) and along
+    /// an oblique axis, against the converged Taylor sums of cos h and sin h / h.
     #[test]
-    fn exp_series_matches_the_closed_form_at_the_threshold() {
-        let theta = 0.0099_f64;
-        let q = exp(&Vector3::new(theta, 0.0, 0.0));
-        assert_rel(q.i, (theta / 2.0).sin(), 2.0 * f64::EPSILON, "exp series");
-        assert_rel(q.w, (theta / 2.0).cos(), f64::EPSILON, "exp scalar part");
+    fn exp_matches_the_converged_taylor_sums_on_both_sides_of_its_threshold() {
+        let axis = Vector3::new(2.0, -3.0, 6.0) / 7.0;
+        for theta in [0.0, 1e-9, 1e-4, 0.0099, 0.05, 0.1999, 0.2, 0.2001, 0.7, 2.0] {
+            let q = exp(&(axis * theta));
+            let h = theta / 2.0;
+            let cos = taylor(h, |k| 1.0 / factorial(2 * k));
+            let sinc = taylor(h, |k| 1.0 / factorial(2 * k + 1));
+            assert_rel(q.w, cos, 2.0 * f64::EPSILON, "exp scalar part");
+            for (got, a) in [(q.i, axis.x), (q.j, axis.y), (q.k, axis.z)] {
+                if theta > 0.0 {
+                    assert_rel(got, sinc * h * a, 4.0 * f64::EPSILON, "exp vector part");
+                } else {
+                    assert_eq!(got, 0.0);
+                }
+            }
+            let single = exp(&(axis * theta).cast::<f32>());
+            assert_rel(
+                f64::from(single.w),
+                cos,
+                2.0 * f64::from(f32::EPSILON),
+                "f32 scalar",
+            );
+        }
+    }
+
+    /// A wrong series (its last term's sign flipped) must fail the comparison above at the top of
+    /// the series range: the fifth term matters there.
+    #[test]
+    fn the_exp_series_fifth_term_is_resolved_at_the_threshold() {
+        let h: f64 = 0.0999;
+        let h2 = h * h;
+        let truncated = 1.0 - h2 * (0.5 - h2 * (1.0 / 24.0 - h2 * (1.0 / 720.0)));
+        let reference = taylor(h, |k| 1.0 / factorial(2 * k));
+        assert!(((truncated - reference) / reference).abs() > 2.0 * f64::EPSILON);
     }
 }
