@@ -42,7 +42,11 @@ pub(crate) fn within_scale<const R: usize, const C: usize>(
     what: &'static str,
     m: &SMatrix<f64, R, C>,
 ) -> Result<(), DensityError> {
-    let largest = m.amax();
+    largest_within_scale(what, m.amax())
+}
+
+/// [`within_scale`] for a matrix whose largest magnitude `largest` is known.
+pub(crate) fn largest_within_scale(what: &'static str, largest: f64) -> Result<(), DensityError> {
     if largest > MAX_SCALE {
         return Err(DensityError::OutOfRange {
             what,

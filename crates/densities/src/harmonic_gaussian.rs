@@ -4,7 +4,7 @@
 use crate::error::DensityError;
 use crate::gaussian::{Gaussian, MAX_SCALE, within_scale};
 use crate::gen_von_mises::GenVonMises2;
-use crate::manifold_gaussian::inverse_trace_and_log_det;
+use crate::manifold_gaussian::inverse_trace_above;
 use crate::traits::{Density, Entropy, KlDivergence};
 use liebayes_manifolds::So2;
 use nalgebra::{Cholesky, Matrix3, SMatrix, SVector, Vector3};
@@ -75,8 +75,7 @@ impl<const N: usize> HarmonicGaussian<N> {
             });
         };
         let cholesky = factor.unpack();
-        let (inverse_trace, _) = inverse_trace_and_log_det(&cholesky);
-        if inverse_trace.is_nan() || inverse_trace > MAX_SCALE {
+        if let Some(inverse_trace) = inverse_trace_above(&cholesky, MAX_SCALE) {
             return Err(DensityError::OutOfRange {
                 what: "trace of the inverse conditional covariance Sigma^-1",
                 value: inverse_trace,

@@ -2,7 +2,7 @@
 //! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
 
 use crate::error::DensityError;
-use crate::gaussian::{MAX_SCALE, within_scale};
+use crate::gaussian::{MAX_SCALE, largest_within_scale, within_scale};
 use crate::traits::{Density, Entropy, Rotate};
 use liebayes_manifolds::{Jacobian, LieGroup, Manifold, MeanSettings};
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -68,32 +68,58 @@ pub struct ManifoldGaussian<X, const D: usize> {
     log_det: f64,
 }
 
-/// `(tr P⁻¹, ln det P)` from the Cholesky factor L of P: `tr P⁻¹ = ‖L⁻¹‖²_F` with L⁻¹ by forward
-/// substitution, `ln det P = 2 ln Π Lᵢᵢ` (one logarithm while the product stays a normal number, the
-/// sum of logarithms otherwise).
-pub(crate) fn inverse_trace_and_log_det<const D: usize>(l: &SMatrix<f64, D, D>) -> (f64, f64) {
-    let reciprocal: [f64; D] = std::array::from_fn(|i| 1.0 / l[(i, i)]);
-    let mut trace = 0.0;
-    let mut column = [0.0; D];
-    for j in 0..D {
-        // Column j of L⁻¹: zero above the diagonal, then forward substitution.
-        for i in j..D {
-            let sum: f64 = (j..i).map(|k| l[(i, k)] * column[k]).sum();
-            column[i] = if i == j {
-                reciprocal[i]
-            } else {
-                -sum * reciprocal[i]
-            };
-            trace += column[i] * column[i];
-        }
-    }
+/// `ln det P = 2 ln Π Lᵢᵢ` from the Cholesky factor L of P (one logarithm while the product stays
+/// a normal number, the sum of logarithms otherwise).
+pub(crate) fn log_det<const D: usize>(l: &SMatrix<f64, D, D>) -> f64 {
     let product: f64 = l.diagonal().iter().product();
-    let log_det = if product.is_normal() {
+    if product.is_normal() {
         2.0 * product.ln()
     } else {
         2.0 * l.diagonal().iter().map(|d| d.ln()).sum::<f64>()
-    };
-    (trace, log_det)
+    }
+}
+
+/// `None` when `tr P⁻¹ = ‖L⁻¹‖²_F ≤ limit` (L the Cholesky factor of P), else `Some(tr P⁻¹)`.
+///
+/// First a bound in O(D²): the comparison matrix M(L) (|Lᵢᵢ| on the diagonal, −|Lᵢⱼ| below) has
+/// a non-negative inverse with `|L⁻¹| ≤ M(L)⁻¹` entrywise, so `‖L⁻¹‖_F ≤ 1ᵀ M(L)⁻¹ 1 = Σ yᵢ` with
+/// `M(L) y = 1` solved by forward substitution (sums of non-negative terms: no cancellation). Only
+/// when that bound exceeds the limit is the trace computed, column by column of L⁻¹ (O(D³)).
+pub(crate) fn inverse_trace_above<const D: usize>(
+    l: &SMatrix<f64, D, D>,
+    limit: f64,
+) -> Option<f64> {
+    let mut y = [0.0; D];
+    for i in 0..D {
+        let below: f64 = (0..i).map(|k| l[(i, k)].abs() * y[k]).sum();
+        y[i] = (1.0 + below) / l[(i, i)].abs();
+    }
+    let bound: f64 = y.iter().sum();
+    // A margin for the bound's own rounding (relative D eps at most).
+    if bound * bound <= limit * (1.0 - 1e-12) {
+        return None;
+    }
+    let trace = inverse_trace(l);
+    (trace.is_nan() || trace > limit).then_some(trace)
+}
+
+/// `tr P⁻¹ = ‖L⁻¹‖²_F`, with the columns of L⁻¹ by forward substitution.
+fn inverse_trace<const D: usize>(l: &SMatrix<f64, D, D>) -> f64 {
+    let mut trace = 0.0;
+    for j in 0..D {
+        // Column j of L⁻¹, x = L⁻¹ eⱼ, a column of L at a time: once xₖ is known, Lᵢₖ xₖ is taken
+        // off every later row.
+        let mut x = [0.0; D];
+        x[j] = 1.0;
+        for k in j..D {
+            let xk = x[k] / l[(k, k)];
+            trace += xk * xk;
+            for (xi, lik) in x[k + 1..].iter_mut().zip(&l.column(k).as_slice()[k + 1..]) {
+                *xi -= lik * xk;
+            }
+        }
+    }
+    trace
 }
 
 impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
@@ -114,21 +140,39 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
                 value: f64::NAN,
             });
         }
-        // One pass: finiteness, the largest magnitude, the largest asymmetry.
-        let (mut scale, mut asymmetry) = (0.0_f64, 0.0_f64);
-        for j in 0..D {
-            for i in 0..D {
-                let value = covariance[(i, j)];
-                if !value.is_finite() {
-                    return Err(DensityError::NonFinite { what: WHAT, value });
-                }
-                scale = scale.max(value.abs());
-                if i < j {
-                    asymmetry = asymmetry.max((value - covariance[(j, i)]).abs());
-                }
+        // The largest magnitude, four running maxima side by side (one chain of comparisons over
+        // every entry is slower), and a sum of `v · 0`, NaN exactly when an entry is not finite.
+        let (mut largest, mut poison) = ([0.0_f64; 4], [0.0_f64; 4]);
+        let mut take = |lane: usize, v: f64| {
+            poison[lane] += v * 0.0;
+            largest[lane] = if v.abs() > largest[lane] {
+                v.abs()
+            } else {
+                largest[lane]
+            };
+        };
+        let entries = covariance.as_slice().chunks_exact(4);
+        for (lane, &v) in entries.remainder().iter().enumerate() {
+            take(lane, v);
+        }
+        for chunk in entries {
+            for (lane, &v) in chunk.iter().enumerate() {
+                take(lane, v);
             }
         }
-        within_scale(WHAT, &covariance)?;
+        if poison.iter().any(|p| p.is_nan())
+            && let Some(&value) = covariance.iter().find(|v| !v.is_finite())
+        {
+            return Err(DensityError::NonFinite { what: WHAT, value });
+        }
+        let scale = largest[0].max(largest[1]).max(largest[2].max(largest[3]));
+        largest_within_scale(WHAT, scale)?;
+        let mut asymmetry = 0.0_f64;
+        for j in 1..D {
+            for i in 0..j {
+                asymmetry = asymmetry.max((covariance[(i, j)] - covariance[(j, i)]).abs());
+            }
+        }
         if asymmetry > SYMMETRY_TOLERANCE * scale {
             return Err(DensityError::OutOfRange {
                 what: WHAT,
@@ -153,8 +197,7 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
             });
         };
         let cholesky = factor.unpack();
-        let (inverse_trace, log_det) = inverse_trace_and_log_det(&cholesky);
-        if inverse_trace.is_nan() || inverse_trace > MAX_SCALE {
+        if let Some(inverse_trace) = inverse_trace_above(&cholesky, MAX_SCALE) {
             return Err(DensityError::OutOfRange {
                 what: "trace of the inverse tangent covariance P^-1",
                 value: inverse_trace,
@@ -164,8 +207,8 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
         Ok(Self {
             mean,
             covariance,
+            log_det: log_det(&cholesky),
             cholesky,
-            log_det,
         })
     }
 
@@ -399,12 +442,11 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussia
         }
         let covariance = self.sandwich(&j);
         let cholesky = lower_factor(j * self.cholesky);
-        let (_, log_det) = inverse_trace_and_log_det(&cholesky);
         Self {
             mean,
             covariance,
+            log_det: log_det(&cholesky),
             cholesky,
-            log_det,
         }
     }
 
@@ -453,5 +495,68 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> Entropy for ManifoldGaussian<
     /// `½ (D (1 + ln 2π) + ln det P)`, against the same base measure as `log_pdf`.
     fn entropy(&self) -> f64 {
         0.5 * (D as f64 * (1.0 + (2.0 * PI).ln()) + self.log_det)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix5;
+
+    /// Lower-triangular factors with positive diagonals spread over `spread` decades and
+    /// off-diagonal entries up to `coupling` times the diagonal (deterministic xorshift draws).
+    fn factors(spread: f64, coupling: f64) -> Vec<Matrix5<f64>> {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..200)
+            .map(|_| {
+                Matrix5::from_fn(|i, j| {
+                    let d = 10f64.powf(spread * (uniform() - 0.5));
+                    match i.cmp(&j) {
+                        std::cmp::Ordering::Equal => d,
+                        std::cmp::Ordering::Greater => coupling * d * (2.0 * uniform() - 1.0),
+                        std::cmp::Ordering::Less => 0.0,
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// The decision `tr P⁻¹ ≤ limit` (fast bound or exact trace) against ‖L⁻¹‖²_F from nalgebra's
+    /// triangular solve, with limits just above and just below the trace: well-conditioned,
+    /// strongly coupled (the bound loose by orders of magnitude) and widely spread factors.
+    #[test]
+    fn the_inverse_trace_decision_matches_the_exact_trace() {
+        let (mut checked, mut refusals) = (0, 0);
+        for (spread, coupling) in [(0.0, 0.3), (2.0, 30.0), (40.0, 1.0), (90.0, 3.0)] {
+            for l in factors(spread, coupling) {
+                let exact = l
+                    .solve_lower_triangular(&Matrix5::identity())
+                    .expect("a non-singular factor")
+                    .norm_squared();
+                if !exact.is_finite() {
+                    continue;
+                }
+                checked += 1;
+                // At the densities' limit most factors take the O(D²) bound.
+                let refused = inverse_trace_above(&l, MAX_SCALE).is_some();
+                assert_eq!(refused, exact > MAX_SCALE, "{l}: trace {exact:e}");
+                refusals += usize::from(refused);
+                assert_eq!(inverse_trace_above(&l, exact * (1.0 + 1e-9)), None, "{l}");
+                let above = inverse_trace_above(&l, exact * (1.0 - 1e-9));
+                let value = above.unwrap_or_else(|| panic!("{l}: trace {exact:e} not reported"));
+                assert!(
+                    (value / exact - 1.0).abs() < 1e-10,
+                    "{value:e} against {exact:e}"
+                );
+            }
+        }
+        assert!(checked > 700, "only {checked} factors with a finite trace");
+        assert!(refusals > 10, "only {refusals} traces above the limit");
     }
 }
