@@ -50,3 +50,11 @@ pub use metric::{SampleErrors, TrialErrors, sample_errors};
 pub use scenario::{ImuScenario, ImuSteps, LogScenario, LogSteps};
 pub use simulate::{Disturbance, SimulationSettings, simulate};
 pub use talk::{TalkFilter, TalkParams, field_reference_from};
+
+/// The rotation `exp([v]ₓ)` of a rotation vector (rad) as a unit quaternion, through
+/// [`So3`](liebayes_manifolds::So3)'s exp: the small turns of one sample take its Taylor series,
+/// without a square root or `sin_cos`.
+pub(crate) fn rotation(v: &nalgebra::Vector3<f64>) -> nalgebra::UnitQuaternion<f64> {
+    use liebayes_manifolds::LieGroup;
+    *liebayes_manifolds::So3::exp(v).as_unit_quaternion()
+}

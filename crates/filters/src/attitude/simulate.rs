@@ -180,7 +180,7 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
             .map(|d| d.offset)
             .sum();
         let to_sensor = q.inverse();
-        let halfway = q * UnitQuaternion::from_scaled_axis(omega * (0.5 * dt));
+        let halfway = q * super::rotation(&(omega * (0.5 * dt)));
         gyr.push(omega + bias + normal(&mut rng) * s.gyro_noise);
         acc.push(
             halfway.inverse() * (linear + Vector3::z() * s.gravity)
@@ -189,7 +189,7 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
         let field = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), -offset) * s.earth_field;
         mag.push(to_sensor * (field + disturbance) + normal(&mut rng) * s.mag_noise);
         truth.push(Some(q));
-        q *= UnitQuaternion::from_scaled_axis(omega * dt);
+        q *= super::rotation(&(omega * dt));
         q.renormalize();
         omega = omega * a + normal(&mut rng) * innovation;
         bias += normal(&mut rng) * (s.gyro_bias_walk * dt.sqrt());

@@ -16,7 +16,7 @@ use liebayes_densities::Bingham;
 use liebayes_experiments::{RecursiveFilter, Update};
 use liebayes_manifolds::Su2;
 use liebayes_operators::OperatorError;
-use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Matrix4, Vector3};
 
 /// The noise settings of [`TalkFilter`] (the talk's symbols).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -196,7 +196,7 @@ impl TalkFilter {
         let smoothed = (state.rate * (su + walk) + g * so) / denominator;
         let smoothed_variance = (su + walk) * so / denominator;
         let (mean, covariance) = state.bingham.to_diffusion_moment_matched()?;
-        let turn = UnitQuaternion::from_scaled_axis(smoothed * dt);
+        let turn = super::rotation(&(smoothed * dt));
         let e = turn.to_rotation_matrix().into_inner();
         let covariance =
             e.transpose() * covariance * e + Matrix3::identity() * (smoothed_variance * dt * dt);

@@ -52,7 +52,7 @@ pub use model::{
     ATTITUDE, AttitudeState, BIAS, Block, BlockProcess, Heading, OFFSET, POSITION, STATE_DIM,
     VELOCITY,
 };
-use model::{RestBias, ZeroPair, attitude_block, in_rest};
+use model::{RestBias, ZeroMotion, attitude_block, in_rest};
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 pub use params::{
     AttitudeParams, DisturbanceParams, FieldOffset, MEASURED_FIELD_OFFSET, MagnetometerParams,
@@ -351,7 +351,7 @@ impl Running {
     /// The orientation an estimate reports: the strapdown's, carried over the IMU's delay d to the
     /// last sample's time stamp, `R̂ exp([ω − b̂]ₓ d)` ([`AttitudeParams::imu_delay`]).
     fn reported_orientation(&self, settings: &Settings) -> UnitQuaternion<f64> {
-        self.orientation * UnitQuaternion::from_scaled_axis(self.rate * settings.params.imu_delay)
+        self.orientation * super::rotation(&(self.rate * settings.params.imu_delay))
     }
 
     /// The first sample: the tilt from the accelerometer, the heading unknown (σ π) until the
@@ -712,18 +712,11 @@ impl Running {
             (Some(p), Some(s)) if at_rest => (p.velocity_sigma, Some((s.gyro, p.bias_sigma))),
             _ => (settings.params.velocity_bound, None),
         };
-        self.condition(
-            settings,
-            ZeroPair::velocity(sigma),
-            &Vector2::zeros(),
-            f64::INFINITY,
-        )?;
-        self.condition(
-            settings,
-            ZeroPair::position(settings.params.position_bound),
-            &Vector2::zeros(),
-            f64::INFINITY,
-        )?;
+        let bounds = ZeroMotion {
+            velocity_sigma: sigma,
+            position_sigma: settings.params.position_bound,
+        };
+        self.condition(settings, bounds, &SVector::zeros(), f64::INFINITY)?;
         if let (Some((gyro, sigma)), true) = (rest_gyro, settings.params.estimate_bias) {
             self.condition(settings, RestBias { sigma }, &gyro, f64::INFINITY)?;
         }

@@ -77,7 +77,7 @@ impl Block {
     /// interval Δt, for [`push`](Self::push). Apart, so that a filter can check the orientation it
     /// gives before the block changes.
     pub(crate) fn turned(&self, gyro: &Vector3<f64>, dt: f64) -> UnitQuaternion<f64> {
-        self.rotation * UnitQuaternion::from_scaled_axis((gyro - self.bias) * dt)
+        self.rotation * crate::attitude::rotation(&((gyro - self.bias) * dt))
     }
 
     /// Adds one sample: its rotation `rotation` ([`turned`](Self::turned) with its gyroscope),
@@ -136,7 +136,7 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         let rest = x.second().coords();
         let bias = rest.fixed_rows::<3>(in_rest(BIAS.start)).into_owned();
         let turn = r * (u.bias_coupling * (bias - u.bias)).into_owned();
-        let attitude = UnitQuaternion::from_scaled_axis(-turn) * r * u.rotation;
+        let attitude = crate::attitude::rotation(&-turn) * r * u.rotation;
         let dv = r * u.velocity;
         let dp = r * u.position;
         let mut next = *rest;
@@ -251,51 +251,43 @@ impl BlockProcess {
     }
 }
 
-/// A pseudo-measurement that a horizontal pair of the state is zero, `z = x[pair] = 0`, noise
-/// `σ² I₂`: the bounded velocity ([`ZeroPair::velocity`]; at rest, zero velocity) and the bounded
-/// position ([`ZeroPair::position`]).
+/// The pseudo-measurement that the horizontal velocity and position are zero,
+/// `z = (v_x, v_y, p_x, p_y) = 0`, noise `diag(σ_v², σ_v², σ_p², σ_p²)`: the bounded velocity (at
+/// rest, zero velocity) and the bounded position in one update. Linear with a constant Jacobian, so
+/// the joint update equals the two pairs conditioned in turn, at the cost of one.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct ZeroPair {
-    /// The tangent index of the pair's first component.
-    start: usize,
-    /// σ of each component (m/s or m).
-    sigma: f64,
+pub(crate) struct ZeroMotion {
+    /// σ_v (m/s).
+    pub velocity_sigma: f64,
+    /// σ_p (m).
+    pub position_sigma: f64,
 }
 
-impl ZeroPair {
-    /// `v = 0 ± σ` (m/s).
-    pub(crate) fn velocity(sigma: f64) -> Self {
-        Self {
-            start: VELOCITY.start,
-            sigma,
-        }
-    }
-
-    /// `p = 0 ± σ` (m).
-    pub(crate) fn position(sigma: f64) -> Self {
-        Self {
-            start: POSITION.start,
-            sigma,
-        }
-    }
+impl ZeroMotion {
+    /// The tangent indices measured, in the order of z.
+    const MEASURED: [usize; 4] = [
+        VELOCITY.start,
+        VELOCITY.start + 1,
+        POSITION.start,
+        POSITION.start + 1,
+    ];
 }
 
-impl MeasurementModel<AttitudeState, STATE_DIM, 2> for ZeroPair {
-    fn predict(&self, x: &AttitudeState) -> SVector<f64, 2> {
-        x.second()
-            .coords()
-            .fixed_rows::<2>(in_rest(self.start))
-            .into_owned()
+impl MeasurementModel<AttitudeState, STATE_DIM, 4> for ZeroMotion {
+    fn predict(&self, x: &AttitudeState) -> SVector<f64, 4> {
+        let rest = x.second().coords();
+        SVector::<f64, 4>::from_fn(|row, _| rest[in_rest(Self::MEASURED[row])])
     }
 
-    fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 2, 2> {
-        SMatrix::<f64, 2, 2>::identity() * (self.sigma * self.sigma)
+    fn noise(&self, _x: &AttitudeState) -> SMatrix<f64, 4, 4> {
+        let (v, p) = (self.velocity_sigma.powi(2), self.position_sigma.powi(2));
+        SMatrix::<f64, 4, 4>::from_diagonal(&SVector::<f64, 4>::new(v, v, p, p))
     }
 
-    fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 2, STATE_DIM> {
-        let mut h = SMatrix::<f64, 2, STATE_DIM>::zeros();
-        for row in 0..2 {
-            h[(row, self.start + row)] = 1.0;
+    fn jacobian(&self, _x: &AttitudeState) -> SMatrix<f64, 4, STATE_DIM> {
+        let mut h = SMatrix::<f64, 4, STATE_DIM>::zeros();
+        for (row, column) in Self::MEASURED.into_iter().enumerate() {
+            h[(row, column)] = 1.0;
         }
         h
     }

@@ -171,7 +171,7 @@ fn epoch_state(density: &Density) -> (UnitQuaternion<f64>, Vector3<f64>) {
 
 /// One sample's strapdown rotation `exp([ω − b]ₓ Δt)`.
 fn turn(gyro: &Vector3<f64>, bias: &Vector3<f64>, dt: f64) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_scaled_axis((gyro - bias) * dt)
+    crate::attitude::rotation(&((gyro - bias) * dt))
 }
 
 /// The offline filter's smoothed estimates: every sample's at the end of the run (from every
