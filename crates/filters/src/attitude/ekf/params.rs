@@ -164,7 +164,7 @@ impl Default for AttitudeParams {
     /// gyroscope's physical white noise 1e-4 rad/√s (the Allan deviation of BROAD's rest
     /// phases), rate noise 0.008, heading σ 24°, velocity bound 4 m/s, velocity walk
     /// 0.05 m/s/√s, position bound 1 m, σ_c 2°, updates every 0.25 s: the choice of nine folds
-    /// and the best on all twelve (cross-validated mean RMSE 1.76° total, 0.49° inclination;
+    /// and the best on all twelve (cross-validated mean RMSE 1.81° total, 0.49° inclination;
     /// held-out pooled heading NEES 0.59). The reported tilt variance's factor κ = 0.11 is
     /// cross-validated with them (held-out tilt NEES 1.19 per degree of freedom). The rest are
     /// physical or measured: the IMU's and the magnetometer's delays, the magnetometer's rate,
