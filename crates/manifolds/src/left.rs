@@ -250,9 +250,10 @@ impl<G: GroupAction<D, P>, const D: usize, const P: usize> GroupAction<D, P> for
     }
 
     /// `J_act_self^G(x, p) Ad(x⁻¹)`, since `exp(δ) x = x exp(Ad(x⁻¹) δ)`; for rotations `−hat(R p)`.
+    /// Saturating at the largest finite value, like the group's own.
     #[inline]
     fn j_act_self(&self, p: &SVector<G::Scalar, P>) -> Jacobian<G::Scalar, P, D> {
-        self.0.j_act_self(p) * self.0.inverse().adjoint()
+        crate::pose::mul_saturating(&self.0.j_act_self(p), &self.0.inverse().adjoint())
     }
 
     #[inline]

@@ -3,6 +3,7 @@
 use crate::error::{ManifoldError, check_finite};
 use crate::lie_group::{GroupAction, LieGroup};
 use crate::manifold::{Jacobian, Manifold, Tangent};
+use crate::pose::saturated;
 use crate::real::Real;
 use nalgebra::SVector;
 
@@ -151,10 +152,10 @@ impl<T: Real, const N: usize> LieGroup<N> for Rn<T, N> {
 }
 
 impl<T: Real, const N: usize> GroupAction<N, N> for Rn<T, N> {
-    /// Translation `p + x`.
+    /// Translation `p + x`, saturating at the largest finite value.
     #[inline]
     fn act(&self, p: &SVector<T, N>) -> SVector<T, N> {
-        p + self.v
+        saturated(p + self.v)
     }
 
     #[inline]

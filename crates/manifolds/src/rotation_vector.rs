@@ -28,12 +28,19 @@ pub(crate) fn hat<T: Real>(v: &Vector3<T>) -> Matrix3<T> {
 /// The vector of the antisymmetric part of `m` (the inverse of [`hat`] on skew matrices).
 #[inline]
 pub(crate) fn vee<T: Real>(m: &Matrix3<T>) -> Vector3<T> {
-    let half = T::lit(0.5);
     Vector3::new(
-        (m.m32 - m.m23) * half,
-        (m.m13 - m.m31) * half,
-        (m.m21 - m.m12) * half,
+        half_difference(m.m32, m.m23),
+        half_difference(m.m13, m.m31),
+        half_difference(m.m21, m.m12),
     )
+}
+
+/// `(a − b) / 2` as `a/2 − b/2`, finite for all finite `a` and `b` (the difference of two entries
+/// near the scalar's largest value overflows; its half does not).
+#[inline]
+pub(crate) fn half_difference<T: Real>(a: T, b: T) -> T {
+    let half = T::lit(0.5);
+    a * half - b * half
 }
 
 /// `v / 2` and its norm θ/2, finite for every finite `v`.
@@ -206,12 +213,13 @@ pub(crate) fn rotate<T: Real>(q: &UnitQuaternion<T>, v: &Vector3<T>) -> Vector3<
     }
 }
 
-/// [`rotate`] for points whose coordinates overflow the direct formula.
+/// [`rotate`] for points whose coordinates overflow the direct formula: the unit point rotated and
+/// scaled back, saturating at the largest finite value where the rotated point lies beyond it.
 #[cold]
 #[inline(never)]
 fn rotate_huge<T: Real>(q: &UnitQuaternion<T>, v: &Vector3<T>) -> Vector3<T> {
     let scale = v.amax();
-    (q * (v / scale)) * scale
+    crate::pose::saturated((q * (v / scale)) * scale)
 }
 
 /// The [`LieGroup`](crate::LieGroup) methods that SO(3) and SU(2) share: both store a unit quaternion
@@ -270,16 +278,19 @@ pub(crate) use quaternion_group_methods;
 macro_rules! impl_rotation_action {
     ($ty:ident) => {
         impl<T: $crate::Real> $crate::GroupAction<3, 3> for $ty<T> {
-            /// `q v q*`, valid for every finite point.
+            /// `q v q*`, finite for every finite point (saturating at the largest finite value
+            /// where the rotated point lies beyond it).
             #[inline]
             fn act(&self, p: &nalgebra::Vector3<T>) -> nalgebra::Vector3<T> {
                 $crate::rotation_vector::rotate(&self.q, p)
             }
 
-            /// `−R hat(p)`.
+            /// `−R hat(p)`, saturating like [`act`](Self::act) for points near the scalar's
+            /// largest value.
             #[inline]
             fn j_act_self(&self, p: &nalgebra::Vector3<T>) -> $crate::Jacobian<T, 3, 3> {
-                -(self.q.to_rotation_matrix().into_inner() * $crate::rotation_vector::hat(p))
+                let r = self.q.to_rotation_matrix().into_inner();
+                -$crate::pose::linear_saturating(p, |p| r * $crate::rotation_vector::hat(p))
             }
 
             /// `R`.

@@ -298,7 +298,11 @@ impl<T: Real> LieGroup<3> for Se2<T> {
     /// `[a₁₃, a₂₃, (a₂₁ − a₁₂)/2]`.
     #[inline]
     fn vee(a: &Matrix3<T>) -> Tangent<T, 3> {
-        Vector3::new(a.m13, a.m23, (a.m21 - a.m12) * T::lit(0.5))
+        Vector3::new(
+            a.m13,
+            a.m23,
+            crate::rotation_vector::half_difference(a.m21, a.m12),
+        )
     }
 
     /// `H a H⁻¹` with the homogeneous matrices of `self` and its inverse.
@@ -345,18 +349,18 @@ impl_manifold_for_group!(Se2, 3, |x| {
 });
 
 impl<T: Real> GroupAction<3, 2> for Se2<T> {
-    /// `R p + t`.
+    /// `R p + t`, saturating at the largest finite value (like [`compose`](Self::compose)).
     #[inline]
     fn act(&self, p: &Vector2<T>) -> Vector2<T> {
-        self.rotation.as_unit_complex() * p + self.translation
+        saturated(self.rotation.as_unit_complex() * p + self.translation)
     }
 
     /// `[R, R J p]`: the translation block moves the point along the body axes, the angle turns it
-    /// about the body origin.
+    /// about the body origin; saturating for points near the largest value.
     #[inline]
     fn j_act_self(&self, p: &Vector2<T>) -> Jacobian<T, 2, 3> {
         let (c, s) = (self.rotation.cos(), self.rotation.sin());
-        let turned = self.rotation.as_unit_complex() * quarter_turn(p);
+        let turned = saturated(self.rotation.as_unit_complex() * quarter_turn(p));
         nalgebra::Matrix2x3::new(c, -s, turned.x, s, c, turned.y)
     }
 

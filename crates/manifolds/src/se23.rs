@@ -338,20 +338,21 @@ impl_manifold_for_group!(Se23, 9, |x| {
 });
 
 impl<T: Real> GroupAction<9, 3> for Se23<T> {
-    /// `R x + p` (the velocity does not act on points).
+    /// `R x + p` (the velocity does not act on points), saturating at the largest finite value.
     #[inline]
     fn act(&self, x: &Vector3<T>) -> Vector3<T> {
-        self.rotation.rotate(x) + self.position
+        saturated(self.rotation.rotate(x) + self.position)
     }
 
     /// `[R, −R hat(x), 0]`: the position block moves the point along the body axes, the rotation
-    /// block turns it about the body origin, the velocity block does not move it.
+    /// block turns it about the body origin, the velocity block does not move it; saturating for
+    /// points near the largest value.
     fn j_act_self(&self, x: &Vector3<T>) -> Jacobian<T, 3, 9> {
         let r = self.rotation.to_matrix();
         let mut j = Jacobian::<T, 3, 9>::zeros();
         j.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
         j.fixed_view_mut::<3, 3>(0, 3)
-            .copy_from(&-(r * rotation_vector::hat(x)));
+            .copy_from(&-linear_saturating(x, |x| r * rotation_vector::hat(x)));
         j
     }
 

@@ -351,20 +351,20 @@ impl_manifold_for_group!(Se3, 6, |x| {
 });
 
 impl<T: Real> GroupAction<6, 3> for Se3<T> {
-    /// `R p + t`.
+    /// `R p + t`, saturating at the largest finite value (like [`compose`](Self::compose)).
     #[inline]
     fn act(&self, p: &Vector3<T>) -> Vector3<T> {
-        self.rotation.rotate(p) + self.translation
+        saturated(self.rotation.rotate(p) + self.translation)
     }
 
     /// `[R, −R hat(p)]`: the translation block moves the point along the body axes, the rotation
-    /// block turns it about the body origin.
+    /// block turns it about the body origin; saturating for points near the largest value.
     fn j_act_self(&self, p: &Vector3<T>) -> Jacobian<T, 3, 6> {
         let r = self.rotation.to_matrix();
         let mut j = Matrix3x6::zeros();
         j.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
         j.fixed_view_mut::<3, 3>(0, 3)
-            .copy_from(&-(r * rotation_vector::hat(p)));
+            .copy_from(&-linear_saturating(p, |p| r * rotation_vector::hat(p)));
         j
     }
 

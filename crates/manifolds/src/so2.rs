@@ -3,6 +3,7 @@
 use crate::error::{ManifoldError, check_finite, check_rotation_matrix, check_unit, normalized};
 use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
 use crate::manifold::{Jacobian, Tangent};
+use crate::pose::saturated;
 use crate::real::Real;
 use nalgebra::{Complex, Matrix1, Matrix2, Rotation2, UnitComplex, Vector1, Vector2};
 
@@ -196,7 +197,7 @@ impl<T: Real> LieGroup<1> for So2<T> {
 
     #[inline]
     fn vee(a: &Matrix2<T>) -> Tangent<T, 1> {
-        Vector1::new((a.m21 - a.m12) * T::lit(0.5))
+        Vector1::new(crate::rotation_vector::half_difference(a.m21, a.m12))
     }
 
     /// `R a Rᵀ`.
@@ -227,15 +228,16 @@ impl<T: Real> LieGroup<1> for So2<T> {
 impl_manifold_for_group!(So2, 1, |x| x.z.re.is_finite() && x.z.im.is_finite());
 
 impl<T: Real> GroupAction<1, 2> for So2<T> {
+    /// `R p`, saturating at the largest finite value where the turned point lies beyond it.
     #[inline]
     fn act(&self, p: &Vector2<T>) -> Vector2<T> {
-        self.z * p
+        saturated(self.z * p)
     }
 
-    /// `R [−p_y, p_x]ᵀ`.
+    /// `R [−p_y, p_x]ᵀ`, saturating like [`act`](Self::act).
     #[inline]
     fn j_act_self(&self, p: &Vector2<T>) -> Jacobian<T, 2, 1> {
-        self.z * Vector2::new(-p.y, p.x)
+        saturated(self.z * Vector2::new(-p.y, p.x))
     }
 
     /// `R`.

@@ -277,9 +277,9 @@ proptest! {
         a in st::so3::<f64>(),
     ) {
         let v = Vector3::new(x, y, z);
-        // Points small enough that their rotations, and the partial sums of the Jacobian products,
-        // are representable (|p| <= 0.44 MAX).
-        let p = Vector3::new(px, py, pz) / 4.0;
+        // Points anywhere in the finite range: a rotated point or a Jacobian entry beyond it
+        // saturates at the largest finite value.
+        let p = Vector3::new(px, py, pz);
         let finite3 = |m: &Matrix3<f64>| all_finite(m.iter().copied());
         for r in [So3::exp(&v), a.retract(&v), Left::new(a).retract(&v).into_inner()] {
             prop_assert!(unit_wxyz(r.to_quaternion_wxyz(), 1e-12), "{r:?}");
@@ -365,6 +365,8 @@ proptest! {
             prop_assert!(all_finite(r.coords().iter().copied()));
         }
         prop_assert!(all_finite(p.local(&q).iter().copied()) && p.distance(&q).is_finite());
+        let far = Rn::new(Vector3::new(x, y, z)).unwrap();
+        prop_assert!(all_finite(far.act(&Vector3::new(z, x, y)).iter().copied()));
         let xb = ProductManifold::<_, _, 3, 3, 6>::new(a, p);
         let d = SVector::<f64, 6>::from_fn(|i, _| v[i % 3]);
         let moved = xb.retract(&d);
@@ -651,4 +653,18 @@ fn poses_with_the_largest_translations_compose_and_adjoin_finitely() {
         assert!(y.is_finite(), "{y:?}");
     }
     assert!(all_finite(x.adjoint().iter().copied()));
+}
+
+/// `vee` of algebra elements with entries near f64::MAX is the exact, finite vector: the difference
+/// of two entries overflowed before it was halved (found by the Python package's fuzzer).
+#[test]
+fn vee_of_entries_near_the_largest_value_is_finite() {
+    let m = f64::MAX * 0.6;
+    let a = Matrix3::new(0.0, m, -m, -m, 0.0, m, m, -m, 0.0);
+    assert_eq!(So3::vee(&a), Vector3::new(-m, -m, -m));
+    let mut h = nalgebra::Matrix4::zeros();
+    h.fixed_view_mut::<3, 3>(0, 0).copy_from(&a);
+    assert_eq!(Se3::vee(&h), Vector6::new(0.0, 0.0, 0.0, -m, -m, -m));
+    assert_eq!(Se2::vee(&a), Vector3::new(-m, m, -m));
+    assert_eq!(So2::vee(&Matrix2::new(0.0, m, -m, 0.0)), Vector1::new(-m));
 }

@@ -201,6 +201,16 @@ proptest! {
             prop_assert!(no_nan(y.act(&p).iter()));
             prop_assert!(no_nan(x.retract(&v).translation().iter()));
         }
+        // Points anywhere in the finite range act and differentiate to finite values (saturating).
+        for q in [Vector3::new(a, b, c), Vector3::new(d, e, f)] {
+            prop_assert!(finite(x.act(&q).as_slice()), "{x:?} . {q}");
+            prop_assert!(finite(x.j_act_self(&q).as_slice()), "J {x:?} . {q}");
+            let nav = Se23::new(*x.rotation(), q, -q).unwrap();
+            prop_assert!(finite(nav.act(&q).as_slice()) && finite(nav.j_act_self(&q).as_slice()));
+            let planar = Se2::exp(&Vector3::new(0.0, 0.0, f));
+            prop_assert!(finite(planar.act(&q.xy()).as_slice()));
+            prop_assert!(finite(planar.j_act_self(&q.xy()).as_slice()));
+        }
         for w in [Vector3::new(a, b, f), Vector3::new(f, c, d)] {
             let y = Se2::exp(&w);
             prop_assert!(valid_se2(&y), "exp({w}) = {y:?}");
