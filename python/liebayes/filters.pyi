@@ -273,7 +273,9 @@ def score_azimuth(
     truth_r (R, E, 2) and truth_azimuth (R,) from :func:`azimuth_runs` at the measured steps;
     azimuth (R, E) (NaN: no azimuth estimate), rho (R, E) in [0, 1], mean_r (R, E, 2),
     cov_r (R, E, 2, 2); circular_variance (R, E) defaults to -2 ln rho; times (E,) defaults to
-    0, 1, 2, .... Raises ValueError for mismatched shapes or a non-finite true azimuth."""
+    0, 1, 2, .... Raises ValueError for mismatched shapes, a non-finite true azimuth or rho, or a
+    position or covariance entry that is not finite or above 1e100 in magnitude (naming its
+    index)."""
 
 def aoa_study(
     data: str,
@@ -322,7 +324,10 @@ def score_aoa(
     label: str = "user",
 ) -> StudyResult:
     """Scores a user's position estimates, mean (R, E, 3) and covariance (R, E, 3, 3) against
-    truth (R, E, 3), with the library's angle-of-arrival scorer into the summary a study gives."""
+    truth (R, E, 3), with the library's angle-of-arrival scorer into the summary a study gives.
+    Raises ValueError for mismatched shapes or a value that is not finite or above 1e100 in
+    magnitude (naming its index); an estimate whose covariance is not positive definite scores
+    an infinite NEES, counted as a value that is not finite."""
 
 def square_track() -> Tuple[Array, Array]:
     """The square track's four anchors: positions (4, 3) and world-to-anchor rotations (4, 3, 3)."""

@@ -5,13 +5,18 @@ use crate::errors::value_error;
 use liebayes_manifolds::{ManifoldError, S2, So3, Su2};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use numpy::{
-    PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArray2,
-    PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
+    PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn,
+    PyUntypedArray, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
+
+/// The most values an array the package returns may hold (draws × their components, or runs ×
+/// steps × components of exposed simulated runs, all arrays together): 2²⁸ doubles, 2 GB. More is
+/// refused before anything is allocated or computed.
+pub(crate) const MAX_VALUES: usize = 1 << 28;
 
 /// The rows of an `(n, 3)` array as 3-vectors (one pass over the array, read in place).
 ///
@@ -19,10 +24,10 @@ use pyo3::types::PyDict;
 /// `ValueError` naming `name` when the array is not `(n, 3)`.
 pub(crate) fn vectors3(
     name: &str,
-    array: &PyReadonlyArray2<'_, f64>,
+    array: &PyReadonlyArrayDyn<'_, f64>,
 ) -> PyResult<Vec<Vector3<f64>>> {
     let shape = array.shape();
-    if shape[1] != 3 {
+    if shape.len() != 2 || shape[1] != 3 {
         return Err(PyValueError::new_err(format!(
             "{name}: expected an array of shape (n, 3), got {shape:?}"
         )));
@@ -70,10 +75,9 @@ pub(crate) fn shape_text(shape: &[usize], batch: bool) -> String {
 static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 
 /// The argument as an aligned C-contiguous `float64` array: the array itself when it already is
-/// one,
-/// otherwise one conversion by `numpy.asarray(obj, dtype=float64, order="C")` (lists, integer or `float32` arrays,
-/// strided views). Arrays whose dtype is not real-valued (complex, bool, object, strings) raise
-/// `TypeError` instead of being cast.
+/// one, otherwise converted by `numpy.asarray` (lists, integer or `float32` arrays, strided
+/// views). Values that are not real numbers (complex, bool, object or string arrays, or lists of
+/// them) raise `TypeError` instead of being cast.
 pub(crate) fn float_array<'py>(
     name: &str,
     obj: &Bound<'py, PyAny>,
@@ -81,6 +85,49 @@ pub(crate) fn float_array<'py>(
     contiguous_float64(name, obj)?
         .try_readonly()
         .map_err(value_error)
+}
+
+/// An array argument of real numbers as a read-only `float64` array, converted and checked as
+/// [`float_array`] does (its shape is the caller's to check, with the argument's name).
+pub(crate) struct RealArray<'py>(PyReadonlyArrayDyn<'py, f64>);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for RealArray<'py> {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        // pyo3 attaches a note naming the argument to the error.
+        float_array("", &obj.to_owned()).map(Self)
+    }
+}
+
+impl<'py> std::ops::Deref for RealArray<'py> {
+    type Target = PyReadonlyArrayDyn<'py, f64>;
+
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+/// Three real numbers given as a sequence (a list, a tuple, a numpy array): an array whose values
+/// are not real numbers (complex, bool, object, strings) raises `TypeError` as in [`float_array`],
+/// rather than being cast element by element.
+#[derive(Clone, Copy)]
+pub(crate) struct Real3(pub(crate) [f64; 3]);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for Real3 {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        if let Ok(array) = obj.cast::<PyUntypedArray>() {
+            let dtype = array.dtype();
+            if !matches!(dtype.kind(), b'f' | b'i' | b'u') {
+                return Err(PyTypeError::new_err(format!(
+                    "expected three real numbers, got an array of dtype {dtype}"
+                )));
+            }
+        }
+        obj.extract::<[f64; 3]>().map(Self)
+    }
 }
 
 /// [`float_array`] before it is borrowed.
@@ -94,22 +141,35 @@ fn contiguous_float64<'py>(
             return Ok(array.clone());
         }
     }
-    if let Ok(array) = obj.cast::<PyUntypedArray>() {
-        let dtype = array.dtype();
-        if !matches!(dtype.kind(), b'f' | b'i' | b'u') {
-            return Err(PyTypeError::new_err(format!(
-                "{name}: expected an array of real numbers (float64), got dtype {dtype}"
-            )));
+    let named = |text: String| {
+        if name.is_empty() {
+            text
+        } else {
+            format!("{name}: {text}")
         }
+    };
+    let asarray = ASARRAY.import(py, "numpy", "asarray")?;
+    // Anything but an array is read by numpy as it is first, so that its kind can be checked
+    // before a cast to float64 could turn strings, booleans or complex numbers into numbers.
+    let array = match obj.cast::<PyUntypedArray>() {
+        Ok(array) => array.clone(),
+        Err(_) => asarray
+            .call1((obj,))?
+            .cast_into::<PyUntypedArray>()
+            .map_err(|_| PyTypeError::new_err(named("could not read it as an array".to_owned())))?,
+    };
+    let dtype = array.dtype();
+    if !matches!(dtype.kind(), b'f' | b'i' | b'u') {
+        return Err(PyTypeError::new_err(named(format!(
+            "expected an array of real numbers (float64), got dtype {dtype}"
+        ))));
     }
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
     kwargs.set_item("order", "C")?;
-    let converted = ASARRAY
-        .import(py, "numpy", "asarray")?
-        .call((obj,), Some(&kwargs))?;
+    let converted = asarray.call((array,), Some(&kwargs))?;
     let array = converted.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
-        PyTypeError::new_err(format!("{name}: could not read it as an array of float64"))
+        PyTypeError::new_err(named("could not read it as an array of float64".to_owned()))
     })?;
     if array.is_aligned() {
         return Ok(array);
@@ -118,7 +178,7 @@ fn contiguous_float64<'py>(
     array
         .call_method0("copy")?
         .cast_into::<PyArrayDyn<f64>>()
-        .map_err(|_| PyTypeError::new_err(format!("{name}: could not copy it as float64")))
+        .map_err(|_| PyTypeError::new_err(named("could not copy it as float64".to_owned())))
 }
 
 /// A rotation matrix (row-major, 9 numbers), checked by the library (finite, orthonormal, det +1).

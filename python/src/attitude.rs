@@ -6,7 +6,7 @@
 //! it (predict with the gyroscope and accelerometer, then the magnetometer reading, then the
 //! estimate), so its output equals the `liebayes attitude` binary's bit for bit.
 
-use crate::arrays::float_array;
+use crate::arrays::{Real3, float_array};
 use crate::errors::value_error;
 use liebayes_experiments::{RecursiveFilter, Smoothing};
 use liebayes_filters::attitude::{
@@ -250,7 +250,8 @@ impl AttitudeFilter {
     /// 3-sequences. Read the result from `quat`, `heading_sigma`, `tilt_sigma`, `bias`, `rest`,
     /// `mag_disturbance`. On a refused sample it raises `ValueError` and the state is unchanged.
     #[pyo3(signature = (gyr, acc, mag = None))]
-    fn update(&mut self, gyr: [f64; 3], acc: [f64; 3], mag: Option<[f64; 3]>) -> PyResult<()> {
+    fn update(&mut self, gyr: Real3, acc: Real3, mag: Option<Real3>) -> PyResult<()> {
+        let (gyr, acc, mag) = (gyr.0, acc.0, mag.map(|m| m.0));
         let filter = self.filter_for(mag.is_some())?;
         let mut stepped = filter.clone();
         step(

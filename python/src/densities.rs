@@ -11,7 +11,7 @@
 //! `numpy.random.Generator`, so the same generator state gives the same draws.
 
 use crate::arrays::{
-    float_array, put_matrix, put_vector, quaternion, rotation, shape_text, sphere_point,
+    MAX_VALUES, float_array, put_matrix, put_vector, quaternion, rotation, shape_text, sphere_point,
 };
 use crate::errors::value_error;
 use liebayes_densities::manifolds::{ManifoldError, S2, So2, So3, Su2};
@@ -201,7 +201,13 @@ fn draw<'py, D: Density + Sync>(
     let width = point_shape.iter().product::<usize>();
     let total = n
         .checked_mul(width)
-        .ok_or_else(|| value_error(format!("n = {n} draws do not fit in memory")))?;
+        .filter(|&total| total <= MAX_VALUES)
+        .ok_or_else(|| {
+            value_error(format!(
+                "n = {n} draws of {width} values each exceed the limit of 2^28 values in one call; \
+                 draw them in several calls"
+            ))
+        })?;
     let data = py.detach(|| -> Result<Vec<f64>, String> {
         let mut data = Vec::new();
         data.try_reserve_exact(total)

@@ -12,7 +12,9 @@
 // the signatures cannot take references.
 #![allow(clippy::needless_pass_by_value)]
 
+use crate::arrays::{MAX_VALUES, RealArray};
 use crate::errors::value_error;
+use liebayes_densities::MAX_SCALE;
 use liebayes_experiments::{
     AsIs, Estimator, Figure, Method as _, RecursiveFilter, Reduction, RunScores, Scenario, Scorer,
     Shard, Step, Study, StudyLabel, Summary, record, run_rngs,
@@ -32,9 +34,7 @@ use liebayes_filters::azimuth::{
 use liebayes_manifolds::{Rn, So2, So3};
 use liebayes_operators::OperatorError;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
-use numpy::{
-    AllowTypeChange, PyArray1, PyArrayLike1, PyArrayLike2, PyArrayLikeDyn, PyArrayMethods,
-};
+use numpy::{PyArray1, PyArrayMethods};
 use numpy::{PyUntypedArrayMethods, ndarray::ArrayViewD};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -42,10 +42,6 @@ use pyo3::types::PyDict;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::sync::Mutex;
-
-/// The most values (runs × steps × components, all arrays together) an exposed set of simulated
-/// runs may hold: 2²⁸ doubles, 2 GB. More is refused before anything is simulated.
-const MAX_VALUES: usize = 1 << 28;
 
 /// The most anchors of an [`AoaFilter`] (the Kalman filters stack 3 values per anchor).
 const MAX_ANCHORS: usize = 8;
@@ -99,11 +95,25 @@ fn check_shape(name: &str, shape: &[usize], expected: &[Option<usize>]) -> PyRes
     )))
 }
 
+/// Refuses an array of positions, their errors or covariances holding a value that is not finite
+/// or beyond the library's limit for such values ([`MAX_SCALE`], 1e100), naming the first one's
+/// index: beyond it the squares that scores sum would overflow.
+fn check_scale(name: &str, array: &RealArray<'_>) -> PyResult<()> {
+    let view = array.as_array();
+    match view
+        .indexed_iter()
+        .find(|(_, v)| !(-MAX_SCALE..=MAX_SCALE).contains(*v))
+    {
+        Some((index, value)) => Err(bad(format!(
+            "{name}{:?}: {value} is not a finite value of magnitude at most 1e100",
+            numpy::ndarray::Dimension::slice(&index)
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// A 1-d array-like of exactly `n` floats.
-fn fixed<const N: usize>(
-    name: &str,
-    a: &PyArrayLike1<'_, f64, AllowTypeChange>,
-) -> PyResult<[f64; N]> {
+fn fixed<const N: usize>(name: &str, a: &RealArray<'_>) -> PyResult<[f64; N]> {
     check_shape(name, a.shape(), &[Some(N)])?;
     let view = a.as_array();
     Ok(std::array::from_fn(|i| view[i]))
@@ -114,7 +124,7 @@ fn per_step(name: &str, value: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>
     if let Ok(x) = value.extract::<f64>() {
         return Ok(vec![x; n]);
     }
-    let a: PyArrayLike1<'_, f64, AllowTypeChange> = value.extract().map_err(|_| {
+    let a: RealArray<'_> = value.extract().map_err(|_| {
         bad(format!(
             "{name}: expected a float or a 1-d array of {n} floats"
         ))
@@ -274,10 +284,7 @@ fn scored_summary<T, E, Sc: Scorer<T, E>>(
 }
 
 /// Epoch times: given (checked to have `epochs` values) or 0, 1, 2, ….
-fn epoch_times(
-    times: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-    epochs: usize,
-) -> PyResult<Vec<f64>> {
+fn epoch_times(times: Option<RealArray<'_>>, epochs: usize) -> PyResult<Vec<f64>> {
     match times {
         Some(t) => {
             check_shape("times", t.shape(), &[Some(epochs)])?;
@@ -340,12 +347,7 @@ impl ExactAzimuthFilter {
     /// prior `r ~ N(r0, sigma0² I)`, A uniform.
     #[new]
     #[pyo3(signature = (q, sigma_m, r0 = None, sigma0 = 1.0))]
-    fn new(
-        q: f64,
-        sigma_m: f64,
-        r0: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-        sigma0: f64,
-    ) -> PyResult<Self> {
+    fn new(q: f64, sigma_m: f64, r0: Option<RealArray<'_>>, sigma0: f64) -> PyResult<Self> {
         let r0 = match r0 {
             Some(a) => Vector2::from(fixed::<2>("r0", &a)?),
             None => Vector2::zeros(),
@@ -358,11 +360,7 @@ impl ExactAzimuthFilter {
     }
 
     /// Propagates over `dt` seconds with the velocity `velocity` (2,) in platform axes.
-    fn predict(
-        &mut self,
-        velocity: PyArrayLike1<'_, f64, AllowTypeChange>,
-        dt: f64,
-    ) -> PyResult<()> {
+    fn predict(&mut self, velocity: RealArray<'_>, dt: f64) -> PyResult<()> {
         let velocity = Vector2::from(fixed::<2>("velocity", &velocity)?);
         self.filter
             .predict(&VelocityInput { velocity, dt })
@@ -370,7 +368,7 @@ impl ExactAzimuthFilter {
     }
 
     /// Conditions on the world-axes position measurement `z` (2,); returns its log evidence.
-    fn update(&mut self, z: PyArrayLike1<'_, f64, AllowTypeChange>) -> PyResult<f64> {
+    fn update(&mut self, z: RealArray<'_>) -> PyResult<f64> {
         let z = Vector2::from(fixed::<2>("z", &z)?);
         Ok(self.filter.update(&z).map_err(value_error)?.log_evidence)
     }
@@ -399,9 +397,9 @@ impl ExactAzimuthFilter {
     fn run<'py>(
         &mut self,
         py: Python<'py>,
-        velocity: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        velocity: RealArray<'py>,
         dt: &Bound<'py, PyAny>,
-        z: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        z: RealArray<'py>,
     ) -> PyResult<Bound<'py, PyDict>> {
         check_shape("velocity", velocity.shape(), &[None, Some(2)])?;
         let n = velocity.shape()[0];
@@ -750,14 +748,14 @@ fn azimuth_runs<'py>(
 #[allow(clippy::too_many_arguments)]
 fn score_azimuth<'py>(
     py: Python<'py>,
-    truth_r: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    truth_azimuth: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    azimuth: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    rho: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    mean_r: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    cov_r: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    circular_variance: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
-    times: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
+    truth_r: RealArray<'py>,
+    truth_azimuth: RealArray<'py>,
+    azimuth: RealArray<'py>,
+    rho: RealArray<'py>,
+    mean_r: RealArray<'py>,
+    cov_r: RealArray<'py>,
+    circular_variance: Option<RealArray<'py>>,
+    times: Option<RealArray<'py>>,
     label: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     check_shape("truth_r", truth_r.shape(), &[None, None, Some(2)])?;
@@ -790,8 +788,14 @@ fn score_azimuth<'py>(
         mean_r.as_array(),
         cov_r.as_array(),
     );
-    if let Some(&value) = ta.iter().find(|v| !v.is_finite()) {
-        return Err(bad(format!("truth_azimuth: {value} is not finite")));
+    for (name, array) in [
+        ("truth_r", &truth_r),
+        ("truth_azimuth", &truth_azimuth),
+        ("rho", &rho),
+        ("mean_r", &mean_r),
+        ("cov_r", &cov_r),
+    ] {
+        check_scale(name, array)?;
     }
     let cv = circular_variance.as_ref().map(|v| v.as_array());
     let summary = scored_summary(label, runs, epochs, &times, &AzimuthScorer, |run, k| {
@@ -971,8 +975,8 @@ fn parse_aoa_name(name: &str, particles: usize) -> PyResult<(Algorithm, String)>
 
 /// Anchors from positions (k, 3) and optional world-to-anchor rotations (k, 3, 3).
 fn anchors_of(
-    positions: &PyArrayLike2<'_, f64, AllowTypeChange>,
-    rotations: Option<&PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+    positions: &RealArray<'_>,
+    rotations: Option<&RealArray<'_>>,
 ) -> PyResult<Vec<Anchor>> {
     let points = crate::arrays::vectors3("anchors", positions)?;
     let k = points.len();
@@ -1046,14 +1050,14 @@ impl AoaFilter {
     #[allow(clippy::too_many_arguments)]
     fn new(
         name: &str,
-        anchors: PyArrayLike2<'_, f64, AllowTypeChange>,
-        rotations: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+        anchors: RealArray<'_>,
+        rotations: Option<RealArray<'_>>,
         kappa: Option<f64>,
         sigma_az: Option<f64>,
         sigma_el: Option<f64>,
         q_xy: f64,
         q_z: f64,
-        prior_mean: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
+        prior_mean: Option<RealArray<'_>>,
         prior_std: f64,
         particles: usize,
         seed: u64,
@@ -1124,11 +1128,7 @@ impl AoaFilter {
 
     /// Conditions on the readings `readings` (k, 2): azimuth and elevation (rad) per anchor, in
     /// the anchors' order. Returns the log evidence.
-    fn update(
-        &mut self,
-        py: Python<'_>,
-        readings: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
-    ) -> PyResult<f64> {
+    fn update(&mut self, py: Python<'_>, readings: RealArray<'_>) -> PyResult<f64> {
         check_shape("readings", readings.shape(), &[Some(self.anchors), Some(2)])?;
         let view = readings.as_array();
         let readings: Vec<AzEl> = (0..self.anchors)
@@ -1363,10 +1363,10 @@ fn square_track(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)
 #[pyo3(signature = (truth, mean, covariance, times = None, label = "user"))]
 fn score_aoa<'py>(
     py: Python<'py>,
-    truth: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    mean: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    covariance: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    times: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
+    truth: RealArray<'py>,
+    mean: RealArray<'py>,
+    covariance: RealArray<'py>,
+    times: Option<RealArray<'py>>,
     label: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     check_shape("truth", truth.shape(), &[None, None, Some(3)])?;
@@ -1380,6 +1380,13 @@ fn score_aoa<'py>(
         covariance.shape(),
         &[Some(runs), Some(epochs), Some(3), Some(3)],
     )?;
+    for (name, array) in [
+        ("truth", &truth),
+        ("mean", &mean),
+        ("covariance", &covariance),
+    ] {
+        check_scale(name, array)?;
+    }
     let times = epoch_times(times, epochs)?;
     let (t, m, c) = (truth.as_array(), mean.as_array(), covariance.as_array());
     let summary = scored_summary(label, runs, epochs, &times, &PositionScorer, |run, k| {

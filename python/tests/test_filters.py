@@ -484,3 +484,14 @@ def test_bad_input_to_the_aoa_filter():
     g = lf.AoaFilter("UKF-VMF", [[0.0, 0.0, 0.0]], kappa=50.0, prior_mean=[1.0, 0.0, 0.0])
     g.update([[0.0, 0.0]])
     assert g.mean.shape == (3,) and g.covariance.shape == (3, 3)
+
+
+def test_scores_of_non_finite_estimates_are_refused_naming_the_index():
+    truth, mean = np.zeros((1, 2, 3)), np.zeros((1, 2, 3))
+    cov = np.broadcast_to(np.eye(3), (1, 2, 3, 3)).copy()
+    mean[0, 1, 2] = np.nan
+    with pytest.raises(ValueError, match=r"mean\[0, 1, 2\]: NaN is not a finite value"):
+        lf.score_aoa(truth, mean, cov)
+    cov[0, 0, 1, 1] = np.inf
+    with pytest.raises(ValueError, match=r"covariance\[0, 0, 1, 1\]"):
+        lf.score_aoa(truth, np.zeros((1, 2, 3)), cov)
