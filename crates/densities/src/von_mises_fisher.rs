@@ -106,13 +106,20 @@ impl VonMisesFisher {
         for &v in m.iter() {
             finite("first moment component", v)?;
         }
-        let r = m.norm();
-        let kappa = special::vmf_mean_resultant_inverse(r)?;
+        // The length by the largest component first: a squared norm below 2.2e-308 is subnormal,
+        // and its square root would leave the direction off the sphere.
+        let scale = m.amax();
+        if scale == 0.0 {
+            return Ok(Self::uniform());
+        }
+        let direction = m / scale;
+        let length = direction.norm(); // in [1, √3]
+        let kappa = special::vmf_mean_resultant_inverse(scale * length)?;
         if kappa == 0.0 {
             return Ok(Self::uniform());
         }
         Ok(Self {
-            mean: S2::new_unchecked(m / r),
+            mean: S2::new_unchecked(direction / length),
             kappa,
         })
     }
