@@ -498,6 +498,14 @@ fn bad_input_is_refused_with_a_typed_error() {
         ),
         Err(OperatorError::NonFinite { .. })
     ));
+    // A centre of any finite length is a direction: one whose squared length is subnormal, or
+    // overflows, gives the posterior of the unit one (the subnormal one left the sphere before).
+    let unit = exact_posterior(&g, &ex.anchor, &u, &ll, &rule).unwrap();
+    for scale in [1e-161, 1e300] {
+        let scaled = exact_posterior(&g, &ex.anchor, &(u * scale), &ll, &rule).unwrap();
+        assert!((scaled.mean - unit.mean).norm() <= 1e-12 * unit.mean.norm());
+        assert!((scaled.covariance - unit.covariance).norm() <= 1e-12 * unit.covariance.norm());
+    }
     assert!(matches!(
         exact_posterior(&g, &ex.anchor, &u, |_| f64::NAN, &rule),
         Err(OperatorError::NonFinite { .. })

@@ -208,15 +208,23 @@ pub fn exact_posterior(
             value,
         });
     }
-    let norm = centre.norm();
-    if !(norm > 0.0 && norm.is_finite()) {
+    let scale = centre.amax();
+    if scale == 0.0 {
         return Err(OperatorError::OutOfRange {
             what: "length of the centre of the sphere rule",
-            value: norm,
+            value: 0.0,
             range: "a nonzero finite vector (the measured direction, world axes)",
         });
     }
-    let centre = S2::new_unchecked(centre / norm);
+    let norm = centre.norm();
+    let centre = if (1e-150..=1e150).contains(&norm) {
+        S2::new_unchecked(centre / norm)
+    } else {
+        // Scaled by the largest component first: the squared length would be subnormal (the
+        // direction off the sphere) or overflow.
+        let direction = centre / scale;
+        S2::new_unchecked(direction / direction.norm())
+    };
     let scaled = ScaledPrior::new(prior, anchor)?;
     let mut peak = f64::NEG_INFINITY;
     let (mut mass, mut first, mut second) = (0.0, Vector3::zeros(), Matrix3::zeros());
