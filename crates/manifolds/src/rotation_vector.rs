@@ -285,7 +285,7 @@ macro_rules! impl_rotation_action {
                 $crate::rotation_vector::rotate(&self.q, p)
             }
 
-            /// `−R hat(p)`, saturating like [`act`](Self::act) for points near the scalar's
+            /// `−R hat(p)`, saturating like `act` for points near the scalar's
             /// largest value.
             #[inline]
             fn j_act_self(&self, p: &nalgebra::Vector3<T>) -> $crate::Jacobian<T, 3, 3> {

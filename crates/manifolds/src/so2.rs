@@ -234,7 +234,7 @@ impl<T: Real> GroupAction<1, 2> for So2<T> {
         saturated(self.z * p)
     }
 
-    /// `R [−p_y, p_x]ᵀ`, saturating like [`act`](Self::act).
+    /// `R [−p_y, p_x]ᵀ`, saturating like `act`.
     #[inline]
     fn j_act_self(&self, p: &Vector2<T>) -> Jacobian<T, 2, 1> {
         saturated(self.z * Vector2::new(-p.y, p.x))
