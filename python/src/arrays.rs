@@ -5,8 +5,8 @@ use crate::errors::value_error;
 use liebayes_manifolds::{ManifoldError, S2, So3, Su2};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use numpy::{
-    PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn,
-    PyUntypedArray, PyUntypedArrayMethods,
+    PyArray1, PyArray2, PyArrayDescr, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods,
+    PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -120,7 +120,7 @@ impl<'a, 'py> FromPyObject<'a, 'py> for Real3 {
     fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
         if let Ok(array) = obj.cast::<PyUntypedArray>() {
             let dtype = array.dtype();
-            if !matches!(dtype.kind(), b'f' | b'i' | b'u') {
+            if !is_real(&dtype) {
                 return Err(PyTypeError::new_err(format!(
                     "expected three real numbers, got an array of dtype {dtype}"
                 )));
@@ -128,6 +128,12 @@ impl<'a, 'py> FromPyObject<'a, 'py> for Real3 {
         }
         obj.extract::<[f64; 3]>().map(Self)
     }
+}
+
+/// Whether an array's values are real numbers: floats or integers, not complex, bool, object or
+/// strings (which a cast to float64 would turn into numbers silently or element by element).
+fn is_real(dtype: &Bound<'_, PyArrayDescr>) -> bool {
+    matches!(dtype.kind(), b'f' | b'i' | b'u')
 }
 
 /// [`float_array`] before it is borrowed.
@@ -159,7 +165,7 @@ fn contiguous_float64<'py>(
             .map_err(|_| PyTypeError::new_err(named("could not read it as an array".to_owned())))?,
     };
     let dtype = array.dtype();
-    if !matches!(dtype.kind(), b'f' | b'i' | b'u') {
+    if !is_real(&dtype) {
         return Err(PyTypeError::new_err(named(format!(
             "expected an array of real numbers (float64), got dtype {dtype}"
         ))));
