@@ -13,7 +13,7 @@
 //! runs it too).
 
 use liebayes_densities::testing::{DensitySubject, manifold_neighbours, quadrature};
-use liebayes_densities::{Density, Entropy, Rotate, density_laws};
+use liebayes_densities::{Density, DensityError, Entropy, Rotate, density_laws};
 #[cfg(test)]
 use liebayes_manifolds::testing::strategies as ms;
 use liebayes_manifolds::{LieGroup, So2};
@@ -75,11 +75,11 @@ impl Entropy for WrappedCauchy {
 }
 
 impl Rotate<So2<f64>> for WrappedCauchy {
-    fn rotated(&self, g: &So2<f64>) -> Self {
-        Self {
+    fn rotated(&self, g: &So2<f64>) -> Result<Self, DensityError> {
+        Ok(Self {
             mean: g.compose(&self.mean),
             rho: self.rho,
-        }
+        })
     }
 
     fn act(g: &So2<f64>, x: &So2<f64>) -> So2<f64> {

@@ -443,14 +443,14 @@ impl Bingham {
 impl Rotate<Su2<f64>> for Bingham {
     /// The eigenvectors turned by the left multiplication `q ↦ g q` (orthogonal for unit g), the same
     /// eigenvalues.
-    fn rotated(&self, g: &Su2<f64>) -> Self {
+    fn rotated(&self, g: &Su2<f64>) -> Result<Self, DensityError> {
         let [w, x, y, z] = g.to_quaternion_wxyz();
         // Left multiplication g q as a matrix acting on (w, x, y, z).
         let left = Matrix4::new(w, -x, -y, -z, x, w, -z, y, y, z, w, -x, z, -y, x, w);
-        Self {
+        Ok(Self {
             orientation: left * self.orientation,
             ..self.clone()
-        }
+        })
     }
 
     /// `g q`.

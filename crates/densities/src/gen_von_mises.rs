@@ -584,16 +584,16 @@ impl Product for GenVonMises2 {
 impl Rotate<So2<f64>> for GenVonMises2 {
     /// The harmonics turned by g and 2g, `η₁ ← R(g) η₁`, `η₂ ← R(2g) η₂`; the mode turns by g and the
     /// normaliser is unchanged, so nothing is recomputed.
-    fn rotated(&self, g: &So2<f64>) -> Self {
+    fn rotated(&self, g: &So2<f64>) -> Result<Self, DensityError> {
         let doubled = g.compose(g);
-        Self {
+        Ok(Self {
             eta1: rotate(&self.eta1, g.cos(), g.sin()),
             eta2: rotate(&self.eta2, doubled.cos(), doubled.sin()),
             reference: g
                 .compose(&So2::from_angle_unchecked(self.reference))
                 .angle(),
             log_normalizer_offset: self.log_normalizer_offset,
-        }
+        })
     }
 
     /// `g x`.

@@ -178,11 +178,11 @@ impl Convolve for HeatKernelSo3 {
 
 impl Rotate<So3<f64>> for HeatKernelSo3 {
     /// Centre `g c`, the same variance.
-    fn rotated(&self, g: &So3<f64>) -> Self {
-        Self {
+    fn rotated(&self, g: &So3<f64>) -> Result<Self, DensityError> {
+        Ok(Self {
             mean: g.compose(&self.mean),
             s: self.s,
-        }
+        })
     }
 
     /// `g R`.

@@ -431,23 +431,39 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussia
     /// identity and P is kept as it is; with world-frame errors (`Left<G>`) J = Ad(g), and the factor
     /// of `J P Jᵀ` is `J L` made lower-triangular by Givens rotations (no factorisation that could
     /// fail).
-    fn rotated(&self, g: &G) -> Self {
+    ///
+    /// # Errors
+    /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] when `J P Jᵀ` leaves the range
+    /// of [`new`](ManifoldGaussian::new) (a translation near overflow makes Ad(g) huge).
+    fn rotated(&self, g: &G) -> Result<Self, DensityError> {
+        const WHAT: &str = "covariance of the translated Gaussian, Ad(g) P Ad(g)^T";
         let j = g.j_compose_other(&self.mean);
         let mean = g.compose(&self.mean);
         if j == SMatrix::<f64, D, D>::identity() {
-            return Self {
+            return Ok(Self {
                 mean,
                 ..self.clone()
-            };
+            });
         }
         let covariance = self.sandwich(&j);
+        if let Some(&value) = covariance.iter().find(|v| !v.is_finite()) {
+            return Err(DensityError::NonFinite { what: WHAT, value });
+        }
+        within_scale(WHAT, &covariance)?;
         let cholesky = lower_factor(j * self.cholesky);
-        Self {
+        if let Some(inverse_trace) = inverse_trace_above(&cholesky, MAX_SCALE) {
+            return Err(DensityError::OutOfRange {
+                what: "trace of the inverse of the translated covariance",
+                value: inverse_trace,
+                range: "at most 1e100: Ad(g) P Ad(g)^T must keep its eigenvalues above about 1e-100",
+            });
+        }
+        Ok(Self {
             mean,
             covariance,
             log_det: log_det(&cholesky),
             cholesky,
-        }
+        })
     }
 
     /// `g x`.

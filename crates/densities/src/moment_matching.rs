@@ -30,7 +30,7 @@ impl HeatKernelSo3 {
         let v2 = (-self.variance()).exp_m1() / -4.0; // (1 − e^(−s))/4 without cancellation
         let about_identity =
             Bingham::from_second_moment(Matrix4::from_diagonal(&Vector4::new(w2, v2, v2, v2)))?;
-        Ok(about_identity.rotated(&self.mean().to_su2()))
+        about_identity.rotated(&self.mean().to_su2())
     }
 }
 
@@ -96,10 +96,8 @@ impl ManifoldGaussian<So3<f64>, 3> {
     /// # Errors
     /// Those of [`Bingham::from_second_moment`].
     pub fn to_bingham_moment_matched(&self) -> Result<Bingham, DensityError> {
-        Ok(
-            Bingham::from_second_moment(quaternion_moments(self.covariance()))?
-                .rotated(&self.mean().to_su2()),
-        )
+        Bingham::from_second_moment(quaternion_moments(self.covariance()))?
+            .rotated(&self.mean().to_su2())
     }
 }
 
@@ -122,7 +120,7 @@ impl Bingham {
             value: self.eigenvalues()[0] - self.eigenvalues()[1],
             range: "(0, infinity): a manifold Gaussian needs a unique mode",
         })?;
-        let target = vector_block(&self.rotated(&mode.inverse()).second_moment());
+        let target = vector_block(&self.rotated(&mode.inverse())?.second_moment());
         let mut covariance = target * 4.0;
         for _ in 0..50 {
             let residual = target - vector_block(&quaternion_moments(&covariance));
@@ -230,7 +228,7 @@ impl Bingham {
         covariance: &Matrix3<f64>,
     ) -> Result<Self, DensityError> {
         let moments = Self::diffusion_second_moment(covariance)?;
-        Ok(Self::from_second_moment(moments)?.rotated(mean))
+        Self::from_second_moment(moments)?.rotated(mean)
     }
 
     /// **Approximation**: the left-translated diffusion `LD(q̄, Σ)` with the second moments of the
@@ -251,7 +249,7 @@ impl Bingham {
             value: self.eigenvalues()[0] - self.eigenvalues()[1],
             range: "(0, infinity): a diffusion needs a unique mode",
         })?;
-        let about = self.rotated(&mode.inverse());
+        let about = self.rotated(&mode.inverse())?;
         let s = about.second_moment();
         let block = Matrix3::from_fn(|r, c| 0.5 * (s[(r + 1, c + 1)] + s[(c + 1, r + 1)]));
         let eigen = SymmetricEigen::new(block);

@@ -122,13 +122,17 @@ pub trait Convolve: Density + Sized {
 /// let p = VonMisesFisher::new(S2::new(Vector3::x()).unwrap(), 3.0).unwrap();
 /// let turn = So3::from_axis_angle(&Vector3::z(), std::f64::consts::FRAC_PI_2).unwrap();
 /// // Turning the density turns its mean: x goes to y.
-/// let turned = p.rotated(&turn);
+/// let turned = p.rotated(&turn)?;
 /// assert!((turned.mode().unwrap().as_vector() - Vector3::y()).norm() < 1e-15);
+/// # Ok::<(), liebayes_densities::DensityError>(())
 /// ```
 pub trait Rotate<G>: Density + Sized {
     /// The distribution of `g · x`, `x ~ self`: `rotated(g).log_pdf(act(g, x)) = log_pdf(x)`.
-    #[must_use]
-    fn rotated(&self, g: &G) -> Self;
+    ///
+    /// # Errors
+    /// Where the result overflows the representable range (the compact groups' rotations never
+    /// do; a Gaussian moved by a pose whose translation is near overflow can).
+    fn rotated(&self, g: &G) -> Result<Self, DensityError>;
 
     /// The action `g · x` on points that [`rotated`](Rotate::rotated) transports the density along.
     fn act(g: &G, x: &Self::Point) -> Self::Point;

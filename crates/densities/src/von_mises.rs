@@ -370,14 +370,14 @@ impl KlDivergence for VonMises {
 
 impl Rotate<So2<f64>> for VonMises {
     /// Mean direction `g μ`, the same κ: η turned by g (exact up to the rounding of one rotation).
-    fn rotated(&self, g: &So2<f64>) -> Self {
+    fn rotated(&self, g: &So2<f64>) -> Result<Self, DensityError> {
         let (c, s) = (g.cos(), g.sin());
-        Self {
+        Ok(Self {
             eta: Vector2::new(
                 c * self.eta.x - s * self.eta.y,
                 s * self.eta.x + c * self.eta.y,
             ),
-        }
+        })
     }
 
     /// `g x`.

@@ -156,11 +156,11 @@ impl VonMisesFisher {
 
 impl Rotate<So3<f64>> for VonMisesFisher {
     /// Mean `R μ`, the same κ.
-    fn rotated(&self, r: &So3<f64>) -> Self {
-        Self {
+    fn rotated(&self, r: &So3<f64>) -> Result<Self, DensityError> {
+        Ok(Self {
             mean: Self::act(r, &self.mean),
             kappa: self.kappa,
-        }
+        })
     }
 
     /// `R x`, renormalised (a rotation keeps the norm to rounding).

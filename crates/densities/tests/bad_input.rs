@@ -347,9 +347,9 @@ fn von_mises_fisher() {
                 check("kl", &call("kl", move || p.kl_divergence(&q)));
                 check("kl", &call("kl", move || q.kl_divergence(&p)));
                 check("mean_vector", &call("mean", move || p.first_moment()));
-                check(
+                checked(
                     "rotated",
-                    &Dens(call("rotated", move || p.rotated(&rotation))),
+                    call("rotated", move || p.rotated(&rotation).map(Dens)),
                 );
             }
             assert_eq!(
@@ -451,7 +451,7 @@ fn bingham() {
                 let q = p.clone();
                 check("moments", &call("moments", move || q.second_moment()));
                 let q = p.clone();
-                check("rotated", &Dens(call("rotated", move || q.rotated(&g))));
+                checked("rotated", call("rotated", move || q.rotated(&g).map(Dens)));
             }
         },
     );
@@ -622,4 +622,25 @@ fn a_first_moment_of_subnormal_squared_norm_gives_a_unit_mean() {
     let mean = p.mean().unwrap();
     assert!((mean.as_vector().norm_squared() - 1.0).abs() <= 4.0 * f64::EPSILON);
     assert!(p.concentration() > 0.0 && p.concentration() < 1e-159);
+}
+
+/// A world-frame Gaussian on SE(3) moved by a pose whose translation is near overflow: Ad(g) is
+/// huge, and `Ad(g) P Ad(g)ᵀ` leaves the Gaussians' range. It is an error, not a density with
+/// infinite covariance; a translation in range gives a valid density.
+#[test]
+fn a_gaussian_moved_by_a_huge_translation_is_an_error() {
+    use liebayes_densities::ManifoldGaussian;
+    use liebayes_densities::manifolds::{Left, Se3};
+    let p =
+        ManifoldGaussian::new(Left::new(Se3::identity()), nalgebra::Matrix6::identity()).unwrap();
+    let pose = |t: f64| {
+        let rotation = so3(Vector3::new(0.3, -0.2, 0.1));
+        Left::new(Se3::new(rotation, Vector3::new(t, -t, 0.5 * t)).unwrap())
+    };
+    for t in [1e60, 1e200, f64::MAX] {
+        assert!(p.rotated(&pose(t)).is_err(), "translation {t:e}");
+    }
+    let moved = p.rotated(&pose(1e3)).unwrap();
+    assert!(moved.covariance().iter().all(|v| v.is_finite()));
+    assert!(moved.log_pdf(moved.mean()).is_finite());
 }

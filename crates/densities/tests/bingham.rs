@@ -300,7 +300,7 @@ proptest! {
         if let Some(m) = p.mode() {
             prop_assert!(p.log_pdf(&m) >= p.log_pdf(&x) - tolerance);
         }
-        let r = p.rotated(&g);
+        let r = p.rotated(&g).unwrap();
         prop_assert!((r.log_pdf(&liebayes_manifolds::LieGroup::compose(&g, &x)) - p.log_pdf(&x)).abs() <= tolerance);
         prop_assert!((r.log_normalizer() - p.log_normalizer()).abs() <= tolerance);
         // Entropy = ln K − Σ z E[u²] ≤ ln(1) = 0 against the uniform probability measure.

@@ -125,7 +125,7 @@ proptest! {
         }
         // Invariance: the density of R x under the rotated distribution equals that of x.
         let rx = S2::new_unchecked(r.act(x.as_vector()));
-        prop_assert!((p.rotated(&r).log_pdf(&rx) - p.log_pdf(&x)).abs() <= log_rounding(scale));
+        prop_assert!((p.rotated(&r).unwrap().log_pdf(&rx) - p.log_pdf(&x)).abs() <= log_rounding(scale));
     }
 }
 

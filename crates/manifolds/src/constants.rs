@@ -14,6 +14,7 @@
 //! | [`MIN_DIRECTION_NORM`](Thresholds::MIN_DIRECTION_NORM) | 1e-150 | 1e-18 | the normalising constructors refuse vectors shorter than this: their direction is noise |
 //! | [`MEAN_TOLERANCE`](Thresholds::MEAN_TOLERANCE) | 1e-10 | 1e-5 | default convergence tolerance of [`weighted_mean`](crate::weighted_mean): the tangent norm of the last Gauss-Newton step |
 //! | [`MEAN_MAX_ITERATIONS`] | 50 | 50 | default iteration bound of [`weighted_mean`](crate::weighted_mean) |
+//! | [`MEAN_ITERATION_LIMIT`] | 10 000 | 10 000 | the largest iteration bound [`MeanSettings::new`](crate::MeanSettings::new) accepts |
 //! | [`POLAR_MAX_SWEEPS`] | 100 | 100 | bound on the Jacobi sweeps of [`So3::from_matrix_orthonormalized`](crate::So3::from_matrix_orthonormalized) |
 //!
 //! Why the series thresholds are safe: the series are kept to the theta^4 term, so their truncation
@@ -77,6 +78,10 @@ pub trait Thresholds: Sized {
 
 /// Default iteration bound of the weighted mean.
 pub const MEAN_MAX_ITERATIONS: usize = 50;
+
+/// The largest iteration bound of the weighted mean a caller may set: Gauss-Newton converges
+/// quadratically near the mean, so a bound beyond this only lets a diverging run spin.
+pub const MEAN_ITERATION_LIMIT: usize = 10_000;
 
 /// Bound on the Jacobi sweeps behind [`So3::from_matrix_orthonormalized`](crate::So3::from_matrix_orthonormalized).
 pub const POLAR_MAX_SWEEPS: usize = 100;

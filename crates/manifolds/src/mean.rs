@@ -1,6 +1,6 @@
 //! The weighted mean on any [`Manifold`]: [`weighted_mean`] and its [`MeanSettings`].
 
-use crate::constants::MEAN_MAX_ITERATIONS;
+use crate::constants::{MEAN_ITERATION_LIMIT, MEAN_MAX_ITERATIONS};
 use crate::error::ManifoldError;
 use crate::manifold::{Manifold, Tangent};
 use crate::real::Real;
@@ -22,14 +22,14 @@ impl<T: Real> MeanSettings<T> {
     /// The settings, checked.
     ///
     /// # Errors
-    /// [`ManifoldError::OutOfRange`] unless `max_iterations >= 1` and `tolerance` is finite and
-    /// positive.
+    /// [`ManifoldError::OutOfRange`] unless `max_iterations` is in 1..=[`MEAN_ITERATION_LIMIT`]
+    /// and `tolerance` is finite and positive.
     pub fn new(max_iterations: usize, tolerance: T) -> Result<Self, ManifoldError> {
-        if max_iterations == 0 {
+        if !(1..=MEAN_ITERATION_LIMIT).contains(&max_iterations) {
             return Err(ManifoldError::OutOfRange {
                 what: "the iteration bound of the mean",
-                value: 0.0,
-                range: "at least 1",
+                value: max_iterations as f64,
+                range: "1 to 10 000",
             });
         }
         if !(tolerance.is_finite() && tolerance > T::zero()) {

@@ -2,6 +2,7 @@
 //! circular mean on SO(2) (with the bound on their difference), symmetric configurations whose mean
 //! is known, bi-invariance on SO(3), and every error.
 
+use liebayes_manifolds::constants::MEAN_ITERATION_LIMIT;
 use liebayes_manifolds::testing::strategies as st;
 use liebayes_manifolds::{
     Left, LieGroup, Manifold, ManifoldError, MeanSettings, ProductManifold, Rn, So2, So3,
@@ -186,10 +187,13 @@ fn non_convergence_is_an_error_with_the_last_step() {
 
 #[test]
 fn settings_are_checked() {
-    assert!(matches!(
-        MeanSettings::new(0, 1e-10_f64),
-        Err(ManifoldError::OutOfRange { .. })
-    ));
+    for bound in [0, MEAN_ITERATION_LIMIT + 1, usize::MAX] {
+        assert!(matches!(
+            MeanSettings::new(bound, 1e-10_f64),
+            Err(ManifoldError::OutOfRange { .. })
+        ));
+    }
+    assert!(MeanSettings::new(MEAN_ITERATION_LIMIT, 1e-10_f64).is_ok());
     for bad in [0.0, -1e-10, f64::NAN, f64::INFINITY] {
         assert!(matches!(
             MeanSettings::new(10, bad),

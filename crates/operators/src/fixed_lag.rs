@@ -32,6 +32,22 @@ const WINDOW: &str = "fixed-lag smoother window (lag + 1 epochs)";
 /// lag of 0.3 s at 0.1 s per step is 3 epochs, whatever the rounding of 0.3 / 0.1).
 const WHOLE_EPOCHS: f64 = 1e-9;
 
+/// The largest epoch index a fixed-lag smoother counts to: 2⁵³, so that every epoch is exact as an
+/// `f64` too (at a million epochs a second, 285 years of them).
+pub const MAX_EPOCH: u64 = 1 << 53;
+
+/// [`OperatorError::OutOfRange`] for an epoch past [`MAX_EPOCH`].
+fn check_epoch(epoch: u64) -> Result<(), OperatorError> {
+    if epoch > MAX_EPOCH {
+        return Err(OperatorError::OutOfRange {
+            what: "epoch of a fixed-lag smoother",
+            value: epoch as f64,
+            range: "0 to 2^53",
+        });
+    }
+    Ok(())
+}
+
 /// The fixed-lag smoother: a Gaussian filter on a manifold that keeps the last L + 1 epochs of
 /// its record and smooths them on request (see the module docs for the math).
 ///
@@ -197,8 +213,8 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> FixedLagSmoother<X, D> {
     /// recorded run bit for bit.
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] unless the window holds `min(epoch, lag) + 1` filtered densities
-    /// and one transition fewer, [`OperatorError::NonFinite`] for a cross-covariance entry that is
+    /// [`OperatorError::OutOfRange`] for an epoch past [`MAX_EPOCH`] or unless the window holds
+    /// `min(epoch, lag) + 1` filtered densities and one transition fewer, [`OperatorError::NonFinite`] for a cross-covariance entry that is
     /// not finite, [`OperatorError::TooLarge`] as [`new`](Self::new).
     pub fn from_records(
         lag: usize,
@@ -207,7 +223,8 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> FixedLagSmoother<X, D> {
         transitions: Vec<Prediction<X, D>>,
     ) -> Result<Self, OperatorError> {
         check_records(&filtered, &transitions)?;
-        let expected = epoch.min(lag as u64) + 1;
+        check_epoch(epoch)?;
+        let expected = epoch.min(lag as u64).saturating_add(1);
         if filtered.len() as u64 != expected {
             return Err(OperatorError::OutOfRange {
                 what: "number of filtered densities in a fixed-lag smoother's window",
@@ -280,11 +297,13 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> FixedLagSmoother<X, D> {
     /// and evicting the oldest epoch once the window holds L + 1.
     ///
     /// # Errors
-    /// The prediction's; the smoother is then unchanged.
+    /// The prediction's, and [`OperatorError::OutOfRange`] past epoch [`MAX_EPOCH`]; the smoother
+    /// is then unchanged.
     pub fn propagate<W>(&mut self, model: &W, input: &W::Input) -> Result<(), OperatorError>
     where
         W: GaussianTransition<X, D>,
     {
+        check_epoch(self.epoch + 1)?;
         let step = model.predict_with_cross(self.current(), input)?;
         if self.filtered.len() > self.lag {
             self.filtered.pop_front();

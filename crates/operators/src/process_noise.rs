@@ -215,18 +215,37 @@ pub fn per_axis<const B: usize, const T: usize>(block: &SMatrix<f64, B, B>) -> S
 
 /// `Ad(x) P Ad(x)ᵀ`: a covariance of body-frame errors (`x exp(δ)`, the crate's convention) as one
 /// of world-frame errors (`exp(δ) x`, [`Left`]) at the same point. Exact (the map of the errors is
-/// linear); any x.
-pub fn world_from_body<G, const D: usize>(x: &G, body: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D>
+/// linear); any x and P whose product is representable.
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] for a non-finite entry of P or a result that overflows (a pose
+/// whose translation is near overflow makes Ad(x) huge).
+pub fn world_from_body<G, const D: usize>(
+    x: &G,
+    body: &SMatrix<f64, D, D>,
+) -> Result<SMatrix<f64, D, D>, OperatorError>
 where
     G: LieGroup<D, Scalar = f64>,
 {
+    all_finite("covariance P", body.iter())?;
     let ad = x.adjoint();
-    symmetric_part(&(ad * body * ad.transpose()))
+    let moved = symmetric_part(&(ad * body * ad.transpose()));
+    all_finite(
+        "transported covariance Ad P Ad^T (the pose's translation is too large)",
+        moved.iter(),
+    )?;
+    Ok(moved)
 }
 
 /// `Ad(x⁻¹) P Ad(x⁻¹)ᵀ`: a covariance of world-frame errors as one of body-frame errors at the same
 /// point, the inverse of [`world_from_body`].
-pub fn body_from_world<G, const D: usize>(x: &G, world: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D>
+///
+/// # Errors
+/// As [`world_from_body`].
+pub fn body_from_world<G, const D: usize>(
+    x: &G,
+    world: &SMatrix<f64, D, D>,
+) -> Result<SMatrix<f64, D, D>, OperatorError>
 where
     G: LieGroup<D, Scalar = f64>,
 {
@@ -237,8 +256,8 @@ where
 /// with `exp(δ) x` ([`Left`]), the same distribution of points.
 ///
 /// # Errors
-/// [`OperatorError::Density`] when the transported covariance is not representable (an adjoint
-/// with entries near overflow).
+/// [`OperatorError::NonFinite`] or [`OperatorError::Density`] when the transported covariance is
+/// not representable (an adjoint with entries near overflow).
 pub fn to_world_frame<G, const D: usize>(
     density: &ManifoldGaussian<G, D>,
 ) -> Result<ManifoldGaussian<Left<G>, D>, OperatorError>
@@ -248,7 +267,7 @@ where
     let x = density.mean();
     Ok(ManifoldGaussian::new(
         Left::new(x.clone()),
-        world_from_body(x, density.covariance()),
+        world_from_body(x, density.covariance())?,
     )?)
 }
 
@@ -265,7 +284,7 @@ where
     let x = density.mean().inner();
     Ok(ManifoldGaussian::new(
         x.clone(),
-        body_from_world(x, density.covariance()),
+        body_from_world(x, density.covariance())?,
     )?)
 }
 

@@ -6,7 +6,7 @@
 
 use liebayes_densities::{Density, Gaussian, ManifoldGaussian};
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, Rn, So3};
-use liebayes_operators::fixed_lag::FixedLagSmoother;
+use liebayes_operators::fixed_lag::{FixedLagSmoother, MAX_EPOCH};
 use liebayes_operators::smoother::{GaussianTransition, RtsSmoother};
 use liebayes_operators::{Ekf, MeasurementFn, OperatorError, ProcessFn, Ukf};
 use nalgebra::{Matrix1, Matrix2, Matrix3, SMatrix, SVector, Vector1, Vector2, Vector3};
@@ -223,9 +223,23 @@ fn malformed_records_and_failed_steps_are_refused() {
         Err(OperatorError::NonFinite { .. })
     ));
     assert!(matches!(
-        RtsSmoother::from_records(filtered, bad),
+        RtsSmoother::from_records(filtered.clone(), bad),
         Err(OperatorError::NonFinite { .. })
     ));
+    // Epochs past 2^53 are refused, read back or counted to (no overflow at u64::MAX).
+    for (lag, epoch) in [(usize::MAX, u64::MAX), (2, MAX_EPOCH + 1)] {
+        assert!(matches!(
+            FixedLagSmoother::from_records(lag, epoch, filtered.clone(), transitions.clone()),
+            Err(OperatorError::OutOfRange { .. })
+        ));
+    }
+    let mut last = FixedLagSmoother::from_records(2, MAX_EPOCH, filtered, transitions).unwrap();
+    let at_last = last.clone();
+    assert!(matches!(
+        last.propagate(&Ekf(&walk), &()),
+        Err(OperatorError::OutOfRange { .. })
+    ));
+    assert_eq!(last, at_last);
     // A failed step leaves the smoother as it was.
     let before = fixed.clone();
     let bad_noise = ProcessFn::new(|x: &Rn<f64, 1>, (): &()| *x, |_, ()| Matrix1::new(f64::NAN));

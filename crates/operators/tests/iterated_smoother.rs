@@ -244,6 +244,23 @@ fn block_solvers_refuse_bad_matrices() {
         factor.solve(&[Vector1::new(f64::INFINITY)]),
         Err(OperatorError::NonFinite { .. })
     ));
+    // Positive definite but nearly singular (diagonal 1e-310): x = b / 1e-310 and Λ⁻¹ overflow,
+    // an error rather than an infinite result.
+    let tiny =
+        BlockTridiagonal::<1>::new(vec![Matrix1::new(1e-310); 2], vec![Matrix1::new(0.0)]).unwrap();
+    for backend in [Backend::FixedSize, Backend::Faer] {
+        let factor = tiny.factor_with(backend).unwrap();
+        assert!(matches!(
+            factor.solve(&[Vector1::new(1.0); 2]),
+            Err(OperatorError::NonFinite { .. })
+        ));
+        assert!(matches!(
+            factor.marginal_covariances(),
+            Err(OperatorError::NonFinite { .. })
+        ));
+        let small = factor.solve(&[Vector1::new(1e-300); 2]).unwrap();
+        assert!(small.iter().all(|x| x[0].is_finite() && x[0] > 1e9));
+    }
 }
 
 /// The unicycle: `x′ = x · exp([v dt, 0, ω dt])` on SE(2), with range and bearing to two

@@ -205,14 +205,26 @@ fn the_transported_covariance_is_that_of_the_transported_errors() {
     }
     // Hence Cov(δ_w) = Ad Cov(δ_b) Adᵀ, and back.
     let p = spd6(&Vector6::new(0.3, -0.1, 0.2, 0.05, 0.4, -0.2));
-    let pw = world_from_body(&x, &p);
+    let pw = world_from_body(&x, &p).unwrap();
     assert!((pw - ad * p * ad.transpose()).amax() < 1e-12 * pw.amax());
-    assert!((body_from_world(&x, &pw) - p).amax() < 1e-12 * pw.amax());
+    assert!((body_from_world(&x, &pw).unwrap() - p).amax() < 1e-12 * pw.amax());
     let density = ManifoldGaussian::new(x, p).unwrap();
     let there = to_world_frame(&density).unwrap();
     assert_eq!(there.mean().inner(), &x);
     let back = to_body_frame(&there).unwrap();
     assert!((back.covariance() - p).amax() < 1e-12 * pw.amax());
+    // A translation near overflow: Ad P Adᵀ overflows, an error rather than an infinite matrix;
+    // a non-finite P is refused.
+    let far = Se3::new(*x.rotation(), Vector3::new(1e200, -1e200, 3e199)).unwrap();
+    for huge in [world_from_body(&far, &p), body_from_world(&far, &p)] {
+        assert!(matches!(huge, Err(OperatorError::NonFinite { .. })));
+    }
+    let mut bad = p;
+    bad[(2, 4)] = f64::NAN;
+    assert!(matches!(
+        world_from_body(&x, &bad),
+        Err(OperatorError::NonFinite { .. })
+    ));
 }
 
 proptest! {
@@ -243,7 +255,7 @@ proptest! {
         let x = So3::exp(&Vector3::from(axis));
         let s = Vector3::from(seed);
         let p = s * s.transpose() + Matrix3::identity() * 0.01;
-        let back = body_from_world(&x, &world_from_body(&x, &p));
+        let back = body_from_world(&x, &world_from_body(&x, &p).unwrap()).unwrap();
         prop_assert!((back - p).amax() < 1e-12);
     }
 }

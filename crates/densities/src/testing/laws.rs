@@ -463,7 +463,8 @@ pub fn check_entropy<P: DensitySubject + Entropy>(p: &P) -> Result<(), TestCaseE
 }
 
 /// **Rotation**: `rotated(g).log_pdf(act(g, x)) = log_pdf(x)` at every quadrature node x, within the
-/// rounding of the terms; `ln Z` unchanged.
+/// rounding of the terms; `ln Z` unchanged. The strategies' subjects and rotations are in range, so
+/// an error from `rotated` fails the law.
 ///
 /// # Errors
 /// The law's failure, with the numbers.
@@ -471,7 +472,9 @@ pub fn check_rotated<G: Debug, P: DensitySubject + Rotate<G>>(
     p: &P,
     g: &G,
 ) -> Result<(), TestCaseError> {
-    let r = p.rotated(g);
+    let r = p
+        .rotated(g)
+        .map_err(|e| TestCaseError::fail(format!("rotated by {g:?} failed: {e}")))?;
     let scale = p.log_scale() + r.log_scale();
     prop_assert!(
         (r.log_normalizer() - p.log_normalizer()).abs() <= rounding(scale + p.log_normalizer()),

@@ -194,7 +194,8 @@ impl<const D: usize> BlockCholesky<D> {
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] when b does not have n blocks, [`OperatorError::NonFinite`] for
-    /// a NaN or infinite entry of b, [`OperatorError::TooLarge`] when x cannot be allocated.
+    /// a NaN or infinite entry of b or an x that overflows (a nearly singular Λ),
+    /// [`OperatorError::TooLarge`] when x cannot be allocated.
     pub fn solve(&self, rhs: &[SVector<f64, D>]) -> Result<Vec<SVector<f64, D>>, OperatorError> {
         let blocks = match &self.factors {
             Factors::FixedSize(r) => r.factors.len(),
@@ -210,21 +211,32 @@ impl<const D: usize> BlockCholesky<D> {
         for b in rhs {
             all_finite("right-hand side", b.iter())?;
         }
-        match &self.factors {
-            Factors::FixedSize(r) => r.solve(rhs),
-            Factors::Faer(r) => r.solve(rhs),
-        }
+        let x = match &self.factors {
+            Factors::FixedSize(r) => r.solve(rhs)?,
+            Factors::Faer(r) => r.solve(rhs)?,
+        };
+        all_finite(
+            "solution of the block-tridiagonal system (the matrix is nearly singular)",
+            x.iter().flat_map(|block| block.iter()),
+        )?;
+        Ok(x)
     }
 
     /// The diagonal blocks `Σ_k` of `Λ⁻¹` (by the backward recursion, never by inverting Λ).
     ///
     /// # Errors
+    /// [`OperatorError::NonFinite`] when a block overflows (a nearly singular Λ),
     /// [`OperatorError::TooLarge`] when the result cannot be allocated.
     pub fn marginal_covariances(&self) -> Result<Vec<SMatrix<f64, D, D>>, OperatorError> {
-        match &self.factors {
-            Factors::FixedSize(r) => r.marginals(),
-            Factors::Faer(r) => r.marginals(),
-        }
+        let marginals = match &self.factors {
+            Factors::FixedSize(r) => r.marginals()?,
+            Factors::Faer(r) => r.marginals()?,
+        };
+        all_finite(
+            "marginal covariance of the block-tridiagonal inverse (the matrix is nearly singular)",
+            marginals.iter().flat_map(|block| block.iter()),
+        )?;
+        Ok(marginals)
     }
 }
 
