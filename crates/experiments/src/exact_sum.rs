@@ -189,6 +189,30 @@ impl ExactSum {
         if negative { -magnitude } else { magnitude }
     }
 
+    /// The total divided by `count` (> 0): the rounded total divided by the count, or, where the
+    /// total of finite values overflows f64, the total scaled by 2⁻⁶⁴ first, so that the mean of
+    /// finite values is finite. Non-finite flags give the [`value`](Self::value)'s NaN or ±∞.
+    pub(crate) fn mean(&self, count: u64) -> f64 {
+        let n = count as f64;
+        let total = self.value();
+        if total.is_finite() || self.has_non_finite() {
+            return total / n;
+        }
+        let mut scaled = self.clone();
+        scaled.scale_down_64();
+        let down = scaled.value();
+        down / n * 2f64.powi(64)
+    }
+
+    /// Divides the exact total by 2⁶⁴ (two limbs down), rounded down to a multiple of 2⁻¹⁰⁷⁴: an
+    /// error of less than 2⁻¹⁰¹⁰ before the scaling, nothing beside a total above f64's range.
+    fn scale_down_64(&mut self) {
+        let normalised = self.normalised();
+        self.limbs = [0; LIMBS];
+        self.limbs[..LIMBS - 2].copy_from_slice(&normalised.limbs[2..]);
+        self.pending = 1;
+    }
+
     /// The value of non-negative normalised limbs, rounded once.
     fn magnitude(&self) -> f64 {
         let Some(top) = self.limbs.iter().rposition(|&l| l != 0) else {

@@ -54,6 +54,7 @@
 
 mod error;
 mod exact_sum;
+mod file_value;
 pub mod filter;
 mod method;
 mod paired;

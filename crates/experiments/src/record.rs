@@ -1,9 +1,11 @@
 //! The recorder: a replay that keeps every step's estimate (what filterpy's `Saver` keeps), for
 //! evaluations that score a whole recorded log, plot a run, or write its estimates to a file.
 
+use crate::MAX_EPOCHS;
 use crate::filter::{RecursiveFilter, Update};
 use crate::replay::{RunFailure, Step};
 use crate::smoothing::Releases;
+use liebayes_operators::OperatorError;
 use std::time::Instant;
 
 /// One step of a [`Recording`]: its time and truth as the steps gave them, the estimate after the
@@ -54,12 +56,14 @@ impl<T, E> Recording<T, E> {
 
 /// Runs `filter` through `steps` as [`replay`](crate::replay()) does (a predict with each step's
 /// input, then an update where it has a measurement) and keeps every step: its time, its truth,
-/// the estimate after it and the update's report, and for a smoother its smoothed estimate. Memory grows with the number of steps: the
-/// capacity is reserved from the iterator's lower size bound, so a log's steps are reserved once.
+/// the estimate after it and the update's report, and for a smoother its smoothed estimate.
+/// Memory grows with the number of steps, at most [`MAX_EPOCHS`]: the capacity is reserved from
+/// the iterator's lower size bound (up to that limit), so a log's steps are reserved once.
 ///
 /// # Errors
-/// [`RunFailure`] at the first step, update or estimate that fails; the steps before it are lost
-/// with the recording (the filter is left as it was after the last good step).
+/// [`RunFailure`] at the first step, update or estimate that fails, and with
+/// [`OperatorError::TooLarge`] at a step past [`MAX_EPOCHS`]; the steps before it are lost with
+/// the recording (the filter is left as it was after the last good step).
 ///
 /// # Example
 /// A constant on the line measured three times: the recording keeps the three posteriors.
@@ -98,7 +102,9 @@ where
     F::Measurement: Sized,
 {
     let steps = steps.into_iter();
-    let mut kept: Vec<Recorded<T, F::Estimate>> = Vec::with_capacity(steps.size_hint().0);
+    let mut kept: Vec<Recorded<T, F::Estimate>> = Vec::new();
+    // A reservation the system refuses is left to the vector's growth.
+    let _ = kept.try_reserve_exact(steps.size_hint().0.min(MAX_EPOCHS));
     let mut smoothed: Vec<F::Estimate> = Vec::new();
     let mut releases = Releases::new();
     // A smoother releases its estimates in step order, from step 0.
@@ -114,6 +120,13 @@ where
             time: step.time,
             error,
         };
+        if index >= MAX_EPOCHS {
+            return Err(fail(OperatorError::TooLarge {
+                what: "steps of a recording",
+                value: index.saturating_add(1),
+                max: MAX_EPOCHS,
+            }));
+        }
         filter.predict(&step.input).map_err(fail)?;
         let update = match &step.measurement {
             Some(z) => Some(filter.update(z).map_err(fail)?),

@@ -82,10 +82,14 @@ impl RunScores {
         self.times.len()
     }
 
-    /// Metric `name` at epoch k.
+    /// Metric `name` at epoch k (`None` for an unknown name or an epoch not scored).
     pub fn get(&self, name: &str, k: usize) -> Option<f64> {
         let j = self.metrics.iter().position(|m| m.name == name)?;
-        self.values.get(k * self.metrics.len() + j).copied()
+        if k >= self.epochs() {
+            return None;
+        }
+        let index = k.checked_mul(self.metrics.len())?.checked_add(j)?;
+        self.values.get(index).copied()
     }
 }
 

@@ -4,6 +4,7 @@
 
 use crate::ExactSum;
 use crate::ExperimentError;
+use crate::file_value::FileValue;
 use crate::score::Reduction;
 use serde::{Deserialize, Serialize};
 
@@ -19,8 +20,7 @@ pub const MAX_KEPT_RUNS: u64 = 1 << 16;
 /// [`MAX_KEPT_RUNS`]), sorted by run index. A run's value is its metric reduced over the run's
 /// epochs with a finite value: the root mean square `√(Σ xₖ² / n)` for
 /// [`Reduction::RootMeanSquare`], the mean `Σ xₖ / n` otherwise, each sum exact and rounded once;
-/// NaN when the run had no finite value (or its reduction overflows: for an RMS, values beyond
-/// about 1e154). So every value is finite or NaN.
+/// NaN when the run had no finite value. So every value is finite or NaN.
 ///
 /// Two are equal when their run indices and values are equal bit for bit (a NaN equals itself).
 /// In a file, NaN is written `null` and read back as NaN.
@@ -111,21 +111,36 @@ impl RunValues {
 
 /// One run's value of a metric from its values at the run's epochs (see [`RunValues`]): over the
 /// finite values, `√(Σ x² / n)` for [`Reduction::RootMeanSquare`] and `Σ x / n` otherwise, each
-/// sum exact and rounded once; NaN without a finite value or where the result overflows.
+/// sum exact and rounded once; NaN without a finite value. Both lie within the values' range, so
+/// they are finite: where the squares overflow (values beyond about 1e154), the root mean square
+/// is taken of the values scaled by 2⁻⁶⁰⁰ (exactly) and scaled back.
 pub(crate) fn run_value(reduction: Reduction, values: impl Iterator<Item = f64>) -> f64 {
+    const DOWN: f64 = 2.409_919_865_102_884e-181; // 2⁻⁶⁰⁰, exactly
+    const UP: f64 = 4.149_515_568_880_993e180; // 2⁶⁰⁰, exactly
     let square = reduction == Reduction::RootMeanSquare;
-    let mut sum = ExactSum::new();
+    let (mut sum, mut scaled) = (ExactSum::new(), ExactSum::new());
     let mut count = 0_u64;
     for x in values.filter(|x| x.is_finite()) {
-        sum.add(if square { x * x } else { x });
+        if square {
+            sum.add(x * x);
+            scaled.add((x * DOWN) * (x * DOWN));
+        } else {
+            sum.add(x);
+        }
         count += 1;
     }
     if count == 0 {
         return f64::NAN;
     }
-    let mean = sum.value() / count as f64;
-    let value = if square { mean.sqrt() } else { mean };
-    if value.is_finite() { value } else { f64::NAN }
+    if !square {
+        return sum.mean(count);
+    }
+    let mean_square = sum.mean(count);
+    if mean_square.is_finite() {
+        mean_square.sqrt()
+    } else {
+        scaled.mean(count).sqrt() * UP
+    }
 }
 
 /// The quantiles of the finite values of `values`, one per probability p, by linear interpolation
@@ -205,23 +220,19 @@ pub fn relative_differences(reference: &RunValues, other: &RunValues) -> Vec<f64
 }
 
 /// The serialized form of [`RunValues`]: the run indices and, beside them, the values (`null` for
-/// NaN).
+/// NaN, `"inf"` and `"-inf"` for the infinities).
 #[derive(Serialize, Deserialize)]
 #[serde(rename = "RunValues", deny_unknown_fields)]
 struct RunValuesFields {
     runs: Vec<u64>,
-    values: Vec<Option<f64>>,
+    values: Vec<FileValue>,
 }
 
 impl Serialize for RunValues {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         RunValuesFields {
             runs: self.values.iter().map(|v| v.0).collect(),
-            values: self
-                .values
-                .iter()
-                .map(|v| (!v.1.is_nan()).then_some(v.1))
-                .collect(),
+            values: self.values.iter().map(|v| FileValue(v.1)).collect(),
         }
         .serialize(serializer)
     }
@@ -252,7 +263,7 @@ impl<'de> Deserialize<'de> for RunValues {
                 .runs
                 .into_iter()
                 .zip(fields.values)
-                .map(|(r, v)| (r, v.unwrap_or(f64::NAN)))
+                .map(|(r, v)| (r, v.0))
                 .collect(),
         })
     }

@@ -342,7 +342,7 @@ impl<S: Smoother<P, M>, P, M> Smoothed<S, P, M> {
 impl<S: Smoother<P, M>, P, M, E> Smoothed<S, P, M, E> {
     /// The smoother estimated by `estimator`; its steps are those after its current epoch.
     pub fn with_estimator(smoother: S, process: P, measurement: M, estimator: E) -> Self {
-        let next = smoother.epoch() + 1;
+        let next = smoother.epoch().saturating_add(1);
         Self {
             smoother,
             process,

@@ -12,8 +12,8 @@ use crate::ExactSum;
 /// f64: the variance keeps a relative accuracy of about `ε · mean² / variance`, which loses digits
 /// only for values whose spread is below 1e-8 of their size.
 ///
-/// Read from a file, the statistics are checked: no non-finite value in either sum (only finite
-/// values are summed), the count and the non-finite count summing within u64, extremes present
+/// Read from a file, the statistics are checked: no non-finite value in the sum (only finite
+/// values are summed) nor in the sum of squares but the +∞ of a square that overflows, the count and the non-finite count summing within u64, extremes present
 /// exactly when the count is positive, finite, with min ≤ max, and the sums of no values zero.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "RunningStatsFields")]
@@ -77,13 +77,14 @@ impl RunningStats {
         self.sum.value()
     }
 
-    /// The mean `Σx / n`, `None` without finite values.
+    /// The mean `Σx / n`, `None` without finite values; finite, as the values are (a sum that
+    /// overflows is divided at a scale of 2⁻⁶⁴).
     pub fn mean(&self) -> Option<f64> {
-        (self.count > 0).then(|| self.sum.value() / self.count as f64)
+        (self.count > 0).then(|| self.sum.mean(self.count))
     }
 
     /// The mean square `Σx² / n` (for a root-mean-square error, take its square root), `None`
-    /// without finite values.
+    /// without finite values; +∞ where the squares overflow (values beyond about 1e154).
     pub fn mean_square(&self) -> Option<f64> {
         (self.count > 0).then(|| self.sum_of_squares.value() / self.count as f64)
     }
@@ -95,7 +96,7 @@ impl RunningStats {
             return None;
         }
         let n = self.count as f64;
-        let mean = self.sum.value() / self.count as f64;
+        let mean = self.sum.mean(self.count);
         let mean_square = self.sum_of_squares.value() / self.count as f64;
         if mean_square.is_infinite() {
             return Some(f64::INFINITY);
@@ -130,10 +131,21 @@ impl TryFrom<RunningStatsFields> for RunningStats {
     type Error = String;
 
     fn try_from(f: RunningStatsFields) -> Result<Self, String> {
-        if f.sum.has_non_finite() || f.sum_of_squares.has_non_finite() {
+        if f.sum.has_non_finite() {
             return Err(
-                "statistics: sum or sum_of_squares is flagged NaN or infinite, but only \
-                        finite values are summed"
+                "statistics: sum is flagged NaN or infinite, but only finite values are summed"
+                    .to_owned(),
+            );
+        }
+        // A square overflows to +inf exactly when a value's magnitude is beyond √MAX ≈ 1.3e154.
+        let largest = f.min.unwrap_or(0.0).abs().max(f.max.unwrap_or(0.0).abs());
+        let square_overflows = (largest * largest).is_infinite();
+        if f.sum_of_squares.has_non_finite()
+            && !(f.sum_of_squares.value() == f64::INFINITY && square_overflows)
+        {
+            return Err(
+                "statistics: sum_of_squares is flagged NaN or infinite, but it is +inf only \
+                 where a value's square overflows (min or max beyond 1.3e154)"
                     .to_owned(),
             );
         }

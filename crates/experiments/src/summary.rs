@@ -2,6 +2,7 @@
 //! the metrics that ask for them, the failures by reason, and the run ranges it covers. Summaries of disjoint run ranges merge exactly, so shards of a
 //! study run on different machines combine to the summary of one run over all of them, bit for bit.
 
+use crate::file_value::file_values;
 use crate::replay::RunScores;
 use crate::run_values::{MAX_KEPT_RUNS, RunValues, run_value};
 use crate::score::Reduction;
@@ -105,26 +106,10 @@ pub struct Trace {
     pub run: u64,
     /// The time of each epoch (s).
     pub times: Vec<f64>,
-    /// `values[k * metrics + j]`: metric j of the summary at epoch k (NaN where it has none,
-    /// written `null` in a file and read back as NaN).
-    #[serde(with = "missing_as_null")]
+    /// `values[k * metrics + j]`: metric j of the summary at epoch k (NaN where it has none;
+    /// in a file `null`, and the infinities `"inf"` and `"-inf"`).
+    #[serde(with = "file_values")]
     pub values: Vec<f64>,
-}
-
-/// Values where NaN (no value) is written as `null`, the form JSON has for it, and read back.
-mod missing_as_null {
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
-    pub(super) fn serialize<S: Serializer>(values: &[f64], s: S) -> Result<S::Ok, S::Error> {
-        let present: Vec<Option<f64>> =
-            values.iter().map(|v| (!v.is_nan()).then_some(*v)).collect();
-        present.serialize(s)
-    }
-
-    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
-        let present = Vec::<Option<f64>>::deserialize(d)?;
-        Ok(present.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect())
-    }
 }
 
 impl PartialEq for Trace {
@@ -203,6 +188,33 @@ impl TryFrom<SummaryFields> for Summary {
         summary.check()?;
         Ok(summary)
     }
+}
+
+/// The shape of one run's scores: one value per epoch and metric, distinct metric names, finite
+/// and strictly increasing epoch times (what a summary's trace must hold).
+fn check_scores(run: u64, scores: &RunScores) -> Result<(), ExperimentError> {
+    let (epochs, width) = (scores.epochs(), scores.metrics.len());
+    if epochs.checked_mul(width) != Some(scores.values.len()) {
+        return Err(ExperimentError::Incompatible(format!(
+            "run {run}: the scores hold {} values, not one per epoch ({epochs}) and metric ({width})",
+            scores.values.len()
+        )));
+    }
+    for (j, m) in scores.metrics.iter().enumerate() {
+        if scores.metrics[..j].iter().any(|n| n.name == m.name) {
+            return Err(ExperimentError::Incompatible(format!(
+                "run {run}: metric {:?} appears twice in the scores",
+                m.name
+            )));
+        }
+    }
+    if scores.times.iter().any(|t| !t.is_finite()) || scores.times.windows(2).any(|w| w[0] >= w[1])
+    {
+        return Err(ExperimentError::Incompatible(format!(
+            "run {run}: epoch times must be finite and strictly increasing"
+        )));
+    }
+    Ok(())
 }
 
 impl Summary {
@@ -364,10 +376,12 @@ impl Summary {
     /// run of the study (run 0) is also kept whole as the [`trace`](Self::trace).
     ///
     /// # Errors
-    /// [`ExperimentError::OutOfRange`] for more than [`MAX_EPOCHS`] epochs,
-    /// [`ExperimentError::Incompatible`] when a metric's summary rule, unit or per-run flag
-    /// differs from the one already recorded under its name, or when the run's per-run values are
-    /// already recorded. Nothing is recorded then.
+    /// [`ExperimentError::OutOfRange`] for more than [`MAX_EPOCHS`] epochs or a run outside the
+    /// summary's run ranges, [`ExperimentError::Incompatible`] when the scores are malformed (not
+    /// one value per epoch and metric, a metric name twice, epoch times that are not finite and
+    /// strictly increasing), when the summary already holds as many runs as it covers, when a
+    /// metric's summary rule, unit or per-run flag differs from the one already recorded under its
+    /// name, or when the run's per-run values are already recorded. Nothing is recorded then.
     pub fn add_run(&mut self, run: u64, scores: &RunScores) -> Result<(), ExperimentError> {
         let epochs = scores.epochs();
         if epochs > MAX_EPOCHS {
@@ -376,6 +390,25 @@ impl Summary {
                 value: epochs.to_string(),
                 range: "[0, 2^24]",
             });
+        }
+        if !self.runs.iter().any(|r| r.contains(&run)) {
+            return Err(ExperimentError::OutOfRange {
+                what: "run index",
+                value: run.to_string(),
+                range: "the summary's run ranges",
+            });
+        }
+        check_scores(run, scores)?;
+        let recorded = self
+            .timing
+            .count()
+            .saturating_add(self.timing.non_finite())
+            .saturating_add(self.failure_count());
+        if recorded >= self.run_count() {
+            return Err(ExperimentError::Incompatible(format!(
+                "run {run}: the summary already holds {recorded} runs, all the {} it covers",
+                self.run_count()
+            )));
         }
         let kept = (0..scores.metrics.len())
             .filter(|&j| scores.metrics[j].reduction != Reduction::ChiSquare { dof: 0 });

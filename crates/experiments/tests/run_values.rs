@@ -106,14 +106,14 @@ fn run_values_equal_a_brute_force_recomputation() {
     // √((9 + 16) / 2) and the mean of the one finite value.
     assert_eq!(error[1], (1, (12.5_f64).sqrt()));
     assert_eq!(lone.run_values("bias").unwrap().values()[1], (1, 1.0));
-    // An RMS whose squares overflow has no value: every run value is finite or NaN.
+    // An RMS whose squares overflow is still the RMS (scaled): every run value is finite or NaN.
     let mut overflow = Summary::new(label(1), 0..1);
     let huge = RunScores {
         values: vec![1e200, 1e300, 0.0, -1e200, 1e300, 0.0],
         ..scores(0, 2)
     };
     overflow.add_run(0, &huge).unwrap();
-    assert!(overflow.run_values("error").unwrap().values()[0].1.is_nan());
+    assert_eq!(overflow.run_values("error").unwrap().values()[0].1, 1e200);
     assert_eq!(overflow.run_values("bias").unwrap().values()[0].1, 1e300);
 }
 
@@ -155,12 +155,15 @@ fn a_run_recorded_twice_is_refused_and_changes_nothing() {
     let error = summary.add_run(2, &scores(2, 5)).unwrap_err();
     assert!(error.to_string().contains("run 2"), "{error}");
     assert_eq!(summary, before);
-    // Two summaries of different ranges that both hold a run's value (misuse) do not merge.
+    // A summary of other runs refuses the run (so two summaries cannot both hold its value).
     let mut other = Summary::new(label(10), 5..10);
-    other.add_run(2, &scores(2, 5)).unwrap();
-    let error = summary.merge(&other).unwrap_err();
-    assert!(matches!(error, ExperimentError::Incompatible(_)), "{error}");
-    assert_eq!(summary, before);
+    let empty = other.clone();
+    let error = other.add_run(2, &scores(2, 5)).unwrap_err();
+    assert!(
+        matches!(error, ExperimentError::OutOfRange { .. }),
+        "{error}"
+    );
+    assert_eq!(other, empty);
 }
 
 #[test]

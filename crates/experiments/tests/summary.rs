@@ -115,7 +115,7 @@ fn a_shard_merged_twice_is_refused_and_changes_nothing() {
 
 #[test]
 fn epochs_beyond_the_limit_and_bad_files_are_errors() {
-    let mut summary = Summary::new(label(0, 1), 0..1);
+    let mut summary = Summary::new(label(0, 2), 0..2);
     let mut series = liebayes_experiments::MetricSeries::default();
     assert!(series.add(MAX_EPOCHS, 1.0).is_err());
     assert!(series.add(usize::MAX, 1.0).is_err());

@@ -240,15 +240,27 @@ impl liebayes_experiments::Method for OnTrack {
 }
 
 /// The root mean square, over a study's runs, of each run's RMSE of `position_error` over its
-/// track: `√(mean of the runs' mean squared errors)`; `None` when no run has a value.
+/// track: `√(mean of the runs' mean squared errors)`; `None` when no run has a finite value.
+/// Computed relative to the largest value, so it is finite (at most that value) however large
+/// they are.
 pub fn track_rmse(summary: &Summary) -> Option<f64> {
     let values = summary.run_values("position_error")?;
-    let (sum, n) = values
-        .values()
-        .iter()
-        .filter(|(_, v)| v.is_finite())
-        .fold((0.0, 0_u32), |(s, n), (_, v)| (s + v * v, n + 1));
-    (n > 0).then(|| (sum / f64::from(n)).sqrt())
+    let finite = || {
+        values
+            .values()
+            .iter()
+            .map(|&(_, v)| v)
+            .filter(|v| v.is_finite())
+    };
+    let largest = finite().map(f64::abs).reduce(f64::max)?;
+    if largest == 0.0 {
+        return Some(0.0);
+    }
+    let (sum, n) = finite().fold((0.0, 0.0), |(s, n), v| {
+        let r = v / largest;
+        (s + r * r, n + 1.0)
+    });
+    Some((sum / n).sqrt().min(1.0) * largest)
 }
 
 /// The smallest particle count in `settings`' range at which the particle filter with `model`
