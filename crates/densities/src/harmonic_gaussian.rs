@@ -12,10 +12,10 @@ use rand::Rng;
 use rand_distr::StandardNormal;
 use std::f64::consts::PI;
 
-/// The features of the conditional mean, `φ(y) = (1, cos y, sin y)`.
-pub fn harmonic_features(y: f64) -> Vector3<f64> {
-    let (s, c) = y.sin_cos();
-    Vector3::new(1.0, c, s)
+/// The features of the conditional mean, `φ(y) = (1, cos y, sin y)`, of an angle (a point of the
+/// circle, so that the features are finite).
+pub fn harmonic_features(y: &So2<f64>) -> Vector3<f64> {
+    Vector3::new(1.0, y.cos(), y.sin())
 }
 
 /// `p(y, x) = GVM₂(y; η₁, η₂) · N(x; B φ(y), Σ)` over an angle y and a vector x ∈ Rᴺ, with
@@ -118,7 +118,7 @@ impl<const N: usize> HarmonicGaussian<N> {
     }
 
     /// `E[x | y] = B φ(y)`.
-    pub fn conditional_mean(&self, y: f64) -> SVector<f64, N> {
+    pub fn conditional_mean(&self, y: &So2<f64>) -> SVector<f64, N> {
         self.features * harmonic_features(y)
     }
 
@@ -157,7 +157,7 @@ impl<const N: usize> HarmonicGaussian<N> {
     /// `(x − B φ(y))ᵀ Σ⁻¹ (x − B φ(y))`, by one triangular solve; +∞ for a finite x whose residual
     /// overflows (x within 1e100 of ±f64::MAX), the exact value's overflow.
     fn conditional_mahalanobis_squared(&self, y: &So2<f64>, x: &SVector<f64, N>) -> f64 {
-        let residual = x - self.conditional_mean(y.angle());
+        let residual = x - self.conditional_mean(y);
         if residual.iter().any(|r| r.is_infinite()) && x.iter().all(|v| v.is_finite()) {
             return f64::INFINITY;
         }
@@ -193,16 +193,14 @@ impl<const N: usize> Density for HarmonicGaussian<N> {
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> Self::Point {
         let y = self.angle.sample(rng);
         let z = SVector::<f64, N>::from_fn(|_, _| rng.sample(StandardNormal));
-        let x = self.conditional_mean(y.angle()) + self.cholesky * z;
+        let x = self.conditional_mean(&y) + self.cholesky * z;
         (y, x)
     }
 
     /// `(y*, B φ(y*))` with y* the angle marginal's mode: `p(y, x) ≤ p(y) N(0; 0, Σ)` with equality
     /// at `x = B φ(y)`; `None` where the angle has no unique mode.
     fn mode(&self) -> Option<Self::Point> {
-        self.angle
-            .mode()
-            .map(|y| (y, self.conditional_mean(y.angle())))
+        self.angle.mode().map(|y| (y, self.conditional_mean(&y)))
     }
 }
 

@@ -606,15 +606,28 @@ pub fn normal_cdf(x: f64) -> f64 {
 /// in `ln(1 − tail)`.
 const NEGLIGIBLE_TAIL: f64 = 9.0;
 
-/// `ln[Φ(b) − Φ(a)]`, the log probability of `a < Z < b` for a standard normal Z, for `a ≤ b` on the
-/// extended real line (−∞ when `a = b`), computed from the side where it does not cancel:
+/// `ln[Φ(b) − Φ(a)]`, the log probability of `a < Z < b` for a standard normal Z, on the extended
+/// real line (−∞ for an empty interval, `a ≥ b`), computed from the side where it does not cancel:
 /// `ln1p(−Φ(−b))` or `ln1p(−Φ(a))` when one bound is beyond 9 standard deviations (0 without any
-/// erfc when both are), the complementary tails when both bounds lie on one side of 0, and
-/// `ln((erf(b/√2) − erf(a/√2))/2)` across 0 (keeping the relative accuracy of tiny intervals).
-/// Error below `1e-14 (1 + |ln mass|)` in the log (checked against 50-digit values); NaN for a NaN
-/// bound.
+/// erfc when both are), the complementary tails when both bounds lie on one side of 0 (beyond
+/// [`DEEP_TAIL`] standard deviations, where Φ underflows, through the logarithm of the tail's
+/// asymptotic series), and `ln((erf(b/√2) − erf(a/√2))/2)` across 0 (keeping the relative accuracy
+/// of tiny intervals). Error below `1e-14 (1 + |ln mass|)` in the log (checked against 50-digit
+/// values); NaN for a NaN bound.
 pub fn log_normal_mass(a: f64, b: f64) -> f64 {
     use std::f64::consts::SQRT_2;
+    if a.is_nan() || b.is_nan() {
+        return f64::NAN;
+    }
+    if a >= b {
+        return f64::NEG_INFINITY;
+    }
+    if a >= DEEP_TAIL {
+        return log_upper_tail_mass(a, b);
+    }
+    if b <= -DEEP_TAIL {
+        return log_upper_tail_mass(-b, -a);
+    }
     if a <= -NEGLIGIBLE_TAIL && b >= NEGLIGIBLE_TAIL {
         0.0
     } else if a <= -NEGLIGIBLE_TAIL && b >= 0.0 {
@@ -630,6 +643,36 @@ pub fn log_normal_mass(a: f64, b: f64) -> f64 {
     } else {
         (0.5 * (libm::erf(b / SQRT_2) - libm::erf(a / SQRT_2))).ln()
     }
+}
+
+/// Beyond this many standard deviations the tails are taken through their logarithm: Φ(−30) is
+/// 4.9e-198, and Φ(−x) becomes subnormal (losing digits) from x ≈ 37.5.
+pub const DEEP_TAIL: f64 = 30.0;
+
+/// `ln[Φ(−a) − Φ(−b)]` for `DEEP_TAIL ≤ a < b ≤ ∞`: with `ln Φ(−x) = −x²/2 − ln(x √(2π)) + ln S(x)`
+/// and the asymptotic series `S(x) = Σₖ (−1)ᵏ (2k − 1)!! / x²ᵏ` (ten terms: the eleventh is below
+/// 1e-20 at x = 30), it is `ln Φ(−a) + ln(−expm1(d))` with the difference
+/// `d = ln Φ(−b) − ln Φ(−a) = −(b − a)(b + a)/2 − ln1p((b − a)/a) + ln S(b) − ln S(a)`, formed
+/// from b − a so that it keeps its relative accuracy for close bounds.
+fn log_upper_tail_mass(a: f64, b: f64) -> f64 {
+    // ln √(2π).
+    const LN_SQRT_2PI: f64 = 0.918_938_533_204_672_8;
+    let log_series = |x: f64| {
+        let u = 1.0 / (x * x);
+        let (mut term, mut sum) = (1.0, 1.0);
+        for k in 1..=10 {
+            term *= -f64::from(2 * k - 1) * u;
+            sum += term;
+        }
+        sum.ln()
+    };
+    let log_tail_a = -0.5 * a * a - a.ln() - LN_SQRT_2PI + log_series(a);
+    if b == f64::INFINITY {
+        return log_tail_a;
+    }
+    let gap = b - a;
+    let d = -0.5 * gap * (b + a) - (gap / a).ln_1p() + (log_series(b) - log_series(a));
+    log_tail_a + (-d.exp_m1()).ln()
 }
 
 #[cfg(test)]

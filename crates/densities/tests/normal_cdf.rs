@@ -35,7 +35,7 @@ const CDF: [(f64, f64); 21] = [
 ];
 
 /// (a, b, ln[Φ(b) − Φ(a)]).
-const LOG_MASS: [(f64, f64, f64); 11] = [
+const LOG_MASS: [(f64, f64, f64); 18] = [
     (-1e-10, 1e-10, -2.325_164_228_258_518_4e1),
     (-1.0, 2.0, -2.001_662_943_244_625_8e-1),
     (-40.0, 40.0, 0.0),
@@ -47,6 +47,14 @@ const LOG_MASS: [(f64, f64, f64); 11] = [
     (5.0, 5.001, -2.032_919_293_697_838_4e1),
     (-9.5, 9.5, -2.098_903_015_072_521_5e-21),
     (-12.0, -9.0, -4.362_814_911_333_213_1e1),
+    // The deep tails, where Φ underflows (the first was −∞).
+    (39.0, 40.0, -7.650_831_565_643_775_4e2),
+    (-40.0, -39.0, -7.650_831_565_643_775_4e2),
+    (38.0, f64::INFINITY, -7.265_572_160_188_201_3e2),
+    (30.0, 30.000_001, -4.647_344_640_901_036_7e2),
+    (100.0, 101.0, -5.005_524_208_694_205_1e3),
+    (35.0, 35.5, -6.169_751_012_837_704e2),
+    (-31.0, -30.5, -4.694_627_375_297_715_8e2),
 ];
 
 #[test]
@@ -90,5 +98,11 @@ fn log_normal_mass_matches_50_digit_values() {
     }
     assert_eq!(log_normal_mass(f64::NEG_INFINITY, f64::INFINITY), 0.0);
     assert_eq!(log_normal_mass(1.0, 1.0), f64::NEG_INFINITY);
+    // An empty interval has no mass (reversed bounds were NaN).
+    assert_eq!(log_normal_mass(2.0, 1.0), f64::NEG_INFINITY);
+    assert_eq!(
+        log_normal_mass(f64::INFINITY, f64::NEG_INFINITY),
+        f64::NEG_INFINITY
+    );
     assert!(log_normal_mass(f64::NAN, 1.0).is_nan());
 }

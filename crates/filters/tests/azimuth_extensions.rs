@@ -223,7 +223,8 @@ impl<const N: usize>
         let grid_evidence = estimate.log_evidence[1] - previous.log_evidence[1];
         let (mut mean, mut covariance, mut evidence) = (0.0_f64, 0.0_f64, 0.0_f64);
         for (j, cell) in grid.cells().iter().enumerate() {
-            let expected_mean = composite.conditional_mean(grid.angle(j));
+            let expected_mean =
+                composite.conditional_mean(&So2::from_angle_unchecked(grid.angle(j)));
             mean = mean.max((cell.mean() - expected_mean).amax() / (1.0 + expected_mean.amax()));
             covariance = covariance.max(
                 (cell.covariance() - composite.covariance()).amax()

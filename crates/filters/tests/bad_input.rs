@@ -856,3 +856,86 @@ fn aoa_particle_filters_and_scenarios() {
         },
     );
 }
+
+/// Equation (7) both ways: a σ or κ outside the noise ranges, or a result outside them, is an
+/// error (a zero σ gave κ = inf, a negative κ σ = NaN).
+#[test]
+fn noise_conversions_refuse_what_they_cannot_convert() {
+    use liebayes_filters::aoa::{kappa_from_sigmas, sigma_from_kappa};
+    for (az, el) in [
+        (0.0, 0.0),
+        (-1.0, 0.1),
+        (f64::NAN, 0.1),
+        (0.1, f64::INFINITY),
+        (1e-7, 1e-7),
+        (0.1, 1e4),
+    ] {
+        assert!(kappa_from_sigmas(az, el).is_err(), "{az}, {el}");
+    }
+    let kappa = kappa_from_sigmas(0.1, 0.05).unwrap();
+    assert!((kappa - 100.0).abs() < 1e-12);
+    for kappa in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e-9, 1e13] {
+        assert!(sigma_from_kappa(kappa).is_err(), "{kappa}");
+    }
+    assert!((sigma_from_kappa(100.0).unwrap() - 0.1).abs() < 1e-15);
+}
+
+/// The direction's Jacobian at the anchor, and next to it where `1/|θ − s|` overflows: `None`
+/// (it was a NaN matrix, and inf at 1e-310 m).
+#[test]
+fn a_direction_jacobian_at_or_next_to_the_anchor_is_none() {
+    let rotation = liebayes_manifolds::So3::from_axis_angle(&Vector3::z(), 0.3).unwrap();
+    let anchor = Anchor::new(Vector3::zeros(), rotation).unwrap();
+    for theta in [
+        Vector3::zeros(),
+        Vector3::new(1e-310, 0.0, 0.0),
+        Vector3::new(f64::NAN, 0.0, 0.0),
+    ] {
+        assert!(anchor.direction_jacobian(&theta).is_none(), "{theta}");
+    }
+    let jacobian = anchor
+        .direction_jacobian(&Vector3::new(1e-300, 2e-300, 0.0))
+        .unwrap();
+    assert!(jacobian.iter().all(|v| v.is_finite()));
+}
+
+/// The RMS over runs of per-run errors near 1e200: finite (the squares overflowed to inf).
+#[test]
+fn the_track_rmse_of_huge_errors_is_finite() {
+    use liebayes_experiments::{Metric, Reduction, RunScores, StudyLabel, Summary};
+    use liebayes_filters::aoa::track_rmse;
+    let label = StudyLabel {
+        name: "huge".into(),
+        seed: 0,
+        runs: 2,
+    };
+    let mut summary = Summary::new(label, 0..2);
+    for (run, error) in [(0, 1e200), (1, 2e200)] {
+        let scores = RunScores {
+            metrics: vec![Metric::new("position_error", Reduction::RootMeanSquare, "m").per_run()],
+            times: vec![0.0],
+            values: vec![error],
+            seconds_per_step: 1e-6,
+        };
+        summary.add_run(run, &scores).unwrap();
+    }
+    let rmse = track_rmse(&summary).unwrap();
+    let expected = 2.5_f64.sqrt() * 1e200;
+    assert!(
+        (rmse - expected).abs() <= 4.0 * f64::EPSILON * expected,
+        "{rmse:e}"
+    );
+}
+
+/// The motions' velocity at a time that is not finite has no value (the circle's was NaN); at
+/// the largest finite time it is finite.
+#[test]
+fn a_motion_at_a_time_that_is_not_finite_has_no_velocity() {
+    for motion in Motion::ALL {
+        for t in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            assert!(motion.velocity(t).is_none(), "{motion:?} at {t}");
+        }
+        let v = motion.velocity(f64::MAX).unwrap();
+        assert!(v.iter().all(|x| x.is_finite()), "{motion:?}");
+    }
+}

@@ -31,17 +31,30 @@ fn a_level_body_reading_gravity_moves_at_constant_velocity() {
     let force = x.rotation.inverse().rotate(&-GRAVITY) + x.accel_bias;
     let rate = x.gyro_bias;
     let dt = 0.3;
-    let next = integrate(&x, &rate, &force, dt);
+    let step = |rate: Vector3<f64>, force: Vector3<f64>| ImuStep::new(rate, force, dt).unwrap();
+    let next = integrate(&x, &step(rate, force)).unwrap();
     assert!((next.velocity - x.velocity).norm() < 1e-14);
     assert!((next.position - (x.position + x.velocity * dt)).norm() < 1e-14);
     assert!(x.rotation.local(&next.rotation).norm() < 1e-15);
     // A constant acceleration a along the world x: p moves by v dt + a dt²/2.
     let a = Vector3::new(0.7, 0.0, 0.0);
-    let next = integrate(&x, &rate, &(force + x.rotation.inverse().rotate(&a)), dt);
+    let next = integrate(&x, &step(rate, force + x.rotation.inverse().rotate(&a))).unwrap();
     assert!((next.position - (x.position + x.velocity * dt + a * (dt * dt / 2.0))).norm() < 1e-13);
     // A rate about the body z turns the attitude by ω dt.
-    let next = integrate(&x, &(rate + Vector3::new(0.0, 0.0, 2.0)), &force, dt);
+    let next = integrate(&x, &step(rate + Vector3::new(0.0, 0.0, 2.0), force)).unwrap();
     assert!((x.rotation.local(&next.rotation) - Vector3::new(0.0, 0.0, 0.6)).norm() < 1e-14);
+    // A state near overflow (its fields are public) is an error, not an infinite state.
+    let far = Navigation {
+        velocity: Vector3::new(f64::MAX, 0.0, 0.0),
+        position: Vector3::new(f64::MAX, 0.0, 0.0),
+        ..x
+    };
+    assert!(integrate(&far, &step(rate, force)).is_err());
+    let lost = Navigation {
+        position: Vector3::new(f64::NAN, 0.0, 0.0),
+        ..x
+    };
+    assert!(integrate(&lost, &step(rate, force)).is_err());
 }
 
 #[test]
@@ -129,12 +142,7 @@ fn without_noise_the_truth_follows_the_filters_model() {
     let mut state = start;
     let mut fixes = 0;
     for step in scenario.simulate(&mut rng).unwrap() {
-        state = integrate(
-            &state,
-            step.input.angular_rate(),
-            step.input.specific_force(),
-            step.input.dt(),
-        );
+        state = integrate(&state, &step.input).unwrap();
         assert!((state.position - step.truth.position).norm() < 1e-9);
         assert!(state.rotation.local(&step.truth.rotation).norm() < 1e-12);
         fixes += usize::from(step.measurement.is_some());

@@ -419,7 +419,7 @@ proptest! {
         for pair in costs.windows(2) {
             prop_assert!(pair[1] <= pair[0], "{:?}", costs);
         }
-        prop_assert!(result.report.cost() <= costs[0]);
+        prop_assert!(result.report.cost().unwrap() <= costs[0]);
         prop_assert!(result.report.decrement.is_finite() && result.report.decrement >= 0.0);
     }
 }

@@ -483,7 +483,7 @@ impl<const N: usize> DensitySubject for HarmonicGaussian<N> {
         let conditional = quadrature::rn(&zero, self.covariance(), hermite_points(N));
         let mut nodes = Vec::new();
         for (y, wy) in self.angle().quadrature() {
-            let mean = self.conditional_mean(y.angle());
+            let mean = self.conditional_mean(&y);
             for (delta, wx) in &conditional {
                 nodes.push(((y, mean + delta), wy * wx));
             }

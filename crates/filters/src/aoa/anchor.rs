@@ -82,12 +82,12 @@ impl Anchor {
     }
 
     /// The Jacobian of `R d` with respect to θ (Algorithm 2): `R (I − d dᵀ) / |θ − s|`, with
-    /// `d = (θ − s)/|θ − s|`; NaN at the anchor.
-    pub fn direction_jacobian(&self, theta: &Vector3<f64>) -> Matrix3<f64> {
-        let Some((d, distance)) = unit_and_distance(&(theta - self.position)) else {
-            return Matrix3::from_element(f64::NAN);
-        };
-        self.matrix * (Matrix3::identity() - d * d.transpose()) / distance
+    /// `d = (θ − s)/|θ − s|`; `None` at the anchor, for a non-finite θ, and where it overflows
+    /// (a target closer than about 1e-308 m).
+    pub fn direction_jacobian(&self, theta: &Vector3<f64>) -> Option<Matrix3<f64>> {
+        let (d, distance) = unit_and_distance(&(theta - self.position))?;
+        let jacobian = self.matrix * (Matrix3::identity() - d * d.transpose()) / distance;
+        jacobian.iter().all(|v| v.is_finite()).then_some(jacobian)
     }
 }
 

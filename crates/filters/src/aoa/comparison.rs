@@ -289,10 +289,10 @@ pub fn compare_models<R: Rng + ?Sized>(
     );
     let (nominal, kappa) = match *data {
         DataModel::NormalWithFlip { sigma_az, sigma_el } => {
-            ((sigma_az, sigma_el), kappa_from_sigmas(sigma_az, sigma_el))
+            ((sigma_az, sigma_el), kappa_from_sigmas(sigma_az, sigma_el)?)
         }
         DataModel::VonMisesFisher { kappa } => {
-            let sigma = sigma_from_kappa(kappa);
+            let sigma = sigma_from_kappa(kappa)?;
             ((sigma, sigma), kappa)
         }
     };

@@ -70,14 +70,15 @@ impl ModelChoice {
     /// `σ = 1/√κ` (equation (7)); AE-adaptive's table is Model I's at the nominal σ.
     ///
     /// # Errors
-    /// As [`AdaptiveSigmas::model_one`].
+    /// As [`kappa_from_sigmas`] or [`sigma_from_kappa`] for the data's noise, and as
+    /// [`AdaptiveSigmas::model_one`].
     pub fn paper(data: &DataModel, fitted: (f64, f64)) -> Result<[ModelChoice; 4], OperatorError> {
         let (kappa, sigma_az, sigma_el) = match *data {
             DataModel::NormalWithFlip { sigma_az, sigma_el } => {
-                (kappa_from_sigmas(sigma_az, sigma_el), sigma_az, sigma_el)
+                (kappa_from_sigmas(sigma_az, sigma_el)?, sigma_az, sigma_el)
             }
             DataModel::VonMisesFisher { kappa } => {
-                let sigma = sigma_from_kappa(kappa);
+                let sigma = sigma_from_kappa(kappa)?;
                 (kappa, sigma, sigma)
             }
         };

@@ -119,8 +119,11 @@ impl<const N: usize, const M: usize> MeasurementModel<Position, 3, M> for UnitVe
     fn jacobian(&self, x: &Position) -> SMatrix<f64, M, 3> {
         let mut h = SMatrix::<f64, M, 3>::zeros();
         for (j, anchor) in self.anchors.iter().enumerate() {
-            h.fixed_view_mut::<3, 3>(3 * j, 0)
-                .copy_from(&anchor.direction_jacobian(x.coords()));
+            // NaN where it has none (at an anchor): the filters refuse such a Jacobian.
+            let block = anchor
+                .direction_jacobian(x.coords())
+                .unwrap_or_else(|| Matrix3::from_element(f64::NAN));
+            h.fixed_view_mut::<3, 3>(3 * j, 0).copy_from(&block);
         }
         h
     }

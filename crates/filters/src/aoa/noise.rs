@@ -65,13 +65,27 @@ pub fn check_kappa(kappa: f64) -> Result<f64, OperatorError> {
 }
 
 /// Equation (7), angles to unit vectors: `κ = 1 / max(σ_az², σ_el²)`.
-pub fn kappa_from_sigmas(sigma_az: f64, sigma_el: f64) -> f64 {
-    1.0 / sigma_az.max(sigma_el).powi(2)
+///
+/// # Errors
+/// As [`check_sigma`] for either σ, and as [`check_kappa`] for the κ (a σ below 1e-6 rad gives a
+/// κ above 1e12).
+pub fn kappa_from_sigmas(sigma_az: f64, sigma_el: f64) -> Result<f64, OperatorError> {
+    let sigma_az = check_sigma("azimuth standard deviation sigma_az (rad)", sigma_az)?;
+    let sigma_el = check_sigma("elevation standard deviation sigma_el (rad)", sigma_el)?;
+    check_kappa(1.0 / sigma_az.max(sigma_el).powi(2))
 }
 
 /// Equation (7), unit vectors to angles: `σ_az = σ_el = 1/√κ`.
-pub fn sigma_from_kappa(kappa: f64) -> f64 {
-    1.0 / kappa.sqrt()
+///
+/// # Errors
+/// As [`check_kappa`] for κ, and as [`check_sigma`] for the σ (a κ below 1e-6 gives a σ above
+/// 1e3 rad).
+pub fn sigma_from_kappa(kappa: f64) -> Result<f64, OperatorError> {
+    let kappa = check_kappa(kappa)?;
+    check_sigma(
+        "angle standard deviation 1/sqrt(kappa) (rad)",
+        1.0 / kappa.sqrt(),
+    )
 }
 
 /// The log density of a canonical reading y given the predicted direction y₀ under the

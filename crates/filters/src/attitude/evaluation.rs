@@ -153,10 +153,12 @@ impl Evaluation {
     /// Leave-one-log-out cross-validation of a choice among the methods (settings of a filter,
     /// say): for each log, the method whose mean total RMSE over the *other* logs is lowest, and
     /// its score on the held-out log. `None` with fewer than two logs, no method, or a log with a
-    /// missing score.
+    /// missing score (a row of `scores` shorter or longer than `methods`, or a log without a scored
+    /// sample).
     pub fn leave_one_out(&self) -> Option<CrossValidation> {
         let logs = self.scores.len();
-        if logs < 2 || self.methods.is_empty() {
+        let width = self.methods.len();
+        if logs < 2 || width == 0 || self.scores.iter().any(|row| row.len() != width) {
             return None;
         }
         let mut totals = vec![vec![0.0; self.methods.len()]; logs];

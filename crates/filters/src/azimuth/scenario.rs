@@ -28,16 +28,21 @@ impl Motion {
     /// All three, in the blog post's order.
     pub const ALL: [Motion; 3] = [Motion::Static, Motion::Circle, Motion::Line];
 
-    /// The velocity at time t.
-    pub fn velocity(self, t: f64) -> Vector2<f64> {
-        match self {
+    /// The velocity (m/s) at time t (s); `None` for a time that is not finite (the circle's
+    /// velocity has no value there).
+    pub fn velocity(self, t: f64) -> Option<Vector2<f64>> {
+        if !t.is_finite() {
+            return None;
+        }
+        Some(match self {
             Motion::Static => Vector2::zeros(),
             Motion::Circle => {
-                let (s, c) = (2.0 * PI * t / 10.0).sin_cos();
+                // One turn every 10 s: the phase π (t / 5) is finite for every finite t.
+                let (s, c) = (PI * (t / 5.0)).sin_cos();
                 Vector2::new(c, s) * 0.5
             }
             Motion::Line => Vector2::new(-1.0, 2.0),
-        }
+        })
     }
 
     /// Its name on the command line: `static`, `circle` or `line`.
@@ -241,7 +246,8 @@ impl Iterator for AzimuthSteps<'_> {
                 dt: 0.0,
             }
         } else {
-            let velocity = self.scenario.motion.velocity((k - 1) as f64 * config.dt);
+            // The validated configuration keeps every step's time finite.
+            let velocity = self.scenario.motion.velocity((k - 1) as f64 * config.dt)?;
             self.position +=
                 velocity * config.dt + normal2(self.rng) * (config.q * config.dt.sqrt());
             VelocityInput {

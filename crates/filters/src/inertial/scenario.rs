@@ -283,7 +283,8 @@ impl Iterator for InertialSteps<'_> {
             (rate + self.truth.gyro_bias, force + self.truth.accel_bias);
         let measured_rate = biased_rate + noise(c.imu.gyro);
         let measured_force = biased_force + noise(c.imu.accel);
-        let mut next = integrate(&self.truth, &biased_rate, &biased_force, dt);
+        let truth_step = ImuStep::new(biased_rate, biased_force, dt).ok()?;
+        let mut next = integrate(&self.truth, &truth_step).ok()?;
         let mut walk =
             |density: f64| Vector3::new(normal(), normal(), normal()) * (density * dt.sqrt());
         next.gyro_bias += walk(c.imu.gyro_bias_walk);

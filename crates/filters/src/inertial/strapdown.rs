@@ -4,7 +4,7 @@
 use super::state::{NAVIGATION_DIM, Navigation, NavigationState};
 use crate::FilterError;
 use liebayes_manifolds::{LieGroup, So3};
-use liebayes_operators::{MeasurementModel, ProcessModel};
+use liebayes_operators::{MeasurementModel, OperatorError, ProcessModel};
 use nalgebra::{SMatrix, SVector, Vector3};
 
 /// Gravity in the world frame (z up), m/s².
@@ -84,11 +84,38 @@ fn setting_error(setting: &'static str, value: String, expected: &'static str) -
     }
 }
 
-/// One strapdown step with the readings held over dt, corrected by the biases:
-/// `ω = ω̃ − b_g`, `a = R (f̃ − b_a) + g`, `R′ = R exp(ω dt)`, `v′ = v + a dt`,
+/// One strapdown step with the readings of a checked sample held over its dt, corrected by the
+/// biases: `ω = ω̃ − b_g`, `a = R (f̃ − b_a) + g`, `R′ = R exp(ω dt)`, `v′ = v + a dt`,
 /// `p′ = p + v dt + ½ a dt²`; the biases are unchanged. Exact for readings that are constant over the
 /// step in a body whose attitude is constant too (first order in ω dt otherwise).
-pub fn integrate(
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] when the state (its fields are public) is not finite or the step
+/// overflows it.
+pub fn integrate(state: &Navigation, step: &ImuStep) -> Result<Navigation, OperatorError> {
+    let next = strapdown(state, &step.angular_rate, &step.specific_force, step.dt);
+    let vectors = [
+        next.velocity,
+        next.position,
+        next.gyro_bias,
+        next.accel_bias,
+    ];
+    let values = vectors.iter().flat_map(|v| v.iter()).copied();
+    if let Some(value) = values
+        .chain(next.rotation.to_matrix().iter().copied())
+        .find(|v| !v.is_finite())
+    {
+        return Err(OperatorError::NonFinite {
+            what: "navigation state after a strapdown step (a state that is not finite or overflows)",
+            value,
+        });
+    }
+    Ok(next)
+}
+
+/// [`integrate`]'s step on raw readings, unchecked (the process model's transition, whose result
+/// the filters check, and its noise Jacobian's perturbed readings).
+fn strapdown(
     state: &Navigation,
     angular_rate: &Vector3<f64>,
     specific_force: &Vector3<f64>,
@@ -182,7 +209,7 @@ impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
     type Input = ImuStep;
 
     fn transition(&self, x: &S, input: &ImuStep) -> S {
-        S::from_navigation(&integrate(
+        S::from_navigation(&strapdown(
             &x.navigation(),
             &input.angular_rate,
             &input.specific_force,
@@ -192,7 +219,7 @@ impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
 
     fn noise(&self, x: &S, input: &ImuStep) -> SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM> {
         let navigation = x.navigation();
-        let centre = S::from_navigation(&integrate(
+        let centre = S::from_navigation(&strapdown(
             &navigation,
             &input.angular_rate,
             &input.specific_force,
@@ -205,7 +232,7 @@ impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
             } else {
                 force[reading - 3] += step;
             }
-            centre.local(&S::from_navigation(&integrate(
+            centre.local(&S::from_navigation(&strapdown(
                 &navigation,
                 &rate,
                 &force,
