@@ -5,6 +5,7 @@
 
 use crate::bingham::Bingham;
 use crate::error::DensityError;
+use crate::gaussian::within_scale;
 use crate::heat_kernel::HeatKernelSo3;
 use crate::manifold_gaussian::ManifoldGaussian;
 use crate::quadrature;
@@ -136,14 +137,17 @@ impl Bingham {
 /// Accepted asymmetry of a diffusion covariance, relative to its largest entry.
 const SYMMETRY_TOLERANCE: f64 = 1e-10;
 
-/// The eigendecomposition of a diffusion covariance Σ, checked finite, symmetric and positive
-/// semi-definite (eigenvalues above `−1e-12 (1 + max |Σᵢⱼ|)` are rounded up to 0).
+/// The eigendecomposition of a diffusion covariance Σ, checked finite, within
+/// [`MAX_SCALE`](crate::MAX_SCALE) = 1e100 rad² (the limit of every Gaussian; a diffusion is
+/// uniform to rounding long before), symmetric and positive semi-definite (eigenvalues above
+/// `−1e-12 (1 + max |Σᵢⱼ|)` are rounded up to 0).
 fn diffusion_eigen(
     covariance: &Matrix3<f64>,
 ) -> Result<(Vector3<f64>, Matrix3<f64>), DensityError> {
     for &v in covariance.iter() {
         crate::error::finite("diffusion covariance entry", v)?;
     }
+    within_scale("diffusion covariance (rad^2)", covariance)?;
     let scale = covariance.amax();
     let asymmetry = (covariance - covariance.transpose()).amax();
     if asymmetry > SYMMETRY_TOLERANCE * (1.0 + scale) {
@@ -177,8 +181,8 @@ impl Bingham {
     /// For `LD(q̄, Σ)` the moments are `L(q̄) E[q qᵀ] L(q̄)ᵀ`, L the left multiplication.
     ///
     /// # Errors
-    /// [`DensityError::NonFinite`] for a non-finite entry; [`DensityError::OutOfRange`] for a
-    /// non-symmetric Σ or a negative eigenvalue.
+    /// [`DensityError::NonFinite`] for a non-finite entry; [`DensityError::OutOfRange`] for an
+    /// entry above 1e100, a non-symmetric Σ or a negative eigenvalue.
     pub fn diffusion_second_moment(
         covariance: &Matrix3<f64>,
     ) -> Result<Matrix4<f64>, DensityError> {

@@ -286,6 +286,10 @@ fn bad_input_is_refused() {
     assert!(Bingham::diffusion_second_moment(&asymmetric).is_err());
     assert!(Bingham::diffusion_second_moment(&(-Matrix3::identity())).is_err());
     assert!(Bingham::diffusion_second_moment(&(Matrix3::identity() * f64::INFINITY)).is_err());
+    // Entries near overflow (the eigensolver's NaN was returned as Ok), and the largest accepted.
+    assert!(Bingham::diffusion_second_moment(&Matrix3::repeat(1e308)).is_err());
+    let uniform = Bingham::diffusion_second_moment(&(Matrix3::identity() * 1e100)).unwrap();
+    assert!((uniform - nalgebra::Matrix4::identity() / 4.0).amax() < 1e-15);
     // Too concentrated for a Bingham.
     assert!(
         Bingham::from_diffusion_moment_matched(&Su2::identity(), &(Matrix3::identity() * 1e-12))

@@ -6,7 +6,7 @@
 use liebayes_experiments::Scenario;
 use liebayes_filters::inertial::{
     ErrorState, GRAVITY, ImuNoise, ImuStep, InertialConfig, InertialScenario, InitialVelocity,
-    Navigation, NavigationState, PositionFix, Strapdown, integrate,
+    MAX_READING, Navigation, NavigationState, PositionFix, Strapdown, integrate,
 };
 use liebayes_manifolds::{LieGroup, Manifold, So3};
 use liebayes_operators::{MeasurementModel, ProcessModel};
@@ -149,6 +149,42 @@ fn without_noise_the_truth_follows_the_filters_model() {
     }
     assert_eq!(fixes, scenario.epochs());
     assert_eq!(fixes, 5);
+}
+
+/// An IMU whose white noise reaches beyond the sensor's range: every sample is still reported,
+/// its components saturated at ±MAX_READING (the scenario ended silently at the first sample
+/// beyond the range).
+#[test]
+fn a_noisy_imu_saturates_and_the_run_goes_on() {
+    let config = InertialConfig {
+        duration: 1.0,
+        imu: ImuNoise {
+            gyro: 1e6,
+            accel: 1e6,
+            gyro_bias_walk: 1e6,
+            accel_bias_walk: 1e6,
+        },
+        ..InertialConfig::default()
+    };
+    let scenario = InertialScenario::new(config).unwrap();
+    let steps: Vec<_> = scenario
+        .simulate(&mut ChaCha8Rng::seed_from_u64(5))
+        .unwrap()
+        .collect();
+    assert_eq!(steps.len(), config.samples());
+    let readings = steps.iter().flat_map(|s| {
+        s.input
+            .angular_rate()
+            .iter()
+            .chain(s.input.specific_force())
+    });
+    assert!(readings.clone().all(|v| v.abs() <= MAX_READING));
+    assert!(readings.filter(|v| v.abs() == MAX_READING).count() > steps.len());
+    assert!(
+        steps
+            .iter()
+            .all(|s| s.truth.position.iter().all(|p| p.is_finite()))
+    );
 }
 
 #[test]

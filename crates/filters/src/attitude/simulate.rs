@@ -127,7 +127,8 @@ impl SimulationSettings {
 /// same log.
 ///
 /// # Errors
-/// [`DataError::BadValue`] for a setting out of the range its field documents.
+/// [`DataError::BadValue`] for a setting out of the range its field documents,
+/// [`DataError::TooLarge`] when the samples' memory cannot be allocated.
 pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, DataError> {
     check_settings(settings)?;
     let s = settings;
@@ -158,12 +159,18 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
         .map(|f| ((-dt / f.correlation_time).exp(), f.sigma));
     let mut offset = offset_decay.map_or(0.0, |(_, sigma)| sigma * standard(&mut rng));
     let n = s.samples;
-    let (mut gyr, mut acc, mut mag, mut truth) = (
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    );
+    let (mut gyr, mut acc, mut mag, mut truth) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    // Up to 2^28 samples are accepted; buffers the system cannot give are an error, not an abort.
+    let refused = |_| DataError::TooLarge {
+        origin: "simulate".to_owned(),
+        what: "the number of samples (their memory cannot be allocated)",
+        size: n as u64,
+        limit: MAX_SAMPLES as u64,
+    };
+    gyr.try_reserve_exact(n).map_err(refused)?;
+    acc.try_reserve_exact(n).map_err(refused)?;
+    mag.try_reserve_exact(n).map_err(refused)?;
+    truth.try_reserve_exact(n).map_err(refused)?;
     for k in 0..n {
         let t = k as f64 * dt;
         let middle = t + 0.5 * dt;

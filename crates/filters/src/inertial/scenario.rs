@@ -2,7 +2,7 @@
 //! position fixes, and the prior every filter starts from.
 
 use super::state::{NAVIGATION_DIM, Navigation, NavigationState};
-use super::strapdown::{ImuNoise, ImuStep, integrate};
+use super::strapdown::{ImuNoise, ImuStep, strapdown};
 use crate::FilterError;
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{ExperimentError, MAX_EPOCHS, Scenario, Step};
@@ -160,8 +160,10 @@ impl InertialConfig {
 /// The scenario: the vehicle starts level, heading along x at 5 m/s, and manoeuvres with a body
 /// angular rate `(0.05 sin 0.5t, 0.05 cos 0.4t, 0.3 sin 0.1t)` rad/s and a forward acceleration
 /// `0.5 sin 0.2t` m/s² (the specific force adds the reaction to gravity). The truth integrates the
-/// filters' own strapdown model ([`integrate`]) with the true readings; the IMU reports them plus
-/// the biases (random walks) and white noise; a fix of the position every `fix_every` samples.
+/// filters' own strapdown model ([`integrate`](super::integrate)) with the true readings; the
+/// IMU reports them plus the biases (random walks) and white noise, each component saturating at
+/// ±[`MAX_READING`](super::MAX_READING) like a real sensor's range; a fix of the position every
+/// `fix_every` samples.
 /// The initial truth is drawn around the prior mean: a heading, roll and pitch error in the world
 /// frame, the velocity known in the body or the world frame ([`InitialVelocity`]), and Gaussian
 /// velocity, position and bias errors.
@@ -278,13 +280,14 @@ impl Iterator for InertialSteps<'_> {
         let mut normal = || -> f64 { StandardNormal.sample(&mut *self.rng) };
         let mut noise =
             |density: f64| Vector3::new(normal(), normal(), normal()) * (density / dt.sqrt());
-        // The true motion: the noise-free readings plus the biases, which `integrate` removes.
+        // The true motion: the noise-free readings plus the biases, which the strapdown step removes.
         let (biased_rate, biased_force) =
             (rate + self.truth.gyro_bias, force + self.truth.accel_bias);
         let measured_rate = biased_rate + noise(c.imu.gyro);
         let measured_force = biased_force + noise(c.imu.accel);
-        let truth_step = ImuStep::new(biased_rate, biased_force, dt).ok()?;
-        let mut next = integrate(&self.truth, &truth_step).ok()?;
+        // The truth is not limited to the sensor's range (the validated configuration keeps it
+        // finite).
+        let mut next = strapdown(&self.truth, &biased_rate, &biased_force, dt);
         let mut walk =
             |density: f64| Vector3::new(normal(), normal(), normal()) * (density * dt.sqrt());
         next.gyro_bias += walk(c.imu.gyro_bias_walk);
@@ -295,7 +298,8 @@ impl Iterator for InertialSteps<'_> {
             let mut normal = || -> f64 { StandardNormal.sample(&mut *self.rng) };
             self.truth.position + Vector3::new(normal(), normal(), normal()) * c.fix_sigma
         });
-        let input = ImuStep::new(measured_rate, measured_force, dt).ok()?;
+        // dt = 1 / imu_rate lies in (0, 1] for a validated configuration.
+        let input = ImuStep::saturated(measured_rate, measured_force, dt);
         Some(Step {
             time: self.sample as f64 * dt,
             input,

@@ -58,6 +58,21 @@ impl ImuStep {
         })
     }
 
+    /// The sample a sensor of range ±[`MAX_READING`] reports: each component clamped to that
+    /// range (a saturating IMU), for a finite dt in (0, [`MAX_STEP`]] the caller has checked.
+    pub(crate) fn saturated(
+        angular_rate: Vector3<f64>,
+        specific_force: Vector3<f64>,
+        dt: f64,
+    ) -> Self {
+        let clamp = |v: Vector3<f64>| v.map(|x| x.clamp(-MAX_READING, MAX_READING));
+        Self {
+            angular_rate: clamp(angular_rate),
+            specific_force: clamp(specific_force),
+            dt,
+        }
+    }
+
     /// ω̃ (rad/s, body frame).
     pub fn angular_rate(&self) -> &Vector3<f64> {
         &self.angular_rate
@@ -114,8 +129,8 @@ pub fn integrate(state: &Navigation, step: &ImuStep) -> Result<Navigation, Opera
 }
 
 /// [`integrate`]'s step on raw readings, unchecked (the process model's transition, whose result
-/// the filters check, and its noise Jacobian's perturbed readings).
-fn strapdown(
+/// the filters check, its noise Jacobian's perturbed readings, and a scenario's true motion).
+pub(crate) fn strapdown(
     state: &Navigation,
     angular_rate: &Vector3<f64>,
     specific_force: &Vector3<f64>,
