@@ -609,10 +609,11 @@ const NEGLIGIBLE_TAIL: f64 = 9.0;
 /// `ln[Φ(b) − Φ(a)]`, the log probability of `a < Z < b` for a standard normal Z, on the extended
 /// real line (−∞ for an empty interval, `a ≥ b`), computed from the side where it does not cancel:
 /// `ln1p(−Φ(−b))` or `ln1p(−Φ(a))` when one bound is beyond 9 standard deviations (0 without any
-/// erfc when both are), the complementary tails when both bounds lie on one side of 0 (beyond
+/// erfc when both are), the complementary tails when both bounds lie on one side of 0 and beyond
+/// the quartile ±0.674 (beyond
 /// [`DEEP_TAIL`] standard deviations, where Φ underflows, through the logarithm of the tail's
-/// asymptotic series), and `ln((erf(b/√2) − erf(a/√2))/2)` across 0 (keeping the relative accuracy
-/// of tiny intervals). Error below `1e-14 (1 + |ln mass|)` in the log (checked against 50-digit
+/// asymptotic series), and `ln((erf(b/√2) − erf(a/√2))/2)` otherwise (keeping the relative
+/// accuracy of tiny intervals near 0). Error below `1e-14 (1 + |ln mass|)` in the log (checked against 50-digit
 /// values); NaN for a NaN bound.
 pub fn log_normal_mass(a: f64, b: f64) -> f64 {
     use std::f64::consts::SQRT_2;
@@ -635,15 +636,20 @@ pub fn log_normal_mass(a: f64, b: f64) -> f64 {
         (-normal_cdf(-b)).ln_1p()
     } else if b >= NEGLIGIBLE_TAIL && a <= 0.0 {
         (-normal_cdf(a)).ln_1p()
-    } else if a > 0.0 {
+    } else if a >= ERF_CROSSOVER {
         // Both in the upper tail: Φ(b) − Φ(a) = Φ(−a) − Φ(−b).
         (normal_cdf(-a) - normal_cdf(-b)).ln()
-    } else if b < 0.0 {
+    } else if b <= -ERF_CROSSOVER {
         (normal_cdf(b) - normal_cdf(a)).ln()
     } else {
         (0.5 * (libm::erf(b / SQRT_2) - libm::erf(a / SQRT_2))).ln()
     }
 }
+
+/// Where erf(x/√2) = erfc(x/√2): from here on the tails' difference (erfc) is the more accurate,
+/// below it the difference of erf (an interval near 0 on one side of it, such as [1e-300, 2e-300],
+/// cancelled to 0 in the tails' form).
+const ERF_CROSSOVER: f64 = 0.674_489_750_196_081_7;
 
 /// Beyond this many standard deviations the tails are taken through their logarithm: Φ(−30) is
 /// 4.9e-198, and Φ(−x) becomes subnormal (losing digits) from x ≈ 37.5.

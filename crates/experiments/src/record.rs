@@ -48,9 +48,22 @@ impl<T, E> Recording<T, E> {
         self.steps.is_empty()
     }
 
-    /// Steps per second of filter time (`+∞` for a run too short to time).
+    /// Steps per second of filter time: 0 without steps, `+∞` for a run too short to time (a time
+    /// that is not positive; the fields are public).
     pub fn steps_per_second(&self) -> f64 {
-        self.steps.len() as f64 / self.seconds
+        rate(self.steps.len() as f64, self.seconds)
+    }
+}
+
+/// `count / seconds`: 0 for no count, `+∞` for a time that is not a positive number, so that the
+/// rate is never NaN.
+pub fn rate(count: f64, seconds: f64) -> f64 {
+    if count == 0.0 {
+        0.0
+    } else if seconds > 0.0 {
+        count / seconds
+    } else {
+        f64::INFINITY
     }
 }
 

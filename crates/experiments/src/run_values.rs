@@ -240,7 +240,7 @@ impl Serialize for RunValues {
 
 impl<'de> Deserialize<'de> for RunValues {
     /// Reads run values back: as many values as run indices, the indices strictly increasing and
-    /// below [`MAX_KEPT_RUNS`].
+    /// below [`MAX_KEPT_RUNS`], every value finite or NaN.
     fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         use serde::de::Error as _;
         let fields = RunValuesFields::deserialize(deserializer)?;
@@ -249,6 +249,12 @@ impl<'de> Deserialize<'de> for RunValues {
                 "per-run values: {} run indices but {} values",
                 fields.runs.len(),
                 fields.values.len()
+            )));
+        }
+        if let Some(v) = fields.values.iter().find(|v| v.0.is_infinite()) {
+            return Err(D::Error::custom(format!(
+                "per-run values: {} is not a run's value (each is finite, or null for none)",
+                v.0
             )));
         }
         if fields.runs.windows(2).any(|w| w[0] >= w[1])

@@ -35,11 +35,12 @@ impl RunningStats {
     /// Adds one value; a NaN or infinite value is only counted, in
     /// [`non_finite`](Self::non_finite).
     pub fn add(&mut self, x: f64) {
+        // The counts saturate (a count read from a file may be as large as u64 holds).
         if !x.is_finite() {
-            self.non_finite += 1;
+            self.non_finite = self.non_finite.saturating_add(1);
             return;
         }
-        self.count += 1;
+        self.count = self.count.saturating_add(1);
         self.sum.add(x);
         self.sum_of_squares.add(x * x);
         self.min = Some(self.min.map_or(x, |m| m.min(x)));
@@ -48,8 +49,8 @@ impl RunningStats {
 
     /// Adds the values of another stream (another shard of runs).
     pub fn merge(&mut self, other: &RunningStats) {
-        self.count += other.count;
-        self.non_finite += other.non_finite;
+        self.count = self.count.saturating_add(other.count);
+        self.non_finite = self.non_finite.saturating_add(other.non_finite);
         self.sum.merge(&other.sum);
         self.sum_of_squares.merge(&other.sum_of_squares);
         self.min = match (self.min, other.min) {

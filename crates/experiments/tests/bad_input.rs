@@ -303,3 +303,69 @@ fn an_endless_recording_reserves_a_bounded_capacity() {
     assert_eq!(failure.step, 0);
     assert!(matches!(failure.error, OperatorError::NonFinite { .. }));
 }
+
+/// Statistics read back with a count as large as u64 holds: adding to them and merging them
+/// saturates the counts (it overflowed, a panic), and the figures stay finite.
+#[test]
+fn counts_read_from_a_file_saturate() {
+    let mut stats = RunningStats::new();
+    stats.add(2.0);
+    let text = serde_json::to_string(&stats)
+        .unwrap()
+        .replace("\"count\":1", &format!("\"count\":{}", u64::MAX));
+    let mut huge: RunningStats = serde_json::from_str(&text).unwrap();
+    assert_eq!(huge.count(), u64::MAX);
+    huge.add(3.0);
+    huge.add(f64::NAN);
+    let copy = huge.clone();
+    huge.merge(&copy);
+    assert_eq!(huge.count(), u64::MAX);
+    assert!(huge.mean().unwrap().is_finite());
+}
+
+/// Rates of nothing: an empty recording's steps per second is 0 (it was 0/0, NaN), and a run
+/// whose time is not positive (public fields) is too short to time, +∞.
+#[test]
+fn rates_of_empty_or_untimed_recordings_are_not_nan() {
+    let empty: liebayes_experiments::Recording<(), f64> = liebayes_experiments::Recording {
+        steps: Vec::new(),
+        smoothed: Vec::new(),
+        seconds: 0.0,
+    };
+    assert_eq!(empty.steps_per_second(), 0.0);
+    let untimed = liebayes_experiments::Recording {
+        steps: vec![liebayes_experiments::Recorded {
+            time: 0.0,
+            truth: (),
+            estimate: 1.0,
+            update: None,
+        }],
+        smoothed: Vec::new(),
+        seconds: f64::NAN,
+    };
+    assert_eq!(untimed.steps_per_second(), f64::INFINITY);
+}
+
+/// A summary file whose per-run values hold an infinity is refused: a run's value is finite or
+/// NaN (written null).
+#[test]
+fn per_run_values_read_back_are_finite_or_nan() {
+    let label = StudyLabel {
+        name: "file".into(),
+        seed: 0,
+        runs: 1,
+    };
+    let mut summary = Summary::new(label, 0..1);
+    let scores = RunScores {
+        metrics: vec![Metric::new("error", Reduction::Mean, "m").per_run()],
+        times: vec![0.0],
+        values: vec![2.5],
+        seconds_per_step: 1e-6,
+    };
+    summary.add_run(0, &scores).unwrap();
+    let text = serde_json::to_string(&summary).unwrap();
+    assert!(text.contains("\"values\":[2.5]"), "{text}");
+    let bad = text.replace("\"values\":[2.5]", "\"values\":[\"inf\"]");
+    let error = serde_json::from_str::<Summary>(&bad).unwrap_err();
+    assert!(error.to_string().contains("per-run values"), "{error}");
+}

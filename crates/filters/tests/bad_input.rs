@@ -939,3 +939,32 @@ fn a_motion_at_a_time_that_is_not_finite_has_no_velocity() {
         assert!(v.iter().all(|x| x.is_finite()), "{motion:?}");
     }
 }
+
+/// A subnormal sampling rate made a log's interval infinite and its first sample's time NaN;
+/// logs, simulations and the attitude filters now take rates in [1e-3, 1e6] Hz. An evaluation of
+/// no logs has no mean errors (it was 0/0).
+#[test]
+fn attitude_rates_outside_their_range_are_refused() {
+    use liebayes_filters::attitude::{
+        AttitudeEkf, AttitudeParams, Evaluation, ImuLog, Madgwick, RATE_RANGE, Sensors, TalkFilter,
+        TalkParams,
+    };
+    let samples = || vec![Vector3::new(0.0, 0.0, 9.8); 2];
+    for rate in [1e-310, 0.0, -1.0, f64::NAN, 2e6] {
+        assert!(
+            ImuLog::new(rate, samples(), samples(), None).is_err(),
+            "{rate}"
+        );
+        assert!(Madgwick::new(0.1, Sensors::SixD, rate).is_err(), "{rate}");
+        assert!(AttitudeEkf::new(AttitudeParams::default(), Sensors::SixD, rate).is_err());
+        assert!(TalkFilter::new(&TalkParams::default(), Sensors::SixD, rate).is_err());
+    }
+    let log = ImuLog::new(RATE_RANGE.0, samples(), samples(), None).unwrap();
+    assert!(log.interval().is_finite());
+    let empty = Evaluation {
+        trials: Vec::new(),
+        methods: vec!["a method".into()],
+        scores: Vec::new(),
+    };
+    assert_eq!(empty.mean_errors(0), None);
+}

@@ -9,6 +9,24 @@ use thiserror::Error;
 /// checks it before allocating.
 pub const MAX_SAMPLES: usize = 1 << 28;
 
+/// The sampling rates (Hz) a log, a simulation and the attitude filters accept: from one sample in
+/// 1000 s to 1 MHz, so that the interval 1/rate and every sample's time are ordinary numbers (a
+/// subnormal rate made the interval infinite and the first sample's time NaN).
+pub const RATE_RANGE: (f64, f64) = (1e-3, 1e6);
+
+/// A filter's sampling rate checked against [`RATE_RANGE`].
+pub(crate) fn check_rate(origin: &'static str, rate: f64) -> Result<(), crate::FilterError> {
+    if (RATE_RANGE.0..=RATE_RANGE.1).contains(&rate) {
+        return Ok(());
+    }
+    Err(crate::FilterError::Setting {
+        origin,
+        setting: "rate",
+        value: rate.to_string(),
+        expected: "a rate in [1e-3, 1e6] Hz",
+    })
+}
+
 /// The largest angular rate a gyroscope reading may have (rad/s): far above any gyroscope's range
 /// (MEMS gyroscopes saturate near 35 rad/s), so a reading above it is a corrupt sample. Logs
 /// ([`ImuLog::new`]) and the filters' steps refuse it.
@@ -169,8 +187,8 @@ impl ImuLog {
     /// `magnetometer` (µT) for a 9D log.
     ///
     /// # Errors
-    /// [`DataError::BadValue`] for a rate that is not finite and positive or a row that is not
-    /// finite or beyond its sensor's limit,
+    /// [`DataError::BadValue`] for a rate outside [`RATE_RANGE`] or a row that is not finite or
+    /// beyond its sensor's limit,
     /// [`DataError::Length`] when the sequences differ in length, [`DataError::TooLarge`] beyond
     /// [`MAX_SAMPLES`].
     pub fn new(
@@ -199,13 +217,13 @@ impl ImuLog {
         accelerometer: Vec<Vector3<f64>>,
         magnetometer: Option<Vec<Vector3<f64>>>,
     ) -> Result<Self, DataError> {
-        if !(rate.is_finite() && rate > 0.0) {
+        if !(RATE_RANGE.0..=RATE_RANGE.1).contains(&rate) {
             return Err(DataError::BadValue {
                 origin: origin.to_owned(),
                 variable: "sampling_rate".to_owned(),
                 row: 0,
                 value: rate.to_string(),
-                expected: "a finite positive rate in Hz",
+                expected: "a rate in [1e-3, 1e6] Hz",
             });
         }
         let n = gyroscope.len();

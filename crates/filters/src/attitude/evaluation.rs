@@ -7,6 +7,7 @@ use super::method::Method;
 use super::metric::TrialErrors;
 use super::scenario::LogScenario;
 use crate::error::FilterError;
+use liebayes_experiments::record::rate;
 use liebayes_experiments::{Recorded, Recording, RunningStats, Scorer, record};
 use nalgebra::UnitQuaternion;
 
@@ -94,9 +95,10 @@ impl LogScore {
         Some([mean("heading_nees")?, mean("tilt_nees")?, mean("nees")?])
     }
 
-    /// Samples per second of filter time.
+    /// Samples per second of filter time: 0 without samples, `+∞` for a run too short to time
+    /// (a time that is not positive; the fields are public).
     pub fn throughput(&self) -> f64 {
-        self.samples as f64 / self.seconds
+        rate(self.samples as f64, self.seconds)
     }
 
     /// Adds another log's scores (pooling: statistics merged exactly, samples and time summed).
@@ -104,7 +106,7 @@ impl LogScore {
         for (s, o) in self.stats.iter_mut().zip(&other.stats) {
             s.merge(o);
         }
-        self.samples += other.samples;
+        self.samples = self.samples.saturating_add(other.samples);
         self.seconds += other.seconds;
     }
 }
@@ -145,6 +147,9 @@ impl Evaluation {
             sums[0] += e.total;
             sums[1] += e.heading;
             sums[2] += e.inclination;
+        }
+        if self.scores.is_empty() {
+            return None;
         }
         let n = self.scores.len() as f64;
         Some(sums.map(|s| s / n))

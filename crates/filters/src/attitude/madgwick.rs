@@ -2,10 +2,11 @@
 //! orientation filter for inertial and inertial/magnetic sensor arrays", 2010), in the variant of
 //! his published code that the BROAD dataset's example evaluation runs.
 
+use super::data::check_rate;
 use super::data::{MAX_FIELD, check_reading, scaled_unit};
 use super::ekf::Sensors;
 use super::estimate::{AttitudeEstimate, ImuSample};
-use crate::error::{FilterError, positive_setting};
+use crate::error::FilterError;
 use liebayes_experiments::{RecursiveFilter, Update};
 use liebayes_operators::OperatorError;
 use nalgebra::{
@@ -114,7 +115,7 @@ impl Madgwick {
                 expected: "a finite non-negative gain in rad/s",
             });
         }
-        positive_setting("Madgwick::new", "rate", rate)?;
+        check_rate("Madgwick::new", rate)?;
         Ok(Self {
             beta,
             sensors,

@@ -1,6 +1,6 @@
 //! [`simulate`]: an IMU log with its true orientation, from [`SimulationSettings`].
 
-use super::data::{DataError, ImuLog, MAX_SAMPLES};
+use super::data::{DataError, ImuLog, MAX_SAMPLES, RATE_RANGE};
 use super::ekf::{AttitudeParams, FieldOffset};
 use crate::error::FilterError;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -235,11 +235,10 @@ pub(super) fn check_settings(s: &SimulationSettings) -> Result<(), DataError> {
             expected,
         })
     };
-    let positive = [
-        ("rate", s.rate),
-        ("rotation_time", s.rotation_time),
-        ("gravity", s.gravity),
-    ];
+    if !(RATE_RANGE.0..=RATE_RANGE.1).contains(&s.rate) {
+        return bad("rate", s.rate.to_string(), "a rate in [1e-3, 1e6] Hz");
+    }
+    let positive = [("rotation_time", s.rotation_time), ("gravity", s.gravity)];
     for (name, value) in positive {
         if !(value.is_finite() && value > 0.0) {
             return bad(name, value.to_string(), "finite and positive");

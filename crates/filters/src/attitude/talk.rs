@@ -7,6 +7,7 @@
 //! `v_ENU = q v_IMU q*`), the talk's `r` being `R(q)ᵀ`; Σ is the covariance of the body-frame
 //! deviation, `R = R(q̄) exp([ξ]ₓ)`.
 
+use super::data::check_rate;
 use super::data::{MAX_FIELD, check_reading, scaled_unit};
 use super::ekf::Sensors;
 use super::estimate::{AttitudeEstimate, ImuSample};
@@ -128,7 +129,7 @@ impl TalkFilter {
     /// rate that is not finite and positive.
     pub fn new(params: &TalkParams, sensors: Sensors, rate: f64) -> Result<Self, FilterError> {
         params.validate()?;
-        positive_setting("TalkFilter::new", "rate", rate)?;
+        check_rate("TalkFilter::new", rate)?;
         Ok(Self {
             params: *params,
             sensors,

@@ -40,7 +40,8 @@ mod smoothing;
 
 use super::data::{check_reading, scaled_unit};
 use super::estimate::{AttitudeEstimate, ImuSample};
-use crate::error::{FilterError, positive_setting};
+use crate::attitude::data::check_rate;
+use crate::error::FilterError;
 use liebayes_densities::{Bingham, HeatKernelSo3, ManifoldGaussian};
 use liebayes_experiments::Smoothing;
 use liebayes_experiments::{Nis, RecursiveFilter, Update};
@@ -177,7 +178,7 @@ impl AttitudeEkf {
     /// positive.
     pub fn new(params: AttitudeParams, sensors: Sensors, rate: f64) -> Result<Self, FilterError> {
         params.validate()?;
-        positive_setting("AttitudeEkf::new", "rate", rate)?;
+        check_rate("AttitudeEkf::new", rate)?;
         let samples = |seconds: f64| samples_in(seconds, rate).max(1);
         let block_samples = samples(params.block);
         let in_blocks = |seconds: f64| samples(seconds).div_ceil(block_samples).max(1);
