@@ -59,20 +59,23 @@ impl FilterError {
     }
 }
 
-/// `Ok` for a finite `value > 0`, else [`FilterError::Setting`].
+/// `Ok` for a `value` in [1.5e-154, 1e150], else [`FilterError::Setting`]: positive, and with a
+/// square that is a positive normal number up to 1e300, so that a standard deviation's variance
+/// (and a time's or a bound's square) neither underflows to 0 nor overflows (σ = 1e-200 passed and
+/// made every step of the talk's filter fail on 0/0).
 pub(crate) fn positive_setting(
     origin: &'static str,
     setting: &'static str,
     value: f64,
 ) -> Result<(), FilterError> {
-    if value.is_finite() && value > 0.0 {
+    if (1.5e-154..=1e150).contains(&value) {
         Ok(())
     } else {
         Err(FilterError::Setting {
             origin,
             setting,
             value: value.to_string(),
-            expected: "a finite positive number",
+            expected: "a positive number in [1.5e-154, 1e150] (its square a normal number)",
         })
     }
 }

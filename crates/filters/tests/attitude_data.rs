@@ -1289,6 +1289,21 @@ fn bad_input_mat_files() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// A matrix element whose declared size is within 7 of u32::MAX: padding it to 8 bytes overflowed
+/// (a panic with overflow checks). It is refused like any truncated file.
+#[test]
+fn a_mat_element_sized_near_u32_max_is_refused() {
+    let dir = temp_dir("huge-element");
+    let mut bytes = vec![b' '; 128];
+    bytes[124..126].copy_from_slice(&0x0100_u16.to_le_bytes());
+    bytes[126..128].copy_from_slice(b"IM");
+    bytes.extend_from_slice(&14_u32.to_le_bytes());
+    bytes.extend_from_slice(&0xFFFF_FFF9_u32.to_le_bytes());
+    let path = write(&dir, "huge-element.mat", &bytes);
+    assert!(read_broad(&path).is_err());
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// Bytes changed inside the compressed elements of a real trial (16 mutated copies).
 #[test]
 fn bad_input_mutated_trial() {

@@ -968,3 +968,61 @@ fn attitude_rates_outside_their_range_are_refused() {
     };
     assert_eq!(empty.mean_errors(0), None);
 }
+
+/// The second audit's angle-of-arrival and estimate findings: the von Mises-Fisher likelihood of a
+/// position 1e200 m away was that of a perpendicular direction (and NaN at 1.5e308); a public
+/// rotation matrix of NaN converted readings into NaN directions; the adaptive table at a NaN
+/// elevation, a negative circular variance and a NaN attitude covariance gave NaN or zero σ.
+#[test]
+fn far_positions_and_malformed_public_fields() {
+    use liebayes_filters::aoa::{AdaptiveSigmas, InWorldAxes, WorldDirections};
+    use liebayes_filters::attitude::{AttitudeEstimate, TalkParams};
+    use liebayes_manifolds::LieGroup;
+    use liebayes_operators::Conversion;
+    use liebayes_operators::particle::Likelihood;
+    let anchor = Anchor::new(Vector3::zeros(), liebayes_manifolds::So3::identity()).unwrap();
+    let model = UnitVectorModel::new([anchor], 10.0).unwrap();
+    let at = |x: Vector3<f64>, v: Vector3<f64>| {
+        model.log_likelihood(
+            &liebayes_manifolds::Rn::new(x).unwrap(),
+            &WorldDirections([v]),
+        )
+    };
+    let aligned = at(Vector3::new(1.0, 0.0, 0.0), Vector3::x());
+    assert!(aligned.is_finite());
+    assert_eq!(at(Vector3::new(1e200, 0.0, 0.0), Vector3::x()), aligned);
+    let diagonal = Vector3::new(1.0, 1.0, 0.0).normalize();
+    assert!((at(Vector3::new(1.5e308, 1.5e308, 0.0), diagonal) - aligned).abs() < 1e-12);
+    let readings = [AzEl::new(0.1, 0.2)];
+    assert!(
+        InWorldAxes([nalgebra::Matrix3::from_element(f64::NAN)])
+            .convert(&readings)
+            .is_err()
+    );
+    assert!(
+        InWorldAxes([nalgebra::Matrix3::identity() * 1e300])
+            .convert(&readings)
+            .is_err()
+    );
+    let table = AdaptiveSigmas::model_one(0.1, 0.1).unwrap();
+    assert_eq!(table.at(f64::NAN), None);
+    assert!(table.at(f64::INFINITY).is_some());
+    let estimate = AzimuthEstimate {
+        azimuth: None,
+        rho: 0.5,
+        circular_variance: -1.0,
+        mean_r: nalgebra::Vector2::zeros(),
+        cov_r: nalgebra::Matrix2::identity(),
+    };
+    assert_eq!(estimate.sigma_a(), None);
+    let attitude = AttitudeEstimate {
+        orientation: nalgebra::UnitQuaternion::identity(),
+        covariance: Some(nalgebra::Matrix3::from_element(f64::NAN)),
+    };
+    assert_eq!(attitude.sigmas(), None);
+    let tiny = TalkParams {
+        gyro_noise: 1e-200,
+        ..TalkParams::default()
+    };
+    assert!(tiny.validate().is_err());
+}

@@ -67,16 +67,17 @@ impl<T: Real, const N: usize> Rn<T, N> {
 impl<T: Real, const N: usize> Manifold<N> for Rn<T, N> {
     type Scalar = T;
 
-    /// `x + v`.
+    /// `x + v`, saturated at the largest finite value where the sum overflows (like the poses'
+    /// translations).
     #[inline]
     fn retract(&self, v: &Tangent<T, N>) -> Self {
-        Self::new_unchecked(self.v + v)
+        Self::new_unchecked(saturated(self.v + v))
     }
 
-    /// `y − x`.
+    /// `y − x`, saturated at the largest finite value where the difference overflows.
     #[inline]
     fn local(&self, other: &Self) -> Tangent<T, N> {
-        other.v - self.v
+        saturated(other.v - self.v)
     }
 
     #[inline]
@@ -100,9 +101,10 @@ impl<T: Real, const N: usize> LieGroup<N> for Rn<T, N> {
         Self::new_unchecked(SVector::zeros())
     }
 
+    /// `x + y`, saturated at the largest finite value where the sum overflows.
     #[inline]
     fn compose(&self, other: &Self) -> Self {
-        Self::new_unchecked(self.v + other.v)
+        Self::new_unchecked(saturated(self.v + other.v))
     }
 
     #[inline]

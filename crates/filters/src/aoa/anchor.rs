@@ -94,20 +94,35 @@ impl Anchor {
 /// `(v/|v|, |v|)` for a nonzero finite v whose norm is finite; where `|v|²` under- or overflows,
 /// computed on `v / max|vᵢ|` so that the unit vector stays unit (a target 2e-162 m from its anchor
 /// gave |d| = 0.905).
-fn unit_and_distance(v: &Vector3<f64>) -> Option<(Vector3<f64>, f64)> {
+pub(super) fn unit_and_distance(v: &Vector3<f64>) -> Option<(Vector3<f64>, f64)> {
     let squared = v.norm_squared();
     if squared.is_normal() {
         let distance = squared.sqrt();
         return Some((v / distance, distance));
     }
+    let (unit, distance) = scaled_unit(v)?;
+    distance.is_finite().then_some((unit, distance))
+}
+
+/// `v/|v|` for a nonzero finite v, also where |v| itself overflows (a direction needs no length).
+pub(super) fn unit_direction(v: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let squared = v.norm_squared();
+    if squared.is_normal() {
+        return Some(v / squared.sqrt());
+    }
+    scaled_unit(v).map(|(unit, _)| unit)
+}
+
+/// `(v/|v|, |v|)` computed on `v / max|vᵢ|` (the length may overflow to +∞); `None` for a zero or
+/// non-finite v.
+fn scaled_unit(v: &Vector3<f64>) -> Option<(Vector3<f64>, f64)> {
     let scale = v.amax();
     if !(scale > 0.0 && scale.is_finite()) {
         return None;
     }
     let scaled = v / scale;
     let norm = scaled.norm();
-    let distance = norm * scale;
-    distance.is_finite().then(|| (scaled / norm, distance))
+    Some((scaled / norm, norm * scale))
 }
 
 /// The four anchors of the square-track test (the paper's Sec. 4.3, made consistent): at

@@ -308,7 +308,12 @@ pub fn compare_models<R: Rng + ?Sized>(
         let theta = uniform_direction(rng);
         let y = data.sample(&theta, rng);
         let truth = AzEl::of_vector(&theta);
-        let (az, el) = adaptive.at(truth.elevation);
+        let (az, el) = adaptive
+            .at(truth.elevation)
+            .ok_or(OperatorError::NonFinite {
+                what: "elevation of a drawn direction",
+                value: truth.elevation,
+            })?;
         let values = Vector4::new(
             az_el_log_density(&y, &truth, nominal.0, nominal.1)?,
             az_el_log_density(&y, &truth, fitted.0, fitted.1)?,

@@ -11,12 +11,12 @@
 //!   taken from [`AdaptiveSigmas`] at the predicted elevation (AE-adaptive); the Kalman filters
 //!   stack `[az₁, el₁, …]` (M = 2N) with the azimuth residual wrapped.
 
-use super::anchor::Anchor;
+use super::anchor::{Anchor, unit_direction};
 use super::direction::AzEl;
 use super::noise::{AdaptiveSigmas, AngleSigmas, check_kappa, check_sigma};
 use liebayes_densities::special::vmf_log_normalizer;
-use liebayes_manifolds::Rn;
 use liebayes_manifolds::wrap_angle;
+use liebayes_manifolds::{Rn, So3};
 use liebayes_operators::particle::Likelihood;
 use liebayes_operators::{Conversion, MeasurementModel, OperatorError};
 use nalgebra::{Matrix3, RowVector3, SMatrix, SVector, Vector3};
@@ -76,7 +76,8 @@ impl<const N: usize> UnitVectorModel<N> {
 }
 
 /// `ln p(u₁…u_N | θ) = N ln C(κ) + κ Σⱼ vⱼ · dⱼ(θ)`, `C(κ) = κ/(4π sinh κ)`: the exact von
-/// Mises-Fisher likelihood (a density on the product of spheres); −∞ at an anchor.
+/// Mises-Fisher likelihood (a density on the product of spheres), with `dⱼ` the unit direction
+/// from anchor j (taken without overflow at any distance); −∞ at an anchor.
 impl<const N: usize> Likelihood<Position> for UnitVectorModel<N> {
     type Measurement = WorldDirections<N>;
 
@@ -84,12 +85,10 @@ impl<const N: usize> Likelihood<Position> for UnitVectorModel<N> {
         let theta = x.coords();
         let mut sum = 0.0;
         for (anchor, v) in self.anchors.iter().zip(&z.0) {
-            let offset = theta - anchor.position();
-            let distance = offset.norm();
-            if distance.is_nan() || distance <= 0.0 {
+            let Some(d) = unit_direction(&(theta - anchor.position())) else {
                 return f64::NEG_INFINITY;
-            }
-            sum += v.dot(&offset) / distance;
+            };
+            sum += v.dot(&d);
         }
         N as f64 * self.log_normalizer + self.kappa * sum
     }
@@ -149,10 +148,10 @@ pub enum AngleNoise {
 }
 
 impl AngleNoise {
-    /// `(σ_az, σ_el)` at elevation el.
-    fn at(&self, el: f64) -> (f64, f64) {
+    /// `(σ_az, σ_el)` at elevation el (`None` for the adaptive table at a NaN elevation).
+    fn at(&self, el: f64) -> Option<(f64, f64)> {
         match self {
-            AngleNoise::Fixed { sigma_az, sigma_el } => (*sigma_az, *sigma_el),
+            AngleNoise::Fixed { sigma_az, sigma_el } => Some((*sigma_az, *sigma_el)),
             AngleNoise::Adaptive(table) => table.at(el),
         }
     }
@@ -220,10 +219,14 @@ impl<const N: usize> Likelihood<Position> for AzElModel<N> {
             let Some(predicted) = Self::predicted(anchor, x.coords()) else {
                 return f64::NEG_INFINITY;
             };
-            let sigmas = self.fixed.unwrap_or_else(|| {
-                let (sigma_az, sigma_el) = self.noise.at(predicted.elevation);
+            let sigmas = if let Some(fixed) = self.fixed {
+                fixed
+            } else {
+                let Some((sigma_az, sigma_el)) = self.noise.at(predicted.elevation) else {
+                    return f64::NEG_INFINITY;
+                };
                 AngleSigmas::new(sigma_az, sigma_el)
-            });
+            };
             sum += sigmas.log_density(y, &predicted);
         }
         sum
@@ -256,8 +259,10 @@ impl<const N: usize, const M: usize> MeasurementModel<Position, 3, M> for AzElMo
     fn noise(&self, x: &Position) -> SMatrix<f64, M, M> {
         let mut r = SMatrix::<f64, M, M>::zeros();
         for (j, anchor) in self.anchors.iter().enumerate() {
-            let el = Self::predicted(anchor, x.coords()).map_or(f64::NAN, |y| y.elevation);
-            let (sigma_az, sigma_el) = self.noise.at(el);
+            // NaN at an anchor, where nothing is predicted: the filters refuse such a noise.
+            let (sigma_az, sigma_el) = Self::predicted(anchor, x.coords())
+                .and_then(|y| self.noise.at(y.elevation))
+                .unwrap_or((f64::NAN, f64::NAN));
             r[(2 * j, 2 * j)] = sigma_az * sigma_az;
             r[(2 * j + 1, 2 * j + 1)] = sigma_el * sigma_el;
         }
@@ -347,10 +352,17 @@ impl<const N: usize> Conversion for InWorldAxes<N> {
     type Measurement = WorldDirections<N>;
 
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite angle.
+    /// [`OperatorError::NonFinite`] for a non-finite angle, [`OperatorError::Manifold`] for a
+    /// matrix (a public field) that is not a rotation.
     fn convert(&self, readings: &Readings<N>) -> Result<WorldDirections<N>, OperatorError> {
         for y in readings {
             y.check_finite()?;
+        }
+        for m in &self.0 {
+            So3::from_matrix(m).map_err(|source| OperatorError::Manifold {
+                what: "an anchor's rotation matrix in InWorldAxes",
+                source,
+            })?;
         }
         Ok(WorldDirections(std::array::from_fn(|j| {
             self.0[j].transpose() * readings[j].unit_vector()

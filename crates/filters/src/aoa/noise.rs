@@ -223,8 +223,12 @@ impl AdaptiveSigmas {
         })
     }
 
-    /// `(σ_az, σ_el)` at elevation `el` (rad; clamped to [−π/2, π/2]), interpolated linearly.
-    pub fn at(&self, el: f64) -> (f64, f64) {
+    /// `(σ_az, σ_el)` at elevation `el` (rad; clamped to [−π/2, π/2]), interpolated linearly;
+    /// `None` for a NaN elevation.
+    pub fn at(&self, el: f64) -> Option<(f64, f64)> {
+        if el.is_nan() {
+            return None;
+        }
         let (i, t) = grid_position(el);
         let lerp = |v: &[f64; ADAPTIVE_GRID]| {
             if i + 1 < ADAPTIVE_GRID {
@@ -233,7 +237,7 @@ impl AdaptiveSigmas {
                 v[i]
             }
         };
-        (lerp(&self.sigma_az), lerp(&self.sigma_el))
+        Some((lerp(&self.sigma_az), lerp(&self.sigma_el)))
     }
 
     /// The grid elevations (rad) with, at each, `(σ_az, σ_el, E[elevation error], P(flip))`.

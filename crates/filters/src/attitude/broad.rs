@@ -136,12 +136,16 @@ fn walk(
                 ));
             }
         }
+        // A matrix is padded to 8 bytes; in u64, so that a size near u32::MAX cannot overflow.
         let step = if data_type == 15 {
-            size
+            u64::from(size)
         } else {
-            size.next_multiple_of(8)
+            u64::from(size).next_multiple_of(8)
         };
-        let Some(next) = body.checked_add(step as usize) else {
+        let Some(next) = usize::try_from(step)
+            .ok()
+            .and_then(|step| body.checked_add(step))
+        else {
             break;
         };
         at = next;

@@ -44,12 +44,16 @@ pub struct AttitudeEstimate {
 
 impl AttitudeEstimate {
     /// `(heading σ, tilt σ)` (rad) of the covariance Σ: `√Σ_zz` and `√(Σ_xx + Σ_yy)` (negative
-    /// diagonal entries from rounding read as zero); `None` without a covariance.
+    /// diagonal entries from rounding read as zero); `None` without a covariance, or for one (a
+    /// public field) whose diagonal is not finite.
     pub fn sigmas(&self) -> Option<(f64, f64)> {
-        self.covariance.map(|p| {
-            let d = p.diagonal().map(|v| v.max(0.0));
-            (d[2].sqrt(), (d[0] + d[1]).sqrt())
-        })
+        let p = self.covariance?;
+        let d = p.diagonal();
+        if !d.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let d = d.map(|v| v.max(0.0));
+        Some((d[2].sqrt(), (d[0] + d[1]).sqrt()))
     }
 }
 

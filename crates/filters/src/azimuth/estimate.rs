@@ -35,11 +35,11 @@ pub struct AzimuthEstimate {
 pub struct AzimuthMoments;
 
 impl AzimuthEstimate {
-    /// The circular standard deviation `σ_A = √(−2 ln ρ)`; `None` at ρ = 0.
+    /// The circular standard deviation `σ_A = √(−2 ln ρ)`; `None` at ρ = 0 (and for a circular
+    /// variance, a public field, that is negative or NaN).
     pub fn sigma_a(&self) -> Option<f64> {
-        self.circular_variance
-            .is_finite()
-            .then(|| self.circular_variance.sqrt())
+        let v = self.circular_variance;
+        (v.is_finite() && v >= 0.0).then(|| v.sqrt())
     }
 
     /// From the first trigonometric moment `E (cos A, sin A)` of a particle set or a grid.
