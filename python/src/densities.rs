@@ -256,7 +256,7 @@ fn vector_array<'py, const N: usize>(
 }
 
 /// Weights for a fit: `None` gives equal weights; otherwise an array of `shape` (one weight per
-/// sample) of finite, non-negative numbers with a positive sum.
+/// sample) of finite, non-negative numbers with a positive sum, returned divided by the largest.
 fn fit_weights(weights: Option<&Bound<'_, PyAny>>, shape: &[usize]) -> PyResult<Vec<f64>> {
     let Some(weights) = weights else {
         return Ok(vec![1.0; shape.iter().product()]);
@@ -279,10 +279,13 @@ fn fit_weights(weights: Option<&Bound<'_, PyAny>>, shape: &[usize]) -> PyResult<
             "weights[{i}] is {w}: every weight must be a finite non-negative number"
         )));
     }
-    if values.iter().sum::<f64>() <= 0.0 {
+    // A fit depends on the weights' ratios only: divided by the largest, they sum to at most n,
+    // however large they are (weights of 1e308 summed to inf, and every sample's share to 0).
+    let largest = values.iter().copied().fold(0.0, f64::max);
+    if largest <= 0.0 {
         return Err(PyValueError::new_err("weights: their sum must be positive"));
     }
-    Ok(values)
+    Ok(values.into_iter().map(|w| w / largest).collect())
 }
 
 /// The samples of a fit, `(n, *point_shape)`, each validated by `parse` with the GIL released (a

@@ -161,6 +161,10 @@ def test_von_mises_fit_matches_scipy_mle():
     np.testing.assert_allclose(VonMises.fit(data, w).natural, VonMises.fit(dup).natural, rtol=1e-10)
     # A fit to other data is not this fit.
     assert abs(VonMises.fit(data[:250]).concentration - fitted.concentration) > 1e-3
+    # Only the weights' ratios count, however large (weights summing past the largest float gave
+    # a uniform fit).
+    huge = np.full(500, 1e308)
+    np.testing.assert_allclose(VonMises.fit(data, huge).natural, fitted.natural, rtol=1e-12)
 
 
 # ------------------------------------------------------------------------------------------------

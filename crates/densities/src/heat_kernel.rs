@@ -436,14 +436,18 @@ impl KlDivergence for HeatKernelSo3 {
             } else {
                 quadrature::integrate(integrand, -1.0, 1.0, 4)
             };
-            self.pdf_of_angle(t) * inner
+            // The angle's density times √s₁ is of order 1 (its peak is about 0.6/√s₁), so the
+            // product with the inner integral (about δ²/(2 s₂)) overflows only where the
+            // divergence itself does (it did at s₁ = s₂ = 1e-250); √s₁ is divided out at the end.
+            (self.pdf_of_angle(t) * root) * inner
         };
-        pieces
+        let scaled: f64 = pieces
             .iter()
             .map(|&(a, b, from_a, from_b)| {
                 graded_integral(&outer, a, b, [from_a, from_b], fine, coarse)
             })
-            .sum()
+            .sum();
+        scaled / root
     }
 }
 

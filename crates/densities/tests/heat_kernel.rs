@@ -220,6 +220,24 @@ fn kl_and_entropy_match_monte_carlo() {
     }
 }
 
+/// Two very concentrated kernels an angle apart: the divergence is large but finite, about
+/// δ²/(2 s₂) (the small-variance limit of the Gaussians' KL, 3/2 (s₁/s₂ − 1 − ln(s₁/s₂)) + δ²/(2 s₂)
+/// at s₁ = s₂); the density times the inner integral overflowed to +∞ from s = 1e-250 on.
+#[test]
+fn the_divergence_of_very_concentrated_kernels_is_finite() {
+    let delta = 1.0;
+    for s in [1e-100, 1e-250, 1e-300] {
+        let p = HeatKernelSo3::new(So3::identity(), s).unwrap();
+        let q = HeatKernelSo3::new(So3::exp(&Vector3::new(delta, 0.0, 0.0)), s).unwrap();
+        let kl = p.kl_divergence(&q);
+        let expected = delta * delta / (2.0 * s);
+        assert!(
+            (kl / expected - 1.0).abs() < 1e-6,
+            "s = {s:e}: {kl:e} vs {expected:e}"
+        );
+    }
+}
+
 /// The rejection sampler for s < 1 relies on angle_pdf(t) ≤ 1.5 e^(s/8) m(t), m the Maxwell density of
 /// |ξ| for ξ ~ N(0, s I): check the ratio on a fine grid of t over (0, π] for s across (0, 1).
 #[test]

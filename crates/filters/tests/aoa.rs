@@ -123,7 +123,7 @@ fn the_square_track_walks_the_square_and_reads_canonical_directions() {
     };
     let track = SquareTrack::paper(data).unwrap();
     let config = *track.config();
-    let (mean, std) = config.step_length();
+    let (mean, std) = config.step_length().unwrap();
     // Equation (12): mean q √(2δ) Γ(1.5), variance 2 q² δ (1 − Γ(1.5)²).
     assert!((mean - 0.5 * 0.5_f64.sqrt() * PI.sqrt() / 2.0).abs() < 1e-15);
     assert!((std * std - 2.0 * 0.25 * 0.25 * (1.0 - PI / 4.0)).abs() < 1e-15);

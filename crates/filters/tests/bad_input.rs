@@ -1026,3 +1026,27 @@ fn far_positions_and_malformed_public_fields() {
     };
     assert!(tiny.validate().is_err());
 }
+
+/// The square track's helpers on malformed public fields or a non-finite arc length: errors (they
+/// returned NaN points and step lengths).
+#[test]
+fn the_track_helpers_refuse_what_they_cannot_place() {
+    let config = TrackConfig::default();
+    for s in [f64::NAN, f64::INFINITY] {
+        assert!(config.point_at(s).is_err());
+    }
+    let far = config.point_at(1e300).unwrap();
+    assert!(far.iter().all(|v| v.is_finite()));
+    let flat = TrackConfig {
+        side: 0.0,
+        ..config
+    };
+    assert!(flat.point_at(1.0).is_err());
+    let backwards = TrackConfig {
+        delta: -1.0,
+        ..config
+    };
+    assert!(backwards.step_length().is_err());
+    let (mean, std) = config.step_length().unwrap();
+    assert!(mean > 0.0 && std > 0.0);
+}

@@ -98,6 +98,43 @@ pub(crate) fn mul_saturating<T: Real, const R: usize, const K: usize, const C: u
     }
 }
 
+/// `l a r` (a conjugation `R a Rᵀ` or `H a H⁻¹`), free of overflow into NaN or ±∞ for finite
+/// factors: below the large-coordinate bound the plain products; beyond it each factor is
+/// divided by its largest magnitude, the three are multiplied at that scale (so that terms that
+/// cancel in the exact result cancel here too) and the scales put back, saturating at the
+/// largest finite value.
+#[inline]
+pub(crate) fn conjugate_saturating<T: Real, const N: usize>(
+    l: &SMatrix<T, N, N>,
+    a: &SMatrix<T, N, N>,
+    r: &SMatrix<T, N, N>,
+) -> SMatrix<T, N, N> {
+    let (sl, sa, sr) = (l.amax(), a.amax(), r.amax());
+    if sl * sa * sr <= T::LARGE_COORDINATE {
+        return l * a * r;
+    }
+    conjugate_huge(l, a, r, [sl, sa, sr])
+}
+
+/// [`conjugate_saturating`] for factors beyond the large-coordinate bound.
+#[cold]
+#[inline(never)]
+fn conjugate_huge<T: Real, const N: usize>(
+    l: &SMatrix<T, N, N>,
+    a: &SMatrix<T, N, N>,
+    r: &SMatrix<T, N, N>,
+    mut scales: [T; 3],
+) -> SMatrix<T, N, N> {
+    if scales.iter().any(|&s| s == T::zero()) {
+        return SMatrix::zeros();
+    }
+    let unit = (l / scales[0]) * (a / scales[1]) * (r / scales[2]);
+    // The smaller scales first, so that a finite result is not lost to an intermediate overflow.
+    scales.sort_by(|x, y| x.partial_cmp(y).unwrap_or(std::cmp::Ordering::Equal));
+    let max = T::max_finite();
+    unit.map(|x| (x * scales[0] * scales[1] * scales[2]).clamp(-max, max))
+}
+
 /// [`mul_saturating`] for factors beyond the large-coordinate bound.
 #[cold]
 #[inline(never)]

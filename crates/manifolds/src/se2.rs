@@ -305,9 +305,14 @@ impl<T: Real> LieGroup<3> for Se2<T> {
         )
     }
 
-    /// `H a H⁻¹` with the homogeneous matrices of `self` and its inverse.
+    /// `H a H⁻¹` with the homogeneous matrices of `self` and its inverse, saturating at the
+    /// largest finite value (a translation or `a` near overflow).
     fn conjugate_algebra(&self, a: &Matrix3<T>) -> Matrix3<T> {
-        self.to_homogeneous() * a * self.inverse().to_homogeneous()
+        crate::pose::conjugate_saturating(
+            &self.to_homogeneous(),
+            a,
+            &self.inverse().to_homogeneous(),
+        )
     }
 
     /// `[[R, (t_y, −t_x)ᵀ], [0, 1]]`.

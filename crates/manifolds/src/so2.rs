@@ -200,10 +200,10 @@ impl<T: Real> LieGroup<1> for So2<T> {
         Vector1::new(crate::rotation_vector::half_difference(a.m21, a.m12))
     }
 
-    /// `R a Rᵀ`.
+    /// `R a Rᵀ`, saturating at the largest finite value (`a` near overflow).
     fn conjugate_algebra(&self, a: &Matrix2<T>) -> Matrix2<T> {
         let r = self.to_matrix();
-        r * a * r.transpose()
+        crate::pose::conjugate_saturating(&r, a, &r.transpose())
     }
 
     /// SO(2) is abelian: `Ad = 1`.

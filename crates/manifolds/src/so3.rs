@@ -214,10 +214,10 @@ impl<T: Real> LieGroup<3> for So3<T> {
         rotation_vector::vee(a)
     }
 
-    /// `R a Rᵀ`.
+    /// `R a Rᵀ`, saturating at the largest finite value (`a` near overflow).
     fn conjugate_algebra(&self, a: &Matrix3<T>) -> Matrix3<T> {
         let r = self.to_matrix();
-        r * a * r.transpose()
+        crate::pose::conjugate_saturating(&r, a, &r.transpose())
     }
 }
 

@@ -671,3 +671,35 @@ fn vee_of_entries_near_the_largest_value_is_finite() {
     assert_eq!(Se2::vee(&a), Vector3::new(-m, m, -m));
     assert_eq!(So2::vee(&Matrix2::new(0.0, m, -m, 0.0)), Vector1::new(-m));
 }
+
+/// The conjugation of algebra elements near f64::MAX (a reading found it): SO(2) and SO(3) summed
+/// products of the largest values into ±∞ (SO(2) is abelian: the exact result is `a`), and SE(2)
+/// with a translation of MAX gave NaN from ∞ − ∞. Each is now computed at unit scale and
+/// saturates; at an ordinary scale it is the plain product.
+#[test]
+fn conjugations_near_the_largest_value_are_finite() {
+    let max = f64::MAX;
+    let r = So2::from_cos_sin(-0.106_030_374_571_057_84, -0.994_362_891_337_122_1).unwrap();
+    let a = So2::hat(&Vector1::new(max));
+    let c = r.conjugate_algebra(&a);
+    assert!(all_finite(c.iter().copied()));
+    assert!((c - a).amax() <= 4.0 * f64::EPSILON * max, "{c}");
+    let q = So3::exp(&Vector3::new(1.0, 1.0, 0.0));
+    let v = Vector3::new(0.5 * max, max, 0.0);
+    let c = q.conjugate_algebra(&So3::hat(&v));
+    assert!(all_finite(c.iter().copied()));
+    let expected = So3::hat(&(q.to_matrix() * (v / max))) * max;
+    assert!(
+        (c - expected).amax() <= 1e-14 * max,
+        "{c} against {expected}"
+    );
+    let x = Se2::from_angle_translation(std::f64::consts::FRAC_PI_4, Vector2::new(max, 0.0));
+    let c = x
+        .unwrap()
+        .conjugate_algebra(&Se2::hat(&Vector3::new(0.0, 0.0, 4.0)));
+    assert!(all_finite(c.iter().copied()), "{c}");
+    let small = So3::exp(&Vector3::new(0.3, 0.1, -0.2));
+    let a = So3::hat(&Vector3::new(1.0, 2.0, 3.0));
+    let r = small.to_matrix();
+    assert_eq!(small.conjugate_algebra(&a), r * a * r.transpose());
+}

@@ -121,7 +121,16 @@ impl TrackConfig {
 
     /// The mean and standard deviation of a step's length, equation (12):
     /// `q_xy √(2δ) Γ(3/2)` and `q_xy √(2δ (1 − Γ(3/2)²))`, `Γ(3/2) = √π/2`.
-    pub fn step_length(&self) -> (f64, f64) {
+    ///
+    /// # Errors
+    /// As [`validate`](Self::validate) (the fields are public).
+    pub fn step_length(&self) -> Result<(f64, f64), OperatorError> {
+        self.validate()?;
+        Ok(self.checked_step_length())
+    }
+
+    /// [`step_length`](Self::step_length) of a validated configuration.
+    fn checked_step_length(&self) -> (f64, f64) {
         let gamma = PI.sqrt() / 2.0;
         let scale = self.q_xy * (2.0 * self.delta).sqrt();
         (scale * gamma, scale * (1.0 - gamma * gamma).sqrt())
@@ -129,7 +138,23 @@ impl TrackConfig {
 
     /// The point at arc length s along the square, counter-clockwise from the origin (s taken
     /// modulo the perimeter).
-    pub fn point_at(&self, s: f64) -> Vector3<f64> {
+    ///
+    /// # Errors
+    /// As [`validate`](Self::validate), and [`OperatorError::NonFinite`] for an s that is not
+    /// finite.
+    pub fn point_at(&self, s: f64) -> Result<Vector3<f64>, OperatorError> {
+        self.validate()?;
+        if !s.is_finite() {
+            return Err(OperatorError::NonFinite {
+                what: "arc length along the square track",
+                value: s,
+            });
+        }
+        Ok(self.checked_point_at(s))
+    }
+
+    /// [`point_at`](Self::point_at) of a validated configuration and a finite s.
+    fn checked_point_at(&self, s: f64) -> Vector3<f64> {
         let a = self.side;
         let s = s.rem_euclid(4.0 * a);
         let (x, y) = if s < a {
@@ -269,10 +294,12 @@ impl<const N: usize> Iterator for TrackSteps<'_, N> {
         self.k += 1;
         let theta = match config.truth {
             TruthModel::Square => {
-                let (mean, std) = config.step_length();
+                // The track validated its configuration, and a run's steps keep the arc length
+                // finite.
+                let (mean, std) = config.checked_step_length();
                 let n: f64 = StandardNormal.sample(&mut *self.rng);
                 self.travelled += mean + std * n;
-                config.point_at(self.travelled)
+                config.checked_point_at(self.travelled)
             }
             TruthModel::RandomWalk => {
                 let scale =
