@@ -15,6 +15,7 @@
 //! filter from a 30° prior over-confident (average NEES 98 for 3 expected). The
 //! [iterated EKF](crate::iterated), linearised at its own estimate, transports.
 
+use crate::error::all_finite;
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
 use crate::numerics::{Produced, checked_gaussian};
@@ -73,6 +74,9 @@ where
                              Jacobian F)",
             },
         )?;
+        // A model's own `propagate_covariance` may return a cross-covariance the predicted one
+        // does not reveal; a smoother's record must hold a finite one.
+        all_finite("cross-covariance P F^T of the process model", cross.iter())?;
         Ok(Prediction {
             density,
             cross_covariance: cross,

@@ -781,3 +781,37 @@ fn a_log_evidence_below_the_range_is_an_error() {
     assert!(grid.condition_in_place(&tiny, &()).is_err());
     assert_eq!(grid.log_weights(), &before[..]);
 }
+
+/// A process model whose own `propagate_covariance` (a sparse override) returns a finite
+/// prediction but a NaN cross-covariance: the EKF's prediction is an error (it returned the NaN
+/// cross-covariance, which a smoother stored and could then neither smooth nor read back).
+#[test]
+fn a_non_finite_cross_covariance_is_an_error() {
+    struct Sparse;
+    impl liebayes_operators::ProcessModel<Rn<f64, 1>, 1> for Sparse {
+        type Input = ();
+        fn transition(&self, x: &Rn<f64, 1>, (): &()) -> Rn<f64, 1> {
+            *x
+        }
+        fn noise(&self, _: &Rn<f64, 1>, (): &()) -> Matrix1<f64> {
+            Matrix1::new(0.1)
+        }
+        fn propagate_covariance(
+            &self,
+            _: &Rn<f64, 1>,
+            (): &(),
+            p: &Matrix1<f64>,
+        ) -> (Matrix1<f64>, Matrix1<f64>) {
+            (*p, Matrix1::new(f64::NAN))
+        }
+    }
+    let prior =
+        ManifoldGaussian::new(Rn::new_unchecked(Vector1::new(0.0)), Matrix1::new(1.0)).unwrap();
+    let mut rts = RtsSmoother::new(prior);
+    let before = rts.clone();
+    assert!(matches!(
+        rts.propagate(&Ekf(&Sparse), &()),
+        Err(OperatorError::NonFinite { .. })
+    ));
+    assert_eq!(rts, before);
+}
