@@ -196,12 +196,27 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
                 range: "positive definite matrices (the value shown is the smallest eigenvalue)",
             });
         };
-        let cholesky = factor.unpack();
+        Self::from_factor(
+            mean,
+            covariance,
+            factor.unpack(),
+            "trace of the inverse tangent covariance P^-1",
+        )
+    }
+
+    /// The density of a checked covariance P and its lower Cholesky factor L, refused when
+    /// `tr P⁻¹ = ‖L⁻¹‖²_F` is above [`MAX_SCALE`] (`what` names that trace in the error).
+    fn from_factor(
+        mean: X,
+        covariance: SMatrix<f64, D, D>,
+        cholesky: SMatrix<f64, D, D>,
+        what: &'static str,
+    ) -> Result<Self, DensityError> {
         if let Some(inverse_trace) = inverse_trace_above(&cholesky, MAX_SCALE) {
             return Err(DensityError::OutOfRange {
-                what: "trace of the inverse tangent covariance P^-1",
+                what,
                 value: inverse_trace,
-                range: "at most 1e100: P's eigenvalues must be above about 1e-100",
+                range: "at most 1e100: the covariance's eigenvalues must be above about 1e-100",
             });
         }
         Ok(Self {
@@ -450,20 +465,12 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussia
             return Err(DensityError::NonFinite { what: WHAT, value });
         }
         within_scale(WHAT, &covariance)?;
-        let cholesky = lower_factor(j * self.cholesky);
-        if let Some(inverse_trace) = inverse_trace_above(&cholesky, MAX_SCALE) {
-            return Err(DensityError::OutOfRange {
-                what: "trace of the inverse of the translated covariance",
-                value: inverse_trace,
-                range: "at most 1e100: Ad(g) P Ad(g)^T must keep its eigenvalues above about 1e-100",
-            });
-        }
-        Ok(Self {
+        Self::from_factor(
             mean,
             covariance,
-            log_det: log_det(&cholesky),
-            cholesky,
-        })
+            lower_factor(j * self.cholesky),
+            "trace of the inverse of the translated covariance Ad(g) P Ad(g)^T",
+        )
     }
 
     /// `g x`.
