@@ -13,8 +13,9 @@ use crate::ExactSum;
 /// only for values whose spread is below 1e-8 of their size.
 ///
 /// Read from a file, the statistics are checked: no non-finite value in the sum (only finite
-/// values are summed) nor in the sum of squares but the +∞ of a square that overflows, the count and the non-finite count summing within u64, extremes present
-/// exactly when the count is positive, finite, with min ≤ max, and the sums of no values zero.
+/// values are summed) nor in the sum of squares but the +∞ of a square that overflows, the count
+/// and the non-finite count summing within u64, extremes present exactly when the count is
+/// positive, finite, with min ≤ max, and the sums of no values zero.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "RunningStatsFields")]
 pub struct RunningStats {
