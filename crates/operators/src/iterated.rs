@@ -17,9 +17,11 @@
 //!   update of the prior with it proposes `δ̂ = K ν`, `ν = (z ⊟ ẑ) + A δᵢ`, `S = A P Aᵀ + Ω + R`,
 //!   and the next covariance `Pᵢ₊₁`.
 //!
-//! **Step control**: a proposed step that would increase the merit is halved, at most
-//! [`MAX_HALVINGS`] times, so the merit never increases from iterate to iterate; when no halving
-//! decreases it, the iteration stops ([`Stop::NoDescent`]). The iterated EKF's step is
+//! **Step control**: a proposed step that would increase the merit, or whose end the model
+//! cannot be linearised at (a non-finite prediction or Jacobian, an update that is not positive
+//! definite), is halved, at most [`MAX_HALVINGS`] times, so the merit never increases from iterate
+//! to iterate; when no halving decreases it, the iteration stops ([`Stop::NoDescent`]). When even
+//! the shortest trial step fails in the model, the update is that error. The iterated EKF's step is
 //! `Δ = δ̂ − δᵢ` and its merit the cost J. The posterior linearisation's iterate is the pair
 //! `(δᵢ, Pᵢ)` and its step `(Δ, Pᵢ₊₁ − Pᵢ)`; its fixed point is not J's minimum, so its merit is the
 //! length of its own proposed step, `(|L⁻¹ Δ|² + ‖L⁻¹ (Pᵢ₊₁ − Pᵢ) L⁻ᵀ‖²_F)^½` with `P = L Lᵀ`.
@@ -144,7 +146,7 @@ pub enum Stop {
     /// [`IterationSettings::max_iterations`] steps were taken.
     IterationLimit,
     /// No halving of the proposed step ([`MAX_HALVINGS`]) decreased the merit: the iterate is a
-    /// minimum of J to rounding (a tolerance below J's rounding), or the posterior linearisation's
+    /// minimum of J to rounding (a tolerance below J's rounding), the posterior linearisation's
     /// fixed-point iteration does not contract there.
     NoDescent,
 }
@@ -349,7 +351,13 @@ where
 
     /// The first of the iterates `(δ + t Δ, P + t (P⁺ − P))`, t = 1, ½, ¼, … (at most
     /// [`MAX_HALVINGS`] halvings; a convex combination of covariances is one) whose linearisation
-    /// has a merit of at most the current one, with that linearisation; `None` if there is none.
+    /// succeeds with a merit of at most the current one, with that linearisation; `None` if there
+    /// is none. A trial whose linearisation fails (the model is non-finite there, or its update is
+    /// not positive definite) is a step too long, halved like one that raises the merit.
+    ///
+    /// # Errors
+    /// The last trial's error when even the shortest step, 2⁻³⁰ of the proposal, fails: the model
+    /// fails next to an iterate where it succeeded.
     fn descend<L: Linearisation<X, H, D, M>>(
         &self,
         linearisation: &L,
@@ -358,19 +366,23 @@ where
     ) -> Result<Option<(Iterate<D>, Linearised<D, M>)>, OperatorError> {
         let mut step = current.proposal() - iterate.delta;
         let mut spread_step = current.covariance - iterate.spread;
+        let mut last = Ok(None);
         for _ in 0..=MAX_HALVINGS {
             let candidate = Iterate {
                 delta: iterate.delta + step,
                 spread: iterate.spread + spread_step,
             };
-            let linearised = linearisation.linearise(self, &candidate)?;
-            if linearised.merit <= current.merit {
-                return Ok(Some((candidate, linearised)));
+            match linearisation.linearise(self, &candidate) {
+                Ok(linearised) if linearised.merit <= current.merit => {
+                    return Ok(Some((candidate, linearised)));
+                }
+                Ok(_) => last = Ok(None),
+                Err(error) => last = Err(error),
             }
             step *= 0.5;
             spread_step *= 0.5;
         }
-        Ok(None)
+        last
     }
 
     /// The Kalman update of the prior by `z ≈ A δ + b + e`, `e ~ N(0, Ω)`, with `ν = (z ⊟ ẑ) + A δᵢ`

@@ -319,7 +319,8 @@ fn bad_input_is_an_error_and_leaves_the_density_unchanged() {
         |x: &Rn<f64, 1>| Vector1::new(x.coords()[0].powi(2)),
         |_: &Rn<f64, 1>| Matrix1::new(0.01),
     );
-    // NaN beyond 1.5: the prior mean's linearisation is fine, the first step lands past it.
+    // NaN beyond 1.5: the prior mean's linearisation is fine for the iterated EKF, but the
+    // posterior linearisation's sigma points reach past it.
     let breaks = MeasurementFn::new(
         |x: &Rn<f64, 1>| {
             let v = x.coords()[0];
@@ -336,7 +337,6 @@ fn bad_input_is_an_error_and_leaves_the_density_unchanged() {
     let errors = [
         density.condition_in_place(&IteratedEkf::new(&square), &Vector1::new(f64::NAN)),
         density.condition_in_place(&IteratedUkf::new(&square), &Vector1::new(f64::NAN)),
-        density.condition_in_place(&IteratedEkf::new(&breaks), &z),
         density.condition_in_place(&IteratedUkf::new(&breaks), &z),
         density.condition_in_place(&IteratedEkf::new(&singular), &z),
     ];
@@ -351,6 +351,61 @@ fn bad_input_is_an_error_and_leaves_the_density_unchanged() {
             "{error:?}"
         );
     }
+    assert_eq!(density, prior);
+}
+
+/// A Gauss-Newton step that overshoots the model's domain is halved, not an error: `z = √x` from
+/// a prior at x = 1 and a reading of 0.1 first proposes x ≈ −0.8, where the model is NaN. The
+/// iterated EKF halves back into x > 0 and reaches the MAP found by a grid, where the one-pass EKF
+/// lands outside the domain.
+#[test]
+fn a_step_past_the_model_domain_is_halved() {
+    let root = MeasurementFn::new(
+        |x: &Rn<f64, 1>| Vector1::new(x.coords()[0].sqrt()),
+        |_: &Rn<f64, 1>| Matrix1::new(1e-4),
+    )
+    .with_jacobian(|x: &Rn<f64, 1>| Matrix1::new(0.5 / x.coords()[0].sqrt()));
+    let prior =
+        ManifoldGaussian::new(Rn::new(Vector1::new(1.0)).unwrap(), Matrix1::new(1.0)).unwrap();
+    let z = Vector1::new(0.1);
+    // The first proposal, by hand: H = ½, K = P H / (H² P + R), x = 1 + K (z − 1) < 0.
+    let gain = 0.5 / (0.25 + 1e-4);
+    assert!(1.0 + gain * (0.1 - 1.0) < -0.7);
+    let one_pass = prior
+        .condition(&liebayes_operators::Ekf(&root), &z)
+        .unwrap()
+        .posterior;
+    assert!(one_pass.mean().coords()[0] < 0.0);
+    let cost = |x: f64| (x - 1.0).powi(2) / 2.0 + (0.1 - x.sqrt()).powi(2) / 2e-4;
+    let argmin = |from: f64, step: f64, n: usize| {
+        (0..=n)
+            .map(|i| from + step * i as f64)
+            .min_by(|a, b| cost(*a).total_cmp(&cost(*b)))
+            .unwrap()
+    };
+    let coarse = argmin(1e-6, 1e-6, 1_000_000);
+    let map = argmin(coarse - 1e-6, 1e-11, 200_000);
+    let update = IteratedEkf {
+        model: &root,
+        settings: IterationSettings::new(1e-10, 50).unwrap(),
+    };
+    let step = prior.condition(&update, &z).unwrap();
+    let mean = step.posterior.mean().coords()[0];
+    assert!((mean - map).abs() < 1e-9, "iterated {mean}, grid MAP {map}");
+    assert_eq!(step.report.stop(), Stop::Converged);
+    // A model that is NaN everywhere but at the prior mean: even the shortest step fails, and the
+    // update is that error, the density unchanged.
+    let only_at_one = MeasurementFn::new(
+        |x: &Rn<f64, 1>| {
+            let v = x.coords()[0];
+            Vector1::new(if v == 1.0 { 1.0 } else { f64::NAN })
+        },
+        |_: &Rn<f64, 1>| Matrix1::new(1e-4),
+    )
+    .with_jacobian(|_: &Rn<f64, 1>| Matrix1::new(0.5));
+    let mut density = prior.clone();
+    let error = density.condition_in_place(&IteratedEkf::new(&only_at_one), &z);
+    assert!(matches!(error, Err(OperatorError::NonFinite { .. })), "{error:?}");
     assert_eq!(density, prior);
 }
 
