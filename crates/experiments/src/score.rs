@@ -31,8 +31,6 @@ impl Reduction {
     /// `RootMeanSquare` → `√(Σx²/n)`; `Mean` → `x̄` with `x̄ ± 1.96 s/√n` (n ≥ 2); `ChiSquare { dof }`
     /// → `x̄` with the exact two-sided 95 % band of the mean of n χ²(dof) values
     /// ([`average_nees_band`]); `Rate` → `100 x̄` (percent). [`Figure::Empty`] without a finite value.
-    /// The root mean square is +∞ where the squares overflow (values beyond about 1.3e154: the
-    /// statistics keep exact sums of squares, which f64 cannot hold there).
     ///
     /// # Example
     /// ```
@@ -46,12 +44,12 @@ impl Reduction {
     /// assert!(matches!(Reduction::Mean.figure(&stats), Figure::Mean(m, Some(_)) if m == 3.5));
     /// ```
     pub fn figure(self, stats: &RunningStats) -> Figure {
-        let (Some(mean), Some(mean_square)) = (stats.mean(), stats.mean_square()) else {
+        let (Some(mean), Some(rms)) = (stats.mean(), stats.root_mean_square()) else {
             return Figure::Empty;
         };
         let n = stats.count();
         match self {
-            Reduction::RootMeanSquare => Figure::Rms(mean_square.sqrt()),
+            Reduction::RootMeanSquare => Figure::Rms(rms),
             Reduction::Mean => {
                 let half = stats
                     .variance()
@@ -75,7 +73,7 @@ impl Reduction {
 pub enum Figure {
     /// No finite value at that epoch.
     Empty,
-    /// A root mean square `√(Σx²/n)` (+∞ where the squares overflow, values beyond 1.3e154).
+    /// A root mean square `√(Σx²/n)`.
     Rms(f64),
     /// A mean with its 95 % band, when it has one (a mean of one value has none).
     Mean(f64, Option<(f64, f64)>),

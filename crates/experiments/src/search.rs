@@ -130,7 +130,7 @@ pub struct SizeSearch {
 ///     s.add_run(0, &scores)?;
 ///     Ok(s)
 /// };
-/// let rmse = |s: &Summary| s.series("error")?.epochs()[0].mean_square().map(f64::sqrt);
+/// let rmse = |s: &Summary| s.series("error")?.epochs()[0].root_mean_square();
 /// let settings = SearchSettings { tolerance: 0.05, low: 100, high: 1_000_000, resolution: 0.01 };
 /// let found = smallest_to_match(0.01, settings, study, rmse)?;
 /// let n = found.count.unwrap();

@@ -6,26 +6,46 @@ use crate::ExactSum;
 /// The count, exact sum and exact sum of squares of a stream of values, with their extremes and the
 /// number of non-finite values (kept apart, so that one diverged run is reported, not averaged in).
 ///
+/// The squares of values beyond 2⁵¹¹ ≈ 6.7e153 (whose squares f64 cannot hold past 1.3e154) are
+/// summed apart, scaled exactly by 2⁻¹⁰²⁴, so that the root mean square is finite for every finite
+/// value up to `f64::MAX`.
+///
 /// Merging is exact and commutative: statistics of shards merged in any order equal the statistics
 /// of the whole stream, bit for bit. The mean `Σx / n` and the variance
 /// `(Σx² − (Σx)²/n) / (n − 1)` are computed from the exact sums, each rounded once, then combined in
 /// f64: the variance keeps a relative accuracy of about `ε · mean² / variance`, which loses digits
 /// only for values whose spread is below 1e-8 of their size.
 ///
-/// Read from a file, the statistics are checked: no non-finite value in the sum (only finite
-/// values are summed) nor in the sum of squares but the +∞ of a square that overflows, the count
-/// and the non-finite count summing within u64, extremes present exactly when the count is
-/// positive, finite, with min ≤ max, and the sums of no values zero.
+/// Read from a file, the statistics are checked: no non-finite value in the sums (only finite
+/// values, and squares that f64 holds, are summed), the count and the non-finite count summing
+/// within u64, extremes present exactly when the count is positive, finite, with min ≤ max, sums of
+/// squares non-negative, the large squares' sum zero unless an extreme lies beyond 2⁵¹¹, and the
+/// sums of no values zero. (A file without the large squares' sum, from an earlier version, reads
+/// it as zero.)
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "RunningStatsFields")]
 pub struct RunningStats {
     count: u64,
     non_finite: u64,
     sum: ExactSum,
+    /// `Σ x²` over the values of magnitude up to [`LARGE`].
     sum_of_squares: ExactSum,
+    /// `Σ (x 2⁻⁵¹²)²` over the values beyond [`LARGE`].
+    sum_of_large_squares: ExactSum,
     min: Option<f64>,
     max: Option<f64>,
 }
+
+/// Values of magnitude above 2⁵¹¹ have their squares summed scaled by 2⁻¹⁰²⁴ (at most
+/// `MAX² 2⁻¹⁰²⁴ < MAX`); the squares of the others are at most 2¹⁰²² and exact where f64's are.
+const LARGE: f64 = 6.703_903_964_971_299e153;
+
+/// 2⁻⁵¹², by which the large values are scaled before they are squared.
+const HALF_SCALE: f64 = 7.458_340_731_200_207e-155;
+
+/// 2⁵¹², which undoes [`HALF_SCALE`]; a scaled square is multiplied back by it twice (2¹⁰²⁴ is
+/// not an f64), overflowing to +∞ exactly when the square exceeds f64's range.
+const UNSCALE: f64 = 1.340_780_792_994_259_7e154;
 
 impl RunningStats {
     /// No values yet.
@@ -43,7 +63,12 @@ impl RunningStats {
         }
         self.count = self.count.saturating_add(1);
         self.sum.add(x);
-        self.sum_of_squares.add(x * x);
+        if x.abs() > LARGE {
+            let scaled = x * HALF_SCALE;
+            self.sum_of_large_squares.add(scaled * scaled);
+        } else {
+            self.sum_of_squares.add(x * x);
+        }
         self.min = Some(self.min.map_or(x, |m| m.min(x)));
         self.max = Some(self.max.map_or(x, |m| m.max(x)));
     }
@@ -54,6 +79,7 @@ impl RunningStats {
         self.non_finite = self.non_finite.saturating_add(other.non_finite);
         self.sum.merge(&other.sum);
         self.sum_of_squares.merge(&other.sum_of_squares);
+        self.sum_of_large_squares.merge(&other.sum_of_large_squares);
         self.min = match (self.min, other.min) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -85,25 +111,57 @@ impl RunningStats {
         (self.count > 0).then(|| self.sum.mean(self.count))
     }
 
-    /// The mean square `Σx² / n` (for a root-mean-square error, take its square root), `None`
-    /// without finite values; +∞ where the squares overflow (values beyond about 1e154).
+    /// The mean square `Σx² / n`, `None` without finite values; +∞ only where it exceeds f64's
+    /// range (a mean square beyond 1.8e308, values beyond about 1.3e154).
     pub fn mean_square(&self) -> Option<f64> {
-        (self.count > 0).then(|| self.sum_of_squares.value() / self.count as f64)
+        (self.count > 0).then(|| match self.scaled_mean_square() {
+            Some(scaled) => scaled * UNSCALE * UNSCALE,
+            None => self.sum_of_squares.mean(self.count),
+        })
     }
 
-    /// The sample variance `(Σx² − n x̄²) / (n − 1)`, clamped at 0 against rounding (+∞ where the
-    /// squares overflow, for values beyond about 1e154); `None` for fewer than two finite values.
+    /// The root mean square `√(Σx²/n)`, `None` without finite values; finite for any finite values
+    /// (it lies between the smallest and the largest magnitude).
+    pub fn root_mean_square(&self) -> Option<f64> {
+        let largest = self.min?.abs().max(self.max?.abs());
+        let rms = match self.scaled_mean_square() {
+            Some(scaled) => scaled.sqrt() * UNSCALE,
+            None => self.sum_of_squares.mean(self.count).sqrt(),
+        };
+        // Rounding cannot lift it past the largest value, which bounds it.
+        Some(rms.min(largest))
+    }
+
+    /// The sample variance `(Σx² − n x̄²) / (n − 1)`, clamped at 0 against rounding (+∞ where it
+    /// exceeds f64's range, for values beyond about 1.3e154); `None` for fewer than two finite
+    /// values.
     pub fn variance(&self) -> Option<f64> {
         if self.count < 2 {
             return None;
         }
-        let n = self.count as f64;
+        let factor = self.count as f64 / (self.count as f64 - 1.0);
         let mean = self.sum.mean(self.count);
-        let mean_square = self.sum_of_squares.value() / self.count as f64;
-        if mean_square.is_infinite() {
-            return Some(f64::INFINITY);
+        Some(match self.scaled_mean_square() {
+            Some(scaled) => {
+                let scaled_mean = mean * HALF_SCALE;
+                ((scaled - scaled_mean * scaled_mean) * factor).max(0.0) * UNSCALE * UNSCALE
+            }
+            None => {
+                let mean_square = self.sum_of_squares.mean(self.count);
+                ((mean_square - mean * mean) * factor).max(0.0)
+            }
+        })
+    }
+
+    /// `Σx² 2⁻¹⁰²⁴ / n` when a value lies beyond [`LARGE`] (`None` otherwise): the large squares'
+    /// mean (each at least 2⁻², so the sum is finite at that scale) plus the others' scaled down.
+    fn scaled_mean_square(&self) -> Option<f64> {
+        if self.sum_of_large_squares == ExactSum::new() {
+            return None;
         }
-        Some(((mean_square - mean * mean) * (n / (n - 1.0))).max(0.0))
+        let large = self.sum_of_large_squares.mean(self.count);
+        let rest = self.sum_of_squares.mean(self.count) * (HALF_SCALE * HALF_SCALE);
+        Some(large + rest)
     }
 
     /// The smallest finite value.
@@ -125,6 +183,8 @@ struct RunningStatsFields {
     non_finite: u64,
     sum: ExactSum,
     sum_of_squares: ExactSum,
+    #[serde(default)]
+    sum_of_large_squares: ExactSum,
     min: Option<f64>,
     max: Option<f64>,
 }
@@ -139,17 +199,20 @@ impl TryFrom<RunningStatsFields> for RunningStats {
                     .to_owned(),
             );
         }
-        // A square overflows to +inf exactly when a value's magnitude is beyond √MAX ≈ 1.3e154.
-        let largest = f.min.unwrap_or(0.0).abs().max(f.max.unwrap_or(0.0).abs());
-        let square_overflows = (largest * largest).is_infinite();
-        if f.sum_of_squares.has_non_finite()
-            && !(f.sum_of_squares.value() == f64::INFINITY && square_overflows)
-        {
+        if f.sum_of_squares.has_non_finite() || f.sum_of_large_squares.has_non_finite() {
             return Err(
-                "statistics: sum_of_squares is flagged NaN or infinite, but it is +inf only \
-                 where a value's square overflows (min or max beyond 1.3e154)"
+                "statistics: a sum of squares is flagged NaN or infinite, but only squares f64 \
+                 holds are summed"
                     .to_owned(),
             );
+        }
+        let largest = f.min.unwrap_or(0.0).abs().max(f.max.unwrap_or(0.0).abs());
+        if f.sum_of_large_squares != ExactSum::new() && largest <= LARGE {
+            return Err(format!(
+                "statistics: sum_of_large_squares is not zero, but no extreme lies beyond \
+                 {LARGE:e} (min {:?}, max {:?})",
+                f.min, f.max
+            ));
         }
         if f.count.checked_add(f.non_finite).is_none() {
             return Err(format!(
@@ -159,7 +222,10 @@ impl TryFrom<RunningStatsFields> for RunningStats {
         }
         match (f.count, f.min, f.max) {
             (0, None, None) => {
-                if f.sum != ExactSum::new() || f.sum_of_squares != ExactSum::new() {
+                if f.sum != ExactSum::new()
+                    || f.sum_of_squares != ExactSum::new()
+                    || f.sum_of_large_squares != ExactSum::new()
+                {
                     return Err("statistics: count is 0 but the sums are not".to_owned());
                 }
             }
@@ -169,8 +235,8 @@ impl TryFrom<RunningStatsFields> for RunningStats {
                         "statistics: min {min} and max {max} must be finite with min <= max"
                     ));
                 }
-                if f.sum_of_squares.value() < 0.0 {
-                    return Err("statistics: sum_of_squares is negative".to_owned());
+                if f.sum_of_squares.value() < 0.0 || f.sum_of_large_squares.value() < 0.0 {
+                    return Err("statistics: a sum of squares is negative".to_owned());
                 }
             }
             (count, min, max) => {
@@ -185,6 +251,7 @@ impl TryFrom<RunningStatsFields> for RunningStats {
             non_finite: f.non_finite,
             sum: f.sum,
             sum_of_squares: f.sum_of_squares,
+            sum_of_large_squares: f.sum_of_large_squares,
             min: f.min,
             max: f.max,
         })

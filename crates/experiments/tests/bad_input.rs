@@ -26,8 +26,9 @@ fn metric(name: u8, per_run: bool) -> Metric {
 }
 
 /// Running statistics of any values: the count and the non-finite count partition them, and the
-/// mean, smallest and largest of the finite values are finite and ordered (the mean square and
-/// the variance may overflow to +∞, as documented, never to NaN).
+/// mean, smallest and largest of the finite values are finite and ordered, the root mean square
+/// finite and between the magnitudes (the mean square and the variance may overflow to +∞, as
+/// documented, never to NaN).
 fn check_stats(values: &[f64], stats: &RunningStats) -> Result<(), TestCaseError> {
     let finite = values.iter().filter(|v| v.is_finite()).count() as u64;
     prop_assert_eq!(stats.count(), finite);
@@ -47,6 +48,18 @@ fn check_stats(values: &[f64], stats: &RunningStats) -> Result<(), TestCaseError
     );
     let square = stats.mean_square().unwrap();
     prop_assert!(square >= 0.0, "mean square {square}");
+    // The root mean square is finite, between the smallest and the largest magnitude.
+    let rms = stats.root_mean_square().unwrap();
+    let (low, high) = if min <= 0.0 && 0.0 <= max {
+        (0.0, min.abs().max(max.abs()))
+    } else {
+        (min.abs().min(max.abs()), min.abs().max(max.abs()))
+    };
+    // Below: to the rounding of the mean of the squares, but where the squares underflow.
+    prop_assert!(
+        rms <= high && (rms >= low * (1.0 - 4.0 * f64::EPSILON) || low < 1e-150),
+        "rms {rms} outside [{low}, {high}]"
+    );
     if let Some(variance) = stats.variance() {
         prop_assert!(variance >= 0.0, "variance {variance}");
     }

@@ -66,3 +66,34 @@ fn non_finite_values_are_counted_apart() {
     assert_eq!(stats(&[1e200, -1e200]).variance(), Some(f64::INFINITY));
     assert_eq!(stats(&[1e200, -1e200]).mean(), Some(0.0));
 }
+
+/// Squares beyond f64's range (values beyond 1.3e154) are summed at a scale of 2⁻¹⁰²⁴: the root
+/// mean square is exact to rounding up to `f64::MAX`, the mean square +∞ only where it exceeds
+/// f64's range, and small values beside large ones still count.
+#[test]
+fn the_root_mean_square_holds_values_up_to_max() {
+    assert_eq!(stats(&[1e200, -1e200]).root_mean_square(), Some(1e200));
+    assert_eq!(stats(&[f64::MAX]).root_mean_square(), Some(f64::MAX));
+    assert_eq!(
+        stats(&[f64::MAX, -f64::MAX]).root_mean_square(),
+        Some(f64::MAX)
+    );
+    assert_eq!(stats(&[1e200]).mean_square(), Some(f64::INFINITY));
+    // √((3e153² + 4e153²)/2) with both below the scaled range, and with one in it: the same.
+    let below = stats(&[3e153, 4e153]).root_mean_square().unwrap();
+    let across = stats(&[3e153, 4e153 * 2.0]).root_mean_square().unwrap();
+    let exact =
+        |a: f64, b: f64| ((a / 1e153).powi(2) / 2.0 + (b / 1e153).powi(2) / 2.0).sqrt() * 1e153;
+    assert!((below - exact(3e153, 4e153)).abs() <= 4.0 * f64::EPSILON * below);
+    assert!((across - exact(3e153, 8e153)).abs() <= 4.0 * f64::EPSILON * across);
+    // A mean square of 1e300 from one large and many small values: finite and exact to rounding.
+    let mut values = vec![1e-3; 999];
+    values.push(1e154);
+    let s = stats(&values);
+    let expected = (999.0 * 1e-6 + values[999].powi(2)) / 1000.0;
+    assert!((s.mean_square().unwrap() - expected).abs() <= 4.0 * f64::EPSILON * expected);
+    // The variance of two values 2e154 apart: 2e308, beyond f64's range; 1e154 apart: finite.
+    assert_eq!(stats(&[1e154, -1e154]).variance(), Some(f64::INFINITY));
+    let v = stats(&[5e153, -5e153]).variance().unwrap();
+    assert!((v - 5e307).abs() <= 1e-14 * 5e307, "{v:e}");
+}

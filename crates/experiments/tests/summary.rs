@@ -198,7 +198,7 @@ fn crafted_summaries_are_refused_naming_the_field() {
     let whole = study(3, Shard::WHOLE, 20);
     assert_eq!(read_edited(&whole, |_| {}).unwrap(), whole);
     let epoch = |j: &mut serde_json::Value| j["metrics"][0]["series"]["epochs"][0].take();
-    let cases: [(&str, Box<Edit>); 9] = [
+    let cases: [(&str, Box<Edit>); 10] = [
         (
             "flagged NaN",
             Box::new(|j| j["metrics"][0]["series"]["epochs"][0]["sum"]["nan"] = true.into()),
@@ -243,6 +243,14 @@ fn crafted_summaries_are_refused_naming_the_field() {
             Box::new(|j| j["failures"]["diverged"] = 21.into()),
         ),
         ("timing", Box::new(|j| j["timing"]["count"] = 20.into())),
+        (
+            "sum_of_large_squares is not zero",
+            Box::new(move |j| {
+                let mut e = epoch(j);
+                e["sum_of_large_squares"] = e["sum_of_squares"].clone();
+                j["metrics"][0]["series"]["epochs"][0] = e;
+            }),
+        ),
     ];
     for (field, edit) in cases {
         let error = read_edited(&whole, edit).unwrap_err();
