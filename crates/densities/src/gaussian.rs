@@ -37,6 +37,30 @@ pub struct Gaussian<const N: usize> {
     log_det: f64,
 }
 
+/// `|L⁻¹ v|²` for a lower triangular factor L with a positive diagonal, by one triangular solve of
+/// v scaled to its largest entry: 0 for v = 0, NaN for a NaN entry, and +∞ where the exact value
+/// overflows (a solve that overflows on the way, whose next row could meet ∞ − ∞, has a whitened
+/// entry beyond f64's range, so its squared length is beyond it too).
+pub(crate) fn whitened_squared_norm<const N: usize>(
+    factor: &SMatrix<f64, N, N>,
+    v: &SVector<f64, N>,
+) -> f64 {
+    if v.iter().any(|x| x.is_nan()) {
+        return f64::NAN;
+    }
+    let scale = v.amax();
+    if scale == 0.0 || scale.is_infinite() {
+        return scale * scale;
+    }
+    let z = factor.solve_lower_triangular_unchecked(&(v / scale));
+    if z.iter().all(|x| x.is_finite()) {
+        let root = scale * z.norm();
+        root * root
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// Checks that every entry is at most [`MAX_SCALE`] in magnitude.
 pub(crate) fn within_scale<const R: usize, const C: usize>(
     what: &'static str,
@@ -187,16 +211,8 @@ impl<const N: usize> Gaussian<N> {
     pub fn mahalanobis_squared(&self, x: &SVector<f64, N>) -> f64 {
         // Halves first: x − μ overflows for coordinates of opposite sign near f64::MAX.
         let half = x * 0.5 - self.mean * 0.5;
-        let scale = half.amax();
-        if scale == 0.0 || !scale.is_finite() {
-            return if scale == 0.0 { 0.0 } else { scale * scale };
-        }
-        let z = self
-            .cholesky
-            .solve_lower_triangular(&(half / scale))
-            .expect("the Cholesky factor has a positive diagonal");
-        let root = 2.0 * scale * z.norm();
-        root * root
+        // The factor of a successful Cholesky decomposition has a positive diagonal.
+        4.0 * whitened_squared_norm(&self.cholesky, &half)
     }
 
     /// `ln det Σ`.

@@ -2,7 +2,7 @@
 //! the angle's first harmonics.
 
 use crate::error::DensityError;
-use crate::gaussian::{Gaussian, MAX_SCALE, within_scale};
+use crate::gaussian::{Gaussian, MAX_SCALE, whitened_squared_norm, within_scale};
 use crate::gen_von_mises::GenVonMises2;
 use crate::manifold_gaussian::inverse_trace_above;
 use crate::traits::{Density, Entropy, KlDivergence};
@@ -162,9 +162,7 @@ impl<const N: usize> HarmonicGaussian<N> {
             return f64::INFINITY;
         }
         // The factor of a successful Cholesky decomposition has a positive diagonal.
-        self.cholesky
-            .solve_lower_triangular_unchecked(&residual)
-            .norm_squared()
+        whitened_squared_norm(&self.cholesky, &residual)
     }
 
     /// `½ (N ln 2π + ln det Σ)`, the conditional Gaussian's log normaliser.

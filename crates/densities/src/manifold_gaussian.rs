@@ -2,7 +2,7 @@
 //! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
 
 use crate::error::DensityError;
-use crate::gaussian::{MAX_SCALE, largest_within_scale, within_scale};
+use crate::gaussian::{MAX_SCALE, largest_within_scale, whitened_squared_norm, within_scale};
 use crate::traits::{Density, Entropy, Rotate};
 use liebayes_manifolds::{Jacobian, LieGroup, Manifold, MeanSettings};
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -299,12 +299,10 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
         self.log_det
     }
 
-    /// `δᵀ P⁻¹ δ` of a tangent vector at μ, by one triangular solve.
+    /// `δᵀ P⁻¹ δ` of a tangent vector at μ, by one triangular solve (+∞ where it overflows).
     fn tangent_mahalanobis_squared(&self, delta: &SVector<f64, D>) -> f64 {
         // The factor of a successful Cholesky decomposition has a positive diagonal.
-        self.cholesky
-            .solve_lower_triangular_unchecked(delta)
-            .norm_squared()
+        whitened_squared_norm(&self.cholesky, delta)
     }
 
     /// The squared Mahalanobis distance `(x ⊟ μ)ᵀ P⁻¹ (x ⊟ μ)` of a point, by one triangular solve:
@@ -381,7 +379,8 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// term `½ (μ_p ⊟ μ_q)ᵀ P_q⁻¹ (μ_p ⊟ μ_q)` is included, as on Rⁿ.
     pub fn kl_divergence(&self, other: &Self) -> Result<f64, DensityError> {
         let offset = other.mahalanobis_squared(&self.mean);
-        if offset > SAME_MEAN_MAHALANOBIS_SQUARED {
+        // Written so that a NaN offset is refused too.
+        if !(offset <= SAME_MEAN_MAHALANOBIS_SQUARED) {
             return Err(DensityError::OutOfRange {
                 what: "squared Mahalanobis distance between the two means",
                 value: offset,

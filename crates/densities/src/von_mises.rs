@@ -313,10 +313,11 @@ impl Density for VonMises {
 
 impl Product for VonMises {
     /// `η = η₁ + η₂` (exact).
+    ///
+    /// # Errors
+    /// As [`VonMises::from_natural`]: the product's concentration |η₁ + η₂| may exceed 1e300.
     fn product(&self, other: &Self) -> Result<Self, DensityError> {
-        Ok(Self {
-            eta: self.eta + other.eta,
-        })
+        Self::from_natural(self.eta + other.eta)
     }
 
     /// `ln ∫ p₁ p₂ dθ = ln Z(η₁ + η₂) − ln Z(η₁) − ln Z(η₂)`, evaluated as

@@ -223,3 +223,51 @@ fn harmonic_gaussian_takes_the_gaussian_limit() {
         }
     }
 }
+
+/// A covariance whose factor has a diagonal of 1e-10 beside entries of 1: the triangular solve for
+/// a point 1e300 away overflowed in its first row and met ∞ − ∞ in the third, so the log density
+/// of a Gaussian on Rⁿ (and of the conditional Gaussian of a `HarmonicGaussian`) was NaN where the
+/// exact value is −∞, and the KL divergence between means that far apart was `Ok(NaN)`.
+#[test]
+fn far_points_of_ill_conditioned_gaussians_are_infinitely_unlikely() {
+    use liebayes_densities::manifolds::Rn;
+    use liebayes_densities::{HarmonicGaussian, ManifoldGaussian};
+    let sigma = Matrix3::new(1e-20, 1e-10, 1e-10, 1e-10, 2.0, 2.0, 1e-10, 2.0, 3.0);
+    let far = Vector3::new(1e300, 0.0, 0.0);
+    let harmonic =
+        HarmonicGaussian::<3>::new(GenVonMises2::uniform(), Matrix3::zeros(), sigma).unwrap();
+    assert_eq!(harmonic.log_pdf(&(So2::identity(), far)), f64::NEG_INFINITY);
+    let gaussian = ManifoldGaussian::new(Rn::new(Vector3::zeros()).unwrap(), sigma).unwrap();
+    let at = Rn::new(far).unwrap();
+    assert_eq!(gaussian.mahalanobis_squared(&at), f64::INFINITY);
+    assert_eq!(gaussian.log_pdf(&at), f64::NEG_INFINITY);
+    assert_eq!(
+        Gaussian::new(Vector3::zeros(), sigma)
+            .unwrap()
+            .log_pdf(&far),
+        f64::NEG_INFINITY
+    );
+    let elsewhere = ManifoldGaussian::new(at, Matrix3::identity()).unwrap();
+    assert!(elsewhere.kl_divergence(&gaussian).is_err());
+    // Near the mean the same densities are ordinary numbers.
+    let near = Vector3::new(1e-11, 0.5, -0.25);
+    let plain = gaussian.log_pdf(&Rn::new(near).unwrap());
+    assert!(plain.is_finite());
+    assert!(
+        (harmonic.log_pdf(&(So2::identity(), near)) - plain + (2.0 * std::f64::consts::PI).ln())
+            .abs()
+            < 1e-9
+    );
+}
+
+/// `VonMises::product` added natural parameters unchecked: chained products passed κ = 1e300
+/// (the documented limit) and reached η = (∞, 0), whose log density was NaN. A product beyond
+/// the limit is now an error, like every other density's.
+#[test]
+fn von_mises_products_beyond_the_concentration_limit_are_errors() {
+    let p = VonMises::new(So2::identity(), 1e300).unwrap();
+    assert!(p.product(&p).is_err());
+    let q = VonMises::new(So2::identity(), 4e299).unwrap();
+    let pq = q.product(&q).unwrap();
+    assert!((pq.concentration() - 8e299).abs() <= 1e-15 * 8e299);
+}

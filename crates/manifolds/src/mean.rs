@@ -166,7 +166,8 @@ where
                 (sum + r * w, size + w.abs() * r.amax())
             },
         );
-        let norm = step.norm();
+        // Without overflow: the squares of a step beyond 1e154 would end the iteration.
+        let norm = crate::real::stable_norm(&step);
         if !norm.is_finite() {
             last_step = norm;
             break;

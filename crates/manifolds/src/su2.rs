@@ -143,14 +143,16 @@ impl<T: Real> LieGroup<3> for Su2<T> {
         Quaternion::new(T::zero(), v.x * half, v.y * half, v.z * half)
     }
 
+    /// `2 (x, y, z)`, saturating at the largest finite value (entries beyond half of it).
     #[inline]
     fn vee(a: &Quaternion<T>) -> Tangent<T, 3> {
-        a.imag() * T::lit(2.0)
+        crate::pose::saturated(a.imag() * T::lit(2.0))
     }
 
-    /// `q a q*` by quaternion products.
+    /// `q a q* = (w, R(q) (x, y, z))`: the vector part rotated, saturating at the largest finite
+    /// value (two quaternion products overflow into NaN for entries near it).
     fn conjugate_algebra(&self, a: &Quaternion<T>) -> Quaternion<T> {
-        self.q.quaternion() * a * self.q.conjugate().quaternion()
+        Quaternion::from_parts(a.w, rotation_vector::rotate(&self.q, &a.imag()))
     }
 }
 

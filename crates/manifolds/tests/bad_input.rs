@@ -702,4 +702,24 @@ fn conjugations_near_the_largest_value_are_finite() {
     let a = So3::hat(&Vector3::new(1.0, 2.0, 3.0));
     let r = small.to_matrix();
     assert_eq!(small.conjugate_algebra(&a), r * a * r.transpose());
+    // SU(2): two quaternion products of (0, MAX, MAX, 0) overflowed and then met ∞ · 0. A quarter
+    // turn about z maps (x, y) to (−y, x).
+    let quarter = Su2::exp(&Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2));
+    let c = quarter.conjugate_algebra(&Quaternion::new(0.0, max, max, 0.0));
+    assert!(all_finite(c.coords.iter().copied()), "{c}");
+    assert!(
+        (c.imag() - Vector3::new(-max, max, 0.0)).amax() <= 1e-15 * max,
+        "{c}"
+    );
+    assert_eq!(c.w, 0.0);
+    let a = Quaternion::new(0.0, 0.5, -1.0, 2.0);
+    let q = Su2::exp(&Vector3::new(0.3, 0.1, -0.2));
+    let [w, x, y, z] = q.to_quaternion_wxyz();
+    let plain = Quaternion::new(w, x, y, z) * a * Quaternion::new(w, -x, -y, -z);
+    assert!((q.conjugate_algebra(&a).coords - plain.coords).amax() <= 1e-15);
+    // vee doubles the vector part: it saturates beyond half the largest value.
+    assert_eq!(
+        Su2::vee(&Quaternion::new(0.0, max, -max, 1.0)),
+        Vector3::new(max, -max, 2.0)
+    );
 }

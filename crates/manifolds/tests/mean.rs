@@ -233,6 +233,25 @@ fn far_from_the_origin_the_mean_is_as_accurate_as_the_coordinates() {
     assert!((m.coords()[0] - 1_133.333_3).abs() <= 1e-3);
 }
 
+/// Points 1e200 apart on Rⁿ: the step's length is taken without squaring its entries (squares of
+/// 1e200 overflow), so the iteration converges instead of stopping with `MeanNotConverged`.
+#[test]
+fn points_far_apart_have_a_mean() {
+    let (origin, far) = (
+        Rn::new(Vector1::new(0.0)).unwrap(),
+        Rn::new(Vector1::new(1e200)).unwrap(),
+    );
+    let m = weighted_mean(&origin, [(&far, 1.0)], MeanSettings::default()).unwrap();
+    assert_eq!(m.coords()[0], 1e200);
+    let m = weighted_mean(
+        &origin,
+        [(&origin, 1.0), (&far, 1.0)],
+        MeanSettings::default(),
+    )
+    .unwrap();
+    assert_eq!(m.coords()[0], 5e199);
+}
+
 /// The unscented transform's weights with α = 1e-3 (centre weight about −1e6, the others about
 /// 1.7e5): the sigma points of a symmetric spread average back to their centre, to the rounding of
 /// the points amplified by the normalised weights, eps Σ |wᵢ| (about 4e-10 here).

@@ -405,7 +405,10 @@ fn a_step_past_the_model_domain_is_halved() {
     .with_jacobian(|_: &Rn<f64, 1>| Matrix1::new(0.5));
     let mut density = prior.clone();
     let error = density.condition_in_place(&IteratedEkf::new(&only_at_one), &z);
-    assert!(matches!(error, Err(OperatorError::NonFinite { .. })), "{error:?}");
+    assert!(
+        matches!(error, Err(OperatorError::NonFinite { .. })),
+        "{error:?}"
+    );
     assert_eq!(density, prior);
 }
 
