@@ -16,7 +16,8 @@ class AttitudeFilter:
     Give the sampling interval ``dt`` (s) or the ``rate`` (Hz), exactly one. ``sensors`` is
     ``"9d"``, ``"6d"``, or ``None`` to decide at the first update (9D when it has a magnetometer).
     ``params`` are keyword parameters (``parameter_names()``; SI units, angles in rad).
-    Raises ``ValueError`` for a parameter out of its range or an unknown name.
+    Raises ``ValueError`` for a parameter out of its range or an unknown name, ``TypeError`` for a
+    number that is not a Python or numpy integer or float (a bool, a complex number, an array).
     """
 
     def __init__(
@@ -47,15 +48,17 @@ class AttitudeFilter:
         """Filters (n, 3) arrays of gyroscope (rad/s), accelerometer (m/s^2) and magnetometer
         readings; returns ``quat`` (n, 4), ``heading_sigma``, ``tilt_sigma`` (n,) (rad), ``bias``
         (n, 3) (rad/s), ``rest``, ``mag_disturbance`` (n,) (bool). All or nothing: a refused
-        sample raises ``ValueError`` naming it and leaves the filter as before the call. The GIL is
-        released while filtering."""
+        sample raises ``ValueError`` naming it and leaves the filter as before the call (a refused
+        first batch decides no ``sensors``). The GIL is released while filtering."""
     def update(
         self,
         gyr: Sequence[float],
         acc: Sequence[float],
         mag: Optional[Sequence[float]] = None,
     ) -> None:
-        """Filters one sample (streaming); a refused sample raises and leaves the state unchanged."""
+        """Filters one sample (streaming): three real numbers each (a bool or a complex number
+        raises ``TypeError``). A refused sample raises and leaves the state unchanged (a refused
+        first sample decides no ``sensors``)."""
     @property
     def quat(self) -> _Array:
         """The orientation [w, x, y, z] after the last sample."""

@@ -9,10 +9,12 @@ with the batch shape (a ``float`` for a single point). Every point is validated 
 ``sample(n, rng)`` draws one integer ``rng.integers(0, 2**63)`` from the ``numpy.random.Generator``
 ``rng`` and seeds the library's ChaCha8 stream with it, so the same generator state gives the same
 draws (and the generator advances by one draw). ``rng`` of another type raises ``TypeError``. One
-call returns at most 2^28 values (n times the values of a point); more raises ``ValueError``.
+call returns at most 2^28 values (n times the values of a point); more raises ``ValueError``. A
+refused call draws nothing from ``rng``.
 
-Every invalid argument (NaN, wrong shape, out of range, non-unit mean) raises ``ValueError`` with
-the library's message.
+A ``float`` argument takes a Python or numpy integer or float, or a 0-d array of one; a bool, a
+complex number, a string or an array of one element raises ``TypeError``. Every invalid argument
+(NaN, wrong shape, out of range, non-unit mean) raises ``ValueError`` with the library's message.
 """
 
 from typing import Optional, Tuple, Union

@@ -3,8 +3,9 @@ studies of its built-in scenarios, whose simulated runs are exposed so that a fi
 Python can be run on exactly the same data and scored by the same rules.
 
 Arrays are float64 numpy arrays (lists and integer arrays are converted); results are new arrays.
-Every library error is raised as ``ValueError`` with the library's message; a refused step leaves
-the filter as it was.
+A ``float`` argument takes a Python or numpy integer or float, or a 0-d array of one; a bool, a
+complex number, a string or an array of one element raises ``TypeError``. Every library error is
+raised as ``ValueError`` with the library's message; a refused step leaves the filter as it was.
 """
 
 from typing import Any, Dict, Optional, Sequence, Tuple, TypedDict, Union, final
@@ -135,8 +136,9 @@ class ExactAzimuthFilter:
         """E[r | A = azimuth] = a + R(-A) c, shape (2,). Raises ValueError for a non-finite angle."""
     def run(self, velocity: ArrayLike, dt: Union[float, ArrayLike], z: ArrayLike) -> AzimuthRun:
         """Runs n steps at once (the library's record loop, GIL released): step i predicts with
-        velocity[i] (n, 2) over dt (a float or (n,)), then updates with z[i] (n, 2) unless that row
-        is NaN in both components (no measurement at that step). Returns every step's estimate.
+        velocity[i] (n, 2) over dt (a float for every step, or (n,): an array of one element is
+        one step's, not a float), then updates with z[i] (n, 2) unless that row is NaN in both
+        components (no measurement at that step). Returns every step's estimate.
 
         All or nothing: a step that fails raises ValueError naming the step and the library's
         reason, and the filter is left as it was before the call."""
@@ -267,15 +269,16 @@ def score_azimuth(
     times: Optional[ArrayLike] = None,
     label: str = "user",
 ) -> StudyResult:
-    """Scores a user's estimates of R runs at E measurement epochs with the library's azimuth
-    scorer into the summary a study gives (the same metrics, reductions and bands).
+    """Scores a user's estimates of R >= 1 runs at E measurement epochs, 1 <= E <= 16384 (a
+    study's limit) and R E <= 2^28, with the library's azimuth scorer into the summary a study
+    gives (the same metrics, reductions and bands; GIL released).
 
     truth_r (R, E, 2) and truth_azimuth (R,) from :func:`azimuth_runs` at the measured steps;
     azimuth (R, E) (NaN: no azimuth estimate), rho (R, E) in [0, 1], mean_r (R, E, 2),
     cov_r (R, E, 2, 2); circular_variance (R, E) defaults to -2 ln rho; times (E,) defaults to
-    0, 1, 2, .... Raises ValueError for mismatched shapes, a non-finite true azimuth or rho, or a
-    position or covariance entry that is not finite or above 1e100 in magnitude (naming its
-    index)."""
+    0, 1, 2, .... Raises ValueError for R or E out of range, mismatched shapes, a non-finite true
+    azimuth or rho, or a position or covariance entry that is not finite or above 1e100 in
+    magnitude (naming its index)."""
 
 def aoa_study(
     data: str,
@@ -324,10 +327,11 @@ def score_aoa(
     label: str = "user",
 ) -> StudyResult:
     """Scores a user's position estimates, mean (R, E, 3) and covariance (R, E, 3, 3) against
-    truth (R, E, 3), with the library's angle-of-arrival scorer into the summary a study gives.
-    Raises ValueError for mismatched shapes or a value that is not finite or above 1e100 in
-    magnitude (naming its index); an estimate whose covariance is not positive definite scores
-    an infinite NEES, counted as a value that is not finite."""
+    truth (R, E, 3), with the library's angle-of-arrival scorer into the summary a study gives
+    (GIL released): R >= 1 runs, 1 <= E <= 16384 epochs (a study's limit), R E <= 2^28.
+    Raises ValueError for R or E out of range, mismatched shapes or a value that is not finite
+    or above 1e100 in magnitude (naming its index); an estimate whose covariance is not positive
+    definite scores an infinite NEES, counted as a value that is not finite."""
 
 def square_track() -> Tuple[Array, Array]:
     """The square track's four anchors: positions (4, 3) and world-to-anchor rotations (4, 3, 3)."""

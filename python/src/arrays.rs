@@ -11,7 +11,7 @@ use numpy::{
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyType};
 
 /// The most values an array the package returns may hold (draws × their components, or runs ×
 /// steps × components of exposed simulated runs, all arrays together): 2²⁸ doubles, 2 GB. More is
@@ -110,7 +110,8 @@ impl<'py> std::ops::Deref for RealArray<'py> {
 
 /// Three real numbers given as a sequence (a list, a tuple, a numpy array): an array whose values
 /// are not real numbers (complex, bool, object, strings) raises `TypeError` as in [`float_array`],
-/// rather than being cast element by element.
+/// rather than being cast element by element, and each element of a list must be a real number
+/// as [`real_number`] reads one (a bool, a complex number or a one-element list is refused).
 #[derive(Clone, Copy)]
 pub(crate) struct Real3(pub(crate) [f64; 3]);
 
@@ -126,7 +127,81 @@ impl<'a, 'py> FromPyObject<'a, 'py> for Real3 {
                 )));
             }
         }
-        obj.extract::<[f64; 3]>().map(Self)
+        let elements = obj.extract::<[Bound<'py, PyAny>; 3]>()?;
+        let mut values = [0.0; 3];
+        for (i, (value, element)) in values.iter_mut().zip(&elements).enumerate() {
+            *value = real_number(&format!("element {i}"), element)?;
+        }
+        Ok(Self(values))
+    }
+}
+
+/// `numpy.generic`, the class of numpy's scalars, looked up once.
+static NUMPY_SCALAR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+/// A real number given by the user: a Python `int` or `float`, a numpy integer or floating scalar,
+/// or a 0-d array of one; anything else raises `TypeError` (its message prefixed by `name` unless
+/// it is empty). pyo3's own `f64` argument takes anything with `__float__` or `__index__`: a bool
+/// as 0 or 1, a numpy complex scalar with its imaginary part dropped (and a warning), an array of
+/// one element as that element. Those, complex numbers, strings and other objects are refused.
+pub(crate) fn real_number(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<f64> {
+    let refuse = |what: String| {
+        PyTypeError::new_err(named(
+            name,
+            format!("expected a real number (an int or a float), got {what}"),
+        ))
+    };
+    // A bool is an int to Python: it is refused first.
+    if obj.is_instance_of::<PyBool>() {
+        return Err(refuse(format!("the bool {obj}")));
+    }
+    if obj.is_instance_of::<PyFloat>() || obj.is_instance_of::<PyInt>() {
+        return obj.extract();
+    }
+    let dtype = if let Ok(array) = obj.cast::<PyUntypedArray>() {
+        if array.ndim() != 0 {
+            return Err(refuse(format!(
+                "an array of shape {}",
+                shape_text(array.shape(), false)
+            )));
+        }
+        array.dtype()
+    } else if obj.is_instance(NUMPY_SCALAR.import(obj.py(), "numpy", "generic")?)? {
+        obj.getattr("dtype")?.cast_into::<PyArrayDescr>()?
+    } else {
+        return Err(refuse(format!(
+            "an object of type {}",
+            obj.get_type().name()?
+        )));
+    };
+    if !is_real(&dtype) {
+        return Err(refuse(format!("a numpy value of dtype {dtype}")));
+    }
+    obj.extract()
+}
+
+/// A `float` argument, read by [`real_number`] (`#[pyo3(from_py_with = real)]`; pyo3 adds a note
+/// naming the argument to the error).
+pub(crate) fn real(obj: &Bound<'_, PyAny>) -> PyResult<f64> {
+    real_number("", obj)
+}
+
+/// An optional `float` argument: `None`, or a number read by [`real_number`]
+/// (`#[pyo3(from_py_with = optional_real)]`).
+pub(crate) fn optional_real(obj: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
+    if obj.is_none() {
+        Ok(None)
+    } else {
+        real(obj).map(Some)
+    }
+}
+
+/// `text` prefixed by the argument's `name` (`"name: text"`), or as it is when `name` is empty.
+fn named(name: &str, text: String) -> String {
+    if name.is_empty() {
+        text
+    } else {
+        format!("{name}: {text}")
     }
 }
 
@@ -147,13 +222,6 @@ fn contiguous_float64<'py>(
             return Ok(array.clone());
         }
     }
-    let named = |text: String| {
-        if name.is_empty() {
-            text
-        } else {
-            format!("{name}: {text}")
-        }
-    };
     let asarray = ASARRAY.import(py, "numpy", "asarray")?;
     // Anything but an array is read by numpy as it is first, so that its kind can be checked
     // before a cast to float64 could turn strings, booleans or complex numbers into numbers.
@@ -162,20 +230,26 @@ fn contiguous_float64<'py>(
         Err(_) => asarray
             .call1((obj,))?
             .cast_into::<PyUntypedArray>()
-            .map_err(|_| PyTypeError::new_err(named("could not read it as an array".to_owned())))?,
+            .map_err(|_| {
+                PyTypeError::new_err(named(name, "could not read it as an array".to_owned()))
+            })?,
     };
     let dtype = array.dtype();
     if !is_real(&dtype) {
-        return Err(PyTypeError::new_err(named(format!(
-            "expected an array of real numbers (float64), got dtype {dtype}"
-        ))));
+        return Err(PyTypeError::new_err(named(
+            name,
+            format!("expected an array of real numbers (float64), got dtype {dtype}"),
+        )));
     }
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
     kwargs.set_item("order", "C")?;
     let converted = asarray.call((array,), Some(&kwargs))?;
     let array = converted.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
-        PyTypeError::new_err(named("could not read it as an array of float64".to_owned()))
+        PyTypeError::new_err(named(
+            name,
+            "could not read it as an array of float64".to_owned(),
+        ))
     })?;
     if array.is_aligned() {
         return Ok(array);
@@ -184,7 +258,7 @@ fn contiguous_float64<'py>(
     array
         .call_method0("copy")?
         .cast_into::<PyArrayDyn<f64>>()
-        .map_err(|_| PyTypeError::new_err(named("could not copy it as float64".to_owned())))
+        .map_err(|_| PyTypeError::new_err(named(name, "could not copy it as float64".to_owned())))
 }
 
 /// A rotation matrix (row-major, 9 numbers), checked by the library (finite, orthonormal, det +1).

@@ -6,7 +6,7 @@
 //! it (predict with the gyroscope and accelerometer, then the magnetometer reading, then the
 //! estimate), so its output equals the `liebayes attitude` binary's bit for bit.
 
-use crate::arrays::{Real3, float_array};
+use crate::arrays::{Real3, float_array, optional_real, real_number};
 use crate::errors::value_error;
 use liebayes_experiments::{RecursiveFilter, Smoothing};
 use liebayes_filters::attitude::{
@@ -143,8 +143,8 @@ impl AttitudeFilter {
     #[new]
     #[pyo3(signature = (dt = None, *, rate = None, sensors = None, **params))]
     fn new(
-        dt: Option<f64>,
-        rate: Option<f64>,
+        #[pyo3(from_py_with = optional_real)] dt: Option<f64>,
+        #[pyo3(from_py_with = optional_real)] rate: Option<f64>,
         sensors: Option<&str>,
         params: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
@@ -213,7 +213,7 @@ impl AttitudeFilter {
         mag: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let Batch { gyr, acc, mag, n } = Batch::read("update_batch", gyr, acc, mag)?;
-        let mut filter = self.filter_for(mag.is_some())?.clone();
+        let (sensors, mut filter) = self.filter_for(mag.is_some())?;
         let (g, a) = (matrix(&gyr)?, matrix(&acc)?);
         let m = mag.as_ref().map(matrix).transpose()?;
         let outputs = py.detach(|| run_batch(&mut filter, &g, &a, m.as_ref()));
@@ -223,7 +223,7 @@ impl AttitudeFilter {
                 f.sample, f.message
             ))
         })?;
-        self.filter = Some(filter);
+        self.commit(sensors, filter);
         let dict = PyDict::new(py);
         dict.set_item(
             "quat",
@@ -252,10 +252,9 @@ impl AttitudeFilter {
     #[pyo3(signature = (gyr, acc, mag = None))]
     fn update(&mut self, gyr: Real3, acc: Real3, mag: Option<Real3>) -> PyResult<()> {
         let (gyr, acc, mag) = (gyr.0, acc.0, mag.map(|m| m.0));
-        let filter = self.filter_for(mag.is_some())?;
-        let mut stepped = filter.clone();
+        let (sensors, mut filter) = self.filter_for(mag.is_some())?;
         step(
-            &mut stepped,
+            &mut filter,
             &ImuSample {
                 gyro: Vector3::from(gyr),
                 acc: Vector3::from(acc),
@@ -263,7 +262,7 @@ impl AttitudeFilter {
             mag.map(Vector3::from).as_ref(),
         )
         .map_err(value_error)?;
-        self.filter = Some(stepped);
+        self.commit(sensors, filter);
         Ok(())
     }
 
@@ -343,15 +342,18 @@ impl AttitudeFilter {
 }
 
 impl AttitudeFilter {
-    /// The filter, built at the first update with the sensors that update implies; refuses a
-    /// magnetometer given to a 6D filter or missing for a 9D one.
-    fn filter_for(&mut self, has_mag: bool) -> PyResult<&AttitudeEkf> {
+    /// The sensors of a call with or without a magnetometer and a copy of the filter to step for
+    /// it (a new one, with the sensors the call implies, before the first update); refuses a
+    /// magnetometer given to a 6D filter or missing for a 9D one. Nothing is changed here: the
+    /// caller keeps both by [`Self::commit`] once the step has succeeded, so that a refused first
+    /// sample decides nothing.
+    fn filter_for(&self, has_mag: bool) -> PyResult<(Sensors, AttitudeEkf)> {
         let wanted = if has_mag {
             Sensors::NineD
         } else {
             Sensors::SixD
         };
-        let sensors = *self.sensors.get_or_insert(wanted);
+        let sensors = self.sensors.unwrap_or(wanted);
         if sensors != wanted {
             return Err(PyValueError::new_err(if has_mag {
                 "AttitudeFilter: this filter is 6D and takes no magnetometer (build one with sensors=\"9d\")"
@@ -359,14 +361,19 @@ impl AttitudeFilter {
                 "AttitudeFilter: this filter is 9D and needs the magnetometer (mag=...)"
             }));
         }
-        if self.filter.is_none() {
-            self.filter = Some(
-                AttitudeEkf::new(self.params.clone(), sensors, self.rate).map_err(value_error)?,
-            );
-        }
-        self.filter
-            .as_ref()
-            .ok_or_else(|| PyValueError::new_err("AttitudeFilter: no filter"))
+        let filter = match &self.filter {
+            Some(filter) => filter.clone(),
+            None => {
+                AttitudeEkf::new(self.params.clone(), sensors, self.rate).map_err(value_error)?
+            }
+        };
+        Ok((sensors, filter))
+    }
+
+    /// Keeps a filter stepped without error (from [`Self::filter_for`]) and its sensors.
+    fn commit(&mut self, sensors: Sensors, filter: AttitudeEkf) {
+        self.sensors = Some(sensors);
+        self.filter = Some(filter);
     }
 
     /// The filter once it has a sample.
@@ -435,8 +442,8 @@ fn offline_attitude<'py>(
     gyr: &Bound<'py, PyAny>,
     acc: &Bound<'py, PyAny>,
     mag: Option<&Bound<'py, PyAny>>,
-    dt: Option<f64>,
-    rate: Option<f64>,
+    #[pyo3(from_py_with = optional_real)] dt: Option<f64>,
+    #[pyo3(from_py_with = optional_real)] rate: Option<f64>,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     const ORIGIN: &str = "offline_attitude";
@@ -597,11 +604,7 @@ fn set_param(
     key: &str,
     value: &Bound<'_, PyAny>,
 ) -> PyResult<()> {
-    let number = || -> PyResult<f64> {
-        value
-            .extract::<f64>()
-            .map_err(|_| PyValueError::new_err(format!("AttitudeFilter: {key} must be a number")))
-    };
+    let number = || real_number(&format!("AttitudeFilter: {key}"), value);
     let flag = || -> PyResult<bool> {
         value.extract::<bool>().map_err(|_| {
             PyValueError::new_err(format!("AttitudeFilter: {key} must be True or False"))

@@ -11,7 +11,8 @@
 //! `numpy.random.Generator`, so the same generator state gives the same draws.
 
 use crate::arrays::{
-    MAX_VALUES, float_array, put_matrix, put_vector, quaternion, rotation, shape_text, sphere_point,
+    MAX_VALUES, float_array, put_matrix, put_vector, quaternion, real, rotation, shape_text,
+    sphere_point,
 };
 use crate::errors::value_error;
 use liebayes_densities::manifolds::{ManifoldError, S2, So2, So3, Su2};
@@ -171,23 +172,22 @@ fn count(name: &str, n: i64) -> PyResult<usize> {
     })
 }
 
-/// A 63-bit seed drawn from a `numpy.random.Generator` (`rng.integers(0, 2**63)`); anything else
-/// is a `TypeError`.
-fn seed_from(rng: &Bound<'_, PyAny>) -> PyResult<u64> {
-    let py = rng.py();
-    let generator = PyModule::import(py, "numpy.random")?.getattr("Generator")?;
-    if !rng.is_instance(&generator)? {
-        return Err(PyTypeError::new_err(format!(
-            "rng must be a numpy.random.Generator (for example numpy.random.default_rng(seed)), got {}",
-            rng.get_type().name()?
-        )));
+/// Refuses an `rng` that is not a `numpy.random.Generator` with a `TypeError`.
+fn check_generator(rng: &Bound<'_, PyAny>) -> PyResult<()> {
+    let generator = PyModule::import(rng.py(), "numpy.random")?.getattr("Generator")?;
+    if rng.is_instance(&generator)? {
+        return Ok(());
     }
-    rng.call_method1("integers", (0_u64, 1_u64 << 63))?
-        .extract::<u64>()
+    Err(PyTypeError::new_err(format!(
+        "rng must be a numpy.random.Generator (for example numpy.random.default_rng(seed)), got {}",
+        rng.get_type().name()?
+    )))
 }
 
 /// `n` draws of `density` written by `put` (`width` numbers each) from the ChaCha8 stream seeded by
-/// `rng`, with the GIL released; returned with shape `(n,) + point_shape`.
+/// one draw `rng.integers(0, 2**63)` from the caller's generator, with the GIL released; returned
+/// with shape `(n,) + point_shape`. Every check, and the allocation, comes before the seed is drawn:
+/// a refused call leaves the generator as it was.
 fn draw<'py, D: Density + Sync>(
     py: Python<'py>,
     density: &D,
@@ -197,7 +197,6 @@ fn draw<'py, D: Density + Sync>(
     put: impl Fn(&D::Point, &mut [f64]) + Sync,
 ) -> PyResult<Bound<'py, PyAny>> {
     let n = count("n", n)?;
-    let seed = seed_from(rng)?;
     let width = point_shape.iter().product::<usize>();
     let total = n
         .checked_mul(width)
@@ -208,18 +207,25 @@ fn draw<'py, D: Density + Sync>(
                  draw them in several calls"
             ))
         })?;
-    let data = py.detach(|| -> Result<Vec<f64>, String> {
-        let mut data = Vec::new();
-        data.try_reserve_exact(total)
-            .map_err(|e| format!("n = {n} draws do not fit in memory: {e}"))?;
-        data.resize(total, 0.0);
+    check_generator(rng)?;
+    let mut data = py
+        .detach(|| -> Result<Vec<f64>, String> {
+            let mut data = Vec::new();
+            data.try_reserve_exact(total)
+                .map_err(|e| format!("n = {n} draws do not fit in memory: {e}"))?;
+            data.resize(total, 0.0);
+            Ok(data)
+        })
+        .map_err(PyValueError::new_err)?;
+    let seed = rng
+        .call_method1("integers", (0_u64, 1_u64 << 63))?
+        .extract::<u64>()?;
+    py.detach(|| {
         let mut stream = ChaCha8Rng::seed_from_u64(seed);
         for chunk in data.chunks_exact_mut(width) {
             put(&density.sample(&mut stream), chunk);
         }
-        Ok(data)
     });
-    let data = data.map_err(PyValueError::new_err)?;
     let mut shape = vec![n];
     shape.extend_from_slice(point_shape);
     Ok(PyArray1::from_vec(py, data).reshape(shape)?.into_any())
@@ -394,7 +400,10 @@ pub(crate) struct PyVonMises {
 impl PyVonMises {
     /// The distribution with mean direction `mu` (radians) and concentration `kappa ≥ 0`.
     #[new]
-    fn new(mu: f64, kappa: f64) -> PyResult<Self> {
+    fn new(
+        #[pyo3(from_py_with = real)] mu: f64,
+        #[pyo3(from_py_with = real)] kappa: f64,
+    ) -> PyResult<Self> {
         let mean = So2::from_angle(mu).map_err(|e| value_error(format!("mu: {e}")))?;
         VonMises::new(mean, kappa)
             .map(|inner| Self { inner })
@@ -548,7 +557,7 @@ impl PyVonMisesFisher {
     /// The distribution with unit mean direction `mean` (shape `(3,)`, norm 1 to 1e-9) and
     /// concentration `kappa ≥ 0`.
     #[new]
-    fn new(mean: &Bound<'_, PyAny>, kappa: f64) -> PyResult<Self> {
+    fn new(mean: &Bound<'_, PyAny>, #[pyo3(from_py_with = real)] kappa: f64) -> PyResult<Self> {
         let mean = single_point("mean", mean, &[3], sphere_point)?;
         VonMisesFisher::new(mean, kappa)
             .map(|inner| Self { inner })
@@ -722,7 +731,7 @@ impl PyBingham {
     fn from_direction(
         measured: &Bound<'_, PyAny>,
         reference: &Bound<'_, PyAny>,
-        sigma: f64,
+        #[pyo3(from_py_with = real)] sigma: f64,
     ) -> PyResult<Self> {
         let v = parameter("measured", measured, &[3])?;
         let h = parameter("reference", reference, &[3])?;
@@ -895,7 +904,7 @@ fn map_angles<'py>(
 impl PyHeatKernelSo3 {
     /// The heat kernel centred at the rotation matrix `mean` (3×3) with variance `variance` (rad²).
     #[new]
-    fn new(mean: &Bound<'_, PyAny>, variance: f64) -> PyResult<Self> {
+    fn new(mean: &Bound<'_, PyAny>, #[pyo3(from_py_with = real)] variance: f64) -> PyResult<Self> {
         let mean = single_point("mean", mean, &[3, 3], rotation)?;
         HeatKernelSo3::new(mean, variance)
             .map(|inner| Self { inner })

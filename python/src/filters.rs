@@ -12,12 +12,12 @@
 // the signatures cannot take references.
 #![allow(clippy::needless_pass_by_value)]
 
-use crate::arrays::{MAX_VALUES, RealArray};
+use crate::arrays::{MAX_VALUES, RealArray, float_array, optional_real, real, real_number};
 use crate::errors::value_error;
 use liebayes_densities::MAX_SCALE;
 use liebayes_experiments::{
-    AsIs, Estimator, Figure, Method as _, RecursiveFilter, Reduction, RunScores, Scenario, Scorer,
-    Shard, Step, Study, StudyLabel, Summary, record, run_rngs,
+    AsIs, Estimator, Figure, MAX_STUDY_EPOCHS, Method as _, RecursiveFilter, Reduction, RunScores,
+    Scenario, Scorer, Shard, Step, Study, StudyLabel, Summary, record, run_rngs,
 };
 use liebayes_filters::aoa::AdaptiveSigmas;
 use liebayes_filters::aoa::{
@@ -35,10 +35,10 @@ use liebayes_manifolds::{Rn, So2, So3};
 use liebayes_operators::OperatorError;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use numpy::{PyArray1, PyArrayMethods};
-use numpy::{PyUntypedArrayMethods, ndarray::ArrayViewD};
+use numpy::{PyUntypedArray, PyUntypedArrayMethods, ndarray::ArrayViewD};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PySequence};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::sync::Mutex;
@@ -119,16 +119,19 @@ fn fixed<const N: usize>(name: &str, a: &RealArray<'_>) -> PyResult<[f64; N]> {
     Ok(std::array::from_fn(|i| view[i]))
 }
 
-/// A scalar or a 1-d array of `n` values, as a vector of length n (for per-step time steps).
+/// A value per step, as a vector of length `n` (for per-step time steps): one real number for
+/// every step ([`real_number`]: a Python or numpy scalar, or a 0-d array), or a 1-d array-like of
+/// `n` real numbers. A sequence or an array of at least one axis is always read as the latter: an
+/// array of one element is one step's value, not a scalar.
 fn per_step(name: &str, value: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>> {
-    if let Ok(x) = value.extract::<f64>() {
-        return Ok(vec![x; n]);
+    let scalar = match value.cast::<PyUntypedArray>() {
+        Ok(array) => array.ndim() == 0,
+        Err(_) => value.cast::<PySequence>().is_err(),
+    };
+    if scalar {
+        return Ok(vec![real_number(name, value)?; n]);
     }
-    let a: RealArray<'_> = value.extract().map_err(|_| {
-        bad(format!(
-            "{name}: expected a float or a 1-d array of {n} floats"
-        ))
-    })?;
+    let a = float_array(name, value)?;
     check_shape(name, a.shape(), &[Some(n)])?;
     Ok(a.as_array().iter().copied().collect())
 }
@@ -248,8 +251,32 @@ fn summary_dict<'py>(py: Python<'py>, summary: &Summary) -> PyResult<Bound<'py, 
     Ok(out)
 }
 
-/// The summary of runs scored outside a study: run k's per-epoch scores (by `scorer`) added as the
-/// study adds them, so the figures are those a study of the same runs gives.
+/// Checks the runs and epochs of the estimates to score (`truth` names the array giving them)
+/// before anything is read or built: at least one of each, at most [`MAX_STUDY_EPOCHS`] epochs
+/// (the core's limit of a study: a summary holds about 1 KB of exact statistics per metric and
+/// epoch), and at most [`MAX_VALUES`] run-epochs, the scoring loop's length (so at most 2^28 runs,
+/// well within a study's [`MAX_RUNS`](liebayes_experiments::MAX_RUNS)).
+fn check_scored(truth: &str, runs: usize, epochs: usize) -> PyResult<()> {
+    if runs == 0 {
+        return Err(bad(format!("{truth}: no runs; at least one is needed")));
+    }
+    if epochs == 0 || epochs > MAX_STUDY_EPOCHS {
+        return Err(bad(format!(
+            "{truth}: {epochs} epochs; from 1 to {MAX_STUDY_EPOCHS} epochs (a study's limit) are \
+             scored at once"
+        )));
+    }
+    if runs.checked_mul(epochs).is_none_or(|v| v > MAX_VALUES) {
+        return Err(bad(format!(
+            "{truth}: {runs} runs of {epochs} epochs; at most 2^28 run-epochs are scored at once"
+        )));
+    }
+    Ok(())
+}
+
+/// The summary of runs scored outside a study (their runs and epochs checked by [`check_scored`]):
+/// run k's per-epoch scores (by `scorer`) added as the study adds them, so the figures are those a
+/// study of the same runs gives.
 fn scored_summary<T, E, Sc: Scorer<T, E>>(
     name: &str,
     runs: usize,
@@ -347,7 +374,12 @@ impl ExactAzimuthFilter {
     /// prior `r ~ N(r0, sigma0² I)`, A uniform.
     #[new]
     #[pyo3(signature = (q, sigma_m, r0 = None, sigma0 = 1.0))]
-    fn new(q: f64, sigma_m: f64, r0: Option<RealArray<'_>>, sigma0: f64) -> PyResult<Self> {
+    fn new(
+        #[pyo3(from_py_with = real)] q: f64,
+        #[pyo3(from_py_with = real)] sigma_m: f64,
+        r0: Option<RealArray<'_>>,
+        #[pyo3(from_py_with = real)] sigma0: f64,
+    ) -> PyResult<Self> {
         let r0 = match r0 {
             Some(a) => Vector2::from(fixed::<2>("r0", &a)?),
             None => Vector2::zeros(),
@@ -360,7 +392,11 @@ impl ExactAzimuthFilter {
     }
 
     /// Propagates over `dt` seconds with the velocity `velocity` (2,) in platform axes.
-    fn predict(&mut self, velocity: RealArray<'_>, dt: f64) -> PyResult<()> {
+    fn predict(
+        &mut self,
+        velocity: RealArray<'_>,
+        #[pyo3(from_py_with = real)] dt: f64,
+    ) -> PyResult<()> {
         let velocity = Vector2::from(fixed::<2>("velocity", &velocity)?);
         self.filter
             .predict(&VelocityInput { velocity, dt })
@@ -381,7 +417,11 @@ impl ExactAzimuthFilter {
     }
 
     /// `E[r | A]` at the azimuth `azimuth` (rad), shape (2,).
-    fn conditional_mean<'py>(&self, py: Python<'py>, azimuth: f64) -> PyResult<Bound<'py, PyAny>> {
+    fn conditional_mean<'py>(
+        &self,
+        py: Python<'py>,
+        #[pyo3(from_py_with = real)] azimuth: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
         if !azimuth.is_finite() {
             return Err(bad(format!("azimuth is {azimuth}: it must be finite")));
         }
@@ -628,15 +668,15 @@ fn azimuth_study<'py>(
     methods: Vec<String>,
     runs: u64,
     seed: u64,
-    duration: f64,
-    dt: f64,
+    #[pyo3(from_py_with = real)] duration: f64,
+    #[pyo3(from_py_with = real)] dt: f64,
     measure_every: usize,
-    sigma0: f64,
-    sigma_m: f64,
-    q: f64,
-    filter_sigma_m: Option<f64>,
-    filter_q: Option<f64>,
-    filter_sigma0: Option<f64>,
+    #[pyo3(from_py_with = real)] sigma0: f64,
+    #[pyo3(from_py_with = real)] sigma_m: f64,
+    #[pyo3(from_py_with = real)] q: f64,
+    #[pyo3(from_py_with = optional_real)] filter_sigma_m: Option<f64>,
+    #[pyo3(from_py_with = optional_real)] filter_q: Option<f64>,
+    #[pyo3(from_py_with = optional_real)] filter_sigma0: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let scenario = azimuth_scenario(scenario, duration, dt, measure_every, sigma0, sigma_m, q)?;
     let mut plans = Vec::with_capacity(methods.len());
@@ -683,12 +723,12 @@ fn azimuth_runs<'py>(
     runs: usize,
     seed: u64,
     start: u64,
-    duration: f64,
-    dt: f64,
+    #[pyo3(from_py_with = real)] duration: f64,
+    #[pyo3(from_py_with = real)] dt: f64,
     measure_every: usize,
-    sigma0: f64,
-    sigma_m: f64,
-    q: f64,
+    #[pyo3(from_py_with = real)] sigma0: f64,
+    #[pyo3(from_py_with = real)] sigma_m: f64,
+    #[pyo3(from_py_with = real)] q: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let scenario = azimuth_scenario(scenario, duration, dt, measure_every, sigma0, sigma_m, q)?;
     let steps = scenario.config().steps;
@@ -741,7 +781,7 @@ fn azimuth_runs<'py>(
 }
 
 /// Scores a user's azimuth estimates (per run and measurement epoch) with the library's scorer
-/// into the summary a study would give.
+/// into the summary a study would give, with the GIL released.
 #[pyfunction]
 #[pyo3(signature = (truth_r, truth_azimuth, azimuth, rho, mean_r, cov_r,
     circular_variance = None, times = None, label = "user"))]
@@ -760,9 +800,7 @@ fn score_azimuth<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     check_shape("truth_r", truth_r.shape(), &[None, None, Some(2)])?;
     let (runs, epochs) = (truth_r.shape()[0], truth_r.shape()[1]);
-    if runs == 0 {
-        return Err(bad("truth_r: no runs"));
-    }
+    check_scored("truth_r", runs, epochs)?;
     check_shape("truth_azimuth", truth_azimuth.shape(), &[Some(runs)])?;
     check_shape("azimuth", azimuth.shape(), &[Some(runs), Some(epochs)])?;
     check_shape("rho", rho.shape(), &[Some(runs), Some(epochs)])?;
@@ -798,38 +836,41 @@ fn score_azimuth<'py>(
         check_scale(name, array)?;
     }
     let cv = circular_variance.as_ref().map(|v| v.as_array());
-    let summary = scored_summary(label, runs, epochs, &times, &AzimuthScorer, |run, k| {
-        let truth = PositionAzimuth::new(
-            Rn::new_unchecked(Vector2::new(tr[[run, k, 0]], tr[[run, k, 1]])),
-            So2::from_angle_unchecked(ta[[run]]),
-        );
-        let a = az[[run, k]];
-        let r = rh[[run, k]];
-        let variance = cv.as_ref().map_or_else(
-            || {
-                if r > 0.0 {
-                    -2.0 * r.ln()
-                } else {
-                    f64::INFINITY
-                }
-            },
-            |v| v[[run, k]],
-        );
-        let estimate = AzimuthEstimate {
-            azimuth: a.is_finite().then(|| So2::from_angle_unchecked(a)),
-            rho: r,
-            circular_variance: variance,
-            mean_r: Vector2::new(mr[[run, k, 0]], mr[[run, k, 1]]),
-            cov_r: Matrix2::new(
-                cr[[run, k, 0, 0]],
-                cr[[run, k, 0, 1]],
-                cr[[run, k, 1, 0]],
-                cr[[run, k, 1, 1]],
-            ),
-        };
-        (truth, estimate)
-    })
-    .map_err(value_error)?;
+    let summary = py
+        .detach(|| {
+            scored_summary(label, runs, epochs, &times, &AzimuthScorer, |run, k| {
+                let truth = PositionAzimuth::new(
+                    Rn::new_unchecked(Vector2::new(tr[[run, k, 0]], tr[[run, k, 1]])),
+                    So2::from_angle_unchecked(ta[[run]]),
+                );
+                let a = az[[run, k]];
+                let r = rh[[run, k]];
+                let variance = cv.as_ref().map_or_else(
+                    || {
+                        if r > 0.0 {
+                            -2.0 * r.ln()
+                        } else {
+                            f64::INFINITY
+                        }
+                    },
+                    |v| v[[run, k]],
+                );
+                let estimate = AzimuthEstimate {
+                    azimuth: a.is_finite().then(|| So2::from_angle_unchecked(a)),
+                    rho: r,
+                    circular_variance: variance,
+                    mean_r: Vector2::new(mr[[run, k, 0]], mr[[run, k, 1]]),
+                    cov_r: Matrix2::new(
+                        cr[[run, k, 0, 0]],
+                        cr[[run, k, 0, 1]],
+                        cr[[run, k, 1, 0]],
+                        cr[[run, k, 1, 1]],
+                    ),
+                };
+                (truth, estimate)
+            })
+        })
+        .map_err(value_error)?;
     summary_dict(py, &summary)
 }
 
@@ -1052,13 +1093,13 @@ impl AoaFilter {
         name: &str,
         anchors: RealArray<'_>,
         rotations: Option<RealArray<'_>>,
-        kappa: Option<f64>,
-        sigma_az: Option<f64>,
-        sigma_el: Option<f64>,
-        q_xy: f64,
-        q_z: f64,
+        #[pyo3(from_py_with = optional_real)] kappa: Option<f64>,
+        #[pyo3(from_py_with = optional_real)] sigma_az: Option<f64>,
+        #[pyo3(from_py_with = optional_real)] sigma_el: Option<f64>,
+        #[pyo3(from_py_with = real)] q_xy: f64,
+        #[pyo3(from_py_with = real)] q_z: f64,
         prior_mean: Option<RealArray<'_>>,
-        prior_std: f64,
+        #[pyo3(from_py_with = real)] prior_std: f64,
         particles: usize,
         seed: u64,
     ) -> PyResult<Self> {
@@ -1089,9 +1130,7 @@ impl AoaFilter {
                 AoaModel::Angles(AngleNoise::Fixed { sigma_az, sigma_el })
             }
         };
-        if let Algorithm::Particle(n) = algorithm
-            && n == 0
-        {
+        if matches!(algorithm, Algorithm::Particle(0)) {
             return Err(bad("particles is 0: it must be at least 1"));
         }
         let mean = match prior_mean {
@@ -1118,7 +1157,7 @@ impl AoaFilter {
     }
 
     /// Propagates over `delta` seconds (the random walk's time step).
-    fn predict(&mut self, py: Python<'_>, delta: f64) -> PyResult<()> {
+    fn predict(&mut self, py: Python<'_>, #[pyo3(from_py_with = real)] delta: f64) -> PyResult<()> {
         // The Kalman filters' random walk takes any step; the library's check of it gives the
         // message (the particle filters check it themselves).
         RandomWalk::check_step(delta).map_err(value_error)?;
@@ -1224,7 +1263,7 @@ fn aoa_study<'py>(
     runs: u64,
     seed: u64,
     particles: usize,
-    sigma_deg: f64,
+    #[pyo3(from_py_with = real)] sigma_deg: f64,
     steps: usize,
     truth: &str,
     fit_samples: usize,
@@ -1282,7 +1321,7 @@ fn aoa_runs<'py>(
     runs: usize,
     seed: u64,
     start: u64,
-    sigma_deg: f64,
+    #[pyo3(from_py_with = real)] sigma_deg: f64,
     steps: usize,
     truth: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -1358,7 +1397,7 @@ fn square_track(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)
 }
 
 /// Scores a user's position estimates with the library's angle-of-arrival scorer into the summary
-/// a study would give.
+/// a study would give, with the GIL released.
 #[pyfunction]
 #[pyo3(signature = (truth, mean, covariance, times = None, label = "user"))]
 fn score_aoa<'py>(
@@ -1371,9 +1410,7 @@ fn score_aoa<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     check_shape("truth", truth.shape(), &[None, None, Some(3)])?;
     let (runs, epochs) = (truth.shape()[0], truth.shape()[1]);
-    if runs == 0 {
-        return Err(bad("truth: no runs"));
-    }
+    check_scored("truth", runs, epochs)?;
     check_shape("mean", mean.shape(), &[Some(runs), Some(epochs), Some(3)])?;
     check_shape(
         "covariance",
@@ -1389,14 +1426,17 @@ fn score_aoa<'py>(
     }
     let times = epoch_times(times, epochs)?;
     let (t, m, c) = (truth.as_array(), mean.as_array(), covariance.as_array());
-    let summary = scored_summary(label, runs, epochs, &times, &PositionScorer, |run, k| {
-        let truth = Rn::new_unchecked(Vector3::from_fn(|i, _| t[[run, k, i]]));
-        let estimate = PositionEstimate {
-            mean: Vector3::from_fn(|i, _| m[[run, k, i]]),
-            covariance: Matrix3::from_fn(|a, b| c[[run, k, a, b]]),
-        };
-        (truth, estimate)
-    })
-    .map_err(value_error)?;
+    let summary = py
+        .detach(|| {
+            scored_summary(label, runs, epochs, &times, &PositionScorer, |run, k| {
+                let truth = Rn::new_unchecked(Vector3::from_fn(|i, _| t[[run, k, i]]));
+                let estimate = PositionEstimate {
+                    mean: Vector3::from_fn(|i, _| m[[run, k, i]]),
+                    covariance: Matrix3::from_fn(|a, b| c[[run, k, a, b]]),
+                };
+                (truth, estimate)
+            })
+        })
+        .map_err(value_error)?;
     summary_dict(py, &summary)
 }

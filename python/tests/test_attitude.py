@@ -160,6 +160,56 @@ def test_refused_sample_leaves_the_filter_as_it_was(log):
     assert np.array_equal(cont["quat"], fresh["quat"][k:])
 
 
+def test_a_refused_first_sample_decides_nothing():
+    # The sensors were decided (6D without a magnetometer) before the step that failed: the filter
+    # then refused every 9D sample.
+    gyr, acc, mag = [0.01, -0.02, 0.03], [0.1, 0.2, 9.8], [20.0, 0.0, -40.0]
+    refusals = (
+        lambda f: f.update([float("nan"), 0.0, 0.0], [0.0, 0.0, 9.81]),
+        lambda f: f.update_batch([[float("nan"), 0.0, 0.0]], [[0.0, 0.0, 9.81]]),
+    )
+    for refuse in refusals:
+        f = att.AttitudeFilter(dt=0.01)
+        with pytest.raises(ValueError):
+            refuse(f)
+        assert f.sensors is None
+        f.update(gyr, acc, mag)
+        fresh = att.AttitudeFilter(dt=0.01)
+        fresh.update(gyr, acc, mag)
+        assert f.sensors == fresh.sensors == "9d"
+        np.testing.assert_array_equal(f.quat, fresh.quat)
+        np.testing.assert_array_equal(f.covariance, fresh.covariance)
+        np.testing.assert_array_equal(f.bias, fresh.bias)
+
+
+def test_bools_and_complex_values_are_not_real_numbers():
+    with pytest.raises(TypeError, match="real number"):
+        att.AttitudeFilter(dt=True)
+    with pytest.raises(TypeError, match="real number"):
+        att.AttitudeFilter(rate=np.complex128(100.0 + 1j))
+    with pytest.raises(TypeError, match="real number"):
+        att.AttitudeFilter(dt=np.array([0.01]))
+    with pytest.raises(TypeError, match="gyro_noise"):
+        att.AttitudeFilter(dt=0.01, gyro_noise=True)
+    f = att.AttitudeFilter(dt=0.01)
+    # update_batch refuses a bool array; update refused a list of bools no less.
+    with pytest.raises(TypeError, match="real number"):
+        f.update([True, False, True], [0.0, 0.0, 9.81])
+    with pytest.raises(TypeError, match="real number"):
+        f.update([0.0, 0.0, 0.0], [0.0, 0.0, np.complex128(9.81)])
+    with pytest.raises(TypeError, match="real number"):
+        f.update([[0.0], [0.0], [0.0]], [0.0, 0.0, 9.81])
+    assert f.sensors is None
+    # Numpy scalars and integers are numbers.
+    g = att.AttitudeFilter(dt=np.float32(0.01), gyro_noise=np.float64(0.01))
+    assert g.rate == pytest.approx(100.0, rel=1e-6)
+    g.update([np.float32(0.0), np.int64(0), 0], np.array([0, 0, 10], dtype=np.int64))
+    h = att.AttitudeFilter(rate=100, gyro_noise=0.01)
+    h.update([0.0, 0.0, 0.0], [0.0, 0.0, 10.0])
+    assert g.sensors == h.sensors == "6d"
+    assert att.AttitudeFilter(dt=np.array(0.01)).rate == 100.0
+
+
 @pytest.mark.parametrize("kwargs", [
     {}, {"dt": 0.0}, {"dt": float("nan")}, {"dt": 0.01, "rate": 100.0}, {"rate": -1.0},
     {"dt": 0.01, "gyro_noise": -1.0}, {"dt": 0.01, "no_such_parameter": 1.0},

@@ -566,6 +566,39 @@ def test_values_that_are_not_real_numbers_raise_type_error():
         filters.score_aoa(np.zeros((1, 2, 3)), np.zeros((1, 2, 3)) + 0j, np.zeros((1, 2, 3, 3)))
 
 
+def test_bools_complex_and_one_element_arrays_are_not_real_numbers():
+    # pyo3 read anything with __float__ or __index__ as a float: True as a concentration of 1, a
+    # numpy complex with its imaginary part dropped, an array of one element as its element.
+    for bad in (True, np.bool_(False), np.complex128(0.1 + 1j), 1 + 0j, np.array([1.0]),
+                np.array(True), "1.0", None):
+        with pytest.raises(TypeError, match="real number"):
+            VonMises(0.0, bad)
+        with pytest.raises(TypeError, match="real number"):
+            VonMises(bad, 1.0)
+    with pytest.raises(TypeError, match="real number"):
+        VonMisesFisher([0.0, 0.0, 1.0], True)
+    with pytest.raises(TypeError, match="real number"):
+        HeatKernelSo3(ROT, np.array([0.1]))
+    with pytest.raises(TypeError, match="real number"):
+        Bingham.from_direction([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], np.complex128(0.1))
+    # Python and numpy integers and floats, and 0-d arrays of them, are real numbers.
+    reference = VonMises(0.5, 2.0).log_pdf(0.3)
+    for mu, kappa in ((np.float32(0.5), np.int64(2)), (np.float64(0.5), 2), (np.array(0.5),
+                      np.array(2, dtype=np.uint8))):
+        assert VonMises(mu, kappa).log_pdf(0.3) == reference
+    assert HeatKernelSo3(ROT, np.float32(0.25)).variance == 0.25
+
+
+def test_a_refused_sample_call_draws_nothing_from_the_generator():
+    # The seed used to be drawn before n was checked: a refused call advanced the generator.
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="2\\^28"):
+        VonMisesFisher.uniform().sample(100_000_000, rng)
+    with pytest.raises(ValueError, match="non-negative"):
+        VonMises(0.0, 1.0).sample(-1, rng)
+    assert rng.integers(0, 2**63) == np.random.default_rng(0).integers(0, 2**63)
+
+
 def test_rng_must_be_a_numpy_generator():
     for rng in (42, np.random.RandomState(0), None):
         with pytest.raises(TypeError, match="numpy.random.Generator"):

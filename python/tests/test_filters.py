@@ -444,6 +444,64 @@ def test_bad_input_to_studies_and_scoring():
         lf.aoa_runs("model1", 2, steps=0)
 
 
+def test_scores_need_epochs_and_at_most_as_many_as_a_study():
+    # A summary keeps about 1 KB of exact statistics per metric and epoch: 2^24 epochs asked for
+    # 170 GB, and no epochs at all with 2^40 runs looped 2^40 times.
+    for epochs in (0, 2**14 + 1):
+        with pytest.raises(ValueError, match="epochs"):
+            lf.score_aoa(np.zeros((1, epochs, 3)), np.zeros((1, epochs, 3)),
+                         np.zeros((1, epochs, 3, 3)))
+        with pytest.raises(ValueError, match="epochs"):
+            lf.score_azimuth(np.zeros((1, epochs, 2)), np.zeros(1), np.zeros((1, epochs)),
+                             np.ones((1, epochs)), np.zeros((1, epochs, 2)),
+                             np.zeros((1, epochs, 2, 2)))
+    with pytest.raises(ValueError, match="epochs"):
+        lf.score_aoa(np.empty((2**40, 0, 3)), np.empty((2**40, 0, 3)), np.empty((2**40, 0, 3, 3)))
+    with pytest.raises(ValueError, match="runs"):
+        lf.score_aoa(np.zeros((0, 2, 3)), np.zeros((0, 2, 3)), np.zeros((0, 2, 3, 3)))
+    # The limit itself is scored.
+    epochs = 2**14
+    cov = np.broadcast_to(np.eye(3), (1, epochs, 3, 3))
+    scored = lf.score_aoa(np.zeros((1, epochs, 3)), np.zeros((1, epochs, 3)), cov)
+    assert scored["times"].shape == (epochs,)
+
+
+def test_bools_complex_and_one_element_arrays_are_not_real_numbers():
+    for bad in (True, np.bool_(True), np.complex128(0.1 + 1j), np.array([1.0]), "1.0"):
+        with pytest.raises(TypeError, match="real number"):
+            lf.ExactAzimuthFilter(bad, 1.0)
+        with pytest.raises(TypeError, match="real number"):
+            lf.azimuth_runs("circle", 1, duration=5.0, dt=bad)
+    f = lf.ExactAzimuthFilter(0.1, 1.0)
+    with pytest.raises(TypeError, match="real number"):
+        f.predict([1.0, 0.0], True)
+    with pytest.raises(TypeError, match="real number"):
+        f.conditional_mean(np.complex128(0.5))
+    positions, rotations = lf.square_track()
+    with pytest.raises(TypeError, match="real number"):
+        lf.AoaFilter("EKF-VMF", positions, rotations, kappa=True)
+    # A time step per step: one number, or one per step; an array of one is one step's.
+    v, z = np.zeros((3, 2)), np.full((3, 2), np.nan)
+    z[2] = [1.0, 0.5]
+    with pytest.raises(TypeError, match="real number"):
+        f.run(v, True, z)
+    with pytest.raises(TypeError, match="real numbers"):
+        f.run(v, [True, False, True], z)
+    with pytest.raises(ValueError, match="dt"):
+        f.run(v, np.array([0.1]), z)
+    reference = f.copy().run(v, 0.1, z)
+    for dt in (np.float64(0.1), np.array(0.1), [0.1, 0.1, 0.1]):
+        assert_same(reference, f.copy().run(v, dt, z))
+    assert_same(f.copy().run(v, float(np.float32(0.1)), z), f.copy().run(v, np.float32(0.1), z))
+    assert_same(f.copy().run(v[:1], 0.1, z[:1]), f.copy().run(v[:1], np.array([0.1]), z[:1]))
+    # Integers are numbers.
+    g = lf.ExactAzimuthFilter(np.int64(0), 1, sigma0=np.float32(2.0))
+    g.predict([1, 0], np.int64(2))
+    h = lf.ExactAzimuthFilter(0.0, 1.0, sigma0=2.0)
+    h.predict([1.0, 0.0], 2.0)
+    assert_same(snapshot(g), snapshot(h))
+
+
 def test_bad_input_to_the_aoa_filter():
     positions, rotations = lf.square_track()
     with pytest.raises(ValueError, match="kappa"):

@@ -379,8 +379,7 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// term `½ (μ_p ⊟ μ_q)ᵀ P_q⁻¹ (μ_p ⊟ μ_q)` is included, as on Rⁿ.
     pub fn kl_divergence(&self, other: &Self) -> Result<f64, DensityError> {
         let offset = other.mahalanobis_squared(&self.mean);
-        // Written so that a NaN offset is refused too.
-        if !(offset <= SAME_MEAN_MAHALANOBIS_SQUARED) {
+        if offset.is_nan() || offset > SAME_MEAN_MAHALANOBIS_SQUARED {
             return Err(DensityError::OutOfRange {
                 what: "squared Mahalanobis distance between the two means",
                 value: offset,

@@ -141,15 +141,12 @@ impl RunningStats {
         }
         let factor = self.count as f64 / (self.count as f64 - 1.0);
         let mean = self.sum.mean(self.count);
-        Some(match self.scaled_mean_square() {
-            Some(scaled) => {
-                let scaled_mean = mean * HALF_SCALE;
-                ((scaled - scaled_mean * scaled_mean) * factor).max(0.0) * UNSCALE * UNSCALE
-            }
-            None => {
-                let mean_square = self.sum_of_squares.mean(self.count);
-                ((mean_square - mean * mean) * factor).max(0.0)
-            }
+        Some(if let Some(scaled) = self.scaled_mean_square() {
+            let scaled_mean = mean * HALF_SCALE;
+            ((scaled - scaled_mean * scaled_mean) * factor).max(0.0) * UNSCALE * UNSCALE
+        } else {
+            let mean_square = self.sum_of_squares.mean(self.count);
+            ((mean_square - mean * mean) * factor).max(0.0)
         })
     }
 
