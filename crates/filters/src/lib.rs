@@ -22,7 +22,9 @@
 //! specific forces above [`attitude::MAX_SPECIFIC_FORCE`] = 1e4 m/s², magnetic fields above
 //! [`attitude::MAX_FIELD`] = 1e9; angle-of-arrival noise σ and κ within [`aoa::SIGMA_RANGE`] and
 //! [`aoa::KAPPA_RANGE`]. Files are checked before they are trusted: a BROAD `.mat` file at most
-//! [`attitude::MAX_MAT_FILE_BYTES`], its declared sizes against its length, a log at most
+//! [`attitude::MAX_MAT_FILE_BYTES`], every element's and sub-element's declared size against the
+//! bytes it lies in, the values its matrices declare at most [`attitude::MAX_MAT_DECLARED_BYTES`]
+//! as doubles, a log at most
 //! [`attitude::MAX_SAMPLES`] samples, CSV lines of at most 4 096 bytes. Every filter's step is all
 //! or nothing: a non-finite or invalid result is an error ([`FilterError`], or the operators'
 //! error through the experiment layer) and the filter is left as it was; counts of particles and

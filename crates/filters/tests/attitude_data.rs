@@ -1300,7 +1300,60 @@ fn a_mat_element_sized_near_u32_max_is_refused() {
     bytes.extend_from_slice(&14_u32.to_le_bytes());
     bytes.extend_from_slice(&0xFFFF_FFF9_u32.to_le_bytes());
     let path = write(&dir, "huge-element.mat", &bytes);
-    assert!(read_broad(&path).is_err());
+    // Refused by the reader's own walk, not by the parser's caught panic.
+    let error = read_broad(&path).unwrap_err().to_string();
+    assert!(error.contains("declares 4294967289 bytes"), "{error}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// Crafted files the parser would overflow on or allocate beyond memory for, refused by the
+/// reader's walk before the parser runs (each message names what it refused, so none is the
+/// parser's caught panic): a sub-element declaring 4 GiB inside a matrix; an element declaring
+/// more bytes than the file holds; matrices whose values would take 2 GiB as doubles (the parser
+/// would allocate them, plus 8 bytes for every byte of data stored as uint8) in one matrix, in
+/// two compressed ones, and in matrices nested in a cell; and a well-formed small matrix, which
+/// passes the walk (and then lacks the trial's variables).
+#[test]
+fn crafted_mat_files_are_refused_before_the_parser_allocates() {
+    let dir = temp_dir("crafted-mat");
+    let matrix = |dims: [usize; 2]| mat_file(&[("x", dims, MatData::UInt8(&[0; 16]))]);
+    let mut huge_name = matrix([1, 1]);
+    // The name's size: after the header (128), the matrix tag (8), the flags (16), the
+    // dimensions (16) and the name's type (4).
+    huge_name[172..176].copy_from_slice(&0xFFFF_FFF9_u32.to_le_bytes());
+    let mut short = matrix([1, 1]);
+    short[132..136].copy_from_slice(&4096_u32.to_le_bytes());
+    let half = || ("x", [1 << 26, 1], MatData::UInt8(&[0; 16]));
+    let cell = {
+        let mut body = Vec::new();
+        padded(&mut body, 6, &[1, 0, 0, 0, 0, 0, 0, 0]);
+        padded(&mut body, 5, &[1, 0, 0, 0, 3, 0, 0, 0]);
+        padded(&mut body, 1, b"c");
+        for _ in 0..3 {
+            body.extend_from_slice(&matrix([1 << 26, 1])[128..]);
+        }
+        let mut file = matrix([1, 1])[..128].to_vec();
+        padded(&mut file, 14, &body);
+        file
+    };
+    let declared = "the bytes the file's matrices declare";
+    let cases: [(&str, Vec<u8>, &str); 6] = [
+        ("huge-name", huge_name, "declares 4294967289 bytes"),
+        ("short", short, "but only"),
+        ("large", matrix([1 << 28, 1]), declared),
+        (
+            "compressed",
+            compressed(&mat_file(&[half(), half(), half()]), |_| {}),
+            declared,
+        ),
+        ("cell", cell, declared),
+        ("small", matrix([4, 4]), "imu_gyr"),
+    ];
+    for (name, bytes, expected) in cases {
+        let path = write(&dir, &format!("{name}.mat"), &bytes);
+        let error = read_broad(&path).unwrap_err().to_string();
+        assert!(error.contains(expected), "{name}: {error}");
+    }
     std::fs::remove_dir_all(dir).ok();
 }
 

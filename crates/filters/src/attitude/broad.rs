@@ -17,7 +17,9 @@ pub const MAX_MAT_FILE_BYTES: u64 = 1 << 30;
 ///
 /// # Errors
 /// [`DataError::Io`] if the file cannot be read, [`DataError::TooLarge`] beyond
-/// [`MAX_MAT_FILE_BYTES`] or [`MAX_SAMPLES`](super::MAX_SAMPLES), [`DataError::NotMatFile`] if it does not parse,
+/// [`MAX_MAT_FILE_BYTES`], [`MAX_MAT_DECLARED_BYTES`] or [`MAX_SAMPLES`](super::MAX_SAMPLES),
+/// [`DataError::NotMatFile`] if its structure is malformed (an element declaring more bytes than
+/// it holds, dimensions beyond the format's) or it does not parse,
 /// [`DataError::MissingVariable`], [`DataError::Shape`], [`DataError::Type`] for a variable that
 /// is absent or not as described, [`DataError::BadValue`] for a non-finite measurement (with its
 /// row) or a reference quaternion that is not of unit norm.
@@ -43,132 +45,262 @@ pub fn read_broad(path: impl AsRef<Path>) -> Result<ImuLog, DataError> {
         message,
     };
     check_elements(&origin, &bytes)?;
-    // The parser can panic on some malformed files (an overflowing product of dimensions inside
-    // a compressed element): such a file is reported as unreadable, like any other parse failure.
+    // The walk above refuses every malformed structure the parser is known to panic on; should
+    // another reach it, the file is reported as unreadable, like any other parse failure.
     let parsed = std::panic::catch_unwind(|| MatFile::parse(bytes.as_slice()))
         .map_err(|_| not_mat("the parser failed on malformed contents".to_owned()))?;
     let mat = parsed.map_err(|e| not_mat(e.to_string()))?;
     from_mat(&origin, &mat)
 }
 
-/// Checks the file's elements before the parser sees them: every top-level element is a matrix
-/// (miMATRIX) or a compressed matrix (miCOMPRESSED), a compressed one a valid zlib stream that
-/// inflates to at most [`MAX_MAT_FILE_BYTES`] and holds a matrix, and every matrix has
-/// dimensions that are non-negative with a product within `i32` (the format's limit). So the parser
-/// never multiplies overflowing dimensions, inflates without a bound, or prints on a corrupt
-/// stream. A structure the walk does not reach (a truncated element, a missing header) is left to
-/// the parser, which reports it.
+/// The most the values of a file's matrices may take in all, counted as doubles (1 GiB), and the
+/// most its compressed elements may inflate to in all: the parser holds every matrix's data and its
+/// conversion to the class's type, so their sum is bounded before it runs.
+pub const MAX_MAT_DECLARED_BYTES: u64 = MAX_MAT_FILE_BYTES;
+
+/// Checks the file's structure before the parser sees them, so that the parser never meets a size
+/// it would overflow, inflate without a bound or allocate beyond memory for:
+///
+/// * every top-level element is a matrix (miMATRIX, 14) or a compressed matrix (miCOMPRESSED,
+///   15), and declares no more bytes than follow it;
+/// * a compressed element is a valid zlib stream holding matrices, and all of them inflate to at
+///   most [`MAX_MAT_DECLARED_BYTES`] together;
+/// * inside a matrix, every sub-element (flags, dimensions, name, data, nested matrices of cells
+///   and structures) declares no more bytes than the matrix holds, and the dimensions are
+///   non-negative with a product within `i32` (the format's limit);
+/// * the products of all dimensions, as doubles, take at most [`MAX_MAT_DECLARED_BYTES`].
+///
+/// A file without the MATLAB 5 header is left to the parser, which refuses it.
 fn check_elements(origin: &str, bytes: &[u8]) -> Result<(), DataError> {
     let little = match bytes.get(126..128) {
         Some(b"IM") => true,
         Some(b"MI") => false,
         _ => return Ok(()),
     };
-    walk(origin, bytes, 128, little, None)
+    let mut walk = Walk {
+        origin,
+        little,
+        declared: 0,
+        inflated: 0,
+    };
+    walk.elements(bytes, 128, None)
 }
 
-/// The element walk of [`check_elements`] over `bytes` from `start`; `inside` is the byte of the
-/// compressed element whose inflated contents these are.
-fn walk(
-    origin: &str,
-    bytes: &[u8],
-    start: usize,
+/// The state of [`check_elements`]'s walk: the byte order and the totals so far.
+struct Walk<'a> {
+    origin: &'a str,
     little: bool,
-    inside: Option<usize>,
-) -> Result<(), DataError> {
-    let word = |at: usize| -> Option<u32> {
+    /// Bytes the matrices' values take as doubles.
+    declared: u64,
+    /// Bytes the compressed elements inflated to.
+    inflated: u64,
+}
+
+/// A data element's tag at some offset: its type, the bytes of its data, and where the next
+/// element starts (past the padding to 8 bytes, or past a small element's 4 bytes of data).
+struct Tag {
+    data_type: u32,
+    start: usize,
+    size: usize,
+    next: usize,
+}
+
+impl Walk<'_> {
+    /// The top-level elements of `bytes` from `start` (the file, or a compressed element's
+    /// inflated contents: `inside` is then the compressed element's offset in the file).
+    fn elements(
+        &mut self,
+        bytes: &[u8],
+        start: usize,
+        inside: Option<usize>,
+    ) -> Result<(), DataError> {
+        let mut at = start;
+        // Each element takes at least 8 bytes: the walk is bounded by the length.
+        while at < bytes.len() {
+            // Compressed streams are not padded: their element ends where its size says.
+            let tag = self.tag(bytes, at, bytes.len(), inside)?;
+            match tag.data_type {
+                14 => self.matrix(bytes, &tag, inside)?,
+                15 if inside.is_none() => {
+                    let stream = &bytes[tag.start..tag.start + tag.size];
+                    let inflated = self
+                        .inflate(stream)
+                        .map_err(|why| self.refuse(at, inside, &why))?;
+                    self.elements(&inflated, 0, Some(at))?;
+                }
+                other => {
+                    return Err(self.refuse(
+                        at,
+                        inside,
+                        &format!(
+                            "is of type {other}, not a matrix (14) or a compressed matrix (15)"
+                        ),
+                    ));
+                }
+            }
+            at = if tag.data_type == 15 {
+                tag.start + tag.size
+            } else {
+                tag.next
+            };
+        }
+        Ok(())
+    }
+
+    /// The tag at `at`, whose element must end by `end`.
+    fn tag(
+        &self,
+        bytes: &[u8],
+        at: usize,
+        end: usize,
+        inside: Option<usize>,
+    ) -> Result<Tag, DataError> {
+        let (Some(first), Some(second)) = (self.word(bytes, at), self.word(bytes, at + 4)) else {
+            return Err(self.refuse(
+                at,
+                inside,
+                "is cut short: fewer than 8 bytes of its tag remain",
+            ));
+        };
+        // A small element packs its size (at most 4) into the upper half of the first word.
+        let (data_type, size, start, padded) = if first >> 16 == 0 {
+            let size = second as usize;
+            (first, size, at + 8, size.next_multiple_of(8))
+        } else {
+            (first & 0xffff, (first >> 16) as usize, at + 4, 4)
+        };
+        let room = end.saturating_sub(start);
+        if size > room || (first >> 16 != 0 && size > 4) {
+            return Err(self.refuse(
+                at,
+                inside,
+                &format!("declares {size} bytes, but only {room} remain where it lies"),
+            ));
+        }
+        Ok(Tag {
+            data_type,
+            start,
+            size,
+            // The last element may end without its padding.
+            next: start + padded.min(room),
+        })
+    }
+
+    /// A matrix's sub-elements: flags, dimensions (checked and counted), then name, data and
+    /// nested matrices, each within the matrix.
+    fn matrix(
+        &mut self,
+        bytes: &[u8],
+        matrix: &Tag,
+        inside: Option<usize>,
+    ) -> Result<(), DataError> {
+        let end = matrix.start + matrix.size;
+        let mut at = matrix.start;
+        let mut index = 0;
+        while at < end {
+            let tag = self.tag(bytes, at, end, inside)?;
+            if tag.data_type == 14 {
+                self.matrix(bytes, &tag, inside)?;
+            } else if index == 1 {
+                self.dimensions(bytes, &tag, at, inside)?;
+            }
+            at = tag.next;
+            index += 1;
+        }
+        Ok(())
+    }
+
+    /// A matrix's dimensions (miINT32): non-negative, their product within `i32`, and the values
+    /// counted against [`MAX_MAT_DECLARED_BYTES`].
+    fn dimensions(
+        &mut self,
+        bytes: &[u8],
+        tag: &Tag,
+        at: usize,
+        inside: Option<usize>,
+    ) -> Result<(), DataError> {
+        if tag.data_type != 5 {
+            return Err(self.refuse(
+                at,
+                inside,
+                &format!(
+                    "holds matrix dimensions of type {}, not int32 (5)",
+                    tag.data_type
+                ),
+            ));
+        }
+        let mut product: i64 = 1;
+        for k in 0..tag.size / 4 {
+            // Within the tag's bytes, checked by `tag`.
+            let dim = self.word(bytes, tag.start + 4 * k).unwrap_or_default();
+            #[allow(clippy::cast_possible_wrap)]
+            let dim = i64::from(dim as i32);
+            product = product.saturating_mul(dim.max(-1));
+            if dim < 0 || product > i64::from(i32::MAX) {
+                return Err(self.refuse(
+                    at,
+                    inside,
+                    "has dimensions that are negative or multiply beyond 2^31",
+                ));
+            }
+        }
+        // At most 2^31 · 8 per matrix: the sum cannot overflow before it is refused.
+        self.declared += product.unsigned_abs() * 8;
+        if self.declared > MAX_MAT_DECLARED_BYTES {
+            return Err(DataError::TooLarge {
+                origin: self.origin.to_owned(),
+                what: "the bytes the file's matrices declare, as doubles",
+                size: self.declared,
+                limit: MAX_MAT_DECLARED_BYTES,
+            });
+        }
+        Ok(())
+    }
+
+    /// A zlib stream inflated, refused when it is corrupt or the file's compressed elements
+    /// inflate beyond [`MAX_MAT_DECLARED_BYTES`] together.
+    fn inflate(&mut self, stream: &[u8]) -> Result<Vec<u8>, String> {
+        use std::io::Read as _;
+        let corrupt = |e: std::io::Error| format!("is not a valid zlib stream ({e})");
+        let room = MAX_MAT_DECLARED_BYTES - self.inflated;
+        let decoder = libflate::zlib::Decoder::new(stream).map_err(corrupt)?;
+        let mut inflated = Vec::new();
+        decoder
+            .take(room + 1)
+            .read_to_end(&mut inflated)
+            .map_err(corrupt)?;
+        if inflated.len() as u64 > room {
+            return Err(format!(
+                "inflates the file's compressed elements beyond {MAX_MAT_DECLARED_BYTES} bytes \
+                 (the reader's limit)"
+            ));
+        }
+        self.inflated += inflated.len() as u64;
+        Ok(inflated)
+    }
+
+    /// The 32-bit word at `at` in the file's byte order.
+    fn word(&self, bytes: &[u8], at: usize) -> Option<u32> {
         let b: [u8; 4] = bytes.get(at..at.checked_add(4)?)?.try_into().ok()?;
-        Some(if little {
+        Some(if self.little {
             u32::from_le_bytes(b)
         } else {
             u32::from_be_bytes(b)
         })
-    };
-    let refuse = |at: usize, what: &str| {
+    }
+
+    /// The error for the element at `at` (in the file, or inside the compressed element at
+    /// `inside`).
+    fn refuse(&self, at: usize, inside: Option<usize>, what: &str) -> DataError {
         let place = match inside {
             Some(outer) => format!("byte {at} of the compressed element at byte {outer}"),
             None => format!("byte {at}"),
         };
         DataError::NotMatFile {
-            origin: origin.to_owned(),
+            origin: self.origin.to_owned(),
             message: format!("the element at {place} {what}"),
         }
-    };
-    let mut at = start;
-    // Each element takes at least 8 bytes: the walk is bounded by the length.
-    for _ in 0..bytes.len() / 8 {
-        let (Some(data_type), Some(size)) = (word(at), word(at + 4)) else {
-            break;
-        };
-        let body = at + 8;
-        match data_type {
-            // miMATRIX: array flags (8 + 8 bytes), then the dimensions sub-element (miINT32).
-            14 => {
-                if let (Some(5), Some(dims_bytes)) = (word(body + 16), word(body + 20)) {
-                    let mut product: i64 = 1;
-                    for k in 0..(dims_bytes / 4).min(64) {
-                        let Some(dim) = word(body + 24 + 4 * k as usize) else {
-                            break;
-                        };
-                        #[allow(clippy::cast_possible_wrap)]
-                        let dim = i64::from(dim as i32);
-                        product = product.saturating_mul(dim.max(-1));
-                        if dim < 0 || product > i64::from(i32::MAX) {
-                            return Err(refuse(
-                                at,
-                                "has dimensions that are negative or multiply beyond 2^31",
-                            ));
-                        }
-                    }
-                }
-            }
-            15 if inside.is_none() => {
-                let Some(stream) = bytes.get(body..body.saturating_add(size as usize)) else {
-                    break;
-                };
-                let inflated = inflate(stream).map_err(|why| refuse(at, &why))?;
-                walk(origin, &inflated, 0, little, Some(at))?;
-            }
-            other => {
-                return Err(refuse(
-                    at,
-                    &format!("is of type {other}, not a matrix (14) or a compressed matrix (15)"),
-                ));
-            }
-        }
-        // A matrix is padded to 8 bytes; in u64, so that a size near u32::MAX cannot overflow.
-        let step = if data_type == 15 {
-            u64::from(size)
-        } else {
-            u64::from(size).next_multiple_of(8)
-        };
-        let Some(next) = usize::try_from(step)
-            .ok()
-            .and_then(|step| body.checked_add(step))
-        else {
-            break;
-        };
-        at = next;
     }
-    Ok(())
-}
-
-/// A zlib stream inflated, refused when it is corrupt or inflates beyond [`MAX_MAT_FILE_BYTES`].
-fn inflate(stream: &[u8]) -> Result<Vec<u8>, String> {
-    use std::io::Read as _;
-    let corrupt = |e: std::io::Error| format!("is not a valid zlib stream ({e})");
-    let decoder = libflate::zlib::Decoder::new(stream).map_err(corrupt)?;
-    let mut inflated = Vec::new();
-    decoder
-        .take(MAX_MAT_FILE_BYTES + 1)
-        .read_to_end(&mut inflated)
-        .map_err(corrupt)?;
-    if inflated.len() as u64 > MAX_MAT_FILE_BYTES {
-        return Err(format!(
-            "inflates beyond {MAX_MAT_FILE_BYTES} bytes (the reader's limit)"
-        ));
-    }
-    Ok(inflated)
 }
 
 fn from_mat(origin: &str, mat: &MatFile) -> Result<ImuLog, DataError> {
