@@ -14,6 +14,7 @@
 
 use crate::OperatorError;
 use crate::error::{all_finite, check_size};
+use crate::numerics::check_symmetric;
 use liebayes_manifolds::Manifold;
 use nalgebra::{Cholesky, SMatrix, SVector};
 
@@ -45,13 +46,15 @@ pub fn estimation_error<X: Manifold<D>, const D: usize>(
 ///
 /// # Errors
 /// [`OperatorError::NonFinite`] for a non-finite error or covariance entry, or a result that
-/// overflows; [`OperatorError::NotPositiveDefinite`] when P is not positive definite.
+/// overflows; [`OperatorError::OutOfRange`] when P is not symmetric (to a relative 1e-12);
+/// [`OperatorError::NotPositiveDefinite`] when P is not positive definite.
 pub fn nees<const D: usize>(
     error: &SVector<f64, D>,
     covariance: &SMatrix<f64, D, D>,
 ) -> Result<f64, OperatorError> {
     all_finite("estimation error e", error.iter())?;
     all_finite("covariance P of the NEES", covariance.iter())?;
+    check_symmetric("covariance P of the NEES", covariance)?;
     let factor = Cholesky::new(*covariance).ok_or(OperatorError::NotPositiveDefinite {
         what: "covariance P of the NEES",
     })?;

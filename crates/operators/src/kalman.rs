@@ -11,7 +11,7 @@
 //! * the report, an [`Innovation`]: ν, S, K and the NIS `νᵀ S⁻¹ ν`.
 
 use crate::error::all_finite;
-use crate::numerics::symmetric_part;
+use crate::numerics::{check_symmetric, symmetric_part};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::Gaussian;
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -119,19 +119,12 @@ fn check_covariance<const K: usize>(
     what: &'static str,
     m: &SMatrix<f64, K, K>,
 ) -> Result<(), OperatorError> {
+    check_symmetric(what, m)?;
     let scale = m.amax();
     if scale == 0.0 {
         return Ok(());
     }
     let scaled = m / scale;
-    let asymmetry = (scaled - scaled.transpose()).amax();
-    if asymmetry > COVARIANCE_TOLERANCE {
-        return Err(OperatorError::OutOfRange {
-            what,
-            value: asymmetry * scale,
-            range: "symmetric matrices (the value shown is max |A - A^T|)",
-        });
-    }
     let symmetric = (scaled + scaled.transpose()) * 0.5;
     let shifted = symmetric + SMatrix::<f64, K, K>::identity() * COVARIANCE_TOLERANCE;
     if Cholesky::new(shifted).is_none() {

@@ -17,6 +17,35 @@ pub(crate) struct Produced {
     pub(crate) covariance: &'static str,
 }
 
+/// The relative asymmetry a covariance may have: `max |M − Mᵀ| ≤ 1e-12 max |M|` (rounding, not a
+/// different matrix).
+pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-12;
+
+/// Checks that a finite matrix is symmetric to [`SYMMETRY_TOLERANCE`]: Cholesky factorisations
+/// read one triangle only, so an asymmetric matrix would be taken for another without a word.
+///
+/// # Errors
+/// [`OperatorError::OutOfRange`] naming `what`, with the largest `|M − Mᵀ|`.
+pub(crate) fn check_symmetric<const N: usize>(
+    what: &'static str,
+    m: &SMatrix<f64, N, N>,
+) -> Result<(), OperatorError> {
+    let scale = m.amax();
+    if scale == 0.0 {
+        return Ok(());
+    }
+    let scaled = m / scale;
+    let asymmetry = (scaled - scaled.transpose()).amax();
+    if asymmetry > SYMMETRY_TOLERANCE {
+        return Err(OperatorError::OutOfRange {
+            what,
+            value: asymmetry * scale,
+            range: "symmetric matrices (the value shown is max |A - A^T|)",
+        });
+    }
+    Ok(())
+}
+
 /// `(M + Mᵀ)/2`, computed as `M/2 + Mᵀ/2` so that entries near the largest finite value do not
 /// overflow.
 pub(crate) fn symmetric_part<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {

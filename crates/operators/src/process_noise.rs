@@ -98,6 +98,17 @@ pub fn van_loan<const N: usize, const L: usize>(
         "A dt or G Q_c G^T dt (the step is too large for the model)",
         generator.iter(),
     )?;
+    let norm = generator
+        .column_iter()
+        .map(|column| column.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    if norm > MAX_GENERATOR_NORM {
+        return Err(OperatorError::OutOfRange {
+            what: "one-norm of Van Loan's generator [[-A dt, G Q_c G^T dt], [0, A^T dt]]",
+            value: norm,
+            range: "[0, 1e15]: the matrix exponential is out of range (take shorter steps)",
+        });
+    }
     let exponential = generator.exp();
     let transition = exponential.fixed_view::<N, N>(N, N).transpose();
     let noise = symmetric_part(&(transition * exponential.fixed_view::<N, N>(0, N)));
@@ -107,6 +118,11 @@ pub fn van_loan<const N: usize, const L: usize>(
     )?;
     Ok(Discretized { transition, noise })
 }
+
+/// The largest one-norm of Van Loan's generator [`van_loan`] exponentiates. The exponential squares
+/// about log₂(‖G‖₁ / 5.4) times (48 at this bound); beyond about 1e38 its estimates of ‖G⁸‖ and
+/// ‖G¹⁰‖ overflow, and the count of squarings with them, so that the call would not return.
+const MAX_GENERATOR_NORM: f64 = 1e15;
 
 /// The process noise of a chain of N integrators (position, velocity, …) driven by white noise of
 /// spectral density q on its last derivative, over a step dt: the closed form of [`van_loan`],
@@ -128,7 +144,7 @@ pub fn continuous_white_noise<const N: usize>(
     check_variance(spectral_density, "spectral density q")?;
     let q = SMatrix::<f64, N, N>::from_fn(|i, j| {
         let power = 2 * N - 1 - i - j;
-        spectral_density * integer_power(dt, power)
+        times_power(spectral_density, dt, power)
             / (factorial(N - 1 - i) * factorial(N - 1 - j) * power as f64)
     });
     all_finite("continuous white-noise Q (q dt^(2N-1) overflows)", q.iter())?;
@@ -337,6 +353,55 @@ fn check_semi_definite<const L: usize>(
 /// `t^n` by repeated multiplication (exact for the small n of these blocks).
 fn integer_power(t: f64, n: usize) -> f64 {
     (0..n).fold(1.0, |acc, _| acc * t)
+}
+
+/// `q tⁿ` for q, t ≥ 0 without an intermediate under- or overflow: the powers are taken of the
+/// mantissas in [½, 1) and the binary exponents applied once, at the end, so that a product that
+/// f64 holds is found even where tⁿ alone is not (q = 1e300, t = 1e-120, n = 3).
+fn times_power(q: f64, t: f64, n: usize) -> f64 {
+    if q == 0.0 || (t == 0.0 && n > 0) {
+        return 0.0;
+    }
+    let ((q_mantissa, q_exponent), (t_mantissa, t_exponent)) = (binary_split(q), binary_split(t));
+    // n ≤ 2N − 1 is a small count: the exponent sum stays far inside i64.
+    #[allow(clippy::cast_possible_wrap)]
+    let exponent = q_exponent + t_exponent * n as i64;
+    scale_by_power_of_two(q_mantissa * integer_power(t_mantissa, n), exponent)
+}
+
+/// `(m, e)` with `x = m 2ᵉ`, m in [½, 1), for a finite x > 0 (subnormals included).
+fn binary_split(x: f64) -> (f64, i64) {
+    const TWO_54: f64 = 18_014_398_509_481_984.0;
+    let (x, shift) = if x < f64::MIN_POSITIVE {
+        (x * TWO_54, 54)
+    } else {
+        (x, 0)
+    };
+    let bits = x.to_bits();
+    // The biased exponent field, at most 2046 for a finite x: it fits i64.
+    #[allow(clippy::cast_possible_wrap)]
+    let field = ((bits >> 52) & 0x7ff) as i64;
+    let mantissa = f64::from_bits((bits & ((1 << 52) - 1)) | (1022 << 52));
+    (mantissa, field - 1022 - shift)
+}
+
+/// `x 2ᵏ`, by factors of at most 2¹⁰⁰⁰ so that none overflows or underflows on its own: ±∞ or 0
+/// only where the result does.
+fn scale_by_power_of_two(mut x: f64, mut k: i64) -> f64 {
+    let power = |k: i64| {
+        // 1023 + k in [23, 2023] for k in [−1000, 1000]: a normal power of two.
+        #[allow(clippy::cast_sign_loss)]
+        f64::from_bits(((1023 + k) as u64) << 52)
+    };
+    while k > 1000 && x.is_finite() && x != 0.0 {
+        x *= power(1000);
+        k -= 1000;
+    }
+    while k < -1000 && x != 0.0 {
+        x *= power(-1000);
+        k += 1000;
+    }
+    x * power(k.clamp(-1000, 1000))
 }
 
 /// `n!` as a float (n ≤ 170 is finite).

@@ -66,7 +66,8 @@ impl Harmonics {
             [self.constant].iter().chain(&self.eta1).chain(&self.eta2),
         )?;
         let (s, c) = y.sin_cos();
-        let (s2, c2) = (2.0 * y).sin_cos();
+        // From the single angle: 2y overflows for |y| beyond f64::MAX / 2.
+        let (s2, c2) = (2.0 * s * c, (c - s) * (c + s));
         let eighth = |v: &Vector2<f64>| v / 8.0;
         let scaled = self.constant / 8.0
             + eighth(&self.eta1).dot(&Vector2::new(c, s))

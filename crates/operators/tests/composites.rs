@@ -465,4 +465,36 @@ fn harmonics_that_overflow_are_refused_and_at_is_never_nan() {
         ..huge
     };
     assert!(nan.at(0.0).is_err());
+    // Angles beyond f64::MAX / 2: the double angle overflowed and sin_cos(∞) was NaN, as Ok. The
+    // second harmonic now comes from the single angle, and agrees with cos 2y, sin 2y elsewhere.
+    let second = Harmonics {
+        constant: 0.0,
+        eta1: Vector2::zeros(),
+        eta2: Vector2::new(1.0, 0.5),
+    };
+    for y in [f64::MAX, -f64::MAX, 9e307] {
+        let value = second.at(y).unwrap();
+        assert!(value.abs() <= 1.2, "{y:e}: {value}");
+    }
+    for y in [0.3_f64, -2.9, 1e6] {
+        let (s2, c2) = (2.0 * y).sin_cos();
+        assert!(
+            (second.at(y).unwrap() - (c2 + 0.5 * s2)).abs() < 1e-9,
+            "{y}"
+        );
+    }
+}
+
+/// A diffusion step is a direct O(n²) convolution: a grid above `MAX_DIFFUSION_CELLS` cells is
+/// refused at once (2²⁴ cells took 2.8e14 products, days), and the grid is unchanged.
+#[test]
+fn a_diffusion_beyond_its_cell_limit_is_refused() {
+    use liebayes_operators::grid::MAX_DIFFUSION_CELLS;
+    let mut grid = CircularGrid::uniform(MAX_DIFFUSION_CELLS + 1, ()).unwrap();
+    let before = grid.log_weights().to_vec();
+    let error = grid
+        .propagate_in_place(&Diffusion(|_: &So2<f64>| 1.0), &())
+        .unwrap_err();
+    assert!(matches!(error, OperatorError::TooLarge { .. }), "{error}");
+    assert_eq!(grid.log_weights(), before);
 }

@@ -546,3 +546,12 @@ fn bad_input_returns_typed_errors() {
         Err(OperatorError::TooLarge { .. })
     ));
 }
+
+/// The factorisation reads the lower triangle of each diagonal block: an asymmetric block
+/// (`[[1, 5], [0, 1]]`) was solved as the identity, as Ok. It is refused when the matrix is built.
+#[test]
+fn an_asymmetric_diagonal_block_is_refused() {
+    let error = BlockTridiagonal::new(vec![Matrix2::new(1.0, 5.0, 0.0, 1.0)], vec![]).unwrap_err();
+    assert!(matches!(error, OperatorError::OutOfRange { .. }), "{error}");
+    assert!(BlockTridiagonal::new(vec![Matrix2::new(2.0, 0.5, 0.5, 1.0)], vec![]).is_ok());
+}

@@ -5,6 +5,7 @@
 
 use liebayes_operators::OperatorError;
 use liebayes_operators::densities::ManifoldGaussian;
+use liebayes_operators::evaluation::{nees, nis};
 use liebayes_operators::manifolds::{Left, LieGroup, Manifold, Se3, So3};
 use liebayes_operators::process_noise::{
     body_from_world, continuous_white_noise, per_axis, piecewise_white_noise, to_body_frame,
@@ -258,4 +259,61 @@ proptest! {
         let back = body_from_world(&x, &world_from_body(&x, &p).unwrap()).unwrap();
         prop_assert!((back - p).amax() < 1e-12);
     }
+}
+
+/// Van Loan's generator beyond the matrix exponential's range: A dt = 1e40 made nalgebra's
+/// exponential count its squarings from an overflowed norm estimate (u64::MAX of them), and the
+/// call never returned. It is refused at once; a stiff but representable step still works.
+#[test]
+fn van_loan_refuses_a_generator_beyond_the_exponential() {
+    let one = Matrix1::new(1.0);
+    for (a, dt) in [(1.0, 1e40), (-1.0, 1e39), (1e20, 1.0)] {
+        let error = van_loan(&Matrix1::new(a), &one, &Matrix1::new(0.0), dt).unwrap_err();
+        assert!(matches!(error, OperatorError::OutOfRange { .. }), "{error}");
+    }
+    let stiff = van_loan(&Matrix1::new(-50.0), &one, &one, 1.0).unwrap();
+    assert!((stiff.transition[0] - (-50.0_f64).exp()).abs() < 1e-30);
+    assert!((stiff.noise[0] - (1.0 - (-100.0_f64).exp()) / 100.0).abs() < 1e-15);
+}
+
+/// q dt^p with dt^p below f64's range: `continuous_white_noise::<2>(1e-120, 1e300)` took
+/// dt³ = 0 and returned an indefinite Q as Ok; its entries are now q dt³/3, q dt²/2 and q dt to
+/// rounding, and Q is positive definite.
+#[test]
+fn white_noise_of_tiny_steps_and_huge_densities_is_exact() {
+    let q = continuous_white_noise::<2>(1e-120, 1e300).unwrap();
+    let expected = Matrix2::new(1e-60 / 3.0, 5e59, 5e59, 1e180);
+    for (got, want) in q.iter().zip(expected.iter()) {
+        assert!(
+            (got - want).abs() <= 4.0 * f64::EPSILON * want,
+            "{got:e} vs {want:e}"
+        );
+    }
+    assert!(q[(0, 0)] * q[(1, 1)] > q[(0, 1)] * q[(1, 0)]);
+    // Subnormal steps, and products below f64's range, which are 0.
+    let tiny = continuous_white_noise::<3>(1e-310, 1.0).unwrap();
+    assert_eq!(tiny[(2, 2)], 1e-310);
+    assert_eq!(tiny[(0, 0)], 0.0);
+    // Ordinary arguments: the closed form to rounding.
+    let q = continuous_white_noise::<2>(0.1, 0.3).unwrap();
+    assert!((q[(0, 0)] - 0.3 * 1e-3 / 3.0).abs() < 1e-18);
+}
+
+/// Cholesky reads one triangle: `nees` of an asymmetric P (`[[1, 1e300], [0, 1]]`) returned 2 as
+/// if P were the identity, while the same 1e300 in the other triangle was an error. An asymmetric
+/// P is refused either way.
+#[test]
+fn nees_refuses_an_asymmetric_covariance() {
+    let e = Vector2::new(1.0, 1.0);
+    for p in [
+        Matrix2::new(1.0, 1e300, 0.0, 1.0),
+        Matrix2::new(1.0, 0.0, 1e-3, 1.0),
+    ] {
+        let error = nees(&e, &p).unwrap_err();
+        assert!(matches!(error, OperatorError::OutOfRange { .. }), "{error}");
+        assert!(nis(&e, &p).is_err());
+    }
+    // Symmetric to rounding: accepted.
+    let p = Matrix2::new(2.0, 0.5, 0.5 + 1e-16, 1.0);
+    assert!(nees(&e, &p).is_ok());
 }

@@ -17,6 +17,7 @@
 
 use crate::OperatorError;
 use crate::error::{all_finite, check_size, with_capacity};
+use crate::numerics::check_symmetric;
 use faer::linalg::matmul::matmul;
 use faer::linalg::solvers::{DenseSolveCore, Llt, Solve};
 use faer::{Accum, Mat, Par, Side};
@@ -81,7 +82,8 @@ impl<const D: usize> BlockTridiagonal<D> {
     /// (n − 1 of them).
     ///
     /// # Errors
-    /// [`OperatorError::OutOfRange`] when there is no block or the counts do not match,
+    /// [`OperatorError::OutOfRange`] when there is no block, the counts do not match, or a
+    /// diagonal block is not symmetric (to a relative 1e-12: the factorisation reads one triangle),
     /// [`OperatorError::NonFinite`] for a NaN or infinite entry, [`OperatorError::TooLarge`] when
     /// n D² is above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS).
     pub fn new(
@@ -101,6 +103,9 @@ impl<const D: usize> BlockTridiagonal<D> {
         )?;
         for block in diagonal.iter().chain(&lower) {
             all_finite("block-tridiagonal matrix entry", block.iter())?;
+        }
+        for block in &diagonal {
+            check_symmetric("diagonal block of the block-tridiagonal matrix", block)?;
         }
         Ok(Self { diagonal, lower })
     }
