@@ -5,14 +5,14 @@
 
 use crate::error::{CliError, Context as _};
 use crate::output::{self, OutputArgs};
-use crate::report::{emit, print};
+use crate::report::{emit, print, stage};
 use crate::sheet::Sheet;
 use liebayes::experiments::Table;
-use liebayes::experiments::{Shard, Study};
+use liebayes::experiments::{MAX_EPOCHS, Shard, Study};
 use liebayes::filters::attitude::{
     AtRate, AttitudeParams, AttitudeScorer, Evaluation, ImuScenario, LogRecording, LogScenario,
     MEASURED_FIELD_OFFSET, Method, Sensors, SimulationSettings, estimates, read_broad,
-    read_imu_csv, run_log, sample_errors, simulate, write_estimates_csv,
+    read_imu_csv_at_most, run_log, sample_errors, simulate, write_estimates_csv,
 };
 use liebayes::filters::{FilterError, attitude::evaluate};
 use plotters::prelude::*;
@@ -62,8 +62,9 @@ pub struct Args {
     /// The simulation's seed.
     #[arg(long, default_value_t = 1, requires = "simulate")]
     pub seed: u64,
-    /// The simulated log's number of samples (default: the simulator's one minute).
-    #[arg(long, requires = "simulate")]
+    /// The simulated log's number of samples, 2 to 16777216 (2^24, the most steps a run records;
+    /// default: the simulator's one minute).
+    #[arg(long, requires = "simulate", value_parser = parse_samples)]
     pub samples: Option<usize>,
     /// With --simulate: a study of this many independent simulated runs through the experiment
     /// layer instead (the field offset the filter models, a magnetometer reading every 10th
@@ -82,6 +83,21 @@ fn parse_method(name: &str) -> Result<Method, CliError> {
     Ok(Method::from_name(name)?)
 }
 
+/// `--samples`, checked as the command line is parsed, before anything is simulated: from 2 (the
+/// fewest a rate is inferred from) to [`MAX_EPOCHS`], the most steps a run records (each filter's
+/// run, and each run of a study, records every sample).
+fn parse_samples(text: &str) -> Result<usize, CliError> {
+    text.parse()
+        .ok()
+        .filter(|n| (2..=MAX_EPOCHS).contains(n))
+        .ok_or_else(|| {
+            format!(
+                "give a whole number from 2 to {MAX_EPOCHS} (2^24, the most steps a run records)"
+            )
+            .into()
+        })
+}
+
 /// The named methods, or `names` when none was given.
 fn methods_or(given: &[Method], names: &[&str]) -> Result<Vec<Method>, CliError> {
     if !given.is_empty() {
@@ -90,11 +106,11 @@ fn methods_or(given: &[Method], names: &[&str]) -> Result<Vec<Method>, CliError>
     names.iter().map(|n| parse_method(n)).collect()
 }
 
-/// Runs `liebayes attitude`.
+/// Runs `liebayes attitude` (`--samples` was checked as the command line was parsed).
 ///
 /// # Errors
-/// Bad input (missing folder, no trial, malformed file), a failed filter, or a file that cannot be
-/// written; nothing is written then.
+/// Bad input (missing folder, no trial, malformed file, a CSV log longer than a run records), a
+/// failed filter, or a file that cannot be written; nothing is written then.
 pub fn run(args: &Args) -> Result<(), CliError> {
     let mut output = output::prepare(&whole(args.out.clone()))?;
     let defaults: &[&str] = if args.offline {
@@ -104,15 +120,12 @@ pub fn run(args: &Args) -> Result<(), CliError> {
     };
     if let Some(dir) = &args.broad {
         let methods = methods_or(&args.methods, defaults)?;
-        broad(&broad_trials(dir)?, &methods, &mut output)?;
+        broad(&BroadTrials::read(dir)?, &methods, &mut output)?;
     } else if let Some(file) = &args.csv {
         csv(file, args.offline, &mut output)?;
     } else {
         let mut settings = SimulationSettings::default();
         if let Some(n) = args.samples {
-            if n < 2 {
-                return Err(format!("--samples is {n}: it must be at least 2").into());
-            }
             settings.samples = n;
         }
         if let Some(runs) = args.runs {
@@ -171,37 +184,77 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, C
 }
 
 /// The main job's attitude part: every method on a simulated log, a study of simulated runs, and
-/// the BROAD trials: the two shipped with the repository, or the folder `$LIEBAYES_BROAD_DIR`
-/// names; files in `out`.
+/// the BROAD `trials` (read before the main job's first study); files in `out`, all committed
+/// together when the part has succeeded.
 ///
 /// # Errors
 /// As [`run`].
-pub fn main_job(out: &Path) -> Result<(), CliError> {
-    let mut output = output::prepare(&whole(Some(out.to_path_buf())))?;
+pub fn main_job(out: &Path, trials: &BroadTrials) -> Result<(), CliError> {
+    let settings = whole(Some(out.to_path_buf()));
+    let mut output = output::prepare(&settings)?;
     let methods = methods_or(&[], &DEFAULT_METHODS)?;
     simulated(&SimulationSettings::default(), 1, &methods, &mut output)?;
     let table = study(&SimulationSettings::default(), MAIN_JOB_STUDY_RUNS, 1)?;
-    emit(
-        &[table],
-        &whole(Some(out.to_path_buf())),
-        output::prepare(&whole(Some(out.to_path_buf())))?,
-    )?;
-    let dir = std::env::var_os("LIEBAYES_BROAD_DIR").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/broad"),
-        PathBuf::from,
-    );
+    stage(&[table], &settings, &mut output)?;
     print(&format!(
         "\nBROAD trials in {} (the talk filter, hundreds of times slower per sample than the \
          others, runs on the simulated log only here; `liebayes attitude --broad DIR` runs every \
          method):",
-        dir.display()
+        trials.dir.display()
     ));
     broad(
-        &broad_trials(&dir)?,
+        trials,
         &methods_or(&[], &MAIN_JOB_BROAD_METHODS)?,
         &mut output,
     )?;
     output.finish()
+}
+
+/// BROAD trials read and checked before anything runs on them: a bad folder or file fails the
+/// command before any work.
+pub struct BroadTrials {
+    /// The folder read.
+    dir: PathBuf,
+    /// Each trial's name (its file's stem, a plain file name) and log, in file-name order.
+    logs: Vec<(String, LogScenario)>,
+}
+
+impl BroadTrials {
+    /// Reads every `*.mat` trial of `dir`.
+    ///
+    /// # Errors
+    /// A folder that cannot be listed or holds no `.mat` file, a trial that does not read (the
+    /// message names the file), or a trial whose name is not a plain file name.
+    pub fn read(dir: &Path) -> Result<Self, CliError> {
+        let paths = broad_trials(dir)?;
+        let mut logs = Vec::with_capacity(paths.len());
+        for path in paths {
+            let log = read_broad(&path)?;
+            let name = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            output::check_name(&name)?;
+            logs.push((name, LogScenario::new(log)?));
+        }
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            logs,
+        })
+    }
+
+    /// The main job's trials: those of the folder `$LIEBAYES_BROAD_DIR` names, or else the two
+    /// shipped with the repository (`data/broad`).
+    ///
+    /// # Errors
+    /// As [`read`](Self::read).
+    pub fn main_job() -> Result<Self, CliError> {
+        let dir = std::env::var_os("LIEBAYES_BROAD_DIR").map_or_else(
+            || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/broad"),
+            PathBuf::from,
+        );
+        Self::read(&dir)
+    }
 }
 
 /// The sorted `*.mat` files of `dir`.
@@ -348,21 +401,11 @@ fn print_tables(evaluation: &Evaluation, title: &str) {
 
 /// `--broad`: every trial, the tables with VQF's published row, and `broad.summary.json`.
 fn broad(
-    trials: &[PathBuf],
+    trials: &BroadTrials,
     methods: &[Method],
     output: &mut output::Output,
 ) -> Result<(), CliError> {
-    let mut logs = Vec::with_capacity(trials.len());
-    for path in trials {
-        let log = read_broad(path)?;
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        output::check_name(&name)?;
-        logs.push((name, LogScenario::new(log)?));
-    }
-    let evaluation = compare(&logs, methods, "BROAD", output)?;
+    let evaluation = compare(&trials.logs, methods, "BROAD", output)?;
     print(
         "VQF's published means over BROAD's twelve trials (not run here; total / heading / inclination):",
     );
@@ -435,10 +478,12 @@ fn simulated(
 }
 
 /// `--csv`: the EKF (9D, or 6D without a magnetometer; `offline`: its smoother) on a user's log.
+/// The run records every sample, so a log longer than [`MAX_EPOCHS`] samples is refused as it is
+/// read, at its first line beyond them, before the filter runs.
 fn csv(file: &Path, offline: bool, output: &mut output::Output) -> Result<(), CliError> {
     let origin = file.display().to_string();
     let reader = std::fs::File::open(file).context(|| origin.clone())?;
-    let log = read_imu_csv(std::io::BufReader::new(reader), &origin)?;
+    let log = read_imu_csv_at_most(std::io::BufReader::new(reader), &origin, MAX_EPOCHS)?;
     let sensors = if log.magnetometer().is_some() {
         "9d"
     } else {

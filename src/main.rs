@@ -3,9 +3,11 @@
 //!
 //! With no arguments: the main job, the azimuth study with its files in `out/azimuth/`, then a
 //! short angle-of-arrival run (model comparison, single update, 50 square-track runs) in
-//! `out/aoa/`, then the attitude filters on a simulated log and, when the BROAD folder beside the project (or
-//! `$LIEBAYES_BROAD_DIR`) holds BROAD's `.mat` trials, on those (else one line says it is skipped),
-//! files in `out/attitude/`, then the inertial filters (30 runs) in `out/inertial/`.
+//! `out/aoa/`, then the attitude filters on a simulated log and on the BROAD trials (the `.mat`
+//! files of `$LIEBAYES_BROAD_DIR`, or else the two in the project's `data/broad`), files in
+//! `out/attitude/`, then the inertial filters (30 runs) in `out/inertial/`. The BROAD trials are
+//! read first: a folder without a trial, or a trial that does not read, fails the job before any
+//! study runs.
 //! `liebayes attitude --broad DIR | --simulate | --csv FILE` and `liebayes inertial` run them alone.
 //! `liebayes azimuth --help` lists the study's settings; `--shard K/N --out DIR` runs one part of
 //! it, and `liebayes merge DIR... --out DIR` combines the parts exactly. `liebayes particles`
@@ -84,29 +86,7 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        None => {
-            report::print(&format!(
-                "liebayes {}: Bayesian state estimation on Lie groups",
-                env!("CARGO_PKG_VERSION")
-            ));
-            let mut args = azimuth::Args::main_job();
-            args.output = output::OutputArgs {
-                out: Some(PathBuf::from("out/azimuth")),
-                shard: Shard::WHOLE,
-            };
-            let done = study(&args)
-                .and_then(|()| aoa::main_job(&PathBuf::from("out/aoa")))
-                .and_then(|()| attitude::main_job(&PathBuf::from("out/attitude")))
-                .and_then(|()| {
-                    inertial::run(&inertial::Args::main_job(&PathBuf::from("out/inertial")))
-                });
-            if done.is_ok() {
-                report::print(
-                    "\nThe manifolds and densities at work: cargo run --release --example tour",
-                );
-            }
-            done
-        }
+        None => main_job(),
         Some(Command::Azimuth(args)) => study(&args),
         Some(Command::Aoa(args)) => aoa::run(&args),
         Some(Command::Attitude(args)) => attitude::run(&args),
@@ -125,6 +105,28 @@ fn fail(message: &str) -> ExitCode {
     use std::io::Write as _;
     let _ = writeln!(std::io::stderr().lock(), "liebayes: {message}");
     ExitCode::FAILURE
+}
+
+/// The main job: its input, the BROAD trials, read before anything runs or is printed (a bad
+/// folder or trial fails at once, nothing written), then each part in turn, every part's folder
+/// written when that part has succeeded.
+fn main_job() -> Result<(), CliError> {
+    let trials = attitude::BroadTrials::main_job()?;
+    report::print(&format!(
+        "liebayes {}: Bayesian state estimation on Lie groups",
+        env!("CARGO_PKG_VERSION")
+    ));
+    let mut args = azimuth::Args::main_job();
+    args.output = output::OutputArgs {
+        out: Some(PathBuf::from("out/azimuth")),
+        shard: Shard::WHOLE,
+    };
+    study(&args)?;
+    aoa::main_job(&PathBuf::from("out/aoa"))?;
+    attitude::main_job(&PathBuf::from("out/attitude"), &trials)?;
+    inertial::run(&inertial::Args::main_job(&PathBuf::from("out/inertial")))?;
+    report::print("\nThe manifolds and densities at work: cargo run --release --example tour");
+    Ok(())
 }
 
 /// `liebayes azimuth`: settings and output folder checked before any run, then the studies, then

@@ -41,52 +41,18 @@ const MAX_FILES_PER_FOLDER: usize = 10_000;
 const JSON_ENDING: &str = ".summary.json";
 
 /// Prints each table, then writes its files into the output folder, if there is one, all or
-/// nothing: for a study covering all its runs, `<name>_summary.csv`, `<name>_over_time.csv`,
-/// `<name>_first_run.csv`, `<name>_first_run.svg`, `<name>_over_time.svg` (the plots when some
-/// metric `<x>_error` has its `<x>_sigma`), for each metric `<m>` kept per run
-/// `<name>_<m>_relative.csv` and `<name>_<m>_relative.svg` (the quantiles and box plots of the
-/// rows' percentage differences from the reference row, run by run; when the table has a
-/// reference row that keeps `<m>`) or else `<name>_<m>_per_run.csv` and `<name>_<m>_per_run.svg`
-/// (of the rows' run values), and `<name>.summary.json`; for a partial study (a shard, or a merge
-/// that misses runs) only the JSON summary, and says what is missing. The per-run tables are
-/// printed for complete studies only.
+/// nothing ([`stage`], then the commit), and says where they went or, for a partial study, what is
+/// missing.
 ///
 /// # Errors
-/// A table that is not well formed (a bad or repeated name, inconsistent run ranges or trace, a
-/// reference row that is not one of its rows), or a file that cannot be written; nothing is
-/// written then.
+/// As [`stage`], or a file that cannot be moved into place.
 pub fn emit(tables: &[Table], args: &OutputArgs, mut output: Output) -> Result<(), CliError> {
-    for (i, table) in tables.iter().enumerate() {
-        check_table(table)?;
-        if tables[..i].iter().any(|t| t.name == table.name) {
-            return Err(format!("internal: two tables are named {:?}", table.name).into());
-        }
-    }
-    let missing: Vec<String> = tables
-        .iter()
-        .flat_map(Table::missing_runs)
-        .map(|m| m.to_string())
-        .collect();
-    let complete = args.shard == Shard::WHOLE && missing.is_empty();
-    for table in tables {
-        print(&render(table));
-        if complete {
-            for comparison in table.run_comparisons() {
-                print(&render_runs(table, &comparison));
-            }
-        }
-    }
+    stage(tables, args, &mut output)?;
     let Some(dir) = output.dir().map(Path::to_path_buf) else {
         return Ok(());
     };
-    for table in tables {
-        let json = serde_json::to_string(table)
-            .context(|| format!("internal: table {} to JSON", table.name))?;
-        output.write(&format!("{}{JSON_ENDING}", table.name), json.as_bytes())?;
-        if complete {
-            write_files(table, &mut output)?;
-        }
-    }
+    let missing = missing_runs(tables);
+    let complete = args.shard == Shard::WHOLE && missing.is_empty();
     let written = output.commit()?;
     if complete {
         print(&format!(
@@ -119,6 +85,61 @@ pub fn emit(tables: &[Table], args: &OutputArgs, mut output: Output) -> Result<(
         ));
     }
     Ok(())
+}
+
+/// Prints each table and writes its files into `output` (uncommitted: they appear when the
+/// command commits it), if it has a folder: for a study covering all its runs,
+/// `<name>_summary.csv`, `<name>_over_time.csv`, `<name>_first_run.csv`, `<name>_first_run.svg`,
+/// `<name>_over_time.svg` (the plots when some metric `<x>_error` has its `<x>_sigma`), for each
+/// metric `<m>` kept per run `<name>_<m>_relative.csv` and `<name>_<m>_relative.svg` (the quantiles
+/// and box plots of the rows' percentage differences from the reference row, run by run; when the
+/// table has a reference row that keeps `<m>`) or else `<name>_<m>_per_run.csv` and
+/// `<name>_<m>_per_run.svg` (of the rows' run values), and `<name>.summary.json`; for a partial
+/// study (a shard, or a merge that misses runs) only the JSON summary. The per-run tables are
+/// printed for complete studies only. A command with files besides the tables stages them all in
+/// one output and commits it once.
+///
+/// # Errors
+/// A table that is not well formed (a bad or repeated name, inconsistent run ranges or trace, a
+/// reference row that is not one of its rows), or a file that cannot be written; nothing is
+/// written then.
+pub fn stage(tables: &[Table], args: &OutputArgs, output: &mut Output) -> Result<(), CliError> {
+    for (i, table) in tables.iter().enumerate() {
+        check_table(table)?;
+        if tables[..i].iter().any(|t| t.name == table.name) {
+            return Err(format!("internal: two tables are named {:?}", table.name).into());
+        }
+    }
+    let complete = args.shard == Shard::WHOLE && missing_runs(tables).is_empty();
+    for table in tables {
+        print(&render(table));
+        if complete {
+            for comparison in table.run_comparisons() {
+                print(&render_runs(table, &comparison));
+            }
+        }
+    }
+    if output.dir().is_none() {
+        return Ok(());
+    }
+    for table in tables {
+        let json = serde_json::to_string(table)
+            .context(|| format!("internal: table {} to JSON", table.name))?;
+        output.write(&format!("{}{JSON_ENDING}", table.name), json.as_bytes())?;
+        if complete {
+            write_files(table, output)?;
+        }
+    }
+    Ok(())
+}
+
+/// The runs the tables miss, one description per row that misses some (none for a whole study).
+fn missing_runs(tables: &[Table]) -> Vec<String> {
+    tables
+        .iter()
+        .flat_map(Table::missing_runs)
+        .map(|m| m.to_string())
+        .collect()
 }
 
 /// Prints a line on stdout; a closed stdout (the program piped into `head`) does not stop the

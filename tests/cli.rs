@@ -3,7 +3,7 @@
 //! to the whole run's summary.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
 
 fn liebayes(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_liebayes"))
@@ -517,6 +517,98 @@ fn attitude_bad_broad_folder_fails_with_one_line() {
         text(&out.stderr)
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The main job reads its BROAD folder before any study: a folder without a trial, or with a
+/// corrupt one, fails at once in one line naming it, nothing printed and nothing written (the job
+/// writes into `out/` under the working directory, here a fresh folder). It used to run the
+/// azimuth, angle-of-arrival and simulated attitude studies first, minutes of work, writing their
+/// files.
+#[test]
+fn the_main_job_refuses_a_bad_broad_folder_before_any_study() {
+    let dir = folder("main-job-broad");
+    let broad = dir.join("broad");
+    std::fs::create_dir_all(&broad).unwrap();
+    let main_job = || {
+        Command::new(env!("CARGO_BIN_EXE_liebayes"))
+            .current_dir(&dir)
+            .env("LIEBAYES_BROAD_DIR", &broad)
+            .output()
+            .expect("the binary runs")
+    };
+    let out = main_job();
+    assert_fails(&out, "holds no .mat trial");
+    assert!(
+        text(&out.stderr).contains(broad.to_str().unwrap()),
+        "{}",
+        text(&out.stderr)
+    );
+    std::fs::write(broad.join("corrupt.mat"), b"not a MATLAB file").unwrap();
+    assert_fails(&main_job(), "corrupt.mat");
+    assert_eq!(files(&dir), ["broad"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `--samples` beyond the most steps a run records (2^24) is refused as the command line is parsed,
+/// in one line, nothing written: 2^28 used to ask for about 28 GB and filter them all before the
+/// recording refused the run.
+#[test]
+fn attitude_samples_beyond_the_recording_limit_are_refused_at_once() {
+    let dir = folder("attitude-samples");
+    let out_dir = dir.join("out");
+    let out = out_dir.to_str().unwrap();
+    for samples in ["16777217", "268435456", "18446744073709551616", "1", "x"] {
+        for runs in [None, Some("2")] {
+            let mut args = vec!["attitude", "--simulate", "--samples", samples, "--out", out];
+            if let Some(runs) = runs {
+                args.extend(["--runs", runs]);
+            }
+            assert_fails(&liebayes(&args), "from 2 to 16777216");
+        }
+    }
+    assert!(!out_dir.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A CSV log longer than a run records (2^24 samples) is refused as it is read, at its first line
+/// beyond the limit, naming the file and the line, before any filter runs, nothing written. The
+/// log comes through a pipe, never on disk; its samples all at t = 0, since the count is refused
+/// before the times are looked at.
+#[cfg(target_os = "linux")]
+#[test]
+fn attitude_csv_beyond_the_recording_limit_is_refused_while_read() {
+    use std::io::Write as _;
+    const LIMIT: usize = 1 << 24;
+    const BLOCK: usize = 4096;
+    let dir = folder("attitude-csv-long");
+    let out_dir = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_liebayes"))
+        .args(["attitude", "--csv", "/dev/stdin", "--out"])
+        .arg(&out_dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the binary runs");
+    let mut stdin = child.stdin.take().unwrap();
+    // Stops at a broken pipe once the binary has stopped reading.
+    let writer = std::thread::spawn(move || -> std::io::Result<()> {
+        let block = "0,0,0,0,0,0,9.8\n".repeat(BLOCK);
+        stdin.write_all(b"t,gx,gy,gz,ax,ay,az\n")?;
+        for _ in 0..=LIMIT / BLOCK {
+            stdin.write_all(block.as_bytes())?;
+        }
+        Ok(())
+    });
+    let out = child.wait_with_output().unwrap();
+    let _ = writer.join().unwrap();
+    // Sample 2^24 + 1 is on line 2^24 + 2 (the header is line 1).
+    assert_fails(
+        &out,
+        &format!("/dev/stdin: line {}: more than {LIMIT} samples", LIMIT + 2),
+    );
+    assert!(files(&out_dir).is_empty());
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// Writes `log` as an IMU CSV file (the documented layout, shortest round-trip decimals).

@@ -4,9 +4,13 @@
 //! IMU log layout: a header line `t,gx,gy,gz,ax,ay,az` (6D) or `t,gx,gy,gz,ax,ay,az,mx,my,mz` (9D),
 //! then one sample per line: t in seconds (increasing at a constant rate), the gyroscope in rad/s,
 //! the accelerometer in m/s², the magnetometer in µT, all in the IMU's axes. Estimates layout: a
-//! header `t,w,x,y,z`, then the time and the unit quaternion (scalar first) of the IMU frame w.r.t.
-//! ENU. Fields are separated by commas, surrounding spaces are ignored, empty lines are not
-//! allowed.
+//! header `t,w,x,y,z`, then the time (s, strictly increasing) and the unit quaternion (scalar
+//! first) of the IMU frame w.r.t. ENU. Fields are separated by commas, surrounding spaces are
+//! ignored, empty lines are not allowed.
+//!
+//! The readers keep at most [`MAX_SAMPLES`] rows (or a caller's lower limit,
+//! [`read_imu_csv_at_most`]), counted as the lines are read: a longer file is refused at its first
+//! line beyond the limit, and its columns never hold more than the limit's rows.
 
 use super::data::{DataError, ImuLog, MAX_SAMPLES};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -40,15 +44,33 @@ pub struct Estimates {
 }
 
 /// Reads an IMU log in the layout of this module's doc from `reader`, naming `origin` (the file)
-/// in errors. The rate is inferred from the times: every step within [`RATE_TOLERANCE`] of the
-/// mean step. Nothing is returned on error.
+/// in errors: [`read_imu_csv_at_most`] with the library's limit, [`MAX_SAMPLES`] samples.
+///
+/// # Errors
+/// As [`read_imu_csv_at_most`].
+pub fn read_imu_csv<R: BufRead>(reader: R, origin: &str) -> Result<ImuLog, DataError> {
+    read_imu_csv_at_most(reader, origin, MAX_SAMPLES)
+}
+
+/// Reads an IMU log in the layout of this module's doc from `reader`, naming `origin` (the file)
+/// in errors, keeping at most `max_samples` samples (at most [`MAX_SAMPLES`] whatever the
+/// argument): a caller whose own limit is lower, such as a run that records every sample (at most
+/// [`MAX_EPOCHS`](liebayes_experiments::MAX_EPOCHS) steps), refuses a longer log while reading it,
+/// before holding more than its limit. The rate is inferred from the times: every step within
+/// [`RATE_TOLERANCE`] of the mean step. Nothing is returned on error.
 ///
 /// # Errors
 /// [`DataError::Csv`] naming the line and column of a wrong header, a missing, extra or
 /// unparsable field, a non-finite value, a time step off the constant rate, fewer than two
-/// samples or a line longer than 4096 bytes; [`DataError::TooLarge`] beyond
-/// [`MAX_SAMPLES`]; [`DataError::Io`] when reading fails.
-pub fn read_imu_csv<R: BufRead>(reader: R, origin: &str) -> Result<ImuLog, DataError> {
+/// samples or a line longer than 4096 bytes; [`DataError::TooManyRows`] naming the first line
+/// beyond `max_samples` samples (or [`MAX_SAMPLES`]); [`DataError::TooLarge`] when the system
+/// refuses the memory of the samples read; [`DataError::BadValue`] for a reading beyond its
+/// sensor's limit (as [`ImuLog::new`]); [`DataError::Io`] when reading fails.
+pub fn read_imu_csv_at_most<R: BufRead>(
+    reader: R,
+    origin: &str,
+    max_samples: usize,
+) -> Result<ImuLog, DataError> {
     let mut lines = Lines::new(reader, origin);
     let header = lines
         .next_line()?
@@ -71,22 +93,24 @@ pub fn read_imu_csv<R: BufRead>(reader: R, origin: &str) -> Result<ImuLog, DataE
         ));
     };
     let width = columns.len();
+    let rows = RowLimit {
+        origin,
+        what: "samples",
+        limit: max_samples.min(MAX_SAMPLES),
+    };
     let (mut t, mut gyr, mut acc, mut mag) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut fields = vec![0.0; width];
     while let Some(line) = lines.next_line()? {
-        if t.len() >= MAX_SAMPLES {
-            return Err(DataError::TooLarge {
-                origin: origin.to_owned(),
-                what: "the number of samples",
-                size: t.len() as u64 + 1,
-                limit: MAX_SAMPLES as u64,
-            });
-        }
+        rows.check(t.len(), lines.number)?;
         parse_fields(&line, lines.number, origin, &mut fields)?;
+        rows.make_room(&mut t)?;
+        rows.make_room(&mut gyr)?;
+        rows.make_room(&mut acc)?;
         t.push(fields[0]);
         gyr.push(Vector3::new(fields[1], fields[2], fields[3]));
         acc.push(Vector3::new(fields[4], fields[5], fields[6]));
         if nine {
+            rows.make_room(&mut mag)?;
             mag.push(Vector3::new(fields[7], fields[8], fields[9]));
         }
     }
@@ -126,14 +150,18 @@ pub fn write_estimates_csv<W: Write>(
     writer.flush().map_err(io)
 }
 
-/// Reads estimates written by [`write_estimates_csv`] (header `t,w,x,y,z`). Each quaternion's norm
-/// must be within 1e-6 of 1 (a file written with fewer digits); it is kept as written when within
-/// 1e-12 of 1 (so a round trip through [`write_estimates_csv`] is exact) and normalised otherwise,
-/// so that every orientation read is a unit quaternion.
+/// Reads estimates written by [`write_estimates_csv`] (header `t,w,x,y,z`). The times must
+/// increase strictly, as the estimates of a run's successive samples do (an IMU log's times are
+/// held to the same order by its rate). Each quaternion's norm must be within 1e-6 of 1 (a file
+/// written with fewer digits); it is kept as written when within 1e-12 of 1 (so a round trip
+/// through [`write_estimates_csv`] is exact) and normalised otherwise, so that every orientation
+/// read is a unit quaternion.
 ///
 /// # Errors
-/// [`DataError::Csv`] naming the line and column of a malformed line or a quaternion not of unit
-/// norm; [`DataError::TooLarge`] beyond [`MAX_SAMPLES`]; [`DataError::Io`] when reading fails.
+/// [`DataError::Csv`] naming the line and column of a malformed line, a time not after the one
+/// before it or a quaternion not of unit norm; [`DataError::TooManyRows`] naming the first line
+/// beyond [`MAX_SAMPLES`] estimates; [`DataError::TooLarge`] when the system refuses the memory
+/// of the estimates read; [`DataError::Io`] when reading fails.
 pub fn read_estimates_csv<R: BufRead>(reader: R, origin: &str) -> Result<Estimates, DataError> {
     let mut lines = Lines::new(reader, origin);
     let header = lines
@@ -147,18 +175,28 @@ pub fn read_estimates_csv<R: BufRead>(reader: R, origin: &str) -> Result<Estimat
             &format!("header {header:?}, expected \"t,w,x,y,z\""),
         ));
     }
+    let rows = RowLimit {
+        origin,
+        what: "estimates",
+        limit: MAX_SAMPLES,
+    };
     let (mut times, mut orientations) = (Vec::new(), Vec::new());
     let mut fields = [0.0; 5];
     while let Some(line) = lines.next_line()? {
-        if times.len() >= MAX_SAMPLES {
-            return Err(DataError::TooLarge {
-                origin: origin.to_owned(),
-                what: "the number of estimates",
-                size: times.len() as u64 + 1,
-                limit: MAX_SAMPLES as u64,
-            });
-        }
+        rows.check(times.len(), lines.number)?;
         parse_fields(&line, lines.number, origin, &mut fields)?;
+        if let Some(&previous) = times.last().filter(|&&previous| fields[0] <= previous) {
+            return Err(csv(
+                origin,
+                lines.number,
+                1,
+                &format!(
+                    "time {} s, expected a time after the previous line's {previous} s (times \
+                     increase strictly)",
+                    fields[0]
+                ),
+            ));
+        }
         let q = Quaternion::new(fields[1], fields[2], fields[3], fields[4]);
         if (q.norm() - 1.0).abs() > UNIT_TOLERANCE {
             return Err(csv(
@@ -171,6 +209,8 @@ pub fn read_estimates_csv<R: BufRead>(reader: R, origin: &str) -> Result<Estimat
                 ),
             ));
         }
+        rows.make_room(&mut times)?;
+        rows.make_room(&mut orientations)?;
         times.push(fields[0]);
         orientations.push(if (q.norm() - 1.0).abs() > KEPT_TOLERANCE {
             UnitQuaternion::new_normalize(q)
@@ -182,6 +222,55 @@ pub fn read_estimates_csv<R: BufRead>(reader: R, origin: &str) -> Result<Estimat
         times,
         orientations,
     })
+}
+
+/// The rows a reader keeps at most, checked as each line is read.
+struct RowLimit<'a> {
+    /// The file, named in errors.
+    origin: &'a str,
+    /// What a row is (`"samples"`), named in errors.
+    what: &'static str,
+    /// The most rows kept (at most [`MAX_SAMPLES`]).
+    limit: usize,
+}
+
+impl RowLimit<'_> {
+    /// The rows reserved first; the columns then double, up to the limit.
+    const FIRST_ROWS: usize = 1024;
+
+    /// Refuses the row on `line` when the limit's `kept` rows are kept already, before the row is
+    /// parsed.
+    fn check(&self, kept: usize, line: usize) -> Result<(), DataError> {
+        if kept < self.limit {
+            return Ok(());
+        }
+        Err(DataError::TooManyRows {
+            origin: self.origin.to_owned(),
+            line,
+            what: self.what,
+            limit: self.limit,
+        })
+    }
+
+    /// Room for one more row in `column`, which holds fewer than the limit (after
+    /// [`check`](Self::check)): when it is full, its capacity doubles (from
+    /// [`FIRST_ROWS`](Self::FIRST_ROWS)) but never past the limit, reserved with
+    /// `try_reserve_exact` so that memory the system refuses is an error, not an abort.
+    fn make_room<T>(&self, column: &mut Vec<T>) -> Result<(), DataError> {
+        let kept = column.len();
+        if kept < column.capacity() {
+            return Ok(());
+        }
+        let more = kept.max(Self::FIRST_ROWS).min(self.limit - kept);
+        column
+            .try_reserve_exact(more)
+            .map_err(|_| DataError::TooLarge {
+                origin: self.origin.to_owned(),
+                what: "the number of rows (their memory cannot be allocated)",
+                size: (kept + more) as u64,
+                limit: self.limit as u64,
+            })
+    }
 }
 
 fn csv(origin: &str, line: usize, column: usize, message: &str) -> DataError {
@@ -331,5 +420,40 @@ impl<'a, R: BufRead> Lines<'a, R> {
             ));
         }
         Ok(Some(text.to_owned()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The columns double from the first block but never past the limit: a file at the limit holds
+    /// no more than its rows, and the row after them is refused.
+    #[test]
+    fn columns_never_grow_past_the_limit() {
+        let rows = RowLimit {
+            origin: "memory",
+            what: "samples",
+            limit: 3000,
+        };
+        let mut column: Vec<f64> = Vec::new();
+        let mut capacities = Vec::new();
+        for k in 0..rows.limit {
+            rows.check(column.len(), k + 2).expect("within the limit");
+            rows.make_room(&mut column).expect("memory");
+            column.push(0.0);
+            if capacities.last() != Some(&column.capacity()) {
+                capacities.push(column.capacity());
+            }
+        }
+        assert_eq!(capacities, [1024, 2048, 3000]);
+        assert!(matches!(
+            rows.check(column.len(), 3002),
+            Err(DataError::TooManyRows {
+                line: 3002,
+                limit: 3000,
+                ..
+            })
+        ));
     }
 }

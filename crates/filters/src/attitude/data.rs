@@ -135,6 +135,21 @@ pub enum DataError {
         /// The limit.
         limit: u64,
     },
+    /// A text (CSV) file with more rows than the reader accepts: refused at the first line beyond
+    /// them, before that row is parsed or kept (a file's length is known only as it is read).
+    #[error(
+        "{origin}: line {line}: more than {limit} {what}, the most accepted; give a shorter file"
+    )]
+    TooManyRows {
+        /// The file.
+        origin: String,
+        /// The first line beyond the limit (1-based; the header is line 1).
+        line: usize,
+        /// What the rows are (`"samples"`, `"estimates"`).
+        what: &'static str,
+        /// The most rows accepted.
+        limit: usize,
+    },
     /// A text (CSV) file with a malformed line.
     #[error("{origin}: line {line}, column {column}: {message}")]
     Csv {

@@ -30,7 +30,10 @@ mod simulate;
 mod talk;
 
 pub use broad::{MAX_MAT_DECLARED_BYTES, MAX_MAT_FILE_BYTES, read_broad};
-pub use csv::{Estimates, RATE_TOLERANCE, read_estimates_csv, read_imu_csv, write_estimates_csv};
+pub use csv::{
+    Estimates, RATE_TOLERANCE, read_estimates_csv, read_imu_csv, read_imu_csv_at_most,
+    write_estimates_csv,
+};
 pub use data::{
     DataError, ImuLog, MAX_ANGULAR_RATE, MAX_FIELD, MAX_SAMPLES, MAX_SPECIFIC_FORCE, RATE_RANGE,
     REFERENCE_NORM_TOLERANCE, reference_from_components,
