@@ -485,3 +485,34 @@ fn broad_cross_validated() {
         "some trial failed under every setting"
     );
 }
+
+/// Settings whose products overflow (σ_A = 1e160, or σ_U = σ_Ω,0 = 1e150) passed validation, and
+/// then every step failed naming a "diffusion covariance entry". They are refused when the filter
+/// is made, naming the settings.
+#[test]
+fn settings_that_no_step_could_take_are_refused() {
+    let walk = TalkParams {
+        rate_walk: 1e160,
+        ..TalkParams::default()
+    };
+    let error = TalkFilter::new(&walk, Sensors::SixD, 100.0).unwrap_err();
+    assert!(error.to_string().contains("rate_walk"), "{error}");
+    let noisy = TalkParams {
+        gyro_noise: 1e150,
+        initial_rate_sigma: 1e150,
+        ..TalkParams::default()
+    };
+    let error = TalkFilter::new(&noisy, Sensors::SixD, 100.0).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("initial_rate_sigma at this rate"),
+        "{error}"
+    );
+    // Large but representable: accepted.
+    let large = TalkParams {
+        gyro_noise: 1e40,
+        ..TalkParams::default()
+    };
+    assert!(TalkFilter::new(&large, Sensors::SixD, 100.0).is_ok());
+}

@@ -200,9 +200,13 @@ fn bad_input_is_refused() {
         .is_err()
     );
     assert!(ImuStep::new(Vector3::zeros(), Vector3::new(0.0, 2e4, 0.0), 0.01).is_err());
-    for dt in [0.0, -0.01, 2.0, f64::NAN] {
-        assert!(ImuStep::new(Vector3::zeros(), v, dt).is_err(), "dt = {dt}");
+    // A subnormal step passed, and then every filter's process noise σ²/dt was ∞ (its error
+    // named the covariance, not dt): steps below 1e-6 s are refused, naming dt.
+    for dt in [0.0, -0.01, 2.0, f64::NAN, 1e-320, 9e-7] {
+        let error = ImuStep::new(Vector3::zeros(), v, dt).unwrap_err();
+        assert!(error.to_string().contains("dt"), "dt = {dt}: {error}");
     }
+    assert!(ImuStep::new(Vector3::zeros(), v, 1e-6).is_ok());
     assert!(PositionFix::new(0.0).is_err() && PositionFix::new(f64::NAN).is_err());
     let mut noise = ImuNoise {
         gyro: 0.01,

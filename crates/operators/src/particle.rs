@@ -262,7 +262,7 @@ impl<X, P, R> Propagate<Sampled<P, R>> for ParticleSet<X>
 where
     X: Clone,
     P: SampledProcess<X>,
-    R: RngCore,
+    R: RngCore + Clone,
 {
     type Input = P::Input;
 
@@ -278,9 +278,10 @@ where
     /// weights become uniform.
     ///
     /// # Errors
-    /// The first error of the process; the set is then unchanged (the draws already taken from the
-    /// generator are not given back). [`OperatorError::InUse`] when the process steps a set
-    /// through this same model.
+    /// The first error of the process; the set and the generator are then unchanged (the
+    /// generator is restored to its state before the step, so that a failed step does not change
+    /// the draws of the next: a run is reproducible from its seed whatever steps failed).
+    /// [`OperatorError::InUse`] when the process steps a set through this same model.
     fn propagate_in_place(
         &mut self,
         model: &Sampled<P, R>,
@@ -288,6 +289,7 @@ where
     ) -> Result<(), OperatorError> {
         let mut rng = model.rng()?;
         let rng: &mut R = &mut rng;
+        let before = rng.clone();
         let (fraction, scheme) = model.resampling();
         let resample = self.effective_sample_size() < fraction * self.particles.len() as f64;
         if resample {
@@ -295,15 +297,21 @@ where
         }
         let process = model.process();
         self.spare.clear();
-        if resample {
-            for &i in self.resampler.indices() {
+        let drawn = if resample {
+            self.resampler.indices().iter().try_for_each(|&i| {
                 self.spare
                     .push(process.sample(&self.particles[i], input, rng)?);
-            }
+                Ok(())
+            })
         } else {
-            for x in &self.particles {
+            self.particles.iter().try_for_each(|x| {
                 self.spare.push(process.sample(x, input, rng)?);
-            }
+                Ok(())
+            })
+        };
+        if let Err(error) = drawn {
+            *rng = before;
+            return Err(error);
         }
         std::mem::swap(&mut self.particles, &mut self.spare);
         if resample {

@@ -668,3 +668,45 @@ fn every_scheme_returns_sorted_indices_of_weighted_particles() {
         }
     }
 }
+
+/// A failed propagation gives its draws back: the generator is restored, so the next step draws
+/// what it would have drawn had the failed one not been tried (resampling first, then a draw per
+/// particle before the process fails on its input).
+#[test]
+fn a_failed_propagation_gives_its_draws_back() {
+    let walk = SampleFn::new(|x: &Rn<f64, 1>, u: &f64, rng: &mut dyn RngCore| {
+        let w: f64 = StandardNormal.sample(rng);
+        finite_point(x.retract(&Vector1::new(u * w)))
+    });
+    let start = || {
+        let mut set = ParticleSet::from_samples(
+            (0..50)
+                .map(|k| Rn::new_unchecked(Vector1::new(f64::from(k))))
+                .collect(),
+        )
+        .unwrap();
+        // Uneven weights, so that the step resamples (drawing from the generator) first.
+        let likelihood = LikelihoodFn::new(|x: &Rn<f64, 1>, (): &()| -x.coords()[0]);
+        set.condition_in_place(&Reweight(&likelihood), &()).unwrap();
+        set
+    };
+    let tried = Sampled::with_resampling(
+        &walk,
+        ChaCha8Rng::seed_from_u64(3),
+        0.9,
+        Resampling::Multinomial,
+    )
+    .unwrap();
+    let clean = Sampled::with_resampling(
+        &walk,
+        ChaCha8Rng::seed_from_u64(3),
+        0.9,
+        Resampling::Multinomial,
+    )
+    .unwrap();
+    let (mut a, mut b) = (start(), start());
+    assert!(a.propagate_in_place(&tried, &f64::NAN).is_err());
+    a.propagate_in_place(&tried, &1.0).unwrap();
+    b.propagate_in_place(&clean, &1.0).unwrap();
+    assert_eq!(a.particles(), b.particles());
+}

@@ -13,7 +13,7 @@ use super::ekf::Sensors;
 use super::estimate::{AttitudeEstimate, ImuSample};
 use super::madgwick::{broad_initial_state, enu_from_nwu};
 use crate::error::{FilterError, positive_setting};
-use liebayes_densities::Bingham;
+use liebayes_densities::{Bingham, MAX_SCALE};
 use liebayes_experiments::{RecursiveFilter, Update};
 use liebayes_manifolds::Su2;
 use liebayes_operators::OperatorError;
@@ -24,7 +24,7 @@ use nalgebra::{Matrix3, Matrix4, Vector3};
 pub struct TalkParams {
     /// σ_U (rad/s): gyroscope noise per sample, `G_k = Ω_k + U_k`. Finite, > 0.
     pub gyro_noise: f64,
-    /// σ_A (rad/s²): the angular-rate random walk, `Ω_k = Ω_(k−1) + A_k Δt`. Finite, ≥ 0.
+    /// σ_A (rad/s²): the angular-rate random walk, `Ω_k = Ω_(k−1) + A_k Δt`. In [0, 1e150].
     pub rate_walk: f64,
     /// σ_V: accelerometer noise on the unit gravity direction (dimensionless, about rad).
     /// Finite, > 0.
@@ -60,12 +60,12 @@ impl TalkParams {
     pub fn validate(&self) -> Result<(), FilterError> {
         let origin = "TalkParams";
         positive_setting(origin, "gyro_noise", self.gyro_noise)?;
-        if !(self.rate_walk.is_finite() && self.rate_walk >= 0.0) {
+        if !(0.0..=1e150).contains(&self.rate_walk) {
             return Err(FilterError::Setting {
                 origin,
                 setting: "rate_walk",
                 value: self.rate_walk.to_string(),
-                expected: "a finite non-negative rate walk in rad/s^2",
+                expected: "a rate walk in [0, 1e150] rad/s^2",
             });
         }
         positive_setting(origin, "acc_noise", self.acc_noise)?;
@@ -130,6 +130,22 @@ impl TalkFilter {
     pub fn new(params: &TalkParams, sensors: Sensors, rate: f64) -> Result<Self, FilterError> {
         params.validate()?;
         check_rate("TalkFilter::new", rate)?;
+        // The largest rotation variance a step adds, (σ_U² + σ_A² Δt² + σ_Ω,0²) Δt² (the rate's
+        // variance only shrinks from σ_Ω,0² towards σ_U²): beyond the densities' scale, every
+        // step's diffusion would be refused.
+        let dt = 1.0 / rate;
+        let step_variance = (params.gyro_noise * dt).powi(2)
+            + (params.rate_walk * dt * dt).powi(2)
+            + (params.initial_rate_sigma * dt).powi(2);
+        if step_variance > MAX_SCALE {
+            return Err(FilterError::Setting {
+                origin: "TalkFilter::new",
+                setting: "gyro_noise, rate_walk and initial_rate_sigma at this rate",
+                value: format!("a rotation variance of {step_variance:e} rad^2 per step"),
+                expected: "(gyro_noise^2 + rate_walk^2 dt^2 + initial_rate_sigma^2) dt^2 of at \
+                           most 1e100 rad^2",
+            });
+        }
         Ok(Self {
             params: *params,
             sensors,

@@ -30,5 +30,5 @@ pub use state::{
     ErrorState, LeftInvariant, NAVIGATION_DIM, Navigation, NavigationState, RightInvariant,
 };
 pub use strapdown::{
-    GRAVITY, ImuNoise, ImuStep, MAX_READING, MAX_STEP, PositionFix, Strapdown, integrate,
+    GRAVITY, ImuNoise, ImuStep, MAX_READING, MAX_STEP, MIN_STEP, PositionFix, Strapdown, integrate,
 };

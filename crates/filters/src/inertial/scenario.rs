@@ -298,7 +298,7 @@ impl Iterator for InertialSteps<'_> {
             let mut normal = || -> f64 { StandardNormal.sample(&mut *self.rng) };
             self.truth.position + Vector3::new(normal(), normal(), normal()) * c.fix_sigma
         });
-        // dt = 1 / imu_rate lies in (0, 1] for a validated configuration.
+        // dt = 1 / imu_rate lies in [1e-5, 1] for a validated configuration.
         let input = ImuStep::saturated(measured_rate, measured_force, dt);
         Some(Step {
             time: self.sample as f64 * dt,

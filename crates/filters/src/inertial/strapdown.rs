@@ -13,6 +13,10 @@ pub const GRAVITY: Vector3<f64> = Vector3::new(0.0, 0.0, -9.81);
 /// The largest IMU step accepted (s).
 pub const MAX_STEP: f64 = 1.0;
 
+/// The smallest IMU step accepted (s): a rate of 1 MHz, the attitude filters' largest. Below it
+/// the noise densities' per-step variances (`σ² / dt`) leave f64's range for a subnormal dt.
+pub const MIN_STEP: f64 = 1e-6;
+
 /// The largest angular rate (rad/s) and specific force (m/s²) an [`ImuStep`] accepts.
 pub const MAX_READING: f64 = 1e4;
 
@@ -27,7 +31,7 @@ pub struct ImuStep {
 
 impl ImuStep {
     /// The sample, checked: readings finite with components at most [`MAX_READING`] in size, dt in
-    /// (0, [`MAX_STEP`]].
+    /// [[`MIN_STEP`], [`MAX_STEP`]].
     ///
     /// # Errors
     /// [`FilterError::Setting`] naming the reading.
@@ -48,8 +52,8 @@ impl ImuStep {
                 ));
             }
         }
-        if !(dt > 0.0 && dt <= MAX_STEP) {
-            return Err(setting_error("dt", dt.to_string(), "a step in (0, 1] s"));
+        if !(MIN_STEP..=MAX_STEP).contains(&dt) {
+            return Err(setting_error("dt", dt.to_string(), "a step in [1e-6, 1] s"));
         }
         Ok(Self {
             angular_rate,
@@ -59,7 +63,7 @@ impl ImuStep {
     }
 
     /// The sample a sensor of range ±[`MAX_READING`] reports: each component clamped to that
-    /// range (a saturating IMU), for a finite dt in (0, [`MAX_STEP`]] the caller has checked.
+    /// range (a saturating IMU), for a dt in [[`MIN_STEP`], [`MAX_STEP`]] the caller has checked.
     pub(crate) fn saturated(
         angular_rate: Vector3<f64>,
         specific_force: Vector3<f64>,

@@ -59,6 +59,7 @@ pub use params::{
     AttitudeParams, DisturbanceParams, FieldOffset, MEASURED_FIELD_OFFSET, MagnetometerParams,
     Propagation, RestParams, Sensors,
 };
+pub use smoothing::MAX_OFFLINE_SAMPLES;
 use smoothing::{Entry, Record};
 use std::f64::consts::PI;
 
@@ -214,7 +215,8 @@ impl AttitudeEkf {
     /// end of a run it releases every sample's smoothed estimate, given every sample of the run
     /// (the [`Smoothing`] of the experiment layer; the forward pass's estimates are the causal
     /// filter's, bit for bit). The record grows by about 5 kB per epoch (a block, 0.08 s) and 24
-    /// bytes per sample: about 70 kB per second of data.
+    /// bytes per sample: about 70 kB per second of data. It holds at most
+    /// [`MAX_OFFLINE_SAMPLES`] samples: a step beyond is `TooLarge`, the filter unchanged.
     ///
     /// # Errors
     /// As [`new`](Self::new).

@@ -63,20 +63,31 @@ pub(super) struct Record {
 /// What a record names when it cannot grow.
 const RECORD: &str = "number of samples recorded by the offline attitude filter";
 
+/// The most samples the offline attitude filter records: 2²⁴, the most steps a run of the
+/// experiment layer records (about 16 hours at BROAD's 286 Hz, a record of about 4 GB).
+pub const MAX_OFFLINE_SAMPLES: usize = 1 << 24;
+
 impl Record {
     /// Room for one more sample and the entries a step makes (at most two transitions: a
     /// propagation and a renewal of the field offset), so that keeping them cannot fail.
+    ///
+    /// # Errors
+    /// [`OperatorError::TooLarge`] beyond [`MAX_OFFLINE_SAMPLES`] samples, or when the record
+    /// cannot grow.
     pub(super) fn reserve(&mut self) -> Result<(), OperatorError> {
         let samples = self.gyro.len().saturating_add(1);
-        let too_large = |_| OperatorError::TooLarge {
+        let too_large = || OperatorError::TooLarge {
             what: RECORD,
             value: samples,
-            max: liebayes_operators::MAX_ELEMENTS,
+            max: MAX_OFFLINE_SAMPLES,
         };
-        self.gyro.try_reserve(1).map_err(too_large)?;
-        self.filtered.try_reserve(2).map_err(too_large)?;
-        self.epochs.try_reserve(2).map_err(too_large)?;
-        self.transitions.try_reserve(2).map_err(too_large)
+        if samples > MAX_OFFLINE_SAMPLES {
+            return Err(too_large());
+        }
+        self.gyro.try_reserve(1).map_err(|_| too_large())?;
+        self.filtered.try_reserve(2).map_err(|_| too_large())?;
+        self.epochs.try_reserve(2).map_err(|_| too_large())?;
+        self.transitions.try_reserve(2).map_err(|_| too_large())
     }
 
     /// Keeps a successful step's sample (a prediction's gyroscope, if any) and entries (within the
@@ -196,5 +207,28 @@ impl Smoothing for AttitudeEkf {
         out.drain(first..first + record.released);
         record.released = record.gyro.len();
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The record refuses the sample past its limit (it grew without one, up to what the
+    /// allocator would give), and grows up to it.
+    #[test]
+    fn the_record_holds_at_most_its_limit() {
+        let mut record = Record {
+            gyro: vec![Vector3::zeros(); MAX_OFFLINE_SAMPLES - 1],
+            ..Record::default()
+        };
+        assert!(record.reserve().is_ok());
+        record.gyro.push(Vector3::zeros());
+        let error = record.reserve().unwrap_err();
+        assert!(
+            matches!(error, OperatorError::TooLarge { value, max, .. }
+                if value == MAX_OFFLINE_SAMPLES + 1 && max == MAX_OFFLINE_SAMPLES),
+            "{error}"
+        );
     }
 }
