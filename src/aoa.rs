@@ -13,9 +13,9 @@ use liebayes::experiments::Table;
 use liebayes::experiments::search::SearchSettings;
 use liebayes::experiments::{MAX_RUNS, MAX_STUDY_EPOCHS, Shard, Study};
 use liebayes::filters::aoa::{
-    Algorithm, DataModel, FILTER_MODELS, ModelChoice, PAPER_TABLE1, SquareTrack, TrackConfig,
-    TrackFilter, TruthModel, UpdateExample, compare_models, fit_angle_sigmas, particles_to_match,
-    square_track_anchors,
+    Algorithm, DataModel, FILTER_MODELS, MAX_SAMPLES, MIN_SAMPLES, ModelChoice, PAPER_TABLE1,
+    SquareTrack, TrackConfig, TrackFilter, TruthModel, UpdateExample, compare_models,
+    fit_angle_sigmas, particles_to_match, square_track_anchors,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -27,9 +27,6 @@ const MAX_PARTICLES: usize = 10_000_000;
 
 /// Half the last printed digit of the paper's Table 1 (two decimals).
 const PAPER_ROUNDING: f64 = 0.005;
-
-/// The largest number of simulated readings of the model comparison and the σ fit.
-const MAX_SAMPLES: usize = 100_000_000;
 
 /// Angle-of-arrival positioning: the paper's model comparison, single update and square track.
 #[derive(clap::Args, Debug, Clone)]
@@ -70,7 +67,8 @@ pub struct Table1Args {
     /// Which data models.
     #[arg(long, value_enum, default_value_t = Data::Both)]
     pub data: Data,
-    /// Monte Carlo samples of the comparison, and of the AE-fitted model's fit (the paper: 1e5).
+    /// Monte Carlo samples of the comparison, and of the AE-fitted model's fit: from 2 to 2^26
+    /// (the paper: 1e5).
     #[arg(long, default_value_t = 100_000)]
     pub samples: usize,
     /// The seed.
@@ -371,10 +369,16 @@ fn file_name(data: &DataModel) -> &'static str {
     }
 }
 
-/// Checks a sample count.
+/// Checks a count of simulated readings of the model comparison or the σ fit against the
+/// library's range, [`MIN_SAMPLES`] (the fewest with a standard error) to [`MAX_SAMPLES`], before
+/// any work.
 fn samples(what: &str, n: usize) -> Result<usize, CliError> {
-    if n == 0 || n > MAX_SAMPLES {
-        return Err(format!("{what} is {n}: it must be from 1 to {MAX_SAMPLES}").into());
+    if !(MIN_SAMPLES..=MAX_SAMPLES).contains(&n) {
+        return Err(format!(
+            "{what} is {n}: it must be from {MIN_SAMPLES} (a standard error needs two) to \
+             {MAX_SAMPLES}"
+        )
+        .into());
     }
     Ok(n)
 }
@@ -419,7 +423,7 @@ pub struct TrackArgs {
     /// Steps per run (64: one lap on average).
     #[arg(long, default_value_t = TrackConfig::default().epochs)]
     pub steps: usize,
-    /// Simulated readings of the AE-fitted filters' maximum-likelihood fit.
+    /// Simulated readings of the AE-fitted filters' maximum-likelihood fit: from 2 to 2^26.
     #[arg(long, default_value_t = 100_000)]
     pub fit_samples: usize,
     /// Runs of the near-optimal reference (a particle filter with --reference-particles), the first

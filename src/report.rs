@@ -216,9 +216,10 @@ pub fn check_merge_folders(dirs: &[PathBuf], out: &Path) -> Result<(), CliError>
 /// exact: the result does not depend on the order or the split).
 ///
 /// # Errors
-/// A folder without summaries, a file too large, unreadable or not a table, tables of one name
-/// whose titles or rows differ, or rows that do not merge (different studies, or runs in common:
-/// the same shard given twice). The message names the file.
+/// A folder without summaries, an entry named like a summary that is not a regular file (a FIFO,
+/// a folder, a device), a file too large, unreadable or not a table, tables of one name whose
+/// titles or rows differ, or rows that do not merge (different studies, or runs in common: the
+/// same shard given twice). The message names the file.
 pub fn merge(dirs: &[PathBuf]) -> Result<Vec<Table>, CliError> {
     let mut tables: Vec<Table> = Vec::new();
     for dir in dirs {
@@ -236,7 +237,11 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Vec<Table>, CliError> {
     Ok(tables)
 }
 
-/// The `*.summary.json` files of a folder, sorted by name.
+/// The `*.summary.json` files of a folder, sorted by name. An entry named like a summary must be a
+/// regular file (or a link to one), as a shard writes it: it is refused otherwise, before any file
+/// of the folder is read, since opening a FIFO would block until something writes into it, and a
+/// folder or a device is not a summary either. Entries named otherwise are not summaries and are
+/// left alone.
 fn summary_files(dir: &Path) -> Result<Vec<PathBuf>, CliError> {
     let cannot = || format!("cannot read the folder {}", dir.display());
     let mut files = Vec::new();
@@ -247,6 +252,17 @@ fn summary_files(dir: &Path) -> Result<Vec<PathBuf>, CliError> {
             .and_then(|n| n.to_str())
             .is_some_and(|n| n.ends_with(JSON_ENDING) && !n.starts_with('.'));
         if is_summary {
+            // `metadata` follows links: a link to a summary is read as the summary.
+            let metadata =
+                std::fs::metadata(&path).context(|| format!("cannot read {}", path.display()))?;
+            if !metadata.is_file() {
+                return Err(format!(
+                    "{} is named like a summary but is not a regular file (a FIFO, a folder or a \
+                     device): move it out of the folder",
+                    path.display()
+                )
+                .into());
+            }
             if files.len() == MAX_FILES_PER_FOLDER {
                 return Err(format!(
                     "{} holds more than {MAX_FILES_PER_FOLDER} summaries: split it",

@@ -361,6 +361,46 @@ fn merge_refuses_crafted_summaries() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// An entry named like a summary that is not a regular file is refused in one line naming it,
+/// before any file is read, nothing written: a FIFO `*.summary.json` used to block `merge` forever
+/// in its open (a hang here would be caught by the harness's time limit), and a folder of that
+/// name is not a summary either.
+#[cfg(unix)]
+#[test]
+fn merge_refuses_a_fifo_or_a_folder_named_like_a_summary() {
+    let dir = folder("merge-fifo");
+    let fifo = dir.join("fifo");
+    std::fs::create_dir_all(&fifo).unwrap();
+    let pipe = fifo.join("azimuth_line.summary.json");
+    let made = Command::new("mkfifo")
+        .arg(&pipe)
+        .status()
+        .expect("mkfifo runs");
+    assert!(made.success(), "mkfifo {}", pipe.display());
+    let nested = dir.join("nested");
+    std::fs::create_dir_all(nested.join("azimuth_line.summary.json")).unwrap();
+    for (input, entry) in [
+        (&fifo, &pipe),
+        (&nested, &nested.join("azimuth_line.summary.json")),
+    ] {
+        let out_dir = dir.join("out");
+        let out = liebayes(&[
+            "merge",
+            input.to_str().unwrap(),
+            "--out",
+            out_dir.to_str().unwrap(),
+        ]);
+        assert_fails(&out, "is not a regular file");
+        assert!(
+            text(&out.stderr).contains(entry.to_str().unwrap()),
+            "{}",
+            text(&out.stderr)
+        );
+        assert!(files(&out_dir).is_empty());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The angle-of-arrival parts write their tables and plots; the track study's per-run box plots
 /// come with its tables; bad settings fail at once and write nothing.
 #[test]
@@ -418,6 +458,11 @@ fn aoa_parts_write_their_files_and_refuse_bad_settings() {
     let e = empty.to_str().unwrap();
     for (args, needle) in [
         (vec!["aoa", "table1", "--samples", "0"], "--samples"),
+        (vec!["aoa", "table1", "--samples", "1"], "--samples is 1"),
+        (
+            vec!["aoa", "track", "--fit-samples", "1"],
+            "--fit-samples is 1",
+        ),
         (vec!["aoa", "table1", "--sigma-deg", "-1"], "--sigma-deg"),
         (vec!["aoa", "update", "--particles", "0"], "--particles"),
         (vec!["aoa", "track", "--runs", "0"], "--runs"),

@@ -297,7 +297,8 @@ def aoa_study(
     the poles) or "model2" (von Mises-Fisher, kappa = 1/sigma^2); truth "square" or
     "random-walk"; filters named as :class:`AoaFilter` ("PF-VMF", "EKF-AE-nominal",
     "UKF-AE-fitted", "EKF-AE-adaptive", ...) with the paper's parameters for the data (AE-fitted
-    fits its sigma on `fit_samples` readings drawn from `seed`).
+    fits its sigma on `fit_samples` readings drawn from `seed`, from 2 to 2^26: a ValueError
+    otherwise).
 
     Returns {filter label: StudyResult} with position_error, x/y/z_error, x/y/z_sigma (m, rms),
     nees_position (chi2(3)), log_evidence and, for the Kalman filters, nis."""

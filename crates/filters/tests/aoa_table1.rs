@@ -4,8 +4,8 @@
 //! itself.
 
 use liebayes_filters::aoa::{
-    AzEl, DataModel, FILTER_MODELS, MAX_SAMPLES, ModelComparison, PAPER_TABLE1, compare_models,
-    fit_angle_sigmas, fit_angle_sigmas_to,
+    AzEl, DataModel, FILTER_MODELS, MAX_SAMPLES, MIN_SAMPLES, ModelComparison, PAPER_TABLE1,
+    compare_models, fit_angle_sigmas, fit_angle_sigmas_to,
 };
 use liebayes_manifolds::wrap_angle;
 use liebayes_operators::OperatorError;
@@ -244,6 +244,39 @@ fn bad_input_is_refused_with_a_typed_error() {
         Err(OperatorError::OutOfRange { .. })
     ));
     let good = AzEl::new(0.1, 0.2);
-    assert!(fit_angle_sigmas_to(&[(AzEl::new(0.0, 2.0), good)]).is_err());
-    assert!(fit_angle_sigmas_to(&[(good, AzEl::new(f64::NAN, 0.0))]).is_err());
+    assert!(fit_angle_sigmas_to(&[(AzEl::new(0.0, 2.0), good), (good, good)]).is_err());
+    assert!(fit_angle_sigmas_to(&[(good, good), (good, AzEl::new(f64::NAN, 0.0))]).is_err());
+}
+
+/// One sample has no standard error: the comparison gave every standard error as 0 (its
+/// covariance set to zero), so the command line's "beyond rounding" column was inf, and the fit's
+/// sandwich estimate was 0 too. Both refuse fewer than [`MIN_SAMPLES`] = 2 with a typed error; from
+/// two samples on, every standard error is positive and finite.
+#[test]
+fn one_sample_is_refused_for_it_has_no_standard_error() {
+    assert_eq!(MIN_SAMPLES, 2);
+    let fitted = (0.3, 0.17);
+    let one = |r: Result<_, OperatorError>| {
+        matches!(
+            r,
+            Err(OperatorError::OutOfRange { value, .. }) if value == 1.0
+        )
+    };
+    for (data, _) in models() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        assert!(one(compare_models(&data, 1, fitted, &mut rng).map(|_| ())));
+        assert!(one(fit_angle_sigmas(&data, 1, &mut rng).map(|_| ())));
+        let table = compare_models(&data, 2, fitted, &mut rng).unwrap();
+        for row in &table.rows {
+            for se in [row.log_likelihood_se, row.normalised_se] {
+                assert!(se > 0.0 && se.is_finite(), "{row:?}");
+            }
+        }
+        let fit = fit_angle_sigmas(&data, 2, &mut rng).unwrap();
+        for se in [fit.sigma_az_se, fit.sigma_el_se] {
+            assert!(se > 0.0 && se.is_finite(), "{fit:?}");
+        }
+    }
+    let good = AzEl::new(0.1, 0.2);
+    assert!(one(fit_angle_sigmas_to(&[(good, good)]).map(|_| ())));
 }

@@ -84,7 +84,8 @@ impl Scorer<PositionAzimuth, PairedEstimate<AzimuthDensity, CircularGrid<Gaussia
         values: &mut [f64],
     ) {
         let (exact, grid) = (&pair.first, &pair.second);
-        let grid_joint = log_joint(grid, pair.log_evidence[1]);
+        let grid_joint =
+            log_joint(grid, pair.log_evidence[1]).expect("an update's log evidence is finite");
         values.fill(0.0);
         for (j, cell) in grid.cells().iter().enumerate() {
             let a = grid.rotation(j);

@@ -6,7 +6,7 @@
 //! after a step that failed. The fixed cases at the end of the azimuth part are the regressions of
 //! reported failures (`LIEBAYES_FUZZ_CASES` runs the properties long).
 
-use liebayes_densities::ManifoldGaussian;
+use liebayes_densities::{Gaussian, ManifoldGaussian};
 use liebayes_experiments::{
     Estimator, ExperimentError, MAX_EPOCHS, MAX_RUNS, MAX_STUDY_EPOCHS, Recursive, RecursiveFilter,
     Scenario, Shard, StepOf, StepReport, Study, replay,
@@ -19,7 +19,7 @@ use liebayes_filters::aoa::{
 use liebayes_filters::azimuth::{
     AzimuthDensity, AzimuthEstimate, AzimuthMoments, AzimuthScenario, AzimuthScorer, Config,
     Method, Motion, PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess, ekf,
-    exact, grid_filter, marginalized_filter, particle_filter, ukf,
+    exact, grid_filter, log_joint, marginalized_filter, particle_filter, ukf,
 };
 use liebayes_operators::grid::CircularGrid;
 use liebayes_operators::particle::ParticleSet;
@@ -1049,4 +1049,119 @@ fn the_track_helpers_refuse_what_they_cannot_place() {
     assert!(backwards.step_length().is_err());
     let (mean, std) = config.step_length().unwrap();
     assert!(mean > 0.0 && std > 0.0);
+}
+
+/// `SquareTrack::readings` of a position it cannot place: a NaN or infinite coordinate, a position
+/// exactly at an anchor, one so far that its distance overflows. Each was read as the anchor's
+/// z-axis, a plausible reading of the wrong direction; each is now a typed error naming the
+/// position. Next to an anchor, the readings are canonical.
+#[test]
+fn the_track_refuses_to_read_a_position_it_cannot_place() {
+    let track = SquareTrack::paper(DataModel::VonMisesFisher { kappa: 32.8 }).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let theta = Vector3::new(1.0, bad, 0.0);
+        assert!(
+            matches!(
+                track.readings(&theta, &mut rng),
+                Err(OperatorError::NonFinite { what, .. }) if what.contains("true position")
+            ),
+            "{theta:?}"
+        );
+    }
+    let far = Vector3::new(f64::MAX, f64::MAX, 0.0);
+    assert!(matches!(
+        track.readings(&far, &mut rng),
+        Err(OperatorError::OutOfRange { value, .. }) if value == f64::INFINITY
+    ));
+    for anchor in track.anchors() {
+        assert!(matches!(
+            track.readings(anchor.position(), &mut rng),
+            Err(OperatorError::OutOfRange { what, value, .. })
+                if value == 0.0 && what.contains("true position")
+        ));
+        let next = anchor.position() + Vector3::new(0.0, 0.0, 1e-300);
+        for reading in track.readings(&next, &mut rng).unwrap() {
+            assert!(reading.check_canonical().is_ok(), "{reading:?}");
+        }
+    }
+}
+
+/// `DataModel::sample` trusted its public fields: σ = NaN gave NaN readings, and κ = −1 (which the
+/// von Mises-Fisher family refuses) silently gave readings uniform over the sphere. It refuses them
+/// as [`DataModel::validate`] does, and a true direction that is not a unit vector, before drawing.
+#[test]
+fn a_data_model_samples_only_with_valid_fields_and_a_unit_direction() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let up = Vector3::z();
+    for bad in [
+        DataModel::NormalWithFlip {
+            sigma_az: f64::NAN,
+            sigma_el: 0.1,
+        },
+        DataModel::NormalWithFlip {
+            sigma_az: 0.1,
+            sigma_el: -0.1,
+        },
+        DataModel::NormalWithFlip {
+            sigma_az: f64::INFINITY,
+            sigma_el: 0.1,
+        },
+        DataModel::VonMisesFisher { kappa: -1.0 },
+        DataModel::VonMisesFisher { kappa: 0.0 },
+        DataModel::VonMisesFisher { kappa: f64::NAN },
+    ] {
+        // As text: a NaN value would not equal itself.
+        let refused = bad.sample(&up, &mut rng).map_err(|e| e.to_string());
+        let invalid = bad.validate().map_err(|e| e.to_string());
+        assert!(refused.is_err(), "{bad:?}: {refused:?}");
+        assert_eq!(refused.err(), invalid.err(), "{bad:?}");
+    }
+    for data in [
+        DataModel::NormalWithFlip {
+            sigma_az: 0.1,
+            sigma_el: 0.1,
+        },
+        DataModel::VonMisesFisher { kappa: 32.8 },
+    ] {
+        for direction in [
+            Vector3::zeros(),
+            Vector3::new(f64::NAN, 0.0, 1.0),
+            Vector3::new(2.0, 0.0, 0.0),
+        ] {
+            assert!(
+                matches!(
+                    data.sample(&direction, &mut rng),
+                    Err(OperatorError::Manifold { .. })
+                ),
+                "{data:?} {direction:?}"
+            );
+        }
+        let reading = data.sample(&up, &mut rng).unwrap();
+        assert!(reading.check_canonical().is_ok(), "{reading:?}");
+    }
+}
+
+/// `log_joint` of a log evidence that is not finite was NaN in every cell (NaN), −∞ in every cell,
+/// or +∞ in every cell but NaN (−∞ + ∞) in those of zero weight: it is refused. A finite one gives
+/// −∞ exactly in those cells and finite values elsewhere.
+#[test]
+fn the_grid_joint_refuses_a_log_evidence_that_is_not_finite() {
+    let cell = Gaussian::new(Vector2::zeros(), Matrix2::identity()).unwrap();
+    let grid = CircularGrid::from_log_weights(&[0.0, f64::NEG_INFINITY, -1.0, -2.0], vec![cell; 4])
+        .unwrap();
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        assert!(
+            matches!(
+                log_joint(&grid, bad),
+                Err(OperatorError::NonFinite { what, .. }) if what.contains("log evidence")
+            ),
+            "{bad}"
+        );
+    }
+    let joint = log_joint(&grid, -3.0).unwrap();
+    assert_eq!(joint[1], f64::NEG_INFINITY);
+    for j in [0, 2, 3] {
+        assert!(joint[j].is_finite(), "{joint:?}");
+    }
 }

@@ -34,6 +34,11 @@ use rand_distr::{Distribution, StandardNormal};
 /// (2²⁶ ≈ 6.7e7; the fit stores 32 bytes per sample).
 pub const MAX_SAMPLES: usize = 1 << 26;
 
+/// The fewest Monte Carlo samples [`compare_models`] and [`fit_angle_sigmas`] accept: every result
+/// comes with a standard error, which one sample cannot give (its sample variance is 0/0; the
+/// sandwich estimate of the fit is 0, the score of a single term vanishing at its own maximum).
+pub const MIN_SAMPLES: usize = 2;
+
 /// The filter models of Table 1, in the order of [`ModelComparison::rows`].
 pub const FILTER_MODELS: [&str; 4] = ["AE-nominal", "AE-fitted", "AE-adaptive", "VMF"];
 
@@ -81,13 +86,13 @@ fn uniform_direction<R: Rng + ?Sized>(rng: &mut R) -> Vector3<f64> {
     Vector3::z()
 }
 
-/// Checks a sample count against [1, [`MAX_SAMPLES`]].
+/// Checks a sample count against [[`MIN_SAMPLES`], [`MAX_SAMPLES`]].
 fn check_samples(samples: usize) -> Result<(), OperatorError> {
-    if samples == 0 {
+    if samples < MIN_SAMPLES {
         return Err(OperatorError::OutOfRange {
             what: "number of Monte Carlo samples",
-            value: 0.0,
-            range: "at least 1 (the paper uses 1e5)",
+            value: samples as f64,
+            range: "at least 2, for a standard error (the paper uses 1e5)",
         });
     }
     if samples > MAX_SAMPLES {
@@ -158,9 +163,9 @@ fn golden_maximum(lo: f64, hi: f64, f: impl Fn(f64) -> f64) -> f64 {
 /// term in ln σ (central differences), `se(σ) = σ se(ln σ)`.
 ///
 /// # Errors
-/// [`OperatorError::OutOfRange`] for no readings, or a reading or a direction that is not finite
-/// and canonical (as [`AzEl::check_canonical`]); [`OperatorError::TooLarge`] above
-/// [`MAX_SAMPLES`].
+/// [`OperatorError::OutOfRange`] for fewer than [`MIN_SAMPLES`] readings, or a reading or a
+/// direction that is not finite and canonical (as [`AzEl::check_canonical`]);
+/// [`OperatorError::TooLarge`] above [`MAX_SAMPLES`].
 pub fn fit_angle_sigmas_to(pairs: &[(AzEl, AzEl)]) -> Result<AngleSigmaFit, OperatorError> {
     check_samples(pairs.len())?;
     for (y, y0) in pairs {
@@ -202,7 +207,7 @@ pub fn fit_angle_sigmas_to(pairs: &[(AzEl, AzEl)]) -> Result<AngleSigmaFit, Oper
 /// sphere (the paper: 1e5).
 ///
 /// # Errors
-/// As [`DataModel::validate`]; [`OperatorError::OutOfRange`] for `samples = 0`,
+/// As [`DataModel::validate`]; [`OperatorError::OutOfRange`] below [`MIN_SAMPLES`],
 /// [`OperatorError::TooLarge`] above [`MAX_SAMPLES`] or when the readings' memory cannot be
 /// allocated (checked before anything is drawn).
 pub fn fit_angle_sigmas<R: Rng + ?Sized>(
@@ -220,10 +225,10 @@ pub fn fit_angle_sigmas<R: Rng + ?Sized>(
             value: samples,
             max: MAX_SAMPLES,
         })?;
-    pairs.extend((0..samples).map(|_| {
+    for _ in 0..samples {
         let theta = uniform_direction(rng);
-        (data.sample(&theta, rng), AzEl::of_vector(&theta))
-    }));
+        pairs.push((data.sample(&theta, rng)?, AzEl::of_vector(&theta)));
+    }
     fit_angle_sigmas_to(&pairs)
 }
 
@@ -269,7 +274,7 @@ pub struct ModelComparison {
 ///
 /// # Errors
 /// As [`DataModel::validate`]; a fitted σ outside [`SIGMA_RANGE`] (as the noise's σ check);
-/// [`OperatorError::OutOfRange`] for `samples = 0`, [`OperatorError::TooLarge`] above
+/// [`OperatorError::OutOfRange`] below [`MIN_SAMPLES`], [`OperatorError::TooLarge`] above
 /// [`MAX_SAMPLES`]; [`OperatorError::NonFinite`] for a reading exactly at a pole of the anchor (a
 /// zero area element: probability zero).
 pub fn compare_models<R: Rng + ?Sized>(
@@ -306,7 +311,7 @@ pub fn compare_models<R: Rng + ?Sized>(
     let (mut mean, mut comoment) = (Vector4::<f64>::zeros(), Matrix4::<f64>::zeros());
     for i in 0..samples {
         let theta = uniform_direction(rng);
-        let y = data.sample(&theta, rng);
+        let y = data.sample(&theta, rng)?;
         let truth = AzEl::of_vector(&theta);
         let (az, el) = adaptive
             .at(truth.elevation)
@@ -330,12 +335,9 @@ pub fn compare_models<R: Rng + ?Sized>(
         mean += delta / (i + 1) as f64;
         comoment += delta * (values - mean).transpose();
     }
+    // The sample covariance / n: at least two samples, checked above.
     let n = samples as f64;
-    let covariance = if samples > 1 {
-        comoment / ((n - 1.0) * n)
-    } else {
-        Matrix4::zeros()
-    };
+    let covariance = comoment / ((n - 1.0) * n);
     let peak = mean.max();
     let exp = mean.map(|l| (l - peak).exp());
     let p = exp / exp.sum();

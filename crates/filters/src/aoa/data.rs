@@ -55,12 +55,31 @@ impl DataModel {
         }
     }
 
-    /// A reading of the true unit direction `direction` (anchor axes), canonical. The parameters
-    /// are assumed valid ([`validate`](Self::validate)).
-    pub fn sample<R: Rng + ?Sized>(&self, direction: &Vector3<f64>, rng: &mut R) -> AzEl {
-        match *self {
+    /// A reading of the true unit direction `direction` (anchor axes), canonical: Model I adds
+    /// `σ n` (n standard normal) to its azimuth and elevation and reduces the result, Model II draws
+    /// a unit vector from `VMF(direction, κ)`.
+    ///
+    /// The fields are public, so they are checked here ([`validate`](Self::validate)) rather than
+    /// trusted: a NaN σ would give NaN readings, and a κ outside [`KAPPA_RANGE`](super::KAPPA_RANGE)
+    /// has no von Mises-Fisher distribution to draw from. The direction is checked too: a reading
+    /// is drawn about a unit vector.
+    ///
+    /// # Errors
+    /// As [`validate`](Self::validate); [`OperatorError::Manifold`] for a direction that is not
+    /// finite or not of unit norm (normalise it first, e.g. with `S2::from_vector_normalizing`).
+    pub fn sample<R: Rng + ?Sized>(
+        &self,
+        direction: &Vector3<f64>,
+        rng: &mut R,
+    ) -> Result<AzEl, OperatorError> {
+        self.validate()?;
+        let direction = S2::new(*direction).map_err(|source| OperatorError::Manifold {
+            what: "the true direction of a reading (a unit vector in the anchor's axes)",
+            source,
+        })?;
+        Ok(match *self {
             DataModel::NormalWithFlip { sigma_az, sigma_el } => {
-                let truth = AzEl::of_vector(direction);
+                let truth = AzEl::of_vector(direction.as_vector());
                 let (n1, n2): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
                 AzEl::new(
                     truth.azimuth + sigma_az * n1,
@@ -69,11 +88,11 @@ impl DataModel {
                 .canonical()
             }
             DataModel::VonMisesFisher { kappa } => {
-                // κ was checked: the distribution exists.
-                let vmf = VonMisesFisher::new(S2::new_unchecked(*direction), kappa)
-                    .unwrap_or_else(|_| VonMisesFisher::uniform());
+                // κ was validated (KAPPA_RANGE lies inside the family's range); the family's own
+                // check is passed on all the same, never replaced by another distribution.
+                let vmf = VonMisesFisher::new(direction, kappa)?;
                 AzEl::of_vector(Density::sample(&vmf, rng).as_vector())
             }
-        }
+        })
     }
 }

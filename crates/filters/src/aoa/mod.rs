@@ -29,8 +29,8 @@ mod scenario;
 
 pub use anchor::{Anchor, POSITION_LIMIT, square_track_anchors};
 pub use comparison::{
-    AngleSigmaFit, ComparisonRow, FILTER_MODELS, MAX_SAMPLES, ModelComparison, PAPER_TABLE1,
-    PaperColumn, compare_models, fit_angle_sigmas, fit_angle_sigmas_to,
+    AngleSigmaFit, ComparisonRow, FILTER_MODELS, MAX_SAMPLES, MIN_SAMPLES, ModelComparison,
+    PAPER_TABLE1, PaperColumn, compare_models, fit_angle_sigmas, fit_angle_sigmas_to,
 };
 pub use data::DataModel;
 pub use direction::AzEl;

@@ -2,6 +2,7 @@
 
 use super::anchor::{Anchor, square_track_anchors};
 use super::data::DataModel;
+use super::direction::AzEl;
 use super::filter::Prior;
 use super::model::{Position, Readings};
 use super::process::RandomWalk;
@@ -173,8 +174,8 @@ impl TrackConfig {
 /// The square track of the paper's Sec. 4.3: the user walks counter-clockwise around a square from
 /// the origin, each step of random length (12) (or, with [`TruthModel::RandomWalk`], follows the
 /// filters' random walk from the origin), and N anchors read its direction with noise from a
-/// [`DataModel`]. A reading of a position at an anchor (possible only for the random walk, with
-/// probability zero) is drawn about the anchor's z-axis.
+/// [`DataModel`]. A position at an anchor (possible only for the random walk, with probability
+/// zero) has no direction from it, hence no readings: its step has no measurement.
 ///
 /// A run has [`TrackConfig::epochs`] steps; step k (time kδ) moves the user, gives the filters the
 /// input δ (their random walk (13)) and the readings of every anchor.
@@ -247,15 +248,38 @@ impl<const N: usize> SquareTrack<N> {
         &self.config
     }
 
-    /// The readings of every anchor of the true position θ (never at an anchor: checked at
-    /// construction).
-    pub fn readings(&self, theta: &Vector3<f64>, rng: &mut impl Rng) -> Readings<N> {
-        std::array::from_fn(|j| {
-            let direction = self.anchors[j]
-                .direction(theta)
-                .map_or_else(Vector3::z, |(d, _)| d);
-            self.data.sample(&direction, rng)
-        })
+    /// The readings of every anchor of the true position θ (world axes, m): each drawn from the
+    /// data model ([`DataModel::sample`]) at the unit direction of θ in the anchor's axes,
+    /// `R (θ − s)/|θ − s|`.
+    ///
+    /// # Errors
+    /// [`OperatorError::NonFinite`] for a coordinate of θ that is not finite;
+    /// [`OperatorError::OutOfRange`] for a θ an anchor has no direction of: at the anchor
+    /// (distance 0), or so far from it that the distance overflows (∞). As [`DataModel::sample`]
+    /// otherwise.
+    pub fn readings(
+        &self,
+        theta: &Vector3<f64>,
+        rng: &mut impl Rng,
+    ) -> Result<Readings<N>, OperatorError> {
+        if let Some(&value) = theta.iter().find(|v| !v.is_finite()) {
+            return Err(OperatorError::NonFinite {
+                what: "true position theta (m)",
+                value,
+            });
+        }
+        let mut readings = [AzEl::default(); N];
+        for (reading, anchor) in readings.iter_mut().zip(&self.anchors) {
+            let Some((direction, _)) = anchor.direction(theta) else {
+                return Err(OperatorError::OutOfRange {
+                    what: "distance of the true position theta from an anchor (m)",
+                    value: (theta - anchor.position()).norm(),
+                    range: "(0, 1.8e308]: an anchor has no direction of a position at itself",
+                });
+            };
+            *reading = self.data.sample(&direction, rng)?;
+        }
+        Ok(readings)
     }
 }
 
@@ -309,12 +333,14 @@ impl<const N: usize> Iterator for TrackSteps<'_, N> {
                 self.position
             }
         };
-        let readings = self.track.readings(&theta, &mut *self.rng);
+        // θ is finite and the data model valid (checked at construction), so the readings fail
+        // only at an anchor (the random walk's, with probability zero): no measurement then.
+        let measurement = self.track.readings(&theta, &mut *self.rng).ok();
         Some(Step {
             time: self.k as f64 * config.delta,
             input: config.delta,
             truth: Position::new_unchecked(theta),
-            measurement: Some(readings),
+            measurement,
         })
     }
 }

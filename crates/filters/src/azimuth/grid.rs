@@ -108,13 +108,28 @@ pub fn grid_filter(
 }
 
 /// `ln p(Aⱼ, z₁..ₖ)` (a density in A) for every cell j of a grid whose updates have summed to the
-/// log evidence `ln p(z₁..ₖ)`: `ln wⱼ + ln p(z₁..ₖ) − ln(2π/n)`.
-pub fn log_joint(grid: &CircularGrid<Gaussian<2>>, log_evidence: f64) -> Vec<f64> {
+/// log evidence `ln p(z₁..ₖ)`: `ln wⱼ + ln p(z₁..ₖ) − ln(2π/n)`; −∞ in a cell of zero weight.
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] for a log evidence that is not finite (every update that succeeds
+/// reports a finite one): a NaN would make every cell NaN, −∞ every cell −∞, and +∞ every cell +∞
+/// but those of zero weight, NaN (−∞ + ∞).
+pub fn log_joint(
+    grid: &CircularGrid<Gaussian<2>>,
+    log_evidence: f64,
+) -> Result<Vec<f64>, OperatorError> {
+    if !log_evidence.is_finite() {
+        return Err(OperatorError::NonFinite {
+            what: "log evidence ln p(z_1..k) of the grid's updates",
+            value: log_evidence,
+        });
+    }
     let cell = (2.0 * std::f64::consts::PI / grid.len() as f64).ln();
-    grid.log_weights()
+    Ok(grid
+        .log_weights()
         .iter()
         .map(|l| l + log_evidence - cell)
-        .collect()
+        .collect())
 }
 
 /// `(E r, Cov r)` by the trapezoid rule over the grid (the mixture of the per-angle Gaussians) and
