@@ -272,9 +272,11 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
         let mean =
             liebayes_manifolds::weighted_mean(first, pairs.clone(), MeanSettings::default())?;
         let total: f64 = weights.iter().sum();
+        // Each residual scaled by √(w / total) before its outer product: a sample of weight 0 adds
+        // exactly nothing, however far (r rᵀ alone overflows beyond 1e154, and ∞ · 0 is NaN).
         let covariance = pairs.fold(SMatrix::<f64, D, D>::zeros(), |p, (x, w)| {
-            let r = mean.local(x);
-            p + r * r.transpose() * (w / total)
+            let s = mean.local(x) * (w / total).sqrt();
+            p + s * s.transpose()
         });
         Self::new(mean, covariance)
     }

@@ -323,3 +323,44 @@ impl<T> ToStringErr for Result<T, liebayes_densities::DensityError> {
             .unwrap_or_default()
     }
 }
+
+/// A sample of weight zero adds nothing to a fit, however far: its outer product overflowed
+/// (1e200² = ∞) and ∞ · 0 made the covariance NaN, so the fit failed with the wrong error.
+#[test]
+fn a_far_sample_of_weight_zero_does_not_spoil_a_fit() {
+    let at = |x: f64| Rn::<f64, 1>::new(Vector1::new(x)).unwrap();
+    let fit = ManifoldGaussian::fit(&[at(0.0), at(1.0), at(1e200)], &[1.0, 1.0, 0.0]).unwrap();
+    assert_eq!(fit.mean().coords()[0], 0.5);
+    assert!((fit.covariance()[0] - 0.25).abs() < 1e-15);
+}
+
+/// The public quadrature helpers of `testing`: a rule of more than 200 points per axis indexed
+/// past the 200-node Hermite rule (a panic), and `usize::MAX` points stepped down one at a time (a
+/// hang). Both now give a bounded rule that integrates the Gaussian's mass.
+#[test]
+fn testing_quadrature_bounds_its_points() {
+    use liebayes_densities::testing::quadrature;
+    let (mean, covariance) = (Vector1::new(0.5), Matrix1::new(2.0));
+    for points in [201, 10_000, usize::MAX] {
+        let nodes = quadrature::rn::<1>(&mean, &covariance, points);
+        assert!(nodes.len() <= quadrature::MAX_HERMITE_NODES, "{points}");
+        // Against the Lebesgue measure: the Gaussian's own density integrates to 1.
+        let gaussian = Gaussian::new(mean, covariance).unwrap();
+        let mass: f64 = nodes
+            .iter()
+            .map(|(x, w)| w * gaussian.log_pdf(x).exp())
+            .sum();
+        assert!((mass - 1.0).abs() < 1e-12, "{points}: {mass}");
+    }
+}
+
+/// `check_sampler` with no draws divided 0 by 0 and failed with "sample mean NaN"; it now fails
+/// naming n.
+#[test]
+fn the_sampler_law_needs_a_draw() {
+    use liebayes_densities::VonMises;
+    use liebayes_densities::testing::laws::check_sampler;
+    let p = VonMises::new(So2::identity(), 2.0).unwrap();
+    let error = check_sampler(&p, &mut ChaCha8Rng::seed_from_u64(1), 0).unwrap_err();
+    assert!(error.to_string().contains("n = 0"), "{error}");
+}

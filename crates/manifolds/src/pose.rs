@@ -84,8 +84,10 @@ fn linear_huge<T: Real, const N: usize, const R: usize, const C: usize>(
 
 /// The product `a b`, free of overflow into NaN for all finite factors: when the product of the
 /// largest entries exceeds [`LARGE_COORDINATE`](crate::constants::Thresholds::LARGE_COORDINATE),
-/// both factors are scaled to entries of at most 1 first and the result, scaled back, saturates at
-/// the largest finite value.
+/// the plain product is kept where it is finite, and an entry that overflows is summed again with
+/// its row of `a` and its column of `b` scaled to entries of at most 1, scaled back and saturated
+/// at the largest finite value. So an entry keeps its own precision: a small entry beside huge ones
+/// (the rotation block of a pose with a translation of 1e300) is not lost to a common scale.
 #[inline]
 pub(crate) fn mul_saturating<T: Real, const R: usize, const K: usize, const C: usize>(
     a: &SMatrix<T, R, K>,
@@ -99,10 +101,11 @@ pub(crate) fn mul_saturating<T: Real, const R: usize, const K: usize, const C: u
 }
 
 /// `l a r` (a conjugation `R a Rᵀ` or `H a H⁻¹`), free of overflow into NaN or ±∞ for finite
-/// factors: below the large-coordinate bound the plain products; beyond it each factor is
-/// divided by its largest magnitude, the three are multiplied at that scale (so that terms that
-/// cancel in the exact result cancel here too) and the scales put back, saturating at the
-/// largest finite value.
+/// factors: below the large-coordinate bound the plain products; beyond it each entry
+/// `Σₖₘ lᵢₖ aₖₘ rₘⱼ` is summed term by term, and one that overflows is summed again with row i of
+/// `l`, `a` and column j of `r` each divided by its largest magnitude (so that terms that cancel in
+/// the exact result cancel here too) and the scales put back, saturating at the largest finite
+/// value. Every entry keeps its own precision, whatever the size of the others.
 #[inline]
 pub(crate) fn conjugate_saturating<T: Real, const N: usize>(
     l: &SMatrix<T, N, N>,
@@ -123,16 +126,24 @@ fn conjugate_huge<T: Real, const N: usize>(
     l: &SMatrix<T, N, N>,
     a: &SMatrix<T, N, N>,
     r: &SMatrix<T, N, N>,
-    mut scales: [T; 3],
+    [_, sa, _]: [T; 3],
 ) -> SMatrix<T, N, N> {
-    if scales.iter().any(|&s| s == T::zero()) {
-        return SMatrix::zeros();
-    }
-    let unit = (l / scales[0]) * (a / scales[1]) * (r / scales[2]);
-    // The smaller scales first, so that a finite result is not lost to an intermediate overflow.
-    scales.sort_by(|x, y| x.partial_cmp(y).unwrap_or(std::cmp::Ordering::Equal));
-    let max = T::max_finite();
-    unit.map(|x| (x * scales[0] * scales[1] * scales[2]).clamp(-max, max))
+    SMatrix::from_fn(|i, j| {
+        let entry = |(sl, sa, sr): (T, T, T)| {
+            (0..N)
+                .flat_map(|k| (0..N).map(move |m| (k, m)))
+                .fold(T::zero(), |sum, (k, m)| {
+                    sum + (l[(i, k)] / sl) * (a[(k, m)] / sa) * (r[(m, j)] / sr)
+                })
+        };
+        let plain = entry((T::one(), T::one(), T::one()));
+        if plain.is_finite() {
+            return plain;
+        }
+        let (sl, sr) = (l.row(i).amax(), r.column(j).amax());
+        // The plain sum overflowed, so no scale is zero.
+        scaled_back(entry((sl, sa, sr)), [sl, sa, sr])
+    })
 }
 
 /// [`mul_saturating`] for factors beyond the large-coordinate bound.
@@ -142,15 +153,29 @@ fn mul_huge<T: Real, const R: usize, const K: usize, const C: usize>(
     a: &SMatrix<T, R, K>,
     b: &SMatrix<T, K, C>,
 ) -> SMatrix<T, R, C> {
-    let (sa, sb) = (a.amax(), b.amax());
-    if sa == T::zero() || sb == T::zero() {
-        return SMatrix::zeros();
+    let mut product = a * b;
+    for ((i, j), entry) in (0..C)
+        .flat_map(|j| (0..R).map(move |i| (i, j)))
+        .zip(product.iter_mut())
+    {
+        if !entry.is_finite() {
+            // The plain sum overflowed, so neither scale is zero.
+            let (sa, sb) = (a.row(i).amax(), b.column(j).amax());
+            let unit = (0..K).fold(T::zero(), |sum, k| {
+                sum + (a[(i, k)] / sa) * (b[(k, j)] / sb)
+            });
+            *entry = scaled_back(unit, [sa, sb, T::one()]);
+        }
     }
-    // Multiply by the smaller scale first, so that a finite result is not lost to an intermediate
-    // overflow.
-    let (small, large) = if sa < sb { (sa, sb) } else { (sb, sa) };
+    product
+}
+
+/// `unit` times the product of `scales`, the smaller scales first (so that a finite result is not
+/// lost to an intermediate overflow), saturating at the largest finite value.
+fn scaled_back<T: Real>(unit: T, mut scales: [T; 3]) -> T {
+    scales.sort_by(|x, y| x.partial_cmp(y).unwrap_or(std::cmp::Ordering::Equal));
     let max = T::max_finite();
-    ((a / sa) * (b / sb)).map(|x| (x * small * large).clamp(-max, max))
+    (unit * scales[0] * scales[1] * scales[2]).clamp(-max, max)
 }
 
 /// Checks that the last `K` rows of a finite `N × N` matrix are those of the identity (`[0, …, 0, 1]`

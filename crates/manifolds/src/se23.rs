@@ -298,8 +298,7 @@ impl<T: Real> LieGroup<9> for Se23<T> {
     /// `M a M⁻¹` with the 5×5 matrices of `self` and its inverse; saturating, never NaN, for entries
     /// whose products overflow.
     fn conjugate_algebra(&self, a: &Matrix5<T>) -> Matrix5<T> {
-        let left = mul_saturating(&self.to_matrix(), a);
-        mul_saturating(&left, &self.inverse().to_matrix())
+        crate::pose::conjugate_saturating(&self.to_matrix(), a, &self.inverse().to_matrix())
     }
 
     /// `[[R, hat(p) R, 0], [0, R, 0], [0, hat(v) R, R]]` in the order `[ρ; φ; ν]`.

@@ -311,8 +311,11 @@ impl<T: Real> LieGroup<6> for Se3<T> {
     /// `H a H⁻¹` with the homogeneous matrices of `self` and its inverse; saturating, never NaN,
     /// for entries whose products overflow.
     fn conjugate_algebra(&self, a: &Matrix4<T>) -> Matrix4<T> {
-        let left = mul_saturating(&self.to_homogeneous(), a);
-        mul_saturating(&left, &self.inverse().to_homogeneous())
+        crate::pose::conjugate_saturating(
+            &self.to_homogeneous(),
+            a,
+            &self.inverse().to_homogeneous(),
+        )
     }
 
     /// `[[R, hat(t) R], [0, R]]`.

@@ -717,6 +717,25 @@ fn conjugations_near_the_largest_value_are_finite() {
     let [w, x, y, z] = q.to_quaternion_wxyz();
     let plain = Quaternion::new(w, x, y, z) * a * Quaternion::new(w, -x, -y, -z);
     assert!((q.conjugate_algebra(&a).coords - plain.coords).amax() <= 1e-15);
+    // A pose with a translation of 1e200 or 1e300: the products were taken at one common scale,
+    // so the rotation block (entries of 1) fell to 0 against the translation. Each entry now keeps
+    // its own precision: the exact conjugation, block by block.
+    for t in [1e200, 1e300] {
+        let x = Se2::new(So2::identity(), Vector2::new(t, 0.0)).unwrap();
+        let c = x.conjugate_algebra(&Se2::hat(&Vector3::new(1.0, 0.0, 1.0)));
+        let expected = Matrix3::new(0.0, -1.0, 1.0, 1.0, 0.0, -t, 0.0, 0.0, 0.0);
+        assert!((c - expected).amax() <= 1e-15 * t, "{c}");
+        assert_eq!((c[(0, 1)], c[(1, 0)], c[(0, 2)]), (-1.0, 1.0, 1.0), "{c}");
+        let y = Se3::new(So3::identity(), Vector3::new(t, 0.0, 0.0)).unwrap();
+        let v = Vector6::new(t, 0.0, 0.0, 0.0, 0.0, 1.0);
+        let c = y.conjugate_algebra(&Se3::hat(&v));
+        assert_eq!(Se3::vee(&c), Vector6::new(t, -t, 0.0, 0.0, 0.0, 1.0), "{c}");
+        assert_eq!(Se3::vee(&c), y.adjoint() * v);
+        // World-frame errors of the same pose: J = [I | −hat(R p + t)], the identity kept.
+        let j = Left::new(y).j_act_self(&Vector3::new(t, 0.0, 0.0));
+        assert_eq!(j.fixed_view::<3, 3>(0, 0), Matrix3::identity(), "{j}");
+        assert_eq!(j[(1, 5)], 2.0 * t, "{j}");
+    }
     // vee doubles the vector part: it saturates beyond half the largest value.
     assert_eq!(
         Su2::vee(&Quaternion::new(0.0, max, -max, 1.0)),

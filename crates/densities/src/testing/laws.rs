@@ -258,12 +258,13 @@ pub fn check_moments<P: DensitySubject>(p: &P) -> Result<(), TestCaseError> {
 /// `Distribution` too, which calls it).
 ///
 /// # Errors
-/// The law's failure, with the numbers.
+/// The law's failure, with the numbers; a failure naming n for n = 0 (no draw to compare).
 pub fn check_sampler<P: DensitySubject, R: Rng + ?Sized>(
     p: &P,
     rng: &mut R,
     n: u32,
 ) -> Result<(), TestCaseError> {
+    prop_assert!(n > 0, "check_sampler needs at least one draw (n = 0)");
     let exact = p.exact_moments();
     let (mut sums, mut squares) = (vec![0.0; exact.len()], vec![0.0; exact.len()]);
     for _ in 0..n {

@@ -50,17 +50,22 @@ pub const SPHERE_COLATITUDE_POINTS: usize = 128;
 /// placed for are below e^(−72) of their peak there.
 const WHITENED_RADIUS: f64 = 12.0;
 
-/// The n-point Gauss-Legendre rule on [−1, 1] (exact for polynomials of degree 2n − 1).
+/// The n-point Gauss-Legendre rule on [−1, 1] (exact for polynomials of degree 2n − 1). n is
+/// capped at [`MAX_LEGENDRE_NODES`](crate::quadrature::MAX_LEGENDRE_NODES) (8192), beyond which the
+/// rule's O(n²) Newton iterations take minutes.
 pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    legendre_rule(n.min(MAX_NODES))
+    legendre_rule(n.min(crate::quadrature::MAX_LEGENDRE_NODES))
 }
 
 /// The n-point Gauss-Hermite rule for the standard normal, `E[f(u)] ≈ Σ wᵢ f(uᵢ)`, Σ wᵢ = 1 (exact
-/// for polynomials of degree 2n − 1). n is capped at 200, beyond which the eigenproblem is slow and
-/// the outer weights underflow.
+/// for polynomials of degree 2n − 1). n is capped at [`MAX_HERMITE_NODES`], beyond which the
+/// eigenproblem is slow and the outer weights underflow.
 pub fn gauss_hermite(n: usize) -> Vec<(f64, f64)> {
-    hermite_rule(n.min(200))
+    hermite_rule(n.min(MAX_HERMITE_NODES))
 }
+
+/// The most nodes [`gauss_hermite`] gives.
+pub const MAX_HERMITE_NODES: usize = 200;
 
 /// Nodes and weights on [0, length] for integrands peaked at 0 with width about `width`:
 /// Gauss-Legendre with `points` nodes on the panels [0, w], [w, 2w], [2w, 4w], … clipped at
@@ -331,8 +336,9 @@ fn tangent_nodes<const N: usize>(
     covariance: &SMatrix<f64, N, N>,
     points: usize,
 ) -> Vec<(SVector<f64, N>, f64)> {
-    // Points per axis so that points^N ≤ MAX_NODES.
-    let mut per_axis = points.max(1);
+    // Points per axis: at most the Hermite rule's nodes, and so that points^N ≤ MAX_NODES (at
+    // most 199 steps down).
+    let mut per_axis = points.clamp(1, MAX_HERMITE_NODES);
     let exponent = u32::try_from(N).unwrap_or(u32::MAX);
     // Ends: 1^N = 1 ≤ MAX_NODES.
     while per_axis > 1

@@ -230,10 +230,9 @@ pub fn gaussian<const N: usize>() -> impl Strategy<Value = Gaussian<N>> {
 
 /// Gaussians on any manifold: means from `points` (for instance the manifolds crate's `so3()` or
 /// `product(so3(), rn())`), tangent covariances from [`covariance`] with standard deviations from
-/// `sigma` ([`standard_deviation`] on the rotation groups).
-///
-/// # Panics
-/// Never for standard deviations between about 1e-150 and 1e150.
+/// `sigma` ([`standard_deviation`] on the rotation groups). Covariances outside what
+/// [`ManifoldGaussian::new`] accepts (entries or `tr P⁻¹` beyond 1e100: standard deviations
+/// beyond about 1e-50 to 1e50) are filtered out, as [`gaussian`] does.
 pub fn manifold_gaussian<X, const D: usize>(
     points: impl Strategy<Value = X>,
     sigma: impl Strategy<Value = f64>,
@@ -241,9 +240,10 @@ pub fn manifold_gaussian<X, const D: usize>(
 where
     X: Manifold<D, Scalar = f64> + Clone + Debug,
 {
-    (points, covariance::<D>(sigma)).prop_map(|(mean, covariance)| {
-        ManifoldGaussian::new(mean, covariance).expect("positive definite")
-    })
+    (points, covariance::<D>(sigma)).prop_filter_map(
+        "a covariance ManifoldGaussian::new accepts",
+        |(mean, covariance)| ManifoldGaussian::new(mean, covariance).ok(),
+    )
 }
 
 /// Harmonic Gaussians: the angle from [`gen_von_mises2`] with `kappa`, feature matrices with entries
