@@ -1264,7 +1264,7 @@ mod tests {
             seed: 7,
             runs: total,
         };
-        let mut s = Summary::new(label, runs.clone());
+        let mut s = Summary::new(label, runs.clone()).unwrap();
         for r in runs {
             let scores = RunScores {
                 metrics: vec![
@@ -1292,8 +1292,11 @@ mod tests {
 
     #[test]
     fn the_table_prints_each_figure_and_the_failures() {
+        // Runs 0..3 of B succeed and run 3 fails.
         let mut failing = summary("B", 0..3, 4);
-        failing.add_failure("step 3: diverged");
+        let mut failed = Summary::new(failing.label().clone(), 3..4).unwrap();
+        failed.add_failure("step 3: diverged").unwrap();
+        failing.merge(&failed).unwrap();
         let text = render(&table(vec![summary("A", 0..3, 3), failing]));
         // RMS of 0, 1, 2 is sqrt(5/3) = 1.291; runs 0, 1, 2 all diverged at the final epoch.
         assert!(text.contains("1.291") && text.contains("100.0%"), "{text}");
@@ -1301,7 +1304,7 @@ mod tests {
             text.contains("x_error (m)") && text.contains("ns/step"),
             "{text}"
         );
-        assert!(text.contains("B: 1 of 3 runs failed") && text.contains("1 x step 3: diverged"));
+        assert!(text.contains("B: 1 of 4 runs failed") && text.contains("1 x step 3: diverged"));
         let csv = summary_csv(&table(vec![summary("A", 0..3, 3)]));
         assert_eq!(
             csv.lines().next(),
@@ -1317,7 +1320,7 @@ mod tests {
 
     #[test]
     fn a_trace_with_missing_values_survives_its_json() {
-        let mut s = Summary::new(summary("A", 0..0, 1).label().clone(), 0..1);
+        let mut s = Summary::new(summary("A", 0..0, 1).label().clone(), 0..1).unwrap();
         let scores = RunScores {
             metrics: vec![Metric::new(
                 "azimuth_error",
@@ -1341,7 +1344,7 @@ mod tests {
         assert!(first.starts_with("<svg") && first.contains("x error"));
         let over = plot_over_time(&t).unwrap().unwrap();
         assert!(over.contains("x RMSE") && over.contains("\nB\n</text>"));
-        let mut lone = Summary::new(summary("A", 0..0, 1).label().clone(), 0..1);
+        let mut lone = Summary::new(summary("A", 0..0, 1).label().clone(), 0..1).unwrap();
         let scores = RunScores {
             metrics: vec![Metric::new("nees", Reduction::ChiSquare { dof: 2 }, "")],
             times: vec![1.0],
@@ -1370,7 +1373,7 @@ mod tests {
             seed: 7,
             runs: total,
         };
-        let mut s = Summary::new(label, runs.clone());
+        let mut s = Summary::new(label, runs.clone()).unwrap();
         for r in runs {
             let scores = RunScores {
                 metrics: vec![

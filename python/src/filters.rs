@@ -292,7 +292,7 @@ fn scored_summary<T, E, Sc: Scorer<T, E>>(
         seed: 0,
         runs: runs as u64,
     };
-    let mut summary = Summary::new(label, 0..runs as u64);
+    let mut summary = Summary::new(label, 0..runs as u64)?;
     for run in 0..runs {
         let mut values = vec![f64::NAN; epochs * width];
         for k in 0..epochs {

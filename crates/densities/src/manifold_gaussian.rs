@@ -160,10 +160,10 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
                 take(lane, v);
             }
         }
-        if poison.iter().any(|p| p.is_nan())
-            && let Some(&value) = covariance.iter().find(|v| !v.is_finite())
-        {
-            return Err(DensityError::NonFinite { what: WHAT, value });
+        if poison.iter().any(|p| p.is_nan()) {
+            if let Some(&value) = covariance.iter().find(|v| !v.is_finite()) {
+                return Err(DensityError::NonFinite { what: WHAT, value });
+            }
         }
         let scale = largest[0].max(largest[1]).max(largest[2].max(largest[3]));
         largest_within_scale(WHAT, scale)?;

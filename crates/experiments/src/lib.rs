@@ -44,16 +44,19 @@
 //! # Input contract
 //!
 //! A study's settings are checked before any run: at most [`MAX_RUNS`] = 2⁴⁰ runs, at most
-//! [`MAX_STUDY_EPOCHS`] epochs, a shard `K/N` with 1 ≤ K ≤ N; a metric series holds at most
-//! [`MAX_EPOCHS`] = 2²⁴ epochs, added in order, so its memory is that of the epochs added. A
-//! filter's failed step ends its run with a [`RunFailure`] (where and why), counted by reason, and
-//! a non-finite metric value is counted apart, never averaged into a figure; means and root mean
-//! squares of finite values are finite however large the values (an overflowing sum is scaled).
-//! [`Summary::add_run`] checks a run's scores before recording any of them (one value per epoch
-//! and metric, distinct metric names, finite increasing times, a run inside the summary's ranges),
-//! so what it builds is what its reader accepts. A [`Summary`] or a [`Table`] read from a file is
-//! checked whole before it is used (sums finite, counts consistent, min ≤ max, run ranges sorted
-//! and disjoint), and refused with the field that is wrong; a value is written as a number,
+//! [`MAX_STUDY_EPOCHS`] epochs, a shard `K/N` with 1 ≤ K ≤ N; a metric series and a summary's
+//! trace hold at most [`MAX_STUDY_EPOCHS`] = 2¹⁴ epochs, added in order, so their memory is that
+//! of the epochs added, and a run with more measurement epochs than its scenario declares is
+//! refused. A filter's failed step ends its run with a [`RunFailure`] (where and why), counted by
+//! reason, and a non-finite metric value is counted apart, never averaged into a figure; means and
+//! root mean squares of finite values are finite however large the values (an overflowing sum is
+//! scaled). [`Summary::new`] refuses runs outside its study, and [`Summary::add_run`] checks a
+//! run's scores before recording any of them (one value per epoch and metric, distinct metric
+//! names, finite increasing times, a run inside the summary's ranges, no more runs or failures
+//! than it covers), so what it builds is what its reader accepts. A [`Summary`] or a [`Table`]
+//! read from a file is checked whole before it is used (sums finite and bounded by the extremes,
+//! counts consistent, min ≤ max, run ranges sorted and disjoint), and refused with the field that
+//! is wrong; a value is written as a number,
 //! `null` (NaN) or `"inf"`/`"-inf"`, so that it reads back bit for bit. The recorder keeps at most
 //! [`MAX_EPOCHS`] steps.
 #![cfg_attr(docsrs, feature(doc_cfg))]

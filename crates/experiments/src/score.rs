@@ -30,7 +30,9 @@ impl Reduction {
     /// The figure a table reports for statistics `stats` over the runs at one epoch:
     /// `RootMeanSquare` → `√(Σx²/n)`; `Mean` → `x̄` with `x̄ ± 1.96 s/√n` (n ≥ 2); `ChiSquare { dof }`
     /// → `x̄` with the exact two-sided 95 % band of the mean of n χ²(dof) values
-    /// ([`average_nees_band`]); `Rate` → `100 x̄` (percent). [`Figure::Empty`] without a finite value.
+    /// ([`average_nees_band`]); `Rate` → `100 x̄` (percent). [`Figure::Empty`] without a finite value,
+    /// and for a `Rate` whose percent is beyond f64's range (a mean above about 1.8e306, which
+    /// values of a rate, 0 or 1, never reach).
     ///
     /// # Example
     /// ```
@@ -63,7 +65,14 @@ impl Reduction {
                     .and_then(|n| average_nees_band(dof, n).ok());
                 Figure::Mean(mean, band)
             }
-            Reduction::Rate => Figure::Percent(100.0 * mean),
+            Reduction::Rate => {
+                let percent = 100.0 * mean;
+                if percent.is_finite() {
+                    Figure::Percent(percent)
+                } else {
+                    Figure::Empty
+                }
+            }
         }
     }
 }
@@ -71,7 +80,7 @@ impl Reduction {
 /// What a table reports of a metric at an epoch ([`Reduction::figure`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Figure {
-    /// No finite value at that epoch.
+    /// No finite value at that epoch (or a rate whose percent is not finite).
     Empty,
     /// A root mean square `√(Σx²/n)`.
     Rms(f64),

@@ -110,7 +110,8 @@ pub struct SizeSearch {
 /// `score` (an RMSE, say: smaller is better) at most `(1 + tolerance)` times `target`, to the
 /// relative `resolution`, by [`smallest_passing`]: about `log₂(high/low) + log₂(1/resolution) + 2`
 /// studies. The studies should read the same data (the same seed and runs), so that the counts are
-/// compared with the target on equal terms; a study without a score counts as +∞ (not passing).
+/// compared with the target on equal terms; a study without a score, or with a score that is not
+/// finite, counts as +∞ and never passes.
 ///
 /// # Example
 /// A "filter" whose error falls as 1/√n matches a target of 0.01 within 5 % from about 9 070:
@@ -120,7 +121,7 @@ pub struct SizeSearch {
 ///
 /// let study = |n: u64| -> Result<Summary, ExperimentError> {
 ///     let label = StudyLabel { name: format!("PF {n}"), seed: 0, runs: 1 };
-///     let mut s = Summary::new(label, 0..1);
+///     let mut s = Summary::new(label, 0..1)?;
 ///     let scores = RunScores {
 ///         metrics: vec![Metric::new("error", Reduction::RootMeanSquare, "")],
 ///         times: vec![1.0],
@@ -191,7 +192,9 @@ pub fn smallest_to_match<E: From<ExperimentError>>(
             failures,
             seconds_per_step: summary.timing().mean().unwrap_or(f64::NAN),
         });
-        Ok::<_, E>(failures == 0 && score <= target * (1.0 + tolerance))
+        // As a ratio, so that a target near f64::MAX does not overflow to +inf and let a study
+        // without a score (+inf) pass.
+        Ok::<_, E>(failures == 0 && score.is_finite() && score / target <= 1.0 + tolerance)
     })?;
     Ok(SizeSearch {
         target,

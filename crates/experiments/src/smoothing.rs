@@ -501,12 +501,12 @@ impl<T> Pending<T> {
         while self.queue.front().is_some_and(|p| p.0 < step) {
             self.queue.pop_front();
         }
-        if self.queue.front().is_some_and(|p| p.0 == step)
-            && let Some((_, row, truth)) = self.queue.pop_front()
-        {
-            let at = row * self.width + self.offset;
-            let scored = self.width - self.offset;
-            scorer.score(&truth, estimate, &mut values[at..at + scored]);
+        if self.queue.front().is_some_and(|p| p.0 == step) {
+            if let Some((_, row, truth)) = self.queue.pop_front() {
+                let at = row * self.width + self.offset;
+                let scored = self.width - self.offset;
+                scorer.score(&truth, estimate, &mut values[at..at + scored]);
+            }
         }
     }
 }

@@ -19,8 +19,10 @@ use crate::ExactSum;
 /// Read from a file, the statistics are checked: no non-finite value in the sums (only finite
 /// values, and squares that f64 holds, are summed), the count and the non-finite count summing
 /// within u64, extremes present exactly when the count is positive, finite, with min ≤ max, sums of
-/// squares non-negative, the large squares' sum zero unless an extreme lies beyond 2⁵¹¹, and the
-/// sums of no values zero. (A file without the large squares' sum, from an earlier version, reads
+/// squares non-negative, the large squares' sum zero unless an extreme lies beyond 2⁵¹¹, the
+/// sums of no values zero, and the sums bounded by the extremes as every stream's are: the mean
+/// within [min, max] and the root mean square at most the largest magnitude, both up to a relative
+/// rounding of 4ε. (A file without the large squares' sum, from an earlier version, reads
 /// it as zero.)
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "RunningStatsFields")]
@@ -46,6 +48,10 @@ const HALF_SCALE: f64 = 7.458_340_731_200_207e-155;
 /// 2⁵¹², which undoes [`HALF_SCALE`]; a scaled square is multiplied back by it twice (2¹⁰²⁴ is
 /// not an f64), overflowing to +∞ exactly when the square exceeds f64's range.
 const UNSCALE: f64 = 1.340_780_792_994_259_7e154;
+
+/// The relative rounding allowed when a file's mean and root mean square are checked against its
+/// extremes (each is rounded once or twice from the exact sums).
+const BOUND_SLACK: f64 = 4.0 * f64::EPSILON;
 
 impl RunningStats {
     /// No values yet.
@@ -124,12 +130,17 @@ impl RunningStats {
     /// (it lies between the smallest and the largest magnitude).
     pub fn root_mean_square(&self) -> Option<f64> {
         let largest = self.min?.abs().max(self.max?.abs());
-        let rms = match self.scaled_mean_square() {
+        // Rounding cannot lift it past the largest value, which bounds it.
+        Some(self.unbounded_root_mean_square().min(largest))
+    }
+
+    /// `√(Σx²/n)` as the sums give it (for n > 0), before it is bounded by the largest value:
+    /// what a file's sums are checked by.
+    fn unbounded_root_mean_square(&self) -> f64 {
+        match self.scaled_mean_square() {
             Some(scaled) => scaled.sqrt() * UNSCALE,
             None => self.sum_of_squares.mean(self.count).sqrt(),
-        };
-        // Rounding cannot lift it past the largest value, which bounds it.
-        Some(rms.min(largest))
+        }
     }
 
     /// The sample variance `(Σx² − n x̄²) / (n − 1)`, clamped at 0 against rounding (+∞ where it
@@ -243,7 +254,7 @@ impl TryFrom<RunningStatsFields> for RunningStats {
                 ));
             }
         }
-        Ok(Self {
+        let stats = Self {
             count: f.count,
             non_finite: f.non_finite,
             sum: f.sum,
@@ -251,6 +262,34 @@ impl TryFrom<RunningStatsFields> for RunningStats {
             sum_of_large_squares: f.sum_of_large_squares,
             min: f.min,
             max: f.max,
-        })
+        };
+        stats.check_bounds()?;
+        Ok(stats)
+    }
+}
+
+impl RunningStats {
+    /// The reader's check that the sums are those of values within the extremes: the mean in
+    /// [min, max] and the root mean square at most the largest magnitude, up to a relative
+    /// [`BOUND_SLACK`] (so a crafted sum cannot make the mean infinite or outside the extremes).
+    fn check_bounds(&self) -> Result<(), String> {
+        let (Some(min), Some(max), Some(mean)) = (self.min, self.max, self.mean()) else {
+            return Ok(());
+        };
+        let largest = min.abs().max(max.abs());
+        let slack = BOUND_SLACK * largest;
+        if !(mean.is_finite() && min - slack <= mean && mean <= max + slack) {
+            return Err(format!(
+                "statistics: sum gives the mean {mean}, outside [min, max] = [{min}, {max}]"
+            ));
+        }
+        let rms = self.unbounded_root_mean_square();
+        if !(rms.is_finite() && rms <= largest + slack) {
+            return Err(format!(
+                "statistics: sum_of_squares and sum_of_large_squares give the root mean square \
+                 {rms}, above the largest magnitude {largest} of min and max"
+            ));
+        }
+        Ok(())
     }
 }

@@ -94,8 +94,10 @@ impl Study {
     ///
     /// # Errors
     /// [`ExperimentError::OutOfRange`] for a scenario of more than [`MAX_STUDY_EPOCHS`] epochs
-    /// (before any run), [`ExperimentError`] when the scenario cannot be simulated; filter
-    /// failures are recorded in the summary instead.
+    /// (before any run), [`ExperimentError::Scenario`] for a run with more measurement epochs
+    /// than the scenario's [`epochs`](Scenario::epochs) (stopped at the first one beyond, so its
+    /// scores take no more memory than declared), [`ExperimentError`] when the scenario cannot be
+    /// simulated; filter failures are recorded in the summary instead.
     ///
     /// # Example
     /// ```
@@ -178,7 +180,7 @@ impl Study {
         let block = |b: u64| -> Result<Summary, ExperimentError> {
             let start = range.start + b * size;
             let end = (start + size).min(range.end);
-            let mut summary = Summary::new(self.label(), start..end);
+            let mut summary = Summary::new(self.label(), start..end)?;
             for run in start..end {
                 self.record(run, scenario, build, scorer, &mut summary)?;
             }
@@ -188,9 +190,8 @@ impl Study {
         };
         // Merging is exact, so the blocks may be combined in any order: memory stays at a few
         // summaries whatever the number of runs.
-        reduce_blocks(blocks, &block, &|| {
-            Summary::new(self.label(), range.start..range.start)
-        })
+        let empty = Summary::new(self.label(), range.start..range.start)?;
+        reduce_blocks(blocks, &block, &|| empty.clone())
     }
 
     /// Runs this shard of `method` on `scenario`, as [`Study::run`] with the method's
@@ -244,17 +245,26 @@ impl Study {
         let steps = scenario.simulate(&mut simulation)?;
         let mut filter = match build(&mut randomness) {
             Ok(filter) => filter,
-            Err(error) => {
-                summary.add_failure(&format!("building the filter: {error}"));
-                return Ok(());
-            }
+            Err(error) => return summary.add_failure(&format!("building the filter: {error}")),
         };
-        match replay(&mut filter, steps, scorer) {
+        // The run is cut at its first measurement beyond the scenario's epochs, and refused, so
+        // that a scenario that yields more than it declares does not grow the scores past them.
+        let declared = scenario.epochs();
+        let (mut measured, mut beyond) = (0_usize, false);
+        let steps = steps.take_while(|step| {
+            measured += usize::from(step.measurement.is_some());
+            beyond = measured > declared;
+            !beyond
+        });
+        let replayed = replay(&mut filter, steps, scorer);
+        if beyond {
+            return Err(ExperimentError::Scenario(format!(
+                "run {run} has more measurement epochs than the {declared} the scenario declares"
+            )));
+        }
+        match replayed {
             Ok(scores) => summary.add_run(run, &scores),
-            Err(failure) => {
-                summary.add_failure(&failure.error.to_string());
-                Ok(())
-            }
+            Err(failure) => summary.add_failure(&failure.error.to_string()),
         }
     }
 }

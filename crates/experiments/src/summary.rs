@@ -6,13 +6,14 @@ use crate::file_value::file_values;
 use crate::replay::RunScores;
 use crate::run_values::{MAX_KEPT_RUNS, RunValues, run_value};
 use crate::score::Reduction;
+use crate::study::MAX_STUDY_EPOCHS;
 use crate::{ExperimentError, RunningStats};
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::ops::Range;
 
-/// The most epochs a metric series or a replay holds (a replay scores the first this many epochs
-/// of a run and filters on after them).
+/// The most epochs a replay scores (it scores the first this many epochs of a run and filters on
+/// after them). A summary holds fewer: at most [`MAX_STUDY_EPOCHS`] per series and trace.
 pub const MAX_EPOCHS: usize = 1 << 24;
 
 /// The most distinct failure reasons kept; further reasons are counted under one entry.
@@ -35,14 +36,15 @@ impl MetricSeries {
     ///
     /// # Errors
     /// [`ExperimentError::OutOfRange`] for k beyond the next epoch (k greater than the number of
-    /// epochs held), or at or beyond [`MAX_EPOCHS`]; nothing is added then.
+    /// epochs held), or at or beyond [`MAX_STUDY_EPOCHS`] (each epoch's statistics take about
+    /// 2 KB); nothing is added then.
     pub fn add(&mut self, k: usize, value: f64) -> Result<(), ExperimentError> {
         let next = self.epochs.len();
-        if k > next || k >= MAX_EPOCHS {
+        if k > next || k >= MAX_STUDY_EPOCHS {
             return Err(ExperimentError::OutOfRange {
                 what: "epoch index",
                 value: k.to_string(),
-                range: "[0, epochs held] and below 2^24 (epochs are added in order)",
+                range: "[0, epochs held] and below 2^14 (epochs are added in order)",
             });
         }
         if k == next {
@@ -110,6 +112,26 @@ pub struct Trace {
     /// in a file `null`, and the infinities `"inf"` and `"-inf"`).
     #[serde(with = "file_values")]
     pub values: Vec<f64>,
+}
+
+/// Values laid out `epochs` by `from_width` (`values[k * from_width + j]`) moved to a layout
+/// `epochs` by `width`: column `from` to column `to` for each pair of `moves`, NaN (a value not
+/// recorded) in every other column. How a trace is built from a run's scores, and kept one value per
+/// epoch and metric, under the right names, when metrics are added or another trace is merged in.
+fn columns_moved(
+    values: &[f64],
+    epochs: usize,
+    from_width: usize,
+    moves: &[(usize, usize)],
+    width: usize,
+) -> Vec<f64> {
+    let mut moved = vec![f64::NAN; epochs * width];
+    for k in 0..epochs {
+        for &(from, to) in moves {
+            moved[k * width + to] = values[k * from_width + from];
+        }
+    }
+    moved
 }
 
 impl PartialEq for Trace {
@@ -200,13 +222,12 @@ fn check_scores(run: u64, scores: &RunScores) -> Result<(), ExperimentError> {
             scores.values.len()
         )));
     }
-    for (j, m) in scores.metrics.iter().enumerate() {
-        if scores.metrics[..j].iter().any(|n| n.name == m.name) {
-            return Err(ExperimentError::Incompatible(format!(
-                "run {run}: metric {:?} appears twice in the scores",
-                m.name
-            )));
-        }
+    let mut names = HashSet::with_capacity(width);
+    if let Some(m) = scores.metrics.iter().find(|m| !names.insert(m.name)) {
+        return Err(ExperimentError::Incompatible(format!(
+            "run {run}: metric {:?} appears twice in the scores",
+            m.name
+        )));
     }
     if scores.times.iter().any(|t| !t.is_finite()) || scores.times.windows(2).any(|w| w[0] >= w[1])
     {
@@ -221,7 +242,7 @@ impl Summary {
     /// Checks what every summary built by [`add_run`](Self::add_run), [`add_failure`](Self::add_failure)
     /// and [`merge`](Self::merge) satisfies, so that a summary read from a file can be trusted:
     /// - run ranges non-empty, sorted, disjoint and not adjacent (joined), inside `0..label.runs`;
-    /// - metric names distinct; at most [`MAX_EPOCHS`] epochs per series;
+    /// - metric names distinct; at most [`MAX_STUDY_EPOCHS`] epochs per series;
     /// - at every epoch of every series, and for the timing together with the failures, no more
     ///   values (finite and not) than runs covered; at most [`MAX_FAILURE_REASONS`] reasons besides
     ///   "other reasons";
@@ -259,9 +280,9 @@ impl Summary {
             }
         };
         let series = |what: &str, s: &MetricSeries| {
-            if s.epochs.len() > MAX_EPOCHS {
+            if s.epochs.len() > MAX_STUDY_EPOCHS {
                 return Err(format!(
-                    "{what}: {} epochs, more than {MAX_EPOCHS}",
+                    "{what}: {} epochs, more than {MAX_STUDY_EPOCHS}",
                     s.epochs.len()
                 ));
             }
@@ -270,17 +291,16 @@ impl Summary {
                 .enumerate()
                 .try_for_each(|(k, e)| within(&format!("{what}, epoch {k}"), e, 0))
         };
-        for (i, m) in self.metrics.iter().enumerate() {
-            if self.metrics[..i].iter().any(|n| n.name == m.name) {
+        let mut names = HashSet::with_capacity(self.metrics.len());
+        for m in &self.metrics {
+            if !names.insert(m.name.as_str()) {
                 return Err(format!("metrics: {:?} appears twice", m.name));
             }
             series(&format!("metric {:?}", m.name), &m.series)?;
-            let stray = m.per_run.as_ref().and_then(|values| {
-                values
-                    .values()
-                    .iter()
-                    .find(|v| !self.runs.iter().any(|r| r.contains(&v.0)))
-            });
+            let stray = m
+                .per_run
+                .as_ref()
+                .and_then(|values| values.values().iter().find(|v| !self.covers(v.0)));
             if let Some((run, _)) = stray {
                 return Err(format!(
                     "metric {:?}, per_run: run {run} is not among the runs covered",
@@ -310,15 +330,15 @@ impl Summary {
 
     /// The trace's part of [`check`](Self::check).
     fn check_trace(&self, trace: &Trace) -> Result<(), String> {
-        if trace.run != 0 || !self.runs.iter().any(|r| r.contains(&0)) {
+        if trace.run != 0 || !self.covers(0) {
             return Err(format!(
                 "trace: run {} is not run 0 of the runs covered",
                 trace.run
             ));
         }
-        if trace.times.len() > MAX_EPOCHS {
+        if trace.times.len() > MAX_STUDY_EPOCHS {
             return Err(format!(
-                "trace: {} epochs, more than {MAX_EPOCHS}",
+                "trace: {} epochs, more than {MAX_STUDY_EPOCHS}",
                 trace.times.len()
             ));
         }
@@ -341,9 +361,21 @@ impl Summary {
         Ok(())
     }
 
-    /// The empty summary of the runs `runs` of the study `label` (nothing recorded yet).
-    pub fn new(label: StudyLabel, runs: Range<u64>) -> Self {
-        Self {
+    /// The empty summary of the runs `runs` of the study `label` (nothing recorded yet); an empty
+    /// range covers no run.
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] for a non-empty range that is not inside the study's runs
+    /// `0..label.runs` (a summary of it would be refused by its reader).
+    pub fn new(label: StudyLabel, runs: Range<u64>) -> Result<Self, ExperimentError> {
+        if !runs.is_empty() && runs.end > label.runs {
+            return Err(ExperimentError::OutOfRange {
+                what: "run range of the summary",
+                value: format!("{}..{} (of {} runs)", runs.start, runs.end, label.runs),
+                range: "inside the study's runs 0..label.runs",
+            });
+        }
+        Ok(Self {
             label,
             runs: if runs.is_empty() {
                 Vec::new()
@@ -351,7 +383,13 @@ impl Summary {
                 vec![runs]
             },
             ..Self::default()
-        }
+        })
+    }
+
+    /// Whether run `run` is covered: a binary search of the sorted, disjoint run ranges.
+    fn covers(&self, run: u64) -> bool {
+        let i = self.runs.partition_point(|r| r.end <= run);
+        self.runs.get(i).is_some_and(|r| r.contains(&run))
     }
 
     /// The study this summary belongs to.
@@ -375,23 +413,26 @@ impl Summary {
     /// (its root mean square or mean over the run's finite values, see [`RunValues`]). The first
     /// run of the study (run 0) is also kept whole as the [`trace`](Self::trace).
     ///
+    /// A metric first recorded by a later run than run 0 has NaN (not recorded) in the trace.
+    ///
     /// # Errors
-    /// [`ExperimentError::OutOfRange`] for more than [`MAX_EPOCHS`] epochs or a run outside the
-    /// summary's run ranges, [`ExperimentError::Incompatible`] when the scores are malformed (not
+    /// [`ExperimentError::OutOfRange`] for more than [`MAX_STUDY_EPOCHS`] epochs (each epoch's
+    /// statistics take about 2 KB per metric) or a run outside the summary's run ranges,
+    /// [`ExperimentError::Incompatible`] when the scores are malformed (not
     /// one value per epoch and metric, a metric name twice, epoch times that are not finite and
     /// strictly increasing), when the summary already holds as many runs as it covers, when a
     /// metric's summary rule, unit or per-run flag differs from the one already recorded under its
     /// name, or when the run's per-run values are already recorded. Nothing is recorded then.
     pub fn add_run(&mut self, run: u64, scores: &RunScores) -> Result<(), ExperimentError> {
         let epochs = scores.epochs();
-        if epochs > MAX_EPOCHS {
+        if epochs > MAX_STUDY_EPOCHS {
             return Err(ExperimentError::OutOfRange {
                 what: "number of epochs",
                 value: epochs.to_string(),
-                range: "[0, 2^24]",
+                range: "[0, 2^14]",
             });
         }
-        if !self.runs.iter().any(|r| r.contains(&run)) {
+        if !self.covers(run) {
             return Err(ExperimentError::OutOfRange {
                 what: "run index",
                 value: run.to_string(),
@@ -399,22 +440,16 @@ impl Summary {
             });
         }
         check_scores(run, scores)?;
-        let recorded = self
-            .timing
-            .count()
-            .saturating_add(self.timing.non_finite())
-            .saturating_add(self.failure_count());
-        if recorded >= self.run_count() {
-            return Err(ExperimentError::Incompatible(format!(
-                "run {run}: the summary already holds {recorded} runs, all the {} it covers",
-                self.run_count()
-            )));
-        }
-        let kept = (0..scores.metrics.len())
-            .filter(|&j| scores.metrics[j].reduction != Reduction::ChiSquare { dof: 0 });
-        for j in kept.clone() {
+        self.check_room(&format!("run {run}"))?;
+        let kept: Vec<usize> = (0..scores.metrics.len())
+            .filter(|&j| scores.metrics[j].reduction != Reduction::ChiSquare { dof: 0 })
+            .collect();
+        let slots = self.slots(kept.iter().map(|&j| {
             let m = &scores.metrics[j];
-            let slot = self.slot(m.name, m.reduction, m.unit, m.per_run)?;
+            (m.name, m.reduction, m.unit, m.per_run)
+        }))?;
+        for (&j, slot) in kept.iter().zip(&slots) {
+            let m = &scores.metrics[j];
             let recorded = slot
                 .and_then(|i| self.metrics[i].per_run.as_ref())
                 .is_some_and(|values| values.contains(run));
@@ -426,10 +461,11 @@ impl Summary {
             }
         }
         // Checked: nothing below can fail, so the run is recorded whole or not at all.
+        let before = self.metrics.len();
         let mut columns = Vec::with_capacity(scores.metrics.len());
-        for j in kept {
+        for (j, slot) in kept.into_iter().zip(slots) {
             let m = &scores.metrics[j];
-            let index = self.find(m.name).unwrap_or_else(|| {
+            let index = slot.unwrap_or_else(|| {
                 self.metrics.push(SummaryMetric {
                     name: m.name.to_owned(),
                     reduction: m.reduction,
@@ -457,21 +493,45 @@ impl Summary {
         for (k, &t) in scores.times.iter().enumerate() {
             self.times.add(k, t)?;
         }
+        self.widen_trace(before);
         if run == 0 {
-            let n = self.metrics.len();
-            let mut values = vec![f64::NAN; epochs * n];
-            for &(j, index) in &columns {
-                for k in 0..epochs {
-                    values[k * n + index] = scores.values[k * width + j];
-                }
-            }
             self.trace = Some(Trace {
                 run,
                 times: scores.times.clone(),
-                values,
+                values: columns_moved(&scores.values, epochs, width, &columns, self.metrics.len()),
             });
         }
         self.timing.add(scores.seconds_per_step);
+        Ok(())
+    }
+
+    /// Keeps the trace one value per epoch and metric after metrics were added behind the first
+    /// `before`: NaN (not recorded) under the new ones.
+    fn widen_trace(&mut self, before: usize) {
+        let width = self.metrics.len();
+        if width == before {
+            return;
+        }
+        if let Some(trace) = &mut self.trace {
+            let kept: Vec<(usize, usize)> = (0..before).map(|j| (j, j)).collect();
+            trace.values = columns_moved(&trace.values, trace.times.len(), before, &kept, width);
+        }
+    }
+
+    /// Refuses one more run (`what`, for the message) when the summary already holds a run, a
+    /// successful one (timed) or a failure, for every run it covers: the rule its reader checks.
+    fn check_room(&self, what: &str) -> Result<(), ExperimentError> {
+        let recorded = self
+            .timing
+            .count()
+            .saturating_add(self.timing.non_finite())
+            .saturating_add(self.failure_count());
+        if recorded >= self.run_count() {
+            return Err(ExperimentError::Incompatible(format!(
+                "{what}: the summary already holds {recorded} runs, all the {} it covers",
+                self.run_count()
+            )));
+        }
         Ok(())
     }
 
@@ -480,42 +540,59 @@ impl Summary {
         self.metrics.iter().position(|m| m.name == name)
     }
 
-    /// Where metric `name` is recorded (`None`: not yet), checking that its rule, unit and
-    /// per-run flag agree.
-    fn slot(
+    /// Where each of `metrics` (name, rule, unit, per-run flag) is recorded (`None`: not yet),
+    /// checking that its rule, unit and per-run flag agree with the recorded ones. The names are
+    /// looked up in a hash of those held, so the work is linear in both lists.
+    fn slots<'m>(
         &self,
-        name: &str,
-        reduction: Reduction,
-        unit: &str,
-        per_run: bool,
-    ) -> Result<Option<usize>, ExperimentError> {
-        let Some(index) = self.find(name) else {
-            return Ok(None);
-        };
-        let m = &self.metrics[index];
-        if m.reduction != reduction || m.unit != unit {
-            return Err(ExperimentError::Incompatible(format!(
-                "metric {name} is summarised as {:?} in {} here and as {reduction:?} in {unit} there",
-                m.reduction, m.unit
-            )));
-        }
-        if m.per_run.is_some() != per_run {
-            let kept = |yes: bool| if yes { "kept" } else { "not kept" };
-            return Err(ExperimentError::Incompatible(format!(
-                "metric {name} has its per-run values {} here and {} there",
-                kept(m.per_run.is_some()),
-                kept(per_run)
-            )));
-        }
-        Ok(Some(index))
+        metrics: impl Iterator<Item = (&'m str, Reduction, &'m str, bool)>,
+    ) -> Result<Vec<Option<usize>>, ExperimentError> {
+        let held: HashMap<&str, usize> = self
+            .metrics
+            .iter()
+            .enumerate()
+            .map(|(i, m)| (m.name.as_str(), i))
+            .collect();
+        metrics
+            .map(|(name, reduction, unit, per_run)| {
+                let Some(&index) = held.get(name) else {
+                    return Ok(None);
+                };
+                let m = &self.metrics[index];
+                if m.reduction != reduction || m.unit != unit {
+                    return Err(ExperimentError::Incompatible(format!(
+                        "metric {name} is summarised as {:?} in {} here and as {reduction:?} in \
+                         {unit} there",
+                        m.reduction, m.unit
+                    )));
+                }
+                if m.per_run.is_some() != per_run {
+                    let kept = |yes: bool| if yes { "kept" } else { "not kept" };
+                    return Err(ExperimentError::Incompatible(format!(
+                        "metric {name} has its per-run values {} here and {} there",
+                        kept(m.per_run.is_some()),
+                        kept(per_run)
+                    )));
+                }
+                Ok(Some(index))
+            })
+            .collect()
     }
 
     /// Records a failed run and why (the error's message); beyond [`MAX_FAILURE_REASONS`] distinct
     /// reasons, under "other reasons".
-    pub fn add_failure(&mut self, reason: &str) {
+    ///
+    /// # Errors
+    /// [`ExperimentError::Incompatible`] when the summary already holds a run (successful or
+    /// failed) for every run it covers, as [`add_run`](Self::add_run); nothing is recorded then.
+    pub fn add_failure(&mut self, reason: &str) -> Result<(), ExperimentError> {
+        self.check_room("a failed run")?;
         self.count_failures(reason, 1);
+        Ok(())
     }
 
+    /// Adds `count` failures under `reason` (or "other reasons"), saturating: the counts of a
+    /// summary read from a file may be as large as u64 holds.
     fn count_failures(&mut self, reason: &str, count: u64) {
         let key = if self.failures.contains_key(reason) || self.failures.len() < MAX_FAILURE_REASONS
         {
@@ -523,7 +600,8 @@ impl Summary {
         } else {
             OTHER_REASONS
         };
-        *self.failures.entry(key.to_owned()).or_default() += count;
+        let total = self.failures.entry(key.to_owned()).or_default();
+        *total = total.saturating_add(count);
     }
 
     /// The metrics, in the order the scorer gave them.
@@ -563,13 +641,18 @@ impl Summary {
         &self.failures
     }
 
-    /// The number of failed runs.
+    /// The number of failed runs (saturating at `u64::MAX`, which no summary its reader accepts
+    /// reaches).
     pub fn failure_count(&self) -> u64 {
-        self.failures.values().sum()
+        self.failures
+            .values()
+            .fold(0, |total, &n| total.saturating_add(n))
     }
 
     /// Adds the summary of other runs of the same study; the result is the same in any order of
     /// merging. An empty summary (`Summary::default()`) takes the label of the first one merged.
+    /// Metrics are matched by name: the trace, this summary's or the other's, is laid out in this
+    /// summary's metric order, with NaN (not recorded) under a metric the run 0 did not have.
     ///
     /// # Errors
     /// [`ExperimentError::Incompatible`] when the two belong to different studies (label, seed or
@@ -605,13 +688,20 @@ impl Summary {
             }
         }
         // The per-run values united first (a run in both is refused), so that nothing below fails.
+        let slots = self.slots(other.metrics.iter().map(|m| {
+            (
+                m.name.as_str(),
+                m.reduction,
+                m.unit.as_str(),
+                m.per_run.is_some(),
+            )
+        }))?;
         let mut united = Vec::new();
-        for m in &other.metrics {
-            let slot = self.slot(&m.name, m.reduction, &m.unit, m.per_run.is_some())?;
-            if let (Some(i), Some(theirs)) = (slot, &m.per_run)
-                && let Some(ours) = &self.metrics[i].per_run
-            {
-                united.push((i, ours.united(theirs)?));
+        for (m, &slot) in other.metrics.iter().zip(&slots) {
+            if let (Some(i), Some(theirs)) = (slot, &m.per_run) {
+                if let Some(ours) = &self.metrics[i].per_run {
+                    united.push((i, ours.united(theirs)?));
+                }
             }
         }
         self.label = label;
@@ -619,18 +709,37 @@ impl Summary {
         for (i, values) in united {
             self.metrics[i].per_run = Some(values);
         }
-        for m in &other.metrics {
-            match self.find(&m.name) {
-                Some(i) => self.metrics[i].series.merge(&m.series),
-                None => self.metrics.push(m.clone()),
-            }
+        let before = self.metrics.len();
+        // Where each of the other's metrics lands here, for its trace.
+        let mut columns = Vec::with_capacity(other.metrics.len());
+        for ((j, m), slot) in other.metrics.iter().enumerate().zip(slots) {
+            let i = if let Some(i) = slot {
+                self.metrics[i].series.merge(&m.series);
+                i
+            } else {
+                self.metrics.push(m.clone());
+                self.metrics.len() - 1
+            };
+            columns.push((j, i));
         }
         self.times.merge(&other.times);
         for (reason, &count) in &other.failures {
             self.count_failures(reason, count);
         }
-        if self.trace.is_none() {
-            self.trace.clone_from(&other.trace);
+        self.widen_trace(before);
+        if let (None, Some(theirs)) = (&self.trace, &other.trace) {
+            let epochs = theirs.times.len();
+            self.trace = Some(Trace {
+                run: theirs.run,
+                times: theirs.times.clone(),
+                values: columns_moved(
+                    &theirs.values,
+                    epochs,
+                    other.metrics.len(),
+                    &columns,
+                    self.metrics.len(),
+                ),
+            });
         }
         self.timing.merge(&other.timing);
         Ok(())

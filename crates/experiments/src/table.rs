@@ -25,7 +25,7 @@ pub const MAX_NAME_LEN: usize = 100;
 ///
 /// let shard = |runs: std::ops::Range<u64>| -> Summary {
 ///     let label = StudyLabel { name: "EKF".into(), seed: 7, runs: 10 };
-///     let mut s = Summary::new(label, runs.clone());
+///     let mut s = Summary::new(label, runs.clone()).unwrap();
 ///     for r in runs {
 ///         let scores = RunScores {
 ///             metrics: vec![Metric::new("x_error", Reduction::RootMeanSquare, "m")],

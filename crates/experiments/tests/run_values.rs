@@ -69,7 +69,7 @@ fn brute_force(scores: &RunScores, j: usize, square: bool) -> f64 {
 
 #[test]
 fn run_values_equal_a_brute_force_recomputation() {
-    let mut summary = Summary::new(label(40), 0..40);
+    let mut summary = Summary::new(label(40), 0..40).unwrap();
     // Runs recorded out of order are kept in run order.
     let order: Vec<u64> = (0..40).map(|i| (i * 17) % 40).collect();
     for &run in &order {
@@ -90,7 +90,7 @@ fn run_values_equal_a_brute_force_recomputation() {
     assert!(summary.run_values("diverged").is_none());
     assert!(summary.run_values("absent").is_none());
     // A run without a finite value has the value NaN; exact small values give exact results.
-    let mut lone = Summary::new(label(2), 0..2);
+    let mut lone = Summary::new(label(2), 0..2).unwrap();
     let nan_run = RunScores {
         values: vec![f64::NAN, f64::NAN, 0.0, f64::INFINITY, f64::NAN, 0.0],
         ..scores(0, 2)
@@ -107,7 +107,7 @@ fn run_values_equal_a_brute_force_recomputation() {
     assert_eq!(error[1], (1, (12.5_f64).sqrt()));
     assert_eq!(lone.run_values("bias").unwrap().values()[1], (1, 1.0));
     // An RMS whose squares overflow is still the RMS (scaled): every run value is finite or NaN.
-    let mut overflow = Summary::new(label(1), 0..1);
+    let mut overflow = Summary::new(label(1), 0..1).unwrap();
     let huge = RunScores {
         values: vec![1e200, 1e300, 0.0, -1e200, 1e300, 0.0],
         ..scores(0, 2)
@@ -120,7 +120,7 @@ fn run_values_equal_a_brute_force_recomputation() {
 #[test]
 fn only_runs_below_the_cap_are_kept() {
     let start = MAX_KEPT_RUNS - 3;
-    let mut summary = Summary::new(label(MAX_KEPT_RUNS + 3), start..MAX_KEPT_RUNS + 3);
+    let mut summary = Summary::new(label(MAX_KEPT_RUNS + 3), start..MAX_KEPT_RUNS + 3).unwrap();
     for run in start..MAX_KEPT_RUNS + 3 {
         summary.add_run(run, &scores(run, 4)).unwrap();
     }
@@ -139,7 +139,7 @@ fn only_runs_below_the_cap_are_kept() {
         "every run counted per epoch"
     );
     // Merged with the runs below, the union is what one summary of all of them keeps.
-    let mut below = Summary::new(label(MAX_KEPT_RUNS + 3), start - 5..start);
+    let mut below = Summary::new(label(MAX_KEPT_RUNS + 3), start - 5..start).unwrap();
     for run in start - 5..start {
         below.add_run(run, &scores(run, 4)).unwrap();
     }
@@ -149,14 +149,14 @@ fn only_runs_below_the_cap_are_kept() {
 
 #[test]
 fn a_run_recorded_twice_is_refused_and_changes_nothing() {
-    let mut summary = Summary::new(label(10), 0..5);
+    let mut summary = Summary::new(label(10), 0..5).unwrap();
     summary.add_run(2, &scores(2, 5)).unwrap();
     let before = summary.clone();
     let error = summary.add_run(2, &scores(2, 5)).unwrap_err();
     assert!(error.to_string().contains("run 2"), "{error}");
     assert_eq!(summary, before);
     // A summary of other runs refuses the run (so two summaries cannot both hold its value).
-    let mut other = Summary::new(label(10), 5..10);
+    let mut other = Summary::new(label(10), 5..10).unwrap();
     let empty = other.clone();
     let error = other.add_run(2, &scores(2, 5)).unwrap_err();
     assert!(
@@ -168,7 +168,7 @@ fn a_run_recorded_twice_is_refused_and_changes_nothing() {
 
 #[test]
 fn the_per_run_flag_is_part_of_a_metrics_identity() {
-    let mut summary = Summary::new(label(4), 0..4);
+    let mut summary = Summary::new(label(4), 0..4).unwrap();
     summary.add_run(0, &scores(0, 3)).unwrap();
     let before = summary.clone();
     let mut plain = scores(1, 3);
@@ -178,7 +178,7 @@ fn the_per_run_flag_is_part_of_a_metrics_identity() {
     assert!(error.to_string().contains("per-run"), "{error}");
     assert_eq!(summary, before);
     // The same in a merge, both ways round.
-    let mut other = Summary::new(label(4), 1..4);
+    let mut other = Summary::new(label(4), 1..4).unwrap();
     other.add_run(1, &plain).unwrap();
     assert!(matches!(
         summary.merge(&other),
@@ -196,7 +196,7 @@ fn run_values_survive_their_file() {
         values: vec![f64::NAN; 3],
         ..scores(0, 1)
     };
-    let mut summary = Summary::new(label(4), 0..3);
+    let mut summary = Summary::new(label(4), 0..3).unwrap();
     for run in 0..3 {
         // JSON has no infinity: the first run's trace would read one back as NaN.
         let mut finite = scores(run, 6);
@@ -205,7 +205,7 @@ fn run_values_survive_their_file() {
         }
         summary.add_run(run, &finite).unwrap();
     }
-    let mut lone = Summary::new(label(4), 3..4);
+    let mut lone = Summary::new(label(4), 3..4).unwrap();
     lone.add_run(3, &all_nan).unwrap();
     summary.merge(&lone).unwrap();
     let text = serde_json::to_string(&summary).unwrap();

@@ -75,9 +75,9 @@ fn falling(n: u64, fails_below: u64) -> Result<Summary, ExperimentError> {
         seed: 0,
         runs: 1,
     };
-    let mut s = Summary::new(label, 0..1);
+    let mut s = Summary::new(label, 0..1)?;
     if n < fails_below {
-        s.add_failure("diverged");
+        s.add_failure("diverged")?;
         return Ok(s);
     }
     let scores = RunScores {
@@ -127,6 +127,24 @@ fn the_match_search_finds_the_count_and_keeps_what_it_tried() {
     // Never reached.
     let found = smallest_to_match(1e-9, settings, |n| falling(n, 0), rmse).unwrap();
     assert_eq!(found.count, None);
+}
+
+#[test]
+fn a_study_without_a_score_never_matches_a_huge_target() {
+    let settings = SearchSettings {
+        tolerance: 1.0,
+        low: 1,
+        high: 8,
+        resolution: 0.5,
+    };
+    // target * (1 + tolerance) overflows to +inf: a study without a score (+inf) must not pass.
+    let found = smallest_to_match(f64::MAX, settings, |n| falling(n, 0), |_| None).unwrap();
+    assert_eq!(found.count, None);
+    assert!(found.tried.iter().all(|t| t.score == f64::INFINITY));
+    // A finite score within the tolerance of such a target still passes.
+    let found =
+        smallest_to_match(f64::MAX, settings, |n| falling(n, 0), |_| Some(f64::MAX)).unwrap();
+    assert_eq!(found.count, Some(1));
 }
 
 #[test]

@@ -97,3 +97,60 @@ fn the_root_mean_square_holds_values_up_to_max() {
     let v = stats(&[5e153, -5e153]).variance().unwrap();
     assert!((v - 5e307).abs() <= 1e-14 * 5e307, "{v:e}");
 }
+
+/// `base` through a file with its field `field` taken from `donor`: the error, if refused.
+fn read_with(
+    base: &RunningStats,
+    field: &str,
+    donor: &RunningStats,
+) -> Result<RunningStats, String> {
+    let mut json = serde_json::to_value(base).unwrap();
+    json[field] = serde_json::to_value(donor).unwrap()[field].clone();
+    serde_json::from_value(json).map_err(|e| e.to_string())
+}
+
+#[test]
+fn sums_beyond_the_extremes_are_refused_naming_the_field() {
+    let base = stats(&[1.0, 2.0]);
+    // A mean of 50 outside [1, 2].
+    let error = read_with(&base, "sum", &stats(&[100.0])).unwrap_err();
+    assert!(
+        error.contains("sum") && error.contains("outside [min, max]"),
+        "{error}"
+    );
+    // A sum beyond f64's range over two values: the mean would be +inf.
+    let error = read_with(&base, "sum", &stats(&[f64::MAX; 4])).unwrap_err();
+    assert!(error.contains("outside [min, max]"), "{error}");
+    // A root mean square of 1e10 above the largest magnitude 2.
+    let error = read_with(&base, "sum_of_squares", &stats(&[1e10])).unwrap_err();
+    assert!(
+        error.contains("sum_of_squares") && error.contains("root mean square"),
+        "{error}"
+    );
+    // The statistics of real streams, huge values included, read back.
+    for values in [
+        &[1.0, 2.0][..],
+        &[0.1; 3],
+        &[f64::MAX, f64::MAX, -f64::MAX],
+        &[1e300, 3e300, 7e300],
+        &[-5e-324, 5e-324],
+    ] {
+        let s = stats(values);
+        let back: RunningStats = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+        assert_eq!(back, s);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// Whatever the values, the mean and root mean square the sums give pass the reader's bounds.
+    #[test]
+    fn the_statistics_of_any_stream_read_back(
+        values in prop::collection::vec(prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL | prop::num::f64::ZERO, 1..40),
+    ) {
+        let s = stats(&values);
+        let back: RunningStats = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+        prop_assert_eq!(back, s);
+    }
+}

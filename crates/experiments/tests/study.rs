@@ -125,6 +125,42 @@ fn study(runs: u64, shard: Shard, sigma: f64) -> Summary {
         .unwrap()
 }
 
+/// The heading scenario declaring one measurement epoch fewer than it yields.
+struct Understated(Heading);
+
+impl Scenario for Understated {
+    type Truth = So2<f64>;
+    type Input = ();
+    type Measurement = Vector2<f64>;
+
+    type Steps<'s> = <Heading as Scenario>::Steps<'s>;
+
+    fn epochs(&self) -> usize {
+        self.0.epochs() - 1
+    }
+
+    fn simulate<'s>(&'s self, rng: &'s mut ChaCha8Rng) -> Result<Self::Steps<'s>, ExperimentError> {
+        self.0.simulate(rng)
+    }
+}
+
+#[test]
+fn a_run_of_more_epochs_than_its_scenario_declares_is_refused() {
+    let error = Study::new("EKF, heading", 2, 11, Shard::WHOLE)
+        .unwrap()
+        .run(
+            &Understated(Heading { steps: 40 }),
+            &|_| filter(SIGMA),
+            &PerRunError,
+            &|_| {},
+        )
+        .unwrap_err();
+    assert!(
+        matches!(&error, ExperimentError::Scenario(m) if m.contains("the 19 the scenario declares")),
+        "{error}"
+    );
+}
+
 /// The mean of the pooled values is inside the χ² band of their average.
 fn in_band(summary: &Summary, metric: &str, dof: usize) -> (f64, (f64, f64)) {
     let pooled = summary.series(metric).unwrap().pooled();

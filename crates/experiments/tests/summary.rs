@@ -2,7 +2,8 @@
 //! included), in any order and through a file; overlapping shards are refused.
 
 use liebayes_experiments::{
-    ExperimentError, MAX_EPOCHS, Metric, Reduction, RunScores, Shard, StudyLabel, Summary, run_rngs,
+    ExperimentError, MAX_EPOCHS, MAX_STUDY_EPOCHS, Metric, Reduction, RunScores, Shard, StudyLabel,
+    Summary, run_rngs,
 };
 use rand::Rng;
 
@@ -31,15 +32,17 @@ fn scores(values: Vec<f64>) -> RunScores {
 /// values span twelve decades, so a floating-point sum would depend on the order.
 fn study(seed: u64, shard: Shard, runs: u64) -> Summary {
     let range = shard.runs(runs);
-    let mut summary = Summary::new(label(seed, runs), range.clone());
+    let mut summary = Summary::new(label(seed, runs), range.clone()).unwrap();
     for run in range {
         let mut rng = run_rngs(seed, run).0;
         if rng.random_bool(0.05) {
-            summary.add_failure(if rng.random_bool(0.5) {
-                "diverged"
-            } else {
-                "not positive definite"
-            });
+            summary
+                .add_failure(if rng.random_bool(0.5) {
+                    "diverged"
+                } else {
+                    "not positive definite"
+                })
+                .unwrap();
             continue;
         }
         let mut values = Vec::new();
@@ -115,7 +118,7 @@ fn a_shard_merged_twice_is_refused_and_changes_nothing() {
 
 #[test]
 fn epochs_beyond_the_limit_and_bad_files_are_errors() {
-    let mut summary = Summary::new(label(0, 2), 0..2);
+    let mut summary = Summary::new(label(0, 2), 0..2).unwrap();
     let mut series = liebayes_experiments::MetricSeries::default();
     assert!(series.add(MAX_EPOCHS, 1.0).is_err());
     assert!(series.add(usize::MAX, 1.0).is_err());
@@ -131,7 +134,7 @@ fn epochs_beyond_the_limit_and_bad_files_are_errors() {
     ));
     assert_eq!(summary, before);
     // Summaries of different studies are not merged.
-    let mut different = Summary::new(label(1, 1), 0..1);
+    let mut different = Summary::new(label(1, 1), 0..1).unwrap();
     assert!(different.merge(&summary).is_err());
     for bad in [
         r#"{"runs": [], "series": {}, "scalars": {}, "failures": {}, "timing": {"count": 0, "non_finite": 0, "sum": {"limbs": [], "nan": false, "positive_infinity": false, "negative_infinity": false}, "sum_of_squares": {"limbs": [], "nan": false, "positive_infinity": false, "negative_infinity": false}, "min": null, "max": null}, "extra": 1}"#,
@@ -143,9 +146,9 @@ fn epochs_beyond_the_limit_and_bad_files_are_errors() {
 
 #[test]
 fn failure_reasons_are_bounded() {
-    let mut summary = Summary::new(label(0, 1000), 0..1000);
+    let mut summary = Summary::new(label(0, 1000), 0..1000).unwrap();
     for i in 0..1000 {
-        summary.add_failure(&format!("reason {i}"));
+        summary.add_failure(&format!("reason {i}")).unwrap();
     }
     assert_eq!(summary.failures().len(), 65);
     assert_eq!(summary.failures()["other reasons"], 1000 - 64);
@@ -153,7 +156,7 @@ fn failure_reasons_are_bounded() {
 
 #[test]
 fn a_trace_with_missing_values_survives_its_file() {
-    let mut summary = Summary::new(label(0, 1), 0..1);
+    let mut summary = Summary::new(label(0, 1), 0..1).unwrap();
     summary
         .add_run(0, &scores(vec![f64::NAN, 2.0, 1.5, f64::NAN]))
         .unwrap();
@@ -242,7 +245,10 @@ fn crafted_summaries_are_refused_naming_the_field() {
             "failures: more failed runs",
             Box::new(|j| j["failures"]["diverged"] = 21.into()),
         ),
-        ("timing", Box::new(|j| j["timing"]["count"] = 20.into())),
+        (
+            "timing",
+            Box::new(|j| j["timing"]["non_finite"] = 20.into()),
+        ),
         (
             "sum_of_large_squares is not zero",
             Box::new(move |j| {
@@ -256,4 +262,135 @@ fn crafted_summaries_are_refused_naming_the_field() {
         let error = read_edited(&whole, edit).unwrap_err();
         assert!(error.contains(field), "{field}: {error}");
     }
+}
+
+/// One run's scores of the named metrics (each a root mean square, not per run), one epoch at
+/// t = 0, with the given values.
+fn named(metrics: &[&'static str], values: Vec<f64>) -> RunScores {
+    RunScores {
+        metrics: metrics
+            .iter()
+            .map(|&name| Metric::new(name, Reduction::RootMeanSquare, ""))
+            .collect(),
+        times: vec![0.0],
+        values,
+        seconds_per_step: 1e-6,
+    }
+}
+
+/// The value of metric `name` in a summary's trace at epoch 0.
+fn traced(summary: &Summary, name: &str) -> f64 {
+    let j = summary
+        .metrics()
+        .iter()
+        .position(|m| m.name == name)
+        .unwrap();
+    summary.trace().unwrap().values[j]
+}
+
+#[test]
+fn a_metric_first_seen_after_run_0_widens_the_trace() {
+    let mut summary = Summary::new(label(0, 2), 0..2).unwrap();
+    summary.add_run(0, &named(&["error"], vec![1.0])).unwrap();
+    summary
+        .add_run(1, &named(&["error", "nis"], vec![2.0, 3.0]))
+        .unwrap();
+    let trace = summary.trace().unwrap();
+    assert_eq!(trace.values.len(), 2);
+    assert_eq!(traced(&summary, "error"), 1.0);
+    assert!(traced(&summary, "nis").is_nan());
+    let back: Summary = serde_json::from_str(&serde_json::to_string(&summary).unwrap()).unwrap();
+    assert_eq!(back, summary);
+}
+
+#[test]
+fn a_merge_puts_the_trace_values_under_their_names() {
+    let mut first = Summary::new(label(0, 2), 0..1).unwrap();
+    first
+        .add_run(0, &named(&["error", "nees"], vec![1.0, 2.0]))
+        .unwrap();
+    let mut second = Summary::new(label(0, 2), 1..2).unwrap();
+    second
+        .add_run(1, &named(&["nees", "error", "extra"], vec![5.0, 6.0, 7.0]))
+        .unwrap();
+    // The other's trace, reordered and widened to this summary's metrics.
+    let mut merged = second.clone();
+    merged.merge(&first).unwrap();
+    // This summary's trace, widened by the metric the other brings.
+    let mut other_way = first.clone();
+    other_way.merge(&second).unwrap();
+    for summary in [&merged, &other_way] {
+        assert_eq!(summary.trace().unwrap().values.len(), 3);
+        assert_eq!(traced(summary, "error"), 1.0);
+        assert_eq!(traced(summary, "nees"), 2.0);
+        assert!(traced(summary, "extra").is_nan());
+        let text = serde_json::to_string(summary).unwrap();
+        assert_eq!(&serde_json::from_str::<Summary>(&text).unwrap(), summary);
+    }
+}
+
+#[test]
+fn a_failure_beyond_the_runs_covered_is_refused() {
+    let mut summary = Summary::new(label(0, 2), 0..2).unwrap();
+    summary.add_run(0, &named(&["error"], vec![1.0])).unwrap();
+    summary.add_failure("diverged").unwrap();
+    let before = summary.clone();
+    let error = summary.add_failure("diverged").unwrap_err();
+    assert!(matches!(error, ExperimentError::Incompatible(_)), "{error}");
+    assert_eq!(summary, before);
+    assert_eq!(summary.failure_count(), 1);
+    let text = serde_json::to_string(&summary).unwrap();
+    assert_eq!(serde_json::from_str::<Summary>(&text).unwrap(), summary);
+}
+
+#[test]
+fn a_run_of_more_epochs_than_a_study_holds_is_refused() {
+    let epochs = MAX_STUDY_EPOCHS + 1;
+    let long = RunScores {
+        metrics: vec![Metric::new("error", Reduction::RootMeanSquare, "")],
+        times: (0..epochs).map(|k| k as f64).collect(),
+        values: vec![1.0; epochs],
+        seconds_per_step: 1e-6,
+    };
+    let mut summary = Summary::new(label(0, 1), 0..1).unwrap();
+    let error = summary.add_run(0, &long).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            ExperimentError::OutOfRange {
+                what: "number of epochs",
+                ..
+            }
+        ),
+        "{error}"
+    );
+    assert_eq!(summary, Summary::new(label(0, 1), 0..1).unwrap());
+    let mut series = liebayes_experiments::MetricSeries::default();
+    for k in 0..MAX_STUDY_EPOCHS {
+        series.add(k, 1.0).unwrap();
+    }
+    assert!(series.add(MAX_STUDY_EPOCHS, 1.0).is_err());
+    // Nor does the reader take a longer series than add_run builds.
+    summary.add_run(0, &named(&["error"], vec![1.0])).unwrap();
+    let error = read_edited(&summary, |json| {
+        let epochs = json["metrics"][0]["series"]["epochs"]
+            .as_array_mut()
+            .unwrap();
+        let first = epochs[0].clone();
+        epochs.resize(MAX_STUDY_EPOCHS + 1, first);
+    })
+    .unwrap_err();
+    assert!(error.contains("epochs, more than 16384"), "{error}");
+}
+
+#[test]
+fn a_summary_of_runs_outside_its_study_is_refused() {
+    let error = Summary::new(label(0, 2), 1..3).unwrap_err();
+    assert!(
+        matches!(error, ExperimentError::OutOfRange { .. }) && error.to_string().contains("1..3"),
+        "{error}"
+    );
+    assert!(Summary::new(label(0, 2), 0..2).is_ok());
+    // An empty range covers nothing, wherever it starts.
+    assert_eq!(Summary::new(label(0, 2), 5..5).unwrap().run_count(), 0);
 }

@@ -40,6 +40,8 @@ fn figures_follow_their_reduction() {
     assert_eq!(band, average_nees_band(2, 5).ok());
     let rate = stats(&[1.0, 0.0, 0.0, 1.0]);
     assert_eq!(Reduction::Rate.figure(&rate), Figure::Percent(50.0));
+    // A "rate" far beyond 1 has no finite percent: Empty, not Percent(inf).
+    assert_eq!(Reduction::Rate.figure(&stats(&[1e307])), Figure::Empty);
     assert_eq!(Reduction::Mean.figure(&stats(&[f64::NAN])), Figure::Empty);
     assert_eq!(
         Reduction::Mean.figure(&stats(&[4.0])),
@@ -55,7 +57,7 @@ fn summary(name: &str, runs: Range<u64>, total: u64) -> Summary {
         seed: 7,
         runs: total,
     };
-    let mut s = Summary::new(label, runs.clone());
+    let mut s = Summary::new(label, runs.clone()).unwrap();
     for r in runs {
         let scores = RunScores {
             metrics: vec![
@@ -166,7 +168,7 @@ fn per_run_summary(
         seed: 7,
         runs: total,
     };
-    let mut s = Summary::new(label, runs.clone());
+    let mut s = Summary::new(label, runs.clone()).unwrap();
     for r in runs {
         let scores = RunScores {
             metrics: vec![

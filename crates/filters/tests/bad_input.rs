@@ -909,7 +909,7 @@ fn the_track_rmse_of_huge_errors_is_finite() {
         seed: 0,
         runs: 2,
     };
-    let mut summary = Summary::new(label, 0..2);
+    let mut summary = Summary::new(label, 0..2).unwrap();
     for (run, error) in [(0, 1e200), (1, 2e200)] {
         let scores = RunScores {
             metrics: vec![Metric::new("position_error", Reduction::RootMeanSquare, "m").per_run()],
