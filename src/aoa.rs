@@ -260,8 +260,9 @@ pub fn update(args: &UpdateArgs) -> Result<(), CliError> {
 /// # Errors
 /// As [`run`].
 pub fn track(args: &TrackArgs) -> Result<(), CliError> {
-    let plan = TrackPlan::new(args)?;
+    // The folder first: the plan fits the noise models, which takes a while at large sizes.
     let output = output::prepare(&args.output)?;
+    let plan = TrackPlan::new(args)?;
     let tables = plan.run(args.output.shard)?;
     report::emit(&tables, &args.output, output)
 }

@@ -8,7 +8,7 @@ use crate::output::{self, OutputArgs};
 use crate::report::{emit, print, stage};
 use crate::sheet::Sheet;
 use liebayes::experiments::Table;
-use liebayes::experiments::{MAX_EPOCHS, Shard, Study};
+use liebayes::experiments::{MAX_EPOCHS, MAX_STUDY_EPOCHS, Shard, Study};
 use liebayes::filters::attitude::{
     AtRate, AttitudeParams, AttitudeScorer, Evaluation, ImuScenario, LogRecording, LogScenario,
     MEASURED_FIELD_OFFSET, Method, Sensors, SimulationSettings, estimates, read_broad,
@@ -52,7 +52,8 @@ pub struct Args {
     pub csv: Option<PathBuf>,
     /// A method to run (repeat for several; default ekf-9d, ekf-6d, talk-9d, madgwick-9d): one of
     /// ekf-9d, ekf-6d, ekf-offline-9d, ekf-offline-6d, talk-9d, talk-6d, madgwick-9d, madgwick-6d.
-    #[arg(long = "method", value_name = "NAME", value_parser = parse_method)]
+    #[arg(long = "method", value_name = "NAME", value_parser = parse_method,
+          conflicts_with_all = ["csv", "runs"])]
     pub methods: Vec<Method>,
     /// The offline estimate: the production filter's smoother over the whole log, every sample
     /// given every sample (ekf-offline-9d and ekf-offline-6d; with --csv, the one the log's
@@ -112,6 +113,7 @@ fn methods_or(given: &[Method], names: &[&str]) -> Result<Vec<Method>, CliError>
 /// Bad input (missing folder, no trial, malformed file, a CSV log longer than a run records), a
 /// failed filter, or a file that cannot be written; nothing is written then.
 pub fn run(args: &Args) -> Result<(), CliError> {
+    check_args(args)?;
     let mut output = output::prepare(&whole(args.out.clone()))?;
     let defaults: &[&str] = if args.offline {
         &OFFLINE_METHODS
@@ -136,6 +138,55 @@ pub fn run(args: &Args) -> Result<(), CliError> {
         simulated(&settings, args.seed, &methods, &mut output)?;
     }
     output.finish()
+}
+
+/// What the command line alone decides, checked before any folder is made or file read: no
+/// method named twice (each writes files of its own name), a study's samples within the epochs a
+/// study holds (it scores every [`STUDY_MAGNETOMETER_EVERY`]th sample), and `--csv`'s output
+/// file names plain names (they are made of the input file's name).
+///
+/// # Errors
+/// The argument and what to change.
+fn check_args(args: &Args) -> Result<(), CliError> {
+    for (k, method) in args.methods.iter().enumerate() {
+        if args.methods[..k].contains(method) {
+            return Err(format!("--method {} is given twice", slug(method)).into());
+        }
+    }
+    if let (Some(_), Some(samples)) = (args.runs, args.samples) {
+        let most = MAX_STUDY_EPOCHS * STUDY_MAGNETOMETER_EVERY;
+        if samples > most {
+            return Err(format!(
+                "--samples is {samples}: a study (--runs) takes at most {most} samples (it scores \
+                 every {STUDY_MAGNETOMETER_EVERY}th, at most {MAX_STUDY_EPOCHS} epochs)"
+            )
+            .into());
+        }
+    }
+    if let (Some(file), Some(_)) = (&args.csv, &args.out) {
+        for filter in ["ekf", "ekf-offline"] {
+            for sensors in ["9d", "6d"] {
+                let method = parse_method(&format!("{filter}-{sensors}"))?;
+                output::check_name(&csv_output_name(file, &method)).map_err(|e| {
+                    CliError::from(format!(
+                        "--csv {}: its estimates are written under the input's name, and {e}: \
+                         rename the input file",
+                        file.display()
+                    ))
+                })?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The estimates file `--csv` writes for `method`: the input's stem and the method's slug.
+fn csv_output_name(file: &Path, method: &Method) -> String {
+    let stem = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    format!("{stem}.{}.csv", slug(method))
 }
 
 /// Samples between magnetometer readings in the study (a magnetometer at a tenth of the
@@ -267,6 +318,17 @@ fn broad_trials(dir: &Path) -> Result<Vec<PathBuf>, CliError> {
         .filter(|p| p.extension().is_some_and(|x| x == "mat"))
         .collect();
     trials.sort();
+    // A FIFO or a device named like a trial would block the reader or never end.
+    if let Some(odd) = trials
+        .iter()
+        .find(|p| !p.metadata().is_ok_and(|m| m.is_file()))
+    {
+        return Err(format!(
+            "{} is named like a BROAD trial but is not a regular file: move it out of the folder",
+            odd.display()
+        )
+        .into());
+    }
     if trials.is_empty() {
         return Err(format!("the BROAD folder {} holds no .mat trial", dir.display()).into());
     }
@@ -503,11 +565,7 @@ fn csv(file: &Path, offline: bool, output: &mut output::Output) -> Result<(), Cl
     }
     if output.dir().is_some() {
         let bytes = estimates_csv(&recording, &origin)?;
-        let stem = file
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        output.write(&format!("{stem}.{}.csv", slug(&method)), &bytes)?;
+        output.write(&csv_output_name(file, &method), &bytes)?;
     }
     Ok(())
 }

@@ -869,3 +869,64 @@ fn attitude_csv_with_a_corrupt_reading_is_refused() {
     assert!(files(&out_dir).is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The attitude command's arguments are checked before any work (an audit of the command line):
+/// a method named twice ran every trial and then failed on a file written twice; `--method` with
+/// `--csv` or `--runs` was ignored without a word; a study's `--samples` beyond what it scores
+/// failed without naming `--samples`; a `--csv` input whose name makes no plain output name failed
+/// after the filter had run; and a FIFO named like a BROAD trial blocked the reader forever.
+#[cfg(unix)]
+#[test]
+fn attitude_arguments_are_checked_before_any_work() {
+    let dir = folder("attitude-arguments");
+    let out_dir = dir.join("out");
+    let out = out_dir.to_str().unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["--simulate", "--method", "ekf-9d", "--method", "ekf-9d"],
+            "--method ekf-9d is given twice",
+        ),
+        (
+            &["--csv", "log.csv", "--method", "ekf-6d"],
+            "cannot be used with",
+        ),
+        (
+            &["--simulate", "--runs", "2", "--method", "ekf-6d"],
+            "cannot be used with",
+        ),
+        (
+            &["--simulate", "--runs", "2", "--samples", "200000"],
+            "--samples is 200000",
+        ),
+        (
+            &["--csv", "walk 1.csv", "--out", out],
+            "rename the input file",
+        ),
+    ];
+    for (args, needle) in cases {
+        let mut all = vec!["attitude"];
+        all.extend_from_slice(args);
+        let output = liebayes(&all);
+        assert!(!output.status.success(), "{args:?}");
+        assert!(
+            text(&output.stderr).contains(needle),
+            "{args:?}: {}",
+            text(&output.stderr)
+        );
+        assert!(files(&out_dir).is_empty(), "{args:?}");
+    }
+    let broad = dir.join("broad");
+    std::fs::create_dir_all(&broad).unwrap();
+    let pipe = broad.join("trial.mat");
+    let made = Command::new("mkfifo")
+        .arg(&pipe)
+        .status()
+        .expect("mkfifo runs");
+    assert!(made.success());
+    let output = liebayes(&["attitude", "--broad", broad.to_str().unwrap()]);
+    assert_fails(&output, "is not a regular file");
+    // The library's reader refuses it too, naming the file.
+    let error = liebayes::filters::attitude::read_broad(&pipe).unwrap_err();
+    assert!(error.to_string().contains("not a regular file"), "{error}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -4,6 +4,7 @@
 use super::data::{DataError, ImuLog, check_count, check_length, reference_from_components};
 use matfile::{Array, MatFile, NumericData};
 use nalgebra::Vector3;
+use std::io::Read as _;
 use std::path::Path;
 
 /// The largest .mat file the reader opens (1 GiB), checked before reading it.
@@ -16,7 +17,7 @@ pub const MAX_MAT_FILE_BYTES: u64 = 1 << 30;
 /// arrays column-major: element (i, j) of an N × k array is at `i + j N`.
 ///
 /// # Errors
-/// [`DataError::Io`] if the file cannot be read, [`DataError::TooLarge`] beyond
+/// [`DataError::Io`] if the file cannot be read or is not a regular file, [`DataError::TooLarge`] beyond
 /// [`MAX_MAT_FILE_BYTES`], [`MAX_MAT_DECLARED_BYTES`] or [`MAX_SAMPLES`](super::MAX_SAMPLES),
 /// [`DataError::NotMatFile`] if its structure is malformed (an element declaring more bytes than
 /// it holds, dimensions beyond the format's) or it does not parse,
@@ -30,16 +31,33 @@ pub fn read_broad(path: impl AsRef<Path>) -> Result<ImuLog, DataError> {
         origin: origin.clone(),
         message: e.to_string(),
     };
-    let size = std::fs::metadata(path).map_err(io)?.len();
-    if size > MAX_MAT_FILE_BYTES {
-        return Err(DataError::TooLarge {
+    let metadata = std::fs::metadata(path).map_err(io)?;
+    // A FIFO would block the read and a device might never end it: regular files only.
+    if !metadata.is_file() {
+        return Err(DataError::Io {
             origin,
-            what: "the file size in bytes",
-            size,
-            limit: MAX_MAT_FILE_BYTES,
+            message: "not a regular file (a FIFO, a folder or a device)".to_owned(),
         });
     }
-    let bytes = std::fs::read(path).map_err(io)?;
+    let too_large = |size: u64| DataError::TooLarge {
+        origin: origin.clone(),
+        what: "the file size in bytes",
+        size,
+        limit: MAX_MAT_FILE_BYTES,
+    };
+    if metadata.len() > MAX_MAT_FILE_BYTES {
+        return Err(too_large(metadata.len()));
+    }
+    // At most one byte past the limit: a file that grows after the check is refused too.
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .map_err(io)?
+        .take(MAX_MAT_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > MAX_MAT_FILE_BYTES {
+        return Err(too_large(bytes.len() as u64));
+    }
     let not_mat = |message: String| DataError::NotMatFile {
         origin: origin.clone(),
         message,
@@ -260,7 +278,6 @@ impl Walk<'_> {
     /// A zlib stream inflated, refused when it is corrupt or the file's compressed elements
     /// inflate beyond [`MAX_MAT_DECLARED_BYTES`] together.
     fn inflate(&mut self, stream: &[u8]) -> Result<Vec<u8>, String> {
-        use std::io::Read as _;
         let corrupt = |e: std::io::Error| format!("is not a valid zlib stream ({e})");
         let room = MAX_MAT_DECLARED_BYTES - self.inflated;
         let decoder = libflate::zlib::Decoder::new(stream).map_err(corrupt)?;
