@@ -364,3 +364,25 @@ fn the_sampler_law_needs_a_draw() {
     let error = check_sampler(&p, &mut ChaCha8Rng::seed_from_u64(1), 0).unwrap_err();
     assert!(error.to_string().contains("n = 0"), "{error}");
 }
+
+/// The strategies clamp what their docs now say they clamp: a negative or NaN concentration, and
+/// a negative or huge Bingham spread, made `gen_von_mises2` and `bingham` panic.
+#[test]
+fn strategies_clamp_their_parameters() {
+    use liebayes_densities::testing::strategies::{bingham, gen_von_mises2};
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::TestRunner;
+    let mut runner = TestRunner::deterministic();
+    for kappa in [-1.0, f64::NAN, f64::INFINITY] {
+        for _ in 0..16 {
+            let tree = gen_von_mises2(Just(kappa)).new_tree(&mut runner).unwrap();
+            assert!(tree.current().log_normalizer().is_finite(), "{kappa}");
+        }
+    }
+    for spread in [-2e12, f64::NEG_INFINITY, f64::NAN, 1e300] {
+        for _ in 0..16 {
+            let tree = bingham(spread).new_tree(&mut runner).unwrap();
+            assert!(tree.current().log_normalizer().is_finite(), "{spread}");
+        }
+    }
+}

@@ -92,7 +92,8 @@ pub trait FilterLawSubject: Sync {
         value: f64,
     ) -> <Self::Scenario as Scenario>::Measurement;
 
-    /// Independent runs of the consistency laws.
+    /// Independent runs of the consistency laws, 1 to [`MAX_LAW_RUNS`] (checked when the laws
+    /// run: none would pass them without looking at any data).
     fn runs(&self) -> u64 {
         100
     }
@@ -248,17 +249,27 @@ impl Band {
     }
 }
 
+/// The most runs [`FilterLawSubject::runs`] may ask of the consistency laws (each simulates and
+/// filters a whole scenario).
+pub const MAX_LAW_RUNS: u64 = 1_000_000;
+
 /// The NEES and, where the filter reports it, the NIS at the last measurement epoch of each of
 /// the subject's runs (in run order), with the filter assuming `noise` times the measurement
 /// noise's standard deviation. The NEES is empty when the estimate reports no uncertainty.
 ///
 /// # Errors
-/// When a run cannot be simulated or built, or a step fails (a consistent filter's runs all
-/// complete).
+/// When `runs()` is outside 1 to [`MAX_LAW_RUNS`], a run cannot be simulated or built, or a step
+/// fails (a consistent filter's runs all complete).
 pub fn last_epoch_statistics<S: FilterLawSubject>(
     subject: &S,
     noise: f64,
 ) -> Result<(Vec<Nis>, Vec<Nis>), String> {
+    let runs = subject.runs();
+    if !(1..=MAX_LAW_RUNS).contains(&runs) {
+        return Err(format!(
+            "runs() is {runs}: the consistency laws take 1 to {MAX_LAW_RUNS} runs"
+        ));
+    }
     let (mut nees, mut nis) = (Vec::new(), Vec::new());
     for run in 0..subject.runs() {
         let (steps, mut filter) = start(subject, run, noise)?;

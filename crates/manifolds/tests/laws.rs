@@ -11,7 +11,7 @@ use liebayes_manifolds::testing::{Tolerance, strategies as st};
 
 use proptest::prelude::*;
 
-/// Cases per property: enough to hit every curated class many times (each has weight >= 1/16).
+/// Cases per property: enough to hit every curated class many times (each has weight >= 1/30).
 const CASES: u32 = 2048;
 
 /// The manifold, group and Jacobian laws of a group, and its action laws when points are given.
@@ -454,4 +454,40 @@ mod named_products {
         Left<So3<f32>>,
         st::left(st::so3::<f32>())
     );
+}
+
+/// The law functions check their tolerances: a finite-difference step of 0 divided 0 by 0 and an
+/// infinite tolerance passed anything; both now fail naming the field.
+#[test]
+fn law_tolerances_must_be_finite_and_positive() {
+    use liebayes_manifolds::{LieGroup, So3};
+    let a = So3::exp(&nalgebra::Vector3::new(0.1, 0.2, 0.3));
+    let v = nalgebra::Vector3::new(0.3, -0.1, 0.2);
+    assert!(check_jacobians(&a, &a, &v, &Tolerance::for_scalar()).is_ok());
+    for (bad, field) in [
+        (
+            Tolerance {
+                fd_step: 0.0,
+                ..Tolerance::for_scalar()
+            },
+            "fd_step",
+        ),
+        (
+            Tolerance {
+                identity: f64::INFINITY,
+                ..Tolerance::for_scalar()
+            },
+            "identity",
+        ),
+        (
+            Tolerance {
+                fd: f64::NAN,
+                ..Tolerance::for_scalar()
+            },
+            "fd",
+        ),
+    ] {
+        let error = check_jacobians(&a, &a, &v, &bad).unwrap_err();
+        assert!(error.to_string().contains(field), "{error}");
+    }
 }

@@ -288,7 +288,13 @@ pub fn check_sampler<P: DensitySubject, R: Rng + ?Sized>(
     let mut exact_variances = vec![0.0; exact.len()];
     for (x, w) in &p.quadrature() {
         let weight = w * p.log_pdf(x).exp();
-        for (k, t) in p.statistics(x).iter().enumerate() {
+        let t = p.statistics(x);
+        prop_assert_eq!(
+            t.len(),
+            exact.len(),
+            "statistics at a quadrature node and exact moments differ in length"
+        );
+        for (k, t) in t.iter().enumerate() {
             exact_variances[k] += weight * (t - exact[k]).powi(2);
         }
     }

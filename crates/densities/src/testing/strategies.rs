@@ -100,12 +100,14 @@ pub fn von_mises_fisher(
 /// sampling stays fast), and the von Mises case η₂ = 0 and the bimodal case η₁ = 0 on purpose.
 ///
 /// # Panics
-/// Never: the capped parameters are in range.
+/// Never: the concentrations are clamped to [0, 1e3] (a NaN one is read as 0).
 pub fn gen_von_mises2(
     kappa: impl Strategy<Value = f64> + Clone,
 ) -> impl Strategy<Value = GenVonMises2> {
-    let harmonic =
-        move || (manifold::so2::<f64>(), kappa.clone()).prop_map(|(mean, k)| (mean, k.min(1e3)));
+    let capped = |k: f64| if k.is_nan() { 0.0 } else { k.clamp(0.0, 1e3) };
+    let harmonic = move || {
+        (manifold::so2::<f64>(), kappa.clone()).prop_map(move |(mean, k)| (mean, capped(k)))
+    };
     (harmonic(), harmonic(), 0..6_u8).prop_map(|((m1, k1), (m2, k2), case)| {
         let (k1, k2) = match case {
             0 => (k1, 0.0),
@@ -132,8 +134,14 @@ pub fn heat_kernel_so3(
 /// repeated eigenvalues (isotropic and uniform cases) and one or two vanishing gaps drawn on purpose.
 ///
 /// # Panics
-/// Never for `spread` ≤ [`Bingham::MAX_SPREAD`]: the orientation is orthogonal.
+/// Never: `spread` is clamped to [0, [`Bingham::MAX_SPREAD`]] (a NaN one is read as 0), and the
+/// orientation is orthogonal.
 pub fn bingham(spread: f64) -> impl Strategy<Value = Bingham> {
+    let spread = if spread.is_nan() {
+        0.0
+    } else {
+        spread.clamp(0.0, Bingham::MAX_SPREAD)
+    };
     let gap = move || {
         prop_oneof![
             4 => (-3.0..0.0_f64).prop_map(move |e| spread * 10f64.powf(e)),
@@ -199,13 +207,23 @@ fn orthogonal<const D: usize>(entries: &[f64]) -> SMatrix<f64, D, D> {
         if norm > 1e-3 {
             q.column_mut(j).unscale_mut(norm);
         } else {
-            // Fall back to the first axis not yet spanned, orthogonalised.
-            let mut e = SVector::<f64, D>::zeros();
-            e[j] = 1.0;
-            for k in 0..j {
-                let projection = q.column(k).dot(&e);
-                e -= q.column(k) * projection;
-            }
+            // Fall back to the axis with the largest part outside the columns so far (one part
+            // is at least √((D − j)/D): the j columns span j dimensions), orthogonalised.
+            let residual = |i: usize| {
+                let mut e = SVector::<f64, D>::zeros();
+                e[i] = 1.0;
+                for _ in 0..2 {
+                    for k in 0..j {
+                        let projection = q.column(k).dot(&e);
+                        e -= q.column(k) * projection;
+                    }
+                }
+                e
+            };
+            let e = (0..D)
+                .map(residual)
+                .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+                .unwrap_or_else(SVector::zeros);
             q.set_column(j, &e.normalize());
         }
     }
@@ -364,4 +382,21 @@ pub fn harmonic_gaussian_raw<const N: usize>() -> impl Strategy<Value = Built<Ha
         .prop_map(|(angle, b, covariance)| {
             HarmonicGaussian::new(angle, SMatrix::from_column_slice(&b), covariance)
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A column that falls inside the span of the ones before and whose own axis is spanned too
+    /// normalised a zero vector (NaN) in the fallback; it now takes the axis with the largest part
+    /// outside the span.
+    #[test]
+    fn degenerate_columns_give_an_orthogonal_matrix() {
+        for entries in [[0.0, 0.5, 0.0, 0.3], [0.0; 4], [1.0, 0.0, 1.0, 0.0]] {
+            let q = orthogonal::<2>(&entries);
+            let error = (q.transpose() * q - SMatrix::<f64, 2, 2>::identity()).amax();
+            assert!(error < 1e-12, "{entries:?}: {q}");
+        }
+    }
 }

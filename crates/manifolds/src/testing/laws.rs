@@ -36,6 +36,25 @@ pub struct Tolerance<T> {
 }
 
 impl<T: Real> Tolerance<T> {
+    /// Fails unless every tolerance is finite and positive (a step of 0 would divide 0 by 0, an
+    /// infinite tolerance would pass anything).
+    ///
+    /// # Errors
+    /// The law's failure, naming the field.
+    pub fn check(&self) -> Result<(), TestCaseError> {
+        for (name, value) in [
+            ("identity", self.identity),
+            ("fd_step", self.fd_step),
+            ("fd", self.fd),
+        ] {
+            prop_assert!(
+                value.is_finite() && value > T::zero(),
+                "Tolerance::{name} is {value:?}: it must be finite and positive"
+            );
+        }
+        Ok(())
+    }
+
     /// The tolerances for `T`.
     pub fn for_scalar() -> Self {
         let eps = T::default_epsilon();
@@ -369,6 +388,13 @@ fn close<T: Real, const R: usize, const C: usize>(
     expected: &SMatrix<T, R, C>,
     tolerance: T,
 ) -> Result<(), TestCaseError> {
+    // amax skips a NaN followed by any number: non-finite entries fail here, explicitly.
+    prop_assert!(
+        got.iter()
+            .chain(expected.iter())
+            .all(ComplexField::is_finite),
+        "{law}: a non-finite entry\n got {got:?}\n expected {expected:?}"
+    );
     let error = (got - expected).amax();
     let scale = T::one() + expected.amax();
     prop_assert!(
@@ -422,6 +448,7 @@ pub fn check_manifold<M: LawSubject<D>, const D: usize>(
     v: &Tangent<M::Scalar, D>,
     tol: &Tolerance<M::Scalar>,
 ) -> Result<(), TestCaseError> {
+    tol.check()?;
     let t = tol.identity * x.coordinate_scale().max(y.coordinate_scale());
     let one = one::<M::Scalar>();
     same_point("retract(x, 0) == x", &x.retract(&Tangent::zeros()), x, t)?;
@@ -470,6 +497,7 @@ pub fn check_group<G: LieGroup<D> + LawSubject<D>, const D: usize>(
     v: &Tangent<G::Scalar, D>,
     tol: &Tolerance<G::Scalar>,
 ) -> Result<(), TestCaseError> {
+    tol.check()?;
     let scale = a
         .coordinate_scale()
         .max(b.coordinate_scale())
@@ -543,6 +571,7 @@ pub fn check_jacobians<G: LieGroup<D> + LawSubject<D>, const D: usize>(
     v: &Tangent<G::Scalar, D>,
     tol: &Tolerance<G::Scalar>,
 ) -> Result<(), TestCaseError> {
+    tol.check()?;
     let h = tol.fd_step;
     let t = tol.fd * a.coordinate_scale().max(b.coordinate_scale());
     // Group-valued function, differenced in the tangent space of its unperturbed value.
@@ -641,6 +670,7 @@ pub fn check_action<G: GroupAction<D, P> + LawSubject<D>, const D: usize, const 
     p: &SVector<G::Scalar, P>,
     tol: &Tolerance<G::Scalar>,
 ) -> Result<(), TestCaseError> {
+    tol.check()?;
     let scale = a.coordinate_scale().max(b.coordinate_scale()) + p.norm();
     let t = tol.identity * scale;
     close("e . p == p", &G::identity().act(p), p, t)?;

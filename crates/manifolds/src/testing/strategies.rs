@@ -328,9 +328,10 @@ where
     (first, second).prop_map(|(a, b)| ProductManifold::<A, B, DA, DB, D>::join_tangent(&a, &b))
 }
 
-/// Extreme scalars, the bad-input law's raw numbers: NaN, ±∞, ±MAX, ±MIN_POSITIVE, subnormals
-/// (5e-324 and 1e-310 in f64), ±0, ±1e300, ±1e-300, ordinary values in [−10, 10], and log-uniform
-/// magnitudes from 1e-320 to 1e308 of either sign. Drawn in `f64` and rounded to the scalar type,
+/// Extreme scalars, the bad-input law's raw numbers: NaN, ±∞, ±MAX, MIN_POSITIVE, subnormals
+/// (5e-324 and −1e-310 in f64), ±0, 1e300, −1e-300, ordinary values in [−10, 10], and log-uniform
+/// magnitudes from 1e-320 to 1e308 of either sign (which give the other signs of those
+/// magnitudes too). Drawn in `f64` and rounded to the scalar type,
 /// where a finite value beyond the type's range saturates at its largest finite value (so the
 /// finite classes stay finite in f32).
 pub fn extreme<T: Real>() -> impl Strategy<Value = T> + Clone {
