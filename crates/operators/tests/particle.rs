@@ -690,20 +690,16 @@ fn a_failed_propagation_gives_its_draws_back() {
         set.condition_in_place(&Reweight(&likelihood), &()).unwrap();
         set
     };
-    let tried = Sampled::with_resampling(
-        &walk,
-        ChaCha8Rng::seed_from_u64(3),
-        0.9,
-        Resampling::Multinomial,
-    )
-    .unwrap();
-    let clean = Sampled::with_resampling(
-        &walk,
-        ChaCha8Rng::seed_from_u64(3),
-        0.9,
-        Resampling::Multinomial,
-    )
-    .unwrap();
+    let model = || {
+        Sampled::with_resampling(
+            &walk,
+            ChaCha8Rng::seed_from_u64(3),
+            0.9,
+            Resampling::Multinomial,
+        )
+        .unwrap()
+    };
+    let (tried, clean) = (model(), model());
     let (mut a, mut b) = (start(), start());
     assert!(a.propagate_in_place(&tried, &f64::NAN).is_err());
     a.propagate_in_place(&tried, &1.0).unwrap();
