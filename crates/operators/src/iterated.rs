@@ -146,7 +146,7 @@ pub enum Stop {
     /// [`IterationSettings::max_iterations`] steps were taken.
     IterationLimit,
     /// No halving of the proposed step ([`MAX_HALVINGS`]) decreased the merit: the iterate is a
-    /// minimum of J to rounding (a tolerance below J's rounding), the posterior linearisation's
+    /// minimum of J to rounding (a tolerance below J's rounding), or the posterior linearisation's
     /// fixed-point iteration does not contract there.
     NoDescent,
 }
