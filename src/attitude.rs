@@ -349,13 +349,10 @@ fn compare(
     output: &mut output::Output,
 ) -> Result<Evaluation, CliError> {
     let writing = output.dir().is_some();
-    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let evaluation = evaluate(logs, methods, &mut |name, method, recording| {
         if writing {
-            files.push((
-                format!("{name}.{}.csv", slug(method)),
-                estimates_csv(recording, name)?,
-            ));
+            let file = format!("{name}.{}.csv", slug(method));
+            write_estimates(output, &file, recording, name)?;
             if *method == methods[0] {
                 let svg = errors_svg(name, &method.label(), recording).map_err(|message| {
                     FilterError::Setting {
@@ -365,14 +362,11 @@ fn compare(
                         expected: "a plot that renders",
                     }
                 })?;
-                files.push((format!("{name}.errors.svg"), svg.into_bytes()));
+                output.write(&format!("{name}.errors.svg"), svg.as_bytes())?;
             }
         }
-        Ok(())
+        Ok::<_, CliError>(())
     })?;
-    for (name, bytes) in files {
-        output.write(&name, &bytes)?;
-    }
     print_tables(&evaluation, title);
     Ok(evaluation)
 }
@@ -564,20 +558,25 @@ fn csv(file: &Path, offline: bool, output: &mut output::Output) -> Result<(), Cl
         ));
     }
     if output.dir().is_some() {
-        let bytes = estimates_csv(&recording, &origin)?;
-        output.write(&csv_output_name(file, &method), &bytes)?;
+        write_estimates(output, &csv_output_name(file, &method), &recording, &origin)?;
     }
     Ok(())
 }
 
-/// A run's estimates as the CSV file `write_estimates_csv` writes (`origin` names it in errors).
-fn estimates_csv(recording: &LogRecording, origin: &str) -> Result<Vec<u8>, FilterError> {
+/// Writes a run's estimates as the file `file` of the output, in the CSV format of
+/// `write_estimates_csv` (`origin` names the run in errors), streamed to disk.
+fn write_estimates(
+    output: &mut output::Output,
+    file: &str,
+    recording: &LogRecording,
+    origin: &str,
+) -> Result<(), CliError> {
     let (times, orientations): (Vec<f64>, Vec<_>) = estimates(recording)
         .map(|(s, e)| (s.time, e.orientation))
         .unzip();
-    let mut bytes = Vec::new();
-    write_estimates_csv(&mut bytes, &times, &orientations, origin)?;
-    Ok(bytes)
+    output.write_with(file, |writer| {
+        Ok(write_estimates_csv(writer, &times, &orientations, origin)?)
+    })
 }
 
 /// The SVG of a run's heading and inclination errors over time (deg) with its ±2σ band where the

@@ -4,7 +4,7 @@
 use crate::error::{CliError, Context as _};
 use liebayes::experiments::Shard;
 use std::fs;
-use std::io::Write as _;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// The output settings every command shares.
@@ -74,12 +74,29 @@ impl Output {
     }
 
     /// Writes `bytes` as the file `name` of the output folder, under a temporary name until
-    /// [`commit`](Self::commit). `name` is a plain file name: at most 120 bytes of ASCII letters,
-    /// digits, `_`, `-` and `.`, not starting with `.`, written once per command.
+    /// [`commit`](Self::commit): [`write_with`](Self::write_with) for bytes already in memory.
     ///
     /// # Errors
-    /// No output folder, a bad or repeated name, or a failed write (the temporary is removed).
+    /// As [`write_with`](Self::write_with).
     pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), CliError> {
+        self.write_with(name, |file| {
+            file.write_all(bytes).context(|| format!("writing {name}"))
+        })
+    }
+
+    /// Writes the file `name` of the output folder through `fill`, which streams its contents into
+    /// a buffered writer of the temporary file (so a long file is never held in memory), renamed
+    /// into place at [`commit`](Self::commit). `name` is a plain file name: at most 120 bytes of
+    /// ASCII letters, digits, `_`, `-` and `.`, not starting with `.`, written once per command.
+    ///
+    /// # Errors
+    /// No output folder, a bad or repeated name, or a failed write or `fill` (the temporary is
+    /// removed).
+    pub fn write_with(
+        &mut self,
+        name: &str,
+        fill: impl FnOnce(&mut dyn Write) -> Result<(), CliError>,
+    ) -> Result<(), CliError> {
         let Some(dir) = &self.dir else {
             return Err(format!("internal: {name} written without an output folder").into());
         };
@@ -92,13 +109,21 @@ impl Output {
             .into());
         }
         let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        let written = fs::File::create(&temporary).and_then(|mut file| {
-            file.write_all(bytes)?;
-            file.sync_all()
-        });
+        let writing = || format!("writing {}", target.display());
+        let written = fs::File::create(&temporary)
+            .context(writing)
+            .and_then(|file| {
+                let mut buffered = BufWriter::new(file);
+                fill(&mut buffered)?;
+                let file = buffered
+                    .into_inner()
+                    .map_err(std::io::IntoInnerError::into_error)
+                    .context(writing)?;
+                file.sync_all().context(writing)
+            });
         if let Err(e) = written {
             let _ = fs::remove_file(&temporary);
-            return Err(e).context(|| format!("writing {}", target.display()));
+            return Err(e);
         }
         self.pending.push((temporary, target));
         Ok(())
@@ -227,6 +252,38 @@ mod tests {
         fs::remove_dir(dir.join(format!(".b.csv.{}.tmp", std::process::id()))).unwrap();
         assert_eq!(files(&dir), ["a.csv"]);
         assert_eq!(fs::read(dir.join("a.csv")).unwrap(), b"earlier");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_streamed_file_is_whole_or_absent() {
+        let dir = folder("streamed");
+        let mut output = prepare(&args(&dir)).unwrap();
+        output
+            .write_with("long.csv", |file| {
+                for k in 0..100_000 {
+                    writeln!(file, "{k}")?;
+                }
+                Ok(())
+            })
+            .unwrap();
+        let error = output
+            .write_with("failed.csv", |file| {
+                writeln!(file, "a first line")?;
+                Err("the run failed".to_owned().into())
+            })
+            .unwrap_err();
+        assert_eq!(error.to_string(), "the run failed");
+        // The failed file's temporary is gone at once, the streamed one waits for the commit.
+        assert_eq!(
+            files(&dir),
+            [format!(".long.csv.{}.tmp", std::process::id())]
+        );
+        output.commit().unwrap();
+        assert_eq!(files(&dir), ["long.csv"]);
+        let text = fs::read_to_string(dir.join("long.csv")).unwrap();
+        assert_eq!(text.lines().count(), 100_000);
+        assert_eq!(text.lines().last(), Some("99999"));
         fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -9,6 +9,7 @@
 //! DIR defaults to `$LIEBAYES_BROAD_DIR`. `ABLATION_ONLY=text` runs the variants whose label
 //! contains `text`; `ABLATION_TRIALS=1` prints every trial's row too.
 
+use liebayes_filters::FilterError;
 use liebayes_filters::attitude::{
     AttitudeParams, LogScenario, Method, Propagation, Sensors, evaluate, read_broad,
 };
@@ -34,7 +35,8 @@ fn main() {
         .into_iter()
         .filter(|(label, _)| only.as_deref().is_none_or(|o| label.contains(o)))
         .unzip();
-    let evaluation = evaluate(&logs, &methods, &mut |_, _, _| Ok(())).expect("the runs");
+    let evaluation =
+        evaluate(&logs, &methods, &mut |_, _, _| Ok::<_, FilterError>(())).expect("the runs");
     println!("| variant | total | heading | inclination | NEES heading | NEES tilt |");
     println!("|---|---|---|---|---|---|");
     for (j, label) in labels.iter().enumerate() {

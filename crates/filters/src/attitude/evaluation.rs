@@ -223,16 +223,17 @@ pub struct CrossValidation {
 }
 
 /// Runs every method on every `(name, log)` ([`run_log`]), scores each run ([`LogScore`]) and
-/// hands each recording to `inspect` (to write its estimates or plot it; `|_, _, _| Ok(())` to
-/// keep nothing), so that no run is held longer than its scoring.
+/// hands each recording to `inspect` (to write its estimates or plot it;
+/// `|_, _, _| Ok::<_, FilterError>(())` to keep nothing), so that no run is held longer than its
+/// scoring. `inspect`'s error type is the caller's: any that a [`FilterError`] converts into.
 ///
 /// # Errors
 /// The first run's or `inspect`'s error.
-pub fn evaluate(
+pub fn evaluate<E: From<FilterError>>(
     logs: &[(String, LogScenario)],
     methods: &[Method],
-    inspect: &mut dyn FnMut(&str, &Method, &LogRecording) -> Result<(), FilterError>,
-) -> Result<Evaluation, FilterError> {
+    inspect: &mut dyn FnMut(&str, &Method, &LogRecording) -> Result<(), E>,
+) -> Result<Evaluation, E> {
     for method in methods {
         method.validate()?;
     }

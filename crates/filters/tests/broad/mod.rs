@@ -1,6 +1,7 @@
 //! What the attitude filters' BROAD tests share: the twelve trials read as scenarios, and the
 //! leave-one-trial-out cross-validation of a grid of noise settings.
 
+use liebayes_filters::FilterError;
 use liebayes_filters::attitude::{
     AttitudeParams, FieldOffset, LogScenario, MEASURED_FIELD_OFFSET, Method, evaluate, read_broad,
 };
@@ -25,7 +26,12 @@ pub fn logs(dir: &Path) -> Vec<(String, LogScenario)> {
 /// inclination, deg) and NEES per degree of freedom (heading / tilt), and returns the mean RMSE.
 pub fn scores(dir: &Path, name: &str) -> [f64; 3] {
     let methods = [Method::from_name(name).expect("a method name")];
-    let evaluation = evaluate(&logs(dir), &methods, &mut |_, _, _| Ok(())).expect("the runs");
+    let evaluation = evaluate(
+        &logs(dir),
+        &methods,
+        &mut |_, _, _| Ok::<_, FilterError>(()),
+    )
+    .expect("the runs");
     for (trial, row) in evaluation.trials.iter().zip(&evaluation.scores) {
         let e = row[0].errors().expect("scored");
         let [heading, tilt, _] = row[0].nees().expect("a covariance");
@@ -108,7 +114,8 @@ pub fn cross_validate(
     method: impl Fn(AttitudeParams) -> Method,
 ) -> [f64; 3] {
     let methods: Vec<Method> = grid.iter().cloned().map(method).collect();
-    let evaluation = evaluate(logs, &methods, &mut |_, _, _| Ok(())).expect("the runs");
+    let evaluation =
+        evaluate(logs, &methods, &mut |_, _, _| Ok::<_, FilterError>(())).expect("the runs");
     let cv = evaluation.leave_one_out().expect("scored logs");
     for ((trial, row), &best) in evaluation
         .trials
