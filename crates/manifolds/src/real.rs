@@ -58,12 +58,16 @@ impl Real for f32 {
 }
 
 /// Euclidean norm that neither underflows for tiny nor overflows for huge components (it is infinite
-/// only when the norm itself exceeds the largest finite value). One check on the fast path.
+/// only when the norm itself exceeds the largest finite value, and NaN when a component is NaN).
+/// One check on the fast path.
 #[inline]
 pub(crate) fn stable_norm<T: Real, const N: usize>(v: &SVector<T, N>) -> T {
     let n2 = v.norm_squared();
     if n2.is_finite() && n2 > T::MIN_DIRECTION_NORM * T::MIN_DIRECTION_NORM {
         n2.sqrt()
+    } else if n2.to_f64().is_nan() {
+        // A NaN component (nalgebra's `amax` below would skip it unless it came last).
+        n2
     } else {
         let scale = v.amax();
         if scale == T::zero() {

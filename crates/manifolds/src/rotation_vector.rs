@@ -85,11 +85,15 @@ pub(crate) fn exp<T: Real>(v: &Vector3<T>) -> UnitQuaternion<T> {
 /// The rotation vector of a quaternion on the SU(2) principal branch: θ = 2 atan2(|xyz|, w) in [0, 2π].
 ///
 /// At q = −1 exactly every axis is a logarithm; the x axis is returned.
-/// The quaternion need not be exactly unit: atan2 is insensitive to the scale.
+/// The quaternion need not be exactly unit: atan2 is insensitive to the scale. A quaternion with a
+/// NaN component has the NaN vector as its logarithm (never a finite rotation a check would pass).
 #[inline]
 pub(crate) fn log<T: Real>(q: &Quaternion<T>) -> Vector3<T> {
     let xyz = q.imag();
     let n = norm(&xyz);
+    if n.to_f64().is_nan() || q.w.to_f64().is_nan() {
+        return Vector3::repeat(T::lit(f64::NAN));
+    }
     if n > T::zero() {
         // atan2(n, w) / n is accurate to a few ulp for every n > 0 (no cancellation), so no series
         // branch is needed near the identity. Near q = −1 with a subnormal n the factor overflows

@@ -98,7 +98,8 @@ impl<T: Real> S2<T> {
     #[must_use]
     pub fn exp_at(&self, w: &Vector3<T>) -> Self {
         let scale = w.amax();
-        if scale == T::zero() {
+        // `amax` skips a NaN unless it comes last: a NaN tangent must not read as zero.
+        if scale == T::zero() && !w.iter().any(|x| x.to_f64().is_nan()) {
             return *self;
         }
         self.exp_scaled(&(w / scale), scale)
@@ -157,7 +158,8 @@ impl<T: Real> Manifold<2> for S2<T> {
     /// `exp_x(B(x) u)`, valid for every finite `u`.
     fn retract(&self, u: &Tangent<T, 2>) -> Self {
         let scale = u.amax();
-        if scale == T::zero() {
+        // As in `exp_at`: a NaN tangent is not zero.
+        if scale == T::zero() && !u.iter().any(|x| x.to_f64().is_nan()) {
             return *self;
         }
         self.exp_scaled(&(self.tangent_basis() * (u / scale)), scale)

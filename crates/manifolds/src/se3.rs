@@ -200,12 +200,16 @@ pub(crate) fn v_inverse_times<T: Real>(phi: &Vector3<T>, t: &Vector3<T>) -> Vect
 /// and bounded for huge θ. Against φ itself they are the Taylor series to θ⁴ of `θ²c₃ − 1/2`,
 /// `c₂ − 2c₃`, `c₂`, `c₂ − θ²c₄` and `c₄`.
 ///
-/// For a φ whose norm overflows (components near the largest finite value) the block is taken at
-/// φ/2: every coefficient is within O(1/θ) < 1e-307 of its limit at either angle.
+/// For a finite φ whose norm overflows (components near the largest finite value) the block is
+/// taken at φ/2: every coefficient is within O(1/θ) < 1e-307 of its limit at either angle. A φ with
+/// an infinite or NaN component has no block: every entry is NaN.
 pub(crate) fn coupling<T: Real>(rho: &Vector3<T>, phi: &Vector3<T>) -> Matrix3<T> {
     let theta = crate::real::stable_norm(phi);
     if !nalgebra::ComplexField::is_finite(&theta) {
-        return coupling(rho, &(phi * T::lit(0.5)));
+        if phi.iter().all(|x| nalgebra::ComplexField::is_finite(x)) {
+            return coupling(rho, &(phi * T::lit(0.5)));
+        }
+        return Matrix3::repeat(T::lit(f64::NAN));
     }
     let (a, [beta, gamma, k1, delta, k4]) = if theta < T::SERIES_ANGLE {
         let t2 = theta * theta;

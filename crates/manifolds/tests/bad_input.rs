@@ -742,3 +742,64 @@ fn conjugations_near_the_largest_value_are_finite() {
         Vector3::new(max, -max, 2.0)
     );
 }
+
+/// NaN never reads as a number: `stable_norm((NaN, 0))` was 0 (nalgebra's `amax` skips a NaN that
+/// is not last), so a NaN sample gave `weighted_mean` a zero step and it returned `Ok((NaN, 0))`;
+/// the quaternion (NaN, NaN, NaN, NaN) had the logarithm (2π, 0, 0) and (1, NaN, 0, 0) the
+/// identity's, so a NaN estimate had a finite error; and the sphere retracted a NaN tangent to
+/// the point itself. Each NaN now shows in the result.
+#[test]
+fn nan_components_are_never_read_as_numbers() {
+    let nan_point = Rn::<f64, 2>::new_unchecked(Vector2::new(f64::NAN, 0.0));
+    let one = Rn::new(Vector2::new(1.0, 0.0)).unwrap();
+    let mean = weighted_mean(
+        &one,
+        [(&nan_point, 1.0), (&one, 1.0)],
+        MeanSettings::default(),
+    );
+    assert!(mean.is_err(), "{mean:?}");
+    for q in [
+        Quaternion::new(f64::NAN, f64::NAN, f64::NAN, f64::NAN),
+        Quaternion::new(1.0, f64::NAN, 0.0, 0.0),
+        Quaternion::new(f64::NAN, 0.0, 0.0, 0.0),
+    ] {
+        let log = So3::from_quaternion_unchecked(q).log();
+        assert!(log.iter().all(|v| v.is_nan()), "{q:?}: {log:?}");
+        let identity = So3::<f64>::identity();
+        assert!(!all_finite(
+            identity
+                .local(&So3::from_quaternion_unchecked(q))
+                .iter()
+                .copied()
+        ));
+    }
+    let x = S2::<f64>::new(Vector3::new(0.0, 0.0, 1.0)).unwrap();
+    for w in [
+        Vector3::new(f64::NAN, 0.0, 0.0),
+        Vector3::new(0.0, f64::NAN, 0.0),
+    ] {
+        assert!(!x.exp_at(&w).is_finite(), "{w:?}");
+    }
+    assert!(!x.retract(&Vector2::new(f64::NAN, 0.0)).is_finite());
+}
+
+/// The SE(3) Jacobians at a rotation vector with an infinite or NaN component halved it and
+/// called themselves again with the same value, without end (a stack overflow, which aborts the
+/// process). They now return NaN entries at once.
+#[test]
+fn pose_jacobians_of_non_finite_tangents_return() {
+    for phi in [
+        Vector6::new(0.0, 0.0, 0.0, 0.0, 0.0, f64::INFINITY),
+        Vector6::new(0.0, 0.0, 0.0, f64::NEG_INFINITY, 1.0, 0.0),
+        Vector6::new(0.0, 0.0, 0.0, 0.0, 0.0, f64::NAN),
+    ] {
+        for jacobian in [
+            Se3::<f64>::right_jacobian(&phi),
+            Se3::<f64>::right_jacobian_inverse(&phi),
+            Se3::<f64>::left_jacobian(&phi),
+            Se3::<f64>::left_jacobian_inverse(&phi),
+        ] {
+            assert!(jacobian.iter().any(|v| v.is_nan()), "{phi:?}");
+        }
+    }
+}

@@ -700,17 +700,28 @@ pub fn check_action<G: GroupAction<D, P> + LawSubject<D>, const D: usize, const 
 /// ([`extreme_tangent`](crate::testing::strategies::extreme_tangent)) gives a finite
 /// `retract(x, v)` and finite `local` both ways between it and `x`: the crate's contract "no
 /// function panics or returns NaN for finite input". A tangent with a NaN or an infinite component
-/// must not panic, whatever it returns (the unchecked operations' precondition is finite input;
-/// raw numbers enter through the checked constructors).
+/// ([`extreme_raw_tangent`](crate::testing::strategies::extreme_raw_tangent)) must not panic or
+/// hang, and a NaN is never hidden: `retract(x, v)` is then not finite, so that a check of the
+/// result catches it (the unchecked operations' precondition is finite input; raw numbers enter
+/// through the checked constructors).
 ///
 /// # Errors
-/// The first operation whose result is not finite, with its input.
+/// The first operation whose result is not finite, with its input, or a NaN tangent whose
+/// retraction is finite.
 pub fn check_manifold_bad_input<M: Manifold<D>, const D: usize>(
     x: &M,
     v: &Tangent<M::Scalar, D>,
 ) -> Result<(), TestCaseError> {
     let y = x.retract(v);
     let (there, back) = (x.local(&y), y.local(x));
+    if v.iter().any(|c| c.to_f64().is_nan()) {
+        prop_assert!(
+            !y.is_finite(),
+            "retract(x, v) is finite for a NaN tangent: x = {:?}, v = {:?}",
+            x,
+            v
+        );
+    }
     if !v.iter().all(ComplexField::is_finite) {
         return Ok(());
     }
@@ -740,7 +751,8 @@ pub fn check_manifold_bad_input<M: Manifold<D>, const D: usize>(
 /// `compose`, `inverse`, `log`, the adjoint, `Jr` and `Jr⁻¹`). Elements are
 /// checked with [`Manifold::is_finite`], vectors and matrices entry by entry. A tangent with a NaN
 /// or an infinite component (the unchecked operations' precondition is finite input; raw numbers
-/// enter through the checked constructors) must not panic, whatever it returns.
+/// enter through the checked constructors) must not panic or hang, and with a NaN `exp(v)` is not
+/// finite.
 ///
 /// # Errors
 /// The first operation whose result is not finite, with its input.
@@ -763,6 +775,13 @@ pub fn check_bad_input<G: LieGroup<D>, const D: usize>(
         G::right_jacobian(v),
         G::right_jacobian_inverse(v),
     );
+    if v.iter().any(|c| c.to_f64().is_nan()) {
+        prop_assert!(
+            !e.is_finite(),
+            "exp(v) is finite for a NaN tangent: v = {:?}",
+            v
+        );
+    }
     if !v.iter().all(ComplexField::is_finite) {
         return Ok(());
     }

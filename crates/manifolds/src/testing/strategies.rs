@@ -355,6 +355,12 @@ pub fn extreme_tangent<T: Real, const D: usize>() -> impl Strategy<Value = SVect
     proptest::collection::vec(extreme_finite::<T>(), D).prop_map(|c| SVector::from_iterator(c))
 }
 
+/// Tangent vectors whose components are each drawn from [`extreme`]: the finite magnitudes, NaN
+/// and ±∞, as raw numbers from a corrupt input would give them.
+pub fn extreme_raw_tangent<T: Real, const D: usize>() -> impl Strategy<Value = SVector<T, D>> {
+    proptest::collection::vec(extreme::<T>(), D).prop_map(|c| SVector::from_iterator(c))
+}
+
 /// The finite classes of [`extreme`], in f64.
 fn extreme_finite_f64() -> impl Strategy<Value = f64> + Clone {
     prop_oneof![
