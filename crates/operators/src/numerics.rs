@@ -46,6 +46,22 @@ pub(crate) fn check_symmetric<const N: usize>(
     Ok(())
 }
 
+/// A model's noise matrix (its Q or R) checked finite and symmetric before a step adds it to
+/// computed products: those are symmetrised to undo their rounding, which would otherwise take an
+/// asymmetric Q for its symmetric part without a word.
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] or [`OperatorError::OutOfRange`] (from [`check_symmetric`]) naming
+/// `what`.
+pub(crate) fn model_noise<const N: usize>(
+    what: &'static str,
+    noise: SMatrix<f64, N, N>,
+) -> Result<SMatrix<f64, N, N>, OperatorError> {
+    crate::error::all_finite(what, noise.iter())?;
+    check_symmetric(what, &noise)?;
+    Ok(noise)
+}
+
 /// `(M + Mᵀ)/2`, computed as `M/2 + Mᵀ/2` so that entries near the largest finite value do not
 /// overflow.
 pub(crate) fn symmetric_part<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
@@ -377,6 +393,41 @@ fn check(what: &'static str, values: &[f64], passes: Passes) -> Result<(), Opera
         Some(value) => Err(OperatorError::NonFinite { what, value }),
         None => Ok(()),
     }
+}
+
+/// `(m, e)` with `x = m 2ᵉ`, m in [½, 1), for a finite x > 0 (subnormals included).
+pub(crate) fn binary_split(x: f64) -> (f64, i64) {
+    const TWO_54: f64 = 18_014_398_509_481_984.0;
+    let (x, shift) = if x < f64::MIN_POSITIVE {
+        (x * TWO_54, 54)
+    } else {
+        (x, 0)
+    };
+    let bits = x.to_bits();
+    // The biased exponent field, at most 2046 for a finite x: it fits i64.
+    #[allow(clippy::cast_possible_wrap)]
+    let field = ((bits >> 52) & 0x7ff) as i64;
+    let mantissa = f64::from_bits((bits & ((1 << 52) - 1)) | (1022 << 52));
+    (mantissa, field - 1022 - shift)
+}
+
+/// `x 2ᵏ`, by factors of at most 2¹⁰⁰⁰ so that none overflows or underflows on its own: ±∞ or 0
+/// only where the result does.
+pub(crate) fn scale_by_power_of_two(mut x: f64, mut k: i64) -> f64 {
+    let power = |k: i64| {
+        // 1023 + k in [23, 2023] for k in [−1000, 1000]: a normal power of two.
+        #[allow(clippy::cast_sign_loss)]
+        f64::from_bits(((1023 + k) as u64) << 52)
+    };
+    while k > 1000 && x.is_finite() && x != 0.0 {
+        x *= power(1000);
+        k -= 1000;
+    }
+    while k < -1000 && x != 0.0 {
+        x *= power(-1000);
+        k += 1000;
+    }
+    x * power(k.clamp(-1000, 1000))
 }
 
 #[cfg(test)]

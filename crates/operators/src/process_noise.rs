@@ -24,7 +24,7 @@
 
 use crate::OperatorError;
 use crate::error::all_finite;
-use crate::numerics::symmetric_part;
+use crate::numerics::{binary_split, scale_by_power_of_two, symmetric_part};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::{Left, LieGroup};
 use nalgebra::{DMatrix, SMatrix};
@@ -106,7 +106,7 @@ pub fn van_loan<const N: usize, const L: usize>(
         return Err(OperatorError::OutOfRange {
             what: "one-norm of Van Loan's generator [[-A dt, G Q_c G^T dt], [0, A^T dt]]",
             value: norm,
-            range: "[0, 1e15]: the matrix exponential is out of range (take shorter steps)",
+            range: "[0, 1e10]: the matrix exponential is out of range (take shorter steps)",
         });
     }
     let exponential = generator.exp();
@@ -120,19 +120,25 @@ pub fn van_loan<const N: usize, const L: usize>(
 }
 
 /// The largest one-norm of Van Loan's generator [`van_loan`] exponentiates. The exponential squares
-/// about log₂(‖G‖₁ / 5.4) times (48 at this bound); beyond about 1e38 its estimates of ‖G⁸‖ and
-/// ‖G¹⁰‖ overflow, and the count of squarings with them, so that the call would not return.
-const MAX_GENERATOR_NORM: f64 = 1e15;
+/// about log₂(‖G‖₁ / 5.4) times (31 at this bound). Its scaling estimates a one-norm of |G|²⁷,
+/// at most ‖G‖₁²⁷: beyond about 2.6e11 that can overflow (a nilpotent drift with a long step,
+/// whose own powers vanish), and the count of squarings with it, so that the call would not
+/// return. At this bound ‖G‖₁²⁷ is 1e270.
+const MAX_GENERATOR_NORM: f64 = 1e10;
 
 /// The process noise of a chain of N integrators (position, velocity, …) driven by white noise of
 /// spectral density q on its last derivative, over a step dt: the closed form of [`van_loan`],
 /// `Q_ij = q dt^(2N−1−i−j) / ((N−1−i)! (N−1−j)! (2N−1−i−j))`, state order `[x, ẋ, ẍ, …]`. N = 2 is
 /// the constant-velocity model `q [[dt³/3, dt²/2], [dt²/2, dt]]`, N = 3 the constant-acceleration one.
-/// Range: N ≥ 1 (a compile-time check), any finite q ≥ 0 and dt ≥ 0 whose powers do not overflow.
+/// Range: N ≥ 1 (a compile-time check), any finite q ≥ 0 and dt ≥ 0 whose powers neither overflow
+/// nor underflow into a matrix that is not positive semi-definite (entries below 2.2e-308 keep only
+/// part of their precision).
 ///
 /// # Errors
 /// [`OperatorError::NonFinite`] or [`OperatorError::OutOfRange`] for a q or dt that is not a finite
-/// number ≥ 0, [`OperatorError::NonFinite`] for a result that overflows.
+/// number ≥ 0, [`OperatorError::NonFinite`] for a result that overflows,
+/// [`OperatorError::NotPositiveDefinite`] for one whose entries underflow (below the smallest
+/// normal number) so far that their rounding makes Q indefinite.
 pub fn continuous_white_noise<const N: usize>(
     dt: f64,
     spectral_density: f64,
@@ -148,6 +154,11 @@ pub fn continuous_white_noise<const N: usize>(
             / (factorial(N - 1 - i) * factorial(N - 1 - j) * power as f64)
     });
     all_finite("continuous white-noise Q (q dt^(2N-1) overflows)", q.iter())?;
+    check_underflow(
+        &q,
+        spectral_density > 0.0 && dt > 0.0,
+        "continuous white-noise Q (q dt^(2N-1) underflows: take a larger q or dt)",
+    )?;
     Ok(q)
 }
 
@@ -155,8 +166,8 @@ pub fn continuous_white_noise<const N: usize>(
 /// `Q_discrete_white_noise`): `Q = Γ Γᵀ σ²` with `Γ = [dt²/2, dt]` for N = 2 (a piecewise-constant
 /// acceleration of variance σ² over each step) and `Γ = [dt^(N−1)/(N−1)!, …, dt, 1]` for N ≥ 3 (a
 /// piecewise-constant increment of the highest derivative per step). State order `[x, ẋ, ẍ, …]`.
-/// Range: N ≥ 2 (a compile-time check), any finite variance ≥ 0 and dt ≥ 0 whose powers do not
-/// overflow.
+/// Range: N ≥ 2 (a compile-time check), any finite variance ≥ 0 and dt ≥ 0 whose powers neither
+/// overflow nor underflow (as [`continuous_white_noise`]).
 ///
 /// # Errors
 /// As [`continuous_white_noise`].
@@ -195,7 +206,26 @@ pub fn piecewise_white_noise<const N: usize>(
         "discrete white-noise Q (dt^(N-1) sigma overflows)",
         q.iter(),
     )?;
+    check_underflow(
+        &q,
+        variance > 0.0 && dt > 0.0,
+        "discrete white-noise Q (dt^N sigma^2 underflows: take a larger sigma or dt)",
+    )?;
     Ok(q)
+}
+
+/// Checks a white-noise block whose exact entries are all positive (`positive`: q > 0 and dt > 0)
+/// when one of them underflowed to zero or into the subnormal range, where each entry keeps only
+/// part of its relative precision: the rounded matrix must still be positive semi-definite.
+fn check_underflow<const N: usize>(
+    q: &SMatrix<f64, N, N>,
+    positive: bool,
+    what: &'static str,
+) -> Result<(), OperatorError> {
+    if positive && q.iter().any(|v| *v < f64::MIN_POSITIVE) {
+        check_semi_definite(q, what)?;
+    }
+    Ok(())
 }
 
 /// The block-diagonal process noise of several independent axes, each with the block `block` of B
@@ -331,20 +361,25 @@ fn check_variance(value: f64, what: &'static str) -> Result<(), OperatorError> {
 }
 
 /// Checks that a matrix is finite, symmetric and positive semi-definite (relative tolerance 1e-12 of
-/// its largest entry).
+/// its largest entry; the eigenvalues of the matrix scaled by that entry, so that subnormal and huge
+/// matrices are read as precisely as others, with a bounded iteration).
 fn check_semi_definite<const L: usize>(
     m: &SMatrix<f64, L, L>,
     what: &'static str,
 ) -> Result<(), OperatorError> {
     all_finite(what, m.iter())?;
     let scale = m.amax();
-    let tolerance = 1e-12 * scale;
-    if (m - m.transpose()).amax() > tolerance
-        || DMatrix::from_iterator(L, L, m.iter().copied())
-            .symmetric_eigenvalues()
-            .min()
-            < -tolerance
-    {
+    if scale == 0.0 {
+        return Ok(());
+    }
+    let scaled = m / scale;
+    let smallest = nalgebra::SymmetricEigen::try_new(
+        DMatrix::from_iterator(L, L, scaled.iter().copied()),
+        f64::EPSILON,
+        1000,
+    )
+    .map_or(f64::NAN, |e| e.eigenvalues.min());
+    if (scaled - scaled.transpose()).amax() > 1e-12 || smallest.is_nan() || smallest < -1e-12 {
         return Err(OperatorError::NotPositiveDefinite { what });
     }
     Ok(())
@@ -367,41 +402,6 @@ fn times_power(q: f64, t: f64, n: usize) -> f64 {
     #[allow(clippy::cast_possible_wrap)]
     let exponent = q_exponent + t_exponent * n as i64;
     scale_by_power_of_two(q_mantissa * integer_power(t_mantissa, n), exponent)
-}
-
-/// `(m, e)` with `x = m 2ᵉ`, m in [½, 1), for a finite x > 0 (subnormals included).
-fn binary_split(x: f64) -> (f64, i64) {
-    const TWO_54: f64 = 18_014_398_509_481_984.0;
-    let (x, shift) = if x < f64::MIN_POSITIVE {
-        (x * TWO_54, 54)
-    } else {
-        (x, 0)
-    };
-    let bits = x.to_bits();
-    // The biased exponent field, at most 2046 for a finite x: it fits i64.
-    #[allow(clippy::cast_possible_wrap)]
-    let field = ((bits >> 52) & 0x7ff) as i64;
-    let mantissa = f64::from_bits((bits & ((1 << 52) - 1)) | (1022 << 52));
-    (mantissa, field - 1022 - shift)
-}
-
-/// `x 2ᵏ`, by factors of at most 2¹⁰⁰⁰ so that none overflows or underflows on its own: ±∞ or 0
-/// only where the result does.
-fn scale_by_power_of_two(mut x: f64, mut k: i64) -> f64 {
-    let power = |k: i64| {
-        // 1023 + k in [23, 2023] for k in [−1000, 1000]: a normal power of two.
-        #[allow(clippy::cast_sign_loss)]
-        f64::from_bits(((1023 + k) as u64) << 52)
-    };
-    while k > 1000 && x.is_finite() && x != 0.0 {
-        x *= power(1000);
-        k -= 1000;
-    }
-    while k < -1000 && x != 0.0 {
-        x *= power(-1000);
-        k += 1000;
-    }
-    x * power(k.clamp(-1000, 1000))
 }
 
 /// `n!` as a float (n ≤ 170 is finite).

@@ -271,6 +271,28 @@ fn van_loan_refuses_a_generator_beyond_the_exponential() {
         let error = van_loan(&Matrix1::new(a), &one, &Matrix1::new(0.0), dt).unwrap_err();
         assert!(matches!(error, OperatorError::OutOfRange { .. }), "{error}");
     }
+    // A nilpotent drift (A² = 0) over a long step: the exponential's estimate of ‖|G|²⁷‖ overflowed
+    // at a one-norm of 4e11, under the earlier bound of 1e15, with the same endless squarings.
+    let nilpotent = Matrix2::new(1.0, 1.0, -1.0, -1.0);
+    let error = van_loan(
+        &nilpotent,
+        &Vector2::new(1.0, 0.0),
+        &Matrix1::new(0.0),
+        2e11,
+    )
+    .unwrap_err();
+    assert!(matches!(error, OperatorError::OutOfRange { .. }), "{error}");
+    // Near the bound the call returns (an error here: the exponential's squarings of this
+    // generator overflow), and at an ordinary step Φ = exp(A dt) = I + A dt.
+    let gain = Vector2::new(1.0, 0.0);
+    assert!(van_loan(&nilpotent, &gain, &Matrix1::new(0.0), 2.4e9).is_err());
+    let model = van_loan(&nilpotent, &gain, &Matrix1::new(0.0), 10.0).unwrap();
+    let expected = Matrix2::identity() + nilpotent * 10.0;
+    assert!(
+        (model.transition - expected).amax() <= 1e-12,
+        "{}",
+        model.transition
+    );
     let stiff = van_loan(&Matrix1::new(-50.0), &one, &one, 1.0).unwrap();
     assert!((stiff.transition[0] - (-50.0_f64).exp()).abs() < 1e-30);
     assert!((stiff.noise[0] - (1.0 - (-100.0_f64).exp()) / 100.0).abs() < 1e-15);
@@ -294,6 +316,22 @@ fn white_noise_of_tiny_steps_and_huge_densities_is_exact() {
     let tiny = continuous_white_noise::<3>(1e-310, 1.0).unwrap();
     assert_eq!(tiny[(2, 2)], 1e-310);
     assert_eq!(tiny[(0, 0)], 0.0);
+    // Entries rounded in the subnormal range each keep part of their precision: 7 units of the
+    // last place for q dt and 2, 4, 4 for the others made an indefinite Q (smallest eigenvalue
+    // −2.4 % of the largest), returned as Ok. Refused, as is an entry that underflows to zero
+    // beside normal ones.
+    for (dt, q) in [(1.0, 3.5e-323), (1e-3, 1e-315)] {
+        let error = continuous_white_noise::<2>(dt, q).unwrap_err();
+        assert!(
+            matches!(error, OperatorError::NotPositiveDefinite { .. }),
+            "{error}"
+        );
+    }
+    let error = piecewise_white_noise::<2>(1.0, 1.5e-323).unwrap_err();
+    assert!(
+        matches!(error, OperatorError::NotPositiveDefinite { .. }),
+        "{error}"
+    );
     // Ordinary arguments: the closed form to rounding.
     let q = continuous_white_noise::<2>(0.1, 0.3).unwrap();
     assert!((q[(0, 0)] - 0.3 * 1e-3 / 3.0).abs() < 1e-18);
