@@ -18,7 +18,7 @@
 use crate::error::all_finite;
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, checked_gaussian};
+use crate::numerics::{Produced, checked_gaussian, model_noise};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -64,10 +64,11 @@ where
         input: &P::Input,
     ) -> Result<Prediction<X, D>, OperatorError> {
         let mean = prior.mean();
+        let noise = model_noise("process noise Q", self.0.noise(mean, input))?;
         let (propagated, cross) = self.0.propagate_covariance(mean, input, prior.covariance());
         let density = checked_gaussian(
             self.0.transition(mean, input),
-            &(propagated + self.0.noise(mean, input)),
+            &(propagated + noise),
             Produced {
                 mean: "the predicted mean f(mu, u) of the process model",
                 covariance: "predicted covariance F P F^T + Q (check the process noise Q and the \
@@ -112,7 +113,7 @@ where
         crate::error::all_finite("measurement z", z.iter())?;
         let (mean, p) = (self.mean(), self.covariance());
         let h = model.0.jacobian(mean);
-        let r = model.0.noise(mean);
+        let r = model_noise("measurement noise R", model.0.noise(mean))?;
         let pht = p * h.transpose();
         let (report, log_evidence) = Innovation::new(
             model.0.residual(z, &model.0.predict(mean)),

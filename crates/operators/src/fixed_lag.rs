@@ -78,7 +78,7 @@ fn check_epoch(epoch: u64) -> Result<(), OperatorError> {
 /// let lagged = window.lagged().unwrap();
 /// assert!(lagged.covariance()[0] < smoother.filtered(1).unwrap().covariance()[0]);
 /// ```
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct FixedLagSmoother<X, const D: usize> {
     /// L.
     lag: usize,
@@ -90,6 +90,22 @@ pub struct FixedLagSmoother<X, const D: usize> {
     transitions: VecDeque<Prediction<X, D>>,
     /// The last backward pass's result (a buffer; refilled by every [`smooth`](Self::smooth)).
     smoothed: VecDeque<ManifoldGaussian<X, D>>,
+}
+
+/// Two smoothers are equal when their states are: the lag, the epoch, the window's filtered
+/// densities and transitions. The buffer of the last [`smooth`](FixedLagSmoother::smooth) is
+/// scratch space, not state: a smoothing, failed or not, leaves a smoother equal to itself before.
+impl<X, const D: usize> PartialEq for FixedLagSmoother<X, D>
+where
+    ManifoldGaussian<X, D>: PartialEq,
+    Prediction<X, D>: PartialEq,
+{
+    fn eq(&self, other: &Self) -> bool {
+        self.lag == other.lag
+            && self.epoch == other.epoch
+            && self.filtered == other.filtered
+            && self.transitions == other.transitions
+    }
 }
 
 /// The smoothed densities of the window, from [`FixedLagSmoother::smooth`]: epoch
@@ -350,14 +366,20 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> FixedLagSmoother<X, D> {
     ///
     /// # Errors
     /// [`OperatorError::NotPositiveDefinite`] when a smoothed covariance loses positive
-    /// definiteness (rounding on an ill-conditioned model).
+    /// definiteness (rounding on an ill-conditioned model); the smoother's state is unchanged.
     pub fn smooth(&mut self) -> Result<Window<'_, X, D>, OperatorError> {
         self.smoothed.clear();
         self.smoothed.push_front(self.current().clone());
         let back = self.filtered.iter().rev().skip(1);
         for (filtered, transition) in back.zip(self.transitions.iter().rev()) {
-            let previous = smooth_back(filtered, transition, &self.smoothed[0])?;
-            self.smoothed.push_front(previous);
+            match smooth_back(filtered, transition, &self.smoothed[0]) {
+                Ok(previous) => self.smoothed.push_front(previous),
+                Err(error) => {
+                    // No partial window is left behind.
+                    self.smoothed.clear();
+                    return Err(error);
+                }
+            }
         }
         Ok(Window {
             first: self.epoch - (self.smoothed.len() as u64 - 1),

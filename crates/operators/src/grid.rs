@@ -21,7 +21,7 @@
 //! reference for anything angular: with enough cells it is exact wherever the payload steps are.
 
 use crate::error::{reserve, with_capacity};
-use crate::numerics::{LogWeights, Passes};
+use crate::numerics::{LogWeights, Passes, binary_split, scale_by_power_of_two};
 use crate::particle::{Given, LabelModel, Likelihood, Reweight};
 use crate::traits::{condition_clone, propagate_clone};
 use crate::{Condition, Conditioned, Evidence, OperatorError, Propagate};
@@ -322,6 +322,24 @@ pub struct Diffusion<K>(pub K);
 /// on its O(n²) work.
 pub const MAX_DIFFUSION_CELLS: usize = 1 << 16;
 
+/// Below this, a diffused weight's plain sum of products may hold products rounded in the subnormal
+/// range (each below 2.2e-308, at most 2¹⁶ of them: a relative error under 1e-22 above it), or
+/// none at all where every product underflowed: the cell is summed in logarithms instead.
+const PLAIN_SUM: f64 = 1e-280;
+
+/// `ln Σⱼ exp(logsⱼ) k(θᵢ − θⱼ)` by log-sum-exp: a diffused cell whose products are too small for
+/// the plain sum (the identity kernel keeps a weight of e⁻⁸⁰⁰ against 1 this way). O(n), with a
+/// logarithm and an exponential a term.
+fn log_convolution(i: usize, kernel: &[f64], logs: &[f64]) -> f64 {
+    let n = kernel.len();
+    let term = |j: usize| logs[j] + kernel[if j <= i { i - j } else { i + n - j }].ln();
+    let largest = (0..n).map(term).fold(f64::NEG_INFINITY, f64::max);
+    if largest == f64::NEG_INFINITY {
+        return largest;
+    }
+    largest + (0..n).map(|j| (term(j) - largest).exp()).sum::<f64>().ln()
+}
+
 impl<K> Propagate<Diffusion<K>> for CircularGrid<()>
 where
     K: Fn(&So2<f64>) -> f64,
@@ -335,7 +353,10 @@ where
 
     /// Chapman-Kolmogorov for `θ′ = θ + w`: the circular convolution
     /// `w′ᵢ = Σⱼ wⱼ k(θᵢ − θⱼ) / Σⱼ k(θⱼ)`. O(n²); the kernel's values are computed once per step,
-    /// into a workspace allocated at the first diffusion and kept.
+    /// into a workspace allocated at the first diffusion and kept. Any kernel values from subnormal
+    /// to f64::MAX are exact to rounding (the kernel is scaled by a power of two), and a weight far
+    /// below the largest (down to the smallest positive double, not only to e⁻⁷⁴⁵) keeps its value:
+    /// a cell whose products are that small is summed in logarithms.
     ///
     /// # Errors
     /// [`OperatorError::NonFinite`] when the kernel is negative, NaN or infinite somewhere, or zero
@@ -351,26 +372,49 @@ where
             });
         }
         self.workspace.clear();
-        // n ≤ MAX_ELEMENTS = 2³⁰, so 2n does not overflow.
+        // n ≤ MAX_DIFFUSION_CELLS, so 3n does not overflow.
         reserve(
             &mut self.workspace,
-            "diffusion workspace (twice the cells)",
-            2 * n,
+            "diffusion workspace (three times the cells)",
+            3 * n,
         )?;
         self.workspace
             .extend((0..n).map(|j| (model.0)(&rotation_of(j, n))));
-        let total: f64 = self.workspace.iter().sum();
-        if !(total.is_finite() && total > 0.0)
-            || self.workspace.iter().any(|v| *v < 0.0 || !v.is_finite())
-        {
+        let (mut largest, mut invalid) = (0.0_f64, None);
+        for &v in &self.workspace {
+            if !(v.is_finite() && v >= 0.0) {
+                invalid = invalid.or(Some(v));
+            }
+            largest = largest.max(v);
+        }
+        if invalid.is_some() || largest == 0.0 {
             return Err(OperatorError::NonFinite {
                 what: "diffusion kernel (it must be finite, non-negative and not zero everywhere)",
-                value: total,
+                value: invalid.unwrap_or(largest),
             });
         }
+        // The kernel scaled exactly by a power of two to a largest value in [½, 1), and the weights
+        // by their largest: the products and sums neither overflow nor round in the subnormal
+        // range, and a weight far below the largest keeps its value. The common factors go with
+        // the normalisation.
+        let (_, exponent) = binary_split(largest);
+        for v in &mut self.workspace {
+            *v = scale_by_power_of_two(*v, -exponent);
+        }
+        let heaviest = self
+            .weights
+            .values()
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
         self.workspace
-            .extend(self.weights.values().iter().map(|l| l.exp()));
-        let (k, w) = self.workspace.split_at(n);
+            .extend(self.weights.values().iter().map(|l| l - heaviest));
+        self.workspace.extend_from_within(n..2 * n);
+        for l in &mut self.workspace[2 * n..] {
+            *l = l.exp();
+        }
+        let (k, rest) = self.workspace.split_at(n);
+        let (logs, w) = rest.split_at(n);
         let pending = self.weights.pending();
         pending.clear();
         // k(θᵢ − θⱼ) = k[i − j] for j ≤ i and k[i − j + n] after: two runs, no index arithmetic.
@@ -385,7 +429,12 @@ where
                 .zip(k[i + 1..].iter().rev())
                 .map(|(w, k)| w * k)
                 .sum();
-            ((before + after) / total).ln()
+            let sum = before + after;
+            if sum >= PLAIN_SUM {
+                sum.ln()
+            } else {
+                log_convolution(i, k, logs)
+            }
         }));
         self.weights.replace_with_pending("diffused grid weight")
     }

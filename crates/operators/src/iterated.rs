@@ -46,7 +46,7 @@ use crate::error::all_finite;
 use crate::innovation::Innovation;
 use crate::kalman::joseph;
 use crate::models::MeasurementModel;
-use crate::numerics::{Produced, checked_gaussian};
+use crate::numerics::{Produced, checked_gaussian, model_noise};
 use crate::ukf::Ukf;
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
@@ -294,8 +294,7 @@ where
         z: &'a SVector<f64, M>,
     ) -> Result<Self, OperatorError> {
         all_finite("measurement z", z.iter())?;
-        let noise = model.noise(prior.mean());
-        all_finite("measurement noise R", noise.iter())?;
+        let noise = model_noise("measurement noise R", model.noise(prior.mean()))?;
         let noise_factor = Cholesky::new(noise).ok_or(OperatorError::NotPositiveDefinite {
             what: "measurement noise R (the iterated update's cost needs R^-1)",
         })?;

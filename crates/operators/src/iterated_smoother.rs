@@ -41,7 +41,7 @@ pub use block_tridiagonal::{Backend, BlockCholesky, BlockTridiagonal, FAER_FROM_
 
 use crate::error::{all_finite, check_size, reserve, with_capacity};
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, checked_gaussian, symmetric_part};
+use crate::numerics::{Produced, checked_gaussian, model_noise, symmetric_part};
 use crate::smoother::RtsSmoother;
 use crate::{Conditioned, Ekf, Innovation, OperatorError};
 use liebayes_densities::ManifoldGaussian;
@@ -400,8 +400,8 @@ fn whitening<const N: usize>(
     covariance: &SMatrix<f64, N, N>,
     what: &'static str,
 ) -> Result<Cholesky<f64, Const<N>>, OperatorError> {
-    all_finite(what, covariance.iter())?;
-    Cholesky::new(symmetric_part(covariance)).ok_or(OperatorError::NotPositiveDefinite { what })
+    let covariance = model_noise(what, *covariance)?;
+    Cholesky::new(symmetric_part(&covariance)).ok_or(OperatorError::NotPositiveDefinite { what })
 }
 
 /// `L⁻¹ m` for the Cholesky factor L of a noise covariance.

@@ -24,7 +24,7 @@
 //! points live in arrays of size D.
 
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, checked_gaussian};
+use crate::numerics::{Produced, checked_gaussian, model_noise};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -279,7 +279,8 @@ where
             source,
         })?;
         let e0 = mean.local(&centre);
-        let mut covariance = e0 * e0.transpose() * w0c + self.model.noise(mu, input);
+        let mut covariance = e0 * e0.transpose() * w0c
+            + model_noise("process noise Q", self.model.noise(mu, input))?;
         let mut cross = SMatrix::<f64, D, D>::zeros();
         for (d, (yp, ym)) in offsets.iter().zip(plus.iter().zip(&minus)) {
             let (ep, em) = (mean.local(yp), mean.local(ym));
@@ -328,7 +329,8 @@ where
     ) -> Result<Conditioned<Self, Innovation<D, M>>, OperatorError> {
         crate::error::all_finite("measurement z", z.iter())?;
         let (mu, h) = (self.mean(), &ukf.model);
-        let moments = ukf.measurement_moments(self, None, h.noise(mu))?;
+        let noise = model_noise("measurement noise R", h.noise(mu))?;
+        let moments = ukf.measurement_moments(self, None, noise)?;
         let (report, log_evidence) = Innovation::new(
             h.residual(z, &moments.predicted),
             &moments.covariance,

@@ -498,3 +498,43 @@ fn a_diffusion_beyond_its_cell_limit_is_refused() {
     assert!(matches!(error, OperatorError::TooLarge { .. }), "{error}");
     assert_eq!(grid.log_weights(), before);
 }
+
+/// The kernel scaled and tiny weights kept: a subnormal kernel (8, 1)·5e-324 rounded its products
+/// in the subnormal range and diffused (0.9, 0.1) to (0.778, 0.222) instead of (0.811, 0.189); a
+/// kernel of (1e308, 1e308) summed to +∞ and was refused; and the identity kernel set a log weight
+/// of −800 to −∞ (its exponential underflowed). Each is now exact to rounding.
+#[test]
+fn diffusion_is_exact_for_every_kernel_scale_and_tiny_weights() {
+    let two = |a: f64, b: f64| move |w: &So2<f64>| if w.angle().abs() < 1.0 { a } else { b };
+    let weights = [0.9_f64.ln(), 0.1_f64.ln()];
+    let exact = [0.9 * 8.0 + 0.1, 0.9 + 0.1 * 8.0].map(|v: f64| (v / 9.0).ln());
+    for scale in [5e-324, 1.0, 1e300] {
+        let mut grid = CircularGrid::from_log_weights(&weights, vec![(), ()]).unwrap();
+        grid.propagate_in_place(&Diffusion(two(8.0 * scale, scale)), &())
+            .unwrap();
+        for (got, want) in grid.log_weights().iter().zip(exact) {
+            assert!((got - want).abs() < 1e-15, "scale {scale}: {got} vs {want}");
+        }
+    }
+    let mut grid = CircularGrid::from_log_weights(&weights, vec![(), ()]).unwrap();
+    grid.propagate_in_place(&Diffusion(two(1e308, 1e308)), &())
+        .unwrap();
+    assert!(
+        grid.log_weights()
+            .iter()
+            .all(|l| (l - 0.5_f64.ln()).abs() < 1e-15)
+    );
+    let mut grid = CircularGrid::from_log_weights(&[0.0, -800.0], vec![(), ()]).unwrap();
+    grid.propagate_in_place(&Diffusion(two(1.0, 0.0)), &())
+        .unwrap();
+    assert!(
+        grid.log_weights()[0].abs() < 1e-15,
+        "{:?}",
+        grid.log_weights()
+    );
+    assert!(
+        (grid.log_weights()[1] + 800.0).abs() < 1e-12,
+        "{:?}",
+        grid.log_weights()
+    );
+}

@@ -8,7 +8,7 @@ use liebayes_densities::{Density, Gaussian, ManifoldGaussian};
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, Rn, So3};
 use liebayes_operators::fixed_lag::{FixedLagSmoother, MAX_EPOCH};
 use liebayes_operators::smoother::{GaussianTransition, RtsSmoother};
-use liebayes_operators::{Ekf, MeasurementFn, OperatorError, ProcessFn, Ukf};
+use liebayes_operators::{Condition, Ekf, MeasurementFn, OperatorError, ProcessFn, Propagate, Ukf};
 use nalgebra::{Matrix1, Matrix2, Matrix3, SMatrix, SVector, Vector1, Vector2, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -251,4 +251,33 @@ fn malformed_records_and_failed_steps_are_refused() {
             .is_err()
     );
     assert_eq!(fixed, before);
+    // A smoothing changes no state: its window is a buffer, not compared (it was, so that a
+    // smoother was no longer equal to its copy after `smooth`).
+    fixed.smooth().unwrap();
+    assert_eq!(fixed, before);
+    // A model's asymmetric Q or R is refused, not taken for its symmetric part: Q = [[1, 1e300],
+    // [-1e300, 1]] passed as the identity.
+    let walk2 = ProcessFn::new(
+        |x: &Rn<f64, 2>, (): &()| *x,
+        |_, ()| Matrix2::new(1.0, 1e300, -1e300, 1.0),
+    );
+    let sensor2 = MeasurementFn::new(
+        |x: &Rn<f64, 2>| *x.coords(),
+        |_| Matrix2::new(1.0, 0.5, 0.0, 1.0),
+    );
+    let prior2 =
+        ManifoldGaussian::new(Rn::new_unchecked(Vector2::zeros()), Matrix2::identity()).unwrap();
+    let mut two = FixedLagSmoother::new(prior2.clone(), 2).unwrap();
+    let error = two.propagate(&Ekf(&walk2), &()).unwrap_err();
+    assert!(matches!(error, OperatorError::OutOfRange { .. }), "{error}");
+    let error = two
+        .condition(&Ekf(&sensor2), &Vector2::zeros())
+        .unwrap_err();
+    assert!(matches!(error, OperatorError::OutOfRange { .. }), "{error}");
+    assert!(prior2.propagate(&Ukf::new(&walk2), &()).is_err());
+    assert!(
+        prior2
+            .condition(&Ukf::new(&sensor2), &Vector2::zeros())
+            .is_err()
+    );
 }
