@@ -22,19 +22,39 @@ const MAX_EIGENVALUE: f64 = 1e300;
 /// so 200 proposals all rejected has probability below 1e-48.
 const MAX_PROPOSALS: usize = 200;
 
+/// The eigenvectors and eigenvalues of the symmetric part of `m`, the eigenvalues descending.
+///
+/// # Errors
+/// As [`finite_eigen`].
+fn sorted_eigen(
+    what: &'static str,
+    m: &Matrix4<f64>,
+) -> Result<(Matrix4<f64>, Vector4<f64>), DensityError> {
+    // Halves first: M + Mᵀ overflows for entries past f64::MAX / 2.
+    let eigen = finite_eigen(what, m * 0.5 + m.transpose() * 0.5)?;
+    let mut order = [0usize, 1, 2, 3];
+    order.sort_by(|&i, &j| eigen.eigenvalues[j].total_cmp(&eigen.eigenvalues[i]));
+    Ok((
+        Matrix4::from_fn(|r, c| eigen.eigenvectors[(r, order[c])]),
+        Vector4::from_fn(|k, _| eigen.eigenvalues[order[k]]),
+    ))
+}
+
 /// The symmetric eigendecomposition, refused where it is not finite (nalgebra's can return NaN for
 /// matrices whose entries span more than the f64 range once scaled, such as 1e83 beside 1e-308).
 fn finite_eigen(
     what: &'static str,
     m: Matrix4<f64>,
 ) -> Result<SymmetricEigen<f64, nalgebra::U4>, DensityError> {
-    let eigen = SymmetricEigen::new(m);
-    let finite = eigen
-        .eigenvalues
-        .iter()
-        .chain(eigen.eigenvectors.iter())
-        .all(|v| v.is_finite());
-    if finite {
+    // A bounded iteration (nalgebra's `new` iterates until convergence, without a limit).
+    let eigen = SymmetricEigen::try_new(m, f64::EPSILON, 1000).filter(|eigen| {
+        eigen
+            .eigenvalues
+            .iter()
+            .chain(eigen.eigenvectors.iter())
+            .all(|v| v.is_finite())
+    });
+    if let Some(eigen) = eigen {
         Ok(eigen)
     } else {
         Err(DensityError::OutOfRange {
@@ -199,12 +219,7 @@ impl Bingham {
                 range: "symmetric matrices; symmetrise with (M + M^T)/2",
             });
         }
-        // Halves first: M + Mᵀ overflows for entries past f64::MAX / 2.
-        let eigen = finite_eigen("Bingham parameter matrix", m * 0.5 + m.transpose() * 0.5)?;
-        let mut order = [0usize, 1, 2, 3];
-        order.sort_by(|&i, &j| eigen.eigenvalues[j].total_cmp(&eigen.eigenvalues[i]));
-        let orientation = Matrix4::from_fn(|r, c| eigen.eigenvectors[(r, order[c])]);
-        let eigenvalues = Vector4::from_fn(|k, _| eigen.eigenvalues[order[k]]);
+        let (orientation, eigenvalues) = sorted_eigen("Bingham parameter matrix", &m)?;
         Self::from_sorted_eigen(orientation, eigenvalues)
     }
 
@@ -225,7 +240,7 @@ impl Bingham {
     /// # Errors
     /// [`DensityError::NonFinite`] for a non-finite component or σ; [`DensityError::OutOfRange`] for
     /// σ ≤ 0, for a matrix whose entries overflow, or for an eigenvalue spread beyond
-    /// [`Self::MAX_SPREAD`] (σ below about 1.4e-3 for unit vectors).
+    /// [`Self::MAX_SPREAD`] (σ below about 1.4e-6 for unit vectors).
     ///
     /// # Example
     /// ```
@@ -513,11 +528,13 @@ impl Density for Bingham {
     }
 
     /// The eigenvector of the largest eigenvalue, with `w ≥ 0` (−q is a mode too); none when the
-    /// largest eigenvalue is repeated (the maxima form a circle or more).
+    /// largest eigenvalue is repeated (the maxima form a circle or more): a gap within 1e-10 of the
+    /// spread, or within the rounding of the eigenvalues themselves (8 eps |z₀|). Only differences
+    /// of eigenvalues matter to the distribution, so a common shift enters only through that
+    /// rounding.
     fn mode(&self) -> Option<Su2<f64>> {
-        if self.eigenvalues[0] - self.eigenvalues[1]
-            <= TOLERANCE * (1.0 + self.eigenvalues[0].abs())
-        {
+        let z = &self.eigenvalues;
+        if z[0] - z[1] <= TOLERANCE * (1.0 + (z[0] - z[3])) + 8.0 * f64::EPSILON * z[0].abs() {
             return None;
         }
         let v = self.orientation.column(0);
@@ -528,23 +545,50 @@ impl Density for Bingham {
     }
 }
 
+impl Bingham {
+    /// `M − z₀ I = V diag(z − z₀) Vᵀ`: the parameter matrix less its largest eigenvalue, of the
+    /// size of the spread whatever the shift z₀.
+    fn natural_less_largest(&self) -> Matrix4<f64> {
+        let a = self.eigenvalues.add_scalar(-self.eigenvalues[0]);
+        self.orientation * Matrix4::from_diagonal(&a) * self.orientation.transpose()
+    }
+
+    /// The product of [`Product::product`] and the largest eigenvalue of
+    /// `M₁ + M₂ − (z₁₀ + z₂₀) I`: the eigendecomposition is of that shift-free sum, so the
+    /// eigenvalue gaps keep their precision beside a large common eigenvalue (from
+    /// `M₁ + M₂` itself, an offset of 1e15 turned gaps (2, 6, 20) into (3.25, 7, 20.5)).
+    fn product_and_largest(&self, other: &Self) -> Result<(Self, f64), DensityError> {
+        let (orientation, shifted) = sorted_eigen(
+            "Bingham product's parameter matrix",
+            &(self.natural_less_largest() + other.natural_less_largest()),
+        )?;
+        let shift = self.eigenvalues[0] + other.eigenvalues[0];
+        let joint = Self::from_sorted_eigen(orientation, shifted.add_scalar(shift))?;
+        Ok((joint, shifted[0]))
+    }
+}
+
 impl Product for Bingham {
-    /// `M = M₁ + M₂` (exact).
+    /// `M = M₁ + M₂`, eigendecomposed as `(M₁ − z₁₀ I) + (M₂ − z₂₀ I)` and shifted back.
     ///
     /// # Errors
     /// As [`from_natural`](Bingham::from_natural), where the sum's eigenvalue spread exceeds
     /// [`Bingham::MAX_SPREAD`].
     fn product(&self, other: &Self) -> Result<Self, DensityError> {
-        Self::from_natural(self.natural() + other.natural())
+        Ok(self.product_and_largest(other)?.0)
     }
 
-    /// `ln K(M₁ + M₂) − ln K(M₁) − ln K(M₂)`.
+    /// `ln K(M₁ + M₂) − ln K(M₁) − ln K(M₂)`, with every largest eigenvalue taken out:
+    /// `(ln K₁₂ − z₁₂₀) + z′ − (ln K₁ − z₁₀) − (ln K₂ − z₂₀)`, z′ the largest eigenvalue of
+    /// `M₁ + M₂ − (z₁₀ + z₂₀) I`, so that no terms of the size of the eigenvalues cancel.
     ///
     /// # Errors
     /// As [`product`](Product::product).
     fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
-        let joint = self.product(other)?;
-        Ok(joint.log_normalizer() - self.log_normalizer() - other.log_normalizer())
+        let (joint, largest) = self.product_and_largest(other)?;
+        Ok(joint.log_normalizer_minus_max + largest
+            - self.log_normalizer_minus_max
+            - other.log_normalizer_minus_max)
     }
 }
 

@@ -269,14 +269,23 @@ impl<const N: usize> Product for Gaussian<N> {
         Self::from_natural(l1 * self.mean + l2 * other.mean, l1 + l2)
     }
 
-    /// `ln ∫ p₁ p₂ = ln N(μ₁; μ₂, Σ₁ + Σ₂)`.
+    /// `ln ∫ p₁ p₂ = ln N(μ₁; μ₂, Σ₁ + Σ₂)`, by the Cholesky factor L of `Σ₁ + Σ₂` (entries at most
+    /// 2e100, positive definite): `−½ (n ln 2π + ln det Σ₁₂ + |L⁻¹ (μ₁ − μ₂)|²)`.
     ///
     /// # Errors
-    /// As [`new`](Gaussian::new) for `N(μ₂, Σ₁ + Σ₂)`, and [`DensityError::OutOfRange`] where the
-    /// value is not finite (a Mahalanobis distance beyond the f64 range).
+    /// As [`product`](Product::product), exactly where it fails (the product's information matrix
+    /// beyond the accepted range), and [`DensityError::OutOfRange`] where the value is not finite (a
+    /// Mahalanobis distance beyond the f64 range).
     fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
-        let joint = Self::new(other.mean, self.covariance + other.covariance)?;
-        let value = joint.log_pdf(&self.mean);
+        self.product(other)?;
+        let sum = self.covariance + other.covariance;
+        let value = Cholesky::new(sum).map_or(f64::NAN, |factor| {
+            let l = factor.l();
+            let log_det = 2.0 * l.diagonal().iter().map(|d| d.ln()).sum::<f64>();
+            -0.5 * (whitened_squared_norm(&l, &(self.mean - other.mean))
+                + N as f64 * (2.0 * PI).ln()
+                + log_det)
+        });
         if value.is_finite() {
             Ok(value)
         } else {

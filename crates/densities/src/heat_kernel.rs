@@ -142,8 +142,7 @@ impl HeatKernelSo3 {
 
     /// [`Self::angle_pdf`] for t ∈ [0, π].
     fn pdf_of_angle(&self, t: f64) -> f64 {
-        let half = (t / 2.0).sin();
-        (self.log_f(t) + (2.0 * half * half / PI).ln()).exp()
+        (self.log_f(t) + log_angle_factor(t)).exp()
     }
 
     /// [`Self::angle_cdf`] for t ∈ [0, π].
@@ -310,8 +309,7 @@ impl Density for HeatKernelSo3 {
                 if t == 0.0 || t > PI {
                     continue; // the proposal is the Maxwell law truncated to (0, π]
                 }
-                let half = (t / 2.0).sin();
-                let log_angle_density = self.log_f(t) + (2.0 * half * half / PI).ln();
+                let log_angle_density = self.log_f(t) + log_angle_factor(t);
                 let log_maxwell = log_maxwell_constant + 2.0 * t.ln() - t * t / (2.0 * self.s);
                 let log_ratio = log_angle_density - log_maxwell - log_bound;
                 if log_ratio > 0.0 {
@@ -405,6 +403,7 @@ impl KlDivergence for HeatKernelSo3 {
         let root = self.s.sqrt();
         let end = (12.0 * root).min(PI);
         let (fine, coarse) = (other.s / (4.0 * PI), 0.5 * root);
+        let factor = root.min(1.0);
         let split = PI - delta;
         // (start, stop, grade at start, grade at stop): towards π − δ and π, never towards 0.
         let at_pi = end >= PI;
@@ -436,10 +435,12 @@ impl KlDivergence for HeatKernelSo3 {
             } else {
                 quadrature::integrate(integrand, -1.0, 1.0, 4)
             };
-            // The angle's density times √s₁ is of order 1 (its peak is about 0.6/√s₁), so the
-            // product with the inner integral (about δ²/(2 s₂)) overflows only where the
-            // divergence itself does (it did at s₁ = s₂ = 1e-250); √s₁ is divided out at the end.
-            (self.pdf_of_angle(t) * root) * inner
+            // The angle's density times min(√s₁, 1) is of order 1 at most (its peak is about
+            // 0.6/√s₁ for a small s₁, and (1 − cos t)/π for a large one), so the product with the
+            // inner integral (about δ²/(2 s₂)) overflows only where the divergence itself does (it
+            // did at s₁ = s₂ = 1e-250, and with √s₁ itself at s₁ = 1e20, s₂ = 1e-300); the factor
+            // is divided out at the end.
+            (self.pdf_of_angle(t) * factor) * inner
         };
         let scaled: f64 = pieces
             .iter()
@@ -447,8 +448,15 @@ impl KlDivergence for HeatKernelSo3 {
                 graded_integral(&outer, a, b, [from_a, from_b], fine, coarse)
             })
             .sum();
-        scaled / root
+        scaled / factor
     }
+}
+
+/// `ln(2 sin²(t/2) / π)`, the logarithm of the Haar measure's factor on the rotation angle t ∈ [0, π],
+/// taken as `2 ln sin(t/2) + ln(2/π)` so that it stays exact where sin²(t/2) would underflow (down to
+/// the smallest positive t; −∞ at t = 0 only).
+fn log_angle_factor(t: f64) -> f64 {
+    2.0 * (t / 2.0).sin().ln() + (2.0 / PI).ln()
 }
 
 /// `∫_a^b f` by 20-point Gauss-Legendre on panels graded towards the ends flagged in `graded`

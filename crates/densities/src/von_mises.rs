@@ -323,8 +323,12 @@ impl Product for VonMises {
     /// `ln ∫ p₁ p₂ dθ = ln Z(η₁ + η₂) − ln Z(η₁) − ln Z(η₂)`, evaluated as
     /// `ℓ(κ₁₂) − ℓ(κ₁) − ℓ(κ₂) − ln 2π + (κ₁₂ − κ₁ − κ₂)` with `ℓ(κ) = ln I₀(κ) − κ` and
     /// `κ₁₂ − κ₁ − κ₂ = −κ₁ κ₂ |μ̂₁ − μ̂₂|² / (κ₁₂ + κ₁ + κ₂)` (unit mean vectors μ̂), so nothing of
-    /// size κ cancels. Finite for all accepted parameters (κ₁₂ ≤ 2e300), so never an error.
+    /// size κ cancels. Finite for all accepted parameters (κ₁₂ ≤ 2e300).
+    ///
+    /// # Errors
+    /// As [`product`](Product::product), exactly where it fails (κ₁₂ beyond 1e300).
     fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
+        self.product(other)?;
         let (k1, k2) = (self.concentration(), other.concentration());
         let joint = self.eta + other.eta;
         let k12 = joint.x.hypot(joint.y);

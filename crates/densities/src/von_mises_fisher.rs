@@ -223,8 +223,12 @@ impl Product for VonMisesFisher {
     /// `ln ∫ p₁ p₂ dS = ln Z(η₁ + η₂) − ln Z(η₁) − ln Z(η₂)`, evaluated as
     /// `P(κ₁) + P(κ₂) − P(κ₁₂) + (κ₁₂ − κ₁ − κ₂)` with `P(κ) = ln C(κ) + κ` and
     /// `κ₁₂ − κ₁ − κ₂ = −κ₁ κ₂ |μ₁ − μ₂|² / (κ₁₂ + κ₁ + κ₂)`: nothing of size κ cancels. Finite for
-    /// all accepted parameters, so never an error.
+    /// all accepted parameters.
+    ///
+    /// # Errors
+    /// As [`product`](Product::product), exactly where it fails (κ₁₂ beyond the accepted range).
     fn log_product_integral(&self, other: &Self) -> Result<f64, DensityError> {
+        self.product(other)?;
         let (k1, k2) = (self.kappa, other.kappa);
         // Scaled by the larger κ: |η₁ + η₂|² overflows past 1.3e154.
         let scale = k1.max(k2).max(f64::MIN_POSITIVE);

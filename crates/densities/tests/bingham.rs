@@ -425,3 +425,48 @@ fn fit_refuses_degenerate_scatter() {
     assert!(Bingham::from_second_moment(s).is_err());
     assert!(Bingham::from_second_moment(Matrix4::zeros()).is_err());
 }
+
+/// An orthogonal 4×4 matrix: left multiplication by a unit quaternion.
+fn left_multiplication(q: [f64; 4]) -> nalgebra::Matrix4<f64> {
+    let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let [w, x, y, z] = q.map(|v| v / n);
+    nalgebra::Matrix4::new(w, -x, -y, -z, x, w, -z, y, y, z, w, -x, z, -y, x, w)
+}
+
+/// Only differences of eigenvalues matter, but the product eigendecomposed `M₁ + M₂` itself: with a
+/// common eigenvalue of 1e15 the gaps (2, 6, 20) of p·p came out (3.25, 7, 20.5), and the log
+/// integral lost its digits. And the unique-mode test was relative to |z₀|, so (1e12, 1e12 − 10, …)
+/// had no mode (the moment matches refused it) while (0, −10, …) did. Both are now shift-free.
+#[test]
+fn a_common_eigenvalue_shift_changes_nothing() {
+    use liebayes_densities::{Bingham, Product};
+    let v = left_multiplication([0.3, -0.5, 0.7, 0.41]);
+    let at =
+        |c: f64| Bingham::new(v, nalgebra::Vector4::new(c, c - 1.0, c - 3.0, c - 10.0)).unwrap();
+    let unshifted = at(0.0);
+    let reference = unshifted.log_product_integral(&unshifted).unwrap();
+    for c in [1e6, 1e12, 1e15] {
+        let p = at(c);
+        let product = p.product(&p).unwrap();
+        let z = product.eigenvalues();
+        for (k, want) in [(1, -2.0), (2, -6.0), (3, -20.0)] {
+            // The gaps to rounding of the shift-free sum (entries of size 20), not of 2c.
+            assert!((z[k] - z[0] - want).abs() < 1e-12, "c = {c:e}: {z:?}");
+        }
+        let integral = p.log_product_integral(&p).unwrap();
+        assert!(
+            (integral - reference).abs() < 1e-12,
+            "c = {c:e}: {integral} vs {reference}"
+        );
+    }
+    let peaked = |c: f64| {
+        Bingham::new(
+            nalgebra::Matrix4::identity(),
+            nalgebra::Vector4::new(c, c - 10.0, c - 10.0, c - 10.0),
+        )
+        .unwrap()
+    };
+    let reference = peaked(0.0).to_heat_kernel_moment_matched().unwrap();
+    let shifted = peaked(1e12).to_heat_kernel_moment_matched().unwrap();
+    assert!((shifted.variance() / reference.variance() - 1.0).abs() < 1e-12);
+}

@@ -238,6 +238,34 @@ fn the_divergence_of_very_concentrated_kernels_is_finite() {
     }
 }
 
+/// A nearly uniform p against a very concentrated q: the angle density was multiplied by √s₁
+/// (1e10) before the inner integral (2e300) and overflowed, so the divergence was +∞. It is
+/// E_p[t²]/(2 s₂) to a relative 1e-297 (the normalisers' terms are of order 1e3), and p is Haar
+/// to e^(−s₁/2): E[t²] = π²/3 + 2 under the Haar angle density (1 − cos t)/π.
+#[test]
+fn the_divergence_from_a_spread_kernel_to_a_concentrated_one_is_finite() {
+    let p = at_identity(1e20);
+    let q = at_identity(1e-300);
+    let kl = p.kl_divergence(&q);
+    let expected = (PI * PI / 3.0 + 2.0) / 2e-300;
+    assert!((kl / expected - 1.0).abs() < 1e-9, "{kl:e} vs {expected:e}");
+}
+
+/// The Haar factor 2 sin²(t/2)/π underflowed below t ≈ 3e-162, so `angle_pdf` was 0 where the
+/// density is 7.98e125 (s = 1e-300, t = 1e-162): there it is the Maxwell density
+/// √(2/π) t²/s^{3/2} e^{−t²/(2s)} to rounding (t²/(2s) = 5e-25).
+#[test]
+fn the_angle_density_of_a_tiny_angle_does_not_underflow() {
+    for (s, t) in [(1e-300, 1e-162), (1e-300, 1e-160), (1e-200, 1e-162)] {
+        let pdf = at_identity(s).angle_pdf(t).unwrap();
+        let maxwell = (2.0 / PI).sqrt() * (t / s) * (t / s.sqrt()) * (-t * t / (2.0 * s)).exp();
+        assert!(
+            (pdf / maxwell - 1.0).abs() < 1e-12,
+            "s = {s:e}, t = {t:e}: {pdf:e} vs {maxwell:e}"
+        );
+    }
+}
+
 /// The rejection sampler for s < 1 relies on angle_pdf(t) ≤ 1.5 e^(s/8) m(t), m the Maxwell density of
 /// |ξ| for ξ ~ N(0, s I): check the ratio on a fine grid of t over (0, π] for s across (0, 1).
 #[test]

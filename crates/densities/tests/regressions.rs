@@ -271,3 +271,33 @@ fn von_mises_products_beyond_the_concentration_limit_are_errors() {
     let pq = q.product(&q).unwrap();
     assert!((pq.concentration() - 8e299).abs() <= 1e-15 * 8e299);
 }
+
+/// The log product integral must fail exactly where the product does (the trait's contract, which
+/// the product law checks): two von Mises or von Mises-Fisher densities of concentration 1e300 had
+/// a product beyond the accepted 1e300 (an error) but a finite integral; two Gaussians of variance
+/// 1.5e-100 a product whose information exceeds 1e100 but an integral; and two of variance 1e100 a
+/// product but no integral (Σ₁ + Σ₂ = 2e100 was built as a Gaussian, beyond its range).
+#[test]
+fn the_product_integral_fails_exactly_where_the_product_does() {
+    let vm = VonMises::new(So2::from_angle_unchecked(0.3), 1e300).unwrap();
+    assert!(vm.product(&vm).is_err() && vm.log_product_integral(&vm).is_err());
+    let mean = S2::new(nalgebra::Vector3::new(0.0, 0.6, 0.8)).unwrap();
+    let vmf = VonMisesFisher::new(mean, 1e300).unwrap();
+    assert!(vmf.product(&vmf).is_err() && vmf.log_product_integral(&vmf).is_err());
+    let tight = Gaussian::new(
+        nalgebra::Vector2::zeros(),
+        nalgebra::Matrix2::identity() * 1.5e-100,
+    )
+    .unwrap();
+    assert!(tight.product(&tight).is_err() && tight.log_product_integral(&tight).is_err());
+    let wide = Gaussian::new(
+        nalgebra::Vector2::new(1.0, -1.0),
+        nalgebra::Matrix2::identity() * 1e100,
+    )
+    .unwrap();
+    assert!(wide.product(&wide).is_ok());
+    // ln N(μ; μ, 2e100 I) in two dimensions: −ln(2π) − ln(2e100).
+    let value = wide.log_product_integral(&wide).unwrap();
+    let expected = -(2.0 * std::f64::consts::PI).ln() - 2e100_f64.ln();
+    assert!((value - expected).abs() < 1e-13, "{value} vs {expected}");
+}

@@ -58,9 +58,12 @@ pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 }
 
 /// The n-point Gauss-Hermite rule for the standard normal, `E[f(u)] ≈ Σ wᵢ f(uᵢ)`, Σ wᵢ = 1 (exact
-/// for polynomials of degree 2n − 1). n is capped at [`MAX_HERMITE_NODES`], beyond which the
-/// eigenproblem is slow and the outer weights underflow.
+/// for polynomials of degree 2n − 1; empty for n = 0, as [`gauss_legendre`] is). n is capped at
+/// [`MAX_HERMITE_NODES`], beyond which the eigenproblem is slow and the outer weights underflow.
 pub fn gauss_hermite(n: usize) -> Vec<(f64, f64)> {
+    if n == 0 {
+        return Vec::new();
+    }
     hermite_rule(n.min(MAX_HERMITE_NODES))
 }
 
@@ -111,12 +114,14 @@ pub fn circle(width: f64) -> Vec<(So2<f64>, f64)> {
 /// [`SphereRule`](crate::quadrature::SphereRule) with [`SPHERE_COLATITUDE_POINTS`] colatitude
 /// and 64 longitude nodes, its angle chosen so that `1 − cos(angle) = width` in `t = 1 − axis · x`
 /// (for a von Mises-Fisher of concentration κ about the axis, whose density is `∝ e^(−κ t)`,
-/// `width = 1/(1 + κ)`). Widths are clamped to the rule's range of angles.
+/// `width = 1/(1 + κ)`). Widths are clamped to the rule's range of angles; a NaN width is the
+/// widest.
 ///
 /// # Panics
 /// Never: the node counts are constants within the rule's range and the angle is clamped to it.
 pub fn sphere(axis: &S2<f64>, width: f64) -> Vec<(S2<f64>, f64)> {
     let (low, high) = crate::quadrature::SPHERE_WIDTH_RANGE;
+    let width = if width.is_nan() { 2.0 } else { width };
     // 1 − cos(angle) = width, without cancellation: angle = 2 asin(√(width/2)).
     let angle = (2.0 * (0.5 * width.clamp(0.0, 2.0)).sqrt().asin()).clamp(low, high);
     let rule =
@@ -336,6 +341,10 @@ fn tangent_nodes<const N: usize>(
     covariance: &SMatrix<f64, N, N>,
     points: usize,
 ) -> Vec<(SVector<f64, N>, f64)> {
+    if N == 0 {
+        // R⁰ is one point, of measure 1 (and nalgebra's eigensolver asserts on an empty matrix).
+        return vec![(SVector::zeros(), 1.0)];
+    }
     // Points per axis: at most the Hermite rule's nodes, and so that points^N ≤ MAX_NODES (at
     // most 199 steps down).
     let mut per_axis = points.clamp(1, MAX_HERMITE_NODES);
@@ -393,6 +402,23 @@ mod tests {
 
     fn relative(got: f64, expected: f64) -> f64 {
         (got - expected).abs() / expected.abs().max(1e-300)
+    }
+
+    /// Degenerate arguments the helpers panicked on: `gauss_hermite(0)` and the zero-dimensional
+    /// rules hit nalgebra's assert on an empty eigenproblem, and a NaN sphere width reached an
+    /// `expect`. Zero nodes, R⁰'s one point, and the widest sphere rule.
+    #[test]
+    fn degenerate_rules_do_not_panic() {
+        assert!(gauss_hermite(0).is_empty());
+        let point = rn::<0>(&nalgebra::SVector::zeros(), &nalgebra::SMatrix::zeros(), 8);
+        assert_eq!(point.len(), 1);
+        assert!((point[0].1 - 1.0).abs() < f64::EPSILON);
+        let axis = S2::new_unchecked(nalgebra::Vector3::z());
+        let nan = sphere(&axis, f64::NAN);
+        let widest = sphere(&axis, 2.0);
+        assert_eq!(nan.len(), widest.len());
+        let area: f64 = nan.iter().map(|(_, w)| w).sum();
+        assert!(relative(area, 4.0 * PI) < 1e-12, "{area}");
     }
 
     /// ∫ e^(κ cos θ) dθ = 2π I₀(κ), with I₀ from its power series (κ ≤ 30) here, independent of the

@@ -66,14 +66,23 @@ fn mean_and_second<const N: usize>(
     t
 }
 
-/// The smallest standard deviation of a covariance (its smallest eigenvalue's root).
+/// The eigenvalues of a covariance (none for N = 0), from a dynamic copy: nalgebra's symmetric
+/// eigensolver has no const-generic form and asserts on an empty matrix.
+fn eigenvalues<const N: usize>(covariance: &SMatrix<f64, N, N>) -> nalgebra::DVector<f64> {
+    if N == 0 {
+        return nalgebra::DVector::zeros(0);
+    }
+    nalgebra::DMatrix::from_column_slice(N, N, covariance.as_slice()).symmetric_eigenvalues()
+}
+
+/// The smallest standard deviation of a covariance (its smallest eigenvalue's root; 1 for N = 0,
+/// which has no direction to step in).
 fn smallest_deviation<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
-    // A dynamic copy: nalgebra's symmetric eigensolver has no const-generic form.
-    nalgebra::DMatrix::from_column_slice(N, N, covariance.as_slice())
-        .symmetric_eigenvalues()
-        .min()
-        .max(0.0)
-        .sqrt()
+    let eigenvalues = eigenvalues(covariance);
+    if eigenvalues.is_empty() {
+        return 1.0;
+    }
+    eigenvalues.min().max(0.0).sqrt()
 }
 
 /// `2 N cond(L) = 2 N √(λ_max/λ_min)`, the growth of the relative rounding of a Mahalanobis term
@@ -83,10 +92,12 @@ fn mahalanobis_condition<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64
 }
 
 /// `cond(P) = λ_max/λ_min`, the sensitivity of a Mahalanobis term to a relative perturbation of the
-/// covariance.
+/// covariance (1 for N = 0).
 fn covariance_condition<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
-    let eigenvalues =
-        nalgebra::DMatrix::from_column_slice(N, N, covariance.as_slice()).symmetric_eigenvalues();
+    let eigenvalues = eigenvalues(covariance);
+    if eigenvalues.is_empty() {
+        return 1.0;
+    }
     eigenvalues.max() / eigenvalues.min()
 }
 
@@ -535,5 +546,22 @@ impl<const N: usize> DensitySubject for HarmonicGaussian<N> {
     /// `2 N cond(L)` of the conditional covariance.
     fn log_condition(&self) -> f64 {
         mahalanobis_condition(self.covariance())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A zero-dimensional Gaussian (which `Gaussian::new` accepts) made the subject's helpers
+    /// panic on nalgebra's assert on an empty eigenproblem; its rule is R⁰'s one point.
+    #[test]
+    fn a_zero_dimensional_gaussian_is_a_subject() {
+        let g = Gaussian::<0>::new(SVector::zeros(), SMatrix::zeros()).unwrap();
+        let nodes = g.quadrature();
+        assert_eq!(nodes.len(), 1);
+        assert!(g.neighbours(&nodes[0].0).iter().all(|x| x.is_empty()));
+        assert!(g.log_condition().is_finite());
+        assert!(g.log_scale().is_finite());
     }
 }
