@@ -113,7 +113,7 @@ impl Bingham {
     ///
     /// # Errors
     /// [`DensityError::OutOfRange`] when the Bingham has no unique mode, or when it is too diffuse for
-    /// the iteration to reach the residual in [`MATCH_STEPS`] steps (the iteration slows as a second
+    /// the iteration to reach the residual in 250 steps (the iteration slows as a second
     /// moment of v approaches about 0.24, the largest `E_Σ[vᵢ²]` any Σ gives: spreads beyond about
     /// 60°, such as eigenvalue gaps of 0.2).
     pub fn to_manifold_gaussian_moment_matched(

@@ -265,3 +265,65 @@ fn manifold_gaussian_bingham_error_against_spread() {
         }
     }
 }
+
+/// The Bingham → manifold Gaussian match stopped after 50 fixed-point steps without checking its
+/// residual: eigenvalues (0, −0.2, −0.2, −0.2) came back as Ok with second moments 2 % off, and
+/// (0, −1, −1, −1) 7e-5 off. A match is now returned only at its documented residual: the second
+/// comes back through the reverse map (eigenvalue gaps to 1e-8), the first, whose moments no
+/// Gaussian on the tangent space reaches, is refused.
+#[test]
+fn the_bingham_to_gaussian_match_converges_or_is_refused() {
+    use liebayes_densities::{Bingham, DensityError};
+    let bingham = |gap: f64| {
+        Bingham::new(
+            nalgebra::Matrix4::identity(),
+            nalgebra::Vector4::new(0.0, -gap, -gap, -gap),
+        )
+        .unwrap()
+    };
+    let matched = bingham(1.0).to_manifold_gaussian_moment_matched().unwrap();
+    let back = matched.to_bingham_moment_matched().unwrap();
+    let gaps = back.eigenvalues().map(|z| z - back.eigenvalues()[0]);
+    for gap in gaps.iter().skip(1) {
+        assert!((gap + 1.0).abs() < 1e-8, "{gaps:?}");
+    }
+    let error = bingham(0.2)
+        .to_manifold_gaussian_moment_matched()
+        .unwrap_err();
+    assert!(matches!(error, DensityError::OutOfRange { .. }), "{error}");
+}
+
+/// (κ, κ₁₂): the moment-matched convolution of two von Mises of concentration κ, whose complement
+/// `d = 1 − A(κ)²` gives `κ₁₂ = A⁻¹(1 − d) ≈ 1/(2d) + ¼ ≈ κ/2`. References: mpmath with
+/// `mp.dps = 60 + log₁₀ κ`, `D = 1 − I₁(κ)/I₀(κ)` by `besseli`, `d = 2D − D²`, and κ₁₂ solving
+/// `1/D(k) = 1/d` by `k ← k − (1/D(k) − 1/d)/2` from `1/(2d) + ¼` to 50 digits (D also checked
+/// against its Hankel series). The first two straddle the switch to the asymptotic inverse at
+/// d = 1e-9 (Newton below κ = 1e9, the closed form above). The digits are as mpmath printed them
+/// (the last lie past f64).
+#[allow(clippy::excessive_precision)]
+const CONCENTRATED: [(f64, f64); 6] = [
+    (0.999e9, 4.995_000_002_500_000_003_1e8),
+    (1.001e9, 5.005_000_002_500_000_003_1e8),
+    (1e110, 5.000_000_000_000_000_117_8e109),
+    (1e150, 4.999_999_999_999_999_904_2e149),
+    (1e200, 4.999_999_999_999_999_848_7e199),
+    (1e300, 5.000_000_000_000_000_262_5e299),
+];
+
+/// Concentrations up to the documented 1e300: Newton's step for the inverse underflowed from
+/// κ ≈ 1e108 on, and the result was κ itself (1e110, 1e150, twice too large), 4.34e181 for 1e200 and
+/// 4.34e281 for 1e300. Tolerance 1e-15 relative (4.5 ulp): the inputs' `1 − A(κ)` carry a few ulp
+/// (the crate's one_minus_a1) and d's relative error passes to κ₁₂ with condition number 1, plus
+/// the rounding of 1/(2d) + ¼.
+#[test]
+fn moment_matched_convolution_of_concentrated_inputs() {
+    for (kappa, expected) in CONCENTRATED {
+        let p = VonMises::new(So2::from_angle_unchecked(0.3), kappa).unwrap();
+        let got = p.convolve_moment_matched(&p).concentration();
+        assert!(
+            (got / expected - 1.0).abs() <= 1e-15,
+            "κ {kappa:e}: {got:e}, reference {expected:e}, relative error {:e}",
+            got / expected - 1.0
+        );
+    }
+}

@@ -2,7 +2,8 @@
 //! this test with `mp.dps = 50`): relative error below `2e-16 (1 + x²)` for Φ from x = −37.5
 //! (Φ ≈ 4.6e-308, the smallest normal f64) to 8 (measured: 1.4e-13 at −37.5, 8.9e-15 at −10,
 //! 1.8e-16 at −1, exact from −0.001 up), and below `1e-14 (1 + |ln mass|)` in the log for
-//! `ln[Φ(b) − Φ(a)]` over tiny, one-sided, two-sided and far-tail intervals.
+//! `ln[Φ(b) − Φ(a)]` over tiny, one-sided, two-sided and far-tail intervals, and over narrow ones
+//! (adjacent doubles, gaps of 1e-10 and 1e-9), where differences of Φ values cancel.
 
 // The reference values keep 17 significant digits, as printed: the last may lie past f64.
 #![allow(clippy::excessive_precision)]
@@ -113,4 +114,72 @@ fn log_normal_mass_matches_50_digit_values() {
         f64::NEG_INFINITY
     );
     assert!(log_normal_mass(f64::NAN, 1.0).is_nan());
+}
+
+/// The next f64 above a nonzero finite x (`f64::next_up` needs Rust 1.86).
+fn next_up(x: f64) -> f64 {
+    if x > 0.0 {
+        f64::from_bits(x.to_bits() + 1)
+    } else {
+        f64::from_bits(x.to_bits() - 1)
+    }
+}
+
+/// (a, ln[Φ(b) − Φ(a)]) with b = `next_up(a)`, the adjacent double. The references are mpmath at
+/// `mp.dps = 80` at the exact f64 bounds, `ln(ncdf(−a) − ncdf(−b))` for a > 0 and
+/// `ln(ncdf(b) − ncdf(a))` otherwise (80 digits leave over 60 after the cancellation of 16).
+const ADJACENT: [(f64, f64); 9] = [
+    // The report's examples: both were −∞ (the erfc difference rounded to 0).
+    (2.830_328_160_512_874, -4.027_482_348_985_797_8e1),
+    (-3.899_510_061_506_905_6, -4.387_253_410_165_867_8e1),
+    // Also −∞ before: the erf difference, and the upper and lower tails' differences.
+    (0.203_375_971_650_928_02, -3.906_271_435_692_414_4e1),
+    (1.973_147_671_027_895_5, -3.890_924_778_816_323_3e1),
+    (-22.879_001_175_414_075, -2.959_143_505_923_813_2e2),
+    // 0.29 and 0.35 off before.
+    (-0.6, -3.783_573_910_288_177_4e1),
+    (29.5, -4.693_150_032_000_821e2),
+    // Beyond the deep tail (30): the asymptotic-series form was 2.3e-6 and 1.3e-6 off.
+    (-30.471_538_871_695_93, -4.984_473_438_047_200_4e2),
+    (35.0, -6.459_968_560_195_222_3e2),
+];
+
+/// (a, gap, ln[Φ(b) − Φ(a)]) with b = a + gap rounded to f64 (the references at that f64 b, computed
+/// as those of [`ADJACENT`]). Before: 6.9e-7 off at [0.5, 0.5 + 1e-10], 5.6e-7 at 1, 3.1e-8 at
+/// [5, 5 + 1e-9].
+const GAPS: [(f64, f64, f64); 14] = [
+    (0.5, 1e-10, -2.406_978_938_042_976_2e1),
+    (1.0, 1e-10, -2.444_478_938_045_476_2e1),
+    (5.0, 1e-10, -3.644_478_938_065_476_2e1),
+    (-2.0, 1e-10, -2.594_478_938_030_476_2e1),
+    (-0.3, 1e-10, -2.398_978_938_038_976_2e1),
+    (10.0, 1e-10, -7.394_478_938_090_476_2e1),
+    (31.0, 1e-10, -5.044_448_071_456_794_3e2),
+    (0.5, 1e-9, -2.176_720_439_868_301_6e1),
+    (1.0, 1e-9, -2.214_220_428_791_071_6e1),
+    (5.0, 1e-9, -3.414_220_428_991_071_7e1),
+    (-2.0, 1e-9, -2.364_220_428_641_071_6e1),
+    (-0.3, 1e-9, -2.168_720_434_277_186_4e1),
+    (10.0, 1e-9, -7.164_220_429_241_071_7e1),
+    (31.0, 1e-9, -5.021_422_043_029_107_2e2),
+];
+
+/// Narrow intervals, where every difference of Φ values (or of their logarithms) cancels: the
+/// documented bound `1e-14 (1 + |ln mass|)` holds there too (measured: within 0.06 of it over 34 000
+/// random intervals of every width from one ulp to 10, with bounds up to ±1e8).
+#[test]
+fn log_normal_mass_of_narrow_intervals() {
+    let check = |a: f64, b: f64, expected: f64| {
+        let got = log_normal_mass(a, b);
+        assert!(
+            (got - expected).abs() <= 1e-14 * (1.0 + expected.abs()),
+            "ln mass({a:e}, {b:e}) = {got}, reference {expected}"
+        );
+    };
+    for (a, expected) in ADJACENT {
+        check(a, next_up(a), expected);
+    }
+    for (a, gap, expected) in GAPS {
+        check(a, a + gap, expected);
+    }
 }

@@ -66,6 +66,34 @@ fn inverse_of_a1_matches_the_reference() {
     }
 }
 
+/// The two adjacent doubles r whose `d = 1 − r` straddles 1e-9, where `a1_inverse` switches from
+/// Newton's method (d ≥ 1e-9) to the asymptotic inverse `1/(2d) + ¼`, with κ solving
+/// `1 − I₁(κ)/I₀(κ) = d` for the exact d: mpmath at `mp.dps = 60` (`besseli`), by
+/// `k ← k − (1/D(k) − 1/d)/2` from `1/(2d) + ¼` (1/D has slope 2 + O(1/κ²)), to 45 digits.
+#[allow(clippy::unreadable_literal, clippy::excessive_precision)]
+const AT_THE_SWITCH: [(f64, f64); 2] = [
+    (0.999_999_998_999_999_9, 499999958.87981792381),
+    (0.999_999_999, 500000014.39096613202),
+];
+
+/// Both sides of the switch to the asymptotic inverse agree with the reference to 4 ulp (d = 1 − r is
+/// exact, and κ's condition number with respect to d is 1, so the only errors are the method's and
+/// the rounding of 1 − A): the switch leaves no step beyond rounding (measured: 5e-17 and 6e-17).
+#[test]
+fn inverse_of_a1_is_continuous_at_the_asymptotic_switch() {
+    let (below, above) = (AT_THE_SWITCH[0].0, AT_THE_SWITCH[1].0);
+    assert_eq!(above.to_bits(), below.to_bits() + 1);
+    assert!(1.0 - below >= 1e-9 && 1.0 - above < 1e-9);
+    for (r, expected) in AT_THE_SWITCH {
+        let got = special::a1_inverse(r).expect("r in [0, 1)");
+        let error = common::relative_error(got, expected);
+        assert!(
+            error <= 4.0 * f64::EPSILON,
+            "A^-1({r}) = {got}, mpmath {expected}, error {error:e}"
+        );
+    }
+}
+
 #[test]
 fn inverse_of_a1_rejects_values_outside_its_range() {
     for r in [-0.1, 1.0, 1.5, f64::NAN, f64::INFINITY] {

@@ -560,7 +560,11 @@ mod tests {
         let g = Gaussian::<0>::new(SVector::zeros(), SMatrix::zeros()).unwrap();
         let nodes = g.quadrature();
         assert_eq!(nodes.len(), 1);
-        assert!(g.neighbours(&nodes[0].0).iter().all(|x| x.is_empty()));
+        assert!(
+            g.neighbours(&nodes[0].0)
+                .iter()
+                .all(nalgebra::Matrix::is_empty)
+        );
         assert!(g.log_condition().is_finite());
         assert!(g.log_scale().is_finite());
     }
