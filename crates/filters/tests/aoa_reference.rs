@@ -104,6 +104,29 @@ fn unit_vectors_and_the_flipping_rule_replay() {
     }
 }
 
+/// Azimuths near ±f64::MAX (finite, accepted: the model wraps them) made the difference overflow
+/// to ∞, which wraps to NaN: `Ok(NaN)`, and a NaN standard error from the fit. Each is wrapped
+/// first. Readings without noise left the fit's likelihood flat at the end of its range, and its
+/// standard errors were +∞ inside Ok; that is now an error.
+#[test]
+fn huge_azimuths_and_noise_free_readings_give_numbers_or_errors() {
+    let (y, y0) = (AzEl::new(1.7e308, 0.0), AzEl::new(-1.7e308, 0.0));
+    let value = az_el_log_density(&y, &y0, 0.1, 0.1).unwrap();
+    let wrapped = az_el_log_density(
+        &AzEl::new(liebayes_manifolds::wrap_angle(1.7e308), 0.0),
+        &AzEl::new(liebayes_manifolds::wrap_angle(-1.7e308), 0.0),
+        0.1,
+        0.1,
+    )
+    .unwrap();
+    assert!(
+        value.is_finite() && (value - wrapped).abs() < 1e-12,
+        "{value} vs {wrapped}"
+    );
+    let exact = [(AzEl::new(0.3, 0.2), AzEl::new(0.3, 0.2)); 3];
+    assert!(liebayes_filters::aoa::fit_angle_sigmas_to(&exact).is_err());
+}
+
 /// A predicted elevation of 1e154 gave NaN and one of 1e20 +∞, as a bare number: such a direction,
 /// a non-finite reading and a σ outside its range are now errors.
 #[test]

@@ -1306,13 +1306,26 @@ fn a_mat_element_sized_near_u32_max_is_refused() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// A MAT header followed by `depth` matrices, each holding only the next: 8 bytes a level, each
+/// within its parent, so that only the depth is wrong (at 20 000 levels, 160 KB, the structure
+/// check recursed until the stack overflowed and the process aborted).
+fn nested(depth: usize) -> Vec<u8> {
+    let mut bytes = mat_file(&[("x", [1, 1], MatData::UInt8(&[0; 16]))])[..128].to_vec();
+    for level in 0..depth {
+        let size = u32::try_from(8 * (depth - 1 - level)).expect("a test size");
+        bytes.extend_from_slice(&14_u32.to_le_bytes());
+        bytes.extend_from_slice(&size.to_le_bytes());
+    }
+    bytes
+}
+
 /// Crafted files the parser would overflow on or allocate beyond memory for, refused by the
 /// reader's walk before the parser runs (each message names what it refused, so none is the
 /// parser's caught panic): a sub-element declaring 4 GiB inside a matrix; an element declaring
 /// more bytes than the file holds; matrices whose values would take 2 GiB as doubles (the parser
 /// would allocate them, plus 8 bytes for every byte of data stored as uint8) in one matrix, in
-/// two compressed ones, and in matrices nested in a cell; and a well-formed small matrix, which
-/// passes the walk (and then lacks the trial's variables).
+/// two compressed ones, and in matrices nested in a cell; matrices nested 100 000 deep; and a
+/// well-formed small matrix, which passes the walk (and then lacks the trial's variables).
 #[test]
 fn crafted_mat_files_are_refused_before_the_parser_allocates() {
     let dir = temp_dir("crafted-mat");
@@ -1337,7 +1350,7 @@ fn crafted_mat_files_are_refused_before_the_parser_allocates() {
         file
     };
     let declared = "the bytes the file's matrices declare";
-    let cases: [(&str, Vec<u8>, &str); 6] = [
+    let cases: [(&str, Vec<u8>, &str); 7] = [
         ("huge-name", huge_name, "declares 4294967289 bytes"),
         ("short", short, "but only"),
         ("large", matrix([1 << 28, 1]), declared),
@@ -1348,6 +1361,7 @@ fn crafted_mat_files_are_refused_before_the_parser_allocates() {
         ),
         ("cell", cell, declared),
         ("small", matrix([4, 4]), "imu_gyr"),
+        ("nested", nested(100_000), "nested more than"),
     ];
     for (name, bytes, expected) in cases {
         let path = write(&dir, &format!("{name}.mat"), &bytes);

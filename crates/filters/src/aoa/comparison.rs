@@ -164,7 +164,8 @@ fn golden_maximum(lo: f64, hi: f64, f: impl Fn(f64) -> f64) -> f64 {
 ///
 /// # Errors
 /// [`OperatorError::OutOfRange`] for fewer than [`MIN_SAMPLES`] readings, or a reading or a
-/// direction that is not finite and canonical (as [`AzEl::check_canonical`]);
+/// direction that is not finite and canonical (as [`AzEl::check_canonical`]), or a log likelihood
+/// flat at the fitted σ (no standard error: readings without noise);
 /// [`OperatorError::TooLarge`] above [`MAX_SAMPLES`].
 pub fn fit_angle_sigmas_to(pairs: &[(AzEl, AzEl)]) -> Result<AngleSigmaFit, OperatorError> {
     check_samples(pairs.len())?;
@@ -192,13 +193,25 @@ pub fn fit_angle_sigmas_to(pairs: &[(AzEl, AzEl)]) -> Result<AngleSigmaFit, Oper
             scores += ((plus - minus) / (2.0 * h)).powi(2);
             curvature += (plus - 2.0 * centre + minus) / (h * h);
         }
-        ln_sigma.exp() * scores.sqrt() / curvature.abs()
+        let se = ln_sigma.exp() * scores.sqrt() / curvature.abs();
+        // A flat log likelihood (curvature 0: readings without noise put the maximum at the
+        // range's end) has no standard error.
+        if curvature < 0.0 && se.is_finite() {
+            Ok(se)
+        } else {
+            Err(OperatorError::OutOfRange {
+                what: "curvature of the log likelihood at the fitted sigma",
+                value: curvature,
+                range: "(-inf, 0): the likelihood is flat there (readings without noise fit a \
+                        sigma at the end of SIGMA_RANGE)",
+            })
+        }
     };
     Ok(AngleSigmaFit {
         sigma_az: ln_az.exp(),
         sigma_el: ln_el.exp(),
-        sigma_az_se: se(ln_az, &|p, s| term(p, s, 1.0)),
-        sigma_el_se: se(ln_el, &|p, s| term(p, 1.0, s)),
+        sigma_az_se: se(ln_az, &|p, s| term(p, s, 1.0))?,
+        sigma_el_se: se(ln_el, &|p, s| term(p, 1.0, s))?,
         samples: pairs.len(),
     })
 }

@@ -147,7 +147,9 @@ impl AngleSigmas {
         if y.elevation.abs() > FRAC_PI_2 {
             return f64::NEG_INFINITY;
         }
-        let za = wrap_angle(y.azimuth - predicted.azimuth) / self.sigma_az;
+        // Each wrapped first: the difference of two azimuths near ±f64::MAX overflows to ±∞,
+        // which wraps to NaN.
+        let za = wrap_angle(wrap_angle(y.azimuth) - wrap_angle(predicted.azimuth)) / self.sigma_az;
         let el0 = predicted.elevation;
         let ze = (y.elevation - el0) / self.sigma_el;
         let mass = log_normal_mass(

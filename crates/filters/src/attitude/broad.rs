@@ -20,7 +20,8 @@ pub const MAX_MAT_FILE_BYTES: u64 = 1 << 30;
 /// [`DataError::Io`] if the file cannot be read or is not a regular file, [`DataError::TooLarge`] beyond
 /// [`MAX_MAT_FILE_BYTES`], [`MAX_MAT_DECLARED_BYTES`] or [`MAX_SAMPLES`](super::MAX_SAMPLES),
 /// [`DataError::NotMatFile`] if its structure is malformed (an element declaring more bytes than
-/// it holds, dimensions beyond the format's) or it does not parse,
+/// it holds, dimensions beyond the format's, matrices nested deeper than [`MAX_MAT_NESTING`]) or
+/// it does not parse,
 /// [`DataError::MissingVariable`], [`DataError::Shape`], [`DataError::Type`] for a variable that
 /// is absent or not as described, [`DataError::BadValue`] for a non-finite measurement (with its
 /// row) or a reference quaternion that is not of unit norm.
@@ -76,6 +77,10 @@ pub fn read_broad(path: impl AsRef<Path>) -> Result<ImuLog, DataError> {
 /// conversion to the class's type, so their sum is bounded before it runs.
 pub const MAX_MAT_DECLARED_BYTES: u64 = MAX_MAT_FILE_BYTES;
 
+/// The deepest a `.mat` file's matrices may nest (cells and structures within each other): far
+/// beyond any recording's few levels, and a bound on the structure check's recursion.
+pub const MAX_MAT_NESTING: usize = 32;
+
 /// Checks the file's structure before the parser sees them, so that the parser never meets a size
 /// it would overflow, inflate without a bound or allocate beyond memory for:
 ///
@@ -86,6 +91,7 @@ pub const MAX_MAT_DECLARED_BYTES: u64 = MAX_MAT_FILE_BYTES;
 /// * inside a matrix, every sub-element (flags, dimensions, name, data, nested matrices of cells
 ///   and structures) declares no more bytes than the matrix holds, and the dimensions are
 ///   non-negative with a product within `i32` (the format's limit);
+/// * matrices nest at most [`MAX_MAT_NESTING`] deep;
 /// * the products of all dimensions, as doubles, take at most [`MAX_MAT_DECLARED_BYTES`].
 ///
 /// A file without the MATLAB 5 header is left to the parser, which refuses it.
@@ -138,7 +144,7 @@ impl Walk<'_> {
             // Compressed streams are not padded: their element ends where its size says.
             let tag = self.tag(bytes, at, bytes.len(), inside)?;
             match tag.data_type {
-                14 => self.matrix(bytes, &tag, inside)?,
+                14 => self.matrix(bytes, &tag, inside, 1)?,
                 15 if inside.is_none() => {
                     let stream = &bytes[tag.start..tag.start + tag.size];
                     let inflated = self
@@ -205,20 +211,30 @@ impl Walk<'_> {
     }
 
     /// A matrix's sub-elements: flags, dimensions (checked and counted), then name, data and
-    /// nested matrices, each within the matrix.
+    /// nested matrices, each within the matrix. `depth` counts the matrices it lies in, itself
+    /// included: at most [`MAX_MAT_NESTING`] (each level is a call, and a crafted file of 8-byte
+    /// matrices each holding the next overflowed the stack, an abort no error can report).
     fn matrix(
         &mut self,
         bytes: &[u8],
         matrix: &Tag,
         inside: Option<usize>,
+        depth: usize,
     ) -> Result<(), DataError> {
+        if depth > MAX_MAT_NESTING {
+            return Err(self.refuse(
+                matrix.start.saturating_sub(8),
+                inside,
+                &format!("is a matrix nested more than {MAX_MAT_NESTING} deep"),
+            ));
+        }
         let end = matrix.start + matrix.size;
         let mut at = matrix.start;
         let mut index = 0;
         while at < end {
             let tag = self.tag(bytes, at, end, inside)?;
             if tag.data_type == 14 {
-                self.matrix(bytes, &tag, inside)?;
+                self.matrix(bytes, &tag, inside, depth + 1)?;
             } else if index == 1 {
                 self.dimensions(bytes, &tag, at, inside)?;
             }

@@ -29,7 +29,7 @@ mod scenario;
 mod simulate;
 mod talk;
 
-pub use broad::{MAX_MAT_DECLARED_BYTES, MAX_MAT_FILE_BYTES, read_broad};
+pub use broad::{MAX_MAT_DECLARED_BYTES, MAX_MAT_FILE_BYTES, MAX_MAT_NESTING, read_broad};
 pub use csv::{
     Estimates, RATE_TOLERANCE, read_estimates_csv, read_imu_csv, read_imu_csv_at_most,
     write_estimates_csv,
