@@ -175,3 +175,28 @@ fn a_first_reading_without_a_heading_starts_as_6d() {
         }
     }
 }
+
+/// A huge accepted gain with a reading whose gradient is tiny (norm 3.1e-162, its square
+/// subnormal): `β / |∇|` overflowed, the 6D step of the 9D filter was left waiting by `predict`
+/// and failed in every later call. The gradient is now normalised before the gain, and a sample
+/// whose `(|ω|_∞ + β) Δt` exceeds ¼ is stepped at once, so the filter stays usable.
+#[test]
+fn a_huge_gain_with_a_tiny_gradient_leaves_a_finite_state() {
+    let mut filter = Madgwick::new(1e150, Sensors::NineD, 100.0).expect("a finite gain");
+    let level = ImuSample {
+        gyro: Vector3::zeros(),
+        acc: Vector3::new(0.0, 0.0, 9.81),
+    };
+    let tilted = ImuSample {
+        gyro: Vector3::zeros(),
+        acc: Vector3::new(1.5e-162, 0.0, 1.0),
+    };
+    filter.predict(&level).unwrap();
+    filter.predict(&tilted).unwrap();
+    let estimate = filter.estimate().expect("the step after an accepted sample");
+    assert!(estimate.orientation.coords.iter().all(|c| c.is_finite()));
+    // The state is unit (rounding only).
+    assert!((estimate.orientation.coords.norm() - 1.0).abs() < 1e-12);
+    filter.predict(&level).expect("the filter is not stuck");
+    assert!(filter.estimate().is_ok());
+}

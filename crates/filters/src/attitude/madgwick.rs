@@ -54,9 +54,9 @@ pub fn enu_from_nwu() -> UnitQuaternion<f64> {
 /// steps). A step made later is the same step, bit for bit. In 6D a reading changes nothing and
 /// `predict` makes the step at once. Every step is all or nothing, and a step that fails is
 /// reported by the call that makes it: `predict` makes the 9D filter's 6D step at once, to refuse
-/// the sample, when `(|ω|_∞ + β) Δt` exceeds 10³⁰⁰ (below it the step cannot overflow; what else
-/// could leave a non-finite state, a gradient norm below `β / f64::MAX` or a state stepped to
-/// exactly zero, is not met in practice). The estimate has no covariance.
+/// the sample, when `(|ω|_∞ + β) Δt` exceeds ¼ (at or below it the step cannot fail, see
+/// `DEFERRED_BOUND`), so a `predict` that returns `Ok` never leaves a step that fails later. The
+/// estimate has no covariance.
 ///
 /// # Example
 /// ```
@@ -83,10 +83,14 @@ pub struct Madgwick {
     last: Option<Last>,
 }
 
-/// The bound on `(|ω|_∞ + β) Δt` below which [`Madgwick`]'s `predict` leaves the 6D step to the
-/// call that needs it: each component of `Δt (q̇_ω − β ∇/|∇|)` is at most that (`|q̇_ω| = |ω|/2`,
-/// `|β ∇/|∇|| = β`), so the step's `q + Δt (…)` of a unit q stays finite.
-const DEFERRED_BOUND: f64 = 1e300;
+/// The bound on `(|ω|_∞ + β) Δt` at or below which [`Madgwick`]'s `predict` leaves the 6D step to
+/// the call that needs it, because the step cannot fail there. Each component of
+/// `Δt (q̇_ω − β ∇/|∇|)` is at most `1.25 (|ω|_∞ + β) Δt ≤ 0.3125`: a component of
+/// `q̇_ω = ½ q ⊗ (0, ω)` is at most `½ √3 |ω|_∞` for a unit q, and one of `∇/|∇|` at most
+/// `√1.5 < 1.25` (1 up to rounding, `√1.5` when `|∇|²` is subnormal and rounded down). So the
+/// step's `q + Δt (…)` is finite (`Δt ≥ 10⁻⁶ s`, so `β ≤ 2.5·10⁵`) and keeps the largest
+/// component of the unit q, at least ½, away from zero: its normalisation is finite.
+const DEFERRED_BOUND: f64 = 0.25;
 
 /// [`Madgwick`]'s last sample with the state before it and, once made, its step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -124,8 +128,8 @@ impl Madgwick {
         })
     }
 
-    /// The state: the sensor frame w.r.t. NWU, `None` before the first sample (or when the last
-    /// sample's waiting step, made for this, does not give a finite state).
+    /// The state: the sensor frame w.r.t. NWU, `None` before the first sample (a waiting step is
+    /// made for this, and cannot fail: see `DEFERRED_BOUND`).
     pub fn state(&self) -> Option<UnitQuaternion<f64>> {
         self.current().ok().flatten().map(|q| unit(&q))
     }
@@ -177,7 +181,9 @@ impl Madgwick {
             };
             let norm = gradient.norm();
             if norm > 0.0 {
-                rate -= gradient * (self.beta / norm);
+                // Normalised first: `∇/|∇|` has components of at most `√1.5`, so the feedback is
+                // finite for every finite β (`β / |∇|` overflows when `|∇| < β / f64::MAX`).
+                rate -= (gradient / norm) * self.beta;
             }
         }
         let next = q + rate * self.interval;
@@ -211,7 +217,8 @@ impl Madgwick {
         mag: Option<&Vector3<f64>>,
     ) -> Result<Vector4<f64>, OperatorError> {
         self.step(q, sample, mag).ok_or(OperatorError::NonFinite {
-            what: "Madgwick's state after the step (the rate times the interval overflows)",
+            what: "Madgwick's state after the step (the rate times the interval overflows, or the \
+                   step cancels the state: lower β or raise the rate)",
             value: f64::INFINITY,
         })
     }
