@@ -20,6 +20,8 @@ use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
 
+mod refusing;
+
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("liebayes-attitude-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
@@ -1430,4 +1432,141 @@ fn bad_input_simulate() {
             }
         });
     });
+}
+
+/// A simulation's initial orientation must be a unit quaternion: the norm-√2 quaternion of the
+/// audit (F6) read gravity as about 21.9 m/s² in the first sample, and zero, NaN and a norm
+/// 1 + 2e-6 are refused alike, naming the setting. A norm within 1e-6 of 1 (here 1 + 5e-7) and a
+/// rotation built by nalgebra are accepted.
+#[test]
+fn simulate_refuses_a_non_unit_initial_orientation() {
+    let settings = SimulationSettings {
+        samples: 10,
+        ..SimulationSettings::default()
+    };
+    let raw =
+        |w: f64, x: f64| UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(w, x, 0.0, 0.0));
+    for q in [
+        raw(1.0, 1.0),
+        raw(0.0, 0.0),
+        raw(f64::NAN, 0.0),
+        raw(f64::INFINITY, 0.0),
+        raw(1.0 + 2e-6, 0.0),
+    ] {
+        let bad = SimulationSettings {
+            initial_orientation: q,
+            ..settings.clone()
+        };
+        let err = simulate(&bad, 0).unwrap_err();
+        assert!(
+            matches!(&err, DataError::BadValue { variable, .. } if variable == "initial_orientation"),
+            "{err:?}"
+        );
+        assert!(err.to_string().contains("normalise"), "{err}");
+    }
+    for q in [
+        raw(1.0 + 5e-7, 0.0),
+        UnitQuaternion::from_euler_angles(0.2, -0.4, 1.3),
+    ] {
+        let good = SimulationSettings {
+            initial_orientation: q,
+            ..settings.clone()
+        };
+        assert_eq!(simulate(&good, 0).expect("a unit orientation").len(), 10);
+    }
+}
+
+/// `ImuLog::with_reference` refuses a reference orientation that is not finite or whose norm is
+/// further than `REFERENCE_NORM_TOLERANCE` (1e-3, the readers' tolerance) from 1, naming its
+/// sample; `None` and a norm within the tolerance (1 + 5e-4) are accepted.
+#[test]
+fn with_reference_refuses_non_unit_orientations() {
+    let v = vec![Vector3::new(0.0, 0.0, 9.81); 3];
+    let log = ImuLog::new(100.0, v.clone(), v, None).expect("valid");
+    let raw = |w: f64| UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(w, 0.0, 0.0, 0.0));
+    for bad in [
+        raw(f64::NAN),
+        raw(f64::INFINITY),
+        raw(0.0),
+        raw(std::f64::consts::SQRT_2),
+        raw(1.0 + 2e-3),
+    ] {
+        let err = log
+            .clone()
+            .with_reference(vec![None, Some(UnitQuaternion::identity()), Some(bad)])
+            .unwrap_err();
+        assert!(
+            matches!(&err, DataError::BadValue { variable, row: 2, .. } if variable == "reference"),
+            "{err:?}"
+        );
+        assert!(err.to_string().contains("row 2"), "{err}");
+    }
+    let accepted = log
+        .with_reference(vec![
+            None,
+            Some(raw(1.0 + 5e-4)),
+            Some(UnitQuaternion::identity()),
+        ])
+        .expect("unit within the tolerance");
+    assert_eq!(accepted.len(), 3);
+}
+
+/// The simulated log's movement mask is allocated fallibly (audit F8), like its other buffers:
+/// with the allocation of its `samples` flags refused (on this thread only, by `refusing`), the
+/// simulation is `DataError::TooLarge`, where an infallible allocation aborted.
+#[test]
+fn simulate_reports_a_refused_movement_mask() {
+    let settings = SimulationSettings {
+        samples: 1237,
+        ..SimulationSettings::default()
+    };
+    let result = refusing::refusing::<bool, _>(1237, || simulate(&settings, 0));
+    assert!(
+        matches!(&result, Err(DataError::TooLarge { size: 1237, .. })),
+        "{result:?}"
+    );
+    assert_eq!(
+        simulate(&settings, 0).expect("the memory given").len(),
+        1237
+    );
+}
+
+/// The number of disturbances is bounded (audit F9: every sample scans them all, so 10⁶ of them
+/// over 2²⁸ samples took days): 10 001 are refused as `TooLarge` before anything is drawn, naming
+/// the limit; 10 000 are accepted, and the log is the same as with the active one alone (the
+/// others lie after the run).
+#[test]
+fn simulate_bounds_the_disturbances() {
+    let active = Disturbance {
+        start: 0.0,
+        end: 1.0,
+        offset: Vector3::new(5.0, 0.0, 0.0),
+    };
+    let later = Disturbance {
+        start: 100.0,
+        end: 101.0,
+        offset: Vector3::x(),
+    };
+    let with = |count: usize| SimulationSettings {
+        samples: 20,
+        disturbances: std::iter::once(active)
+            .chain(std::iter::repeat_n(later, count - 1))
+            .collect(),
+        ..SimulationSettings::default()
+    };
+    let err = simulate(&with(10_001), 0).unwrap_err();
+    assert!(
+        matches!(
+            &err,
+            DataError::TooLarge {
+                size: 10_001,
+                limit: 10_000,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("disturbances"), "{err}");
+    let most = simulate(&with(10_000), 0).expect("at the limit");
+    assert_eq!(most, simulate(&with(1), 0).expect("one disturbance"));
 }

@@ -667,3 +667,192 @@ fn noise_grid() -> Vec<AttitudeParams> {
         },
     )
 }
+
+/// The production filter's standard deviations that become variances of its Gaussian.
+const SIGMA_SETTINGS: [&str; 13] = [
+    "gyro_noise",
+    "rate_noise",
+    "bias_walk",
+    "initial_bias_sigma",
+    "initial_tilt_sigma",
+    "initial_heading_sigma",
+    "velocity_bound",
+    "velocity_walk",
+    "position_bound",
+    "magnetometer.heading_sigma",
+    "magnetometer.offset.sigma",
+    "rest.velocity_sigma",
+    "rest.bias_sigma",
+];
+
+/// Sets the standard deviation `name` of [`SIGMA_SETTINGS`] to `value`.
+fn set_sigma(params: &mut AttitudeParams, name: &str, value: f64) {
+    let rest = params.rest.as_mut().expect("rest detection");
+    let slot = match name {
+        "gyro_noise" => &mut params.gyro_noise,
+        "rate_noise" => &mut params.rate_noise,
+        "bias_walk" => &mut params.bias_walk,
+        "initial_bias_sigma" => &mut params.initial_bias_sigma,
+        "initial_tilt_sigma" => &mut params.initial_tilt_sigma,
+        "initial_heading_sigma" => &mut params.initial_heading_sigma,
+        "velocity_bound" => &mut params.velocity_bound,
+        "velocity_walk" => &mut params.velocity_walk,
+        "position_bound" => &mut params.position_bound,
+        "magnetometer.heading_sigma" => &mut params.magnetometer.heading_sigma,
+        "magnetometer.offset.sigma" => {
+            &mut params
+                .magnetometer
+                .offset
+                .as_mut()
+                .expect("an offset")
+                .sigma
+        }
+        "rest.velocity_sigma" => &mut rest.velocity_sigma,
+        "rest.bias_sigma" => &mut rest.bias_sigma,
+        _ => panic!("not a standard deviation: {name}"),
+    };
+    *slot = value;
+}
+
+/// The standard deviations that become variances of the filter's Gaussian are refused outside
+/// [1e-30, 1e4] (the initial heading σ below 1e-6) when the filter is made (audit F4: σ = 1e-60
+/// was accepted and made every step fail, and so did σ = 1e8 for the initial tilt, bias and
+/// field-offset σ), naming the setting; at each bound, the others at their defaults, a simulated
+/// second of motion and 3.5 s still (at rest after 1.5 s: the rest updates run) go through in 9D
+/// and 6D with a finite estimate.
+#[test]
+fn sigmas_beyond_the_gaussians_range_are_refused_when_made() {
+    let lowest = |name: &str| {
+        if name == "initial_heading_sigma" {
+            1e-6
+        } else {
+            1e-30
+        }
+    };
+    for scale in [1e-30, 0.9999, 1.0001e4, 1e8] {
+        for name in SIGMA_SETTINGS {
+            let value = if scale < 1.0 {
+                scale * lowest(name)
+            } else {
+                scale
+            };
+            let mut params = AttitudeParams::default();
+            set_sigma(&mut params, name, value);
+            let error = AttitudeEkf::new(params, Sensors::NineD, 100.0).unwrap_err();
+            assert!(
+                matches!(&error, FilterError::Setting { setting, .. } if *setting == name),
+                "{value:e} {name}: {error}"
+            );
+        }
+    }
+    let moving = simulated(5, 300);
+    let still = simulate(
+        &SimulationSettings {
+            samples: 1000,
+            rotation_rate: 0.0,
+            acceleration_bound: 0.0,
+            ..SimulationSettings::default()
+        },
+        5,
+    )
+    .expect("a simulated log");
+    for high in [false, true] {
+        for name in SIGMA_SETTINGS {
+            let value = if high { 1e4 } else { lowest(name) };
+            let mut params = AttitudeParams::default();
+            set_sigma(&mut params, name, value);
+            for log in [&moving, &still] {
+                let mag = log.magnetometer().expect("9D");
+                for sensors in [Sensors::NineD, Sensors::SixD] {
+                    let mut filter = AttitudeEkf::new(params.clone(), sensors, log.rate())
+                        .unwrap_or_else(|e| panic!("{value:e} {name}: {e}"));
+                    for (k, ((g, a), m)) in log
+                        .gyroscope()
+                        .iter()
+                        .zip(log.accelerometer())
+                        .zip(mag)
+                        .enumerate()
+                    {
+                        let what = format!("{value:e} {name} {sensors:?} sample {k}");
+                        filter
+                            .predict(&ImuSample { gyro: *g, acc: *a })
+                            .unwrap_or_else(|e| panic!("{what}: {e}"));
+                        filter.update(m).unwrap_or_else(|e| panic!("{what}: {e}"));
+                    }
+                    let estimate = filter.estimate().expect("an estimate");
+                    assert!(estimate.orientation.coords.iter().all(|c| c.is_finite()));
+                }
+            }
+        }
+    }
+}
+
+/// The 9D filter (no disturbance rejection: every reading due is used) over `log` with its
+/// magnetometer readings from 1 s on replaced by `reading(m, q̂)`, m the simulated reading and q̂
+/// the estimate before the update; the NIS of those samples' updates and the last estimate.
+fn with_readings(
+    log: &ImuLog,
+    reading: impl Fn(&Vector3<f64>, &UnitQuaternion<f64>) -> Vector3<f64>,
+) -> (Vec<Option<liebayes_experiments::Nis>>, AttitudeEstimate) {
+    let mut params = AttitudeParams::default();
+    params.magnetometer.disturbance = None;
+    let mut filter = AttitudeEkf::new(params, Sensors::NineD, log.rate()).unwrap();
+    let mag = log.magnetometer().expect("9D");
+    let mut nis = Vec::new();
+    for (k, (g, a)) in log.gyroscope().iter().zip(log.accelerometer()).enumerate() {
+        filter.predict(&ImuSample { gyro: *g, acc: *a }).unwrap();
+        if k < 286 {
+            filter.update(&mag[k]).unwrap();
+        } else {
+            let q = filter.estimate().unwrap().orientation;
+            nis.push(filter.update(&reading(&mag[k], &q)).unwrap().nis);
+        }
+    }
+    (nis, filter.estimate().unwrap())
+}
+
+/// A field with no horizontal part has no heading (audit F7). On a still sensor (its orientation
+/// the same over the magnetometer's delay), fresh readings whose field in the filter's world frame
+/// is vertical, or has a horizontal fraction of 5e-4, make no heading update (no NIS), as they
+/// start none, where each was applied with full weight; at a fraction of 2e-3 they do. And the
+/// heading is scale-free: a moving sensor's readings scaled by 1e-158 (their squares subnormal)
+/// give the same estimate to 1e-9 (the unit reading's rounding only), where the clamped Jacobian
+/// dropped the tilt's share of the heading variance.
+#[test]
+fn a_reading_without_a_horizontal_field_makes_no_heading_update() {
+    let still = simulate(
+        &SimulationSettings {
+            samples: 1200,
+            rotation_rate: 0.0,
+            acceleration_bound: 0.0,
+            gyro_noise: 0.0,
+            acc_noise: 0.0,
+            gyro_bias_walk: 0.0,
+            initial_gyro_bias: Vector3::zeros(),
+            ..SimulationSettings::default()
+        },
+        8,
+    )
+    .expect("a simulated log");
+    // In the estimate's world frame, scaled by the simulated reading's noisy norm: a reading
+    // equal to the last would be taken as a repeat of an older one (no update either).
+    let field = |horizontal: f64| {
+        move |m: &Vector3<f64>, q: &UnitQuaternion<f64>| {
+            q.inverse() * Vector3::new(horizontal, 0.0, -1.0) * m.norm()
+        }
+    };
+    for horizontal in [0.0, 5e-4] {
+        let (nis, _) = with_readings(&still, field(horizontal));
+        assert!(nis.iter().all(Option::is_none), "{horizontal}: {nis:?}");
+    }
+    let (nis, _) = with_readings(&still, field(2e-3));
+    assert!(nis.iter().any(Option::is_some), "a heading is measured");
+    let moving = simulated(8, 1200);
+    let (nis, normal) = with_readings(&moving, |m, _| *m);
+    assert!(nis.iter().any(Option::is_some), "heading updates are made");
+    let (_, tiny) = with_readings(&moving, |m, _| m * 1e-158);
+    let angle = normal.orientation.angle_to(&tiny.orientation);
+    assert!(angle < 1e-9, "{angle} rad");
+    let (a, b) = (normal.covariance.unwrap(), tiny.covariance.unwrap());
+    assert!((a - b).amax() < 1e-9 * a.amax(), "{a} vs {b}");
+}

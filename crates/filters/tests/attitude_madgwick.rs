@@ -193,7 +193,9 @@ fn a_huge_gain_with_a_tiny_gradient_leaves_a_finite_state() {
     };
     filter.predict(&level).unwrap();
     filter.predict(&tilted).unwrap();
-    let estimate = filter.estimate().expect("the step after an accepted sample");
+    let estimate = filter
+        .estimate()
+        .expect("the step after an accepted sample");
     assert!(estimate.orientation.coords.iter().all(|c| c.is_finite()));
     // The state is unit (rounding only).
     assert!((estimate.orientation.coords.norm() - 1.0).abs() < 1e-12);

@@ -10,11 +10,13 @@ use liebayes_filters::attitude::{
     LogScenario, LogScore, MagnetometerParams, Method, Sensors, SimulationSettings, run_log,
     simulate,
 };
+use liebayes_operators::OperatorError;
 use liebayes_operators::evaluation::chi_square_quantile;
 use liebayes_reference::broad::data_dir;
 use nalgebra::{UnitQuaternion, Vector3};
 
 mod broad;
+mod refusing;
 
 fn simulated(seed: u64, samples: usize, params: &AttitudeParams) -> ImuLog {
     simulate(
@@ -270,4 +272,51 @@ fn offline_grid() -> Vec<AttitudeParams> {
             velocity_interval: &[0.25, 0.5],
         },
     )
+}
+
+/// The smoothed estimates a release appends are allocated fallibly (audit F8): with the
+/// allocation of the whole release refused, and then with that of the samples before the first
+/// epoch refused (the heading starts at sample 100, so they exist), the release is
+/// `OperatorError::TooLarge` with `out` as it was, where an infallible allocation aborted. The
+/// allocator refuses one exact layout on this thread only (`refusing`), so the result does not
+/// depend on the machine's memory.
+#[test]
+fn a_release_whose_memory_is_refused_is_an_error() {
+    let params = AttitudeParams::offline();
+    let log = simulated(6, 300, &params);
+    let n = log.len();
+    let mag = log.magnetometer().expect("9D");
+    let mut f = AttitudeEkf::offline(params, Sensors::NineD, log.rate()).unwrap();
+    for (k, (gyro, acc)) in log.gyroscope().iter().zip(log.accelerometer()).enumerate() {
+        f.predict(&ImuSample {
+            gyro: *gyro,
+            acc: *acc,
+        })
+        .unwrap();
+        if k >= 100 {
+            f.update(&mag[k]).unwrap();
+        }
+    }
+    let too_large = |result: Result<(), OperatorError>, count: usize| matches!(result, Err(OperatorError::TooLarge { value, .. }) if value == count);
+    let mut out = Vec::new();
+    let all = refusing::refusing::<AttitudeEstimate, _>(n, || f.release(true, &mut out));
+    assert!(too_large(all, n));
+    assert!(out.is_empty());
+    // With the room for every estimate made first, the samples before the first epoch are the
+    // one allocation of `count` estimates, 0 < count < n: exactly one count is refused.
+    let mut refused = 0;
+    for count in 1..n {
+        let mut g = f.clone();
+        let mut room = Vec::with_capacity(n);
+        let result =
+            refusing::refusing::<AttitudeEstimate, _>(count, || g.release(true, &mut room));
+        if result.is_err() {
+            assert!(too_large(result, count), "{count}");
+            assert!(room.is_empty());
+            refused += 1;
+        }
+    }
+    assert_eq!(refused, 1);
+    f.release(true, &mut out).expect("the memory given");
+    assert_eq!(out.len(), n);
 }

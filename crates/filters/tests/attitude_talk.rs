@@ -288,26 +288,27 @@ fn bad_input_is_refused_with_typed_errors() {
     ));
     let level = sample(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.3, -0.2, 9.8));
     let mag = field() * 48.0;
-    // Too concentrated for a Bingham: the first sample cannot start the filter.
+    // Too concentrated for a Bingham: refused when the filter is made (its first sample could
+    // not start it).
     let tight = TalkParams {
         initial_sigma: 1e-6,
         ..good
     };
-    let mut tight_filter = TalkFilter::new(&tight, Sensors::NineD, 100.0).unwrap();
-    assert!(tight_filter.predict(&level).is_err());
-    assert!(tight_filter.bingham().is_none());
-    // A magnetometer so precise that its conditioning leaves the Bingham's range: refused, the
-    // filter unchanged.
+    assert!(TalkFilter::new(&tight, Sensors::NineD, 100.0).is_err());
+    // The most precise magnetometer accepted, its reading conditioned on again and again (2e10 of
+    // spread each time) until the Bingham's range is left: refused, the filter unchanged.
     let sharp = TalkParams {
-        mag_noise: 1e-7,
+        mag_noise: 1e-5,
         ..good
     };
     let mut sharp_filter = TalkFilter::new(&sharp, Sensors::NineD, 100.0).unwrap();
     sharp_filter.predict(&level).unwrap();
     sharp_filter.predict(&level).unwrap();
-    let sharp_before = sharp_filter.clone();
-    assert!(sharp_filter.update(&mag).is_err());
-    assert_eq!(sharp_filter, sharp_before);
+    let refused = (0..100).find_map(|_| {
+        let sharp_before = sharp_filter.clone();
+        sharp_filter.update(&mag).err().map(|_| sharp_before)
+    });
+    assert_eq!(Some(sharp_filter), refused);
     // A zero magnetometer reading skips its conditioning.
     let mut filter = TalkFilter::new(&good, Sensors::NineD, 100.0).unwrap();
     for _ in 0..3 {
@@ -515,4 +516,109 @@ fn settings_that_no_step_could_take_are_refused() {
         ..TalkParams::default()
     };
     assert!(TalkFilter::new(&large, Sensors::SixD, 100.0).is_ok());
+}
+
+/// Settings that every step would refuse are refused when the filter is made (audit F4), naming
+/// the setting: a direction noise below 1e-5 (one reading's spread 2/σ² then leaves the default
+/// initial heading no mode: at 1.5e-6 every 6D step failed) and an initial σ₀ outside
+/// [1.5e-6, π] rad (σ₀ = 7 made the initial Bingham uniform, `e^{−49}` rounding away; σ₀ = 1e-6
+/// too concentrated). Just inside each bound, with the other settings at their defaults, 20
+/// samples' steps succeed in 9D and 6D.
+#[test]
+fn settings_beyond_the_binghams_range_are_refused_when_made() {
+    let good = TalkParams::default();
+    let outside = [
+        (
+            "acc_noise",
+            TalkParams {
+                acc_noise: 0.9999e-5,
+                ..good
+            },
+        ),
+        (
+            "acc_noise",
+            TalkParams {
+                acc_noise: 1.5e-6,
+                ..good
+            },
+        ),
+        (
+            "mag_noise",
+            TalkParams {
+                mag_noise: 0.9999e-5,
+                ..good
+            },
+        ),
+        (
+            "initial_sigma",
+            TalkParams {
+                initial_sigma: 1.4999e-6,
+                ..good
+            },
+        ),
+        (
+            "initial_sigma",
+            TalkParams {
+                initial_sigma: 1e-6,
+                ..good
+            },
+        ),
+        (
+            "initial_sigma",
+            TalkParams {
+                initial_sigma: std::f64::consts::PI * 1.0001,
+                ..good
+            },
+        ),
+        (
+            "initial_sigma",
+            TalkParams {
+                initial_sigma: 7.0,
+                ..good
+            },
+        ),
+    ];
+    for (name, params) in outside {
+        let error = TalkFilter::new(&params, Sensors::NineD, 100.0).unwrap_err();
+        assert!(
+            matches!(error, FilterError::Setting { setting, .. } if setting == name),
+            "{error}"
+        );
+    }
+    let level = sample(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.3, -0.2, 9.8));
+    let mag = field() * 48.0;
+    let inside = [
+        TalkParams {
+            acc_noise: 1e-5,
+            ..good
+        },
+        TalkParams {
+            mag_noise: 1e-5,
+            ..good
+        },
+        TalkParams {
+            initial_sigma: 1.5e-6,
+            ..good
+        },
+        TalkParams {
+            initial_sigma: std::f64::consts::PI,
+            ..good
+        },
+    ];
+    for params in inside {
+        for sensors in [Sensors::NineD, Sensors::SixD] {
+            let mut filter = TalkFilter::new(&params, sensors, 100.0).expect("in range");
+            for k in 0..20 {
+                let what = format!("{params:?} {sensors:?} sample {k}");
+                filter
+                    .predict(&level)
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+                filter
+                    .update(&mag)
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+            }
+            let estimate = filter.estimate().expect("an estimate");
+            assert!(estimate.orientation.coords.iter().all(|c| c.is_finite()));
+        }
+    }
 }

@@ -261,9 +261,12 @@ impl ImuLog {
     }
 
     /// The log with its reference orientations (IMU frame w.r.t. ENU; `None` where unknown).
+    /// Each given orientation must be finite with `|‖q‖ − 1| ≤` [`REFERENCE_NORM_TOLERANCE`], the
+    /// tolerance of the readers (`reference_from_components`); it is kept as given.
     ///
     /// # Errors
-    /// [`DataError::Length`] unless there is one per sample.
+    /// [`DataError::Length`] unless there is one per sample; [`DataError::BadValue`] naming the
+    /// first sample whose orientation is not finite or not unit within the tolerance.
     pub fn with_reference(
         mut self,
         reference: Vec<Option<UnitQuaternion<f64>>>,
@@ -274,6 +277,21 @@ impl ImuLog {
             self.len(),
             reference.len(),
         )?;
+        for (row, q) in reference.iter().enumerate() {
+            let Some(q) = q else { continue };
+            // NaN and ±∞ components give a NaN or infinite norm.
+            let norm = q.coords.norm();
+            if !norm.is_finite() || (norm - 1.0).abs() > REFERENCE_NORM_TOLERANCE {
+                return Err(DataError::BadValue {
+                    origin: "ImuLog::with_reference".to_owned(),
+                    variable: "reference".to_owned(),
+                    row,
+                    value: format!("{:?} of norm {norm}", q.coords.as_slice()),
+                    expected: "a finite unit quaternion (norm within 1e-3 of 1; normalise it), or \
+                               None where unknown",
+                });
+            }
+        }
         self.reference = Some(reference);
         Ok(self)
     }

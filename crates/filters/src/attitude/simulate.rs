@@ -9,6 +9,17 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::TAU;
 
+/// How far the norm of [`SimulationSettings::initial_orientation`] may be from 1: the first
+/// sample's readings are rotated by it as given, so a norm `1 + ε` scales them by up to about
+/// `1 + 2ε` (10⁻⁶ is well below any sensor noise; a norm further off is a setting to normalise).
+const INITIAL_ORIENTATION_TOLERANCE: f64 = 1e-6;
+
+/// The most disturbances a simulation accepts: each sample scans them all, so the simulation
+/// costs up to `samples × disturbances` interval tests; 10⁴ keeps that within 3·10¹² at the most
+/// samples (2²⁸), hours rather than the days 10⁶ disturbances would take, and far above the few a
+/// scenario needs.
+const MAX_DISTURBANCES: usize = 10_000;
+
 /// A magnetic disturbance: the field `offset` (µT, ENU) added to the earth field from `start` to
 /// `end` (s).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,12 +61,14 @@ pub struct SimulationSettings {
     pub gravity: f64,
     /// The earth field (µT, ENU), non-zero: for example `(0, 20, −44)`, north and down (dip 66°).
     pub earth_field: Vector3<f64>,
-    /// Magnetic disturbance intervals.
+    /// Magnetic disturbance intervals, at most 10 000 (`MAX_DISTURBANCES`): every sample sums the
+    /// ones active at its time, a cost of samples × disturbances.
     pub disturbances: Vec<Disturbance>,
     /// The local field's heading offset from the earth field's, a Gauss-Markov process (the model
     /// the production filter assumes), or `None` for none.
     pub field_offset: Option<FieldOffset>,
-    /// The true orientation at the start (IMU w.r.t. ENU).
+    /// The true orientation at the start (IMU w.r.t. ENU): finite, with a norm within 10⁻⁶ of 1
+    /// (it is used as given for the first sample).
     pub initial_orientation: UnitQuaternion<f64>,
 }
 
@@ -128,7 +141,8 @@ impl SimulationSettings {
 ///
 /// # Errors
 /// [`DataError::BadValue`] for a setting out of the range its field documents,
-/// [`DataError::TooLarge`] when the samples' memory cannot be allocated.
+/// [`DataError::TooLarge`] for more than 10 000 disturbances or when the samples' memory cannot
+/// be allocated.
 pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, DataError> {
     check_settings(settings)?;
     let s = settings;
@@ -171,6 +185,9 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
     acc.try_reserve_exact(n).map_err(refused)?;
     mag.try_reserve_exact(n).map_err(refused)?;
     truth.try_reserve_exact(n).map_err(refused)?;
+    let mut movement = Vec::new();
+    movement.try_reserve_exact(n).map_err(refused)?;
+    movement.resize(n, true);
     for k in 0..n {
         let t = k as f64 * dt;
         let middle = t + 0.5 * dt;
@@ -213,7 +230,7 @@ pub fn simulate(settings: &SimulationSettings, seed: u64) -> Result<ImuLog, Data
         Some(mag),
     )?
     .with_reference(truth)?
-    .with_movement(vec![true; n])
+    .with_movement(movement)
 }
 
 fn normal(rng: &mut ChaCha8Rng) -> Vector3<f64> {
@@ -275,11 +292,16 @@ pub(super) fn check_settings(s: &SimulationSettings) -> Result<(), DataError> {
             "finite and non-zero",
         );
     }
-    if !s.initial_orientation.coords.iter().all(|c| c.is_finite()) {
+    // NaN and ±∞ components give a NaN or infinite norm.
+    let norm = s.initial_orientation.coords.norm();
+    if !norm.is_finite() || (norm - 1.0).abs() > INITIAL_ORIENTATION_TOLERANCE {
         return bad(
             "initial_orientation",
-            format!("{:?}", s.initial_orientation.coords.as_slice()),
-            "a finite unit quaternion",
+            format!(
+                "{:?} of norm {norm}",
+                s.initial_orientation.coords.as_slice()
+            ),
+            "a finite unit quaternion (norm within 1e-6 of 1; normalise it)",
         );
     }
     if let Some(f) = &s.field_offset {
@@ -291,6 +313,14 @@ pub(super) fn check_settings(s: &SimulationSettings) -> Result<(), DataError> {
                 return bad(name, value.to_string(), "finite and positive");
             }
         }
+    }
+    if s.disturbances.len() > MAX_DISTURBANCES {
+        return Err(DataError::TooLarge {
+            origin: "simulate".to_owned(),
+            what: "the number of disturbances (merge overlapping ones)",
+            size: s.disturbances.len() as u64,
+            limit: MAX_DISTURBANCES as u64,
+        });
     }
     for (row, d) in s.disturbances.iter().enumerate() {
         if !(d.start.is_finite() && d.end.is_finite() && d.start <= d.end && finite(&d.offset)) {

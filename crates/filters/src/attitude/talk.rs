@@ -19,6 +19,27 @@ use liebayes_manifolds::Su2;
 use liebayes_operators::OperatorError;
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
+/// The smallest direction noise σ_V, σ_W of [`TalkParams`]. One reading's
+/// [`Bingham::from_direction`] of unit vectors has the eigenvalue spread `2/σ²`, which must stay
+/// within [`Bingham::MAX_SPREAD`] = 1e12 (σ ≥ 1.414e-6); and a Bingham has a mode only while its
+/// two largest eigenvalues differ by more than 1e-10 of its spread, so the directions a reading
+/// does not constrain (the heading, for the accelerometer) must keep a concentration, about
+/// `2/σ_h²`, above `2·10⁻¹⁰/σ²`: σ_h below about `10⁵ σ`. At σ = 1e-5 (2 arcseconds, below any
+/// real sensor's direction noise) that is a heading σ up to about 1 rad; at 1.5e-6 the default
+/// initial heading σ (10°) already had no mode and every 6D step failed.
+const MIN_DIRECTION_NOISE: f64 = 1e-5;
+
+/// The range of [`TalkParams::initial_sigma`] σ₀ (rad): the initial `LD(q̄, σ₀² I)` as a Bingham
+/// must have a mode. Below, its spread, about `2/σ₀²`, leaves [`Bingham::MAX_SPREAD`] (near
+/// σ₀ = 1.4e-6). Above, the gap of its two largest eigenvalues shrinks like `e^{−σ₀²}` towards
+/// the mode's tolerance, 1e-10 of the spread the accelerometer adds: with the default σ_V the 6D
+/// filter, whose heading stays at σ₀, lost its mode from σ₀ ≈ 4.3 rad, and from 6.1 rad
+/// `e^{−σ₀²}` rounds away and the first step failed. π (a σ of half a turn, already close to
+/// uniform over rotations) keeps a margin. A direction noise near its own bound
+/// ([`MIN_DIRECTION_NOISE`]) with a large σ₀ can still leave no mode: the tolerance is relative to
+/// the combined spread.
+const INITIAL_SIGMA_RANGE: (f64, f64) = (1.5e-6, std::f64::consts::PI);
+
 /// The noise settings of [`TalkFilter`] (the talk's symbols).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TalkParams {
@@ -27,11 +48,12 @@ pub struct TalkParams {
     /// σ_A (rad/s²): the angular-rate random walk, `Ω_k = Ω_(k−1) + A_k Δt`. In [0, 1e150].
     pub rate_walk: f64,
     /// σ_V: accelerometer noise on the unit gravity direction (dimensionless, about rad).
-    /// Finite, > 0.
+    /// In [1e-5, 1e150] (a smaller σ makes the Bingham too concentrated to have a mode).
     pub acc_noise: f64,
-    /// σ_W: magnetometer noise on the unit field direction (dimensionless). Finite, > 0.
+    /// σ_W: magnetometer noise on the unit field direction (dimensionless). In [1e-5, 1e150].
     pub mag_noise: f64,
-    /// Standard deviation (rad) per axis of the initial diffusion `Σ₀ = σ₀² I`. Finite, > 0.
+    /// Standard deviation (rad) per axis of the initial diffusion `Σ₀ = σ₀² I`. In [1.5e-6, π]
+    /// (the Bingham of the diffusion must have a mode and a spread it can hold).
     pub initial_sigma: f64,
     /// σ_Ω,0 (rad/s): initial angular-rate standard deviation (the initial rate is 0). Finite, > 0.
     pub initial_rate_sigma: f64,
@@ -68,9 +90,26 @@ impl TalkParams {
                 expected: "a rate walk in [0, 1e150] rad/s^2",
             });
         }
-        positive_setting(origin, "acc_noise", self.acc_noise)?;
-        positive_setting(origin, "mag_noise", self.mag_noise)?;
-        positive_setting(origin, "initial_sigma", self.initial_sigma)?;
+        for (setting, value) in [("acc_noise", self.acc_noise), ("mag_noise", self.mag_noise)] {
+            if !(MIN_DIRECTION_NOISE..=1e150).contains(&value) {
+                return Err(FilterError::Setting {
+                    origin,
+                    setting,
+                    value: value.to_string(),
+                    expected: "a direction noise in [1e-5, 1e150] (a smaller one leaves the \
+                               Bingham no mode)",
+                });
+            }
+        }
+        if !(INITIAL_SIGMA_RANGE.0..=INITIAL_SIGMA_RANGE.1).contains(&self.initial_sigma) {
+            return Err(FilterError::Setting {
+                origin,
+                setting: "initial_sigma",
+                value: self.initial_sigma.to_string(),
+                expected: "a standard deviation in [1.5e-6, pi] rad (the initial Bingham \
+                           must have a mode and a spread it can hold)",
+            });
+        }
         positive_setting(origin, "initial_rate_sigma", self.initial_rate_sigma)
     }
 }

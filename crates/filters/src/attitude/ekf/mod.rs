@@ -66,6 +66,13 @@ use std::f64::consts::PI;
 /// How many past orientations are kept to line the magnetometer up with the gyroscope.
 const HISTORY: usize = 32;
 
+/// The smallest horizontal fraction `|w_xy| / |w|` of a magnetometer reading w in the world frame
+/// that gives a heading (its initialisation or an update): below it (a field within 0.06° of the
+/// vertical: a magnet, or a reading far from the earth field) `atan2(w_x, w_y)` is an arbitrary
+/// angle, and a 1e-3 horizontal fraction already turns a 1° tilt error into a heading error of
+/// tens of degrees.
+const MIN_HORIZONTAL_FRACTION: f64 = 1e-3;
+
 /// The filter's settings and what follows from them and the rate: fixed once built.
 #[derive(Clone, Debug)]
 struct Settings {
@@ -434,7 +441,7 @@ impl Running {
             return Ok(());
         };
         let w = self.orientation * field;
-        if w.x.hypot(w.y) <= 1e-3 {
+        if w.x.hypot(w.y) <= MIN_HORIZONTAL_FRACTION {
             return Ok(());
         }
         let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), w.x.atan2(w.y));
@@ -454,8 +461,10 @@ impl Running {
         let mut cov = rotate * self.density.covariance() * rotate.transpose();
         let orientation = turn * self.orientation;
         let sigma = settings.params.initial_heading_sigma;
+        // The unit reading: the heading and its Jacobian are scale-free, and a reading whose
+        // squares underflow made the Jacobian vanish.
         let model = Heading {
-            field: *m,
+            field,
             sigma,
             tilt_variance: 0.0,
         };
@@ -727,7 +736,8 @@ impl Running {
     }
 
     /// The heading update with the latest reading, if it is recent enough for the orientation
-    /// history; its log evidence and NIS when applied.
+    /// history and has a heading (a horizontal fraction above [`MIN_HORIZONTAL_FRACTION`]); its
+    /// log evidence and NIS when applied.
     fn heading_update(&mut self, settings: &Settings) -> Result<Option<(f64, f64)>, OperatorError> {
         let (Some(reading), Some(mut magnet)) = (self.reading, self.magnet.clone()) else {
             return Ok(None);
@@ -743,6 +753,18 @@ impl Running {
         let Some(observed) = FieldReference::of(&(self.orientation * field)) else {
             return Ok(None);
         };
+        // As the heading's initialisation: a field with (nearly) no horizontal part has no
+        // heading, so a reading whose horizontal fraction `|w_xy| / |w|` (w the unit reading in
+        // the world frame) is at most 1e-3 makes no update (its atan2 was an arbitrary angle,
+        // applied with full weight). The model takes the unit reading: the heading and its
+        // Jacobian are scale-free, and the squares of a tiny reading underflowed.
+        let Some(field) = scaled_unit(&field) else {
+            return Ok(None);
+        };
+        let world = self.orientation * field;
+        if world.x.hypot(world.y) <= MIN_HORIZONTAL_FRACTION {
+            return Ok(None);
+        }
         let interval = (settings.mag_every * settings.block_samples) as f64 * settings.dt;
         let disturbance = settings.params.magnetometer.disturbance.as_ref();
         let gate = match magnet.judge(&observed, interval, disturbance) {
@@ -798,7 +820,8 @@ fn check_orientation(orientation: &UnitQuaternion<f64>) -> Result<(), OperatorEr
 /// within the sensors' range ([`MAX_ANGULAR_RATE`](super::MAX_ANGULAR_RATE),
 /// [`MAX_SPECIFIC_FORCE`](super::MAX_SPECIFIC_FORCE), [`MAX_FIELD`](super::MAX_FIELD)). An update
 /// reports the log evidence and NIS (χ²(1)) of the heading update it made; where it made none (no
-/// update due, the reading rejected as disturbed, or 6D) the log evidence is 0 (no measurement
+/// update due, the reading rejected as disturbed or with a horizontal fraction of at most 1e-3
+/// in the world frame, or 6D) the log evidence is 0 (no measurement
 /// was conditioned on) and there is no NIS. Both steps are all or nothing.
 impl RecursiveFilter for AttitudeEkf {
     type Input = ImuSample;

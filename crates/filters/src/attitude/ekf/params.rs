@@ -1,6 +1,6 @@
 //! The production filter's settings: one parameter set, checked once.
 
-use crate::error::{FilterError, positive_setting};
+use crate::error::{FilterError, positive_setting, sigma_setting};
 use nalgebra::{Matrix3, Vector3};
 
 /// The operator that propagates the Gaussian over a block ([`BlockProcess`](super::BlockProcess)); the measurement
@@ -99,6 +99,13 @@ pub struct MagnetometerParams {
     /// Disturbance rejection; `None` uses every sample.
     pub disturbance: Option<DisturbanceParams>,
 }
+
+/// The smallest [`AttitudeParams::initial_heading_sigma`] (rad). The heading initialisation
+/// combines this variance with the tilt's through the heading's Jacobian, and a variance below
+/// about 1e-16 of the tilt's rounds away: at 1e-9 rad (the default tilt σ 10°) the first update at
+/// rest left a singular covariance, while 1e-8 ran. 1e-6 keeps a margin of 100, and a heading
+/// known to 0.2 arcseconds is far beyond any magnetometer.
+const MIN_INITIAL_HEADING_SIGMA: f64 = 1e-6;
 
 /// The one parameter set of the production filter (SI units, angles in rad).
 #[derive(Clone, Debug, PartialEq)]
@@ -253,8 +260,12 @@ impl AttitudeParams {
     /// Checks every setting.
     ///
     /// # Errors
-    /// [`FilterError::Setting`] naming the first setting that is not finite and positive (the
-    /// gyroscope's delay: in [0, 0.1] s; the magnetometer's: in [0, 1] s).
+    /// [`FilterError::Setting`] naming the first setting out of its range: a standard deviation
+    /// that becomes a variance of the filter's Gaussian (the initial σs and bounds, the noises and
+    /// walks, the heading's, the field offset's and the rest measurements' σ) in [1e-30, 1e4]
+    /// (`SIGMA_RANGE`: outside it the steps fail), the initial heading σ at least 1e-6 rad
+    /// (`MIN_INITIAL_HEADING_SIGMA`), the gyroscope's delay in [0, 0.1] s, the
+    /// magnetometer's in [0, 1] s, and every other setting positive in [1.5e-154, 1e150].
     pub fn validate(&self) -> Result<(), FilterError> {
         let o = "AttitudeParams";
         for (name, v) in [
@@ -267,15 +278,28 @@ impl AttitudeParams {
             ("velocity_bound", self.velocity_bound),
             ("velocity_walk", self.velocity_walk),
             ("position_bound", self.position_bound),
-            ("velocity_interval", self.velocity_interval),
-            ("block", self.block),
             (
                 "magnetometer.heading_sigma",
                 self.magnetometer.heading_sigma,
             ),
+        ] {
+            sigma_setting(o, name, v)?;
+        }
+        for (name, v) in [
+            ("velocity_interval", self.velocity_interval),
+            ("block", self.block),
             ("magnetometer.interval", self.magnetometer.interval),
         ] {
             positive_setting(o, name, v)?;
+        }
+        if self.initial_heading_sigma < MIN_INITIAL_HEADING_SIGMA {
+            return Err(FilterError::Setting {
+                origin: o,
+                setting: "initial_heading_sigma",
+                value: self.initial_heading_sigma.to_string(),
+                expected: "a standard deviation in [1e-6, 1e4] rad (a smaller initial heading \
+                           variance rounds away beside the tilt's)",
+            });
         }
         for (setting, delay, expected, max) in [
             ("imu_delay", self.imu_delay, "a delay in [0, 0.1] s", 0.1),
@@ -304,7 +328,7 @@ impl AttitudeParams {
             });
         }
         if let Some(f) = &self.magnetometer.offset {
-            positive_setting(o, "magnetometer.offset.sigma", f.sigma)?;
+            sigma_setting(o, "magnetometer.offset.sigma", f.sigma)?;
             positive_setting(
                 o,
                 "magnetometer.offset.correlation_time",
@@ -317,11 +341,11 @@ impl AttitudeParams {
                 ("rest.acc_threshold", r.acc_threshold),
                 ("rest.min_duration", r.min_duration),
                 ("rest.filter_tau", r.filter_tau),
-                ("rest.velocity_sigma", r.velocity_sigma),
-                ("rest.bias_sigma", r.bias_sigma),
             ] {
                 positive_setting(o, name, v)?;
             }
+            sigma_setting(o, "rest.velocity_sigma", r.velocity_sigma)?;
+            sigma_setting(o, "rest.bias_sigma", r.bias_sigma)?;
         }
         if let Some(d) = &self.magnetometer.disturbance {
             for (name, v) in [

@@ -63,6 +63,9 @@ pub(super) struct Record {
 /// What a record names when it cannot grow.
 const RECORD: &str = "number of samples recorded by the offline attitude filter";
 
+/// What the offline filter names when the smoothed estimates it releases cannot be allocated.
+const RELEASED: &str = "number of smoothed estimates released by the offline attitude filter";
+
 /// The most samples the offline attitude filter records: 2²⁴, the most steps a run of the
 /// experiment layer records (about 16 hours at BROAD's 286 Hz, a record of about 4 GB).
 pub const MAX_OFFLINE_SAMPLES: usize = 1 << 24;
@@ -136,7 +139,17 @@ impl Record {
             .copied()
             .chain([now.at])
             .collect();
-        out.reserve(self.gyro.len());
+        // Up to MAX_OFFLINE_SAMPLES estimates (about 1.9 GB): memory the system cannot give is
+        // an error, not an abort.
+        let refused = |count: usize| {
+            move |_| OperatorError::TooLarge {
+                what: RELEASED,
+                value: count,
+                max: MAX_OFFLINE_SAMPLES,
+            }
+        };
+        out.try_reserve_exact(self.gyro.len())
+            .map_err(refused(self.gyro.len()))?;
         let delay = params.imu_delay;
         for (k, (density, &at)) in smoothed.iter().zip(&epochs).enumerate() {
             let end = epochs.get(k + 1).map_or(self.gyro.len(), |&next| next);
@@ -150,7 +163,8 @@ impl Record {
             if k == 0 {
                 // The samples before the first epoch, integrated back from it.
                 let mut q = orientation;
-                let mut before = Vec::with_capacity(at);
+                let mut before = Vec::new();
+                before.try_reserve_exact(at).map_err(refused(at))?;
                 for j in (1..=at.min(self.gyro.len() - 1)).rev() {
                     q *= turn(&self.gyro[j], &bias, dt).inverse();
                     before.push(estimate(q, j - 1));
@@ -188,6 +202,8 @@ fn turn(gyro: &Vector3<f64>, bias: &Vector3<f64>, dt: f64) -> UnitQuaternion<f64
 /// The offline filter's smoothed estimates: every sample's at the end of the run (from every
 /// sample of it), none before. A filter built by [`AttitudeEkf::new`] does not smooth
 /// ([`RecursiveFilter::smoothing`](liebayes_experiments::RecursiveFilter::smoothing) is `None`).
+/// A release whose estimates' memory the system cannot give is [`OperatorError::TooLarge`], with
+/// `out` as it was.
 impl Smoothing for AttitudeEkf {
     type Estimate = AttitudeEstimate;
 
