@@ -24,11 +24,14 @@
 //! [`aoa::KAPPA_RANGE`]. Files are checked before they are trusted: a BROAD `.mat` file at most
 //! [`attitude::MAX_MAT_FILE_BYTES`], every element's and sub-element's declared size against the
 //! bytes it lies in, the values its matrices declare at most [`attitude::MAX_MAT_DECLARED_BYTES`]
-//! as doubles, a log at most
+//! as doubles, matrices nested at most [`attitude::MAX_MAT_NESTING`] deep, a log at most
 //! [`attitude::MAX_SAMPLES`] samples, CSV lines of at most 4 096 bytes. Every filter's step is all
 //! or nothing: a non-finite or invalid result is an error ([`FilterError`], or the operators'
 //! error through the experiment layer) and the filter is left as it was; counts of particles and
-//! cells are checked against the operators' `MAX_ELEMENTS` before anything is allocated.
+//! cells are checked against the operators' `MAX_ELEMENTS` before anything is allocated. Settings
+//! are checked against the range in which every step keeps working, when a filter is made: the
+//! attitude EKF's standard deviations in [1e-30, 1e4] (rad, rad/s, m/s, m), the talk filter's
+//! direction noises at least 1e-5 and its initial σ in [1.5e-6, π] rad.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod aoa;
