@@ -528,13 +528,13 @@ impl Density for Bingham {
     }
 
     /// The eigenvector of the largest eigenvalue, with `w ≥ 0` (−q is a mode too); none when the
-    /// largest eigenvalue is repeated (the maxima form a circle or more): a gap within 1e-10 of the
-    /// spread, or within the rounding of the eigenvalues themselves (8 eps |z₀|). Only differences
-    /// of eigenvalues matter to the distribution, so a common shift enters only through that
-    /// rounding.
+    /// largest eigenvalue is repeated (the maxima form a circle or more): a gap within the
+    /// rounding of eigenvalues computed from a matrix of their size, `8 eps (|z₀| + z₀ − z₃)`. Only
+    /// differences of eigenvalues matter to the distribution, so a common shift enters only
+    /// through that rounding, and a gap of 10 beside a spread of 1e12 is a mode.
     fn mode(&self) -> Option<Su2<f64>> {
         let z = &self.eigenvalues;
-        if z[0] - z[1] <= TOLERANCE * (1.0 + (z[0] - z[3])) + 8.0 * f64::EPSILON * z[0].abs() {
+        if z[0] - z[1] <= 8.0 * f64::EPSILON * (z[0].abs() + (z[0] - z[3])) {
             return None;
         }
         let v = self.orientation.column(0);

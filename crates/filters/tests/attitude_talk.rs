@@ -519,8 +519,8 @@ fn settings_that_no_step_could_take_are_refused() {
 }
 
 /// Settings that every step would refuse are refused when the filter is made (audit F4), naming
-/// the setting: a direction noise below 1e-5 (one reading's spread 2/σ² then leaves the default
-/// initial heading no mode: at 1.5e-6 every 6D step failed) and an initial σ₀ outside
+/// the setting: a direction noise below 1e-5 (one reading's spread 2/σ² then comes near the
+/// Bingham's largest, 1e12) and an initial σ₀ outside
 /// [1.5e-6, π] rad (σ₀ = 7 made the initial Bingham uniform, `e^{−49}` rounding away; σ₀ = 1e-6
 /// too concentrated). Just inside each bound, with the other settings at their defaults, 20
 /// samples' steps succeed in 9D and 6D.

@@ -21,22 +21,18 @@ use nalgebra::{Matrix3, Matrix4, Vector3};
 
 /// The smallest direction noise σ_V, σ_W of [`TalkParams`]. One reading's
 /// [`Bingham::from_direction`] of unit vectors has the eigenvalue spread `2/σ²`, which must stay
-/// within [`Bingham::MAX_SPREAD`] = 1e12 (σ ≥ 1.414e-6); and a Bingham has a mode only while its
-/// two largest eigenvalues differ by more than 1e-10 of its spread, so the directions a reading
-/// does not constrain (the heading, for the accelerometer) must keep a concentration, about
-/// `2/σ_h²`, above `2·10⁻¹⁰/σ²`: σ_h below about `10⁵ σ`. At σ = 1e-5 (2 arcseconds, below any
-/// real sensor's direction noise) that is a heading σ up to about 1 rad; at 1.5e-6 the default
-/// initial heading σ (10°) already had no mode and every 6D step failed.
+/// within [`Bingham::MAX_SPREAD`] = 1e12 (σ ≥ 1.414e-6), together with the spread the filter's own
+/// state adds: 1e-5 (2 arcseconds, below any real sensor's direction noise) keeps a margin of 50
+/// in the spread for it.
 const MIN_DIRECTION_NOISE: f64 = 1e-5;
 
 /// The range of [`TalkParams::initial_sigma`] σ₀ (rad): the initial `LD(q̄, σ₀² I)` as a Bingham
 /// must have a mode. Below, its spread, about `2/σ₀²`, leaves [`Bingham::MAX_SPREAD`] (near
 /// σ₀ = 1.4e-6). Above, the gap of its two largest eigenvalues shrinks like `e^{−σ₀²}` towards
-/// the mode's tolerance, 1e-10 of the spread the accelerometer adds: with the default σ_V the 6D
-/// filter, whose heading stays at σ₀, lost its mode from σ₀ ≈ 4.3 rad, and from 6.1 rad
-/// `e^{−σ₀²}` rounds away and the first step failed. π (a σ of half a turn, already close to
-/// uniform over rotations) keeps a margin. A direction noise near its own bound
-/// ([`MIN_DIRECTION_NOISE`]) with a large σ₀ can still leave no mode: the tolerance is relative to
+/// the rounding of the eigenvalues beside the spread the accelerometer adds, and from 6.1 rad
+/// `e^{−σ₀²}` rounds away altogether (the first step failed at σ₀ = 7). π (a σ of half a turn,
+/// already close to uniform over rotations) keeps a margin. A direction noise near its own bound
+/// ([`MIN_DIRECTION_NOISE`]) with a large σ₀ can still leave no mode: the rounding is relative to
 /// the combined spread.
 const INITIAL_SIGMA_RANGE: (f64, f64) = (1.5e-6, std::f64::consts::PI);
 
@@ -48,7 +44,7 @@ pub struct TalkParams {
     /// σ_A (rad/s²): the angular-rate random walk, `Ω_k = Ω_(k−1) + A_k Δt`. In [0, 1e150].
     pub rate_walk: f64,
     /// σ_V: accelerometer noise on the unit gravity direction (dimensionless, about rad).
-    /// In [1e-5, 1e150] (a smaller σ makes the Bingham too concentrated to have a mode).
+    /// In [1e-5, 1e150] (a smaller σ makes the Bingham nearly as concentrated as it can be).
     pub acc_noise: f64,
     /// σ_W: magnetometer noise on the unit field direction (dimensionless). In [1e-5, 1e150].
     pub mag_noise: f64,
@@ -96,8 +92,8 @@ impl TalkParams {
                     origin,
                     setting,
                     value: value.to_string(),
-                    expected: "a direction noise in [1e-5, 1e150] (a smaller one leaves the \
-                               Bingham no mode)",
+                    expected: "a direction noise in [1e-5, 1e150] (a smaller one makes a \
+                               reading's Bingham nearly as concentrated as it can be)",
                 });
             }
         }
