@@ -470,3 +470,16 @@ fn a_common_eigenvalue_shift_changes_nothing() {
     let shifted = peaked(1e12).to_heat_kernel_moment_matched().unwrap();
     assert!((shifted.variance() / reference.variance() - 1.0).abs() < 1e-12);
 }
+
+/// A gap of 10 between the two largest eigenvalues beside a spread of 1e12 is a unique mode (a
+/// tolerance of 1e-10 of the spread took it for a repeated eigenvalue); a gap of 0 is not.
+#[test]
+fn a_small_gap_beside_a_large_spread_is_a_mode() {
+    use liebayes_densities::{Bingham, Density};
+    let at = |gap: f64| {
+        Bingham::new(Matrix4::identity(), Vector4::new(0.0, -gap, -1e12, -1e12)).unwrap()
+    };
+    let mode = at(10.0).mode().expect("a unique mode");
+    assert!((mode.to_quaternion_wxyz()[0] - 1.0).abs() < 1e-15);
+    assert!(at(0.0).mode().is_none());
+}
