@@ -68,14 +68,31 @@ pub(crate) fn positive_setting(
     setting: &'static str,
     value: f64,
 ) -> Result<(), FilterError> {
-    if (1.5e-154..=1e150).contains(&value) {
+    setting_in(
+        origin,
+        setting,
+        value,
+        (1.5e-154, 1e150),
+        "a positive number in [1.5e-154, 1e150] (its square a normal number)",
+    )
+}
+
+/// `Ok` for a `value` in the closed `range`, else [`FilterError::Setting`] saying `expected`.
+fn setting_in(
+    origin: &'static str,
+    setting: &'static str,
+    value: f64,
+    (low, high): (f64, f64),
+    expected: &'static str,
+) -> Result<(), FilterError> {
+    if (low..=high).contains(&value) {
         Ok(())
     } else {
         Err(FilterError::Setting {
             origin,
             setting,
             value: value.to_string(),
-            expected: "a positive number in [1.5e-154, 1e150] (its square a normal number)",
+            expected,
         })
     }
 }
@@ -100,17 +117,14 @@ pub(crate) fn sigma_setting(
     setting: &'static str,
     value: f64,
 ) -> Result<(), FilterError> {
-    if (SIGMA_RANGE.0..=SIGMA_RANGE.1).contains(&value) {
-        Ok(())
-    } else {
-        Err(FilterError::Setting {
-            origin,
-            setting,
-            value: value.to_string(),
-            expected: "a standard deviation in [1e-30, 1e4] (its square a variance the \
-                       filter's Gaussian can hold beside its others)",
-        })
-    }
+    setting_in(
+        origin,
+        setting,
+        value,
+        SIGMA_RANGE,
+        "a standard deviation in [1e-30, 1e4] (its square a variance the filter's Gaussian can \
+         hold beside its others)",
+    )
 }
 
 /// Checks a count of particles (or cells, named by `what`) before anything is drawn.
