@@ -85,6 +85,9 @@ fn main() -> ExitCode {
             ));
         }
     };
+    if let Err(error) = output::remove_staged_on_signal() {
+        return fail(&error.to_string());
+    }
     let result = match cli.command {
         None => main_job(),
         Some(Command::Azimuth(args)) => study(&args),

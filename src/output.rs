@@ -1,11 +1,73 @@
 //! Where a command's files go, written all or nothing: every file goes under a temporary name in
-//! the output folder and is renamed into place only when the whole command has succeeded.
+//! the output folder and is renamed into place only when the whole command has succeeded. A
+//! command interrupted by a signal removes its temporaries before it exits.
 
 use crate::error::{CliError, Context as _};
 use liebayes::experiments::Shard;
 use std::fs;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, PoisonError};
+
+/// The temporaries of every [`Output`] not yet committed or removed, for [`remove_staged`]. A
+/// temporary is added under this lock as it is created and leaves it under the lock as it is
+/// renamed or removed, so that a signal never finds one half done.
+static STAGED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// The staged temporaries (a panic elsewhere does not make the list unusable).
+fn staged() -> MutexGuard<'static, Vec<PathBuf>> {
+    STAGED.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Drops `temporary` from the staged list (it has been renamed or removed).
+fn unstage(staged: &mut Vec<PathBuf>, temporary: &Path) {
+    staged.retain(|t| t != temporary);
+}
+
+/// Removes every staged temporary and keeps the lock, so that no file is staged after it (the
+/// caller exits); returns how many were removed.
+fn remove_staged() -> (usize, MutexGuard<'static, Vec<PathBuf>>) {
+    let mut staged = staged();
+    let removed = staged
+        .drain(..)
+        .filter(|t| fs::remove_file(t).is_ok())
+        .count();
+    (removed, staged)
+}
+
+/// From now on, SIGINT, SIGTERM or SIGHUP removes every staged temporary, says so on stderr in one
+/// line and exits with 128 + the signal's number, as the shell reports a process the signal
+/// killed. Without it an interrupted command would leave its hidden temporaries in the output
+/// folder (the final names are never touched before the commit either way).
+///
+/// # Errors
+/// The handler cannot be installed.
+#[cfg(unix)]
+pub fn remove_staged_on_signal() -> Result<(), CliError> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])
+        .context(|| "installing the interrupt handler".to_owned())?;
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            let (removed, _held) = remove_staged();
+            let _ = writeln!(
+                std::io::stderr().lock(),
+                "liebayes: interrupted by signal {signal}: removed {removed} unfinished files"
+            );
+            std::process::exit(128 + signal);
+        }
+    });
+    Ok(())
+}
+
+/// Signals are not handled off Unix: an interrupted command may leave its temporaries.
+///
+/// # Errors
+/// None.
+#[cfg(not(unix))]
+pub fn remove_staged_on_signal() -> Result<(), CliError> {
+    Ok(())
+}
 
 /// The output settings every command shares.
 #[derive(clap::Args, Debug, Clone)]
@@ -110,19 +172,25 @@ impl Output {
         }
         let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
         let writing = || format!("writing {}", target.display());
-        let written = fs::File::create(&temporary)
-            .context(writing)
-            .and_then(|file| {
-                let mut buffered = BufWriter::new(file);
-                fill(&mut buffered)?;
-                let file = buffered
-                    .into_inner()
-                    .map_err(std::io::IntoInnerError::into_error)
-                    .context(writing)?;
-                file.sync_all().context(writing)
-            });
+        let created = {
+            let mut staged = staged();
+            let created = fs::File::create(&temporary).context(writing);
+            if created.is_ok() {
+                staged.push(temporary.clone());
+            }
+            created
+        };
+        let written = created.and_then(|file| {
+            let mut buffered = BufWriter::new(file);
+            fill(&mut buffered)?;
+            let file = buffered
+                .into_inner()
+                .map_err(std::io::IntoInnerError::into_error)
+                .context(writing)?;
+            file.sync_all().context(writing)
+        });
         if let Err(e) = written {
-            let _ = fs::remove_file(&temporary);
+            remove(&temporary);
             return Err(e);
         }
         self.pending.push((temporary, target));
@@ -139,8 +207,16 @@ impl Output {
         let pending = std::mem::take(&mut self.pending);
         let mut rest = pending.into_iter();
         for (temporary, target) in rest.by_ref() {
-            if let Err(e) = fs::rename(&temporary, &target) {
-                let _ = fs::remove_file(&temporary);
+            let renamed = {
+                let mut staged = staged();
+                let renamed = fs::rename(&temporary, &target);
+                if renamed.is_ok() {
+                    unstage(&mut staged, &temporary);
+                }
+                renamed
+            };
+            if let Err(e) = renamed {
+                remove(&temporary);
                 self.pending = rest.collect();
                 return Err(format!(
                     "moving {} into place: {e} ({} of the command's files were already in place)",
@@ -172,9 +248,16 @@ impl Drop for Output {
     /// Removes the temporaries of an uncommitted output: a failed command leaves nothing behind.
     fn drop(&mut self) {
         for (temporary, _) in &self.pending {
-            let _ = fs::remove_file(temporary);
+            remove(temporary);
         }
     }
+}
+
+/// Removes a staged temporary and drops it from the staged list.
+fn remove(temporary: &Path) {
+    let mut staged = staged();
+    let _ = fs::remove_file(temporary);
+    unstage(&mut staged, temporary);
 }
 
 /// Refuses names that are not plain, portable file names (see [`Output::write`]).

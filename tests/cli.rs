@@ -930,3 +930,46 @@ fn attitude_arguments_are_checked_before_any_work() {
     assert!(error.to_string().contains("not a regular file"), "{error}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A command interrupted while files are staged removes its temporaries and exits with 128 + the
+/// signal's number: the attitude comparison stages each method's estimates as its run ends and
+/// commits them all at the end, so once the first temporary shows, the next runs are under way.
+/// The wait is for the file, bounded by the child's own run (it commits and exits in the end).
+#[cfg(unix)]
+#[test]
+fn an_interrupted_command_leaves_no_file() {
+    let dir = folder("interrupted");
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_liebayes"))
+        .args(["attitude", "--simulate", "--samples", "20000", "--out"])
+        .arg(&out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the binary runs");
+    let staged = loop {
+        let staged = |f: &String| Path::new(f).extension().is_some_and(|e| e == "tmp");
+        if files(&out).iter().any(staged) {
+            break true;
+        }
+        if child.try_wait().unwrap().is_some() {
+            break false;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    assert!(staged, "the command ended before it staged a file");
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(killed.success());
+    let output = child.wait_with_output().unwrap();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.contains("interrupted by signal 2: removed"),
+        "{stderr}"
+    );
+    assert!(files(&out).is_empty(), "{:?}", files(&out));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
