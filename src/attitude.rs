@@ -234,6 +234,14 @@ fn study(settings: &SimulationSettings, runs: u64, seed: u64) -> Result<Table, C
     })
 }
 
+/// The seed of the main job's simulated log and study.
+const MAIN_JOB_SEED: u64 = 1;
+
+/// The name of the simulated log of `seed` (its files are `{name}.{method}.csv`).
+fn simulated_name(seed: u64) -> String {
+    format!("simulated_seed{seed}")
+}
+
 /// The main job's attitude part: every method on a simulated log, a study of simulated runs, and
 /// the BROAD `trials` (read before the main job's first study); files in `out`, all committed
 /// together when the part has succeeded.
@@ -244,8 +252,17 @@ pub fn main_job(out: &Path, trials: &BroadTrials) -> Result<(), CliError> {
     let settings = whole(Some(out.to_path_buf()));
     let mut output = output::prepare(&settings)?;
     let methods = methods_or(&[], &DEFAULT_METHODS)?;
-    simulated(&SimulationSettings::default(), 1, &methods, &mut output)?;
-    let table = study(&SimulationSettings::default(), MAIN_JOB_STUDY_RUNS, 1)?;
+    simulated(
+        &SimulationSettings::default(),
+        MAIN_JOB_SEED,
+        &methods,
+        &mut output,
+    )?;
+    let table = study(
+        &SimulationSettings::default(),
+        MAIN_JOB_STUDY_RUNS,
+        MAIN_JOB_SEED,
+    )?;
     stage(&[table], &settings, &mut output)?;
     print(&format!(
         "\nBROAD trials in {} (the talk filter, hundreds of times slower per sample than the \
@@ -278,14 +295,21 @@ impl BroadTrials {
     /// message names the file), or a trial whose name is not a plain file name.
     pub fn read(dir: &Path) -> Result<Self, CliError> {
         let paths = broad_trials(dir)?;
+        // Every trial's output names first: a name too long for them would otherwise fail at its
+        // first write, after the runs of the trials before it.
+        let names = paths
+            .iter()
+            .map(|path| {
+                let name = path
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                check_trial_name(&name).map(|()| name)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         let mut logs = Vec::with_capacity(paths.len());
-        for path in paths {
-            let log = read_broad(&path)?;
-            let name = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            output::check_name(&name)?;
+        for (path, name) in paths.iter().zip(names) {
+            let log = read_broad(path)?;
             logs.push((name, LogScenario::new(log)?));
         }
         Ok(Self {
@@ -304,8 +328,41 @@ impl BroadTrials {
             || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/broad"),
             PathBuf::from,
         );
-        Self::read(&dir)
+        let trials = Self::read(&dir)?;
+        // The main job writes the simulated log's files into the same folder as the trials'.
+        let simulated = simulated_name(MAIN_JOB_SEED);
+        if let Some((name, _)) = trials.logs.iter().find(|(name, _)| *name == simulated) {
+            return Err(format!(
+                "the BROAD trial {name}.mat in {} takes the name of the main job's simulated log: \
+                 rename the trial file",
+                dir.display()
+            )
+            .into());
+        }
+        Ok(trials)
     }
+}
+
+/// Refuses a trial name that is not a plain file name or too long for the names of its output
+/// files (`{name}.{method}.csv` for every method, `{name}.errors.svg`).
+///
+/// # Errors
+/// The name and the file name it would give.
+fn check_trial_name(name: &str) -> Result<(), CliError> {
+    output::check_name(name)?;
+    let mut files = vec![format!("{name}.errors.svg")];
+    for method in liebayes::filters::attitude::METHOD_NAMES {
+        files.push(format!("{name}.{}.csv", slug(&parse_method(method)?)));
+    }
+    for file in files {
+        output::check_name(&file).map_err(|_| {
+            CliError::Invalid(format!(
+                "the BROAD trial name {name:?} makes the output name {file:?}, longer than a \
+                 file name may be here: rename the trial file"
+            ))
+        })?;
+    }
+    Ok(())
 }
 
 /// The sorted `*.mat` files of `dir`.
@@ -352,7 +409,7 @@ fn compare(
     let evaluation = evaluate(logs, methods, &mut |name, method, recording| {
         if writing {
             let file = format!("{name}.{}.csv", slug(method));
-            write_estimates(output, &file, recording, name)?;
+            write_estimates(output, &file, recording)?;
             if *method == methods[0] {
                 let svg = errors_svg(name, &method.label(), recording).map_err(|message| {
                     FilterError::Setting {
@@ -523,7 +580,7 @@ fn simulated(
 ) -> Result<(), CliError> {
     let log = simulate(settings, seed).context(|| "--simulate".to_owned())?;
     let n = log.len();
-    let logs = vec![(format!("simulated_seed{seed}"), LogScenario::new(log)?)];
+    let logs = vec![(simulated_name(seed), LogScenario::new(log)?)];
     compare(
         &logs,
         methods,
@@ -558,31 +615,39 @@ fn csv(file: &Path, offline: bool, output: &mut output::Output) -> Result<(), Cl
         ));
     }
     if output.dir().is_some() {
-        write_estimates(output, &csv_output_name(file, &method), &recording, &origin)?;
+        write_estimates(output, &csv_output_name(file, &method), &recording)?;
     }
     Ok(())
 }
 
 /// Writes a run's estimates as the file `file` of the output, in the CSV format of
-/// `write_estimates_csv` (`origin` names the run in errors), streamed to disk.
+/// `write_estimates_csv`, streamed to disk (a failed write names that file).
 fn write_estimates(
     output: &mut output::Output,
     file: &str,
     recording: &LogRecording,
-    origin: &str,
 ) -> Result<(), CliError> {
     let (times, orientations): (Vec<f64>, Vec<_>) = estimates(recording)
         .map(|(s, e)| (s.time, e.orientation))
         .unzip();
+    let target = output
+        .dir()
+        .map_or_else(|| file.to_owned(), |d| d.join(file).display().to_string());
     output.write_with(file, |writer| {
-        Ok(write_estimates_csv(writer, &times, &orientations, origin)?)
+        Ok(write_estimates_csv(writer, &times, &orientations, &target)?)
     })
 }
 
+/// The most samples an error plot draws: a 1000-pixel-wide plot of a 2²⁴-sample log would
+/// otherwise be an SVG of hundreds of megabytes.
+const MAX_PLOTTED_SAMPLES: usize = 4000;
+
 /// The SVG of a run's heading and inclination errors over time (deg) with its ±2σ band where the
-/// filter reports one, over the samples that count.
+/// filter reports one, over the samples that count (every k-th, at most
+/// [`MAX_PLOTTED_SAMPLES`] of them).
 fn errors_svg(name: &str, label: &str, recording: &LogRecording) -> Result<String, String> {
     let err = |e: DrawingAreaErrorKind<_>| e.to_string();
+    let stride = recording.steps.len().div_ceil(MAX_PLOTTED_SAMPLES).max(1);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (1000, 700)).into_drawing_area();
@@ -592,7 +657,7 @@ fn errors_svg(name: &str, label: &str, recording: &LogRecording) -> Result<Strin
         for (i, (panel, axis)) in panels.iter().zip(["heading", "inclination"]).enumerate() {
             let mut errors = Vec::new();
             let mut band = Vec::new();
-            for (step, estimate) in estimates(recording) {
+            for (step, estimate) in estimates(recording).step_by(stride) {
                 let Some(truth) = &step.truth else { continue };
                 let e = sample_errors(&estimate.orientation, truth);
                 errors.push((
@@ -614,7 +679,7 @@ fn errors_svg(name: &str, label: &str, recording: &LogRecording) -> Result<Strin
                 .margin(10)
                 .x_label_area_size(30)
                 .y_label_area_size(50)
-                .build_cartesian_2d(0.0..t_end, 0.0..top * 1.05)
+                .build_cartesian_2d(crate::report::axis(0.0, t_end, 0.0..1.0), 0.0..top * 1.05)
                 .map_err(err)?;
             chart
                 .configure_mesh()

@@ -170,6 +170,9 @@ impl Output {
             )
             .into());
         }
+        if is_folder(&target) {
+            return Err(in_the_way(&target));
+        }
         let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
         let writing = || format!("writing {}", target.display());
         let created = {
@@ -199,24 +202,29 @@ impl Output {
 
     /// Renames every pending file into place, in the order written, and returns their paths. Each
     /// rename is atomic, so a reader sees a file whole or its earlier version, never half of one.
+    /// Every target is checked first (a folder in a file's place would fail its rename halfway
+    /// through), and the renames run under one hold of the staging lock, so that a signal waits
+    /// for the commit to end instead of leaving old and new files mixed.
     ///
     /// # Errors
-    /// A rename that fails (the files not yet renamed are removed; those before it are in place).
+    /// A target that is a folder (nothing renamed, every temporary removed), or a rename that
+    /// fails (the files not yet renamed are removed; those before it are in place).
     pub fn commit(mut self) -> Result<Vec<PathBuf>, CliError> {
-        let mut done = Vec::with_capacity(self.pending.len());
+        if let Some((_, target)) = self.pending.iter().find(|(_, t)| is_folder(t)) {
+            return Err(in_the_way(target));
+        }
         let pending = std::mem::take(&mut self.pending);
+        let mut staged = staged();
+        let mut done = Vec::with_capacity(pending.len());
         let mut rest = pending.into_iter();
         for (temporary, target) in rest.by_ref() {
-            let renamed = {
-                let mut staged = staged();
-                let renamed = fs::rename(&temporary, &target);
-                if renamed.is_ok() {
-                    unstage(&mut staged, &temporary);
-                }
-                renamed
-            };
+            let renamed = fs::rename(&temporary, &target);
+            if renamed.is_err() {
+                let _ = fs::remove_file(&temporary);
+            }
+            unstage(&mut staged, &temporary);
             if let Err(e) = renamed {
-                remove(&temporary);
+                drop(staged);
                 self.pending = rest.collect();
                 return Err(format!(
                     "moving {} into place: {e} ({} of the command's files were already in place)",
@@ -251,6 +259,20 @@ impl Drop for Output {
             remove(temporary);
         }
     }
+}
+
+/// Whether a folder (not a link to one: a rename replaces the link) stands where `target` goes.
+fn is_folder(target: &Path) -> bool {
+    fs::symlink_metadata(target).is_ok_and(|m| m.is_dir())
+}
+
+/// The error for a folder standing where a file goes.
+fn in_the_way(target: &Path) -> CliError {
+    format!(
+        "{} is a folder where the command writes a file: move it or choose another --out",
+        target.display()
+    )
+    .into()
 }
 
 /// Removes a staged temporary and drops it from the staged list.
@@ -334,6 +356,25 @@ mod tests {
         drop(output);
         fs::remove_dir(dir.join(format!(".b.csv.{}.tmp", std::process::id()))).unwrap();
         assert_eq!(files(&dir), ["a.csv"]);
+        assert_eq!(fs::read(dir.join("a.csv")).unwrap(), b"earlier");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_folder_in_a_files_place_fails_before_anything_is_renamed() {
+        let dir = folder("in-the-way");
+        fs::create_dir_all(dir.join("b.csv")).unwrap();
+        fs::write(dir.join("a.csv"), b"earlier").unwrap();
+        let mut output = prepare(&args(&dir)).unwrap();
+        let error = output.write("b.csv", b"new").unwrap_err();
+        assert!(error.to_string().contains("is a folder"), "{error}");
+        // A folder that appears after its file was staged: the commit renames nothing.
+        output.write("a.csv", b"new").unwrap();
+        output.write("c.csv", b"new").unwrap();
+        fs::create_dir_all(dir.join("c.csv")).unwrap();
+        let error = output.commit().unwrap_err();
+        assert!(error.to_string().contains("c.csv is a folder"), "{error}");
+        assert_eq!(files(&dir), ["a.csv", "b.csv", "c.csv"]);
         assert_eq!(fs::read(dir.join("a.csv")).unwrap(), b"earlier");
         fs::remove_dir_all(&dir).unwrap();
     }

@@ -431,7 +431,7 @@ fn render(table: &Table) -> String {
             s.failure_count().to_string(),
         ];
         row.extend(columns.iter().map(|c| cell(c.figure(s, last))));
-        row.push(compact(s.timing().mean().map(|t| t * 1e9)));
+        row.push(compact(ns_per_step(s)));
         rows.push(row);
         if s.failure_count() > 0 {
             let mut note = format!(
@@ -489,6 +489,12 @@ fn render(table: &Table) -> String {
     out
 }
 
+/// A row's mean time per step in nanoseconds, if it has one that is finite in those units (a
+/// summary's timing may hold any finite number of seconds).
+fn ns_per_step(s: &Summary) -> Option<f64> {
+    s.timing().mean().map(|t| t * 1e9).filter(|t| t.is_finite())
+}
+
 /// Rows of cells as printed: each column as wide as its widest cell, the first left-aligned, the
 /// others right-aligned, two spaces apart, a line per row.
 pub fn aligned(rows: &[Vec<String>]) -> String {
@@ -509,10 +515,13 @@ pub fn aligned(rows: &[Vec<String>]) -> String {
             .zip(&widths)
             .enumerate()
             .map(|(j, (cell, &w))| {
+                // Padded by hand: a formatting width above 65 535 panics, and a summary's labels
+                // can be that long.
+                let pad = " ".repeat(w.saturating_sub(cell.chars().count()));
                 if j == 0 {
-                    format!("{cell:<w$}")
+                    format!("{cell}{pad}")
                 } else {
-                    format!("{cell:>w$}")
+                    format!("{pad}{cell}")
                 }
             })
             .collect();
@@ -528,23 +537,31 @@ fn meaning(name: &str) -> Option<String> {
         format!("RMS over the runs of the {what} error (truth minus estimate)")
     } else if let Some(what) = name.strip_suffix("_sigma") {
         format!(
-            "RMS over the runs of the filter's own {what} standard deviation: about the error when              the filter is consistent, far below it when over-confident"
+            "RMS over the runs of the filter's own {what} standard deviation: about the error when \
+             the filter is consistent, far below it when over-confident"
         )
     } else if name == "nis" || name.ends_with("nees") {
         format!(
-            "the mean {} (a chi-square value with the degrees of freedom of its metric) and, in              brackets, the 95 % band a consistent filter's mean falls in: above, over-confident;              below, cautious",
+            "the mean {} (a chi-square value with the degrees of freedom of its metric) and, in \
+             brackets, the 95 % band a consistent filter's mean falls in: above, over-confident; \
+             below, cautious",
             name.to_uppercase().replace('_', " ")
         )
     } else {
         match name {
             "circular_consistency" => {
-                "mean of (1 - cos e)/(1 - rho) of the azimuth error e against the filter's mean                  resultant length rho: 1 when its angular spread is right; a particle filter whose                  particles collapsed on one azimuth reports rho = 1 to rounding, and reads 1e9 or                  more"
+                "mean of (1 - cos e)/(1 - rho) of the azimuth error e against the filter's mean \
+                 resultant length rho: 1 when its angular spread is right; a particle filter whose \
+                 particles collapsed on one azimuth reports rho = 1 to rounding, and reads 1e9 or \
+                 more"
             }
             "diverged" => {
-                "share of the runs whose final azimuth error exceeds 10 deg (where the azimuth                  cannot be observed, the static scenario, every azimuth figure measures nothing)"
+                "share of the runs whose final azimuth error exceeds 10 deg (where the azimuth \
+                 cannot be observed, the static scenario, every azimuth figure measures nothing)"
             }
             "log_evidence" => {
-                "mean log likelihood of the last measurement under the prediction (0 for a step                  that conditioned on nothing)"
+                "mean log likelihood of the last measurement under the prediction (0 for a step \
+                 that conditioned on nothing)"
             }
             _ => return None,
         }
@@ -612,7 +629,7 @@ fn summary_csv(table: &Table) -> String {
             s.failure_count().to_string(),
         ];
         cells.extend(figure_cells(&columns, s, last));
-        cells.push(number(s.timing().mean().map(|t| t * 1e9)));
+        cells.push(number(ns_per_step(s)));
         let _ = writeln!(out, "{}", cells.join(","));
     }
     out
@@ -891,7 +908,7 @@ fn plot_first_run(table: &Table) -> Plot<Option<String>> {
                 .margin(8)
                 .x_label_area_size(30)
                 .y_label_area_size(70)
-                .build_cartesian_2d(0.0..t_end, -m..m)?;
+                .build_cartesian_2d(axis(0.0, t_end, 0.0..1.0), axis(-m, m, -1.0..1.0))?;
             chart
                 .configure_mesh()
                 .x_desc("t (s)")
@@ -1024,7 +1041,7 @@ fn rmse_panel(
     if !(low.is_finite() && high > 0.0) {
         let mut chart = ChartBuilder::on(panel)
             .margin(8)
-            .build_cartesian_2d(0.0..t_end, 0.0..1.0)?;
+            .build_cartesian_2d(axis(0.0, t_end, 0.0..1.0), 0.0..1.0)?;
         chart.draw_series(std::iter::once(Text::new(
             format!("{label}: no positive finite values"),
             (0.05 * t_end, 0.5),
@@ -1036,7 +1053,10 @@ fn rmse_panel(
         .margin(8)
         .x_label_area_size(30)
         .y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_end, (low * 0.8..high * 1.25).log_scale())?;
+        .build_cartesian_2d(
+            axis(0.0, t_end, 0.0..1.0),
+            axis(low * 0.8, high * 1.25, AXIS_LIMIT / 2.0..AXIS_LIMIT).log_scale(),
+        )?;
     chart
         .configure_mesh()
         .x_desc("t (s)")
@@ -1064,6 +1084,22 @@ fn rmse_panel(
     Ok(())
 }
 
+/// The largest magnitude a plot axis reaches: a quarter of `f64::MAX`, so that an axis's width
+/// (at most half of it) is finite.
+const AXIS_LIMIT: f64 = f64::MAX / 4.0;
+
+/// A plot axis from `low` to `high`, each clamped to ±[`AXIS_LIMIT`]; `fallback` when the clamped
+/// range is empty or an end is NaN. Every axis is built through it: plotters' search for tick
+/// marks never ends on an axis of infinite width, which finite values near `f64::MAX` (a diverged
+/// filter's σ in a summary) would otherwise give. Points beyond the axis are drawn clipped.
+pub fn axis(low: f64, high: f64, fallback: Range<f64>) -> Range<f64> {
+    let (low, high) = (
+        low.clamp(-AXIS_LIMIT, AXIS_LIMIT),
+        high.clamp(-AXIS_LIMIT, AXIS_LIMIT),
+    );
+    if low < high { low..high } else { fallback }
+}
+
 /// The value range of a box plot: every finite quantile (and 0 for percentage differences),
 /// padded by 5 % of the span (by 1 when all are equal); -1..1 without a finite value.
 fn box_range(c: &RunComparison) -> Range<f64> {
@@ -1077,11 +1113,11 @@ fn box_range(c: &RunComparison) -> Range<f64> {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
             (l.min(v), h.max(v))
         });
-    let span = high - low;
-    let pad = if span > 0.0 { 0.05 * span } else { 1.0 };
-    let range = (low - pad)..(high + pad);
-    if range.start.is_finite() && range.end.is_finite() && range.start < range.end {
-        range
+    // Halves first: the span of two finite values can overflow.
+    let span = high / 2.0 - low / 2.0;
+    let pad = if span > 0.0 { 0.1 * span } else { 1.0 };
+    if low.is_finite() && high.is_finite() {
+        axis(low - pad, high + pad, -1.0..1.0)
     } else {
         -1.0..1.0
     }

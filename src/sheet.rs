@@ -76,8 +76,9 @@ pub fn segments_svg(
                     .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
                         (l.min(p[i]), h.max(p[i]))
                     });
-                let pad = 0.1 * (hi - lo).max(0.5);
-                (lo - pad)..(hi + pad)
+                // Halves first: the span of two finite values can overflow.
+                let pad = 0.2 * (hi / 2.0 - lo / 2.0).max(0.25);
+                crate::report::axis(lo - pad, hi + pad, -1.0..1.0)
             };
             let mut chart = ChartBuilder::on(panel)
                 .margin(12)

@@ -361,6 +361,61 @@ fn merge_refuses_crafted_summaries() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Summaries that are valid but extreme are merged into whole tables, neither hanging nor
+/// panicking: a trace value of 1e308 made the first-run plot's axis infinitely wide (plotters'
+/// tick search never ended), a row label of 70 000 characters overflowed the printed table's
+/// formatting width (a panic), and a time per step of 1e300 s printed `inf` nanoseconds.
+#[test]
+fn merge_draws_and_prints_extreme_but_valid_summaries() {
+    let dir = folder("extreme");
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    let out = small(&["--out", &path("good")]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let file = "azimuth_circle.summary.json";
+    let original = std::fs::read_to_string(dir.join("good").join(file)).unwrap();
+    // As many steps as the row timed, each of 1e300 s.
+    let slow = |row: &mut serde_json::Value| {
+        let mut timing = liebayes::experiments::RunningStats::default();
+        for _ in 0..row["timing"]["count"].as_u64().unwrap() {
+            timing.add(1e300);
+        }
+        row["timing"] = serde_json::to_value(&timing).unwrap();
+    };
+    let edits: [(&str, Box<dyn Fn(&mut serde_json::Value)>); 3] = [
+        (
+            "huge trace",
+            Box::new(|row| {
+                let values = row["trace"]["values"].as_array_mut().unwrap();
+                let last = values.len() - 1;
+                values[last] = 1e308.into();
+                values[0] = (-1e308).into();
+            }),
+        ),
+        (
+            "long label",
+            Box::new(|row| row["label"]["name"] = "x".repeat(70_000).into()),
+        ),
+        ("slow steps", Box::new(slow)),
+    ];
+    for (k, (what, edit)) in edits.iter().enumerate() {
+        let crafted = dir.join(format!("crafted-{k}"));
+        std::fs::create_dir_all(&crafted).unwrap();
+        let mut table: serde_json::Value = serde_json::from_str(&original).unwrap();
+        edit(&mut table["summaries"][0]);
+        std::fs::write(crafted.join(file), table.to_string()).unwrap();
+        let merged = path(&format!("merged-{k}"));
+        let out = liebayes(&["merge", crafted.to_str().unwrap(), "--out", &merged]);
+        assert!(out.status.success(), "{what}: {}", text(&out.stderr));
+        assert!(!text(&out.stdout).contains("inf"), "{what}");
+        assert!(
+            files(Path::new(&merged)).contains(&"azimuth_circle_first_run.svg".to_owned()),
+            "{what}: {:?}",
+            files(Path::new(&merged))
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// An entry named like a summary that is not a regular file is refused in one line naming it,
 /// before any file is read, nothing written: a FIFO `*.summary.json` used to block `merge` forever
 /// in its open (a hang here would be caught by the harness's time limit), and a folder of that
@@ -764,6 +819,42 @@ fn attitude_csv_round_trip() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A trial whose name is too long for its output files is refused before any trial runs, and so
+/// is, in the main job, a trial named like the main job's simulated log: each used to fail after
+/// the runs (on a file name, or on a file "written twice" reported as an internal error).
+#[cfg(unix)]
+#[test]
+fn broad_trial_names_are_checked_before_any_run() {
+    let data = liebayes_reference::broad::shipped_dir();
+    let shipped = data.join(format!("{}.mat", liebayes_reference::broad::SHIPPED[1]));
+    let dir = folder("broad-names");
+    let long = dir.join("long");
+    std::fs::create_dir_all(&long).unwrap();
+    std::os::unix::fs::symlink(&shipped, long.join("01_first.mat")).unwrap();
+    std::os::unix::fs::symlink(&shipped, long.join(format!("{}.mat", "z".repeat(112)))).unwrap();
+    let out_dir = dir.join("out");
+    let out = liebayes(&[
+        "attitude",
+        "--broad",
+        long.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert_fails(&out, "rename the trial file");
+    assert!(files(&out_dir).is_empty());
+    let clash = dir.join("clash");
+    std::fs::create_dir_all(&clash).unwrap();
+    std::os::unix::fs::symlink(&shipped, clash.join("simulated_seed1.mat")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_liebayes"))
+        .current_dir(&dir)
+        .env("LIEBAYES_BROAD_DIR", &clash)
+        .output()
+        .expect("the binary runs");
+    assert_fails(&out, "takes the name of the main job's simulated log");
+    assert!(files(&dir.join("out")).is_empty());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `--broad` on a folder of one shipped trial: the per-trial table with every method, the NEES
 /// table, and per method an estimates CSV, the error plot and the summary.
 #[test]
@@ -968,6 +1059,37 @@ fn an_interrupted_command_leaves_no_file() {
     assert_eq!(output.status.code(), Some(130), "{stderr}");
     assert!(
         stderr.contains("interrupted by signal 2: removed"),
+        "{stderr}"
+    );
+    assert!(files(&out).is_empty(), "{:?}", files(&out));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A write that fails names the file being written, not the input: an estimates file too large
+/// for the limit the shell sets (`ulimit -f`) used to fail as `simulated_seed1: File too large`.
+/// Nothing is left in the folder.
+#[cfg(unix)]
+#[test]
+fn a_failed_write_names_the_file_written() {
+    let dir = folder("write-fails");
+    let out = dir.join("out");
+    let script = format!(
+        "trap '' XFSZ; ulimit -f 40; exec '{}' attitude --simulate --samples 3000 --method ekf-6d \
+         --out '{}'",
+        env!("CARGO_BIN_EXE_liebayes"),
+        out.display()
+    );
+    let output = Command::new("sh")
+        .args(["-c", &script])
+        .output()
+        .expect("sh runs");
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "{}: File too large",
+            out.join("simulated_seed1.ekf-6d.csv").display()
+        )),
         "{stderr}"
     );
     assert!(files(&out).is_empty(), "{:?}", files(&out));
