@@ -132,3 +132,40 @@ fn estimates_times_must_increase_strictly() {
     let read = read_estimates_csv(increasing.as_bytes(), "ok.csv").expect("reads");
     assert_eq!(read.times, [-1.0, 0.0, 1e-9]);
 }
+
+/// A header after a UTF-8 byte-order mark (as spreadsheet programs write it) is read as the
+/// header; times whose rate is out of range are refused on line 2 with the rate and the range,
+/// and times whose span overflows are called that, not "not increasing" (an audit found the first
+/// refused as a wrong header, the second reported as the variable `sampling_rate` at row 0, and
+/// the third as times that do not increase).
+#[test]
+fn a_byte_order_mark_is_skipped_and_rates_are_checked_where_read() {
+    let read = |text: &str| read_imu_csv_at_most(text.as_bytes(), "log.csv", 100);
+    let marked = format!("\u{feff}{}", log_6d(3));
+    assert_eq!(read(&marked).unwrap().len(), 3);
+    let estimates = "\u{feff}t,w,x,y,z\n0,1,0,0,0\n1,1,0,0,0\n";
+    assert_eq!(
+        read_estimates_csv(estimates.as_bytes(), "e.csv")
+            .unwrap()
+            .times
+            .len(),
+        2
+    );
+    for (times, rate) in [
+        ([0.0, 5e-324], "inf Hz"),
+        ([0.0, 1e4], "1e-4 Hz"),
+        ([-1.7e308, 1.7e308], "0e0 Hz"),
+    ] {
+        let text = format!(
+            "{HEADER_6D}{},0,0,0,0,0,9.8\n{},0,0,0,0,0,9.8\n",
+            times[0], times[1]
+        );
+        let message = read(&text).unwrap_err().to_string();
+        assert!(
+            message.starts_with("log.csv: line 2, column 1:")
+                && message.contains(rate)
+                && message.contains("expected a rate in [1e-3, 1e6] Hz"),
+            "{message}"
+        );
+    }
+}

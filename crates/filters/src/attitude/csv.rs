@@ -12,7 +12,7 @@
 //! [`read_imu_csv_at_most`]), counted as the lines are read: a longer file is refused at its first
 //! line beyond the limit, and its columns never hold more than the limit's rows.
 
-use super::data::{DataError, ImuLog, MAX_SAMPLES};
+use super::data::{DataError, ImuLog, MAX_SAMPLES, RATE_RANGE};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::io::{BufRead, Write};
 
@@ -75,6 +75,7 @@ pub fn read_imu_csv_at_most<R: BufRead>(
     let header = lines
         .next_line()?
         .ok_or_else(|| csv(origin, 1, 0, "empty file, expected the header"))?;
+    let header = without_byte_order_mark(&header);
     let columns: Vec<&str> = header.split(',').map(str::trim).collect();
     let nine = if columns == IMU_9D {
         true
@@ -167,6 +168,7 @@ pub fn read_estimates_csv<R: BufRead>(reader: R, origin: &str) -> Result<Estimat
     let header = lines
         .next_line()?
         .ok_or_else(|| csv(origin, 1, 0, "empty file, expected the header"))?;
+    let header = without_byte_order_mark(&header);
     if header.split(',').map(str::trim).ne(ESTIMATES) {
         return Err(csv(
             origin,
@@ -323,7 +325,14 @@ fn parse_fields(line: &str, number: usize, origin: &str, out: &mut [f64]) -> Res
     Ok(())
 }
 
-/// `1 / mean step`, each step within [`RATE_TOLERANCE`] of the mean.
+/// A header line without the byte-order mark (U+FEFF) that spreadsheet programs put before a
+/// UTF-8 file's first line.
+fn without_byte_order_mark(header: &str) -> &str {
+    header.strip_prefix('\u{feff}').unwrap_or(header)
+}
+
+/// `1 / mean step`, each step within [`RATE_TOLERANCE`] of the mean, the rate within
+/// [`RATE_RANGE`].
 fn infer_rate(t: &[f64], origin: &str) -> Result<f64, DataError> {
     let (Some(first), Some(last)) = (t.first(), t.last()) else {
         return Err(csv(origin, 2, 0, "no sample, expected at least two"));
@@ -336,13 +345,27 @@ fn infer_rate(t: &[f64], origin: &str) -> Result<f64, DataError> {
             "one sample, expected at least two to infer the rate",
         ));
     }
+    // Infinite when the span of two finite times overflows: a rate of 0, refused below.
     let mean = (last - first) / (t.len() - 1) as f64;
-    if !(mean.is_finite() && mean > 0.0) {
+    if mean.is_nan() || mean <= 0.0 {
         return Err(csv(
             origin,
             2,
             1,
             "times do not increase, expected increasing times (s)",
+        ));
+    }
+    let rate = 1.0 / mean;
+    if !(RATE_RANGE.0..=RATE_RANGE.1).contains(&rate) {
+        return Err(csv(
+            origin,
+            2,
+            1,
+            &format!(
+                "times of a rate of {rate:e} Hz (a mean step of {mean:e} s), expected a rate \
+                 in [{:e}, {:e}] Hz",
+                RATE_RANGE.0, RATE_RANGE.1
+            ),
         ));
     }
     for (k, pair) in t.windows(2).enumerate() {
@@ -360,7 +383,7 @@ fn infer_rate(t: &[f64], origin: &str) -> Result<f64, DataError> {
             ));
         }
     }
-    Ok(1.0 / mean)
+    Ok(rate)
 }
 
 /// Lines read with a bounded length, counted from 1.
