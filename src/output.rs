@@ -86,12 +86,15 @@ pub struct OutputArgs {
 const MAX_NAME: usize = 120;
 
 /// A command's files, pending until [`commit`](Self::commit): each is written under a temporary
-/// name beside its final one, and dropping the value uncommitted removes them all.
+/// name beside its final one, and dropping the value uncommitted removes them all (and the
+/// output folder, if [`prepare`] created it and it is empty).
 #[derive(Debug)]
 pub struct Output {
     dir: Option<PathBuf>,
     /// (temporary, final) paths of the files written so far.
     pending: Vec<(PathBuf, PathBuf)>,
+    /// Whether [`prepare`] created the folder, until the commit.
+    created: bool,
 }
 
 /// Checks `--shard` against `--out`, creates the output folder if needed and proves it writable
@@ -111,6 +114,7 @@ pub fn prepare(args: &OutputArgs) -> Result<Output, CliError> {
         return Ok(Output {
             dir: None,
             pending: Vec::new(),
+            created: false,
         });
     };
     let cannot = |what: &str| {
@@ -119,14 +123,17 @@ pub fn prepare(args: &OutputArgs) -> Result<Output, CliError> {
             dir.display()
         )
     };
+    let created = !dir.exists();
     fs::create_dir_all(dir).context(|| cannot("create"))?;
+    let output = Output {
+        dir: Some(dir.clone()),
+        pending: Vec::new(),
+        created,
+    };
     let probe = dir.join(format!(".liebayes-probe-{}", std::process::id()));
     fs::File::create(&probe).context(|| cannot("write into"))?;
     fs::remove_file(&probe).context(|| cannot("write into"))?;
-    Ok(Output {
-        dir: Some(dir.clone()),
-        pending: Vec::new(),
-    })
+    Ok(output)
 }
 
 impl Output {
@@ -214,6 +221,7 @@ impl Output {
             return Err(in_the_way(target));
         }
         let pending = std::mem::take(&mut self.pending);
+        self.created = false;
         let mut staged = staged();
         let mut done = Vec::with_capacity(pending.len());
         let mut rest = pending.into_iter();
@@ -253,10 +261,15 @@ impl Output {
 }
 
 impl Drop for Output {
-    /// Removes the temporaries of an uncommitted output: a failed command leaves nothing behind.
+    /// Removes the temporaries of an uncommitted output, and the folder if it created it and it
+    /// is empty: a failed command leaves nothing behind.
     fn drop(&mut self) {
         for (temporary, _) in &self.pending {
             remove(temporary);
+        }
+        if let (true, Some(dir)) = (self.created, &self.dir) {
+            // Only an empty folder is removed: anything else put there stays.
+            let _ = fs::remove_dir(dir);
         }
     }
 }
