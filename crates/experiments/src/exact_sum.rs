@@ -7,7 +7,11 @@
 //! whole range of f64 (after Kulisch's long accumulator). Adding a value costs a few integer
 //! additions; [`ExactSum::value`] rounds the exact total to the nearest f64 (ties to even), once.
 //! Up to 2³⁰ values are added between carry normalisations, which keep every limb in range, so the
-//! number of values is unbounded.
+//! number of values is unbounded. Merges are bounded: a total of magnitude 2¹¹⁰² or more (about
+//! 2⁷⁸ · `f64::MAX`) is refused by [`ExactSum::try_merge`] and saturates to ±∞ in
+//! [`ExactSum::merge`].
+
+use crate::ExperimentError;
 
 /// Bits per limb.
 const LIMB_BITS: u32 = 32;
@@ -17,6 +21,15 @@ const LIMBS: usize = 68;
 /// Values added between carry normalisations: each adds less than 2³² to a limb, and a limb is an
 /// i64 kept below 2³² after normalisation, so 2³⁰ additions stay below 2⁶³.
 const NORMALISE_EVERY: u32 = 1 << 30;
+/// The bound on the top limb of a normalised sum, exclusive: a total of magnitude below 2¹¹⁰²
+/// (2³² · 2³²·⁶⁷ units of 2⁻¹⁰⁷⁴), which a merge keeps and a file's sum must respect. Additions
+/// alone cannot reach it in fewer than 2⁷⁸ values, so a sum of a u64 count of values stays below.
+const TOP_BOUND: i128 = 1 << LIMB_BITS;
+
+/// A merge whose total would reach the accumulator's bound, and the total's sign.
+struct Overflow {
+    negative: bool,
+}
 
 /// The exact sum of f64 values, rounded once when read.
 ///
@@ -120,19 +133,69 @@ impl ExactSum {
     }
 
     /// Adds another sum exactly: the result is the same whatever the order of the additions and
-    /// merges.
+    /// merges, as long as no merge overflows.
+    ///
+    /// A total of magnitude 2¹¹⁰² or more (about 2⁷⁸ · `f64::MAX`, far beyond any sum of a u64
+    /// count of f64 values, and beyond what a file of a sum may hold) overflows the accumulator:
+    /// such a merge saturates instead, as f64 addition does, making the sum ±∞ as if that infinity
+    /// had been added ([`value`](Self::value) is then ±∞, which is the rounding of the exact total,
+    /// but later additions no longer cancel it). [`try_merge`](Self::try_merge) refuses the merge
+    /// instead.
     pub fn merge(&mut self, other: &ExactSum) {
-        self.normalise();
-        let mut other = other.clone();
-        other.normalise();
-        for (a, b) in self.limbs.iter_mut().zip(&other.limbs) {
-            *a += b;
+        if let Err(Overflow { negative }) = self.merged(other).map(|sum| *self = sum) {
+            self.nan |= other.nan;
+            self.positive_infinity |= other.positive_infinity || !negative;
+            self.negative_infinity |= other.negative_infinity || negative;
         }
-        self.pending = 1;
-        self.normalise();
-        self.nan |= other.nan;
-        self.positive_infinity |= other.positive_infinity;
-        self.negative_infinity |= other.negative_infinity;
+    }
+
+    /// Adds another sum exactly, as [`merge`](Self::merge), refusing a total that would overflow
+    /// the accumulator.
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] when the total's magnitude would reach 2¹¹⁰² (about
+    /// 2⁷⁸ · `f64::MAX`): `self` is then unchanged.
+    pub fn try_merge(&mut self, other: &ExactSum) -> Result<(), ExperimentError> {
+        *self = self
+            .merged(other)
+            .map_err(|o| ExperimentError::OutOfRange {
+                what: "total of a merged exact sum",
+                value: if o.negative {
+                    "-2^1102 or less".to_owned()
+                } else {
+                    "2^1102 or more".to_owned()
+                },
+                range: "(-2^1102, 2^1102), about 2^78 f64::MAX either way (merge fewer or \
+                        smaller sums)",
+            })?;
+        Ok(())
+    }
+
+    /// The exact sum of both, or where its total would reach 2¹¹⁰² in magnitude (the top limb
+    /// leaving (−2³², 2³²), the range the reader accepts), its sign.
+    fn merged(&self, other: &ExactSum) -> Result<ExactSum, Overflow> {
+        let mut sum = self.normalised();
+        let other = other.normalised();
+        // Normalised, every limb but the top is in [0, 2³²): their sums and carries fit an i64,
+        // and the top limbs, bounded by the accumulator's range, add without overflow in i128.
+        let mut carry = 0_i64;
+        for (a, b) in sum.limbs[..LIMBS - 1].iter_mut().zip(&other.limbs) {
+            let total = *a + b + carry;
+            carry = total >> LIMB_BITS;
+            *a = total & 0xffff_ffff;
+        }
+        let top = i128::from(sum.limbs[LIMBS - 1])
+            + i128::from(other.limbs[LIMBS - 1])
+            + i128::from(carry);
+        if top.abs() >= TOP_BOUND {
+            return Err(Overflow { negative: top < 0 });
+        }
+        sum.limbs[LIMBS - 1] = i64::try_from(top).map_err(|_| Overflow { negative: top < 0 })?;
+        sum.pending = 0;
+        sum.nan |= other.nan;
+        sum.positive_infinity |= other.positive_infinity;
+        sum.negative_infinity |= other.negative_infinity;
+        Ok(sum)
     }
 
     /// Propagates carries so that every limb but the last is in [0, 2³²); the last keeps the sign.
@@ -268,20 +331,37 @@ impl FromIterator<f64> for ExactSum {
 
 /// The serialized form of an [`ExactSum`]: its normalised limbs, lowest first, and the non-finite
 /// flags.
-#[derive(serde::Serialize, serde::Deserialize)]
+#[derive(serde::Serialize)]
+#[serde(rename = "ExactSum")]
+struct ExactSumFields<'a> {
+    limbs: &'a [i64],
+    nan: bool,
+    positive_infinity: bool,
+    negative_infinity: bool,
+}
+
+/// [`ExactSumFields`] as read: the limbs read into their array, refused at the first beyond
+/// [`LIMBS`], so that a file's limbs take no more memory than a sum's.
+#[derive(serde::Deserialize)]
 #[serde(rename = "ExactSum", deny_unknown_fields)]
-struct ExactSumFields {
+struct ReadExactSum {
+    #[serde(deserialize_with = "read_limbs")]
     limbs: Vec<i64>,
     nan: bool,
     positive_infinity: bool,
     negative_infinity: bool,
 }
 
+/// At most [`LIMBS`] limbs.
+fn read_limbs<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<Vec<i64>, D::Error> {
+    crate::bounded::vec(deserializer, LIMBS, "an exact sum's limbs (68)")
+}
+
 impl serde::Serialize for ExactSum {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let sum = self.normalised();
         ExactSumFields {
-            limbs: sum.limbs.to_vec(),
+            limbs: &sum.limbs,
             nan: sum.nan,
             positive_infinity: sum.positive_infinity,
             negative_infinity: sum.negative_infinity,
@@ -291,19 +371,19 @@ impl serde::Serialize for ExactSum {
 }
 
 impl<'de> serde::Deserialize<'de> for ExactSum {
-    /// Reads normalised limbs back: 68 of them, each but the last in [0, 2³²), the last within the
-    /// range a sum of at most 2⁶⁴ values can reach.
+    /// Reads normalised limbs back: 68 of them (refused at the 69th, before more is read), each
+    /// but the last in [0, 2³²), the last in (−2³², 2³²): a total below 2¹¹⁰² in magnitude, the
+    /// bound merges keep.
     fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         use serde::de::Error as _;
-        let fields = ExactSumFields::deserialize(deserializer)?;
+        let fields = ReadExactSum::deserialize(deserializer)?;
         let limbs: [i64; LIMBS] = fields.limbs.try_into().map_err(|l: Vec<i64>| {
             D::Error::custom(format!("an exact sum has {LIMBS} limbs, not {}", l.len()))
         })?;
-        let top_range = -(1_i64 << LIMB_BITS)..(1_i64 << LIMB_BITS);
         if limbs[..LIMBS - 1]
             .iter()
             .any(|l| !(0..1 << LIMB_BITS).contains(l))
-            || !top_range.contains(&limbs[LIMBS - 1])
+            || i128::from(limbs[LIMBS - 1]).abs() >= TOP_BOUND
         {
             return Err(D::Error::custom(
                 "exact sum limbs out of range (each in [0, 2^32), the last in (-2^32, 2^32))",

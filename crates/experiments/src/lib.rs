@@ -44,23 +44,34 @@
 //! # Input contract
 //!
 //! A study's settings are checked before any run: at most [`MAX_RUNS`] = 2⁴⁰ runs, at most
-//! [`MAX_STUDY_EPOCHS`] epochs, a shard `K/N` with 1 ≤ K ≤ N; a metric series and a summary's
-//! trace hold at most [`MAX_STUDY_EPOCHS`] = 2¹⁴ epochs, added in order, so their memory is that
-//! of the epochs added, and a run with more measurement epochs than its scenario declares is
-//! refused. A filter's failed step ends its run with a [`RunFailure`] (where and why), counted by
-//! reason, and a non-finite metric value is counted apart, never averaged into a figure; means and
-//! root mean squares of finite values are finite however large the values (an overflowing sum is
-//! scaled). [`Summary::new`] refuses runs outside its study, and [`Summary::add_run`] checks a
-//! run's scores before recording any of them (one value per epoch and metric, distinct metric
-//! names, finite increasing times, a run inside the summary's ranges, no more runs or failures
-//! than it covers), so what it builds is what its reader accepts. A [`Summary`] or a [`Table`]
-//! read from a file is checked whole before it is used (sums finite and bounded by the extremes,
-//! counts consistent, min ≤ max, run ranges sorted and disjoint), and refused with the field that
-//! is wrong; a value is written as a number,
-//! `null` (NaN) or `"inf"`/`"-inf"`, so that it reads back bit for bit. The recorder keeps at most
-//! [`MAX_EPOCHS`] steps.
+//! [`MAX_STUDY_EPOCHS`] epochs, a shard `K/N` with 1 ≤ K ≤ N; a metric series and a summary's trace
+//! hold at most [`MAX_STUDY_EPOCHS`] = 2¹⁴ epochs, added in order, so their memory is that of the
+//! epochs added, and a run with more measurement epochs than its scenario declares is refused. A
+//! scenario's settings may be valid up to [`MAX_EPOCHS`] = 2²⁴ epochs (what a replay scores and a
+//! recording keeps); a study refuses more than 2¹⁴ before any run, naming both. A filter's failed
+//! step ends its run with a [`RunFailure`] (where and why), counted by reason, and a non-finite
+//! metric value is counted apart, never averaged into a figure; means and root mean squares of
+//! finite values are finite however large the values (an overflowing sum is scaled). Statistics
+//! hold at most `u64::MAX` values: [`RunningStats::try_merge`] refuses a merge beyond, never
+//! saturating a count, and an [`ExactSum`] merge is bounded below 2¹¹⁰² in magnitude
+//! ([`ExactSum::try_merge`] refuses beyond, [`ExactSum::merge`] saturates to ±∞). [`Summary::new`]
+//! refuses runs outside its study, and [`Summary::add_run`] checks a run's scores before recording
+//! any of them (one value per epoch and metric, distinct metric names, finite increasing times, a
+//! run inside the summary's ranges, no more runs or failures than it covers), so what it builds is
+//! what its reader accepts. A [`Summary`] or a [`Table`] read from a file is checked whole before
+//! it is used (sums finite and bounded by the extremes, counts consistent, within each statistic
+//! and across fields: no more values of a metric at an epoch than times there, no more times than
+//! successful runs; min ≤ max, run ranges sorted and disjoint; a table with at least one row, each
+//! of a study of at least one run, see [`Table::validate`]), and refused with the field that is
+//! wrong; a sequence longer than its field allows (a series' epochs, a trace's times, an exact
+//! sum's limbs, per-run values) is refused at its first element beyond, before the rest takes
+//! memory, and a [`MetricSeries`] is checked so when read on its own too. Failure reasons beyond
+//! [`MAX_FAILURE_REASONS`] are folded canonically (the first in byte order kept), so merges in any
+//! order agree bit for bit. A value is written as a number, `null` (NaN) or `"inf"`/`"-inf"`, so
+//! that it reads back bit for bit. The recorder keeps at most [`MAX_EPOCHS`] steps.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+mod bounded;
 mod error;
 mod exact_sum;
 mod file_value;

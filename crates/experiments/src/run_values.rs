@@ -224,8 +224,32 @@ pub fn relative_differences(reference: &RunValues, other: &RunValues) -> Vec<f64
 #[derive(Serialize, Deserialize)]
 #[serde(rename = "RunValues", deny_unknown_fields)]
 struct RunValuesFields {
+    #[serde(deserialize_with = "read_runs")]
     runs: Vec<u64>,
+    #[serde(deserialize_with = "read_values")]
     values: Vec<FileValue>,
+}
+
+/// The most run values a file holds: one per kept run.
+const MAX_READ: usize = 1 << 16;
+const _: () = assert!(MAX_READ as u64 == MAX_KEPT_RUNS);
+
+/// At most [`MAX_KEPT_RUNS`] run indices.
+fn read_runs<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<u64>, D::Error> {
+    crate::bounded::vec(
+        d,
+        MAX_READ,
+        "per-run values' runs (MAX_KEPT_RUNS = 65536 at most)",
+    )
+}
+
+/// At most [`MAX_KEPT_RUNS`] values.
+fn read_values<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<FileValue>, D::Error> {
+    crate::bounded::vec(
+        d,
+        MAX_READ,
+        "per-run values (MAX_KEPT_RUNS = 65536 at most)",
+    )
 }
 
 impl Serialize for RunValues {

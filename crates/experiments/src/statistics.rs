@@ -1,7 +1,7 @@
 //! Running statistics that merge exactly: what a study keeps per metric instead of every run's values,
 //! so its memory does not grow with the number of runs and its shards combine bit for bit.
 
-use crate::ExactSum;
+use crate::{ExactSum, ExperimentError};
 
 /// The count, exact sum and exact sum of squares of a stream of values, with their extremes and the
 /// number of non-finite values (kept apart, so that one diverged run is reported, not averaged in).
@@ -11,10 +11,11 @@ use crate::ExactSum;
 /// value up to `f64::MAX`.
 ///
 /// Merging is exact and commutative: statistics of shards merged in any order equal the statistics
-/// of the whole stream, bit for bit. The mean `Σx / n` and the variance
-/// `(Σx² − (Σx)²/n) / (n − 1)` are computed from the exact sums, each rounded once, then combined in
-/// f64: the variance keeps a relative accuracy of about `ε · mean² / variance`, which loses digits
-/// only for values whose spread is below 1e-8 of their size.
+/// of the whole stream, bit for bit. A stream holds at most `u64::MAX` values, finite and not: a
+/// merge beyond is refused ([`try_merge`](Self::try_merge)), never saturated. The mean `Σx / n` and
+/// the variance `(Σx² − (Σx)²/n) / (n − 1)` are computed from the exact sums, each rounded once,
+/// then combined in f64: the variance keeps a relative accuracy of about `ε · mean² / variance`,
+/// which loses digits only for values whose spread is below 1e-8 of their size.
 ///
 /// Read from a file, the statistics are checked: no non-finite value in the sums (only finite
 /// values, and squares that f64 holds, are summed), the count and the non-finite count summing
@@ -61,13 +62,24 @@ impl RunningStats {
 
     /// Adds one value; a NaN or infinite value is only counted, in
     /// [`non_finite`](Self::non_finite).
+    ///
+    /// A stream holds at most `u64::MAX` values, finite and not (what its reader accepts): to
+    /// statistics already holding that many (only statistics read from a file can), the value is
+    /// not added, so that the count stays that of the values summed and the mean stays within
+    /// [min, max].
     pub fn add(&mut self, x: f64) {
-        // The counts saturate (a count read from a file may be as large as u64 holds).
-        if !x.is_finite() {
-            self.non_finite = self.non_finite.saturating_add(1);
+        let room = self
+            .count
+            .checked_add(self.non_finite)
+            .is_some_and(|n| n < u64::MAX);
+        if !room {
             return;
         }
-        self.count = self.count.saturating_add(1);
+        if !x.is_finite() {
+            self.non_finite += 1;
+            return;
+        }
+        self.count += 1;
         self.sum.add(x);
         if x.abs() > LARGE {
             let scaled = x * HALF_SCALE;
@@ -79,13 +91,44 @@ impl RunningStats {
         self.max = Some(self.max.map_or(x, |m| m.max(x)));
     }
 
-    /// Adds the values of another stream (another shard of runs).
+    /// Adds the values of another stream (another shard of runs), as
+    /// [`try_merge`](Self::try_merge) does; a merge it refuses (more than `u64::MAX` values in
+    /// all, which only statistics read from a file can reach) leaves `self` unchanged. Use
+    /// [`try_merge`](Self::try_merge) to learn of it.
     pub fn merge(&mut self, other: &RunningStats) {
-        self.count = self.count.saturating_add(other.count);
-        self.non_finite = self.non_finite.saturating_add(other.non_finite);
-        self.sum.merge(&other.sum);
-        self.sum_of_squares.merge(&other.sum_of_squares);
-        self.sum_of_large_squares.merge(&other.sum_of_large_squares);
+        // Refused, `self` keeps its own values: its statistics stay consistent.
+        let _unchanged_when_refused = self.try_merge(other);
+    }
+
+    /// Adds the values of another stream (another shard of runs), exactly: merging in any order
+    /// gives the same statistics, bit for bit.
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] when the merged stream would hold more than `u64::MAX`
+    /// values, finite and not (the counts would overflow, and a saturated count would make the
+    /// mean wrong or infinite); `self` is then unchanged.
+    pub fn try_merge(&mut self, other: &RunningStats) -> Result<(), ExperimentError> {
+        let values = |s: &RunningStats| u128::from(s.count) + u128::from(s.non_finite);
+        let total = values(self) + values(other);
+        if total > u128::from(u64::MAX) {
+            return Err(ExperimentError::OutOfRange {
+                what: "number of values (count plus non_finite) of merged statistics",
+                value: total.to_string(),
+                range: "[0, 2^64 - 1] (merge fewer streams)",
+            });
+        }
+        let mut sum = self.sum.clone();
+        sum.try_merge(&other.sum)?;
+        let mut sum_of_squares = self.sum_of_squares.clone();
+        sum_of_squares.try_merge(&other.sum_of_squares)?;
+        let mut sum_of_large_squares = self.sum_of_large_squares.clone();
+        sum_of_large_squares.try_merge(&other.sum_of_large_squares)?;
+        // Checked above: the counts and their sum fit u64, and nothing below fails.
+        self.count += other.count;
+        self.non_finite += other.non_finite;
+        self.sum = sum;
+        self.sum_of_squares = sum_of_squares;
+        self.sum_of_large_squares = sum_of_large_squares;
         self.min = match (self.min, other.min) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -94,6 +137,7 @@ impl RunningStats {
             (Some(a), Some(b)) => Some(a.max(b)),
             (a, b) => a.or(b),
         };
+        Ok(())
     }
 
     /// The number of finite values n.

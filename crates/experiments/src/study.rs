@@ -15,6 +15,11 @@ pub const MAX_RUNS: u64 = 1 << 40;
 /// The most measurement epochs of a study's scenario: a summary keeps exact statistics (about
 /// 1 KB) per metric and epoch, so 16 384 epochs of a dozen metrics take about 200 MB per summary in
 /// flight. Longer runs are replayed with [`replay`] directly, or scored at fewer epochs.
+///
+/// This is the limit for a study, lower than the [`MAX_EPOCHS`](crate::MAX_EPOCHS) = 2²⁴ up to
+/// which a scenario's settings may be valid (an application's configuration checks the latter,
+/// which a replay or a recording of one run can take): a study refuses a scenario of more epochs
+/// in [`Study::run`] (and so [`Study::run_method`]), before any run, with both limits named.
 pub const MAX_STUDY_EPOCHS: usize = 1 << 14;
 
 /// The most runs handed to a worker at a time: each such block is summarised on its own, and the
@@ -168,7 +173,10 @@ impl Study {
             return Err(ExperimentError::OutOfRange {
                 what: "number of measurement epochs of the scenario",
                 value: scenario.epochs().to_string(),
-                range: "[0, 16384] (a study keeps exact statistics per epoch)",
+                range: "[0, 16384] = [0, MAX_STUDY_EPOCHS] in a study, which keeps exact \
+                        statistics per epoch (a scenario's settings may allow up to 2^24 = \
+                        MAX_EPOCHS for a replay or a recording, not for a study: shorten the run \
+                        or measure less often)",
             });
         }
         let range = self.shard.runs(self.runs);

@@ -13,20 +13,47 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use std::ops::Range;
 
 /// The most epochs a replay scores (it scores the first this many epochs of a run and filters on
-/// after them). A summary holds fewer: at most [`MAX_STUDY_EPOCHS`] per series and trace.
+/// after them), and the most a recording keeps. A summary holds fewer: at most
+/// [`MAX_STUDY_EPOCHS`] = 2¹⁴ per series and trace, so a scenario whose settings are valid up to
+/// this limit (a replay's, a recording's) is refused by a study beyond 2¹⁴ epochs, before any run
+/// ([`Study::run`](crate::Study::run)).
 pub const MAX_EPOCHS: usize = 1 << 24;
 
-/// The most distinct failure reasons kept; further reasons are counted under one entry.
+/// The most distinct failure reasons kept: the first in byte order (alphabetically, for ASCII), the
+/// others counted under one entry, "other reasons". Which reasons are kept depends only on the set
+/// of reasons, not on the order the runs failed in or the summaries were merged in, so a study
+/// sharded or run in parallel gives the same summary, bit for bit.
 pub const MAX_FAILURE_REASONS: usize = 64;
 
 /// Where failures beyond [`MAX_FAILURE_REASONS`] distinct reasons are counted.
 const OTHER_REASONS: &str = "other reasons";
 
-/// The statistics over runs of one metric at each epoch.
+/// The statistics over runs of one metric at each epoch: at most [`MAX_STUDY_EPOCHS`] = 2¹⁴
+/// epochs, however it is built. Read from a file (on its own or in a summary), a series of more
+/// epochs is refused at the first epoch beyond the limit, before the rest is read.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MetricSeries {
+    #[serde(deserialize_with = "read_epochs")]
     epochs: Vec<RunningStats>,
+}
+
+/// A series' epochs as a file holds them: at most [`MAX_STUDY_EPOCHS`].
+fn read_epochs<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<RunningStats>, D::Error> {
+    crate::bounded::vec(
+        d,
+        MAX_STUDY_EPOCHS,
+        "a metric series' epochs (MAX_STUDY_EPOCHS = 2^14 = 16384 at most)",
+    )
+}
+
+/// A trace's epoch times as a file holds them: at most [`MAX_STUDY_EPOCHS`].
+fn read_times<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    crate::bounded::vec(
+        d,
+        MAX_STUDY_EPOCHS,
+        "a trace's times (MAX_STUDY_EPOCHS = 2^14 = 16384 epochs at most)",
+    )
 }
 
 impl MetricSeries {
@@ -54,7 +81,9 @@ impl MetricSeries {
         Ok(())
     }
 
-    /// Adds the runs of another series.
+    /// Adds the runs of another series, epoch by epoch as [`RunningStats::merge`] (an epoch whose
+    /// merged count would exceed `u64::MAX` values is left unchanged: two series of a
+    /// [`Summary`] of disjoint runs never reach it, their counts being bounded by their runs).
     pub fn merge(&mut self, other: &MetricSeries) {
         if self.epochs.len() < other.epochs.len() {
             self.epochs
@@ -70,13 +99,28 @@ impl MetricSeries {
         &self.epochs
     }
 
-    /// All epochs pooled: the statistics of every value of every run.
+    /// All epochs pooled: the statistics of every value of every run. An epoch that would take
+    /// the pooled statistics beyond `u64::MAX` values is left out ([`RunningStats::merge`]), which
+    /// only a series read from a file can reach; [`try_pooled`](Self::try_pooled) refuses it.
     pub fn pooled(&self) -> RunningStats {
         let mut all = RunningStats::new();
         for e in &self.epochs {
             all.merge(e);
         }
         all
+    }
+
+    /// All epochs pooled, as [`pooled`](Self::pooled).
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] when the epochs hold more than `u64::MAX` values in all
+    /// ([`RunningStats::try_merge`]).
+    pub fn try_pooled(&self) -> Result<RunningStats, ExperimentError> {
+        let mut all = RunningStats::new();
+        for e in &self.epochs {
+            all.try_merge(e)?;
+        }
+        Ok(all)
     }
 }
 
@@ -106,7 +150,9 @@ pub struct SummaryMetric {
 pub struct Trace {
     /// The run's index.
     pub run: u64,
-    /// The time of each epoch (s).
+    /// The time of each epoch (s): at most [`MAX_STUDY_EPOCHS`] (a file holding more is refused
+    /// at the first beyond).
+    #[serde(deserialize_with = "read_times")]
     pub times: Vec<f64>,
     /// `values[k * metrics + j]`: metric j of the summary at epoch k (NaN where it has none;
     /// in a file `null`, and the infinities `"inf"` and `"-inf"`).
@@ -165,9 +211,10 @@ pub struct StudyLabel {
 ///
 /// Read from a file, a summary is checked whole, so that what merges and what is reported can be
 /// trusted: run ranges sorted, disjoint and inside the study; metric names distinct; at every epoch
-/// no more values than runs covered; per-run values of covered runs only; a trace of run 0 with
-/// each epoch once, in increasing time; each [`RunningStats`] consistent. The error names the
-/// field at fault.
+/// no more values than runs covered; counts that agree across fields (no more times at an epoch
+/// than successful runs, no more values of a metric there than times); per-run values of covered
+/// runs only; a trace of run 0 with each epoch once, in increasing time; each [`RunningStats`]
+/// consistent. The error names the field at fault.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "SummaryFields")]
 pub struct Summary {
@@ -189,9 +236,22 @@ struct SummaryFields {
     runs: Vec<Range<u64>>,
     metrics: Vec<SummaryMetric>,
     times: MetricSeries,
+    #[serde(deserialize_with = "read_failures")]
     failures: BTreeMap<String, u64>,
     trace: Option<Trace>,
     timing: RunningStats,
+}
+
+/// A summary's failures as a file holds them: at most [`MAX_FAILURE_REASONS`] reasons and "other
+/// reasons" (refused at the first beyond, before the rest takes memory).
+fn read_failures<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<BTreeMap<String, u64>, D::Error> {
+    crate::bounded::map(
+        d,
+        MAX_FAILURE_REASONS + 1,
+        "failures (MAX_FAILURE_REASONS = 64 reasons and \"other reasons\" at most)",
+    )
 }
 
 impl TryFrom<SummaryFields> for Summary {
@@ -247,8 +307,12 @@ impl Summary {
     ///   values (finite and not) than runs covered; at most [`MAX_FAILURE_REASONS`] reasons besides
     ///   "other reasons";
     /// - per-run values only for covered runs;
-    /// - a trace of run 0, covered, with finite, strictly increasing epoch times (each epoch once)
-    ///   and one value per epoch and metric.
+    /// - counts that agree across fields ([`check_counts`](Self::check_counts)): times finite, no
+    ///   more at an epoch than at the one before nor, at the first, than successful runs (timed);
+    ///   no more epochs in a metric's series than in the times, no more values of a metric at an
+    ///   epoch than times there, no more per-run values than successful runs;
+    /// - a trace of run 0, covered, with finite, strictly increasing epoch times (each epoch once),
+    ///   no more epochs than the times, and one value per epoch and metric.
     ///
     /// (Each [`RunningStats`] is checked on its own when read.)
     ///
@@ -309,10 +373,11 @@ impl Summary {
             }
         }
         series("times", &self.times)?;
-        if self.failures.len() > MAX_FAILURE_REASONS + 1 {
+        let reasons = self.failures.len() - usize::from(self.failures.contains_key(OTHER_REASONS));
+        if reasons > MAX_FAILURE_REASONS {
             return Err(format!(
-                "failures: {} reasons, more than {MAX_FAILURE_REASONS} and \"{OTHER_REASONS}\"",
-                self.failures.len()
+                "failures: {reasons} reasons besides \"{OTHER_REASONS}\", more than the \
+                 {MAX_FAILURE_REASONS} kept"
             ));
         }
         let failed = self
@@ -322,8 +387,93 @@ impl Summary {
             .filter(|&n| n <= runs)
             .ok_or_else(|| format!("failures: more failed runs than the {runs} runs covered"))?;
         within("timing", &self.timing, failed)?;
+        self.check_counts()?;
         if let Some(trace) = &self.trace {
             self.check_trace(trace)?;
+        }
+        Ok(())
+    }
+
+    /// The part of [`check`](Self::check) that relates the counts of different fields, as every
+    /// summary built by recording runs has them: a successful run is timed once and adds its time
+    /// at each of its epochs (from the first) and at most one value per metric there, a failed run
+    /// adds nothing but its reason. So the times are finite, their counts do not increase with the
+    /// epoch and the first is at most the runs timed; each metric has no more epochs than the
+    /// times, no more values at an epoch than times there, and no more per-run values than runs
+    /// timed. (The timing and the failures together are bounded by the runs covered, checked
+    /// before.)
+    fn check_counts(&self) -> Result<(), String> {
+        // Checked before: the timing's counts and the failures sum within u64.
+        let timed = self.timing.count() + self.timing.non_finite();
+        let times = &self.times.epochs;
+        let mut before = timed;
+        for (k, t) in times.iter().enumerate() {
+            if t.non_finite() > 0 {
+                return Err(format!(
+                    "times, epoch {k}: non_finite is {}, but epoch times are finite",
+                    t.non_finite()
+                ));
+            }
+            if t.count() > before {
+                return Err(if k == 0 {
+                    format!(
+                        "times, epoch 0: count {} is more than the {timed} successful runs \
+                         (timing: count plus non_finite; a failed run has no times)",
+                        t.count()
+                    )
+                } else {
+                    format!(
+                        "times, epoch {k}: count {} is more than the {before} of epoch {} (a \
+                         run has its epochs from the first)",
+                        t.count(),
+                        k - 1
+                    )
+                });
+            }
+            before = t.count();
+        }
+        for m in &self.metrics {
+            let epochs = &m.series.epochs;
+            if epochs.len() > times.len() {
+                return Err(format!(
+                    "metric {:?}: its series has {} epochs, more than the {} of times",
+                    m.name,
+                    epochs.len(),
+                    times.len()
+                ));
+            }
+            for (k, (e, t)) in epochs.iter().zip(times).enumerate() {
+                // Each within the runs covered, checked before: the sum fits u64.
+                if e.count() + e.non_finite() > t.count() {
+                    return Err(format!(
+                        "metric {:?}, epoch {k}: count {} and non_finite {} are more values \
+                         than the {} runs that times holds at that epoch",
+                        m.name,
+                        e.count(),
+                        e.non_finite(),
+                        t.count()
+                    ));
+                }
+            }
+            if let Some(values) = &m.per_run {
+                if values.values().len() as u64 > timed {
+                    return Err(format!(
+                        "metric {:?}, per_run: {} run values, more than the {timed} successful \
+                         runs (timing: count plus non_finite)",
+                        m.name,
+                        values.values().len()
+                    ));
+                }
+            }
+        }
+        if let Some(trace) = &self.trace {
+            if trace.times.len() > times.len() {
+                return Err(format!(
+                    "trace: {} epochs, more than the {} of times",
+                    trace.times.len(),
+                    times.len()
+                ));
+            }
         }
         Ok(())
     }
@@ -484,10 +634,10 @@ impl Summary {
             for (k, x) in column.clone().enumerate() {
                 metric.series.add(k, x)?;
             }
-            if let Some(values) = &mut metric.per_run
-                && run < MAX_KEPT_RUNS
-            {
-                values.insert(run, run_value(metric.reduction, column));
+            if let Some(values) = &mut metric.per_run {
+                if run < MAX_KEPT_RUNS {
+                    values.insert(run, run_value(metric.reduction, column));
+                }
             }
         }
         for (k, &t) in scores.times.iter().enumerate() {
@@ -580,7 +730,8 @@ impl Summary {
     }
 
     /// Records a failed run and why (the error's message); beyond [`MAX_FAILURE_REASONS`] distinct
-    /// reasons, under "other reasons".
+    /// reasons, only the first in byte order are kept and the others counted under "other
+    /// reasons" (see [`MAX_FAILURE_REASONS`]).
     ///
     /// # Errors
     /// [`ExperimentError::Incompatible`] when the summary already holds a run (successful or
@@ -591,17 +742,33 @@ impl Summary {
         Ok(())
     }
 
-    /// Adds `count` failures under `reason` (or "other reasons"), saturating: the counts of a
-    /// summary read from a file may be as large as u64 holds.
+    /// Adds `count` failures under `reason`, saturating (the counts of a summary its reader
+    /// accepts are bounded by its runs), then keeps the first [`MAX_FAILURE_REASONS`] reasons in
+    /// byte order and counts the failures of the others under "other reasons". A reason among the
+    /// first of all a study's reasons is among the first of every part that holds it, so it is
+    /// never folded: the result does not depend on the order of the failures or of the merges.
     fn count_failures(&mut self, reason: &str, count: u64) {
-        let key = if self.failures.contains_key(reason) || self.failures.len() < MAX_FAILURE_REASONS
-        {
-            reason
-        } else {
-            OTHER_REASONS
-        };
-        let total = self.failures.entry(key.to_owned()).or_default();
+        let total = self.failures.entry(reason.to_owned()).or_default();
         *total = total.saturating_add(count);
+        loop {
+            let reasons =
+                self.failures.len() - usize::from(self.failures.contains_key(OTHER_REASONS));
+            if reasons <= MAX_FAILURE_REASONS {
+                return;
+            }
+            let Some(last) = self
+                .failures
+                .keys()
+                .rev()
+                .find(|k| *k != OTHER_REASONS)
+                .cloned()
+            else {
+                return;
+            };
+            let folded = self.failures.remove(&last).unwrap_or_default();
+            let other = self.failures.entry(OTHER_REASONS.to_owned()).or_default();
+            *other = other.saturating_add(folded);
+        }
     }
 
     /// The metrics, in the order the scorer gave them.

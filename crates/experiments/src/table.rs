@@ -84,10 +84,15 @@ impl Table {
     }
 
     /// Checks what a table must satisfy before it is reported (built in code or read from a file):
-    /// a plain name of at most [`MAX_NAME_LEN`] characters not starting with `.`, a reference row
-    /// among its rows, metrics kept per run with plain names (they name files), run ranges sorted,
-    /// disjoint and inside the study, a study of at most [`MAX_RUNS`] runs, and a trace with one
-    /// value per metric and epoch.
+    /// a plain name of at most [`MAX_NAME_LEN`] characters not starting with `.`, at least one row,
+    /// a reference row among its rows, metrics kept per run with plain names (they name files), run
+    /// ranges sorted, disjoint and inside the study, a study of 1 to [`MAX_RUNS`] runs in each row,
+    /// and a trace with one value per metric and epoch.
+    ///
+    /// A table without rows, or with a row of a study of 0 runs, is refused here, so when it is
+    /// read (a reader runs this check on every file, as the command line's `merge` does) and when
+    /// it is built ([`Table::new`]): no study has such rows ([`Study::new`](crate::Study::new)
+    /// refuses 0 runs), and [`missing_runs`](Self::missing_runs) would call it complete.
     ///
     /// # Errors
     /// [`ExperimentError::Invalid`] naming the table, the row and what is wrong.
@@ -100,15 +105,22 @@ impl Table {
                 self.name
             ));
         }
-        if let Some(r) = self.reference
-            && r >= self.summaries.len()
-        {
+        if self.summaries.is_empty() {
             return invalid(format!(
-                "{}: the reference row {r} is not one of its {} rows (0 to {})",
-                self.name,
-                self.summaries.len(),
-                self.summaries.len().saturating_sub(1)
+                "{}: summaries is empty, but a table has at least one row (one study per \
+                 filter compared)",
+                self.name
             ));
+        }
+        if let Some(r) = self.reference {
+            if r >= self.summaries.len() {
+                return invalid(format!(
+                    "{}: the reference row {r} is not one of its {} rows (0 to {})",
+                    self.name,
+                    self.summaries.len(),
+                    self.summaries.len() - 1
+                ));
+            }
         }
         for metric in self.per_run_metrics() {
             if !is_plain_name(&metric) {
@@ -122,8 +134,11 @@ impl Table {
         for s in &self.summaries {
             let label = s.label();
             let bad = |what: String| invalid(format!("{}, row {}: {what}", self.name, label.name));
-            if label.runs > MAX_RUNS {
-                return bad(format!("{} runs, more than {MAX_RUNS}", label.runs));
+            if label.runs == 0 || label.runs > MAX_RUNS {
+                return bad(format!(
+                    "label.runs is {}, outside [1, {MAX_RUNS}] (a study has at least one run)",
+                    label.runs
+                ));
             }
             let mut end = 0;
             for r in s.runs() {

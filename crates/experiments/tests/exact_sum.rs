@@ -140,3 +140,86 @@ fn non_finite_values_follow_ieee() {
     a.merge(&sum(&[f64::NEG_INFINITY]));
     assert!(a.value().is_nan());
 }
+
+/// Audit 13 B2: merging a sum with itself added its top limbs without a bound, so about 110
+/// self-merges of a sum holding `f64::MAX` overflowed an i64 (a panic with overflow checks, a wrong
+/// sign without them). A merge now saturates to ±∞ past 2¹¹⁰², with `value` ±∞ as the exact total
+/// rounds, and the result reads back from its file.
+#[test]
+fn self_merges_beyond_the_bound_saturate_to_infinity() {
+    for (x, infinity) in [(f64::MAX, f64::INFINITY), (-f64::MAX, f64::NEG_INFINITY)] {
+        let mut sum: ExactSum = [x].into_iter().collect();
+        for _ in 0..200 {
+            let copy = sum.clone();
+            sum.merge(&copy);
+        }
+        assert_eq!(sum.value().to_bits(), infinity.to_bits());
+        let back: ExactSum = serde_json::from_str(&serde_json::to_string(&sum).unwrap()).unwrap();
+        assert_eq!(back, sum);
+    }
+}
+
+/// Audit 13 B2: `try_merge` refuses a total of 2¹¹⁰² or more in magnitude with a typed error and
+/// leaves the sum unchanged; every total below reads back from its file.
+#[test]
+fn try_merge_refuses_a_total_beyond_the_bound() {
+    let mut sum: ExactSum = [f64::MAX].into_iter().collect();
+    let mut doublings = 0;
+    let error = loop {
+        let copy = sum.clone();
+        let before = sum.clone();
+        match sum.try_merge(&copy) {
+            Ok(()) => doublings += 1,
+            Err(error) => {
+                assert_eq!(sum, before);
+                break error;
+            }
+        }
+        let back: ExactSum = serde_json::from_str(&serde_json::to_string(&sum).unwrap()).unwrap();
+        assert_eq!(back, sum);
+    };
+    // f64::MAX < 2^1024: 2^78 of it stay below 2^1102, 2^79 do not.
+    assert_eq!(doublings, 78);
+    assert!(
+        matches!(
+            error,
+            liebayes_experiments::ExperimentError::OutOfRange { .. }
+        ),
+        "{error}"
+    );
+    assert!(error.to_string().contains("2^1102"), "{error}");
+    // A sum of the opposite sign still merges exactly.
+    let mut negative: ExactSum = [-f64::MAX].into_iter().collect();
+    negative.add(1.0);
+    sum.try_merge(&negative).unwrap();
+}
+
+/// Audit 13 item 13: an exact sum's limbs are read into their 68 places and refused at the 69th
+/// (before, the whole array was built, whatever its length, then refused).
+#[test]
+fn more_than_68_limbs_are_refused_at_the_69th() {
+    let file = |limbs: usize| {
+        format!(
+            r#"{{"limbs": [{}], "nan": false, "positive_infinity": false, "negative_infinity": false}}"#,
+            vec!["0"; limbs].join(",")
+        )
+    };
+    assert_eq!(
+        serde_json::from_str::<ExactSum>(&file(68)).unwrap(),
+        ExactSum::new()
+    );
+    let errors = [69, 1_000_000].map(|n| {
+        serde_json::from_str::<ExactSum>(&file(n))
+            .unwrap_err()
+            .to_string()
+    });
+    assert!(
+        errors[0].contains("more than the limit of 68"),
+        "{}",
+        errors[0]
+    );
+    // Refused where the 69th limb is (the same place), not at the end of the array.
+    assert_eq!(errors[0], errors[1]);
+    let error = serde_json::from_str::<ExactSum>(&file(67)).unwrap_err();
+    assert!(error.to_string().contains("68 limbs, not 67"), "{error}");
+}

@@ -154,3 +154,95 @@ proptest! {
         prop_assert_eq!(back, s);
     }
 }
+
+/// `(2⁶⁴ − 1) · x`, exactly: `x` doubled 64 times, less `x`.
+fn times_u64_max(x: f64) -> liebayes_experiments::ExactSum {
+    let mut sum: liebayes_experiments::ExactSum = [x].into_iter().collect();
+    for _ in 0..64 {
+        let copy = sum.clone();
+        sum.merge(&copy);
+    }
+    sum.add(-x);
+    sum
+}
+
+/// A stream of `u64::MAX` values, every one `f64::MAX`, as a file holds it (no process adds that
+/// many): its reader accepts it, its mean is `f64::MAX`.
+fn full_stream() -> RunningStats {
+    let scaled = f64::MAX * 2f64.powi(-512);
+    let json = serde_json::json!({
+        "count": u64::MAX,
+        "non_finite": 0,
+        "sum": times_u64_max(f64::MAX),
+        "sum_of_squares": liebayes_experiments::ExactSum::new(),
+        "sum_of_large_squares": times_u64_max(scaled * scaled),
+        "min": f64::MAX,
+        "max": f64::MAX,
+    });
+    let stats: RunningStats = serde_json::from_value(json).unwrap();
+    assert_eq!(stats.mean(), Some(f64::MAX));
+    stats
+}
+
+/// Audit 13 B2: merging two streams whose counts sum beyond `u64::MAX` saturated the count while the
+/// exact sums kept growing, so the mean became +∞ (and left [min, max] with more merges). The
+/// merge is refused instead: `try_merge` with a typed error naming the counts, `merge` leaving the
+/// statistics unchanged; a merge up to `u64::MAX` values is exact.
+#[test]
+fn a_merge_beyond_u64_max_values_is_refused_not_saturated() {
+    let full = full_stream();
+    let mut merged = full.clone();
+    merged.merge(&full);
+    assert_eq!(merged, full);
+    assert_eq!(merged.mean(), Some(f64::MAX));
+    for _ in 0..4 {
+        merged.merge(&full);
+    }
+    assert_eq!(merged.mean(), Some(f64::MAX));
+    let mut tried = full.clone();
+    let error = tried.try_merge(&full).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            liebayes_experiments::ExperimentError::OutOfRange { .. }
+        ),
+        "{error}"
+    );
+    let message = error.to_string();
+    assert!(
+        message.contains("count plus non_finite") && message.contains("2^64 - 1"),
+        "{message}"
+    );
+    assert_eq!(tried, full);
+    // One non-finite value beyond a full count is refused as well.
+    assert!(tried.try_merge(&stats(&[f64::NAN])).is_err());
+    // Up to u64::MAX values in all, the merge is exact.
+    let mut one_short: RunningStats = {
+        let mut json = serde_json::to_value(&full).unwrap();
+        json["count"] = (u64::MAX - 1).into();
+        let mut sum = times_u64_max(f64::MAX);
+        sum.add(-f64::MAX);
+        json["sum"] = serde_json::to_value(&sum).unwrap();
+        serde_json::from_value(json).unwrap()
+    };
+    one_short.try_merge(&stats(&[f64::MAX])).unwrap();
+    assert_eq!(one_short.count(), u64::MAX);
+    assert_eq!(one_short.mean(), Some(f64::MAX));
+}
+
+/// Audit 13 B2, the same through `add`: values added to a stream already holding `u64::MAX`
+/// values saturated the count and grew the sum, until the mean was +∞. They are left out, so the
+/// statistics stay those of the values counted.
+#[test]
+fn values_beyond_u64_max_are_not_added() {
+    let full = full_stream();
+    let mut grown = full.clone();
+    for _ in 0..10_000 {
+        grown.add(f64::MAX);
+    }
+    grown.add(f64::NAN);
+    assert_eq!(grown, full);
+    assert_eq!(grown.mean(), Some(f64::MAX));
+    let back: RunningStats = serde_json::from_str(&serde_json::to_string(&grown).unwrap()).unwrap();
+    assert_eq!(back, full);
+}

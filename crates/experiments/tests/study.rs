@@ -367,3 +367,29 @@ fn a_refused_method_stops_the_study_before_any_run() {
     assert!(std::error::Error::source(&error).is_some());
     assert_eq!(runs.load(std::sync::atomic::Ordering::Relaxed), 0);
 }
+
+/// Audit 13 F11: a scenario's settings may be valid up to `MAX_EPOCHS` = 2^24 epochs (what a
+/// replay scores and a recording keeps) while a study holds 2^14. The study refuses more before
+/// any run (the scenario is not simulated), naming both limits and what to change.
+#[test]
+fn a_study_refuses_more_epochs_than_it_holds_naming_both_limits() {
+    let epochs = liebayes_experiments::MAX_STUDY_EPOCHS + 1;
+    let error = Study::new("EKF, heading", 2, 11, Shard::WHOLE)
+        .unwrap()
+        .run(
+            &Heading { steps: 2 * epochs },
+            &|_| filter(SIGMA),
+            &PerRunError,
+            &|_| {},
+        )
+        .unwrap_err();
+    let message = error.to_string();
+    assert!(
+        matches!(error, ExperimentError::OutOfRange { .. })
+            && message.contains("is 16385")
+            && message.contains("MAX_STUDY_EPOCHS")
+            && message.contains("2^24 = MAX_EPOCHS")
+            && message.contains("shorten the run"),
+        "{message}"
+    );
+}

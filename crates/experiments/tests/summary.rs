@@ -380,7 +380,7 @@ fn a_run_of_more_epochs_than_a_study_holds_is_refused() {
         epochs.resize(MAX_STUDY_EPOCHS + 1, first);
     })
     .unwrap_err();
-    assert!(error.contains("epochs, more than 16384"), "{error}");
+    assert!(error.contains("more than the limit of 16384"), "{error}");
 }
 
 #[test]
@@ -393,4 +393,222 @@ fn a_summary_of_runs_outside_its_study_is_refused() {
     assert!(Summary::new(label(0, 2), 0..2).is_ok());
     // An empty range covers nothing, wherever it starts.
     assert_eq!(Summary::new(label(0, 2), 5..5).unwrap().run_count(), 0);
+}
+
+/// Audit 13 C2: a metric series read on its own (not inside a summary) took any number of epochs;
+/// it is refused at the first epoch beyond 2^14, with the limit in the message.
+#[test]
+fn a_metric_series_read_on_its_own_holds_at_most_2_14_epochs() {
+    let mut series = liebayes_experiments::MetricSeries::default();
+    series.add(0, 1.0).unwrap();
+    let mut json = serde_json::to_value(&series).unwrap();
+    let epochs = json["epochs"].as_array_mut().unwrap();
+    let first = epochs[0].clone();
+    epochs.resize(MAX_STUDY_EPOCHS, first.clone());
+    let full: liebayes_experiments::MetricSeries = serde_json::from_value(json.clone()).unwrap();
+    assert_eq!(full.epochs().len(), MAX_STUDY_EPOCHS);
+    json["epochs"].as_array_mut().unwrap().push(first);
+    let error = serde_json::from_str::<liebayes_experiments::MetricSeries>(&json.to_string())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("metric series") && error.contains("more than the limit of 16384"),
+        "{error}"
+    );
+}
+
+/// The JSON of a summary of `runs` runs (0..runs of as many), every one successful with the
+/// given number of epochs.
+fn successful(runs: u64, epochs: usize) -> serde_json::Value {
+    let mut summary = Summary::new(label(0, runs), 0..runs).unwrap();
+    for run in 0..runs {
+        let values = (0..2 * epochs).map(|i| 1.0 + i as f64).collect();
+        summary.add_run(run, &scores(values)).unwrap();
+    }
+    serde_json::to_value(&summary).unwrap()
+}
+
+/// Audit 13, CLI item 3: a summary's fields were checked each against the runs covered, never
+/// against each other, so a `times` series shorter than the metrics (moving every "final epoch"
+/// figure) or failures that the values held contradict were read and reported. Each is refused
+/// when read, naming the field.
+#[test]
+fn counts_that_disagree_across_fields_are_refused_naming_the_field() {
+    let read = |json: &serde_json::Value| serde_json::from_value::<Summary>(json.clone());
+    let four = successful(4, 3);
+    read(&four).unwrap();
+    let two = successful(2, 3);
+    let empty_timing = serde_json::to_value(liebayes_experiments::RunningStats::new()).unwrap();
+    let cases: [(&str, Box<Edit>); 5] = [
+        (
+            "metric \"error\": its series has 3 epochs, more than the 1 of times",
+            Box::new(|j| j["times"]["epochs"].as_array_mut().unwrap().truncate(1)),
+        ),
+        (
+            "times, epoch 0: count 4 is more than the 0 successful runs",
+            Box::new(move |j| {
+                j["failures"] = serde_json::json!({"diverged": 4});
+                j["timing"] = empty_timing.clone();
+            }),
+        ),
+        (
+            "metric \"error\", epoch 0: count 4 and non_finite 0 are more values than the 2 runs",
+            Box::new(move |j| j["times"] = two["times"].clone()),
+        ),
+        (
+            "times, epoch 1: count 4 is more than the 2 of epoch 0",
+            Box::new(|j| {
+                j["times"]["epochs"][0] = successful(2, 3)["times"]["epochs"][0].clone();
+            }),
+        ),
+        (
+            "trace: 3 epochs, more than the 2 of times",
+            Box::new(|j| {
+                j["times"]["epochs"].as_array_mut().unwrap().truncate(2);
+                for m in 0..2 {
+                    j["metrics"][m]["series"]["epochs"]
+                        .as_array_mut()
+                        .unwrap()
+                        .truncate(2);
+                }
+            }),
+        ),
+    ];
+    for (field, edit) in cases {
+        let mut json = four.clone();
+        edit(&mut json);
+        let error = read(&json).unwrap_err().to_string();
+        assert!(error.contains(field), "{field}: {error}");
+    }
+}
+
+/// `runs` failed runs from `first`, each under its own reason `{prefix}{i:02}`.
+fn failed(prefix: &str, first: u64, runs: u64, total: u64) -> Summary {
+    let mut summary = Summary::new(label(0, total), first..first + runs).unwrap();
+    for i in 0..runs {
+        summary.add_failure(&format!("{prefix}{i:02}")).unwrap();
+    }
+    summary
+}
+
+/// Audit 13, CLI item 4: beyond 64 distinct failure reasons, the reasons kept were the first met,
+/// so `merge A B` and `merge B A` gave different summaries (and a parallel study depended on its
+/// scheduling). The first 64 in byte order are kept: every order gives the same JSON, bit for bit.
+#[test]
+fn merges_in_either_order_keep_the_same_failure_reasons() {
+    let (a, b) = (failed("b", 0, 64, 128), failed("a", 64, 64, 128));
+    let mut ab = a.clone();
+    ab.merge(&b).unwrap();
+    let mut ba = b.clone();
+    ba.merge(&a).unwrap();
+    let json = |s: &Summary| serde_json::to_string(s).unwrap();
+    assert_eq!(json(&ab), json(&ba));
+    assert_eq!(ab.failures().len(), 65);
+    assert_eq!(ab.failures()["other reasons"], 64);
+    assert!(
+        ab.failures()
+            .keys()
+            .filter(|k| *k != "other reasons")
+            .all(|k| k.starts_with('a'))
+    );
+    // Three parts in every order, and one summary failing in the reverse order: the same.
+    let parts = [
+        failed("c", 0, 40, 120),
+        failed("a", 40, 40, 120),
+        failed("b", 80, 40, 120),
+    ];
+    let mut merged = Vec::new();
+    for order in [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ] {
+        let mut m = Summary::default();
+        for i in order {
+            m.merge(&parts[i]).unwrap();
+        }
+        merged.push(json(&m));
+    }
+    let mut one = Summary::new(label(0, 120), 0..120).unwrap();
+    for prefix in ["c", "b", "a"] {
+        for i in (0..40).rev() {
+            one.add_failure(&format!("{prefix}{i:02}")).unwrap();
+        }
+    }
+    merged.push(json(&one));
+    assert!(merged.iter().all(|m| *m == merged[0]), "{merged:?}");
+    // Read back, the summary merges the same way.
+    let back: Summary = serde_json::from_str(&merged[0]).unwrap();
+    assert_eq!(json(&back), merged[0]);
+}
+
+/// Audit 13 B2, through a series: pooling epochs whose counts sum beyond `u64::MAX` saturated the
+/// count. `try_pooled` refuses it with a typed error; `pooled` leaves the epoch beyond out.
+#[test]
+fn pooling_beyond_u64_max_values_is_refused() {
+    let half = 1_u64 << 63;
+    let sum: liebayes_experiments::ExactSum = [half as f64].into_iter().collect();
+    let epoch = serde_json::json!({
+        "count": half, "non_finite": 0, "sum": sum, "sum_of_squares": sum,
+        "min": 1.0, "max": 1.0,
+    });
+    let series: liebayes_experiments::MetricSeries =
+        serde_json::from_value(serde_json::json!({ "epochs": [epoch, epoch] })).unwrap();
+    let error = series.try_pooled().unwrap_err();
+    assert!(
+        matches!(error, ExperimentError::OutOfRange { .. })
+            && error.to_string().contains("count plus non_finite"),
+        "{error}"
+    );
+    let pooled = series.pooled();
+    assert_eq!((pooled.count(), pooled.mean()), (half, Some(1.0)));
+    assert_eq!(&pooled, &series.epochs()[0]);
+}
+
+/// Audit 13, CLI item 13: a summary's failures, an exact sum's limbs, a series' epochs and a
+/// trace's times are refused at their first element beyond their limit, where they stood (the
+/// same error for a file far longer), instead of being built whole and refused after.
+#[test]
+fn long_fields_are_refused_at_their_first_element_beyond_the_limit() {
+    let summary = failed("reason ", 0, 3, 3);
+    let with = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut json = serde_json::to_value(&summary).unwrap();
+        edit(&mut json);
+        serde_json::from_str::<Summary>(&json.to_string())
+            .unwrap_err()
+            .to_string()
+    };
+    let reasons = |n: usize| {
+        move |j: &mut serde_json::Value| {
+            for i in 0..n {
+                j["failures"][format!("{i:06}")] = 0.into();
+            }
+        }
+    };
+    let errors = [with(&reasons(66)), with(&reasons(100_000))];
+    assert!(
+        errors[0].contains("failures") && errors[0].contains("more than the limit of 65"),
+        "{}",
+        errors[0]
+    );
+    assert_eq!(errors[0], errors[1]);
+    let times = |n: usize| {
+        move |j: &mut serde_json::Value| {
+            j["trace"] = serde_json::json!({
+                "run": 0,
+                "times": (0..n).map(|k| k as f64).collect::<Vec<_>>(),
+                "values": [],
+            });
+        }
+    };
+    let errors = [with(&times(MAX_STUDY_EPOCHS + 1)), with(&times(100_000))];
+    assert!(
+        errors[0].contains("trace's times") && errors[0].contains("more than the limit of 16384"),
+        "{}",
+        errors[0]
+    );
+    assert_eq!(errors[0], errors[1]);
 }

@@ -261,3 +261,72 @@ fn merged_shards_compare_as_the_whole() {
             .contains("\"a/b\"")
     );
 }
+
+/// Audit 13, CLI item 12: a table with no rows, or with a row of a study of 0 runs, was accepted
+/// and reported as a complete study (no runs missing). It is refused by `validate`, so when it is
+/// built and when a reader checks a file, naming the field.
+#[test]
+fn a_table_without_rows_or_with_a_row_of_0_runs_is_refused() {
+    let error = Table::new("empty", "Empty", Vec::new(), None).unwrap_err();
+    assert!(
+        matches!(&error, ExperimentError::Invalid(m) if m.contains("table empty: summaries is empty")),
+        "{error}"
+    );
+    let no_runs = StudyLabel {
+        name: "A".to_owned(),
+        seed: 7,
+        runs: 0,
+    };
+    let row = Summary::new(no_runs, 0..0).unwrap();
+    let error = Table::new("zero", "Zero", vec![row.clone()], None).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("table zero, row A: label.runs is 0"),
+        "{error}"
+    );
+    // Read from a file (which parses whatever rows it holds), the reader's check refuses both.
+    for (summaries, field) in [
+        (vec![], "summaries is empty"),
+        (vec![row], "label.runs is 0"),
+    ] {
+        let file = serde_json::json!({
+            "name": "t", "title": "T", "summaries": summaries, "reference": null,
+        });
+        let read: Table = serde_json::from_value(file).unwrap();
+        assert!(read.missing_runs().is_empty());
+        let error = read.validate().unwrap_err().to_string();
+        assert!(error.contains(field), "{field}: {error}");
+    }
+}
+
+/// Audit 13, CLI item 4, through tables: two shards whose failures hold more distinct reasons than
+/// a summary keeps merge to the same table, bit for bit, in either order.
+#[test]
+fn table_shards_merge_to_the_same_json_in_either_order() {
+    let shard = |runs: Range<u64>, prefix: &str| {
+        let label = StudyLabel {
+            name: "A".to_owned(),
+            seed: 7,
+            runs: 200,
+        };
+        let mut s = Summary::new(label, runs.clone()).unwrap();
+        for r in runs {
+            s.add_failure(&format!("{prefix} at step {r}")).unwrap();
+        }
+        Table::new("failing", "Failing", vec![s], None).unwrap()
+    };
+    let (first, second) = (
+        shard(0..100, "not positive definite"),
+        shard(100..200, "diverged"),
+    );
+    let mut ab = first.clone();
+    ab.merge(&second).unwrap();
+    let mut ba = second;
+    ba.merge(&first).unwrap();
+    assert_eq!(
+        serde_json::to_string(&ab).unwrap(),
+        serde_json::to_string(&ba).unwrap()
+    );
+    assert_eq!(ab.summaries[0].failures()["other reasons"], 200 - 64);
+}
