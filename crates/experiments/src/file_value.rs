@@ -48,19 +48,13 @@ impl<'de> Deserialize<'de> for FileValue {
     }
 }
 
-/// Values in their file form, for `#[serde(with = "file_values")]`.
+/// Values in their file form, for `#[serde(serialize_with = "file_values::serialize")]` (read
+/// back through a bounded reader of [`FileValue`]s).
 pub(crate) mod file_values {
     use super::FileValue;
-    use serde::{Deserialize, Deserializer, Serializer};
+    use serde::Serializer;
 
     pub(crate) fn serialize<S: Serializer>(values: &[f64], s: S) -> Result<S::Ok, S::Error> {
         s.collect_seq(values.iter().map(|&v| FileValue(v)))
-    }
-
-    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
-        Ok(Vec::<FileValue>::deserialize(d)?
-            .into_iter()
-            .map(|v| v.0)
-            .collect())
     }
 }

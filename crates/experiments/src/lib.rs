@@ -107,6 +107,7 @@ pub use smoothing::{Smoothed, Smoother, Smoothing};
 pub use statistics::RunningStats;
 pub use study::{MAX_RUNS, MAX_STUDY_EPOCHS, Study};
 pub use summary::{
-    MAX_EPOCHS, MAX_FAILURE_REASONS, MetricSeries, StudyLabel, Summary, SummaryMetric, Trace,
+    MAX_EPOCHS, MAX_FAILURE_REASONS, MAX_METRICS, MetricSeries, StudyLabel, Summary, SummaryMetric,
+    Trace,
 };
 pub use table::{Column, FigureKind, MissingRuns, RunComparison, Table};

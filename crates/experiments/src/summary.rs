@@ -25,6 +25,11 @@ pub const MAX_EPOCHS: usize = 1 << 24;
 /// sharded or run in parallel gives the same summary, bit for bit.
 pub const MAX_FAILURE_REASONS: usize = 64;
 
+/// The most metrics a summary holds (a study scores a dozen or so). A run, a merge or a file that
+/// would take a summary beyond it is refused: a crafted shard of 10 000 metrics made a merge take
+/// minutes, and its trace, epochs by metrics, could ask for gigabytes.
+pub const MAX_METRICS: usize = 256;
+
 /// Where failures beyond [`MAX_FAILURE_REASONS`] distinct reasons are counted.
 const OTHER_REASONS: &str = "other reasons";
 
@@ -44,6 +49,25 @@ fn read_epochs<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<RunningStat
         d,
         MAX_STUDY_EPOCHS,
         "a metric series' epochs (MAX_STUDY_EPOCHS = 2^14 = 16384 at most)",
+    )
+}
+
+/// A trace's values as a file holds them: at most [`MAX_STUDY_EPOCHS`] × [`MAX_METRICS`].
+fn read_trace_values<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let values: Vec<crate::file_value::FileValue> = crate::bounded::vec(
+        d,
+        MAX_STUDY_EPOCHS * MAX_METRICS,
+        "a trace's values (2^14 epochs of MAX_METRICS = 256 metrics at most)",
+    )?;
+    Ok(values.into_iter().map(|v| v.0).collect())
+}
+
+/// A summary's metrics as a file holds them: at most [`MAX_METRICS`].
+fn read_metrics<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<SummaryMetric>, D::Error> {
+    crate::bounded::vec(
+        d,
+        MAX_METRICS,
+        "a summary's metrics (MAX_METRICS = 256 at most)",
     )
 }
 
@@ -155,8 +179,12 @@ pub struct Trace {
     #[serde(deserialize_with = "read_times")]
     pub times: Vec<f64>,
     /// `values[k * metrics + j]`: metric j of the summary at epoch k (NaN where it has none;
-    /// in a file `null`, and the infinities `"inf"` and `"-inf"`).
-    #[serde(with = "file_values")]
+    /// in a file `null`, and the infinities `"inf"` and `"-inf"`). A file holding more than
+    /// [`MAX_STUDY_EPOCHS`] × [`MAX_METRICS`] is refused at the first value beyond.
+    #[serde(
+        serialize_with = "file_values::serialize",
+        deserialize_with = "read_trace_values"
+    )]
     pub values: Vec<f64>,
 }
 
@@ -234,6 +262,7 @@ pub struct Summary {
 struct SummaryFields {
     label: StudyLabel,
     runs: Vec<Range<u64>>,
+    #[serde(deserialize_with = "read_metrics")]
     metrics: Vec<SummaryMetric>,
     times: MetricSeries,
     #[serde(deserialize_with = "read_failures")]
@@ -355,6 +384,12 @@ impl Summary {
                 .enumerate()
                 .try_for_each(|(k, e)| within(&format!("{what}, epoch {k}"), e, 0))
         };
+        if self.metrics.len() > MAX_METRICS {
+            return Err(format!(
+                "metrics: {}, more than MAX_METRICS = {MAX_METRICS}",
+                self.metrics.len()
+            ));
+        }
         let mut names = HashSet::with_capacity(self.metrics.len());
         for m in &self.metrics {
             if !names.insert(m.name.as_str()) {
@@ -691,8 +726,9 @@ impl Summary {
     }
 
     /// Where each of `metrics` (name, rule, unit, per-run flag) is recorded (`None`: not yet),
-    /// checking that its rule, unit and per-run flag agree with the recorded ones. The names are
-    /// looked up in a hash of those held, so the work is linear in both lists.
+    /// checking that its rule, unit and per-run flag agree with the recorded ones and that the new
+    /// ones fit within [`MAX_METRICS`]. The names are looked up in a hash of those held, so the
+    /// work is linear in both lists.
     fn slots<'m>(
         &self,
         metrics: impl Iterator<Item = (&'m str, Reduction, &'m str, bool)>,
@@ -703,7 +739,7 @@ impl Summary {
             .enumerate()
             .map(|(i, m)| (m.name.as_str(), i))
             .collect();
-        metrics
+        let slots = metrics
             .map(|(name, reduction, unit, per_run)| {
                 let Some(&index) = held.get(name) else {
                     return Ok(None);
@@ -726,7 +762,16 @@ impl Summary {
                 }
                 Ok(Some(index))
             })
-            .collect()
+            .collect::<Result<Vec<_>, _>>()?;
+        let added = slots.iter().filter(|slot| slot.is_none()).count();
+        if self.metrics.len() + added > MAX_METRICS {
+            return Err(ExperimentError::OutOfRange {
+                what: "number of metrics of a summary",
+                value: (self.metrics.len() + added).to_string(),
+                range: "at most MAX_METRICS = 256",
+            });
+        }
+        Ok(slots)
     }
 
     /// Records a failed run and why (the error's message); beyond [`MAX_FAILURE_REASONS`] distinct

@@ -47,7 +47,7 @@ pub const MAX_NAME_LEN: usize = 100;
 /// # Ok::<(), liebayes_experiments::ExperimentError>(())
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "TableFields")]
 pub struct Table {
     /// The stem of the table's file names: a plain name (ASCII letters, digits, `_`, `-`, `.`).
     pub name: String,
@@ -62,8 +62,26 @@ pub struct Table {
     pub reference: Option<usize>,
 }
 
+/// The serialized form of [`Table`], checked as [`Table::new`] checks a table when converted.
+#[derive(Deserialize)]
+#[serde(rename = "Table", deny_unknown_fields)]
+struct TableFields {
+    name: String,
+    title: String,
+    summaries: Vec<Summary>,
+    reference: Option<usize>,
+}
+
+impl TryFrom<TableFields> for Table {
+    type Error = String;
+
+    fn try_from(f: TableFields) -> Result<Self, String> {
+        Self::new(&f.name, &f.title, f.summaries, f.reference).map_err(|e| e.to_string())
+    }
+}
+
 impl Table {
-    /// A table, checked ([`Table::validate`]).
+    /// A table, checked ([`Table::validate`]); a table read from a file is checked the same way.
     ///
     /// # Errors
     /// As [`Table::validate`].

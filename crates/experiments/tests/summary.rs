@@ -2,8 +2,8 @@
 //! included), in any order and through a file; overlapping shards are refused.
 
 use liebayes_experiments::{
-    ExperimentError, MAX_EPOCHS, MAX_STUDY_EPOCHS, Metric, Reduction, RunScores, Shard, StudyLabel,
-    Summary, run_rngs,
+    ExperimentError, MAX_EPOCHS, MAX_METRICS, MAX_STUDY_EPOCHS, Metric, Reduction, RunScores,
+    Shard, StudyLabel, Summary, run_rngs,
 };
 use rand::Rng;
 
@@ -611,4 +611,63 @@ fn long_fields_are_refused_at_their_first_element_beyond_the_limit() {
         errors[0]
     );
     assert_eq!(errors[0], errors[1]);
+}
+
+/// `n` distinct metric names from `first` on (leaked: a metric's name is `'static`).
+fn metric_names(first: usize, n: usize) -> Vec<&'static str> {
+    (first..first + n)
+        .map(|i| &*Box::leak(format!("metric{i:04}").into_boxed_str()))
+        .collect()
+}
+
+/// A summary holds at most `MAX_METRICS` metrics, however they come: a crafted shard of 10 000
+/// metrics made a merge take minutes (and its trace, epochs by metrics, could ask for gigabytes).
+/// A run, a merge or a file beyond the limit is refused, the summary left as it was; a file's
+/// trace values are refused at the first beyond 2^14 epochs of `MAX_METRICS` metrics.
+#[test]
+fn a_summary_holds_at_most_max_metrics() {
+    let names = metric_names(0, MAX_METRICS + 2);
+    let mut summary = Summary::new(label(0, 2), 0..2).unwrap();
+    let before = summary.clone();
+    let error = summary
+        .add_run(
+            0,
+            &named(&names[..=MAX_METRICS], vec![1.0; MAX_METRICS + 1]),
+        )
+        .unwrap_err();
+    assert!(error.to_string().contains("MAX_METRICS = 256"), "{error}");
+    assert_eq!(summary, before);
+    let half = MAX_METRICS / 2 + 1;
+    let mut a = Summary::new(label(0, 2), 0..1).unwrap();
+    a.add_run(0, &named(&names[..half], vec![1.0; half]))
+        .unwrap();
+    let mut b = Summary::new(label(0, 2), 1..2).unwrap();
+    b.add_run(1, &named(&names[half..2 * half], vec![1.0; half]))
+        .unwrap();
+    let kept = a.clone();
+    let error = a.merge(&b).unwrap_err();
+    assert!(error.to_string().contains("number of metrics"), "{error}");
+    assert_eq!(a, kept);
+    // Through a file: the metrics beyond the limit, and a trace of more values than it can hold.
+    let mut json = serde_json::to_value(&kept).unwrap();
+    let metric = json["metrics"][0].clone();
+    let metrics = json["metrics"].as_array_mut().unwrap();
+    while metrics.len() <= MAX_METRICS {
+        let mut m = metric.clone();
+        m["name"] = format!("extra{}", metrics.len()).into();
+        metrics.push(m);
+    }
+    let error = serde_json::from_str::<Summary>(&json.to_string()).unwrap_err();
+    assert!(
+        error.to_string().contains("a summary's metrics") && error.to_string().contains("256"),
+        "{error}"
+    );
+    let mut json = serde_json::to_value(&kept).unwrap();
+    json["trace"]["values"] = serde_json::json!([]);
+    let values = vec!["0"; MAX_STUDY_EPOCHS * MAX_METRICS + 1].join(",");
+    let text = json
+        .to_string()
+        .replacen("\"values\":[]", &format!("\"values\":[{values}]"), 1);
+    let error = serde_json::from_str::<Summary>(&text).unwrap_err();
+    assert!(error.to_string().contains("a trace's values"), "{error}");
 }
