@@ -48,17 +48,34 @@ pub(crate) fn check_symmetric<const N: usize>(
 
 /// A model's noise matrix (its Q or R) checked finite and symmetric before a step adds it to
 /// computed products: those are symmetrised to undo their rounding, which would otherwise take an
-/// asymmetric Q for its symmetric part without a word.
+/// asymmetric Q for its symmetric part without a word. It must also have no negative variance and
+/// no negative 2 × 2 principal minor, `q_ii q_jj ≥ q_ij²` (beyond a rounding of 1e-12 of the
+/// largest entry squared): conditions every positive semi-definite matrix meets, checked in
+/// O(N²) per step, which refuse the usual indefinite noise (a time step of the wrong sign, a
+/// correlation above 1) that would otherwise shrink the covariance it is added to.
 ///
 /// # Errors
-/// [`OperatorError::NonFinite`] or [`OperatorError::OutOfRange`] (from [`check_symmetric`]) naming
-/// `what`.
+/// [`OperatorError::NonFinite`], [`OperatorError::OutOfRange`] (from [`check_symmetric`]) or
+/// [`OperatorError::NotPositiveDefinite`] (a negative variance or minor) naming `what`.
 pub(crate) fn model_noise<const N: usize>(
     what: &'static str,
     noise: SMatrix<f64, N, N>,
 ) -> Result<SMatrix<f64, N, N>, OperatorError> {
     crate::error::all_finite(what, noise.iter())?;
     check_symmetric(what, &noise)?;
+    let scale = noise.amax();
+    if scale > 0.0 {
+        // Scaled first, so that the products of entries near f64::MAX do not overflow.
+        let s = noise / scale;
+        let indefinite = (0..N).any(|j| {
+            s[(j, j)] < 0.0
+                || (0..j)
+                    .any(|i| s[(i, i)] * s[(j, j)] - s[(i, j)] * s[(i, j)] < -SYMMETRY_TOLERANCE)
+        });
+        if indefinite {
+            return Err(OperatorError::NotPositiveDefinite { what });
+        }
+    }
     Ok(noise)
 }
 

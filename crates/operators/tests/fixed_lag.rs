@@ -280,4 +280,34 @@ fn malformed_records_and_failed_steps_are_refused() {
             .condition(&Ukf::new(&sensor2), &Vector2::zeros())
             .is_err()
     );
+    // So is an indefinite one: a negative variance (a time step of the wrong sign shrank the
+    // covariance it was added to) or a correlation above 1.
+    let backwards = ProcessFn::new(
+        |x: &Rn<f64, 2>, (): &()| *x,
+        |_, ()| Matrix2::new(-0.5, 0.0, 0.0, 0.1),
+    );
+    let correlated = MeasurementFn::new(
+        |x: &Rn<f64, 2>| *x.coords(),
+        |_| Matrix2::new(1.0, 2.0, 2.0, 1.0),
+    );
+    for error in [
+        two.propagate(&Ekf(&backwards), &()).unwrap_err(),
+        prior2.propagate(&Ukf::new(&backwards), &()).unwrap_err(),
+        two.condition(&Ekf(&correlated), &Vector2::zeros())
+            .unwrap_err(),
+        prior2
+            .condition(&Ukf::new(&correlated), &Vector2::zeros())
+            .unwrap_err(),
+    ] {
+        assert!(
+            matches!(error, OperatorError::NotPositiveDefinite { .. }),
+            "{error}"
+        );
+    }
+    // A semi-definite noise of rank one is a valid noise.
+    let rank_one = ProcessFn::new(
+        |x: &Rn<f64, 2>, (): &()| *x,
+        |_, ()| Matrix2::new(1.0, 1.0, 1.0, 1.0),
+    );
+    assert!(prior2.propagate(&Ekf(&rank_one), &()).is_ok());
 }
