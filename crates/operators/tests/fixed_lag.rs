@@ -280,8 +280,16 @@ fn malformed_records_and_failed_steps_are_refused() {
             .condition(&Ukf::new(&sensor2), &Vector2::zeros())
             .is_err()
     );
-    // So is an indefinite one: a negative variance (a time step of the wrong sign shrank the
-    // covariance it was added to) or a correlation above 1.
+}
+
+/// A model's indefinite noise is refused by every step: a negative variance (a time step of the
+/// wrong sign shrank the covariance it was added to) or a correlation above 1; a semi-definite
+/// noise of rank one is valid.
+#[test]
+fn indefinite_model_noise_is_refused() {
+    let prior2 =
+        ManifoldGaussian::new(Rn::new_unchecked(Vector2::zeros()), Matrix2::identity()).unwrap();
+    let mut two = FixedLagSmoother::new(prior2.clone(), 2).unwrap();
     let backwards = ProcessFn::new(
         |x: &Rn<f64, 2>, (): &()| *x,
         |_, ()| Matrix2::new(-0.5, 0.0, 0.0, 0.1),
@@ -304,7 +312,6 @@ fn malformed_records_and_failed_steps_are_refused() {
             "{error}"
         );
     }
-    // A semi-definite noise of rank one is a valid noise.
     let rank_one = ProcessFn::new(
         |x: &Rn<f64, 2>, (): &()| *x,
         |_, ()| Matrix2::new(1.0, 1.0, 1.0, 1.0),
