@@ -33,7 +33,7 @@ fn setup() -> (
 ) {
     let anchors = square_track_anchors();
     let theta = Vector3::new(1.0, 0.2, 0.0);
-    let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&theta).unwrap().0));
+    let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&theta).unwrap().0).unwrap());
     (
         UnitVectorModel::new(anchors, 1.0 / (SIGMA * SIGMA)).unwrap(),
         AzElModel::new(

@@ -373,29 +373,24 @@ fn merge_draws_and_prints_extreme_but_valid_summaries() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let file = "azimuth_circle.summary.json";
     let original = std::fs::read_to_string(dir.join("good").join(file)).unwrap();
-    // As many steps as the row timed, each of 1e300 s.
-    let slow = |row: &mut serde_json::Value| {
-        let mut timing = liebayes::experiments::RunningStats::default();
-        for _ in 0..row["timing"]["count"].as_u64().unwrap() {
-            timing.add(1e300);
-        }
-        row["timing"] = serde_json::to_value(&timing).unwrap();
-    };
-    let edits: [(&str, Box<dyn Fn(&mut serde_json::Value)>); 3] = [
-        (
-            "huge trace",
-            Box::new(|row| {
-                let values = row["trace"]["values"].as_array_mut().unwrap();
-                let last = values.len() - 1;
-                values[last] = 1e308.into();
-                values[0] = (-1e308).into();
-            }),
-        ),
-        (
-            "long label",
-            Box::new(|row| row["label"]["name"] = "x".repeat(70_000).into()),
-        ),
-        ("slow steps", Box::new(slow)),
+    let edits: [(&str, Edit); 3] = [
+        ("huge trace", |row| {
+            let values = row["trace"]["values"].as_array_mut().unwrap();
+            let last = values.len() - 1;
+            values[last] = 1e308.into();
+            values[0] = (-1e308).into();
+        }),
+        ("long label", |row| {
+            row["label"]["name"] = "x".repeat(70_000).into();
+        }),
+        // As many steps as the row timed, each of 1e300 s.
+        ("slow steps", |row| {
+            let mut timing = liebayes::experiments::RunningStats::default();
+            for _ in 0..row["timing"]["count"].as_u64().unwrap() {
+                timing.add(1e300);
+            }
+            row["timing"] = serde_json::to_value(&timing).unwrap();
+        }),
     ];
     for (k, (what, edit)) in edits.iter().enumerate() {
         let crafted = dir.join(format!("crafted-{k}"));

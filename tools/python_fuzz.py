@@ -1,21 +1,26 @@
 #!/usr/bin/env python3
 """Calls every public entry of the Python package with extreme and malformed arguments and reports
 each call that breaks the input contract: a crash of the interpreter, a hang, an exception other
-than ValueError, TypeError or OverflowError (a Rust panic surfaces as PanicException), an empty
-error message, or a result holding NaN or an infinity.
+than ValueError or TypeError (a Rust panic surfaces as PanicException; an OverflowError, which
+`except ValueError` misses, is a finding too), an empty error message, or a result holding NaN or
+an infinity.
 
 Each entry starts from a valid call (the arguments below); a case replaces one or all of its
-arguments by extreme numbers (NaN, infinities, f64::MAX, subnormals, ±0, 1e±300, large integers),
-arrays of the right shape scaled by or holding one such number, wrong shapes, empty batches,
-other types. Instances are built from a fuzzed constructor call when it succeeds, then every
+arguments by extreme numbers (NaN, infinities, f64::MAX, subnormals, ±0, 1e±300, large integers,
+bools and numpy integers where an integer goes), arrays of the right shape scaled by or holding one
+such number, the same values as strided, reversed, Fortran-ordered or zero-stride views, lists
+holding a bool, wrong shapes, empty batches, other types. The studies and the scenarios' runs are
+fuzzed with valid scenario names, their counts drawn from values that are refused or small (a
+valid huge count is hours of work, not a finding). Instances are built from a fuzzed constructor call when it succeeds, then every
 method and property is fuzzed on them; a refused call to a stateful filter must leave its state
 as it was.
 
 Run: `python3 tools/python_fuzz.py [--cases N] [--seed S]` with the package installed
 (`pip install ./python`); it runs the cases in a child interpreter, restarts it after a crash, and
 exits non-zero when it found anything. Documented outputs that are not finite (an azimuth of NaN
-while the azimuth is uniform, a log evidence of NaN at a step without a measurement, the
-circular variance +inf of a uniform density, a log density of -inf) are listed in ALLOWED.
+while the azimuth is uniform, a log evidence or a measurement row of NaN at a step without a
+measurement, the circular variance +inf of a uniform density, a log density of -inf, BROAD's
+reference quaternion where the capture lost it) are listed in ALLOWED.
 """
 
 import argparse
@@ -32,7 +37,13 @@ SCALARS = [
     1e-150, 1e-20, 1e-9, 0.5, 1.0, -1.0, math.pi, -math.pi, 2 * math.pi, 1e4, 1e9, 1e20, 1e100,
     1e154, 1e200, 1e300, HUGE, -HUGE, -1e300,
 ]
-INTEGERS = [0, 1, 2, 3, -1, 10, 1000, 2**31, 2**32, 2**53, 2**63 - 1, 2**64, -(2**63), 10**12]
+INTEGERS = [
+    0, 1, 2, 3, -1, 10, 1000, 2**31, 2**32, 2**53, 2**63 - 1, 2**64, -(2**63), 10**12, 10**400,
+    -(10**400), True, False,
+]
+# Counts of the studies and runs: refused values and small valid ones only (a valid huge count is
+# hours of work).
+COUNTS = [0, 1, 2, 3, -1, 2**64, -(2**64), 10**400, True, False, 2.0, "3", None]
 
 # Entries whose non-finite outputs are documented: (entry, output key or None) -> values allowed.
 ALLOWED = {
@@ -41,9 +52,25 @@ ALLOWED = {
     ("ExactAzimuthFilter.run", "azimuth"): "nan",
     ("ExactAzimuthFilter.run", "circular_variance"): "inf",
     ("ExactAzimuthFilter.run", "log_evidence"): "nan",
+    # A step without a measurement has a row of NaN; the reference quaternion is NaN where the
+    # optical capture lost it.
+    ("azimuth_runs", "z"): "nan",
+    ("read_broad", "quat"): "nan",
 }
 # Summaries mark an epoch without a finite value by NaN in these fields.
 SUMMARY_FIELDS = {"metrics", "bands"}
+# The counts of these entries are drawn from COUNTS when fuzzed (valid huge values are long work).
+COUNTED = {
+    "azimuth_runs": {"runs", "start", "measure_every"},
+    "aoa_runs": {"runs", "start", "steps"},
+    "azimuth_study": {"runs", "measure_every"},
+    "aoa_study": {"runs", "steps", "particles", "fit_samples"},
+    "AoaFilter": {"particles"},
+}
+BROAD_TRIAL = os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+    "data", "broad", "01_undisturbed_slow_rotation_A.mat",
+)
 
 
 def child(cases, seed):
@@ -141,14 +168,33 @@ def child(cases, seed):
             "mean_r": lambda: rng.normal(size=(2, 5, 2)),
             "cov_r": lambda: np.broadcast_to(np.eye(2), (2, 5, 2, 2)).copy(),
         }),
-        "azimuth_runs": (filters.azimuth_runs, {"scenario": lambda: "turning", "runs": lambda: 1, "duration": lambda: 5.0}),
-        "aoa_runs": (filters.aoa_runs, {"data": lambda: "simulated", "runs": lambda: 1, "steps": lambda: 4}),
+        "azimuth_runs": (filters.azimuth_runs, {
+            "scenario": lambda: str(rng.choice(["static", "circle", "line"])), "runs": lambda: 2,
+            "seed": lambda: 3, "start": lambda: 1, "duration": lambda: 5.0, "measure_every": lambda: 5,
+        }),
+        "aoa_runs": (filters.aoa_runs, {
+            "data": lambda: str(rng.choice(["model1", "model2"])), "runs": lambda: 2,
+            "seed": lambda: 3, "start": lambda: 1, "steps": lambda: 4, "sigma_deg": lambda: 10.0,
+        }),
+        "azimuth_study": (filters.azimuth_study, {
+            "scenario": lambda: str(rng.choice(["static", "circle", "line"])),
+            "methods": lambda: [str(rng.choice(["exact", "EKF", "UKF"]))], "runs": lambda: 2,
+            "seed": lambda: 3, "duration": lambda: 5.0, "measure_every": lambda: 5,
+        }),
+        "aoa_study": (filters.aoa_study, {
+            "data": lambda: str(rng.choice(["model1", "model2"])),
+            "filters": lambda: [str(rng.choice(["EKF-VMF", "UKF-AE", "EKF-AE-adaptive"]))],
+            "runs": lambda: 2, "seed": lambda: 3, "steps": lambda: 4, "sigma_deg": lambda: 10.0,
+        }),
+        "square_track": (filters.square_track, {}),
         "offline_attitude": (attitude.offline_attitude, {
             "gyr": lambda: rng.normal(size=(50, 3)) * 0.1,
             "acc": lambda: np.tile([0, 0, 9.81], (50, 1)) + rng.normal(size=(50, 3)) * 0.1,
             "dt": lambda: 0.01,
         }),
-        "read_broad": (attitude.read_broad, {"path": lambda: "/nonexistent.mat"}),
+        "read_broad": (attitude.read_broad, {
+            "path": lambda: str(rng.choice(["/nonexistent.mat", BROAD_TRIAL])),
+        }),
     })
 
     # class -> (constructor, {argument: maker}, {method: {argument: maker}}, state probe)
@@ -187,16 +233,38 @@ def child(cases, seed):
         "run": {"velocity": lambda: rng.normal(size=(5, 2)), "dt": lambda: 0.1, "z": lambda: rng.normal(size=(5, 2))},
     }
 
-    def extreme_like(value):
+    def view_of(a):
+        """The values of `a` as a view numpy does not hand over as it is: strided, reversed,
+        Fortran-ordered or zero-stride (same shape and values, so the call must give what `a`
+        gives), or a list holding a bool."""
+        k = rng.integers(5)
+        if k == 0:
+            wide = np.repeat(a[..., None], 2, axis=-1)
+            return wide[..., 0]
+        if k == 1 and a.ndim:
+            return a[::-1].copy()[::-1]
+        if k == 2:
+            return np.asfortranarray(a)
+        if k == 3 and a.size:
+            return np.broadcast_to(a.flat[0], a.shape)
+        listed = a.tolist()
+        if a.ndim == 1 and a.size:
+            listed[rng.integers(a.size)] = True
+        return listed
+
+    def extreme_like(value, key=None, entry=None):
         """An extreme or malformed version of a valid argument."""
-        k = rng.integers(9)
+        k = rng.integers(11)
         s = SCALARS[rng.integers(len(SCALARS))]
         if isinstance(value, str):
             return [s, "", "x" * 1000, "nonsense", None][rng.integers(5)]
         if isinstance(value, bool) or value is None:
             return [s, None, True, -1, "x"][rng.integers(5)]
+        if isinstance(value, int) and entry in COUNTED and key in COUNTED[entry]:
+            return COUNTS[rng.integers(len(COUNTS))]
         if isinstance(value, int):
-            return [INTEGERS[rng.integers(len(INTEGERS))], s][rng.integers(2)]
+            i = INTEGERS[rng.integers(len(INTEGERS))]
+            return [i, s, np.int64(min(max(i, -(2**63)), 2**63 - 1)), np.True_][rng.integers(4)]
         if isinstance(value, float):
             return s
         if isinstance(value, np.ndarray):
@@ -218,6 +286,8 @@ def child(cases, seed):
                 return [None, "text", a.astype(complex), a.astype(bool), []][rng.integers(5)]
             if k == 7 and a.size:
                 return a + rng.normal(size=a.shape) * [1e-12, 1e-9, 1e-6, 1e-3][rng.integers(4)]
+            if k in (8, 9):
+                return view_of(a)
             return np.full(a.shape[:-1] + (a.shape[-1] + 1,) if a.ndim else (2,), s)
         if isinstance(value, np.random.Generator):
             return [None, 3, "rng"][rng.integers(3)]
@@ -226,14 +296,14 @@ def child(cases, seed):
     def draw(makers):
         return {k: m() for k, m in makers.items() if m is not None}
 
-    def mutate(args):
+    def mutate(args, entry=None):
         args = dict(args)
         if not args:
             return args
         keys = list(args)
         chosen = keys if rng.random() < 0.3 else [keys[rng.integers(len(keys))]]
         for key in chosen:
-            args[key] = extreme_like(args[key])
+            args[key] = extreme_like(args[key], key, entry)
         return args
 
     def nonfinite(value, path=""):
@@ -273,7 +343,7 @@ def child(cases, seed):
         print(f"CALL {entry} {shown(args)}"[:400], flush=True)
         try:
             result = fn(**args)
-        except (ValueError, TypeError, OverflowError) as e:
+        except (ValueError, TypeError) as e:
             if not str(e):
                 report("empty-message", entry, args, type(e).__name__)
             return None, e
@@ -308,12 +378,12 @@ def child(cases, seed):
             entry = sorted(entries)[rng.integers(len(entries))]
             fn, makers = entries[entry]
             args = draw(makers)
-            call(entry, fn, mutate(args) if rng.random() < 0.9 else args)
+            call(entry, fn, mutate(args, entry) if rng.random() < 0.9 else args)
             continue
         cname = sorted(classes)[rng.integers(len(classes))]
         cls, makers = classes[cname]
         args = draw(makers)
-        obj, _ = call(cname, cls, mutate(args) if rng.random() < 0.5 else args)
+        obj, _ = call(cname, cls, mutate(args, cname) if rng.random() < 0.5 else args)
         if obj is None:
             continue
         names = [n for n in dir(obj) if not n.startswith("_")]

@@ -2,13 +2,14 @@
 BROAD reader."""
 
 from os import PathLike
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Dict, List, Optional, Sequence, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 _Array = npt.NDArray[np.float64]
 
+@final
 class AttitudeFilter:
     """The production attitude filter: orientation of the IMU frame w.r.t. East-North-Up as unit
     quaternions [w, x, y, z], with the heading and tilt sigma.
@@ -17,7 +18,15 @@ class AttitudeFilter:
     ``"9d"``, ``"6d"``, or ``None`` to decide at the first update (9D when it has a magnetometer).
     ``params`` are keyword parameters (``parameter_names()``; SI units, angles in rad).
     Raises ``ValueError`` for a parameter out of its range or an unknown name, ``TypeError`` for a
-    number that is not a Python or numpy integer or float (a bool, a complex number, an array).
+    number that is not a Python or numpy integer or float (a bool, a complex number, an array), for
+    a flag (``estimate_bias``, ``rest_detection``, ``mag_offset``, ``mag_disturbance_rejection``)
+    that is not ``True`` or ``False`` (or a ``numpy.bool_``), and for a ``propagation`` that is
+    not a string.
+
+    Threads: a filter is used by one thread at a time. While ``update_batch`` runs (without the
+    GIL), another thread's ``update_batch``, ``update`` or ``reset`` of the same filter raises
+    ``ValueError`` ("in use by another call"), and reading it (properties, ``params``, ``repr``)
+    raises pyo3's ``RuntimeError`` ("Already borrowed"): give each thread its own filter.
     """
 
     def __init__(
@@ -49,7 +58,11 @@ class AttitudeFilter:
         readings; returns ``quat`` (n, 4), ``heading_sigma``, ``tilt_sigma`` (n,) (rad), ``bias``
         (n, 3) (rad/s), ``rest``, ``mag_disturbance`` (n,) (bool). All or nothing: a refused
         sample raises ``ValueError`` naming it and leaves the filter as before the call (a refused
-        first batch decides no ``sensors``). The GIL is released while filtering."""
+        first batch, or one of no samples, decides no ``sensors``). At most 2^28 samples; the
+        shapes and that size are checked before the arrays are read, and results that do not fit
+        in memory raise ``ValueError`` before any sample is filtered. The GIL is released while
+        filtering; a Ctrl-C meanwhile raises ``KeyboardInterrupt`` once the batch is done, the
+        filter as before the call."""
     def update(
         self,
         gyr: Sequence[float],
@@ -96,7 +109,9 @@ def offline_attitude(
     sample given every sample), like VQF's ``offlineVQF``: ``quat`` (n, 4) scalar first, IMU frame
     w.r.t. East-North-Up, ``heading_sigma`` and ``tilt_sigma`` (n,) rad. Without ``mag``, 6D.
     Exactly one of ``dt`` (s) and ``rate`` (Hz); ``params`` as ``AttitudeFilter``'s, the rest at
-    ``offline_default_params()``. Raises ``ValueError`` naming a refused sample."""
+    ``offline_default_params()``. At most 2^24 samples (checked before the arrays are read; results
+    that do not fit in memory raise ``ValueError`` before any work). Raises ``ValueError`` naming a
+    refused sample."""
 
 def offline_default_params() -> Dict[str, Any]:
     """The default keyword parameters of ``offline_attitude``."""

@@ -15,9 +15,13 @@ refused call draws nothing from ``rng``.
 A ``float`` argument takes a Python or numpy integer or float, or a 0-d array of one; a bool, a
 complex number, a string or an array of one element raises ``TypeError``. Every invalid argument
 (NaN, wrong shape, out of range, non-unit mean) raises ``ValueError`` with the library's message.
+``n`` is an ``int`` (or a numpy integer): a bool raises ``TypeError``, a negative or too large
+value ``ValueError`` (never ``OverflowError``). A list holding a bool raises ``TypeError``.
+
+The classes cannot be subclassed; their instances are immutable and can be shared by threads.
 """
 
-from typing import Optional, Tuple, Union
+from typing import Optional, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -26,6 +30,7 @@ ArrayLike = npt.ArrayLike
 FloatOrArray = Union[float, npt.NDArray[np.float64]]
 Array = npt.NDArray[np.float64]
 
+@final
 class VonMises:
     """The von Mises distribution on the circle,
     ``p(θ) = exp(κ cos(θ − μ)) / (2π I₀(κ))`` with respect to dθ (total mass 2π).
@@ -78,6 +83,7 @@ class VonMises:
     def kl_divergence(self, other: "VonMises") -> float:
         """``KL(self ‖ other)``."""
 
+@final
 class VonMisesFisher:
     """The von Mises-Fisher distribution on S²,
     ``p(x) = κ/(4π sinh κ) exp(κ μ·x)`` with respect to the surface measure (total 4π).
@@ -126,12 +132,13 @@ class VonMisesFisher:
     def kl_divergence(self, other: "VonMisesFisher") -> float:
         """``KL(self ‖ other)``."""
 
+@final
 class Bingham:
     """The Bingham distribution on unit quaternions ``q = (w, x, y, z)``,
     ``p(q) = exp(qᵀ M q) / K(M)``, ``M = V diag(z) Vᵀ``, with respect to the uniform probability
     measure on S³ (so ``p(q) = p(−q)`` is also a density on SO(3) against its Haar measure).
 
-    Eigenvalue spread ``max z − min z`` at most 1e6; only differences of eigenvalues matter."""
+    Eigenvalue spread ``max z − min z`` at most 1e12; only differences of eigenvalues matter."""
 
     def __init__(self, orientation: ArrayLike, eigenvalues: ArrayLike) -> None:
         """Orthogonal ``orientation`` V, shape ``(4, 4)`` (column k the eigenvector of eigenvalue k,
@@ -143,7 +150,8 @@ class Bingham:
     @staticmethod
     def from_direction(measured: ArrayLike, reference: ArrayLike, sigma: float) -> "Bingham":
         """The likelihood of a body-frame ``measured`` direction of the world ``reference``
-        direction with isotropic Gaussian noise ``sigma`` (> 0), as a density of the orientation."""
+        direction with isotropic Gaussian noise ``sigma``, as a density of the orientation. Its
+        spread is ``2/sigma²``, at most 1e12: ``sigma`` at least ``sqrt(2e-12)``, about 1.414e-6."""
     @staticmethod
     def uniform() -> "Bingham":
         """The uniform distribution on S³."""
@@ -153,14 +161,14 @@ class Bingham:
         non-negative ``weights`` (shape ``(n,)``), from their weighted scatter matrix.
 
         Raises ``ValueError`` for non-unit samples, no samples, samples on a lower-dimensional
-        sphere (infinite concentration) or a fitted spread beyond 1e6."""
+        sphere (infinite concentration) or a fitted spread beyond 1e12."""
     def log_pdf(self, q: ArrayLike) -> FloatOrArray:
         """``ln p(q)`` for unit quaternions of shape ``(4,)`` or ``(..., 4)``."""
     def sample(self, n: int, rng: np.random.Generator) -> Array:
         """``n`` draws (exact rejection sampling), shape ``(n, 4)``."""
     def product(self, other: "Bingham") -> Tuple["Bingham", float]:
         """The normalised product (``M₁ + M₂``) and ``ln ∫ p q``; ``ValueError`` when the
-        product's spread exceeds 1e6."""
+        product's spread exceeds 1e12."""
     def log_normaliser(self) -> float:
         """``ln K(z)`` against the uniform probability measure on S³."""
     def log_normaliser_surface(self) -> float:
@@ -189,8 +197,9 @@ class Bingham:
 def bingham_log_normaliser(z: ArrayLike) -> Tuple[float, Array]:
     """The Bingham normaliser ``ln K(z)`` (uniform probability measure on S³) and its gradient
     ``∂ ln K/∂zₖ``, shape ``(4,)``, for eigenvalues ``z`` of shape ``(4,)`` in any order with a
-    spread of at most 1e6."""
+    spread of at most 1e12."""
 
+@final
 class HeatKernelSo3:
     """The heat kernel on SO(3) (isotropic Brownian motion) with centre ``mean`` and per-axis
     variance s, with respect to the normalised Haar measure; s in [1e-300, inf)."""
@@ -222,6 +231,7 @@ class HeatKernelSo3:
     def kl_divergence(self, other: "HeatKernelSo3") -> float:
         """``KL(self ‖ other)`` (by quadrature)."""
 
+@final
 class ManifoldGaussianSo3:
     """The Gaussian ``R = mean · exp(δ)``, ``δ ~ N(0, P)``, on SO(3) (body-frame errors); the log
     density is with respect to the Lebesgue measure in the tangent coordinates δ."""
@@ -256,6 +266,7 @@ class ManifoldGaussianSo3:
     def kl_divergence(self, other: "ManifoldGaussianSo3") -> float:
         """``KL(self ‖ other)``; ``ValueError`` unless the means coincide."""
 
+@final
 class ManifoldGaussianS2:
     """The Gaussian ``x = exp_μ(B(μ) δ)``, ``δ ~ N(0, P)``, on S², in the two tangent coordinates
     of the basis ``tangent_basis()``; the log density is with respect to the Lebesgue measure in δ."""

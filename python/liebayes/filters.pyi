@@ -4,8 +4,18 @@ Python can be run on exactly the same data and scored by the same rules.
 
 Arrays are float64 numpy arrays (lists and integer arrays are converted); results are new arrays.
 A ``float`` argument takes a Python or numpy integer or float, or a 0-d array of one; a bool, a
-complex number, a string or an array of one element raises ``TypeError``. Every library error is
-raised as ``ValueError`` with the library's message; a refused step leaves the filter as it was.
+complex number, a string or an array of one element raises ``TypeError``. An ``int`` argument
+(``runs``, ``seed``, ``start``, ``particles``, ``steps``, ``measure_every``, ``fit_samples``) takes
+a Python or numpy integer: a bool raises ``TypeError``, a negative or too large value
+``ValueError`` naming it (never ``OverflowError``). A list holding a bool raises ``TypeError``.
+Every library error is raised as ``ValueError`` with the library's message; a refused step leaves
+the filter as it was.
+
+Threads: a filter (``ExactAzimuthFilter``, ``AoaFilter``) is used by one thread at a time. While
+a call that releases the GIL (``run``, ``AoaFilter.predict``/``update``) is running, another
+thread's ``run``/``predict``/``update`` of the same filter raises ``ValueError`` ("in use by
+another call"), and reading it (properties, ``copy``, ``repr``) raises pyo3's ``RuntimeError``
+("Already borrowed"): give each thread its own filter (``ExactAzimuthFilter.copy()``).
 """
 
 from typing import Any, Dict, Optional, Sequence, Tuple, TypedDict, Union, final
@@ -135,10 +145,12 @@ class ExactAzimuthFilter:
     def conditional_mean(self, azimuth: float) -> Array:
         """E[r | A = azimuth] = a + R(-A) c, shape (2,). Raises ValueError for a non-finite angle."""
     def run(self, velocity: ArrayLike, dt: Union[float, ArrayLike], z: ArrayLike) -> AzimuthRun:
-        """Runs n steps at once (the library's record loop, GIL released): step i predicts with
+        """Runs n steps at once (predict, update, estimate, as the library's record loop steps a filter; GIL released): step i predicts with
         velocity[i] (n, 2) over dt (a float for every step, or (n,): an array of one element is
         one step's, not a float), then updates with z[i] (n, 2) unless that row is NaN in both
-        components (no measurement at that step). Returns every step's estimate.
+        components (no measurement at that step). Returns every step's estimate. At most 2^24 steps
+        in one call (the library's limit of a recording; split a longer run, the filter carries
+        over): more, or results that do not fit in memory, raise ValueError before any step.
 
         All or nothing: a step that fails raises ValueError naming the step and the library's
         reason, and the filter is left as it was before the call."""
@@ -177,9 +189,10 @@ class AoaFilter:
     ) -> "AoaFilter":
         """The filter `name` on anchors at `anchors` (k, 3), 1 <= k <= 8, with world-to-anchor
         rotations `rotations` (k, 3, 3) (proper rotation matrices; the identity if omitted), from
-        the prior N(prior_mean, prior_std^2 I) (prior_mean (3,), default the origin; prior_std in
-        (0, 1e6] m). kappa in [1e-12, 1e12]; sigma in [1e-9, 1e3] rad; q_xy, q_z in [0, 1e6]
-        m/sqrt(s); the particle filter draws its `particles` from the generator seeded by `seed`.
+        the prior N(prior_mean, prior_std^2 I) (prior_mean (3,), each coordinate within 1e100 m,
+        default the origin; prior_std in [1e-49, 1e6] m: below, the prior's precision passes the
+        library's limit of 1e100). kappa in [1e-12, 1e12]; sigma in [1e-9, 1e3] rad; q_xy, q_z 0
+        or in [1e-100, 1e6] m/sqrt(s); the particle filter draws its `particles` from the generator seeded by `seed`.
 
         Raises ValueError for an unknown name, a missing or out-of-range parameter, or arrays of
         the wrong shape."""
@@ -221,7 +234,9 @@ def azimuth_study(
     filter_sigma0: Optional[float] = None,
 ) -> Dict[str, StudyResult]:
     """The library's Monte Carlo study of each method on a built-in azimuth scenario, as the
-    `liebayes azimuth` command runs it (GIL released; the runs are run one after another).
+    `liebayes azimuth` command runs it (GIL released; each method's runs run in parallel on the
+    library's thread pool, their statistics merged exactly, so the result does not depend on the
+    number of threads; the methods one after another).
 
     scenario: "static" (v = 0, A unobservable), "circle" or "line". methods: "exact", "EKF",
     "UKF", "PF <n>", "grid <n>", "MPF <n>" (case-insensitive; default sizes 1000, 360, 360).
@@ -275,10 +290,11 @@ def score_azimuth(
 
     truth_r (R, E, 2) and truth_azimuth (R,) from :func:`azimuth_runs` at the measured steps;
     azimuth (R, E) (NaN: no azimuth estimate), rho (R, E) in [0, 1], mean_r (R, E, 2),
-    cov_r (R, E, 2, 2); circular_variance (R, E) defaults to -2 ln rho; times (E,) defaults to
-    0, 1, 2, .... Raises ValueError for R or E out of range, mismatched shapes, a non-finite true
-    azimuth or rho, or a position or covariance entry that is not finite or above 1e100 in
-    magnitude (naming its index)."""
+    cov_r (R, E, 2, 2); circular_variance (R, E) in [0, inf] (inf: a uniform estimate) defaults
+    to -2 ln rho; times (E,), finite and strictly increasing, defaults to 0, 1, 2, .... Raises
+    ValueError for R or E out of range, mismatched shapes, a non-finite true azimuth, a rho
+    outside [0, 1], a circular variance that is NaN or negative, a bad epoch time, or a position
+    or covariance entry that is not finite or above 1e100 in magnitude (each naming its index)."""
 
 def aoa_study(
     data: str,
@@ -294,7 +310,9 @@ def aoa_study(
 ) -> Dict[str, StudyResult]:
     """The library's square-track study (four anchors) of each named filter, as
     `liebayes aoa track` runs it: data "model1" (normal angle errors of sigma_deg, flipped over
-    the poles) or "model2" (von Mises-Fisher, kappa = 1/sigma^2); truth "square" or
+    the poles; sigma in [1e-9, 1e3] rad) or "model2" (von Mises-Fisher, kappa = 1/sigma^2 in
+    [1e-12, 1e12], so sigma in [1e-6, 1e6] rad): another sigma_deg raises ValueError naming it;
+    truth "square" or
     "random-walk"; filters named as :class:`AoaFilter` ("PF-VMF", "EKF-AE-nominal",
     "UKF-AE-fitted", "EKF-AE-adaptive", ...) with the paper's parameters for the data (AE-fitted
     fits its sigma on `fit_samples` readings drawn from `seed`, from 2 to 2^26: a ValueError
@@ -330,8 +348,9 @@ def score_aoa(
     """Scores a user's position estimates, mean (R, E, 3) and covariance (R, E, 3, 3) against
     truth (R, E, 3), with the library's angle-of-arrival scorer into the summary a study gives
     (GIL released): R >= 1 runs, 1 <= E <= 16384 epochs (a study's limit), R E <= 2^28.
-    Raises ValueError for R or E out of range, mismatched shapes or a value that is not finite
-    or above 1e100 in magnitude (naming its index); an estimate whose covariance is not positive
+    times (E,), finite and strictly increasing, defaults to 0, 1, 2, .... Raises ValueError for
+    R or E out of range, mismatched shapes, a bad epoch time or a value that is not finite or
+    above 1e100 in magnitude (naming its index); an estimate whose covariance is not positive
     definite scores an infinite NEES, counted as a value that is not finite."""
 
 def square_track() -> Tuple[Array, Array]:

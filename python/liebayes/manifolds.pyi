@@ -13,7 +13,7 @@ Jacobians are right Jacobians unless named left, with
 ``exp(v + d) = exp(v) exp(Jr(v) d + O(d²))`` and ``Jl(v) = Jr(-v)``.
 """
 
-from typing import Union
+from typing import Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -24,6 +24,7 @@ FloatOrArray = Union[float, Array]
 
 __all__ = ["So3", "UnitQuaternion", "S2", "Se3"]
 
+@final
 class So3:
     """Rotations of space, SO(3), as rotation matrices.
 
@@ -99,6 +100,7 @@ class So3:
     def orthonormalize(m: ArrayLike) -> Array:
         """The rotation nearest to each matrix in the Frobenius norm (polar factor); refuses det M <= 0."""
 
+@final
 class UnitQuaternion:
     """Unit quaternions, SU(2), the double cover of SO(3): Hamilton, scalar first ``[w, x, y, z]``.
 
@@ -132,6 +134,7 @@ class UnitQuaternion:
     def normalize(q: ArrayLike) -> Array:
         """``q / |q|`` for finite quaternions at least 1e-150 long."""
 
+@final
 class S2:
     """The unit sphere in R³ (directions), a manifold but not a group.
 
@@ -171,6 +174,7 @@ class S2:
     def normalize(v: ArrayLike) -> Array:
         """Directions ``v / |v|`` of finite vectors at least 1e-150 long."""
 
+@final
 class Se3:
     """Rigid motions of space, SE(3), as homogeneous matrices ``[[R, t], [0, 0, 0, 1]]``.
 

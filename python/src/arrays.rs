@@ -5,13 +5,14 @@ use crate::errors::value_error;
 use liebayes_manifolds::{ManifoldError, S2, So3, Su2};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use numpy::{
-    PyArray1, PyArray2, PyArrayDescr, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods,
-    PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
+    PyArrayDescr, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn,
+    PyUntypedArray, PyUntypedArrayMethods,
 };
+use pyo3::exceptions::PyOverflowError;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyType};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyTuple, PyType};
 
 /// The most values an array the package returns may hold (draws × their components, or runs ×
 /// steps × components of exposed simulated runs, all arrays together): 2²⁸ doubles, 2 GB. More is
@@ -38,24 +39,6 @@ pub(crate) fn vectors3(
         .into_iter()
         .map(|r| Vector3::new(r[0], r[1], r[2]))
         .collect())
-}
-
-/// An `(n, k)` array of rows given by `row(i, out)`, filled in place.
-pub(crate) fn rows(
-    py: Python<'_>,
-    n: usize,
-    k: usize,
-    mut row: impl FnMut(usize, &mut [f64]),
-) -> PyResult<Bound<'_, PyArray2<f64>>> {
-    let mut data = vec![
-        0.0;
-        n.checked_mul(k)
-            .ok_or_else(|| value_error("array too large"))?
-    ];
-    for (i, chunk) in data.chunks_exact_mut(k).enumerate() {
-        row(i, chunk);
-    }
-    PyArray1::from_vec(py, data).reshape([n, k])
 }
 
 /// A shape as Python writes it, with `n` for the batch axis when `batch` is set: `(3,)`, `(n, 3, 3)`.
@@ -87,25 +70,73 @@ pub(crate) fn float_array<'py>(
         .map_err(value_error)
 }
 
-/// An array argument of real numbers as a read-only `float64` array, converted and checked as
-/// [`float_array`] does (its shape is the caller's to check, with the argument's name).
-pub(crate) struct RealArray<'py>(PyReadonlyArrayDyn<'py, f64>);
-
-impl<'a, 'py> FromPyObject<'a, 'py> for RealArray<'py> {
-    type Error = PyErr;
-
-    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
-        // pyo3 attaches a note naming the argument to the error.
-        float_array("", &obj.to_owned()).map(Self)
+/// [`float_array`] with its shape checked by `check` before anything is converted or copied when
+/// `obj` is already a numpy array (a wrongly shaped zero-stride view is refused without being
+/// expanded), and again once converted (a list's shape is only known then).
+pub(crate) fn shaped_float_array<'py>(
+    name: &str,
+    obj: &Bound<'py, PyAny>,
+    check: impl Fn(&[usize]) -> PyResult<()>,
+) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+    if let Ok(array) = obj.cast::<PyUntypedArray>() {
+        check_real_dtype(name, &array.dtype())?;
+        check(array.shape())?;
     }
+    let array = float_array(name, obj)?;
+    check(array.shape())?;
+    Ok(array)
 }
 
-impl<'py> std::ops::Deref for RealArray<'py> {
-    type Target = PyReadonlyArrayDyn<'py, f64>;
-
-    fn deref(&self) -> &Self::Target {
-        &self.0
+/// Refuses an array whose values are not real numbers ([`is_real`]) with a `TypeError`.
+fn check_real_dtype(name: &str, dtype: &Bound<'_, PyArrayDescr>) -> PyResult<()> {
+    if is_real(dtype) {
+        return Ok(());
     }
+    Err(PyTypeError::new_err(named(
+        name,
+        format!("expected an array of real numbers (float64), got dtype {dtype}"),
+    )))
+}
+
+/// Refuses a list or tuple holding a bool (`True`, `numpy.True_`) or a bool array anywhere in it:
+/// numpy reads `[True, 0.5]` as the numbers `[1.0, 0.5]`, but a bool is not a real number here.
+/// `depth` bounds the walk (numpy refuses more than 64 dimensions before this is called).
+fn refuse_bools(name: &str, obj: &Bound<'_, PyAny>, depth: usize) -> PyResult<()> {
+    let refuse = |what: String| {
+        Err(PyTypeError::new_err(named(
+            name,
+            format!("expected real numbers, got {what} in the list"),
+        )))
+    };
+    if depth > 64 {
+        return Ok(());
+    }
+    let items = if let Ok(list) = obj.cast::<PyList>() {
+        list.iter().collect::<Vec<_>>()
+    } else if let Ok(tuple) = obj.cast::<PyTuple>() {
+        tuple.iter().collect::<Vec<_>>()
+    } else {
+        return Ok(());
+    };
+    for item in &items {
+        if item.is_instance_of::<PyBool>() {
+            return refuse(format!("the bool {item}"));
+        }
+        if let Ok(array) = item.cast::<PyUntypedArray>() {
+            let dtype = array.dtype();
+            if dtype.kind() == b'b' {
+                return refuse(format!("an array of dtype {dtype}"));
+            }
+        } else if item.is_instance(NUMPY_SCALAR.import(item.py(), "numpy", "generic")?)? {
+            let dtype = item.getattr("dtype")?.cast_into::<PyArrayDescr>()?;
+            if dtype.kind() == b'b' {
+                return refuse(format!("the numpy bool {item}"));
+            }
+        } else {
+            refuse_bools(name, item, depth + 1)?;
+        }
+    }
+    Ok(())
 }
 
 /// Three real numbers given as a sequence (a list, a tuple, a numpy array): an array whose values
@@ -115,22 +146,25 @@ impl<'py> std::ops::Deref for RealArray<'py> {
 #[derive(Clone, Copy)]
 pub(crate) struct Real3(pub(crate) [f64; 3]);
 
-impl<'a, 'py> FromPyObject<'a, 'py> for Real3 {
-    type Error = PyErr;
-
-    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+impl Real3 {
+    /// The argument `name` as three real numbers (its errors name it, and the element).
+    pub(crate) fn read(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Self> {
         if let Ok(array) = obj.cast::<PyUntypedArray>() {
             let dtype = array.dtype();
             if !is_real(&dtype) {
                 return Err(PyTypeError::new_err(format!(
-                    "expected three real numbers, got an array of dtype {dtype}"
+                    "{name}: expected three real numbers, got an array of dtype {dtype}"
                 )));
             }
         }
-        let elements = obj.extract::<[Bound<'py, PyAny>; 3]>()?;
+        let elements = obj.extract::<[Bound<'_, PyAny>; 3]>().map_err(|e| {
+            // A sequence of another length, or not a sequence (a number, a string, a sequence
+            // whose __len__ and items disagree): a TypeError naming the argument.
+            PyTypeError::new_err(format!("{name}: expected three real numbers ({e})"))
+        })?;
         let mut values = [0.0; 3];
         for (i, (value, element)) in values.iter_mut().zip(&elements).enumerate() {
-            *value = real_number(&format!("element {i}"), element)?;
+            *value = real_number(&format!("{name}[{i}]"), element)?;
         }
         Ok(Self(values))
     }
@@ -156,7 +190,17 @@ pub(crate) fn real_number(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<f64> {
         return Err(refuse(format!("the bool {obj}")));
     }
     if obj.is_instance_of::<PyFloat>() || obj.is_instance_of::<PyInt>() {
-        return obj.extract();
+        return obj.extract().map_err(|e: PyErr| {
+            if e.is_instance_of::<PyOverflowError>(obj.py()) {
+                // An int beyond the float range (about 1.8e308) is a value out of range.
+                PyValueError::new_err(named(
+                    name,
+                    "the integer is beyond the range of a float (about 1.8e308)".to_owned(),
+                ))
+            } else {
+                e
+            }
+        });
     }
     let dtype = if let Ok(array) = obj.cast::<PyUntypedArray>() {
         if array.ndim() != 0 {
@@ -180,19 +224,123 @@ pub(crate) fn real_number(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<f64> {
     obj.extract()
 }
 
-/// A `float` argument, read by [`real_number`] (`#[pyo3(from_py_with = real)]`; pyo3 adds a note
-/// naming the argument to the error).
-pub(crate) fn real(obj: &Bound<'_, PyAny>) -> PyResult<f64> {
-    real_number("", obj)
-}
-
-/// An optional `float` argument: `None`, or a number read by [`real_number`]
-/// (`#[pyo3(from_py_with = optional_real)]`).
-pub(crate) fn optional_real(obj: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
+/// An optional `float` argument `name`: `None`, or a number read by [`real_number`].
+pub(crate) fn optional_real(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
     if obj.is_none() {
         Ok(None)
     } else {
-        real(obj).map(Some)
+        real_number(name, obj).map(Some)
+    }
+}
+
+/// `numpy.bool_`, looked up once.
+static NUMPY_BOOL: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+/// An integer argument `name` (a count, a size, a seed, an index) from 0 to `max`: a Python
+/// `int` or a numpy integer (anything with `__index__`). A bool (`True`, `numpy.True_`) raises
+/// `TypeError`, as for the float arguments: in a count's place it is almost always a slip. A value
+/// out of the range, however large, raises `ValueError` naming the argument and the range
+/// (Python's own conversion would raise `OverflowError`, which `except ValueError` misses).
+pub(crate) fn integer(name: &str, obj: &Bound<'_, PyAny>, max: u64) -> PyResult<u64> {
+    let py = obj.py();
+    if obj.is_instance_of::<PyBool>()
+        || obj.is_instance(NUMPY_BOOL.import(py, "numpy", "bool_")?)?
+    {
+        return Err(PyTypeError::new_err(format!(
+            "{name}: expected an integer, got the bool {obj}"
+        )));
+    }
+    let range = || format!("a non-negative integer of at most {max}");
+    match obj.extract::<i128>() {
+        Ok(v) => u64::try_from(v)
+            .ok()
+            .filter(|&v| v <= max)
+            .ok_or_else(|| PyValueError::new_err(format!("{name} is {v}: expected {}", range()))),
+        Err(e) if e.is_instance_of::<PyOverflowError>(py) => {
+            let sign = if obj.lt(0_i32).unwrap_or(false) {
+                "a negative integer"
+            } else {
+                "an integer"
+            };
+            Err(PyValueError::new_err(format!(
+                "{name}: {sign} beyond 2^127, expected {}",
+                range()
+            )))
+        }
+        Err(e) if e.is_instance_of::<PyTypeError>(py) => Err(PyTypeError::new_err(format!(
+            "{name}: expected an integer, got an object of type {}",
+            obj.get_type().name()?
+        ))),
+        Err(e) => Err(e),
+    }
+}
+
+/// [`integer`] as a `usize`, up to `max`.
+pub(crate) fn size(name: &str, obj: &Bound<'_, PyAny>, max: usize) -> PyResult<usize> {
+    let max = u64::try_from(max).unwrap_or(u64::MAX);
+    integer(name, obj, max).map(|v| usize::try_from(v).unwrap_or(usize::MAX))
+}
+
+/// Readers of named arguments for `#[pyo3(from_py_with = arg::name)]`: pyo3 names an argument
+/// whose extraction failed only in a note (Python 3.11 and later; nowhere on 3.9 and 3.10), so
+/// each reader puts the name into the message itself.
+pub(crate) mod arg {
+    use pyo3::prelude::*;
+
+    /// A float argument read by [`super::real_number`] under its own name.
+    macro_rules! reals {
+        ($($name:ident),* $(,)?) => {$(
+            #[doc = concat!("The float argument `", stringify!($name), "`.")]
+            pub(crate) fn $name(obj: &Bound<'_, PyAny>) -> PyResult<f64> {
+                super::real_number(stringify!($name), obj)
+            }
+        )*};
+    }
+
+    /// An optional float argument (`None` or a number) under its own name.
+    macro_rules! optional_reals {
+        ($($fn_name:ident => $name:ident),* $(,)?) => {$(
+            #[doc = concat!("The optional float argument `", stringify!($name), "`.")]
+            pub(crate) fn $fn_name(obj: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
+                super::optional_real(stringify!($name), obj)
+            }
+        )*};
+    }
+
+    /// An integer argument from 0 to its type's largest value, under its own name.
+    macro_rules! integers {
+        ($($name:ident: $t:ty),* $(,)?) => {$(
+            #[doc = concat!("The integer argument `", stringify!($name), "`.")]
+            pub(crate) fn $name(obj: &Bound<'_, PyAny>) -> PyResult<$t> {
+                let max = u64::try_from(<$t>::MAX).unwrap_or(u64::MAX);
+                super::integer(stringify!($name), obj, max)
+                    .map(|v| <$t>::try_from(v).unwrap_or(<$t>::MAX))
+            }
+        )*};
+    }
+
+    reals!(
+        azimuth, delta, dt, duration, kappa, mu, prior_std, q, q_xy, q_z, sigma, sigma0, sigma_deg,
+        sigma_m, variance,
+    );
+    optional_reals!(
+        dt_or_none => dt,
+        filter_q_or_none => filter_q,
+        filter_sigma0_or_none => filter_sigma0,
+        filter_sigma_m_or_none => filter_sigma_m,
+        kappa_or_none => kappa,
+        rate_or_none => rate,
+        sigma_az_or_none => sigma_az,
+        sigma_el_or_none => sigma_el,
+    );
+    integers!(
+        runs: u64, seed: u64, start: u64, particles: usize, steps: usize,
+        measure_every: usize, fit_samples: usize, n: usize,
+    );
+
+    /// `runs` of a function that returns every run's arrays (a `usize`).
+    pub(crate) fn runs_size(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+        super::size("runs", obj, usize::MAX)
     }
 }
 
@@ -225,21 +373,41 @@ fn contiguous_float64<'py>(
     let asarray = ASARRAY.import(py, "numpy", "asarray")?;
     // Anything but an array is read by numpy as it is first, so that its kind can be checked
     // before a cast to float64 could turn strings, booleans or complex numbers into numbers.
-    let array = match obj.cast::<PyUntypedArray>() {
-        Ok(array) => array.clone(),
-        Err(_) => asarray
-            .call1((obj,))?
-            .cast_into::<PyUntypedArray>()
-            .map_err(|_| {
-                PyTypeError::new_err(named(name, "could not read it as an array".to_owned()))
-            })?,
+    let (array, listed) = if let Ok(array) = obj.cast::<PyUntypedArray>() {
+        (array.clone(), false)
+    } else {
+        let read = asarray.call1((obj,)).map_err(|e| {
+            // numpy's message for a ragged list ("setting an array element with a
+            // sequence…"), with the argument's name; other errors keep their type.
+            if e.is_instance_of::<PyValueError>(py) {
+                PyValueError::new_err(named(
+                    name,
+                    format!("could not read it as an array of numbers: {e}"),
+                ))
+            } else {
+                e
+            }
+        })?;
+        let array = read.cast_into::<PyUntypedArray>().map_err(|_| {
+            PyTypeError::new_err(named(name, "could not read it as an array".to_owned()))
+        })?;
+        (array, true)
     };
     let dtype = array.dtype();
-    if !is_real(&dtype) {
+    if listed && dtype.kind() == b'O' {
         return Err(PyTypeError::new_err(named(
             name,
-            format!("expected an array of real numbers (float64), got dtype {dtype}"),
+            format!(
+                "expected real numbers, got an object of type {} that numpy reads as dtype \
+                 object (it is or holds something that is not a number, or an integer beyond 64 \
+                 bits)",
+                obj.get_type().name()?
+            ),
         )));
+    }
+    check_real_dtype(name, &dtype)?;
+    if listed {
+        refuse_bools(name, obj, 0)?;
     }
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;

@@ -6,17 +6,17 @@
 //! it (predict with the gyroscope and accelerometer, then the magnetometer reading, then the
 //! estimate), so its output equals the `liebayes attitude` binary's bit for bit.
 
-use crate::arrays::{Real3, float_array, optional_real, real_number};
-use crate::errors::value_error;
+use crate::arrays::{Real3, arg, real_number, shaped_float_array};
+use crate::errors::{Stopped, check_signals_at, in_use, value_error};
 use liebayes_experiments::{RecursiveFilter, Smoothing};
 use liebayes_filters::attitude::{
-    AttitudeEkf, AttitudeEstimate, AttitudeParams, ImuSample, MAX_SAMPLES, Propagation, Sensors,
-    read_broad as read_broad_log,
+    AttitudeEkf, AttitudeEstimate, AttitudeParams, ImuSample, MAX_OFFLINE_SAMPLES, MAX_SAMPLES,
+    Propagation, Sensors, read_broad as read_broad_log,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 use numpy::ndarray::{ArrayView2, Ix2};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -63,6 +63,10 @@ const PARAMETER_NAMES: [&str; 21] = [
 /// magnetometer) or `"6d"`, or `None` to decide at the first update (9D when it has a
 /// magnetometer); `params` are the keyword parameters listed by `AttitudeFilter.parameter_names()`
 /// (SI units, angles in rad), the rest at their defaults (`AttitudeFilter.default_params()`).
+///
+/// A filter is used by one thread at a time: while `update_batch` runs (without the GIL), another
+/// thread's `update_batch`, `update` or `reset` of it raises `ValueError` ("in use by another
+/// call") and reading it raises `RuntimeError`; give each thread its own filter.
 #[pyclass(module = "liebayes._liebayes")]
 pub struct AttitudeFilter {
     params: AttitudeParams,
@@ -82,16 +86,31 @@ struct Outputs {
 }
 
 impl Outputs {
-    fn with_capacity(n: usize) -> Self {
-        Self {
-            quat: Vec::with_capacity(4 * n),
-            heading_sigma: Vec::with_capacity(n),
-            tilt_sigma: Vec::with_capacity(n),
-            bias: Vec::with_capacity(3 * n),
-            rest: Vec::with_capacity(n),
-            mag_disturbance: Vec::with_capacity(n),
-        }
+    /// Room for `n` samples' outputs, or `ValueError` when the memory cannot be had (rather than
+    /// the abort of an infallible allocation).
+    fn reserve(origin: &str, n: usize) -> PyResult<Self> {
+        Ok(Self {
+            quat: reserved(origin, n, 4)?,
+            heading_sigma: reserved(origin, n, 1)?,
+            tilt_sigma: reserved(origin, n, 1)?,
+            bias: reserved(origin, n, 3)?,
+            rest: reserved(origin, n, 1)?,
+            mag_disturbance: reserved(origin, n, 1)?,
+        })
     }
+}
+
+/// An empty vector with room for `n` samples of `k` values each, or `ValueError` from `origin`
+/// saying that they do not fit in memory.
+fn reserved<T>(origin: &str, n: usize, k: usize) -> PyResult<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n.saturating_mul(k)).map_err(|e| {
+        PyValueError::new_err(format!(
+            "{origin}: the results of {n} samples do not fit in memory ({e}); give fewer samples \
+             in one call"
+        ))
+    })?;
+    Ok(v)
 }
 
 /// A batch's arrays, each (n, 3) float64 (`mag` absent for 6D), checked before any work.
@@ -103,31 +122,32 @@ struct Batch<'py> {
 }
 
 impl<'py> Batch<'py> {
-    /// The arrays of a call from `origin`: every one (n, 3) with the same n, at most
-    /// [`MAX_SAMPLES`] rows; a `mag` of `None` is 6D.
+    /// The arrays of a call from `origin`: every one (n, 3) with the same n, at most `max` rows
+    /// ([`MAX_SAMPLES`] for a batch, [`MAX_OFFLINE_SAMPLES`] offline); a `mag` of `None` is 6D.
+    /// Shapes and the size are checked before any array is converted or copied.
     fn read(
         origin: &str,
+        max: usize,
         gyr: &Bound<'py, PyAny>,
         acc: &Bound<'py, PyAny>,
         mag: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Self> {
-        let gyr = float_array("gyr", gyr)?;
-        let acc = float_array("acc", acc)?;
+        let gyr = shaped_float_array("gyr", gyr, |shape| {
+            let n = shape.first().copied().unwrap_or(0);
+            check_rows(origin, "gyr", shape, n)?;
+            if n > max {
+                return Err(PyValueError::new_err(format!(
+                    "{origin}: {n} samples, at most {max} in one call"
+                )));
+            }
+            Ok(())
+        })?;
+        let n = gyr.shape()[0];
+        let acc = shaped_float_array("acc", acc, |shape| check_rows(origin, "acc", shape, n))?;
         let mag = mag
             .filter(|m| !m.is_none())
-            .map(|m| float_array("mag", m))
+            .map(|m| shaped_float_array("mag", m, |shape| check_rows(origin, "mag", shape, n)))
             .transpose()?;
-        let n = gyr.shape().first().copied().unwrap_or(0);
-        check_rows("gyr", &gyr, n)?;
-        check_rows("acc", &acc, n)?;
-        if let Some(mag) = &mag {
-            check_rows("mag", mag, n)?;
-        }
-        if n > MAX_SAMPLES {
-            return Err(PyValueError::new_err(format!(
-                "{origin}: {n} samples, at most {MAX_SAMPLES} in one call"
-            )));
-        }
         Ok(Self { gyr, acc, mag, n })
     }
 }
@@ -143,8 +163,8 @@ impl AttitudeFilter {
     #[new]
     #[pyo3(signature = (dt = None, *, rate = None, sensors = None, **params))]
     fn new(
-        #[pyo3(from_py_with = optional_real)] dt: Option<f64>,
-        #[pyo3(from_py_with = optional_real)] rate: Option<f64>,
+        #[pyo3(from_py_with = arg::dt_or_none)] dt: Option<f64>,
+        #[pyo3(from_py_with = arg::rate_or_none)] rate: Option<f64>,
         sensors: Option<&str>,
         params: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
@@ -206,24 +226,35 @@ impl AttitudeFilter {
     /// released while filtering.
     #[pyo3(signature = (gyr, acc, mag = None))]
     fn update_batch<'py>(
-        &mut self,
+        slf: &Bound<'py, Self>,
         py: Python<'py>,
         gyr: &Bound<'py, PyAny>,
         acc: &Bound<'py, PyAny>,
         mag: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let Batch { gyr, acc, mag, n } = Batch::read("update_batch", gyr, acc, mag)?;
-        let (sensors, mut filter) = self.filter_for(mag.is_some())?;
+        const ORIGIN: &str = "update_batch";
+        let Batch { gyr, acc, mag, n } = Batch::read(ORIGIN, MAX_SAMPLES, gyr, acc, mag)?;
+        // Held until the call returns (see `in_use`), taken after the arguments are read.
+        let mut this = slf.try_borrow_mut().map_err(|_| in_use("AttitudeFilter"))?;
+        let (sensors, mut filter) = this.filter_for(mag.is_some())?;
         let (g, a) = (matrix(&gyr)?, matrix(&acc)?);
         let m = mag.as_ref().map(matrix).transpose()?;
-        let outputs = py.detach(|| run_batch(&mut filter, &g, &a, m.as_ref()));
-        let outputs = outputs.map_err(|f| {
-            PyValueError::new_err(format!(
+        let mut outputs = Outputs::reserve(ORIGIN, n)?;
+        let ran = py.detach(|| run_batch(&mut filter, &g, &a, m.as_ref(), &mut outputs));
+        // A Ctrl-C during the batch is raised here, the filter as it was.
+        py.check_signals()?;
+        ran.map_err(|stop| match stop {
+            Stopped::Interrupted(e) => e,
+            Stopped::Failed(f) => PyValueError::new_err(format!(
                 "update_batch: sample {}: {} (the filter is as it was before the call)",
                 f.sample, f.message
-            ))
+            )),
         })?;
-        self.commit(sensors, filter);
+        // A batch without samples decides nothing (not the sensors of a filter built without
+        // them): the filter stays as it was.
+        if n > 0 {
+            this.commit(sensors, filter);
+        }
         let dict = PyDict::new(py);
         dict.set_item(
             "quat",
@@ -250,9 +281,19 @@ impl AttitudeFilter {
     /// 3-sequences. Read the result from `quat`, `heading_sigma`, `tilt_sigma`, `bias`, `rest`,
     /// `mag_disturbance`. On a refused sample it raises `ValueError` and the state is unchanged.
     #[pyo3(signature = (gyr, acc, mag = None))]
-    fn update(&mut self, gyr: Real3, acc: Real3, mag: Option<Real3>) -> PyResult<()> {
-        let (gyr, acc, mag) = (gyr.0, acc.0, mag.map(|m| m.0));
-        let (sensors, mut filter) = self.filter_for(mag.is_some())?;
+    fn update(
+        slf: &Bound<'_, Self>,
+        gyr: &Bound<'_, PyAny>,
+        acc: &Bound<'_, PyAny>,
+        mag: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let gyr = Real3::read("gyr", gyr)?.0;
+        let acc = Real3::read("acc", acc)?.0;
+        let mag = mag
+            .map(|m| Real3::read("mag", m).map(|m| m.0))
+            .transpose()?;
+        let mut this = slf.try_borrow_mut().map_err(|_| in_use("AttitudeFilter"))?;
+        let (sensors, mut filter) = this.filter_for(mag.is_some())?;
         step(
             &mut filter,
             &ImuSample {
@@ -262,7 +303,7 @@ impl AttitudeFilter {
             mag.map(Vector3::from).as_ref(),
         )
         .map_err(value_error)?;
-        self.commit(sensors, filter);
+        this.commit(sensors, filter);
         Ok(())
     }
 
@@ -315,10 +356,12 @@ impl AttitudeFilter {
     }
 
     /// Forgets every sample: the next update starts the filter anew.
-    fn reset(&mut self) -> PyResult<()> {
-        self.filter = self
+    fn reset(slf: &Bound<'_, Self>) -> PyResult<()> {
+        let mut this = slf.try_borrow_mut().map_err(|_| in_use("AttitudeFilter"))?;
+        let this = &mut *this;
+        this.filter = this
             .sensors
-            .map(|s| AttitudeEkf::new(self.params.clone(), s, self.rate).map_err(value_error))
+            .map(|s| AttitudeEkf::new(this.params.clone(), s, this.rate).map_err(value_error))
             .transpose()?;
         Ok(())
     }
@@ -442,14 +485,14 @@ fn offline_attitude<'py>(
     gyr: &Bound<'py, PyAny>,
     acc: &Bound<'py, PyAny>,
     mag: Option<&Bound<'py, PyAny>>,
-    #[pyo3(from_py_with = optional_real)] dt: Option<f64>,
-    #[pyo3(from_py_with = optional_real)] rate: Option<f64>,
+    #[pyo3(from_py_with = arg::dt_or_none)] dt: Option<f64>,
+    #[pyo3(from_py_with = arg::rate_or_none)] rate: Option<f64>,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     const ORIGIN: &str = "offline_attitude";
     let rate = rate_of(ORIGIN, dt, rate)?;
     let p = with_params(&AttitudeParams::offline(), params)?;
-    let Batch { gyr, acc, mag, n } = Batch::read(ORIGIN, gyr, acc, mag)?;
+    let Batch { gyr, acc, mag, n } = Batch::read(ORIGIN, MAX_OFFLINE_SAMPLES, gyr, acc, mag)?;
     let sensors = if mag.is_some() {
         Sensors::NineD
     } else {
@@ -458,12 +501,17 @@ fn offline_attitude<'py>(
     let mut filter = AttitudeEkf::offline(p, sensors, rate).map_err(value_error)?;
     let (g, a) = (matrix(&gyr)?, matrix(&acc)?);
     let m = mag.as_ref().map(matrix).transpose()?;
-    let smoothed = py.detach(|| smooth_batch(&mut filter, &g, &a, m.as_ref()));
-    let smoothed = smoothed.map_err(|f| {
-        PyValueError::new_err(format!("{ORIGIN}: sample {}: {}", f.sample, f.message))
+    let mut smoothed = reserved(ORIGIN, n, 1)?;
+    let mut quat = reserved(ORIGIN, n, 4)?;
+    let (mut heading_sigma, mut tilt_sigma) = (reserved(ORIGIN, n, 1)?, reserved(ORIGIN, n, 1)?);
+    let ran = py.detach(|| smooth_batch(&mut filter, &g, &a, m.as_ref(), &mut smoothed));
+    py.check_signals()?;
+    ran.map_err(|stop| match stop {
+        Stopped::Interrupted(e) => e,
+        Stopped::Failed(f) => {
+            PyValueError::new_err(format!("{ORIGIN}: sample {}: {}", f.sample, f.message))
+        }
     })?;
-    let mut quat = Vec::with_capacity(4 * n);
-    let (mut heading_sigma, mut tilt_sigma) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for e in &smoothed {
         let q = e.orientation;
         quat.extend_from_slice(&[q.w, q.i, q.j, q.k]);
@@ -490,26 +538,30 @@ fn smooth_batch(
     gyr: &ArrayView2<'_, f64>,
     acc: &ArrayView2<'_, f64>,
     mag: Option<&ArrayView2<'_, f64>>,
-) -> Result<Vec<AttitudeEstimate>, Failure> {
+    out: &mut Vec<AttitudeEstimate>,
+) -> Result<(), Stopped<Failure>> {
     let row = |a: &ArrayView2<'_, f64>, k: usize| Vector3::new(a[[k, 0]], a[[k, 1]], a[[k, 2]]);
     let n = gyr.nrows();
     for k in 0..n {
+        check_signals_at(k)?;
         let sample = ImuSample {
             gyro: row(gyr, k),
             acc: row(acc, k),
         };
         let z = mag.map(|m| row(m, k));
-        step(filter, &sample, z.as_ref()).map_err(|e| Failure {
-            sample: k,
-            message: e.to_string(),
+        step(filter, &sample, z.as_ref()).map_err(|e| {
+            Stopped::Failed(Failure {
+                sample: k,
+                message: e.to_string(),
+            })
         })?;
     }
-    let mut out = Vec::with_capacity(n);
-    filter.release(true, &mut out).map_err(|e| Failure {
-        sample: n.saturating_sub(1),
-        message: e.to_string(),
-    })?;
-    Ok(out)
+    filter.release(true, out).map_err(|e| {
+        Stopped::Failed(Failure {
+            sample: n.saturating_sub(1),
+            message: e.to_string(),
+        })
+    })
 }
 
 /// One sample as the library's `record` loop steps it: predict, then the magnetometer reading.
@@ -537,14 +589,17 @@ fn run_batch(
     gyr: &ArrayView2<'_, f64>,
     acc: &ArrayView2<'_, f64>,
     mag: Option<&ArrayView2<'_, f64>>,
-) -> Result<Outputs, Failure> {
+    out: &mut Outputs,
+) -> Result<(), Stopped<Failure>> {
     let n = gyr.nrows();
-    let mut out = Outputs::with_capacity(n);
     let row = |a: &ArrayView2<'_, f64>, k: usize| Vector3::new(a[[k, 0]], a[[k, 1]], a[[k, 2]]);
     for k in 0..n {
-        let fail = |e: liebayes_operators::OperatorError| Failure {
-            sample: k,
-            message: e.to_string(),
+        check_signals_at(k)?;
+        let fail = |e: liebayes_operators::OperatorError| {
+            Stopped::Failed(Failure {
+                sample: k,
+                message: e.to_string(),
+            })
         };
         let sample = ImuSample {
             gyro: row(gyr, k),
@@ -563,7 +618,7 @@ fn run_batch(
         out.rest.push(filter.at_rest());
         out.mag_disturbance.push(filter.magnetic_disturbance());
     }
-    Ok(out)
+    Ok(())
 }
 
 /// A 2-D array's view (its shape checked by [`check_rows`] before).
@@ -574,13 +629,16 @@ fn matrix<'a>(array: &'a PyReadonlyArrayDyn<'_, f64>) -> PyResult<ArrayView2<'a,
         .map_err(value_error)
 }
 
-/// Refuses an array that is not `(n, 3)` with the batch's `n`.
-fn check_rows(name: &str, array: &PyReadonlyArrayDyn<'_, f64>, n: usize) -> PyResult<()> {
-    let shape = array.shape();
-    if shape != [n, 3] {
+/// Refuses a shape that is not `(n, 3)` with the batch's `n`, in a call from `origin`.
+fn check_rows(origin: &str, name: &str, shape: &[usize], n: usize) -> PyResult<()> {
+    if shape.len() != 2 || shape[1] != 3 {
         return Err(PyValueError::new_err(format!(
-            "update_batch: {name} has shape {shape:?}, expected ({n}, 3) (one row per sample, \
-             as gyr)"
+            "{origin}: {name} has shape {shape:?}, expected (n, 3) (one row per sample)"
+        )));
+    }
+    if shape[0] != n {
+        return Err(PyValueError::new_err(format!(
+            "{origin}: {name} has shape {shape:?}, expected ({n}, 3) (one row per sample, as gyr)"
         )));
     }
     Ok(())
@@ -605,9 +663,16 @@ fn set_param(
     value: &Bound<'_, PyAny>,
 ) -> PyResult<()> {
     let number = || real_number(&format!("AttitudeFilter: {key}"), value);
+    // A flag is a bool (or numpy.bool_), nothing else: another type is a TypeError.
     let flag = || -> PyResult<bool> {
         value.extract::<bool>().map_err(|_| {
-            PyValueError::new_err(format!("AttitudeFilter: {key} must be True or False"))
+            PyTypeError::new_err(format!(
+                "AttitudeFilter: {key} must be True or False, got {}",
+                value.get_type().name().map_or_else(
+                    |_| "another type".to_owned(),
+                    |n| { format!("an object of type {n}") }
+                )
+            ))
         })
     };
     match key {
@@ -628,9 +693,14 @@ fn set_param(
             p.propagation = match value.extract::<String>().as_deref() {
                 Ok("ekf") => Propagation::Ekf,
                 Ok("ukf") => Propagation::Ukf,
-                _ => {
-                    return Err(PyValueError::new_err(
-                        "AttitudeFilter: propagation must be \"ekf\" or \"ukf\"",
+                Ok(other) => {
+                    return Err(PyValueError::new_err(format!(
+                        "AttitudeFilter: propagation is {other:?}, expected \"ekf\" or \"ukf\""
+                    )));
+                }
+                Err(_) => {
+                    return Err(PyTypeError::new_err(
+                        "AttitudeFilter: propagation must be the string \"ekf\" or \"ukf\"",
                     ));
                 }
             }
@@ -702,7 +772,9 @@ fn params_dict<'py>(py: Python<'py>, p: &AttitudeParams) -> PyResult<Bound<'py, 
 // pyo3 extracts `str` and `os.PathLike` arguments as an owned `PathBuf`.
 #[allow(clippy::needless_pass_by_value)]
 fn read_broad<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
-    let log = py.detach(|| read_broad_log(&path)).map_err(value_error)?;
+    let log = py.detach(|| read_broad_log(&path));
+    py.check_signals()?;
+    let log = log.map_err(value_error)?;
     let n = log.len();
     let vectors = |v: &[Vector3<f64>]| -> PyResult<Bound<'py, PyArray2<f64>>> {
         let flat: Vec<f64> = v.iter().flat_map(|x| [x[0], x[1], x[2]]).collect();

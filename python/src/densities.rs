@@ -11,10 +11,10 @@
 //! `numpy.random.Generator`, so the same generator state gives the same draws.
 
 use crate::arrays::{
-    MAX_VALUES, float_array, put_matrix, put_vector, quaternion, real, rotation, shape_text,
-    sphere_point,
+    MAX_VALUES, arg, float_array, put_matrix, put_vector, quaternion, rotation, shape_text,
+    shaped_float_array, sphere_point,
 };
-use crate::errors::value_error;
+use crate::errors::{Stopped, check_signals_at, value_error};
 use liebayes_densities::manifolds::{ManifoldError, S2, So2, So3, Su2};
 use liebayes_densities::special::bingham_log_normalizer_and_moments;
 use liebayes_densities::{
@@ -50,14 +50,16 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// The components of a fixed-size parameter (a mean vector, a matrix) in row-major order, with
 /// the shape checked exactly; every component must be finite.
 fn parameter(name: &str, obj: &Bound<'_, PyAny>, shape: &[usize]) -> PyResult<Vec<f64>> {
-    let array = float_array(name, obj)?;
-    if array.shape() != shape {
-        return Err(PyValueError::new_err(format!(
+    let array = shaped_float_array(name, obj, |got| {
+        if got == shape {
+            return Ok(());
+        }
+        Err(PyValueError::new_err(format!(
             "{name}: expected an array of shape {}, got {}",
             shape_text(shape, false),
-            shape_text(array.shape(), false)
-        )));
-    }
+            shape_text(got, false)
+        )))
+    })?;
     let values: Vec<f64> = array.as_array().iter().copied().collect();
     if let Some(v) = values.iter().find(|v| !v.is_finite()) {
         return Err(PyValueError::new_err(format!(
@@ -86,22 +88,7 @@ fn points<'a>(
 ) -> PyResult<Points<'a>> {
     let shape = view.shape().to_vec();
     let k = point_shape.len();
-    if shape.len() < k || shape[shape.len() - k..] != *point_shape {
-        let expected = if k == 0 {
-            "an array of any shape".to_string()
-        } else {
-            let trailing = point_shape
-                .iter()
-                .map(ToString::to_string)
-                .collect::<Vec<_>>()
-                .join(", ");
-            format!("an array of shape ({trailing}) or (..., {trailing})")
-        };
-        return Err(PyValueError::new_err(format!(
-            "{name}: expected {expected}, got {}",
-            shape_text(&shape, false)
-        )));
-    }
+    check_points_shape(name, &shape, point_shape)?;
     let leading = shape[..shape.len() - k].to_vec();
     let width = point_shape.iter().product::<usize>();
     let data = match view.to_slice() {
@@ -113,6 +100,28 @@ fn points<'a>(
         data,
         width,
     })
+}
+
+/// Refuses a `shape` whose trailing dimensions are not `point_shape`.
+fn check_points_shape(name: &str, shape: &[usize], point_shape: &[usize]) -> PyResult<()> {
+    let k = point_shape.len();
+    if shape.len() >= k && shape[shape.len() - k..] == *point_shape {
+        return Ok(());
+    }
+    let expected = if k == 0 {
+        "an array of any shape".to_string()
+    } else {
+        let trailing = point_shape
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+            .join(", ");
+        format!("an array of shape ({trailing}) or (..., {trailing})")
+    };
+    Err(PyValueError::new_err(format!(
+        "{name}: expected {expected}, got {}",
+        shape_text(shape, false)
+    )))
 }
 
 /// Why one point of a batch failed: its flat index and the library's message.
@@ -133,7 +142,9 @@ fn map_points<'py, P, E: std::fmt::Display>(
     parse: impl Fn(&[f64]) -> Result<P, E> + Sync,
     f: impl Fn(&P) -> f64 + Sync,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let array = float_array(name, x)?;
+    let array = shaped_float_array(name, x, |shape| {
+        check_points_shape(name, shape, point_shape)
+    })?;
     let Points {
         leading,
         data,
@@ -156,6 +167,7 @@ fn map_points<'py, P, E: std::fmt::Display>(
         }
         Ok(out)
     });
+    py.check_signals()?;
     let values = result.map_err(|e| {
         PyValueError::new_err(format!("{name}[{}] (flat index): {}", e.index, e.message))
     })?;
@@ -163,13 +175,6 @@ fn map_points<'py, P, E: std::fmt::Display>(
         return Ok(PyFloat::new(py, values.first().copied().unwrap_or(f64::NAN)).into_any());
     }
     Ok(PyArray1::from_vec(py, values).reshape(leading)?.into_any())
-}
-
-/// A length as a `usize`, refusing negative values with a `ValueError`.
-fn count(name: &str, n: i64) -> PyResult<usize> {
-    usize::try_from(n).map_err(|_| {
-        PyValueError::new_err(format!("{name} must be a non-negative integer, got {n}"))
-    })
 }
 
 /// Refuses an `rng` that is not a `numpy.random.Generator` with a `TypeError`.
@@ -191,12 +196,11 @@ fn check_generator(rng: &Bound<'_, PyAny>) -> PyResult<()> {
 fn draw<'py, D: Density + Sync>(
     py: Python<'py>,
     density: &D,
-    n: i64,
+    n: usize,
     rng: &Bound<'py, PyAny>,
     point_shape: &[usize],
     put: impl Fn(&D::Point, &mut [f64]) + Sync,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let n = count("n", n)?;
     let width = point_shape.iter().product::<usize>();
     let total = n
         .checked_mul(width)
@@ -208,24 +212,30 @@ fn draw<'py, D: Density + Sync>(
             ))
         })?;
     check_generator(rng)?;
-    let mut data = py
-        .detach(|| -> Result<Vec<f64>, String> {
-            let mut data = Vec::new();
-            data.try_reserve_exact(total)
-                .map_err(|e| format!("n = {n} draws do not fit in memory: {e}"))?;
-            data.resize(total, 0.0);
-            Ok(data)
-        })
-        .map_err(PyValueError::new_err)?;
+    let data = py.detach(|| -> Result<Vec<f64>, String> {
+        let mut data = Vec::new();
+        data.try_reserve_exact(total)
+            .map_err(|e| format!("n = {n} draws do not fit in memory: {e}"))?;
+        data.resize(total, 0.0);
+        Ok(data)
+    });
+    py.check_signals()?;
+    let mut data = data.map_err(PyValueError::new_err)?;
     let seed = rng
         .call_method1("integers", (0_u64, 1_u64 << 63))?
         .extract::<u64>()?;
-    py.detach(|| {
+    let drawn = py.detach(|| -> Result<(), Stopped<()>> {
         let mut stream = ChaCha8Rng::seed_from_u64(seed);
-        for chunk in data.chunks_exact_mut(width) {
+        for (k, chunk) in data.chunks_exact_mut(width).enumerate() {
+            check_signals_at(k)?;
             put(&density.sample(&mut stream), chunk);
         }
+        Ok(())
     });
+    py.check_signals()?;
+    if let Err(Stopped::Interrupted(e)) = drawn {
+        return Err(e);
+    }
     let mut shape = vec![n];
     shape.extend_from_slice(point_shape);
     Ok(PyArray1::from_vec(py, data).reshape(shape)?.into_any())
@@ -267,14 +277,16 @@ fn fit_weights(weights: Option<&Bound<'_, PyAny>>, shape: &[usize]) -> PyResult<
     let Some(weights) = weights else {
         return Ok(vec![1.0; shape.iter().product()]);
     };
-    let array = float_array("weights", weights)?;
-    if array.shape() != shape {
-        return Err(PyValueError::new_err(format!(
+    let array = shaped_float_array("weights", weights, |got| {
+        if got == shape {
+            return Ok(());
+        }
+        Err(PyValueError::new_err(format!(
             "weights: expected an array of shape {}, one per sample, got {}",
             shape_text(shape, false),
-            shape_text(array.shape(), false)
-        )));
-    }
+            shape_text(got, false)
+        )))
+    })?;
     let values: Vec<f64> = array.as_array().iter().copied().collect();
     if let Some((i, w)) = values
         .iter()
@@ -303,14 +315,16 @@ fn fit_samples<P: Send>(
     point_shape: &[usize],
     parse: fn(&[f64]) -> Result<P, ManifoldError>,
 ) -> PyResult<(Vec<P>, Vec<f64>)> {
-    let array = float_array("samples", samples)?;
-    if array.ndim() != point_shape.len() + 1 || array.shape()[1..] != *point_shape {
-        return Err(PyValueError::new_err(format!(
+    let array = shaped_float_array("samples", samples, |got| {
+        if got.len() == point_shape.len() + 1 && got[1..] == *point_shape {
+            return Ok(());
+        }
+        Err(PyValueError::new_err(format!(
             "samples: expected an array of shape {}, got {}",
             shape_text(point_shape, true),
-            shape_text(array.shape(), false)
-        )));
-    }
+            shape_text(got, false)
+        )))
+    })?;
     let width: usize = point_shape.iter().product();
     let pts = points("samples", &array.as_array(), point_shape)?;
     let n = pts.leading[0];
@@ -332,6 +346,7 @@ fn fit_samples<P: Send>(
             })
             .collect::<Result<Vec<P>, PointError>>()
     });
+    py.check_signals()?;
     let xs = parsed
         .map_err(|e| PyValueError::new_err(format!("samples[{}]: {}", e.index, e.message)))?;
     Ok((xs, w))
@@ -401,8 +416,8 @@ impl PyVonMises {
     /// The distribution with mean direction `mu` (radians) and concentration `kappa ≥ 0`.
     #[new]
     fn new(
-        #[pyo3(from_py_with = real)] mu: f64,
-        #[pyo3(from_py_with = real)] kappa: f64,
+        #[pyo3(from_py_with = arg::mu)] mu: f64,
+        #[pyo3(from_py_with = arg::kappa)] kappa: f64,
     ) -> PyResult<Self> {
         let mean = So2::from_angle(mu).map_err(|e| value_error(format!("mu: {e}")))?;
         VonMises::new(mean, kappa)
@@ -432,7 +447,11 @@ impl PyVonMises {
     /// mean of `(cos θ, sin θ)`.
     #[staticmethod]
     #[pyo3(signature = (samples, weights = None))]
-    fn fit(samples: &Bound<'_, PyAny>, weights: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
+    fn fit(
+        py: Python<'_>,
+        samples: &Bound<'_, PyAny>,
+        weights: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
         let array = float_array("samples", samples)?;
         let angles: Vec<f64> = array.as_array().iter().copied().collect();
         if angles.is_empty() {
@@ -446,13 +465,17 @@ impl PyVonMises {
             )));
         }
         let w = fit_weights(weights, array.shape())?;
-        let total: f64 = w.iter().sum();
-        let moment = angles
-            .iter()
-            .zip(&w)
-            .fold(Vector2::zeros(), |acc, (a, wi)| {
-                acc + Vector2::new(a.cos(), a.sin()) * (wi / total)
-            });
+        // The moment's sums without the GIL (10^7 angles are a noticeable fraction of a second).
+        let moment = py.detach(|| {
+            let total: f64 = w.iter().sum();
+            angles
+                .iter()
+                .zip(&w)
+                .fold(Vector2::zeros(), |acc, (a, wi)| {
+                    acc + Vector2::new(a.cos(), a.sin()) * (wi / total)
+                })
+        });
+        py.check_signals()?;
         VonMises::from_first_moment(moment)
             .map(|inner| Self { inner })
             .map_err(value_error)
@@ -468,7 +491,7 @@ impl PyVonMises {
     fn sample<'py>(
         &self,
         py: Python<'py>,
-        n: i64,
+        #[pyo3(from_py_with = arg::n)] n: usize,
         rng: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         draw(py, &self.inner, n, rng, &[], |p, out| out[0] = p.angle())
@@ -557,7 +580,10 @@ impl PyVonMisesFisher {
     /// The distribution with unit mean direction `mean` (shape `(3,)`, norm 1 to 1e-9) and
     /// concentration `kappa ≥ 0`.
     #[new]
-    fn new(mean: &Bound<'_, PyAny>, #[pyo3(from_py_with = real)] kappa: f64) -> PyResult<Self> {
+    fn new(
+        mean: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = arg::kappa)] kappa: f64,
+    ) -> PyResult<Self> {
         let mean = single_point("mean", mean, &[3], sphere_point)?;
         VonMisesFisher::new(mean, kappa)
             .map(|inner| Self { inner })
@@ -610,7 +636,7 @@ impl PyVonMisesFisher {
     fn sample<'py>(
         &self,
         py: Python<'py>,
-        n: i64,
+        #[pyo3(from_py_with = arg::n)] n: usize,
         rng: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         draw(py, &self.inner, n, rng, &[3], put_sphere_point)
@@ -691,7 +717,7 @@ impl PyVonMisesFisher {
 
 /// The Bingham distribution on unit quaternions `q = (w, x, y, z)`,
 /// `p(q) = exp(qᵀ M q) / K(M)` with respect to the uniform probability measure on S³,
-/// `M = V diag(z) Vᵀ`; eigenvalue spread `max z − min z` at most 1e6.
+/// `M = V diag(z) Vᵀ`; eigenvalue spread `max z − min z` at most 1e12 (`Bingham::MAX_SPREAD`).
 #[pyclass(name = "Bingham", module = "liebayes._liebayes", frozen)]
 pub(crate) struct PyBingham {
     /// The wrapped density.
@@ -731,7 +757,7 @@ impl PyBingham {
     fn from_direction(
         measured: &Bound<'_, PyAny>,
         reference: &Bound<'_, PyAny>,
-        #[pyo3(from_py_with = real)] sigma: f64,
+        #[pyo3(from_py_with = arg::sigma)] sigma: f64,
     ) -> PyResult<Self> {
         let v = parameter("measured", measured, &[3])?;
         let h = parameter("reference", reference, &[3])?;
@@ -783,7 +809,7 @@ impl PyBingham {
     fn sample<'py>(
         &self,
         py: Python<'py>,
-        n: i64,
+        #[pyo3(from_py_with = arg::n)] n: usize,
         rng: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         draw(py, &self.inner, n, rng, &[4], put_quaternion)
@@ -867,7 +893,7 @@ impl PyBingham {
 }
 
 /// The Bingham normaliser `ln K(z)` (uniform probability measure on S³) and its gradient
-/// `∂ ln K/∂zₖ`, for eigenvalues `z` of shape `(4,)` in any order (spread at most 1e6).
+/// `∂ ln K/∂zₖ`, for eigenvalues `z` of shape `(4,)` in any order (spread at most 1e12).
 #[pyfunction]
 fn bingham_log_normaliser<'py>(
     py: Python<'py>,
@@ -904,7 +930,10 @@ fn map_angles<'py>(
 impl PyHeatKernelSo3 {
     /// The heat kernel centred at the rotation matrix `mean` (3×3) with variance `variance` (rad²).
     #[new]
-    fn new(mean: &Bound<'_, PyAny>, #[pyo3(from_py_with = real)] variance: f64) -> PyResult<Self> {
+    fn new(
+        mean: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = arg::variance)] variance: f64,
+    ) -> PyResult<Self> {
         let mean = single_point("mean", mean, &[3, 3], rotation)?;
         HeatKernelSo3::new(mean, variance)
             .map(|inner| Self { inner })
@@ -921,7 +950,7 @@ impl PyHeatKernelSo3 {
     fn sample<'py>(
         &self,
         py: Python<'py>,
-        n: i64,
+        #[pyo3(from_py_with = arg::n)] n: usize,
         rng: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         draw(py, &self.inner, n, rng, &[3, 3], put_rotation)
@@ -1031,9 +1060,9 @@ impl PyManifoldGaussianSo3 {
         weights: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let (xs, w) = fit_samples(py, samples, weights, &[3, 3], rotation)?;
-        py.detach(|| ManifoldGaussian::fit(&xs, &w))
-            .map(|inner| Self { inner })
-            .map_err(value_error)
+        let fitted = py.detach(|| ManifoldGaussian::fit(&xs, &w));
+        py.check_signals()?;
+        fitted.map(|inner| Self { inner }).map_err(value_error)
     }
 
     /// `ln p(R)` for rotation matrices `r` of shape `(3, 3)` or `(..., 3, 3)`.
@@ -1057,7 +1086,7 @@ impl PyManifoldGaussianSo3 {
     fn sample<'py>(
         &self,
         py: Python<'py>,
-        n: i64,
+        #[pyo3(from_py_with = arg::n)] n: usize,
         rng: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         draw(py, &self.inner, n, rng, &[3, 3], put_rotation)
@@ -1146,9 +1175,9 @@ impl PyManifoldGaussianS2 {
         weights: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let (xs, w) = fit_samples(py, samples, weights, &[3], sphere_point)?;
-        py.detach(|| ManifoldGaussian::fit(&xs, &w))
-            .map(|inner| Self { inner })
-            .map_err(value_error)
+        let fitted = py.detach(|| ManifoldGaussian::fit(&xs, &w));
+        py.check_signals()?;
+        fitted.map(|inner| Self { inner }).map_err(value_error)
     }
 
     /// `ln p(x)` for unit vectors `x` of shape `(3,)` or `(..., 3)`.
@@ -1172,7 +1201,7 @@ impl PyManifoldGaussianS2 {
     fn sample<'py>(
         &self,
         py: Python<'py>,
-        n: i64,
+        #[pyo3(from_py_with = arg::n)] n: usize,
         rng: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         draw(py, &self.inner, n, rng, &[3], put_sphere_point)

@@ -12,29 +12,29 @@
 // the signatures cannot take references.
 #![allow(clippy::needless_pass_by_value)]
 
-use crate::arrays::{MAX_VALUES, RealArray, float_array, optional_real, real, real_number};
-use crate::errors::value_error;
+use crate::arrays::{MAX_VALUES, arg, real_number, shaped_float_array};
+use crate::errors::{Stopped, check_signals_at, in_use, value_error};
 use liebayes_densities::MAX_SCALE;
 use liebayes_experiments::{
-    AsIs, Estimator, Figure, MAX_STUDY_EPOCHS, Method as _, RecursiveFilter, Reduction, RunScores,
-    Scenario, Scorer, Shard, Step, Study, StudyLabel, Summary, record, run_rngs,
+    Figure, MAX_EPOCHS, MAX_STUDY_EPOCHS, Method as _, RecursiveFilter, Reduction, RunFailure,
+    RunScores, Scenario, Scorer, Shard, Step, Study, StudyLabel, Summary, run_rngs,
 };
 use liebayes_filters::aoa::AdaptiveSigmas;
 use liebayes_filters::aoa::{
-    Algorithm, Anchor, AngleNoise, AzEl, AzElModel, DataModel, ModelChoice, PositionEstimate,
-    PositionScorer, Prior, RandomWalk, Readings, SquareTrack, TrackConfig, TrackFilter, TruthModel,
-    UnitVectorModel, angle_ekf, angle_particle_filter, angle_ukf, fit_angle_sigmas,
-    square_track_anchors, vmf_ekf, vmf_particle_filter, vmf_ukf,
+    Algorithm, Anchor, AngleNoise, AzEl, AzElModel, DataModel, KAPPA_RANGE, ModelChoice,
+    PositionEstimate, PositionScorer, Prior, RandomWalk, Readings, SIGMA_RANGE, SquareTrack,
+    TrackConfig, TrackFilter, TrackReadings, TruthModel, UnitVectorModel, angle_ekf,
+    angle_particle_filter, angle_ukf, fit_angle_sigmas, square_track_anchors, vmf_ekf,
+    vmf_particle_filter, vmf_ukf,
 };
 use liebayes_filters::azimuth::{
-    AzimuthDensity, AzimuthEstimate, AzimuthExact, AzimuthMoments, AzimuthScenario, AzimuthScorer,
-    Config, Method, Motion, PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess,
-    exact,
+    AzimuthDensity, AzimuthEstimate, AzimuthExact, AzimuthScenario, AzimuthScorer, Config, Method,
+    Motion, PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess, exact,
 };
 use liebayes_manifolds::{Rn, So2, So3};
 use liebayes_operators::OperatorError;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
-use numpy::{PyArray1, PyArrayMethods};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
 use numpy::{PyUntypedArray, PyUntypedArrayMethods, ndarray::ArrayViewD};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -95,10 +95,32 @@ fn check_shape(name: &str, shape: &[usize], expected: &[Option<usize>]) -> PyRes
     )))
 }
 
+/// An array argument of real numbers, read in place (see [`shaped`]).
+type Real<'py> = PyReadonlyArrayDyn<'py, f64>;
+
+/// The array argument `name` as float64, its shape checked against `expected` ([`check_shape`])
+/// before anything is converted or copied.
+fn shaped<'py>(
+    name: &str,
+    obj: &Bound<'py, PyAny>,
+    expected: &[Option<usize>],
+) -> PyResult<Real<'py>> {
+    shaped_float_array(name, obj, |shape| check_shape(name, shape, expected))
+}
+
+/// An optional array argument read by [`shaped`].
+fn optional_shaped<'py>(
+    name: &str,
+    obj: Option<&Bound<'py, PyAny>>,
+    expected: &[Option<usize>],
+) -> PyResult<Option<Real<'py>>> {
+    obj.map(|o| shaped(name, o, expected)).transpose()
+}
+
 /// Refuses an array of positions, their errors or covariances holding a value that is not finite
 /// or beyond the library's limit for such values ([`MAX_SCALE`], 1e100), naming the first one's
 /// index: beyond it the squares that scores sum would overflow.
-fn check_scale(name: &str, array: &RealArray<'_>) -> PyResult<()> {
+fn check_scale(name: &str, array: &Real<'_>) -> PyResult<()> {
     let view = array.as_array();
     match view
         .indexed_iter()
@@ -112,9 +134,27 @@ fn check_scale(name: &str, array: &RealArray<'_>) -> PyResult<()> {
     }
 }
 
+/// Refuses an array holding a value for which `fits` is false, naming its index and `what` the
+/// values must be.
+fn check_each(
+    name: &str,
+    array: &Real<'_>,
+    what: &str,
+    fits: impl Fn(f64) -> bool,
+) -> PyResult<()> {
+    let view = array.as_array();
+    match view.indexed_iter().find(|(_, v)| !fits(**v)) {
+        Some((index, value)) => Err(bad(format!(
+            "{name}{:?}: {value} is not {what}",
+            numpy::ndarray::Dimension::slice(&index)
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// A 1-d array-like of exactly `n` floats.
-fn fixed<const N: usize>(name: &str, a: &RealArray<'_>) -> PyResult<[f64; N]> {
-    check_shape(name, a.shape(), &[Some(N)])?;
+fn fixed<const N: usize>(name: &str, a: &Bound<'_, PyAny>) -> PyResult<[f64; N]> {
+    let a = shaped(name, a, &[Some(N)])?;
     let view = a.as_array();
     Ok(std::array::from_fn(|i| view[i]))
 }
@@ -128,12 +168,14 @@ fn per_step(name: &str, value: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>
         Ok(array) => array.ndim() == 0,
         Err(_) => value.cast::<PySequence>().is_err(),
     };
+    let mut values = reserved(name, n)?;
     if scalar {
-        return Ok(vec![real_number(name, value)?; n]);
+        values.resize(n, real_number(name, value)?);
+        return Ok(values);
     }
-    let a = float_array(name, value)?;
-    check_shape(name, a.shape(), &[Some(n)])?;
-    Ok(a.as_array().iter().copied().collect())
+    let a = shaped(name, value, &[Some(n)])?;
+    values.extend(a.as_array().iter().copied());
+    Ok(values)
 }
 
 /// `[f(0), …, f(n−1)]` flattened, each `f(i)` of `k` values.
@@ -164,6 +206,35 @@ fn check_size(what: &str, count: Option<usize>) -> PyResult<usize> {
             "{what}: more than 2^28 values; ask for fewer runs or a shorter scenario"
         ))),
     }
+}
+
+/// The study `name` of `runs` runs from `seed`, run by `run` shard after shard without the GIL
+/// (each shard's runs in parallel), the shards' summaries merged: merging is exact, so the result
+/// is the whole study's. Between two shards the pending signals are handled, so a Ctrl-C stops a
+/// long study within a shard (about four runs per thread) and raises `KeyboardInterrupt`.
+fn in_shards(
+    py: Python<'_>,
+    name: &str,
+    runs: u64,
+    seed: u64,
+    run: impl Fn(&Study) -> Result<Summary, liebayes_experiments::ExperimentError> + Sync,
+) -> PyResult<Summary> {
+    // The study's own checks (runs from 1 to MAX_RUNS) and message, before any shard.
+    Study::new(name, runs, seed, Shard::WHOLE).map_err(value_error)?;
+    let threads = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    let per_shard = u64::try_from(threads.saturating_mul(4).max(16)).unwrap_or(u64::MAX);
+    let shards = runs.div_ceil(per_shard).max(1);
+    let mut total = Summary::default();
+    for index in 1..=shards {
+        let shard = Shard::new(index, shards).map_err(value_error)?;
+        let study = Study::new(name, runs, seed, shard).map_err(value_error)?;
+        let summary = py.detach(|| run(&study));
+        py.check_signals()?;
+        total
+            .merge(&summary.map_err(value_error)?)
+            .map_err(value_error)?;
+    }
+    Ok(total)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -310,15 +381,30 @@ fn scored_summary<T, E, Sc: Scorer<T, E>>(
     Ok(summary)
 }
 
-/// Epoch times: given (checked to have `epochs` values) or 0, 1, 2, ….
-fn epoch_times(times: Option<RealArray<'_>>, epochs: usize) -> PyResult<Vec<f64>> {
-    match times {
-        Some(t) => {
-            check_shape("times", t.shape(), &[Some(epochs)])?;
-            Ok(t.as_array().iter().copied().collect())
+/// Epoch times: given (checked to have `epochs` finite, strictly increasing values, the first bad
+/// one named by its index) or 0, 1, 2, ….
+fn epoch_times(times: Option<&Bound<'_, PyAny>>, epochs: usize) -> PyResult<Vec<f64>> {
+    let Some(times) = times else {
+        return Ok((0..epochs).map(|k| k as f64).collect());
+    };
+    let t = shaped("times", times, &[Some(epochs)])?;
+    let values: Vec<f64> = t.as_array().iter().copied().collect();
+    for (k, &v) in values.iter().enumerate() {
+        if !v.is_finite() {
+            return Err(bad(format!(
+                "times[{k}] is {v}: every epoch time must be finite"
+            )));
         }
-        None => Ok((0..epochs).map(|k| k as f64).collect()),
+        if k > 0 && v <= values[k - 1] {
+            return Err(bad(format!(
+                "times[{k}] is {v}, not after times[{}] = {}: epoch times must be strictly \
+                 increasing",
+                k - 1,
+                values[k - 1]
+            )));
+        }
     }
+    Ok(values)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -327,6 +413,10 @@ fn epoch_times(times: Option<RealArray<'_>>, epochs: usize) -> PyResult<Vec<f64>
 /// The exact azimuth-alignment filter: the seven-number posterior `p(r, A)` of a platform whose
 /// position r (platform axes) is driven by a known velocity and measured in world axes turned by
 /// an unknown azimuth A.
+///
+/// A filter is used by one thread at a time: while `run` runs (without the GIL), another thread's
+/// `run`, `predict` or `update` of it raises `ValueError` ("in use by another call") and reading
+/// it raises `RuntimeError`; give each thread its own filter (`copy()`).
 #[pyclass(module = "liebayes._liebayes", name = "ExactAzimuthFilter")]
 #[derive(Clone)]
 pub(crate) struct ExactAzimuthFilter {
@@ -375,13 +465,13 @@ impl ExactAzimuthFilter {
     #[new]
     #[pyo3(signature = (q, sigma_m, r0 = None, sigma0 = 1.0))]
     fn new(
-        #[pyo3(from_py_with = real)] q: f64,
-        #[pyo3(from_py_with = real)] sigma_m: f64,
-        r0: Option<RealArray<'_>>,
-        #[pyo3(from_py_with = real)] sigma0: f64,
+        #[pyo3(from_py_with = arg::q)] q: f64,
+        #[pyo3(from_py_with = arg::sigma_m)] sigma_m: f64,
+        r0: Option<&Bound<'_, PyAny>>,
+        #[pyo3(from_py_with = arg::sigma0)] sigma0: f64,
     ) -> PyResult<Self> {
         let r0 = match r0 {
-            Some(a) => Vector2::from(fixed::<2>("r0", &a)?),
+            Some(a) => Vector2::from(fixed::<2>("r0", a)?),
             None => Vector2::zeros(),
         };
         let process = VelocityProcess::new(q).map_err(value_error)?;
@@ -393,20 +483,26 @@ impl ExactAzimuthFilter {
 
     /// Propagates over `dt` seconds with the velocity `velocity` (2,) in platform axes.
     fn predict(
-        &mut self,
-        velocity: RealArray<'_>,
-        #[pyo3(from_py_with = real)] dt: f64,
+        slf: &Bound<'_, Self>,
+        velocity: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = arg::dt)] dt: f64,
     ) -> PyResult<()> {
-        let velocity = Vector2::from(fixed::<2>("velocity", &velocity)?);
-        self.filter
+        let velocity = Vector2::from(fixed::<2>("velocity", velocity)?);
+        let mut this = slf
+            .try_borrow_mut()
+            .map_err(|_| in_use("ExactAzimuthFilter"))?;
+        this.filter
             .predict(&VelocityInput { velocity, dt })
             .map_err(value_error)
     }
 
     /// Conditions on the world-axes position measurement `z` (2,); returns its log evidence.
-    fn update(&mut self, z: RealArray<'_>) -> PyResult<f64> {
-        let z = Vector2::from(fixed::<2>("z", &z)?);
-        Ok(self.filter.update(&z).map_err(value_error)?.log_evidence)
+    fn update(slf: &Bound<'_, Self>, z: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let z = Vector2::from(fixed::<2>("z", z)?);
+        let mut this = slf
+            .try_borrow_mut()
+            .map_err(|_| in_use("ExactAzimuthFilter"))?;
+        Ok(this.filter.update(&z).map_err(value_error)?.log_evidence)
     }
 
     /// The current estimate (a dict).
@@ -420,7 +516,7 @@ impl ExactAzimuthFilter {
     fn conditional_mean<'py>(
         &self,
         py: Python<'py>,
-        #[pyo3(from_py_with = real)] azimuth: f64,
+        #[pyo3(from_py_with = arg::azimuth)] azimuth: f64,
     ) -> PyResult<Bound<'py, PyAny>> {
         if !azimuth.is_finite() {
             return Err(bad(format!("azimuth is {azimuth}: it must be finite")));
@@ -433,105 +529,68 @@ impl ExactAzimuthFilter {
     }
 
     /// Runs the steps `velocity` (n, 2), `dt` (float or (n,)) and `z` (n, 2), a row of NaN where a
-    /// step has no measurement; returns each step's estimate as arrays. All or nothing.
+    /// step has no measurement; returns each step's estimate as arrays. At most [`MAX_EPOCHS`]
+    /// (2^24) steps in one call, checked, with the memory of the steps and of the results reserved,
+    /// before any step is run. All or nothing.
     fn run<'py>(
-        &mut self,
+        slf: &Bound<'py, Self>,
         py: Python<'py>,
-        velocity: RealArray<'py>,
+        velocity: &Bound<'py, PyAny>,
         dt: &Bound<'py, PyAny>,
-        z: RealArray<'py>,
+        z: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        check_shape("velocity", velocity.shape(), &[None, Some(2)])?;
+        let velocity = shaped_float_array("velocity", velocity, |shape| {
+            check_shape("velocity", shape, &[None, Some(2)])?;
+            if shape[0] > MAX_EPOCHS {
+                return Err(bad(format!(
+                    "velocity: {} steps; at most {MAX_EPOCHS} (2^24) are run in one call: split \
+                     the run (the filter carries over from one call to the next)",
+                    shape[0]
+                )));
+            }
+            Ok(())
+        })?;
         let n = velocity.shape()[0];
-        check_shape("z", z.shape(), &[Some(n), Some(2)])?;
+        let z = shaped("z", z, &[Some(n), Some(2)])?;
         let dts = per_step("dt", dt, n)?;
         let steps = azimuth_steps(&velocity.as_array(), &dts, &z.as_array())?;
-        let mut filter = self.filter.clone().estimated_by(AsIs);
-        let recording = py
-            .detach(|| record(&mut filter, steps))
-            .map_err(value_error)?;
-        let mut estimates = Vec::with_capacity(n);
-        for step in &recording.steps {
-            estimates.push(
-                AzimuthMoments
-                    .estimate(&step.estimate)
-                    .map_err(value_error)?,
-            );
-        }
-        self.filter = filter.estimated_by(AzimuthMoments);
-        let densities: Vec<&AzimuthDensity> = recording.steps.iter().map(|s| &s.estimate).collect();
-        let out = PyDict::new(py);
-        let scalar = |f: &dyn Fn(usize) -> f64| (0..n).map(f).collect::<Vec<f64>>();
-        out.set_item(
-            "azimuth",
-            array(
-                py,
-                scalar(&|i| estimates[i].azimuth.map_or(f64::NAN, |a| a.angle())),
-                &[n],
-            )?,
-        )?;
-        out.set_item(
-            "concentration",
-            array(
-                py,
-                scalar(&|i| densities[i].azimuth().concentration()),
-                &[n],
-            )?,
-        )?;
-        out.set_item("rho", array(py, scalar(&|i| estimates[i].rho), &[n])?)?;
-        out.set_item(
-            "circular_variance",
-            array(py, scalar(&|i| estimates[i].circular_variance), &[n])?,
-        )?;
-        out.set_item(
-            "mean_r",
-            crate::arrays::rows(py, n, 2, |i, o| {
-                o.copy_from_slice(estimates[i].mean_r.as_slice());
-            })?,
-        )?;
-        out.set_item(
-            "cov_r",
-            array(
-                py,
-                flat(n, 4, |i, o| {
-                    o.copy_from_slice(&row_major2(&estimates[i].cov_r));
-                }),
-                &[n, 2, 2],
-            )?,
-        )?;
-        out.set_item(
-            "a",
-            array(
-                py,
-                flat(n, 2, |i, o| o.copy_from_slice(densities[i].a().as_slice())),
-                &[n, 2],
-            )?,
-        )?;
-        out.set_item(
-            "c",
-            array(
-                py,
-                flat(n, 2, |i, o| o.copy_from_slice(densities[i].c().as_slice())),
-                &[n, 2],
-            )?,
-        )?;
-        out.set_item(
-            "sigma2",
-            array(py, scalar(&|i| densities[i].sigma2()), &[n])?,
-        )?;
-        out.set_item(
-            "log_evidence",
-            array(
-                py,
-                scalar(&|i| {
-                    recording.steps[i]
-                        .update
-                        .map_or(f64::NAN, |u| u.log_evidence)
-                }),
-                &[n],
-            )?,
-        )?;
-        Ok(out)
+        let mut out = ExactRun::reserve(n)?;
+        // Held until the call returns (see `in_use`), taken after the arguments are read.
+        let mut this = slf
+            .try_borrow_mut()
+            .map_err(|_| in_use("ExactAzimuthFilter"))?;
+        let mut filter = this.filter.clone();
+        let ran = py.detach(|| -> Result<(), Stopped<RunFailure>> {
+            for (index, step) in steps.iter().enumerate() {
+                check_signals_at(index)?;
+                let fail = |error| {
+                    Stopped::Failed(RunFailure {
+                        step: index,
+                        time: step.time,
+                        error,
+                    })
+                };
+                filter.predict(&step.input).map_err(fail)?;
+                let update = match &step.measurement {
+                    Some(z) => Some(filter.update(z).map_err(fail)?),
+                    None => None,
+                };
+                let estimate = filter.estimate().map_err(fail)?;
+                out.push(
+                    filter.density(),
+                    &estimate,
+                    update.map_or(f64::NAN, |u| u.log_evidence),
+                );
+            }
+            Ok(())
+        });
+        py.check_signals()?;
+        ran.map_err(|stop| match stop {
+            Stopped::Interrupted(e) => e,
+            Stopped::Failed(f) => value_error(f),
+        })?;
+        this.filter = filter;
+        out.into_dict(py, n)
     }
 
     /// An independent copy of the filter.
@@ -551,6 +610,94 @@ impl ExactAzimuthFilter {
     }
 }
 
+/// The results of [`ExactAzimuthFilter::run`], a value (or a row) per step, reserved before the
+/// run so that memory the system cannot give raises `ValueError` instead of aborting.
+struct ExactRun {
+    /// The circular mean of A (NaN where A is uniform).
+    azimuth: Vec<f64>,
+    /// The von Mises concentration of A's marginal.
+    concentration: Vec<f64>,
+    /// The mean resultant length of A.
+    rho: Vec<f64>,
+    /// The circular variance of A.
+    circular_variance: Vec<f64>,
+    /// E[r], 2 per step.
+    mean_r: Vec<f64>,
+    /// Cov[r], 4 per step, row-major.
+    cov_r: Vec<f64>,
+    /// The density's a, 2 per step.
+    a: Vec<f64>,
+    /// The density's c, 2 per step.
+    c: Vec<f64>,
+    /// The density's σ².
+    sigma2: Vec<f64>,
+    /// The update's log evidence (NaN at a step without a measurement).
+    log_evidence: Vec<f64>,
+}
+
+/// An empty vector with room for `n` values, or `ValueError` naming `what` when the memory cannot
+/// be had (rather than the abort of an infallible allocation).
+pub(crate) fn reserved<T>(what: &str, n: usize) -> PyResult<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n)
+        .map_err(|e| bad(format!("{what}: {n} values do not fit in memory ({e})")))?;
+    Ok(v)
+}
+
+impl ExactRun {
+    /// Room for `n` steps.
+    fn reserve(n: usize) -> PyResult<Self> {
+        let what = "ExactAzimuthFilter.run: the results";
+        let rows = |k: usize| reserved(what, n.saturating_mul(k));
+        Ok(Self {
+            azimuth: rows(1)?,
+            concentration: rows(1)?,
+            rho: rows(1)?,
+            circular_variance: rows(1)?,
+            mean_r: rows(2)?,
+            cov_r: rows(4)?,
+            a: rows(2)?,
+            c: rows(2)?,
+            sigma2: rows(1)?,
+            log_evidence: rows(1)?,
+        })
+    }
+
+    /// One step's density, estimate and log evidence (within the reserved room).
+    fn push(&mut self, density: &AzimuthDensity, estimate: &AzimuthEstimate, log_evidence: f64) {
+        self.azimuth
+            .push(estimate.azimuth.map_or(f64::NAN, |a| a.angle()));
+        self.concentration.push(density.azimuth().concentration());
+        self.rho.push(estimate.rho);
+        self.circular_variance.push(estimate.circular_variance);
+        self.mean_r.extend_from_slice(estimate.mean_r.as_slice());
+        self.cov_r.extend_from_slice(&row_major2(&estimate.cov_r));
+        self.a.extend_from_slice(density.a().as_slice());
+        self.c.extend_from_slice(density.c().as_slice());
+        self.sigma2.push(density.sigma2());
+        self.log_evidence.push(log_evidence);
+    }
+
+    /// The results as the dict `run` returns (arrays of `n` steps, without a copy).
+    fn into_dict(self, py: Python<'_>, n: usize) -> PyResult<Bound<'_, PyDict>> {
+        let out = PyDict::new(py);
+        out.set_item("azimuth", array(py, self.azimuth, &[n])?)?;
+        out.set_item("concentration", array(py, self.concentration, &[n])?)?;
+        out.set_item("rho", array(py, self.rho, &[n])?)?;
+        out.set_item(
+            "circular_variance",
+            array(py, self.circular_variance, &[n])?,
+        )?;
+        out.set_item("mean_r", array(py, self.mean_r, &[n, 2])?)?;
+        out.set_item("cov_r", array(py, self.cov_r, &[n, 2, 2])?)?;
+        out.set_item("a", array(py, self.a, &[n, 2])?)?;
+        out.set_item("c", array(py, self.c, &[n, 2])?)?;
+        out.set_item("sigma2", array(py, self.sigma2, &[n])?)?;
+        out.set_item("log_evidence", array(py, self.log_evidence, &[n])?)?;
+        Ok(out)
+    }
+}
+
 /// The steps of a batch run of the azimuth filter (truth `()`), time the running sum of dt. A
 /// measurement row of two NaN is no measurement; a row with one NaN is refused.
 fn azimuth_steps(
@@ -559,7 +706,7 @@ fn azimuth_steps(
     z: &ArrayViewD<'_, f64>,
 ) -> PyResult<Vec<Step<(), VelocityInput, Vector2<f64>>>> {
     let mut time = 0.0;
-    let mut steps = Vec::with_capacity(dts.len());
+    let mut steps = reserved("ExactAzimuthFilter.run: the steps", dts.len())?;
     for (i, &dt) in dts.iter().enumerate() {
         time += dt;
         let (zx, zy) = (z[[i, 0]], z[[i, 1]]);
@@ -666,17 +813,17 @@ fn azimuth_study<'py>(
     py: Python<'py>,
     scenario: &str,
     methods: Vec<String>,
-    runs: u64,
-    seed: u64,
-    #[pyo3(from_py_with = real)] duration: f64,
-    #[pyo3(from_py_with = real)] dt: f64,
-    measure_every: usize,
-    #[pyo3(from_py_with = real)] sigma0: f64,
-    #[pyo3(from_py_with = real)] sigma_m: f64,
-    #[pyo3(from_py_with = real)] q: f64,
-    #[pyo3(from_py_with = optional_real)] filter_sigma_m: Option<f64>,
-    #[pyo3(from_py_with = optional_real)] filter_q: Option<f64>,
-    #[pyo3(from_py_with = optional_real)] filter_sigma0: Option<f64>,
+    #[pyo3(from_py_with = arg::runs)] runs: u64,
+    #[pyo3(from_py_with = arg::seed)] seed: u64,
+    #[pyo3(from_py_with = arg::duration)] duration: f64,
+    #[pyo3(from_py_with = arg::dt)] dt: f64,
+    #[pyo3(from_py_with = arg::measure_every)] measure_every: usize,
+    #[pyo3(from_py_with = arg::sigma0)] sigma0: f64,
+    #[pyo3(from_py_with = arg::sigma_m)] sigma_m: f64,
+    #[pyo3(from_py_with = arg::q)] q: f64,
+    #[pyo3(from_py_with = arg::filter_sigma_m_or_none)] filter_sigma_m: Option<f64>,
+    #[pyo3(from_py_with = arg::filter_q_or_none)] filter_q: Option<f64>,
+    #[pyo3(from_py_with = arg::filter_sigma0_or_none)] filter_sigma0: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let scenario = azimuth_scenario(scenario, duration, dt, measure_every, sigma0, sigma_m, q)?;
     let mut plans = Vec::with_capacity(methods.len());
@@ -702,11 +849,9 @@ fn azimuth_study<'py>(
     let name = scenario.motion().name();
     let mut summaries = Vec::with_capacity(plans.len());
     for (label, on) in &plans {
-        let study = Study::new(format!("{label}, {name}"), runs, seed, Shard::WHOLE)
-            .map_err(value_error)?;
-        let summary = py
-            .detach(|| study.run_method(&scenario, on, &AzimuthScorer, &|_| {}))
-            .map_err(value_error)?;
+        let summary = in_shards(py, &format!("{label}, {name}"), runs, seed, |study| {
+            study.run_method(&scenario, on, &AzimuthScorer, &|_| {})
+        })?;
         summaries.push((label.clone(), summary));
     }
     summaries_dict(py, &summaries)
@@ -720,15 +865,15 @@ fn azimuth_study<'py>(
 fn azimuth_runs<'py>(
     py: Python<'py>,
     scenario: &str,
-    runs: usize,
-    seed: u64,
-    start: u64,
-    #[pyo3(from_py_with = real)] duration: f64,
-    #[pyo3(from_py_with = real)] dt: f64,
-    measure_every: usize,
-    #[pyo3(from_py_with = real)] sigma0: f64,
-    #[pyo3(from_py_with = real)] sigma_m: f64,
-    #[pyo3(from_py_with = real)] q: f64,
+    #[pyo3(from_py_with = arg::runs_size)] runs: usize,
+    #[pyo3(from_py_with = arg::seed)] seed: u64,
+    #[pyo3(from_py_with = arg::start)] start: u64,
+    #[pyo3(from_py_with = arg::duration)] duration: f64,
+    #[pyo3(from_py_with = arg::dt)] dt: f64,
+    #[pyo3(from_py_with = arg::measure_every)] measure_every: usize,
+    #[pyo3(from_py_with = arg::sigma0)] sigma0: f64,
+    #[pyo3(from_py_with = arg::sigma_m)] sigma_m: f64,
+    #[pyo3(from_py_with = arg::q)] q: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let scenario = azimuth_scenario(scenario, duration, dt, measure_every, sigma0, sigma_m, q)?;
     let steps = scenario.config().steps;
@@ -766,6 +911,7 @@ fn azimuth_runs<'py>(
         }
         Ok((truth, z, velocity, azimuths, times, dts, measured))
     });
+    py.check_signals()?;
     let (truth, z, velocity, azimuths, times, dts, measured) = simulated.map_err(value_error)?;
     let out = PyDict::new(py);
     out.set_item("time", array(py, times, &[steps])?)?;
@@ -788,35 +934,28 @@ fn azimuth_runs<'py>(
 #[allow(clippy::too_many_arguments)]
 fn score_azimuth<'py>(
     py: Python<'py>,
-    truth_r: RealArray<'py>,
-    truth_azimuth: RealArray<'py>,
-    azimuth: RealArray<'py>,
-    rho: RealArray<'py>,
-    mean_r: RealArray<'py>,
-    cov_r: RealArray<'py>,
-    circular_variance: Option<RealArray<'py>>,
-    times: Option<RealArray<'py>>,
+    truth_r: &Bound<'py, PyAny>,
+    truth_azimuth: &Bound<'py, PyAny>,
+    azimuth: &Bound<'py, PyAny>,
+    rho: &Bound<'py, PyAny>,
+    mean_r: &Bound<'py, PyAny>,
+    cov_r: &Bound<'py, PyAny>,
+    circular_variance: Option<&Bound<'py, PyAny>>,
+    times: Option<&Bound<'py, PyAny>>,
     label: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
-    check_shape("truth_r", truth_r.shape(), &[None, None, Some(2)])?;
+    let truth_r = shaped_float_array("truth_r", truth_r, |shape| {
+        check_shape("truth_r", shape, &[None, None, Some(2)])?;
+        check_scored("truth_r", shape[0], shape[1])
+    })?;
     let (runs, epochs) = (truth_r.shape()[0], truth_r.shape()[1]);
-    check_scored("truth_r", runs, epochs)?;
-    check_shape("truth_azimuth", truth_azimuth.shape(), &[Some(runs)])?;
-    check_shape("azimuth", azimuth.shape(), &[Some(runs), Some(epochs)])?;
-    check_shape("rho", rho.shape(), &[Some(runs), Some(epochs)])?;
-    check_shape(
-        "mean_r",
-        mean_r.shape(),
-        &[Some(runs), Some(epochs), Some(2)],
-    )?;
-    check_shape(
-        "cov_r",
-        cov_r.shape(),
-        &[Some(runs), Some(epochs), Some(2), Some(2)],
-    )?;
-    if let Some(v) = &circular_variance {
-        check_shape("circular_variance", v.shape(), &[Some(runs), Some(epochs)])?;
-    }
+    let (r, e) = (Some(runs), Some(epochs));
+    let truth_azimuth = shaped("truth_azimuth", truth_azimuth, &[r])?;
+    let azimuth = shaped("azimuth", azimuth, &[r, e])?;
+    let rho = shaped("rho", rho, &[r, e])?;
+    let mean_r = shaped("mean_r", mean_r, &[r, e, Some(2)])?;
+    let cov_r = shaped("cov_r", cov_r, &[r, e, Some(2), Some(2)])?;
+    let circular_variance = optional_shaped("circular_variance", circular_variance, &[r, e])?;
     let times = epoch_times(times, epochs)?;
     let (tr, ta, az, rh, mr, cr) = (
         truth_r.as_array(),
@@ -835,43 +974,55 @@ fn score_azimuth<'py>(
     ] {
         check_scale(name, array)?;
     }
+    // The documented ranges: a mean resultant length rho in [0, 1], a circular variance in
+    // [0, inf] (inf for a uniform estimate); outside them every circular metric would be NaN.
+    check_each("rho", &rho, "a mean resultant length in [0, 1]", |v| {
+        (0.0..=1.0).contains(&v)
+    })?;
+    if let Some(v) = &circular_variance {
+        check_each(
+            "circular_variance",
+            v,
+            "a circular variance in [0, inf]",
+            |v| v >= 0.0,
+        )?;
+    }
     let cv = circular_variance.as_ref().map(|v| v.as_array());
-    let summary = py
-        .detach(|| {
-            scored_summary(label, runs, epochs, &times, &AzimuthScorer, |run, k| {
-                let truth = PositionAzimuth::new(
-                    Rn::new_unchecked(Vector2::new(tr[[run, k, 0]], tr[[run, k, 1]])),
-                    So2::from_angle_unchecked(ta[[run]]),
-                );
-                let a = az[[run, k]];
-                let r = rh[[run, k]];
-                let variance = cv.as_ref().map_or_else(
-                    || {
-                        if r > 0.0 {
-                            -2.0 * r.ln()
-                        } else {
-                            f64::INFINITY
-                        }
-                    },
-                    |v| v[[run, k]],
-                );
-                let estimate = AzimuthEstimate {
-                    azimuth: a.is_finite().then(|| So2::from_angle_unchecked(a)),
-                    rho: r,
-                    circular_variance: variance,
-                    mean_r: Vector2::new(mr[[run, k, 0]], mr[[run, k, 1]]),
-                    cov_r: Matrix2::new(
-                        cr[[run, k, 0, 0]],
-                        cr[[run, k, 0, 1]],
-                        cr[[run, k, 1, 0]],
-                        cr[[run, k, 1, 1]],
-                    ),
-                };
-                (truth, estimate)
-            })
+    let summary = py.detach(|| {
+        scored_summary(label, runs, epochs, &times, &AzimuthScorer, |run, k| {
+            let truth = PositionAzimuth::new(
+                Rn::new_unchecked(Vector2::new(tr[[run, k, 0]], tr[[run, k, 1]])),
+                So2::from_angle_unchecked(ta[[run]]),
+            );
+            let a = az[[run, k]];
+            let r = rh[[run, k]];
+            let variance = cv.as_ref().map_or_else(
+                || {
+                    if r > 0.0 {
+                        -2.0 * r.ln()
+                    } else {
+                        f64::INFINITY
+                    }
+                },
+                |v| v[[run, k]],
+            );
+            let estimate = AzimuthEstimate {
+                azimuth: a.is_finite().then(|| So2::from_angle_unchecked(a)),
+                rho: r,
+                circular_variance: variance,
+                mean_r: Vector2::new(mr[[run, k, 0]], mr[[run, k, 1]]),
+                cov_r: Matrix2::new(
+                    cr[[run, k, 0, 0]],
+                    cr[[run, k, 0, 1]],
+                    cr[[run, k, 1, 0]],
+                    cr[[run, k, 1, 1]],
+                ),
+            };
+            (truth, estimate)
         })
-        .map_err(value_error)?;
-    summary_dict(py, &summary)
+    });
+    py.check_signals()?;
+    summary_dict(py, &summary.map_err(value_error)?)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1016,23 +1167,19 @@ fn parse_aoa_name(name: &str, particles: usize) -> PyResult<(Algorithm, String)>
 
 /// Anchors from positions (k, 3) and optional world-to-anchor rotations (k, 3, 3).
 fn anchors_of(
-    positions: &RealArray<'_>,
-    rotations: Option<&RealArray<'_>>,
+    positions: &Bound<'_, PyAny>,
+    rotations: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Vec<Anchor>> {
-    let points = crate::arrays::vectors3("anchors", positions)?;
+    let positions = shaped("anchors", positions, &[None, Some(3)])?;
+    let points = crate::arrays::vectors3("anchors", &positions)?;
     let k = points.len();
     if k == 0 || k > MAX_ANCHORS {
         return Err(bad(format!(
             "anchors: {k} anchors; from 1 to {MAX_ANCHORS} are supported"
         )));
     }
-    let r = match rotations {
-        Some(r) => {
-            check_shape("rotations", r.shape(), &[Some(k), Some(3), Some(3)])?;
-            Some(r.as_array())
-        }
-        None => None,
-    };
+    let rotations = optional_shaped("rotations", rotations, &[Some(k), Some(3), Some(3)])?;
+    let r = rotations.as_ref().map(|r| r.as_array());
     (0..k)
         .map(|j| {
             let position = points[j];
@@ -1050,6 +1197,10 @@ fn anchors_of(
 
 /// An angle-of-arrival filter (particle filter, EKF or UKF with the von Mises-Fisher or the
 /// azimuth-elevation model) of the position θ ∈ R³ from k anchors' azimuth-elevation readings.
+///
+/// A filter is used by one thread at a time: while `predict` or `update` runs (without the GIL),
+/// another thread's `predict` or `update` of it raises `ValueError` ("in use by another call") and
+/// reading it raises `RuntimeError`; give each thread its own filter.
 #[pyclass(module = "liebayes._liebayes", name = "AoaFilter")]
 pub(crate) struct AoaFilter {
     /// The library's filter (behind a mutex so that the class is `Sync`; only `&mut self` steps it).
@@ -1090,21 +1241,22 @@ impl AoaFilter {
         particles = 10000, seed = 0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
+        py: Python<'_>,
         name: &str,
-        anchors: RealArray<'_>,
-        rotations: Option<RealArray<'_>>,
-        #[pyo3(from_py_with = optional_real)] kappa: Option<f64>,
-        #[pyo3(from_py_with = optional_real)] sigma_az: Option<f64>,
-        #[pyo3(from_py_with = optional_real)] sigma_el: Option<f64>,
-        #[pyo3(from_py_with = real)] q_xy: f64,
-        #[pyo3(from_py_with = real)] q_z: f64,
-        prior_mean: Option<RealArray<'_>>,
-        #[pyo3(from_py_with = real)] prior_std: f64,
-        particles: usize,
-        seed: u64,
+        anchors: &Bound<'_, PyAny>,
+        rotations: Option<&Bound<'_, PyAny>>,
+        #[pyo3(from_py_with = arg::kappa_or_none)] kappa: Option<f64>,
+        #[pyo3(from_py_with = arg::sigma_az_or_none)] sigma_az: Option<f64>,
+        #[pyo3(from_py_with = arg::sigma_el_or_none)] sigma_el: Option<f64>,
+        #[pyo3(from_py_with = arg::q_xy)] q_xy: f64,
+        #[pyo3(from_py_with = arg::q_z)] q_z: f64,
+        prior_mean: Option<&Bound<'_, PyAny>>,
+        #[pyo3(from_py_with = arg::prior_std)] prior_std: f64,
+        #[pyo3(from_py_with = arg::particles)] particles: usize,
+        #[pyo3(from_py_with = arg::seed)] seed: u64,
     ) -> PyResult<Self> {
         let (algorithm, kind) = parse_aoa_name(name, particles)?;
-        let anchors = anchors_of(&anchors, rotations.as_ref())?;
+        let anchors = anchors_of(anchors, rotations)?;
         let sigmas = || -> PyResult<(f64, f64)> {
             match (sigma_az, sigma_el) {
                 (Some(a), Some(e)) => Ok((a, e)),
@@ -1134,20 +1286,25 @@ impl AoaFilter {
             return Err(bad("particles is 0: it must be at least 1"));
         }
         let mean = match prior_mean {
-            Some(m) => Vector3::from(fixed::<3>("prior_mean", &m)?),
+            Some(m) => Vector3::from(fixed::<3>("prior_mean", m)?),
             None => Vector3::zeros(),
         };
         let prior = Prior::new(mean, prior_std).map_err(value_error)?;
         let process = RandomWalk::new(q_xy, q_z).map_err(value_error)?;
         let count = anchors.len();
-        let filter = build_aoa(
-            &anchors,
-            &model,
-            algorithm,
-            process,
-            &prior,
-            ChaCha8Rng::seed_from_u64(seed),
-        )?;
+        // A particle filter draws its particles here (up to 2^30): without the GIL.
+        let filter = py.detach(|| {
+            build_aoa(
+                &anchors,
+                &model,
+                algorithm,
+                process,
+                &prior,
+                ChaCha8Rng::seed_from_u64(seed),
+            )
+        });
+        py.check_signals()?;
+        let filter = filter?;
         Ok(Self {
             filter: Mutex::new(filter),
             name: name.to_owned(),
@@ -1157,27 +1314,38 @@ impl AoaFilter {
     }
 
     /// Propagates over `delta` seconds (the random walk's time step).
-    fn predict(&mut self, py: Python<'_>, #[pyo3(from_py_with = real)] delta: f64) -> PyResult<()> {
+    fn predict(
+        slf: &Bound<'_, Self>,
+        py: Python<'_>,
+        #[pyo3(from_py_with = arg::delta)] delta: f64,
+    ) -> PyResult<()> {
         // The Kalman filters' random walk takes any step; the library's check of it gives the
         // message (the particle filters check it themselves).
         RandomWalk::check_step(delta).map_err(value_error)?;
-        let filter = self.inner();
+        // Held until the call returns (see `in_use`). The step is made in place: a Ctrl-C
+        // meanwhile is raised by Python once the call has returned.
+        let mut this = slf.try_borrow_mut().map_err(|_| in_use("AoaFilter"))?;
+        let filter = this.inner();
         py.detach(|| filter.predict(delta)).map_err(value_error)
     }
 
     /// Conditions on the readings `readings` (k, 2): azimuth and elevation (rad) per anchor, in
     /// the anchors' order. Returns the log evidence.
-    fn update(&mut self, py: Python<'_>, readings: RealArray<'_>) -> PyResult<f64> {
-        check_shape("readings", readings.shape(), &[Some(self.anchors), Some(2)])?;
+    fn update(slf: &Bound<'_, Self>, py: Python<'_>, readings: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let anchors = slf.try_borrow().map_err(|_| in_use("AoaFilter"))?.anchors;
+        let readings = shaped("readings", readings, &[Some(anchors), Some(2)])?;
         let view = readings.as_array();
-        let readings: Vec<AzEl> = (0..self.anchors)
+        let readings: Vec<AzEl> = (0..anchors)
             .map(|j| AzEl::new(view[[j, 0]], view[[j, 1]]))
             .collect();
-        let filter = self.inner();
+        // Held until the call returns (see `in_use`), taken after the arguments are read. The
+        // step is made in place: a Ctrl-C meanwhile is raised by Python once the call returned.
+        let mut this = slf.try_borrow_mut().map_err(|_| in_use("AoaFilter"))?;
+        let filter = this.inner();
         let update = py
             .detach(|| filter.update(&readings))
             .map_err(value_error)?;
-        self.nis = update.nis.map(|n| (n.value, n.dof));
+        this.nis = update.nis.map(|n| (n.value, n.dof));
         Ok(update.log_evidence)
     }
 
@@ -1218,15 +1386,27 @@ impl AoaFilter {
 
 /// The square track as `liebayes aoa track` builds it: its data model from `data` and `sigma_deg`.
 fn aoa_track(data: &str, sigma_deg: f64, steps: usize, truth: &str) -> PyResult<SquareTrack<4>> {
+    // The data model's noise is derived from sigma_deg (model1: sigma_az = sigma_el = sigma,
+    // model2: kappa = 1/sigma²): its range is checked here, under its own name, with the
+    // library's ranges of the derived values.
     let sigma = sigma_deg.to_radians();
-    let data = match data.to_ascii_lowercase().as_str() {
-        "model1" | "model i" => DataModel::NormalWithFlip {
-            sigma_az: sigma,
-            sigma_el: sigma,
-        },
-        "model2" | "model ii" => DataModel::VonMisesFisher {
-            kappa: 1.0 / (sigma * sigma),
-        },
+    let (data, fits, (lo, hi)) = match data.to_ascii_lowercase().as_str() {
+        "model1" | "model i" => (
+            DataModel::NormalWithFlip {
+                sigma_az: sigma,
+                sigma_el: sigma,
+            },
+            (SIGMA_RANGE.0..=SIGMA_RANGE.1).contains(&sigma),
+            SIGMA_RANGE,
+        ),
+        "model2" | "model ii" => {
+            let kappa = 1.0 / (sigma * sigma);
+            (
+                DataModel::VonMisesFisher { kappa },
+                sigma > 0.0 && (KAPPA_RANGE.0..=KAPPA_RANGE.1).contains(&kappa),
+                (1.0 / KAPPA_RANGE.1.sqrt(), 1.0 / KAPPA_RANGE.0.sqrt()),
+            )
+        }
         _ => {
             return Err(bad(format!(
                 "data {data:?}: expected \"model1\" (normal angles) or \"model2\" (von \
@@ -1234,6 +1414,15 @@ fn aoa_track(data: &str, sigma_deg: f64, steps: usize, truth: &str) -> PyResult<
             )));
         }
     };
+    if !fits {
+        return Err(bad(format!(
+            "sigma_deg is {sigma_deg}: with data {:?} it must be from about {:.3e} to {:.3e} \
+             degrees ({lo:e} to {hi:e} rad)",
+            data.name(),
+            lo.to_degrees(),
+            hi.to_degrees()
+        )));
+    }
     let truth = match truth.to_ascii_lowercase().as_str() {
         "square" => TruthModel::Square,
         "random-walk" | "random_walk" => TruthModel::RandomWalk,
@@ -1260,13 +1449,13 @@ fn aoa_study<'py>(
     py: Python<'py>,
     data: &str,
     filters: Vec<String>,
-    runs: u64,
-    seed: u64,
-    particles: usize,
-    #[pyo3(from_py_with = real)] sigma_deg: f64,
-    steps: usize,
+    #[pyo3(from_py_with = arg::runs)] runs: u64,
+    #[pyo3(from_py_with = arg::seed)] seed: u64,
+    #[pyo3(from_py_with = arg::particles)] particles: usize,
+    #[pyo3(from_py_with = arg::sigma_deg)] sigma_deg: f64,
+    #[pyo3(from_py_with = arg::steps)] steps: usize,
     truth: &str,
-    fit_samples: usize,
+    #[pyo3(from_py_with = arg::fit_samples)] fit_samples: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let track = aoa_track(data, sigma_deg, steps, truth)?;
     let parsed = filters
@@ -1275,9 +1464,9 @@ fn aoa_study<'py>(
         .collect::<PyResult<Vec<_>>>()?;
     let fitted = if parsed.iter().any(|(_, m)| m == "AE-FITTED") {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let fit = py
-            .detach(|| fit_angle_sigmas(track.data(), fit_samples, &mut rng))
-            .map_err(value_error)?;
+        let fit = py.detach(|| fit_angle_sigmas(track.data(), fit_samples, &mut rng));
+        py.check_signals()?;
+        let fit = fit.map_err(value_error)?;
         (fit.sigma_az, fit.sigma_el)
     } else {
         (f64::NAN, f64::NAN)
@@ -1301,10 +1490,9 @@ fn aoa_study<'py>(
     }
     let mut summaries = Vec::with_capacity(plans.len());
     for (label, filter) in &plans {
-        let study = Study::new(label.clone(), runs, seed, Shard::WHOLE).map_err(value_error)?;
-        let summary = py
-            .detach(|| filter.study(&track, &study, &|_| {}))
-            .map_err(value_error)?;
+        let summary = in_shards(py, label, runs, seed, |study| {
+            filter.study(&track, study, &|_| {})
+        })?;
         summaries.push((label.clone(), summary));
     }
     summaries_dict(py, &summaries)
@@ -1318,11 +1506,11 @@ fn aoa_study<'py>(
 fn aoa_runs<'py>(
     py: Python<'py>,
     data: &str,
-    runs: usize,
-    seed: u64,
-    start: u64,
-    #[pyo3(from_py_with = real)] sigma_deg: f64,
-    steps: usize,
+    #[pyo3(from_py_with = arg::runs_size)] runs: usize,
+    #[pyo3(from_py_with = arg::seed)] seed: u64,
+    #[pyo3(from_py_with = arg::start)] start: u64,
+    #[pyo3(from_py_with = arg::sigma_deg)] sigma_deg: f64,
+    #[pyo3(from_py_with = arg::steps)] steps: usize,
     truth: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let track = aoa_track(data, sigma_deg, steps, truth)?;
@@ -1350,13 +1538,25 @@ fn aoa_runs<'py>(
                     deltas.push(step.input);
                 }
                 truths.extend_from_slice(step.truth.coords().as_slice());
-                for y in step.measurement.iter().flatten() {
-                    readings.extend_from_slice(&[y.azimuth, y.elevation]);
+                match &step.measurement {
+                    Some(TrackReadings::Readings(ys)) => {
+                        for y in ys {
+                            readings.extend_from_slice(&[y.azimuth, y.elevation]);
+                        }
+                    }
+                    // No readings at that epoch (the true position at an anchor): NaN rows.
+                    None | Some(TrackReadings::AtAnchor) => {
+                        readings.extend_from_slice(&[f64::NAN; 8]);
+                    }
+                    Some(TrackReadings::Failed(e)) => {
+                        return Err(format!("run {}: {e}", start + run));
+                    }
                 }
             }
         }
         Ok((truths, readings, priors, times, deltas))
     });
+    py.check_signals()?;
     let (truths, readings, priors, times, deltas) = simulated.map_err(bad)?;
     let out = PyDict::new(py);
     out.set_item("time", array(py, times, &[steps])?)?;
@@ -1402,21 +1602,20 @@ fn square_track(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)
 #[pyo3(signature = (truth, mean, covariance, times = None, label = "user"))]
 fn score_aoa<'py>(
     py: Python<'py>,
-    truth: RealArray<'py>,
-    mean: RealArray<'py>,
-    covariance: RealArray<'py>,
-    times: Option<RealArray<'py>>,
+    truth: &Bound<'py, PyAny>,
+    mean: &Bound<'py, PyAny>,
+    covariance: &Bound<'py, PyAny>,
+    times: Option<&Bound<'py, PyAny>>,
     label: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
-    check_shape("truth", truth.shape(), &[None, None, Some(3)])?;
+    let truth = shaped_float_array("truth", truth, |shape| {
+        check_shape("truth", shape, &[None, None, Some(3)])?;
+        check_scored("truth", shape[0], shape[1])
+    })?;
     let (runs, epochs) = (truth.shape()[0], truth.shape()[1]);
-    check_scored("truth", runs, epochs)?;
-    check_shape("mean", mean.shape(), &[Some(runs), Some(epochs), Some(3)])?;
-    check_shape(
-        "covariance",
-        covariance.shape(),
-        &[Some(runs), Some(epochs), Some(3), Some(3)],
-    )?;
+    let (r, e) = (Some(runs), Some(epochs));
+    let mean = shaped("mean", mean, &[r, e, Some(3)])?;
+    let covariance = shaped("covariance", covariance, &[r, e, Some(3), Some(3)])?;
     for (name, array) in [
         ("truth", &truth),
         ("mean", &mean),
@@ -1426,17 +1625,16 @@ fn score_aoa<'py>(
     }
     let times = epoch_times(times, epochs)?;
     let (t, m, c) = (truth.as_array(), mean.as_array(), covariance.as_array());
-    let summary = py
-        .detach(|| {
-            scored_summary(label, runs, epochs, &times, &PositionScorer, |run, k| {
-                let truth = Rn::new_unchecked(Vector3::from_fn(|i, _| t[[run, k, i]]));
-                let estimate = PositionEstimate {
-                    mean: Vector3::from_fn(|i, _| m[[run, k, i]]),
-                    covariance: Matrix3::from_fn(|a, b| c[[run, k, a, b]]),
-                };
-                (truth, estimate)
-            })
+    let summary = py.detach(|| {
+        scored_summary(label, runs, epochs, &times, &PositionScorer, |run, k| {
+            let truth = Rn::new_unchecked(Vector3::from_fn(|i, _| t[[run, k, i]]));
+            let estimate = PositionEstimate {
+                mean: Vector3::from_fn(|i, _| m[[run, k, i]]),
+                covariance: Matrix3::from_fn(|a, b| c[[run, k, a, b]]),
+            };
+            (truth, estimate)
         })
-        .map_err(value_error)?;
-    summary_dict(py, &summary)
+    });
+    py.check_signals()?;
+    summary_dict(py, &summary.map_err(value_error)?)
 }

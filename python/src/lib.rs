@@ -18,6 +18,11 @@ use pyo3::prelude::*;
 /// The extension module: every class and function of the package, registered by area.
 #[pymodule]
 fn _liebayes(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // numpy's C API is loaded now, at import: loaded lazily, by the first array a call creates,
+    // it would run Python code right after a section without the GIL, where a pending Ctrl-C
+    // made the numpy crate panic (PanicException) instead of raising KeyboardInterrupt. Every
+    // such section is followed by `py.check_signals()`, which raises the KeyboardInterrupt.
+    numpy::PyArray1::<f64>::zeros(m.py(), 0, false);
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     manifolds::register(m)?;
     densities::register(m)?;

@@ -13,7 +13,7 @@
 //!
 //! The maths is the library's (`liebayes_manifolds`); this file only moves numbers in and out.
 
-use crate::arrays::{self, float_array, put_matrix, put_vector, shape_text};
+use crate::arrays::{self, put_matrix, put_vector, shape_text};
 use crate::errors::value_error;
 use liebayes_manifolds::{GroupAction, LieGroup, Manifold, ManifoldError, S2, Se3, So3, Su2};
 use nalgebra::{Matrix3, Matrix4, SVector, Vector2, Vector3, Vector6};
@@ -76,20 +76,23 @@ impl<'py> Elements<'py> {
     /// Reads `obj` as one element of shape `shape` or a batch `(n, *shape)`, checking the shape
     /// before anything is read.
     fn read(name: &'static str, obj: &Bound<'py, PyAny>, shape: &[usize]) -> PyResult<Self> {
-        let array = float_array(name, obj)?;
-        let got = array.shape();
-        let count = if got == shape {
-            None
-        } else if got.len() == shape.len() + 1 && &got[1..] == shape {
-            Some(got[0])
-        } else {
-            return Err(PyValueError::new_err(format!(
-                "{name}: expected shape {} for one element or {} for n elements, got {}",
-                shape_text(shape, false),
-                shape_text(shape, true),
-                shape_text(got, false)
-            )));
+        let classify = |got: &[usize]| -> PyResult<Option<usize>> {
+            if got == shape {
+                Ok(None)
+            } else if got.len() == shape.len() + 1 && &got[1..] == shape {
+                Ok(Some(got[0]))
+            } else {
+                Err(PyValueError::new_err(format!(
+                    "{name}: expected shape {} for one element or {} for n elements, got {}",
+                    shape_text(shape, false),
+                    shape_text(shape, true),
+                    shape_text(got, false)
+                )))
+            }
         };
+        // Checked before a numpy array is converted or copied, then on the array read.
+        let array = arrays::shaped_float_array(name, obj, |got| classify(got).map(|_| ()))?;
+        let count = classify(array.shape())?;
         Ok(Self {
             name,
             array,
@@ -181,6 +184,7 @@ fn map_elements<'py, const N: usize>(
         }
         Ok(())
     });
+    py.check_signals()?;
     filled.map_err(|(i, failure)| {
         let input = inputs[failure.arg];
         if input.count.is_some() {

@@ -215,11 +215,16 @@ def test_bools_and_complex_values_are_not_real_numbers():
     {"dt": 0.01, "gyro_noise": -1.0}, {"dt": 0.01, "no_such_parameter": 1.0},
     {"dt": 0.01, "propagation": "kalman"}, {"dt": 0.01, "sensors": "7d"},
     {"dt": 0.01, "mag_delay": 2.0}, {"dt": 0.01, "imu_delay": 0.5},
-    {"dt": 0.01, "estimate_bias": "yes"},
 ])
 def test_bad_settings_raise(kwargs):
     with pytest.raises(ValueError):
         att.AttitudeFilter(**kwargs)
+
+
+def test_a_flag_of_another_type_raises_type_error():
+    # A flag is True or False: another type is a TypeError, as for the numbers.
+    with pytest.raises(TypeError, match="estimate_bias must be True or False"):
+        att.AttitudeFilter(dt=0.01, estimate_bias="yes")
 
 
 def test_bad_arrays_raise():

@@ -8,7 +8,7 @@ use rand_distr::StandardNormal;
 use std::f64::consts::PI;
 
 /// Relative asymmetry accepted in a covariance or information matrix: `|A − Aᵀ| ≤ 1e-12 max|A|`.
-const SYMMETRY_TOLERANCE: f64 = 1e-12;
+pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-12;
 
 /// The largest magnitude of a mean (or feature) coordinate and of an entry of a covariance or of its
 /// inverse that the Gaussian constructors accept ([`Gaussian::new`],

@@ -2,7 +2,9 @@
 //! the angle's first harmonics.
 
 use crate::error::DensityError;
-use crate::gaussian::{Gaussian, MAX_SCALE, whitened_squared_norm, within_scale};
+use crate::gaussian::{
+    Gaussian, MAX_SCALE, SYMMETRY_TOLERANCE, whitened_squared_norm, within_scale,
+};
 use crate::gen_von_mises::GenVonMises2;
 use crate::manifold_gaussian::inverse_trace_above;
 use crate::traits::{Density, Entropy, KlDivergence};
@@ -40,11 +42,14 @@ pub struct HarmonicGaussian<const N: usize> {
 }
 
 impl<const N: usize> HarmonicGaussian<N> {
-    /// The density with angle marginal p(y), feature matrix B and conditional covariance Σ, stored
-    /// symmetrised as `(Σ + Σᵀ)/2`, which must be positive definite.
+    /// The density with angle marginal p(y), feature matrix B and conditional covariance Σ, which
+    /// must be symmetric to the rule of [`Gaussian::new`] (`max|Σ − Σᵀ| ≤ 1e-12 max|Σ|`) and
+    /// positive definite; it is stored symmetrised as `(Σ + Σᵀ)/2`, which removes only that
+    /// rounding.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] for non-finite B or Σ, [`DensityError::OutOfRange`] when Σ is not
+    /// symmetric (beyond 1e-12 of its largest entry: symmetrise it with `(Σ + Σᵀ)/2` first) or not
     /// positive definite, or for an entry of B or Σ, or the trace of Σ⁻¹, above
     /// [`MAX_SCALE`](crate::MAX_SCALE) = 1e100, the limit of every Gaussian.
     pub fn new(
@@ -66,6 +71,17 @@ impl<const N: usize> HarmonicGaussian<N> {
         }
         within_scale("feature matrix B", &features)?;
         within_scale("conditional covariance Sigma", &covariance)?;
+        // The Gaussian's rule: a Σ such as [[1, 1e100], [−1e100, 1]] is not a covariance, and
+        // averaging it with its transpose would silently make it the identity.
+        let asymmetry = (covariance - covariance.transpose()).amax();
+        if asymmetry > SYMMETRY_TOLERANCE * covariance.amax() {
+            return Err(DensityError::OutOfRange {
+                what: "conditional covariance Sigma (value: max |Sigma - Sigma^T|)",
+                value: asymmetry,
+                range: "symmetric matrices (|A - A^T| <= 1e-12 max|A|); symmetrise it with \
+                        (A + A^T)/2",
+            });
+        }
         let covariance = (covariance + covariance.transpose()) * 0.5;
         let Some(factor) = Cholesky::new(covariance) else {
             return Err(DensityError::OutOfRange {

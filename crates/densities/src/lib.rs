@@ -36,10 +36,15 @@
 //! Every constructor takes the same limit for the same kind of value, and every result is finite
 //! and valid, or the call returns a typed [`DensityError`]:
 //!
-//! * **Gaussian locations and spreads**: a mean (or feature) coordinate, an entry of a covariance
-//!   and of its inverse at most [`MAX_SCALE`] = 1e100 in magnitude, in [`Gaussian::new`],
-//!   [`ManifoldGaussian::new`] (the inverse through `tr P⁻¹`) and [`HarmonicGaussian::new`], and in
-//!   what [`ManifoldGaussian::propagated_covariance`] returns.
+//! * **Gaussian locations and spreads**: an entry of a covariance and of its inverse at most
+//!   [`MAX_SCALE`] = 1e100 in magnitude, in [`Gaussian::new`], [`ManifoldGaussian::new`] (the
+//!   inverse through `tr P⁻¹`) and [`HarmonicGaussian::new`], and in what
+//!   [`ManifoldGaussian::propagated_covariance`] returns; a mean (or feature) coordinate at most
+//!   [`MAX_SCALE`] in [`Gaussian::new`] and [`HarmonicGaussian::new`]. [`ManifoldGaussian::new`]
+//!   takes any finite mean ([`Manifold::is_finite`](liebayes_manifolds::Manifold::is_finite)): a
+//!   point of a general manifold has no coordinates to bound, so an application whose state has a
+//!   vector part checks its own prior mean (the azimuth and angle-of-arrival filters of the filters
+//!   crate limit theirs to 1e100).
 //! * **Concentrations**: each family documents its range (the generalised von Mises up to
 //!   [`GenVonMises2::MAX_CONCENTRATION`] = 1e16); orders of [`special::bessel_ratio`] up to
 //!   [`special::MAX_ORDER`].

@@ -38,9 +38,11 @@ const SYMMETRY_TOLERANCE: f64 = 1e-12;
 /// manifold (the fixed point of `m ← m ⊞ E[x ⊟ m]`) and P the covariance about it.
 ///
 /// # Construction
-/// [`new`](Self::new) validates P (finite, symmetric, positive definite, with a representable
-/// inverse) and factors it once; [`cholesky_factor`](Self::cholesky_factor), `log_pdf`, `sample` and
-/// [`mahalanobis_squared`](Self::mahalanobis_squared) reuse the factor and never invert. On Rⁿ every
+/// [`new`](Self::new) validates the mean (finite, with no limit on its size: a point of a general
+/// manifold has no coordinates to bound, unlike [`Gaussian::new`](crate::Gaussian::new)'s mean,
+/// which is at most [`MAX_SCALE`](crate::MAX_SCALE)) and P (finite, symmetric, positive definite,
+/// with a representable inverse) and factors it once; [`cholesky_factor`](Self::cholesky_factor), `log_pdf`, `sample` and
+/// [`mahalanobis_squared`](Self::mahalanobis_squared) reuse the factor and never invert. On Rⁿ (with a mean the Gaussian accepts) every
 /// quantity equals the [`Gaussian`](crate::Gaussian)'s (the tests check it); the type keeps its own
 /// factor rather than a `Gaussian` because the filters build one per step, and the checks above cost
 /// less here than `Gaussian::new`'s general ones.
@@ -123,7 +125,8 @@ fn inverse_trace<const D: usize>(l: &SMatrix<f64, D, D>) -> f64 {
 }
 
 impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
-    /// The distribution `μ ⊞ N(0, P)`.
+    /// The distribution `μ ⊞ N(0, P)`: any finite mean μ (its size is not limited; see the type
+    /// docs), and P as below.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] for a mean with a NaN or infinite coordinate

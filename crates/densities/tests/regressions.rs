@@ -301,3 +301,27 @@ fn the_product_integral_fails_exactly_where_the_product_does() {
     let expected = -(2.0 * std::f64::consts::PI).ln() - 2e100_f64.ln();
     assert!((value - expected).abs() < 1e-13, "{value} vs {expected}");
 }
+
+/// `HarmonicGaussian::new` averaged Σ with its transpose without a check, so
+/// `[[1, 1e100], [−1e100, 1]]` became the identity. It now refuses an asymmetry above 1e-12 of the
+/// largest entry, as `Gaussian::new` does, and keeps accepting the rounding within it.
+#[test]
+fn an_asymmetric_harmonic_covariance_is_refused() {
+    use liebayes_densities::{DensityError, HarmonicGaussian};
+    use nalgebra::{Matrix2, Matrix2x3};
+    let angle = GenVonMises2::uniform();
+    let skew = Matrix2::new(1.0, 1e100, -1e100, 1.0);
+    let error = HarmonicGaussian::new(angle.clone(), Matrix2x3::zeros(), skew).unwrap_err();
+    assert!(matches!(error, DensityError::OutOfRange { .. }), "{error}");
+    assert!(error.to_string().contains("symmetri"), "{error}");
+    for (a, b) in [(1.0, 1.0 + 1e-9), (2.0, 2.0 + 4.1e-12)] {
+        let sigma = Matrix2::new(4.0, a, b, 4.0);
+        assert!(HarmonicGaussian::new(angle.clone(), Matrix2x3::zeros(), sigma).is_err());
+        assert!(Gaussian::new(Vector2::zeros(), sigma).is_err());
+    }
+    // Within the Gaussian's tolerance: accepted by both, stored symmetric.
+    let sigma = Matrix2::new(4.0, 1.0, 1.0 + 2e-12, 4.0);
+    let g = HarmonicGaussian::new(angle, Matrix2x3::zeros(), sigma).unwrap();
+    assert_eq!(g.covariance()[(0, 1)], g.covariance()[(1, 0)]);
+    assert!(Gaussian::new(Vector2::zeros(), sigma).is_ok());
+}

@@ -141,7 +141,7 @@ fn non_finite_values_follow_ieee() {
     assert!(a.value().is_nan());
 }
 
-/// Audit 13 B2: merging a sum with itself added its top limbs without a bound, so about 110
+/// Merging a sum with itself added its top limbs without a bound, so about 110
 /// self-merges of a sum holding `f64::MAX` overflowed an i64 (a panic with overflow checks, a wrong
 /// sign without them). A merge now saturates to ±∞ past 2¹¹⁰², with `value` ±∞ as the exact total
 /// rounds, and the result reads back from its file.
@@ -159,7 +159,7 @@ fn self_merges_beyond_the_bound_saturate_to_infinity() {
     }
 }
 
-/// Audit 13 B2: `try_merge` refuses a total of 2¹¹⁰² or more in magnitude with a typed error and
+/// `try_merge` refuses a total of 2¹¹⁰² or more in magnitude with a typed error and
 /// leaves the sum unchanged; every total below reads back from its file.
 #[test]
 fn try_merge_refuses_a_total_beyond_the_bound() {
@@ -194,7 +194,7 @@ fn try_merge_refuses_a_total_beyond_the_bound() {
     sum.try_merge(&negative).unwrap();
 }
 
-/// Audit 13 item 13: an exact sum's limbs are read into their 68 places and refused at the 69th
+/// An exact sum's limbs are read into their 68 places and refused at the 69th
 /// (before, the whole array was built, whatever its length, then refused).
 #[test]
 fn more_than_68_limbs_are_refused_at_the_69th() {

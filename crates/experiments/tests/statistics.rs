@@ -184,7 +184,7 @@ fn full_stream() -> RunningStats {
     stats
 }
 
-/// Audit 13 B2: merging two streams whose counts sum beyond `u64::MAX` saturated the count while the
+/// Merging two streams whose counts sum beyond `u64::MAX` saturated the count while the
 /// exact sums kept growing, so the mean became +∞ (and left [min, max] with more merges). The
 /// merge is refused instead: `try_merge` with a typed error naming the counts, `merge` leaving the
 /// statistics unchanged; a merge up to `u64::MAX` values is exact.
@@ -230,7 +230,7 @@ fn a_merge_beyond_u64_max_values_is_refused_not_saturated() {
     assert_eq!(one_short.mean(), Some(f64::MAX));
 }
 
-/// Audit 13 B2, the same through `add`: values added to a stream already holding `u64::MAX`
+/// Values added to a stream already holding `u64::MAX`
 /// values saturated the count and grew the sum, until the mean was +∞. They are left out, so the
 /// statistics stay those of the values counted.
 #[test]

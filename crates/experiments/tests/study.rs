@@ -368,7 +368,7 @@ fn a_refused_method_stops_the_study_before_any_run() {
     assert_eq!(runs.load(std::sync::atomic::Ordering::Relaxed), 0);
 }
 
-/// Audit 13 F11: a scenario's settings may be valid up to `MAX_EPOCHS` = 2^24 epochs (what a
+/// A scenario's settings may be valid up to `MAX_EPOCHS` = 2^24 epochs (what a
 /// replay scores and a recording keeps) while a study holds 2^14. The study refuses more before
 /// any run (the scenario is not simulated), naming both limits and what to change.
 #[test]

@@ -395,7 +395,7 @@ fn a_summary_of_runs_outside_its_study_is_refused() {
     assert_eq!(Summary::new(label(0, 2), 5..5).unwrap().run_count(), 0);
 }
 
-/// Audit 13 C2: a metric series read on its own (not inside a summary) took any number of epochs;
+/// A metric series read on its own (not inside a summary) took any number of epochs;
 /// it is refused at the first epoch beyond 2^14, with the limit in the message.
 #[test]
 fn a_metric_series_read_on_its_own_holds_at_most_2_14_epochs() {
@@ -428,7 +428,7 @@ fn successful(runs: u64, epochs: usize) -> serde_json::Value {
     serde_json::to_value(&summary).unwrap()
 }
 
-/// Audit 13, CLI item 3: a summary's fields were checked each against the runs covered, never
+/// A summary's fields were checked each against the runs covered, never
 /// against each other, so a `times` series shorter than the metrics (moving every "final epoch"
 /// figure) or failures that the values held contradict were read and reported. Each is refused
 /// when read, naming the field.
@@ -491,7 +491,7 @@ fn failed(prefix: &str, first: u64, runs: u64, total: u64) -> Summary {
     summary
 }
 
-/// Audit 13, CLI item 4: beyond 64 distinct failure reasons, the reasons kept were the first met,
+/// Beyond 64 distinct failure reasons, the reasons kept were the first met,
 /// so `merge A B` and `merge B A` gave different summaries (and a parallel study depended on its
 /// scheduling). The first 64 in byte order are kept: every order gives the same JSON, bit for bit.
 #[test]
@@ -545,7 +545,7 @@ fn merges_in_either_order_keep_the_same_failure_reasons() {
     assert_eq!(json(&back), merged[0]);
 }
 
-/// Audit 13 B2, through a series: pooling epochs whose counts sum beyond `u64::MAX` saturated the
+/// Pooling epochs whose counts sum beyond `u64::MAX` saturated the
 /// count. `try_pooled` refuses it with a typed error; `pooled` leaves the epoch beyond out.
 #[test]
 fn pooling_beyond_u64_max_values_is_refused() {
@@ -568,7 +568,7 @@ fn pooling_beyond_u64_max_values_is_refused() {
     assert_eq!(&pooled, &series.epochs()[0]);
 }
 
-/// Audit 13, CLI item 13: a summary's failures, an exact sum's limbs, a series' epochs and a
+/// A summary's failures, an exact sum's limbs, a series' epochs and a
 /// trace's times are refused at their first element beyond their limit, where they stood (the
 /// same error for a file far longer), instead of being built whole and refused after.
 #[test]

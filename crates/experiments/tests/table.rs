@@ -256,7 +256,7 @@ fn merged_shards_compare_as_the_whole() {
     assert!(error.to_string().contains("\"a/b\""), "{error}");
 }
 
-/// Audit 13, CLI item 12: a table with no rows, or with a row of a study of 0 runs, was accepted
+/// A table with no rows, or with a row of a study of 0 runs, was accepted
 /// and reported as a complete study (no runs missing). It is refused by `validate`, so when it is
 /// built and when a reader checks a file, naming the field.
 #[test]

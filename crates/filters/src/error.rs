@@ -77,8 +77,9 @@ pub(crate) fn positive_setting(
     )
 }
 
-/// `Ok` for a `value` in the closed `range`, else [`FilterError::Setting`] saying `expected`.
-fn setting_in(
+/// `Ok` for a `value` in the closed `range`, else [`FilterError::Setting`] saying `expected` (NaN
+/// is outside every range).
+pub(crate) fn setting_in(
     origin: &'static str,
     setting: &'static str,
     value: f64,

@@ -31,7 +31,13 @@
 //! cells are checked against the operators' `MAX_ELEMENTS` before anything is allocated. Settings
 //! are checked against the range in which every step keeps working, when a filter is made: the
 //! attitude EKF's standard deviations in [1e-30, 1e4] (rad, rad/s, m/s, m), the talk filter's
-//! direction noises at least 1e-5 and its initial σ in [1.5e-6, π] rad.
+//! direction noises at least 1e-5 and its initial σ in [1.5e-6, π] rad; every azimuth filter's
+//! σ₀, σ_m and q in [`azimuth::SETTING_SIGMA_RANGE`] = [1e-49, 1e49] and r₀ within ±1e100 (one
+//! range for all six constructors and the scenario's settings); the angle-of-arrival prior's σ₀
+//! in [1e-49, 1e6] m ([`aoa::PRIOR_STD_MIN`]); the inertial fix σ and IMU noise densities from
+//! 1e-30 ([`inertial::FIX_SIGMA_RANGE`], [`inertial::NOISE_RANGE`]) and its IMU readings by their
+//! norm, as the attitude filters'. A positive setting whose square would underflow (a noise
+//! density, a gain, a random walk) is refused, naming it; a walk or a gain may also be 0.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod aoa;

@@ -49,7 +49,7 @@ proptest! {
         prop_assert!(wrap_angle(again.azimuth - c.azimuth).abs() < 1e-14);
         // Away from the poles, the angles of the unit vector are the canonical reading.
         if c.elevation.abs() < 1.5 {
-            let back = AzEl::of_vector(&raw.unit_vector());
+            let back = AzEl::of_vector(&raw.unit_vector()).unwrap();
             prop_assert!((back.elevation - c.elevation).abs() < 1e-13);
             prop_assert!(wrap_angle(back.azimuth - c.azimuth).abs() < 1e-13);
         }
@@ -142,7 +142,7 @@ fn the_square_track_walks_the_square_and_reads_canonical_directions() {
             );
             travelled += (p - previous).abs().sum();
             previous = p;
-            for reading in step.measurement.unwrap() {
+            for reading in step.measurement.unwrap().readings().unwrap() {
                 reading.check_canonical().unwrap();
                 poles += usize::from(reading.elevation.abs() > 1.3);
             }
@@ -436,4 +436,179 @@ fn directions_are_unit_at_every_distance() {
         );
     }
     assert!(anchor.direction(&at).is_none());
+}
+
+/// `Prior::new` took σ₀ in (0, 1e6], but below 1.7e-50 the Kalman filters' prior
+/// Gaussian has `tr P⁻¹ = 3/σ₀² > 1e100`, so `Prior::gaussian` (documented "never" to fail for a
+/// checked prior) failed and every EKF and UKF run of such a track failed; q and δ were [0, 1e6]
+/// with no lower bound (a q of 1e-200 squares to 0). Each is now refused at a named bound, naming
+/// the setting, and every accepted prior builds its Gaussian and the Kalman filters.
+#[test]
+fn aoa_settings_have_bounds_every_filter_can_run() {
+    let mean = Vector3::new(1.0, 2.0, 0.5);
+    for std in [1.7e-50, 1e-60, 1e-200, 0.0, 2e6] {
+        let error = Prior::new(mean, std).unwrap_err();
+        assert!(error.to_string().contains("sigma_0"), "{std}: {error}");
+        let config = TrackConfig {
+            prior_std: std,
+            ..TrackConfig::default()
+        };
+        assert!(
+            config
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .contains("sigma_0")
+        );
+    }
+    assert!(Prior::new(Vector3::new(0.0, 1.01e100, 0.0), 1.0).is_err());
+    let model = UnitVectorModel::new(square_track_anchors(), 30.0).unwrap();
+    let walk = RandomWalk::new(0.5, 0.1).unwrap();
+    for k in 0..=55 {
+        let std = 1e-49 * 10f64.powf(f64::from(k));
+        let std = std.min(1e6);
+        let prior = Prior::new(Vector3::new(0.0, 1e100, 0.0), std).unwrap();
+        assert!(prior.gaussian().is_ok(), "{std}");
+        assert!(vmf_ekf::<4, 12>(model, walk, &prior).is_ok(), "{std}");
+    }
+    for q in [1e-101, 1e-200, 5e-324, -1.0, 2e6, f64::NAN] {
+        let error = RandomWalk::new(q, 0.1).unwrap_err();
+        assert!(error.to_string().contains("q_xy"), "{q}: {error}");
+        let error = RandomWalk::new(0.1, q).unwrap_err();
+        assert!(error.to_string().contains("q_z"), "{q}: {error}");
+    }
+    assert!(RandomWalk::new(0.0, 1e-100).is_ok() && RandomWalk::new(1e6, 0.0).is_ok());
+    for delta in [1e-7, 5e-324, 0.0, 2e6, f64::NAN] {
+        let config = TrackConfig {
+            delta,
+            ..TrackConfig::default()
+        };
+        let error = config.validate().unwrap_err();
+        assert!(error.to_string().contains("delta"), "{delta}: {error}");
+    }
+}
+
+/// `AzEl::of_vector((MAX, MAX, MAX))` gave elevation 0 (ρ = hypot(MAX, MAX)
+/// overflowed to ∞), and a zero vector gave (0, 0) silently. Now the angles are those of the
+/// direction at every length, and a zero or non-finite vector has none (`None`).
+#[test]
+fn angles_of_a_vector_of_any_length_or_none() {
+    let expected = (1.0 / 2f64.sqrt()).atan();
+    for scale in [f64::MAX, 1e300, 1e160, 1.0, 1e-160, 1e-300, 5e-324] {
+        let angles = AzEl::of_vector(&Vector3::new(scale, scale, scale)).unwrap();
+        assert!(
+            (angles.elevation - expected).abs() < 1e-15,
+            "{scale}: {angles:?}"
+        );
+        assert!(
+            (angles.azimuth - PI / 4.0).abs() < 1e-15,
+            "{scale}: {angles:?}"
+        );
+        let angles = AzEl::of_vector(&Vector3::new(-scale, 0.0, -scale)).unwrap();
+        assert!(
+            (angles.elevation + PI / 4.0).abs() < 1e-15,
+            "{scale}: {angles:?}"
+        );
+        assert!((angles.azimuth + PI).abs() < 1e-15, "{scale}: {angles:?}");
+    }
+    for v in [
+        Vector3::zeros(),
+        Vector3::new(f64::NAN, 1.0, 0.0),
+        Vector3::new(0.0, f64::INFINITY, 0.0),
+        Vector3::new(0.0, 0.0, f64::NEG_INFINITY),
+    ] {
+        assert_eq!(AzEl::of_vector(&v), None, "{v:?}");
+    }
+}
+
+/// The track's steps turned every error of `readings` into a step without a
+/// measurement (`.ok()`), and a run that lost a reading had one epoch fewer, every later epoch
+/// scored one index early. Now a step's measurement says what happened: a position at an anchor
+/// is `AtAnchor`, scored on the prediction at its own index (log evidence 0, the filter
+/// unchanged), and any other error is `Failed`, which fails the run at that step with that error.
+#[test]
+fn a_reading_error_fails_the_run_and_an_anchor_keeps_the_epochs() {
+    use liebayes_experiments::{Method as _, Step, replay};
+    use liebayes_filters::aoa::{PositionScorer, TrackReadings};
+    let data = DataModel::VonMisesFisher { kappa: 400.0 };
+    let track = SquareTrack::paper(data).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    // At an anchor: no readings, nothing drawn; elsewhere the readings; a position no anchor can
+    // place (not finite) is the readings' error, kept.
+    let anchor = *track.anchors()[2].position();
+    assert_eq!(
+        track.track_readings(&anchor, &mut rng),
+        TrackReadings::AtAnchor
+    );
+    let theta = Vector3::new(1.0, 0.0, 0.0);
+    let TrackReadings::Readings(readings) = track.track_readings(&theta, &mut rng) else {
+        panic!("readings of a position on the track");
+    };
+    let bad = Vector3::new(f64::INFINITY, 0.0, 0.0);
+    let TrackReadings::Failed(error) = track.track_readings(&bad, &mut rng) else {
+        panic!("an infinite position has no readings");
+    };
+    assert!(error.to_string().contains("theta"), "{error}");
+
+    let filter = TrackFilter {
+        algorithm: Algorithm::Ekf,
+        model: ModelChoice::Vmf { kappa: 400.0 },
+    };
+    let method = filter.on(&track).unwrap();
+    let step = |k: usize, measurement| Step {
+        time: k as f64,
+        input: 1.0,
+        truth: Position::new_unchecked(theta),
+        measurement: Some(measurement),
+    };
+    // Five epochs, the third at an anchor: five scored epochs, at their own times, the third
+    // with the prediction's estimate and log evidence 0.
+    let steps: Vec<_> = (0..5)
+        .map(|k| {
+            step(
+                k,
+                if k == 2 {
+                    TrackReadings::AtAnchor
+                } else {
+                    TrackReadings::Readings(readings)
+                },
+            )
+        })
+        .collect();
+    let mut built = method.build(&mut ChaCha8Rng::seed_from_u64(1)).unwrap();
+    let scores = replay(&mut built, steps.clone(), &PositionScorer).unwrap();
+    assert_eq!(scores.times, vec![0.0, 1.0, 2.0, 3.0, 4.0]);
+    let width = scores.metrics.len();
+    let evidence = scores
+        .metrics
+        .iter()
+        .position(|m| m.name == "log_evidence")
+        .unwrap();
+    assert_eq!(scores.values[2 * width + evidence], 0.0);
+    assert!(scores.values[3 * width + evidence] != 0.0);
+    // The same filter updated only where there are readings: the same estimates.
+    let mut reference = method.build(&mut ChaCha8Rng::seed_from_u64(1)).unwrap();
+    let mut at_anchor = method.build(&mut ChaCha8Rng::seed_from_u64(1)).unwrap();
+    for s in &steps[..3] {
+        reference.predict(&s.input).unwrap();
+        if s.measurement != Some(TrackReadings::AtAnchor) {
+            reference.update(s.measurement.as_ref().unwrap()).unwrap();
+        }
+        at_anchor.predict(&s.input).unwrap();
+        at_anchor.update(s.measurement.as_ref().unwrap()).unwrap();
+    }
+    assert_eq!(reference.estimate().unwrap(), at_anchor.estimate().unwrap());
+    // A failed epoch fails the run there, with the readings' error, the filter as it was.
+    let mut failing = steps;
+    failing[3] = step(3, TrackReadings::Failed(error.clone()));
+    let mut built = method.build(&mut ChaCha8Rng::seed_from_u64(1)).unwrap();
+    let failure = replay(&mut built, failing, &PositionScorer).unwrap_err();
+    assert_eq!((failure.step, failure.time), (3, 3.0));
+    assert_eq!(failure.error, error);
+    let before = at_anchor.estimate().unwrap();
+    assert_eq!(
+        at_anchor.update(&TrackReadings::Failed(error.clone())),
+        Err(error)
+    );
+    assert_eq!(at_anchor.estimate().unwrap(), before);
 }

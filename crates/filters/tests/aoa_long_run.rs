@@ -18,7 +18,7 @@ mod common;
 use liebayes_experiments::Method as _;
 use liebayes_filters::aoa::{
     Algorithm, AzEl, DataModel, ModelChoice, PositionEstimate, SquareTrack, TrackConfig,
-    TrackFilter,
+    TrackFilter, TrackReadings,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -71,7 +71,12 @@ fn run(filter: &TrackFilter, epochs: u64) -> u64 {
         &[track],
         epochs,
         &mut rng,
-        |z, measured| corrupt(z, measured),
+        |z, measured| {
+            // The paper's track places every reading.
+            if let TrackReadings::Readings(readings) = z {
+                corrupt(readings, measured);
+            }
+        },
         |e| valid(e, definite),
     )
 }

@@ -202,3 +202,16 @@ fn a_huge_gain_with_a_tiny_gradient_leaves_a_finite_state() {
     filter.predict(&level).expect("the filter is not stuck");
     assert!(filter.estimate().is_ok());
 }
+
+/// Β was any finite value ≥ 0 (5e-324 and 1e300 passed), checked by hand. It is now
+/// 0 or the shared positive range [1.5e-154, 1e150], refused naming `beta`.
+#[test]
+fn the_gain_uses_the_shared_positive_range() {
+    for beta in [5e-324, 1e-200, 1e151, 1e300, -0.1, f64::NAN, f64::INFINITY] {
+        let error = Madgwick::new(beta, Sensors::NineD, 100.0).unwrap_err();
+        assert!(error.to_string().contains("`beta`"), "{beta}: {error}");
+    }
+    for beta in [0.0, 1.5e-154, 0.1, 1e150] {
+        assert!(Madgwick::new(beta, Sensors::NineD, 100.0).is_ok(), "{beta}");
+    }
+}

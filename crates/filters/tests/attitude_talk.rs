@@ -622,3 +622,27 @@ fn settings_beyond_the_binghams_range_are_refused_when_made() {
         }
     }
 }
+
+/// Σ_A was checked by hand against [0, 1e150], so 5e-324 (whose square is 0) passed.
+/// It is now 0 or the shared positive range [1.5e-154, 1e150], refused naming `rate_walk`.
+#[test]
+fn a_rate_walk_whose_square_underflows_is_refused() {
+    for rate_walk in [5e-324, 1e-200, 1e-155, -1.0, f64::NAN, 1.1e150] {
+        let params = TalkParams {
+            rate_walk,
+            ..TalkParams::default()
+        };
+        let error = params.validate().unwrap_err();
+        assert!(
+            error.to_string().contains("`rate_walk`"),
+            "{rate_walk}: {error}"
+        );
+    }
+    for rate_walk in [0.0, 1.5e-154, 30.0, 1e150] {
+        let params = TalkParams {
+            rate_walk,
+            ..TalkParams::default()
+        };
+        assert!(params.validate().is_ok(), "{rate_walk}");
+    }
+}

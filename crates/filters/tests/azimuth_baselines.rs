@@ -253,3 +253,186 @@ fn the_particle_count_search_finds_a_count_that_matches_the_exact_filter() {
     let still = AzimuthScenario::new(Motion::Static, config).unwrap();
     assert!(particles_to_match(&still, &runs, settings(0.2), &|_| {}).is_err());
 }
+
+/// Every azimuth filter from the same settings, boxed.
+fn all_six(
+    process: VelocityProcess,
+    measurement: PositionMeasurement,
+    r0: Vector2<f64>,
+    sigma0: f64,
+) -> Vec<(
+    &'static str,
+    Result<liebayes_filters::azimuth::AzimuthFilter, liebayes_operators::OperatorError>,
+)> {
+    use liebayes_filters::azimuth::{AzimuthFilter, marginalized_filter, particle_filter};
+    let rng = ChaCha8Rng::seed_from_u64(1);
+    let (p, m) = (process, measurement);
+    vec![
+        (
+            "exact",
+            exact(p, m, r0, sigma0).map(|f| Box::new(f) as AzimuthFilter),
+        ),
+        (
+            "EKF",
+            ekf(p, m, r0, sigma0).map(|f| Box::new(f) as AzimuthFilter),
+        ),
+        (
+            "UKF",
+            ukf(p, m, r0, sigma0).map(|f| Box::new(f) as AzimuthFilter),
+        ),
+        (
+            "grid",
+            grid_filter(36, p, m, r0, sigma0).map(|f| Box::new(f) as AzimuthFilter),
+        ),
+        (
+            "MPF",
+            marginalized_filter(36, p, m, r0, sigma0, rng.clone())
+                .map(|f| Box::new(f) as AzimuthFilter),
+        ),
+        (
+            "PF",
+            particle_filter(100, p, m, r0, sigma0, rng).map(|f| Box::new(f) as AzimuthFilter),
+        ),
+    ]
+}
+
+/// One prior (r₀, σ₀) had four accepted ranges. The exact and particle filters took
+/// σ₀ in [1.5e-154, 1e150] and any r₀, the EKF and UKF σ₀ in about [1.4e-50, 1e50), the grid and
+/// the marginalized filter |r₀| ≤ 1e100; `Config::validate` took all of them, and a study then
+/// failed every run of four of the six methods. Now all six constructors and `Config::validate`
+/// share one range, [1e-49, 1e49] for σ₀, σ_m and q and ±1e100 for r₀, and refuse just outside it,
+/// naming the setting.
+#[test]
+fn every_azimuth_filter_and_the_config_share_one_settings_range() {
+    let process = VelocityProcess::new(0.1).unwrap();
+    let measurement = PositionMeasurement::new(1.0).unwrap();
+    let r0 = Vector2::new(1.0, -2.0);
+    for sigma0 in [0.99e-49, 1e-51, 1e-100, 1.01e49, 1e50, 1e149] {
+        for (name, filter) in all_six(process, measurement, r0, sigma0) {
+            let error = filter
+                .err()
+                .unwrap_or_else(|| panic!("{name} took sigma_0 = {sigma0}"));
+            assert!(error.to_string().contains("sigma_0"), "{name}: {error}");
+        }
+        let config = Config {
+            sigma0,
+            ..Config::default()
+        };
+        let error = config.validate().unwrap_err();
+        assert!(error.to_string().contains("sigma_0"), "{error}");
+    }
+    for sigma_m in [0.99e-49, 1e-60, 1.01e49, 1e149] {
+        let measurement = PositionMeasurement::new(sigma_m).unwrap();
+        for (name, filter) in all_six(process, measurement, r0, 1.0) {
+            let error = filter
+                .err()
+                .unwrap_or_else(|| panic!("{name} took sigma_m = {sigma_m}"));
+            assert!(error.to_string().contains("sigma_m"), "{name}: {error}");
+        }
+        let config = Config {
+            sigma_m,
+            ..Config::default()
+        };
+        assert!(
+            config
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .contains("sigma_m")
+        );
+    }
+    for q in [1.01e49, 1e149] {
+        let process = VelocityProcess::new(q).unwrap();
+        for (name, filter) in all_six(process, measurement, r0, 1.0) {
+            let error = filter
+                .err()
+                .unwrap_or_else(|| panic!("{name} took q = {q}"));
+            assert!(
+                error.to_string().contains("q (m/sqrt(s))"),
+                "{name}: {error}"
+            );
+        }
+        let config = Config {
+            q,
+            ..Config::default()
+        };
+        assert!(
+            config
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .contains("q (m/sqrt(s))")
+        );
+    }
+    // q √dt above 1e49: every Gaussian propagation would add q² dt > 1e98.
+    let config = Config {
+        q: 1e45,
+        dt: 1e9,
+        ..Config::default()
+    };
+    assert!(
+        config
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("q (m/sqrt(s))")
+    );
+    for r in [1.01e100, 1e150, -1e300] {
+        for (name, filter) in all_six(process, measurement, Vector2::new(0.0, r), 1.0) {
+            let error = filter
+                .err()
+                .unwrap_or_else(|| panic!("{name} took r_0 = {r}"));
+            assert!(error.to_string().contains("r_0"), "{name}: {error}");
+        }
+    }
+}
+
+/// At the ends of the shared range every filter runs.
+#[test]
+fn every_azimuth_filter_runs_at_the_ends_of_the_settings_range() {
+    // At the ends of the range, the whole problem scaled to either end: every filter is built, and
+    // a study of a few steps runs every method without a failure. (The range bounds each setting
+    // and the Gaussians they make; settings far apart from each other, such as a prior or a process
+    // noise 1e49 times the measurement noise, are another matter: the EKF's and the UKF's
+    // covariances are then too ill-conditioned for f64, a step error at run time.) The circle's
+    // velocity (0.5 m/s) is not scaled: at the small end the platform stands still.
+    let at_ends = [
+        (1e-49, 1e-49, 1e-50, Motion::Static),
+        (1e49, 1e49, 1e49, Motion::Circle),
+        (1.0, 1.0, 0.0, Motion::Circle),
+    ];
+    for (sigma0, sigma_m, q, motion) in at_ends {
+        let (p, m) = (
+            VelocityProcess::new(q).unwrap(),
+            PositionMeasurement::new(sigma_m).unwrap(),
+        );
+        for (name, filter) in all_six(p, m, Vector2::new(0.0, 1e100), sigma0) {
+            assert!(filter.is_ok(), "{name}: {:?}", filter.err());
+        }
+        let config = Config {
+            sigma0,
+            sigma_m,
+            q,
+            dt: 1.0,
+            measure_every: 1,
+            steps: 3,
+        };
+        config.validate().unwrap();
+        for method in [
+            Method::Exact,
+            Method::Ekf,
+            Method::Ukf,
+            Method::Particle(50),
+            Method::Grid(36),
+            Method::Marginalized(36),
+        ] {
+            let summary = study(method, motion, &config, 4, 3);
+            assert!(
+                summary.failures().is_empty(),
+                "{} at sigma_0 = {sigma0}, sigma_m = {sigma_m}, q = {q}: {:?}",
+                method.label(),
+                summary.failures()
+            );
+        }
+    }
+}

@@ -846,7 +846,7 @@ fn aoa_particle_filters_and_scenarios() {
                     let mut sim = ChaCha8Rng::seed_from_u64(2);
                     for s in track.simulate(&mut sim).unwrap().take(3) {
                         prop_assert!(s.truth.coords().iter().all(|v| v.is_finite()));
-                        for r in s.measurement.unwrap() {
+                        for r in s.measurement.unwrap().readings().unwrap() {
                             prop_assert!(r.check_canonical().is_ok());
                         }
                     }

@@ -8,7 +8,7 @@ use liebayes_experiments::testing::FilterLawSubject;
 use liebayes_experiments::{Method as _, Nis, Scorer, filter_laws};
 use liebayes_filters::aoa::{
     Algorithm, AzEl, DataModel, ModelChoice, Position, PositionEstimate, PositionFilter,
-    PositionScorer, Readings, SquareTrack, TrackConfig, TrackFilter,
+    PositionScorer, Readings, SquareTrack, TrackConfig, TrackFilter, TrackReadings,
 };
 use liebayes_filters::attitude::{
     AttitudeEstimate, AttitudeFilter, AttitudeParams, AttitudeScorer, ImuSample, ImuScenario,
@@ -221,13 +221,15 @@ impl FilterLawSubject for AoaSubject {
         value
     }
 
-    fn corrupt_measurement(&self, z: &Readings<4>, value: f64) -> Readings<4> {
-        let mut bad = *z;
+    fn corrupt_measurement(&self, z: &TrackReadings<4>, value: f64) -> TrackReadings<4> {
+        let mut bad: Readings<4> = *z
+            .readings()
+            .expect("the paper's track places every reading");
         bad[1] = AzEl {
             azimuth: value,
             ..bad[1]
         };
-        bad
+        TrackReadings::Readings(bad)
     }
 }
 

@@ -128,9 +128,10 @@ fn the_error_state_prior_has_the_moments_of_the_initial_distribution() {
 fn without_noise_the_truth_follows_the_filters_model() {
     let config = InertialConfig {
         duration: 5.0,
+        // The smallest densities accepted (1e-300 squared to 0 and is refused now).
         imu: ImuNoise {
-            gyro: 1e-300,
-            accel: 1e-300,
+            gyro: 1e-30,
+            accel: 1e-30,
             gyro_bias_walk: 0.0,
             accel_bias_walk: 0.0,
         },
@@ -152,8 +153,8 @@ fn without_noise_the_truth_follows_the_filters_model() {
 }
 
 /// An IMU whose white noise reaches beyond the sensor's range: every sample is still reported,
-/// its components saturated at ±MAX_READING (the scenario ended silently at the first sample
-/// beyond the range).
+/// each reading saturated at a norm of MAX_READING, so that `ImuStep::new` accepts it (the
+/// scenario ended silently at the first sample beyond the range).
 #[test]
 fn a_noisy_imu_saturates_and_the_run_goes_on() {
     let config = InertialConfig {
@@ -172,14 +173,24 @@ fn a_noisy_imu_saturates_and_the_run_goes_on() {
         .unwrap()
         .collect();
     assert_eq!(steps.len(), config.samples());
-    let readings = steps.iter().flat_map(|s| {
-        s.input
-            .angular_rate()
-            .iter()
-            .chain(s.input.specific_force())
-    });
-    assert!(readings.clone().all(|v| v.abs() <= MAX_READING));
-    assert!(readings.filter(|v| v.abs() == MAX_READING).count() > steps.len());
+    let readings = steps
+        .iter()
+        .flat_map(|s| [s.input.angular_rate(), s.input.specific_force()]);
+    assert!(readings.clone().all(|v| v.norm() <= MAX_READING));
+    assert!(
+        readings
+            .filter(|v| v.norm() >= MAX_READING * (1.0 - 1e-15))
+            .count()
+            > steps.len()
+    );
+    for s in &steps {
+        let again = ImuStep::new(
+            *s.input.angular_rate(),
+            *s.input.specific_force(),
+            s.input.dt(),
+        );
+        assert_eq!(again.unwrap(), s.input);
+    }
     assert!(
         steps
             .iter()
@@ -281,4 +292,177 @@ fn a_velocity_known_in_the_body_frame_couples_with_the_heading() {
         "{} vs {spread}",
         p[(4, 4)]
     );
+}
+
+/// The inertial settings were checked by hand with ranges of their own. A fix
+/// σ of 1e-200 squared to R = 0, and one of 1e-60 made every fix update fail; IMU densities of
+/// 5e-324 squared to 0; a tiny initial σ passed `validate` and failed later with an error naming
+/// no setting; readings were limited per component (norms up to 1.73e4) where the attitude
+/// filters limit the norm to 1e4; the IMU rate had a range of its own, [1, 1e5] Hz, narrower than
+/// the steps `ImuStep::new` takes. Each is now refused at the shared bound, naming the setting.
+#[test]
+fn inertial_settings_use_the_shared_ranges() {
+    for sigma in [1e-60, 1e-200, 5e-324, 0.0, 2e6, f64::NAN] {
+        let error = PositionFix::new(sigma).unwrap_err();
+        assert!(error.to_string().contains("`sigma`"), "{error}");
+    }
+    assert!(PositionFix::new(1e-30).is_ok() && PositionFix::new(1e6).is_ok());
+    let good = ImuNoise {
+        gyro: 0.01,
+        accel: 0.1,
+        gyro_bias_walk: 0.0,
+        accel_bias_walk: 1e-3,
+    };
+    assert!(Strapdown::new(good).is_ok());
+    for (name, broken) in [
+        (
+            "gyro",
+            ImuNoise {
+                gyro: 5e-324,
+                ..good
+            },
+        ),
+        (
+            "accel",
+            ImuNoise {
+                accel: 1e-31,
+                ..good
+            },
+        ),
+        (
+            "gyro_bias_walk",
+            ImuNoise {
+                gyro_bias_walk: 1e-200,
+                ..good
+            },
+        ),
+        (
+            "accel_bias_walk",
+            ImuNoise {
+                accel_bias_walk: 2e6,
+                ..good
+            },
+        ),
+    ] {
+        let error = Strapdown::new(broken).unwrap_err();
+        assert!(error.to_string().contains(&format!("`{name}`")), "{error}");
+    }
+}
+
+/// The scenario's settings at the shared bounds, naming the field.
+#[test]
+fn inertial_config_uses_the_shared_ranges() {
+    let good = ImuNoise {
+        gyro: 0.01,
+        accel: 0.1,
+        gyro_bias_walk: 0.0,
+        accel_bias_walk: 1e-3,
+    };
+    let config = InertialConfig::default();
+    for (name, broken) in [
+        (
+            "fix_sigma",
+            InertialConfig {
+                fix_sigma: 1e-60,
+                ..config
+            },
+        ),
+        (
+            "heading_sigma",
+            InertialConfig {
+                heading_sigma: 1e-40,
+                ..config
+            },
+        ),
+        (
+            "tilt_sigma",
+            InertialConfig {
+                tilt_sigma: 5e-324,
+                ..config
+            },
+        ),
+        (
+            "velocity_sigma",
+            InertialConfig {
+                velocity_sigma: 1e-200,
+                ..config
+            },
+        ),
+        (
+            "position_sigma",
+            InertialConfig {
+                position_sigma: 1e-31,
+                ..config
+            },
+        ),
+        (
+            "gyro_bias_sigma",
+            InertialConfig {
+                gyro_bias_sigma: 1e-60,
+                ..config
+            },
+        ),
+        (
+            "accel_bias_sigma",
+            InertialConfig {
+                accel_bias_sigma: 2e3,
+                ..config
+            },
+        ),
+        (
+            "imu_rate",
+            InertialConfig {
+                imu_rate: 0.5,
+                ..config
+            },
+        ),
+        (
+            "imu_rate",
+            InertialConfig {
+                imu_rate: 1.1e6,
+                ..config
+            },
+        ),
+        (
+            "gyro",
+            InertialConfig {
+                imu: ImuNoise {
+                    gyro: 1e-300,
+                    ..good
+                },
+                ..config
+            },
+        ),
+    ] {
+        let error = InertialScenario::new(broken).unwrap_err();
+        assert!(
+            error.to_string().contains(&format!("`{name}`")),
+            "{name}: {error}"
+        );
+    }
+    // The one rate range is the steps' own: 1e6 Hz (dt = 1e-6 s) is accepted by both.
+    let fast = InertialConfig {
+        imu_rate: 1e6,
+        duration: 1e-3,
+        fix_every: 100,
+        ..config
+    };
+    assert!(InertialScenario::new(fast).is_ok());
+    assert!(ImuStep::new(Vector3::zeros(), Vector3::zeros(), fast.dt()).is_ok());
+}
+
+/// Readings limited by their norm, with the attitude filters' constants.
+#[test]
+fn imu_readings_are_limited_by_norm_as_in_attitude() {
+    // Readings by norm, as the attitude filters: (1e4, 1e4, 1e4) has norm 1.73e4.
+    let v = Vector3::new(0.0, 0.0, 9.8);
+    let over = Vector3::new(1e4, 1e4, 1e4);
+    let error = ImuStep::new(over, v, 0.01).unwrap_err();
+    assert!(error.to_string().contains("`angular_rate`"), "{error}");
+    let error = ImuStep::new(Vector3::zeros(), over, 0.01).unwrap_err();
+    assert!(error.to_string().contains("`specific_force`"), "{error}");
+    let at_limit = Vector3::new(6e3, 8e3, 0.0);
+    assert!(ImuStep::new(at_limit, at_limit, 0.01).is_ok());
+    assert_eq!(MAX_READING, liebayes_filters::attitude::MAX_ANGULAR_RATE);
+    assert_eq!(MAX_READING, liebayes_filters::attitude::MAX_SPECIFIC_FORCE);
 }

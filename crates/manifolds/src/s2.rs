@@ -44,10 +44,13 @@ impl<T: Real> S2<T> {
         Ok(Self::new_unchecked(v))
     }
 
-    /// The direction of `v` (any non-zero finite length): the renormalisation helper.
+    /// The direction `v / |v|` of `v`, of any finite length `|v| ≥`
+    /// [`MIN_DIRECTION_NORM`](crate::constants::Thresholds::MIN_DIRECTION_NORM) (1e-150 in f64, 1e-18 in
+    /// f32; a shorter vector's direction is rounding noise): the renormalisation helper.
     ///
     /// # Errors
-    /// [`ManifoldError::NonFinite`] or [`ManifoldError::ZeroVector`].
+    /// [`ManifoldError::NonFinite`], or [`ManifoldError::ZeroVector`] for `|v|` below
+    /// `MIN_DIRECTION_NORM` (zero included).
     pub fn from_vector_normalizing(v: &Vector3<T>) -> Result<Self, ManifoldError> {
         normalized("direction vector", v).map(Self::new_unchecked)
     }

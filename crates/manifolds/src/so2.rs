@@ -90,11 +90,13 @@ impl<T: Real> So2<T> {
         Self::from_unit_complex(UnitComplex::new_unchecked(Complex::new(cos, sin)))
     }
 
-    /// The rotation taking the x axis to the direction of `v` (any non-zero length): the
-    /// renormalisation helper.
+    /// The rotation taking the x axis to the direction `v / |v|` of `v`, of any finite length
+    /// `|v| ≥` [`MIN_DIRECTION_NORM`](crate::constants::Thresholds::MIN_DIRECTION_NORM) (1e-150 in f64, 1e-18
+    /// in f32; a shorter vector's direction is rounding noise): the renormalisation helper.
     ///
     /// # Errors
-    /// [`ManifoldError::NonFinite`] or [`ManifoldError::ZeroVector`].
+    /// [`ManifoldError::NonFinite`], or [`ManifoldError::ZeroVector`] for `|v|` below
+    /// `MIN_DIRECTION_NORM` (zero included).
     pub fn from_vector_normalizing(v: &Vector2<T>) -> Result<Self, ManifoldError> {
         let u = normalized("direction vector", v)?;
         Ok(Self::from_cos_sin_unchecked(u.x, u.y))

@@ -124,10 +124,13 @@ impl<T: Real> So3<T> {
         Su2::from_rotation_vector(v).map(|q| q.to_so3())
     }
 
-    /// The rotation by `angle` about `axis` (any non-zero length; it is normalised).
+    /// The rotation by `angle` about `axis`, normalised: any finite length `|axis| ≥`
+    /// [`MIN_DIRECTION_NORM`](crate::constants::Thresholds::MIN_DIRECTION_NORM) (1e-150 in f64, 1e-18 in
+    /// f32; a shorter axis's direction is rounding noise).
     ///
     /// # Errors
-    /// [`ManifoldError::NonFinite`] or [`ManifoldError::ZeroVector`].
+    /// [`ManifoldError::NonFinite`], or [`ManifoldError::ZeroVector`] for `|axis|` below
+    /// `MIN_DIRECTION_NORM` (zero included).
     pub fn from_axis_angle(axis: &Vector3<T>, angle: T) -> Result<Self, ManifoldError> {
         check_finite("angle", [angle].iter())?;
         let axis = normalized("rotation axis", axis)?;

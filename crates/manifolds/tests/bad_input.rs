@@ -803,3 +803,34 @@ fn pose_jacobians_of_non_finite_tangents_return() {
         }
     }
 }
+
+/// The docs of `S2::from_vector_normalizing`, `So2::from_vector_normalizing` and
+/// `So3::from_axis_angle` said "any non-zero length", but `normalized` refuses a vector shorter than
+/// `MIN_DIRECTION_NORM` = 1e-150. The docs now state that floor; this checks it as written: just
+/// above it the direction is kept, below it (and at zero) each refuses with `ZeroVector`.
+#[test]
+fn the_normalising_constructors_keep_their_documented_floor() {
+    use liebayes_manifolds::constants::Thresholds;
+    let floor = <f64 as Thresholds>::MIN_DIRECTION_NORM;
+    assert_eq!(floor, 1e-150);
+    for scale in [1e-150, 1e-100, 1e300] {
+        let s2 = S2::from_vector_normalizing(&(Vector3::new(3.0, 0.0, 4.0) * scale)).unwrap();
+        assert!((s2.as_vector() - Vector3::new(0.6, 0.0, 0.8)).norm() < 1e-15);
+        let so2 = So2::from_vector_normalizing(&(Vector2::new(0.0, 2.0) * scale)).unwrap();
+        assert!((so2.angle() - PI / 2.0).abs() < 1e-15);
+        let so3 = So3::from_axis_angle(&(Vector3::z() * scale), 0.5).unwrap();
+        assert!((so3.log() - Vector3::new(0.0, 0.0, 0.5)).norm() < 1e-15);
+    }
+    for scale in [0.9e-150, 1e-200, 5e-324, 0.0] {
+        let zero = |e: ManifoldError| matches!(e, ManifoldError::ZeroVector { .. });
+        assert!(zero(
+            S2::from_vector_normalizing(&(Vector3::x() * scale)).unwrap_err()
+        ));
+        assert!(zero(
+            So2::from_vector_normalizing(&(Vector2::x() * scale)).unwrap_err()
+        ));
+        assert!(zero(
+            So3::from_axis_angle(&(Vector3::x() * scale), 0.5).unwrap_err()
+        ));
+    }
+}

@@ -18,7 +18,7 @@
 //! which turns the von Mises-Fisher density on the sphere into a density in the angles. The table's
 //! entries are `exp(L_i) / Σ_j exp(L_j)`.
 
-use super::data::DataModel;
+use super::data::{DataModel, angles_of};
 use super::direction::AzEl;
 use super::noise::{
     AdaptiveSigmas, AngleSigmas, SIGMA_RANGE, az_el_log_density, check_sigma, kappa_from_sigmas,
@@ -240,7 +240,7 @@ pub fn fit_angle_sigmas<R: Rng + ?Sized>(
         })?;
     for _ in 0..samples {
         let theta = uniform_direction(rng);
-        pairs.push((data.sample(&theta, rng)?, AzEl::of_vector(&theta)));
+        pairs.push((data.sample(&theta, rng)?, angles_of(&theta)?));
     }
     fit_angle_sigmas_to(&pairs)
 }
@@ -325,7 +325,7 @@ pub fn compare_models<R: Rng + ?Sized>(
     for i in 0..samples {
         let theta = uniform_direction(rng);
         let y = data.sample(&theta, rng)?;
-        let truth = AzEl::of_vector(&theta);
+        let truth = angles_of(&theta)?;
         let (az, el) = adaptive
             .at(truth.elevation)
             .ok_or(OperatorError::NonFinite {

@@ -79,7 +79,7 @@ impl DataModel {
         })?;
         Ok(match *self {
             DataModel::NormalWithFlip { sigma_az, sigma_el } => {
-                let truth = AzEl::of_vector(direction.as_vector());
+                let truth = angles_of(direction.as_vector())?;
                 let (n1, n2): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
                 AzEl::new(
                     truth.azimuth + sigma_az * n1,
@@ -91,8 +91,16 @@ impl DataModel {
                 // κ was validated (KAPPA_RANGE lies inside the family's range); the family's own
                 // check is passed on all the same, never replaced by another distribution.
                 let vmf = VonMisesFisher::new(direction, kappa)?;
-                AzEl::of_vector(Density::sample(&vmf, rng).as_vector())
+                angles_of(Density::sample(&vmf, rng).as_vector())?
             }
         })
     }
+}
+
+/// The angles of a unit vector (never `None` for one: the error is kept rather than assumed away).
+pub(crate) fn angles_of(u: &Vector3<f64>) -> Result<AzEl, OperatorError> {
+    AzEl::of_vector(u).ok_or(OperatorError::NonFinite {
+        what: "a unit direction whose angles are taken (it is zero or not finite)",
+        value: u.amax(),
+    })
 }

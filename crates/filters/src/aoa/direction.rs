@@ -33,20 +33,38 @@ impl AzEl {
         Vector3::new(ca * ce, sa * ce, se)
     }
 
-    /// The azimuth and elevation of a nonzero vector (its norm does not matter): `el = atan2(z, ρ)`,
-    /// `az = atan2(y, x)` wrapped to [−π, π), `ρ = √(x² + y²)`. At a pole the azimuth is 0.
-    pub fn of_vector(v: &Vector3<f64>) -> Self {
+    /// The azimuth and elevation of a nonzero finite vector, of any length (f64::MAX and
+    /// subnormal components included): `el = atan2(z, ρ)`, `az = atan2(y, x)` wrapped to
+    /// [−π, π), `ρ = √(x² + y²)`, computed on v scaled by an exact power of two when its largest
+    /// component is above 2⁵⁰⁰ or below 2⁻⁵⁰⁰ (so (MAX, MAX, MAX) has `el = atan(1/√2)`, where ρ
+    /// overflowed to ∞ and gave 0). At a pole the azimuth is 0.
+    ///
+    /// `None` for a zero vector (it has no direction) or one with a NaN or infinite component.
+    pub fn of_vector(v: &Vector3<f64>) -> Option<Self> {
+        // `amax` skips a NaN: every component is checked.
+        let largest = v.amax();
+        if !(v.iter().all(|c| c.is_finite()) && largest > 0.0) {
+            return None;
+        }
+        // Powers of two scale exactly: the angles are those of v itself.
+        let v = if largest > 2f64.powi(500) {
+            v * 2f64.powi(-600)
+        } else if largest < 2f64.powi(-500) {
+            v * 2f64.powi(600)
+        } else {
+            *v
+        };
         let squared = v.x * v.x + v.y * v.y;
-        // √(x² + y²) unless the squares overflow or underflow, where hypot keeps the ratio.
+        // √(x² + y²) unless the squares underflow, where hypot keeps the ratio.
         let rho = if squared.is_normal() {
             squared.sqrt()
         } else {
             v.x.hypot(v.y)
         };
-        Self {
+        Some(Self {
             azimuth: wrap_angle(v.y.atan2(v.x)),
             elevation: v.z.atan2(rho),
-        }
+        })
     }
 
     /// The same direction in the one representation with `el ∈ [−π/2, π/2]`, `az ∈ [−π, π)`: the

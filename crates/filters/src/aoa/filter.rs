@@ -29,6 +29,17 @@ pub const UKF_LAMBDA: f64 = 0.5;
 /// The largest prior standard deviation (m).
 pub const PRIOR_STD_LIMIT: f64 = 1e6;
 
+/// The smallest prior standard deviation (m): the prior `N(m₀, σ₀² I₃)` of the EKFs and UKFs is a
+/// [`ManifoldGaussian`], whose `tr P⁻¹ = 3/σ₀²` must be at most
+/// [`MAX_SCALE`](liebayes_densities::MAX_SCALE) = 1e100 (σ₀ = 1e-60 gave 3e120, and every Kalman
+/// filter of the track failed in every run while the prior passed its check). At 1e-49,
+/// `tr P⁻¹ = 3e98` keeps a margin of 30 for the updates.
+pub const PRIOR_STD_MIN: f64 = 1e-49;
+
+/// The largest magnitude of a component of the prior mean m₀ (m):
+/// [`MAX_SCALE`](liebayes_densities::MAX_SCALE) = 1e100, the Gaussians' mean limit.
+pub const PRIOR_MEAN_LIMIT: f64 = liebayes_densities::MAX_SCALE;
+
 /// A Gaussian filter's density.
 pub type PositionGaussian = ManifoldGaussian<Position, 3>;
 
@@ -80,7 +91,9 @@ pub type AngleUkf<const N: usize, const M: usize> = Recursive<
     PositionMoments,
 >;
 
-/// The prior `N(m₀, σ₀² I)` of every filter: m₀ finite, σ₀ in (0, 1e6] m.
+/// The prior `N(m₀, σ₀² I)` of every filter: m₀ with components within ±[`PRIOR_MEAN_LIMIT`] =
+/// ±1e100 m, σ₀ in [[`PRIOR_STD_MIN`], [`PRIOR_STD_LIMIT`]] = [1e-49, 1e6] m, so that every filter,
+/// the Gaussian ones included, can be built from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Prior {
     mean: Vector3<f64>,
@@ -91,8 +104,8 @@ impl Prior {
     /// The prior.
     ///
     /// # Errors
-    /// [`OperatorError::NonFinite`] for a non-finite mean, [`OperatorError::OutOfRange`] for σ₀
-    /// outside (0, 1e6].
+    /// [`OperatorError::NonFinite`] for a non-finite mean, [`OperatorError::OutOfRange`] for a
+    /// component of m₀ beyond ±1e100 or σ₀ outside [1e-49, 1e6].
     pub fn new(mean: Vector3<f64>, std: f64) -> Result<Self, OperatorError> {
         if let Some(&value) = mean.iter().find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
@@ -100,11 +113,19 @@ impl Prior {
                 value,
             });
         }
-        if !(std > 0.0 && std <= PRIOR_STD_LIMIT) {
+        if let Some(&value) = mean.iter().find(|v| v.abs() > PRIOR_MEAN_LIMIT) {
             return Err(OperatorError::OutOfRange {
-                what: "prior standard deviation (m)",
+                what: "prior mean m_0 (m, a component)",
+                value,
+                range: "[-1e100, 1e100] per component",
+            });
+        }
+        if !(PRIOR_STD_MIN..=PRIOR_STD_LIMIT).contains(&std) {
+            return Err(OperatorError::OutOfRange {
+                what: "prior standard deviation sigma_0 (m)",
                 value: std,
-                range: "(0, 1e6]",
+                range: "[1e-49, 1e6] (below 1e-49 the Kalman filters' prior Gaussian has \
+                        tr P^-1 = 3/sigma_0^2 above 1e100)",
             });
         }
         Ok(Self { mean, std })
@@ -123,7 +144,8 @@ impl Prior {
     /// The prior as a Gaussian density.
     ///
     /// # Errors
-    /// Only if σ₀² is not a valid variance (never for a checked prior).
+    /// None for a prior [`new`](Self::new) accepted (σ₀ ≥ 1e-49 keeps `tr P⁻¹ = 3/σ₀² ≤ 3e98` and
+    /// σ₀² ≤ 1e12); the Gaussian's constructor is still asked, never bypassed.
     pub fn gaussian(&self) -> Result<PositionGaussian, OperatorError> {
         Ok(ManifoldGaussian::new(
             Position::new_unchecked(self.mean),
@@ -200,7 +222,7 @@ pub fn vmf_particle_filter<const N: usize>(
 /// let anchors = square_track_anchors();
 /// let truth = Vector3::new(1.0, 0.2, 0.0);
 /// // Noise-free readings of the true position by the four anchors.
-/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0));
+/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0).unwrap());
 /// let model = UnitVectorModel::new(anchors, 100.0).unwrap();
 /// let walk = RandomWalk::new(0.5, 0.1).unwrap();
 /// let mut filter = vmf_ekf::<4, 12>(model, walk, &Prior::new(truth, 0.5).unwrap()).unwrap();
@@ -238,7 +260,7 @@ pub fn vmf_ekf<const N: usize, const M: usize>(
 /// use nalgebra::Vector3;
 /// let anchors = square_track_anchors();
 /// let truth = Vector3::new(1.0, 0.2, 0.0);
-/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0));
+/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0).unwrap());
 /// let model = UnitVectorModel::new(anchors, 100.0).unwrap();
 /// let walk = RandomWalk::new(0.5, 0.1).unwrap();
 /// let mut filter = vmf_ukf::<4, 12>(model, walk, &Prior::new(truth, 0.5).unwrap()).unwrap();
@@ -301,7 +323,7 @@ pub fn angle_particle_filter<const N: usize>(
 /// use nalgebra::Vector3;
 /// let anchors = square_track_anchors();
 /// let truth = Vector3::new(1.0, 0.2, 0.0);
-/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0));
+/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0).unwrap());
 /// let noise = AngleNoise::Fixed { sigma_az: 0.1, sigma_el: 0.1 };
 /// let model = AzElModel::new(anchors, noise).unwrap();
 /// let walk = RandomWalk::new(0.5, 0.1).unwrap();

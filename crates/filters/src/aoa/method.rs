@@ -9,10 +9,10 @@ use super::filter::{
 use super::model::{AngleNoise, AzElModel, Readings, UnitVectorModel};
 use super::noise::{AdaptiveSigmas, kappa_from_sigmas, sigma_from_kappa};
 use super::process::RandomWalk;
-use super::scenario::SquareTrack;
 use super::scenario::TrackConfig;
+use super::scenario::{SquareTrack, TrackReadings};
 use liebayes_experiments::search::{SearchSettings, SizeSearch, smallest_to_match};
-use liebayes_experiments::{ExperimentError, RecursiveFilter, Study, Summary};
+use liebayes_experiments::{ExperimentError, RecursiveFilter, Smoothing, Study, Summary, Update};
 use liebayes_operators::OperatorError;
 use rand_chacha::ChaCha8Rng;
 
@@ -166,10 +166,53 @@ impl TrackFilter {
     }
 }
 
-/// Any filter of a track: each reports a [`PositionEstimate`].
+/// Any filter of a track: each reports a [`PositionEstimate`], and takes a track's measurement
+/// ([`TrackReadings`]) as [`OnTrackReadings`] says.
 pub type PositionFilter = Box<
-    dyn RecursiveFilter<Input = f64, Measurement = Readings<4>, Estimate = PositionEstimate> + Send,
+    dyn RecursiveFilter<Input = f64, Measurement = TrackReadings<4>, Estimate = PositionEstimate>
+        + Send,
 >;
+
+/// A filter of readings ([`Readings`]) run on a track's measurements ([`TrackReadings`]):
+/// [`TrackReadings::Readings`] is the filter's update; [`TrackReadings::AtAnchor`] leaves the
+/// filter as it is and reports a log evidence of 0 (an empty measurement has likelihood 1) and no
+/// NIS, so that the epoch is scored on the prediction and keeps its index; and
+/// [`TrackReadings::Failed`] is the update's error (the run fails at that epoch), the filter left
+/// as it was. Prediction, estimate and smoothing are the filter's.
+#[derive(Clone, Debug)]
+pub struct OnTrackReadings<F>(pub F);
+
+impl<F, const N: usize> RecursiveFilter for OnTrackReadings<F>
+where
+    F: RecursiveFilter<Input = f64, Measurement = Readings<N>>,
+{
+    type Input = f64;
+    type Measurement = TrackReadings<N>;
+    type Estimate = F::Estimate;
+
+    fn predict(&mut self, input: &f64) -> Result<(), OperatorError> {
+        self.0.predict(input)
+    }
+
+    fn update(&mut self, z: &TrackReadings<N>) -> Result<Update, OperatorError> {
+        match z {
+            TrackReadings::Readings(readings) => self.0.update(readings),
+            TrackReadings::AtAnchor => Ok(Update {
+                log_evidence: 0.0,
+                nis: None,
+            }),
+            TrackReadings::Failed(error) => Err(error.clone()),
+        }
+    }
+
+    fn estimate(&self) -> Result<F::Estimate, OperatorError> {
+        self.0.estimate()
+    }
+
+    fn smoothing(&mut self) -> Option<&mut dyn Smoothing<Estimate = F::Estimate>> {
+        self.0.smoothing()
+    }
+}
 
 /// A measurement model built for a track's anchors.
 #[derive(Clone, Debug, PartialEq)]
@@ -210,31 +253,31 @@ impl liebayes_experiments::Method for OnTrack {
         let prior = self.config.prior(rng)?;
         let process = self.process;
         Ok(match (&self.model, self.algorithm) {
-            (BuiltModel::Vmf(model), Algorithm::Particle(n)) => Box::new(vmf_particle_filter(
-                *model,
-                process,
-                &prior,
-                n,
-                rng.clone(),
-            )?),
+            (BuiltModel::Vmf(model), Algorithm::Particle(n)) => Box::new(OnTrackReadings(
+                vmf_particle_filter(*model, process, &prior, n, rng.clone())?,
+            )),
             (BuiltModel::Vmf(model), Algorithm::Ekf) => {
-                Box::new(vmf_ekf::<4, 12>(*model, process, &prior)?)
+                Box::new(OnTrackReadings(vmf_ekf::<4, 12>(*model, process, &prior)?))
             }
             (BuiltModel::Vmf(model), Algorithm::Ukf) => {
-                Box::new(vmf_ukf::<4, 12>(*model, process, &prior)?)
+                Box::new(OnTrackReadings(vmf_ukf::<4, 12>(*model, process, &prior)?))
             }
-            (BuiltModel::Angle(model), Algorithm::Particle(n)) => Box::new(angle_particle_filter(
-                model.clone(),
-                process,
-                &prior,
-                n,
-                rng.clone(),
-            )?),
+            (BuiltModel::Angle(model), Algorithm::Particle(n)) => Box::new(OnTrackReadings(
+                angle_particle_filter(model.clone(), process, &prior, n, rng.clone())?,
+            )),
             (BuiltModel::Angle(model), Algorithm::Ekf) => {
-                Box::new(angle_ekf::<4, 8>(model.clone(), process, &prior)?)
+                Box::new(OnTrackReadings(angle_ekf::<4, 8>(
+                    model.clone(),
+                    process,
+                    &prior,
+                )?))
             }
             (BuiltModel::Angle(model), Algorithm::Ukf) => {
-                Box::new(angle_ukf::<4, 8>(model.clone(), process, &prior)?)
+                Box::new(OnTrackReadings(angle_ukf::<4, 8>(
+                    model.clone(),
+                    process,
+                    &prior,
+                )?))
             }
         })
     }

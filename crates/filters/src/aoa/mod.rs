@@ -37,12 +37,13 @@ pub use direction::AzEl;
 pub use estimate::{PositionEstimate, PositionMoments, PositionScorer};
 pub use example::{UpdateExample, UpdateRow};
 pub use filter::{
-    AngleEkf, AngleParticleFilter, AngleUkf, PRIOR_STD_LIMIT, PositionGaussian, Prior,
-    RESAMPLE_BELOW, UKF_LAMBDA, VmfEkf, VmfParticleFilter, VmfUkf, angle_ekf,
-    angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
+    AngleEkf, AngleParticleFilter, AngleUkf, PRIOR_MEAN_LIMIT, PRIOR_STD_LIMIT, PRIOR_STD_MIN,
+    PositionGaussian, Prior, RESAMPLE_BELOW, UKF_LAMBDA, VmfEkf, VmfParticleFilter, VmfUkf,
+    angle_ekf, angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
 };
 pub use method::{
-    Algorithm, ModelChoice, OnTrack, PositionFilter, TrackFilter, particles_to_match, track_rmse,
+    Algorithm, ModelChoice, OnTrack, OnTrackReadings, PositionFilter, TrackFilter,
+    particles_to_match, track_rmse,
 };
 pub use model::{
     AngleNoise, AzElModel, CheckedReadings, InWorldAxes, Position, Readings, StackedAngles,
@@ -52,6 +53,6 @@ pub use noise::{
     AdaptiveSigmas, KAPPA_RANGE, SIGMA_RANGE, az_el_log_density, kappa_from_sigmas,
     sigma_from_kappa,
 };
-pub use process::{DELTA_LIMIT, Q_LIMIT, RandomWalk};
+pub use process::{DELTA_LIMIT, DELTA_MIN, Q_LIMIT, Q_MIN, RandomWalk};
 pub use quadrature::{MIN_EFFECTIVE_NODES, PRIOR_LIMIT, exact_posterior};
-pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackSteps, TruthModel};
+pub use scenario::{SIDE_LIMIT, SquareTrack, TrackConfig, TrackReadings, TrackSteps, TruthModel};

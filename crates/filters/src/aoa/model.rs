@@ -197,14 +197,14 @@ impl<const N: usize> AzElModel<N> {
         &self.noise
     }
 
-    /// The predicted reading of anchor j at θ: the angles of `R (θ − s)`; `None` at the anchor
-    /// (or for a non-finite θ).
+    /// The predicted reading of anchor j at θ: the angles of `R (θ − s)` (of the anchor's unit
+    /// direction where that offset overflows); `None` at the anchor (or for a non-finite θ).
     fn predicted(anchor: &Anchor, theta: &Vector3<f64>) -> Option<AzEl> {
-        let p = anchor.local_offset(theta);
-        let squared = p.norm_squared();
-        (squared > 0.0 && squared.is_finite())
-            .then(|| AzEl::of_vector(&p))
-            .or_else(|| anchor.direction(theta).map(|(d, _)| AzEl::of_vector(&d)))
+        AzEl::of_vector(&anchor.local_offset(theta)).or_else(|| {
+            anchor
+                .direction(theta)
+                .and_then(|(d, _)| AzEl::of_vector(&d))
+        })
     }
 }
 

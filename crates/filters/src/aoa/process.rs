@@ -10,8 +10,17 @@ use rand_distr::{Distribution, StandardNormal};
 /// The largest process noise parameter (m/√s).
 pub const Q_LIMIT: f64 = 1e6;
 
+/// The smallest nonzero process noise parameter (m/√s): q² = 1e-200, so that a step's variance
+/// `δ q²` stays a normal number for every track step δ ≥ [`DELTA_MIN`] (a smaller q squared to a
+/// subnormal or to 0, a process noise no step can tell from none; q = 0 itself is accepted).
+pub const Q_MIN: f64 = 1e-100;
+
 /// The largest time step (s).
 pub const DELTA_LIMIT: f64 = 1e6;
+
+/// The smallest time step δ of a track's settings (s): a rate of 1 MHz, the smallest IMU step of
+/// the inertial and attitude filters too.
+pub const DELTA_MIN: f64 = 1e-6;
 
 /// `θₖ = θₖ₋₁ + w`, `w ~ N(0, δ diag(q_xy², q_xy², q_z²))` over a time step δ (the input, s).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,7 +30,8 @@ pub struct RandomWalk {
 }
 
 impl RandomWalk {
-    /// The walk with horizontal and vertical noise parameters q_xy, q_z in [0, 1e6] m/√s.
+    /// The walk with horizontal and vertical noise parameters q_xy, q_z each 0 (no noise on that
+    /// axis) or in [[`Q_MIN`], [`Q_LIMIT`]] = [1e-100, 1e6] m/√s.
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] (NaN included), naming the parameter.
@@ -30,11 +40,11 @@ impl RandomWalk {
             ("horizontal process noise q_xy (m/sqrt(s))", q_xy),
             ("vertical process noise q_z (m/sqrt(s))", q_z),
         ] {
-            if !(0.0..=Q_LIMIT).contains(&value) {
+            if !(value == 0.0 || (Q_MIN..=Q_LIMIT).contains(&value)) {
                 return Err(OperatorError::OutOfRange {
                     what,
                     value,
-                    range: "[0, 1e6]",
+                    range: "0 or [1e-100, 1e6] (a smaller q squares to a variance that underflows)",
                 });
             }
         }

@@ -5,7 +5,7 @@ use super::data::DataModel;
 use super::direction::AzEl;
 use super::filter::Prior;
 use super::model::{Position, Readings};
-use super::process::RandomWalk;
+use super::process::{DELTA_LIMIT, DELTA_MIN, RandomWalk};
 use liebayes_experiments::{ExperimentError, MAX_EPOCHS, Scenario, Step};
 use liebayes_operators::OperatorError;
 use nalgebra::Vector3;
@@ -68,8 +68,9 @@ impl Default for TrackConfig {
 pub const SIDE_LIMIT: f64 = 1e6;
 
 impl TrackConfig {
-    /// Checks the settings: side in (0, 1e6] m, q_xy, q_z and δ as [`RandomWalk`], the prior as
-    /// [`Prior::new`], epochs from 1 to [`MAX_EPOCHS`].
+    /// Checks the settings: side in (0, 1e6] m, q_xy and q_z as [`RandomWalk::new`] (0 or
+    /// [1e-100, 1e6] m/√s), δ in [[`DELTA_MIN`], [`DELTA_LIMIT`]] = [1e-6, 1e6] s, the prior as
+    /// [`Prior::new`] (σ₀ in [1e-49, 1e6] m), epochs from 1 to [`MAX_EPOCHS`].
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] naming the field.
@@ -82,14 +83,13 @@ impl TrackConfig {
             });
         }
         self.random_walk()?;
-        if self.delta.is_nan() || self.delta <= 0.0 {
+        if !(DELTA_MIN..=DELTA_LIMIT).contains(&self.delta) {
             return Err(OperatorError::OutOfRange {
                 what: "time step delta (s)",
                 value: self.delta,
-                range: "(0, 1e6]",
+                range: "[1e-6, 1e6]",
             });
         }
-        RandomWalk::check_step(self.delta)?;
         Prior::new(Vector3::zeros(), self.prior_std)?;
         if self.epochs == 0 || self.epochs > MAX_EPOCHS {
             return Err(OperatorError::OutOfRange {
@@ -174,11 +174,17 @@ impl TrackConfig {
 /// The square track of the paper's Sec. 4.3: the user walks counter-clockwise around a square from
 /// the origin, each step of random length (12) (or, with [`TruthModel::RandomWalk`], follows the
 /// filters' random walk from the origin), and N anchors read its direction with noise from a
-/// [`DataModel`]. A position at an anchor (possible only for the random walk, with probability
-/// zero) has no direction from it, hence no readings: its step has no measurement.
+/// [`DataModel`].
 ///
-/// A run has [`TrackConfig::epochs`] steps; step k (time kδ) moves the user, gives the filters the
-/// input δ (their random walk (13)) and the readings of every anchor.
+/// A run has [`TrackConfig::epochs`] steps, every one a measurement epoch; step k (time kδ) moves
+/// the user, gives the filters the input δ (their random walk (13)) and a [`TrackReadings`]: the
+/// readings of every anchor, or [`TrackReadings::AtAnchor`] for a position at an anchor (possible
+/// only for the random walk, with probability zero: it has no direction from that anchor, so no
+/// readings), or [`TrackReadings::Failed`] with the error of readings that could not be drawn. A
+/// track filter ([`PositionFilter`](super::PositionFilter)) scores an epoch at an anchor on its
+/// prediction, and fails its run at a failed epoch, so that a run always has its `epochs` epochs,
+/// each at its own index (a reading error dropped the measurement, and every later epoch of the
+/// run was then averaged with the next one's).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SquareTrack<const N: usize> {
     anchors: [Anchor; N],
@@ -248,6 +254,20 @@ impl<const N: usize> SquareTrack<N> {
         &self.config
     }
 
+    /// The measurement of a step at θ: [`TrackReadings::AtAnchor`] when θ is an anchor's position
+    /// (checked before anything is drawn), else the [`readings`](Self::readings), or
+    /// [`TrackReadings::Failed`] with their error.
+    pub fn track_readings(&self, theta: &Vector3<f64>, rng: &mut impl Rng) -> TrackReadings<N> {
+        // θ − s is exactly 0 only for θ = s (subnormal differences are kept).
+        if self.anchors.iter().any(|a| theta == a.position()) {
+            return TrackReadings::AtAnchor;
+        }
+        match self.readings(theta, rng) {
+            Ok(readings) => TrackReadings::Readings(readings),
+            Err(error) => TrackReadings::Failed(error),
+        }
+    }
+
     /// The readings of every anchor of the true position θ (world axes, m): each drawn from the
     /// data model ([`DataModel::sample`]) at the unit direction of θ in the anchor's axes,
     /// `R (θ − s)/|θ − s|`.
@@ -283,6 +303,33 @@ impl<const N: usize> SquareTrack<N> {
     }
 }
 
+/// A step's measurement on a [`SquareTrack`]: the readings of every anchor, or why there are
+/// none. A track filter ([`PositionFilter`](super::PositionFilter)) updates on the readings,
+/// leaves an epoch at an anchor un-updated (scored on its prediction, log evidence 0: an empty
+/// measurement has likelihood 1), and fails at a failed one with its error, leaving the filter as
+/// it was.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TrackReadings<const N: usize> {
+    /// Every anchor's reading.
+    Readings(Readings<N>),
+    /// The true position is at an anchor, which has no direction of it: no readings (the random
+    /// walk's truth only, with probability zero).
+    AtAnchor,
+    /// The readings could not be drawn (an error of [`SquareTrack::readings`] other than the
+    /// position at an anchor): the run fails at this epoch.
+    Failed(OperatorError),
+}
+
+impl<const N: usize> TrackReadings<N> {
+    /// The readings, `None` at an anchor or for a failed epoch.
+    pub fn readings(&self) -> Option<&Readings<N>> {
+        match self {
+            TrackReadings::Readings(readings) => Some(readings),
+            TrackReadings::AtAnchor | TrackReadings::Failed(_) => None,
+        }
+    }
+}
+
 /// The distance from p to the square [0, a]² in the plane z = 0 (its perimeter).
 fn distance_to_square(p: &Vector3<f64>, a: f64) -> f64 {
     let (x, y) = (p.x, p.y);
@@ -308,7 +355,7 @@ pub struct TrackSteps<'s, const N: usize> {
 }
 
 impl<const N: usize> Iterator for TrackSteps<'_, N> {
-    type Item = Step<Position, f64, Readings<N>>;
+    type Item = Step<Position, f64, TrackReadings<N>>;
 
     fn next(&mut self) -> Option<Self::Item> {
         let config = &self.track.config;
@@ -333,14 +380,12 @@ impl<const N: usize> Iterator for TrackSteps<'_, N> {
                 self.position
             }
         };
-        // θ is finite and the data model valid (checked at construction), so the readings fail
-        // only at an anchor (the random walk's, with probability zero): no measurement then.
-        let measurement = self.track.readings(&theta, &mut *self.rng).ok();
+        let measurement = self.track.track_readings(&theta, &mut *self.rng);
         Some(Step {
             time: self.k as f64 * config.delta,
             input: config.delta,
             truth: Position::new_unchecked(theta),
-            measurement,
+            measurement: Some(measurement),
         })
     }
 }
@@ -348,7 +393,7 @@ impl<const N: usize> Iterator for TrackSteps<'_, N> {
 impl<const N: usize> Scenario for SquareTrack<N> {
     type Truth = Position;
     type Input = f64;
-    type Measurement = Readings<N>;
+    type Measurement = TrackReadings<N>;
     type Steps<'s> = TrackSteps<'s, N>;
 
     fn epochs(&self) -> usize {

@@ -6,7 +6,7 @@ use super::data::check_rate;
 use super::data::{MAX_FIELD, check_reading, scaled_unit};
 use super::ekf::Sensors;
 use super::estimate::{AttitudeEstimate, ImuSample};
-use crate::error::FilterError;
+use crate::error::{FilterError, positive_setting};
 use liebayes_experiments::{RecursiveFilter, Update};
 use liebayes_operators::OperatorError;
 use nalgebra::{
@@ -107,17 +107,15 @@ impl Madgwick {
     /// A filter with gain `beta` (rad/s) at `rate` Hz using `sensors`, initialised by its first
     /// sample.
     ///
+    /// β is 0 (the gyroscope alone) or a gain in [1.5e-154, 1e150] rad/s, the shared range of a
+    /// positive setting (`positive_setting`: its square a normal number up to 1e300); the rate is
+    /// in [`RATE_RANGE`](super::RATE_RANGE).
+    ///
     /// # Errors
-    /// [`FilterError::Setting`] unless β is finite and non-negative and the rate finite and
-    /// positive.
+    /// [`FilterError::Setting`] naming `beta` or `rate` outside those ranges (NaN included).
     pub fn new(beta: f64, sensors: Sensors, rate: f64) -> Result<Self, FilterError> {
-        if !(beta.is_finite() && beta >= 0.0) {
-            return Err(FilterError::Setting {
-                origin: "Madgwick::new",
-                setting: "beta",
-                value: beta.to_string(),
-                expected: "a finite non-negative gain in rad/s",
-            });
+        if beta != 0.0 {
+            positive_setting("Madgwick::new", "beta", beta)?;
         }
         check_rate("Madgwick::new", rate)?;
         Ok(Self {

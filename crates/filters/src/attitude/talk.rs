@@ -41,7 +41,8 @@ const INITIAL_SIGMA_RANGE: (f64, f64) = (1.5e-6, std::f64::consts::PI);
 pub struct TalkParams {
     /// σ_U (rad/s): gyroscope noise per sample, `G_k = Ω_k + U_k`. Finite, > 0.
     pub gyro_noise: f64,
-    /// σ_A (rad/s²): the angular-rate random walk, `Ω_k = Ω_(k−1) + A_k Δt`. In [0, 1e150].
+    /// σ_A (rad/s²): the angular-rate random walk, `Ω_k = Ω_(k−1) + A_k Δt`. 0 or in
+    /// [1.5e-154, 1e150] (a positive setting: its square a normal number).
     pub rate_walk: f64,
     /// σ_V: accelerometer noise on the unit gravity direction (dimensionless, about rad).
     /// In [1e-5, 1e150] (a smaller σ makes the Bingham nearly as concentrated as it can be).
@@ -78,13 +79,10 @@ impl TalkParams {
     pub fn validate(&self) -> Result<(), FilterError> {
         let origin = "TalkParams";
         positive_setting(origin, "gyro_noise", self.gyro_noise)?;
-        if !(0.0..=1e150).contains(&self.rate_walk) {
-            return Err(FilterError::Setting {
-                origin,
-                setting: "rate_walk",
-                value: self.rate_walk.to_string(),
-                expected: "a rate walk in [0, 1e150] rad/s^2",
-            });
+        // 0 (a constant rate) or the shared positive range: a walk whose square underflows is
+        // refused rather than read as none.
+        if self.rate_walk != 0.0 {
+            positive_setting(origin, "rate_walk", self.rate_walk)?;
         }
         for (setting, value) in [("acc_noise", self.acc_noise), ("mag_noise", self.mag_noise)] {
             if !(MIN_DIRECTION_NOISE..=1e150).contains(&value) {

@@ -2,8 +2,8 @@
 //! stepped by the operators crate's manifold Kalman filters.
 
 use super::PositionAzimuth;
-use super::density::variance_of;
 use super::estimate::{AzimuthEstimate, AzimuthMoments};
+use super::model::check_filter_settings;
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{Estimator, Recursive};
@@ -71,22 +71,18 @@ impl MeasurementModel<PositionAzimuth, 3, 2> for PositionMeasurement {
     }
 }
 
-/// The prior `r ~ N(r₀, σ₀² I)`, `A ~ N(0, π²/3)` (the variance of the uniform azimuth).
+/// The prior `r ~ N(r₀, σ₀² I)`, `A ~ N(0, π²/3)` (the variance of the uniform azimuth), after the
+/// settings check every azimuth filter shares.
 ///
 /// # Errors
-/// [`OperatorError::NonFinite`] for a non-finite r₀, [`OperatorError::OutOfRange`] for σ₀ outside
-/// [1.5e-154, 1e150].
+/// As [`ekf`].
 fn prior(
+    process: VelocityProcess,
+    measurement: &PositionMeasurement,
     r0: Vector2<f64>,
     sigma0: f64,
 ) -> Result<ManifoldGaussian<PositionAzimuth, 3>, OperatorError> {
-    let s2 = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
-    if let Some(&value) = r0.iter().find(|v| !v.is_finite()) {
-        return Err(OperatorError::NonFinite {
-            what: "initial position r_0",
-            value,
-        });
-    }
+    let s2 = check_filter_settings(process, measurement, r0, sigma0)?;
     Ok(ManifoldGaussian::new(
         state(r0, So2::from_angle_unchecked(0.0)),
         Matrix3::new(s2, 0.0, 0.0, 0.0, s2, 0.0, 0.0, 0.0, PI * PI / 3.0),
@@ -96,7 +92,11 @@ fn prior(
 /// The EKF from the prior `r ~ N(r₀, σ₀² I)`, `A ~ N(0, π²/3)`.
 ///
 /// # Errors
-/// As the prior: a non-finite r₀, σ₀ outside [1.5e-154, 1e150].
+/// The settings check every azimuth filter shares, before anything is built:
+/// [`OperatorError::NonFinite`] for a non-finite r₀; [`OperatorError::OutOfRange`] for a component
+/// of r₀ beyond ±[`PRIOR_POSITION_LIMIT`](super::PRIOR_POSITION_LIMIT) = ±1e100, σ₀ or the
+/// measurement's σ_m outside [`SETTING_SIGMA_RANGE`](super::SETTING_SIGMA_RANGE) = [1e-49, 1e49],
+/// or the process's q above 1e49.
 ///
 /// # Example
 /// ```
@@ -120,7 +120,7 @@ pub fn ekf(
     sigma0: f64,
 ) -> Result<AzimuthEkf, OperatorError> {
     Ok(Recursive::with_estimator(
-        prior(r0, sigma0)?,
+        prior(process, &measurement, r0, sigma0)?,
         Ekf(process),
         Ekf(measurement),
         AzimuthMoments,
@@ -155,7 +155,7 @@ pub fn ukf(
     sigma0: f64,
 ) -> Result<AzimuthUkf, OperatorError> {
     Ok(Recursive::with_estimator(
-        prior(r0, sigma0)?,
+        prior(process, &measurement, r0, sigma0)?,
         Ukf::with_scaling(process, 0.1, 2.0, 0.0)?,
         Ukf::with_scaling(measurement, 0.1, 2.0, 0.0)?,
         AzimuthMoments,

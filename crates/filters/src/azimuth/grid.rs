@@ -1,8 +1,8 @@
 //! The grid filter and brute-force reference of azimuth alignment: a bank of exact Kalman filters
 //! for r, one at each of n azimuths, on the operators crate's [`CircularGrid`].
 
-use super::density::variance_of;
 use super::estimate::{AzimuthEstimate, AzimuthMoments};
+use super::model::check_filter_settings;
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
 use liebayes_densities::Gaussian;
 use liebayes_experiments::{Estimator, Recursive};
@@ -73,9 +73,10 @@ pub type AzimuthGrid = Recursive<
 /// The grid filter with n cells, each with the prior `N(r₀, σ₀² I)`, and the uniform azimuth prior.
 ///
 /// # Errors
-/// [`OperatorError::OutOfRange`] for n = 0 or σ₀ outside [1.5e-154, 1e150],
-/// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS), or
-/// the Gaussian's errors for r₀; all before any cell is allocated.
+/// The settings check every azimuth filter shares (as [`ekf`](super::ekf): r₀ finite within
+/// ±1e100, σ₀ and σ_m in [1e-49, 1e49], q at most 1e49), then [`OperatorError::OutOfRange`] for
+/// n = 0 and [`OperatorError::TooLarge`] for n above
+/// [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS); all before any cell is allocated.
 ///
 /// # Example
 /// ```
@@ -97,7 +98,7 @@ pub fn grid_filter(
     r0: Vector2<f64>,
     sigma0: f64,
 ) -> Result<AzimuthGrid, OperatorError> {
-    let variance = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
+    let variance = check_filter_settings(process, &measurement, r0, sigma0)?;
     let prior = Gaussian::new(r0, Matrix2::identity() * variance)?;
     Ok(Recursive::with_estimator(
         CircularGrid::uniform(n, prior)?,

@@ -2,8 +2,8 @@
 //! Kalman filter for r.
 
 use super::estimate::{AzimuthEstimate, AzimuthMoments, azimuth_moment};
+use super::model::check_filter_settings;
 use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
-use super::particle::check_prior;
 use crate::error::{check_count, draws};
 use liebayes_densities::Gaussian;
 use liebayes_experiments::{Estimator, Recursive};
@@ -56,8 +56,9 @@ pub fn marginalized_filter(
     sigma0: f64,
     mut rng: ChaCha8Rng,
 ) -> Result<AzimuthMarginalized, OperatorError> {
+    let variance = check_filter_settings(process, &measurement, r0, sigma0)?;
     check_count("number of particles", n)?;
-    let prior = Gaussian::new(r0, Matrix2::identity() * check_prior(r0, sigma0)?)?;
+    let prior = Gaussian::new(r0, Matrix2::identity() * variance)?;
     let particles = draws(n, || {
         (
             So2::from_angle_unchecked(rng.random::<f64>() * 2.0 * PI),

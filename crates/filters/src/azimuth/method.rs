@@ -165,14 +165,21 @@ impl liebayes_experiments::Method for OnScenario {
 
 /// The exact filter from the prior `r ~ N(r₀, σ₀² I)`, A uniform.
 ///
+/// The settings are checked as every azimuth filter's (as [`ekf`]), so that a setting one filter
+/// accepts, all six can run: narrower than [`AzimuthDensity::new`]'s own range, which stays open to
+/// a density built directly.
+///
 /// # Errors
-/// As [`AzimuthDensity::new`].
+/// As [`ekf`]: [`OperatorError::NonFinite`] for a non-finite r₀; [`OperatorError::OutOfRange`] for
+/// a component of r₀ beyond ±1e100, σ₀ or the measurement's σ_m outside [1e-49, 1e49], or the
+/// process's q above 1e49.
 pub fn exact(
     process: VelocityProcess,
     measurement: PositionMeasurement,
     r0: Vector2<f64>,
     sigma0: f64,
 ) -> Result<AzimuthExact, OperatorError> {
+    super::model::check_filter_settings(process, &measurement, r0, sigma0)?;
     Ok(Recursive::with_estimator(
         AzimuthDensity::new(r0, sigma0)?,
         process,

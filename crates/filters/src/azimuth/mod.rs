@@ -43,7 +43,9 @@ pub use marginalized::{AzimuthMarginalized, marginalized_filter};
 pub use method::{
     AzimuthFilter, Method, OnScenario, exact, final_azimuth_rmse, particles_to_match,
 };
-pub use model::{PositionMeasurement, VelocityInput, VelocityProcess};
+pub use model::{
+    PRIOR_POSITION_LIMIT, PositionMeasurement, SETTING_SIGMA_RANGE, VelocityInput, VelocityProcess,
+};
 pub use particle::{AzimuthParticleFilter, particle_filter};
 pub use scenario::{AzimuthScenario, AzimuthSteps, Config, MAX_DT, Motion};
 

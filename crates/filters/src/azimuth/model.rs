@@ -13,7 +13,9 @@ pub struct VelocityProcess {
 
 impl VelocityProcess {
     /// The process with noise density q in [0, 1e150] m/√s, so that q² is at most 1e300 (a q whose
-    /// square underflows is a deterministic process, as q = 0).
+    /// square underflows is a deterministic process, as q = 0). The exact density steps with any
+    /// of these; a filter built from settings ([`exact`](super::exact), [`ekf`](super::ekf), …)
+    /// takes q up to 1e49 ([`SETTING_SIGMA_RANGE`]), the range the Gaussian baselines can run.
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] for q negative, NaN or above 1e150.
@@ -89,7 +91,9 @@ pub struct PositionMeasurement {
 impl PositionMeasurement {
     /// The measurement with noise standard deviation σ_m in [1.5e-154, 1e150] m, so that σ_m² is a
     /// positive normal number up to 1e300 (σ_m = 1e-200 would square to zero: a measurement claiming
-    /// to be exact, which the recursion cannot divide by).
+    /// to be exact, which the recursion cannot divide by). The exact density conditions on any of
+    /// these; a filter built from settings ([`exact`](super::exact), [`ekf`](super::ekf), …) takes
+    /// σ_m in [`SETTING_SIGMA_RANGE`] = [1e-49, 1e49], the range the Gaussian baselines can run.
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] for σ_m outside that range (zero, negative, NaN, infinite).
@@ -157,4 +161,95 @@ impl PositionMeasurement {
         }
         Self::new(((m + h) * scale).sqrt())
     }
+}
+
+/// The range of every standard deviation an azimuth filter is built with, the same for all six
+/// constructors ([`exact`](super::exact), [`ekf`](super::ekf), [`ukf`](super::ukf),
+/// [`grid_filter`](super::grid_filter), [`marginalized_filter`](super::marginalized_filter),
+/// [`particle_filter`](super::particle_filter)) and for [`Config::validate`](super::Config::validate):
+/// the prior's σ₀, the measurement's σ_m and the process noise density q (m/√s, which may also be
+/// 0) in [1e-49, 1e49], so that σ² is in [1e-98, 1e98].
+///
+/// It is the range the Gaussian-based baselines can run, with a margin of 100 for the steps: their
+/// Gaussians take covariance entries and inverse entries (or `tr P⁻¹`) up to
+/// [`MAX_SCALE`](liebayes_densities::MAX_SCALE) = 1e100, so σ₀ = 1e-51 made the EKF's prior
+/// `tr P⁻¹ = 2e102` and σ_m below about 1.4e-50 made every update fail, while the exact and the
+/// particle filters took σ down to 1.5e-154. The exact filter's own types keep their wider range
+/// ([`AzimuthDensity::new`](super::AzimuthDensity::new), [`PositionMeasurement::new`],
+/// [`VelocityProcess::new`]); this range applies where a filter is built from settings.
+///
+/// The range bounds each setting (and so the Gaussians they make); it does not bound their
+/// ratios. Settings many orders of magnitude apart (a prior or a process noise 1e49 times the
+/// measurement noise) leave the EKF's and the UKF's covariances too ill-conditioned for f64 once
+/// a measurement pins the position down: a step of theirs then fails with an error, at run time.
+pub const SETTING_SIGMA_RANGE: (f64, f64) = (1e-49, 1e49);
+
+/// The largest magnitude of a component of the prior mean r₀ (m) an azimuth filter is built
+/// with: [`MAX_SCALE`](liebayes_densities::MAX_SCALE) = 1e100, the mean limit of the grid's and
+/// the marginalized filter's Gaussians, for all six constructors.
+pub const PRIOR_POSITION_LIMIT: f64 = liebayes_densities::MAX_SCALE;
+
+/// `Ok(σ²)` for a standard deviation `sigma` in [`SETTING_SIGMA_RANGE`] (NaN refused), else
+/// [`OperatorError::OutOfRange`] naming `what`.
+pub(super) fn sigma_setting(what: &'static str, sigma: f64) -> Result<f64, OperatorError> {
+    let (low, high) = SETTING_SIGMA_RANGE;
+    if (low..=high).contains(&sigma) {
+        Ok(sigma * sigma)
+    } else {
+        Err(OperatorError::OutOfRange {
+            what,
+            value: sigma,
+            range: "[1e-49, 1e49] (the range every azimuth filter, the Gaussian ones included, \
+                    can run)",
+        })
+    }
+}
+
+/// The settings check of all six azimuth filter constructors: the prior r₀ (finite, components
+/// within ±[`PRIOR_POSITION_LIMIT`]) and σ₀, the measurement's σ_m and the process's q in
+/// [`SETTING_SIGMA_RANGE`] (q may be 0). Returns σ₀².
+///
+/// # Errors
+/// [`OperatorError::NonFinite`] for a non-finite r₀, [`OperatorError::OutOfRange`] for any other
+/// setting out of its range, naming it.
+pub(super) fn check_filter_settings(
+    process: VelocityProcess,
+    measurement: &PositionMeasurement,
+    r0: Vector2<f64>,
+    sigma0: f64,
+) -> Result<f64, OperatorError> {
+    let (low, high) = SETTING_SIGMA_RANGE;
+    let variance0 = sigma_setting("initial position standard deviation sigma_0 (m)", sigma0)?;
+    if let Some(&value) = r0.iter().find(|v| !v.is_finite()) {
+        return Err(OperatorError::NonFinite {
+            what: "initial position r_0",
+            value,
+        });
+    }
+    if let Some(&value) = r0.iter().find(|v| v.abs() > PRIOR_POSITION_LIMIT) {
+        return Err(OperatorError::OutOfRange {
+            what: "initial position r_0 (m, a component)",
+            value,
+            range: "[-1e100, 1e100] per component",
+        });
+    }
+    // The models store squares: compare them with the range's squares (rounding is monotone, so a
+    // σ in the range always passes).
+    let sigma_m2 = measurement.variance();
+    if !(low * low..=high * high).contains(&sigma_m2) {
+        return Err(OperatorError::OutOfRange {
+            what: "position noise standard deviation sigma_m (m) of the filter's measurement model",
+            value: sigma_m2.sqrt(),
+            range: "[1e-49, 1e49] (the range every azimuth filter, the Gaussian ones included, \
+                    can run)",
+        });
+    }
+    if process.noise_density() > high * high {
+        return Err(OperatorError::OutOfRange {
+            what: "velocity noise density q (m/sqrt(s)) of the filter's process model",
+            value: process.noise_density().sqrt(),
+            range: "[0, 1e49] (the range every azimuth filter, the Gaussian ones included, can run)",
+        });
+    }
+    Ok(variance0)
 }

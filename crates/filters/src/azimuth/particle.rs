@@ -2,10 +2,9 @@
 //! particle set: sampled propagation and reweighting.
 
 use super::PositionAzimuth;
-use super::density::variance_of;
 use super::estimate::{AzimuthEstimate, AzimuthMoments, azimuth_moment};
 use super::gaussian::state;
-use super::model::{PositionMeasurement, VelocityInput, VelocityProcess};
+use super::model::{PositionMeasurement, VelocityInput, VelocityProcess, check_filter_settings};
 use super::scenario::normal2;
 use liebayes_experiments::{Estimator, Recursive};
 use liebayes_manifolds::So2;
@@ -65,25 +64,15 @@ impl Likelihood<PositionAzimuth> for PositionMeasurement {
     }
 }
 
-/// Checks the prior of the particle filters, r₀ finite and σ₀ in [1.5e-154, 1e150]; returns σ₀².
-pub(super) fn check_prior(r0: Vector2<f64>, sigma0: f64) -> Result<f64, OperatorError> {
-    let variance = variance_of("initial position standard deviation sigma_0 (m)", sigma0)?;
-    match r0.iter().find(|v| !v.is_finite()) {
-        Some(&value) => Err(OperatorError::NonFinite {
-            what: "initial position r_0",
-            value,
-        }),
-        None => Ok(variance),
-    }
-}
-
 /// The particle filter with n particles drawn from the prior with `rng`, which it then keeps for
 /// its own draws.
 ///
 /// # Errors
-/// [`OperatorError::OutOfRange`] for n = 0 or σ₀ outside [1.5e-154, 1e150],
-/// [`OperatorError::TooLarge`] for n above [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS) or more than the memory holds,
-/// [`OperatorError::NonFinite`] for a non-finite r₀; all checked before any particle is drawn.
+/// The settings check every azimuth filter shares (as [`ekf`](super::ekf): r₀ finite within
+/// ±1e100, σ₀ and σ_m in [1e-49, 1e49], q at most 1e49), then [`OperatorError::OutOfRange`] for
+/// n = 0 and [`OperatorError::TooLarge`] for n above
+/// [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS) or more than the memory holds; all checked
+/// before any particle is drawn.
 pub fn particle_filter(
     n: usize,
     process: VelocityProcess,
@@ -92,7 +81,7 @@ pub fn particle_filter(
     sigma0: f64,
     mut rng: ChaCha8Rng,
 ) -> Result<AzimuthParticleFilter, OperatorError> {
-    check_prior(r0, sigma0)?;
+    check_filter_settings(process, &measurement, r0, sigma0)?;
     let particles = crate::error::draws(n, || {
         state(
             r0 + normal2(&mut rng) * sigma0,

@@ -2,7 +2,7 @@
 //! [`Scenario`]: the truth `[r, A]`, the velocity inputs and the position measurements of a run,
 //! streamed step by step from the run's generator (a run of 10⁸ steps takes no memory).
 
-use super::density::variance_of;
+use super::model::{SETTING_SIGMA_RANGE, sigma_setting};
 use super::{PositionAzimuth, PositionMeasurement, VelocityInput, VelocityProcess};
 use liebayes_experiments::{ExperimentError, MAX_EPOCHS, Scenario, Step};
 use liebayes_manifolds::{Rn, So2};
@@ -92,16 +92,22 @@ impl Default for Config {
 pub const MAX_DT: f64 = 1e100;
 
 impl Config {
-    /// Checks the configuration: σ₀ and σ_m in [1.5e-154, 1e150] (the range of
-    /// [`PositionMeasurement::new`]), q in [0, 1e150] ([`VelocityProcess::new`]), dt in
-    /// (0, [`MAX_DT`]], `measure_every` at least 1 and `steps` from 1 to
+    /// Checks the configuration with the range every azimuth filter is built with, so that a
+    /// configuration it accepts, each of the six filters can run: σ₀ and σ_m in
+    /// [`SETTING_SIGMA_RANGE`] = [1e-49, 1e49], q in [0, 1e49], dt in (0, [`MAX_DT`]] with the
+    /// per-step noise `q √dt` at most 1e49 (so `q² dt ≤ 1e98`, a variance the Gaussian baselines
+    /// add in one propagation), `measure_every` at least 1 and `steps` from 1 to
     /// [`MAX_ELEMENTS`] (2³⁰).
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] or [`OperatorError::TooLarge`], naming the field.
     pub fn validate(&self) -> Result<(), OperatorError> {
+        sigma_setting(
+            "position noise standard deviation sigma_m (m)",
+            self.sigma_m,
+        )?;
         PositionMeasurement::new(self.sigma_m)?;
-        variance_of(
+        sigma_setting(
             "initial position standard deviation sigma_0 (m)",
             self.sigma0,
         )?;
@@ -111,6 +117,16 @@ impl Config {
                 what: "propagation step dt (s)",
                 value: self.dt,
                 range: "(0, 1e100]",
+            });
+        }
+        // q ≤ 1e49 and q √dt ≤ 1e49 (dt ≤ 1e100 keeps √dt finite and the product exact enough).
+        let per_step = self.q * self.dt.sqrt();
+        if !(self.q <= SETTING_SIGMA_RANGE.1 && per_step <= SETTING_SIGMA_RANGE.1) {
+            return Err(OperatorError::OutOfRange {
+                what: "velocity noise density q (m/sqrt(s)), with its per-step q sqrt(dt)",
+                value: self.q,
+                range: "q in [0, 1e49] with q sqrt(dt) at most 1e49 (q^2 dt <= 1e98, a variance \
+                        every azimuth filter can add in a step)",
             });
         }
         if self.measure_every == 0 {

@@ -30,5 +30,6 @@ pub use state::{
     ErrorState, LeftInvariant, NAVIGATION_DIM, Navigation, NavigationState, RightInvariant,
 };
 pub use strapdown::{
-    GRAVITY, ImuNoise, ImuStep, MAX_READING, MAX_STEP, MIN_STEP, PositionFix, Strapdown, integrate,
+    FIX_SIGMA_RANGE, GRAVITY, IMU_RATE_RANGE, ImuNoise, ImuStep, MAX_READING, MAX_STEP, MIN_STEP,
+    NOISE_RANGE, PositionFix, Strapdown, integrate,
 };

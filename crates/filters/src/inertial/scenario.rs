@@ -2,8 +2,9 @@
 //! position fixes, and the prior every filter starts from.
 
 use super::state::{NAVIGATION_DIM, Navigation, NavigationState};
-use super::strapdown::{ImuNoise, ImuStep, strapdown};
+use super::strapdown::{FIX_SIGMA_RANGE, IMU_RATE_RANGE, ImuNoise, ImuStep, strapdown};
 use crate::FilterError;
+use crate::error::{SIGMA_RANGE, setting_in};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{ExperimentError, MAX_EPOCHS, Scenario, Step};
 use liebayes_manifolds::{LieGroup, So3};
@@ -85,22 +86,32 @@ impl Default for InertialConfig {
 }
 
 impl InertialConfig {
-    /// Checks the settings: duration and rate finite and positive with dt ≤ 1 s, a fix at least every
-    /// run, at most [`MAX_EPOCHS`] fixes, every σ finite and positive (the initial angles below π/2).
+    /// Checks the settings: the IMU rate in [`IMU_RATE_RANGE`](super::IMU_RATE_RANGE) = [1, 1e6] Hz
+    /// (the steps [`ImuStep::new`] takes), the duration positive with at most 1e8 IMU samples, a fix
+    /// at least every run, at most [`MAX_EPOCHS`] fixes; `fix_sigma` in
+    /// [`FIX_SIGMA_RANGE`](super::FIX_SIGMA_RANGE) = [1e-30, 1e6] m, the initial σ's from the shared
+    /// lower bound 1e-30 (a σ below it made the prior's `tr P⁻¹` exceed 1e100, an error naming no
+    /// setting) up to 1e6 (velocity, position), π/2 (heading, tilt) or 1e3 (biases); the IMU's noise
+    /// as [`ImuNoise::validate`].
     ///
     /// # Errors
     /// [`FilterError::Setting`] naming the field.
     pub fn validate(&self) -> Result<(), FilterError> {
+        const ORIGIN: &str = "inertial::InertialConfig";
         let setting =
             |setting: &'static str, value: f64, expected: &'static str| FilterError::Setting {
-                origin: "inertial::InertialConfig",
+                origin: ORIGIN,
                 setting,
                 value: value.to_string(),
                 expected,
             };
-        if !(self.imu_rate >= 1.0 && self.imu_rate <= 1e5) {
-            return Err(setting("imu_rate", self.imu_rate, "a rate in [1, 1e5] Hz"));
-        }
+        setting_in(
+            ORIGIN,
+            "imu_rate",
+            self.imu_rate,
+            IMU_RATE_RANGE,
+            "a rate in [1, 1e6] Hz (a step in [1e-6, 1] s)",
+        )?;
         if !(self.duration > 0.0 && self.duration * self.imu_rate <= 1e8) {
             return Err(setting(
                 "duration",
@@ -115,26 +126,53 @@ impl InertialConfig {
                 "at least 1, with between 1 and 2^24 fixes in a run",
             ));
         }
-        for (name, value, limit) in [
-            ("fix_sigma", self.fix_sigma, 1e6),
+        let low = SIGMA_RANGE.0;
+        let half_turn = std::f64::consts::FRAC_PI_2;
+        for (name, value, range, expected) in [
+            (
+                "fix_sigma",
+                self.fix_sigma,
+                FIX_SIGMA_RANGE,
+                "a standard deviation in [1e-30, 1e6] m",
+            ),
             (
                 "heading_sigma",
                 self.heading_sigma,
-                std::f64::consts::FRAC_PI_2,
+                (low, half_turn),
+                "a standard deviation in [1e-30, pi/2] rad",
             ),
-            ("tilt_sigma", self.tilt_sigma, std::f64::consts::FRAC_PI_2),
-            ("velocity_sigma", self.velocity_sigma, 1e6),
-            ("position_sigma", self.position_sigma, 1e6),
-            ("gyro_bias_sigma", self.gyro_bias_sigma, 1e3),
-            ("accel_bias_sigma", self.accel_bias_sigma, 1e3),
+            (
+                "tilt_sigma",
+                self.tilt_sigma,
+                (low, half_turn),
+                "a standard deviation in [1e-30, pi/2] rad",
+            ),
+            (
+                "velocity_sigma",
+                self.velocity_sigma,
+                (low, 1e6),
+                "a standard deviation in [1e-30, 1e6] m/s",
+            ),
+            (
+                "position_sigma",
+                self.position_sigma,
+                (low, 1e6),
+                "a standard deviation in [1e-30, 1e6] m",
+            ),
+            (
+                "gyro_bias_sigma",
+                self.gyro_bias_sigma,
+                (low, 1e3),
+                "a standard deviation in [1e-30, 1e3] rad/s",
+            ),
+            (
+                "accel_bias_sigma",
+                self.accel_bias_sigma,
+                (low, 1e3),
+                "a standard deviation in [1e-30, 1e3] m/s^2",
+            ),
         ] {
-            if !(value > 0.0 && value <= limit) {
-                return Err(setting(
-                    name,
-                    value,
-                    "a standard deviation in (0, limit] (angles below pi/2)",
-                ));
-            }
+            setting_in(ORIGIN, name, value, range, expected)?;
         }
         self.imu.validate()
     }
@@ -161,8 +199,9 @@ impl InertialConfig {
 /// angular rate `(0.05 sin 0.5t, 0.05 cos 0.4t, 0.3 sin 0.1t)` rad/s and a forward acceleration
 /// `0.5 sin 0.2t` m/s² (the specific force adds the reaction to gravity). The truth integrates the
 /// filters' own strapdown model ([`integrate`](super::integrate)) with the true readings; the
-/// IMU reports them plus the biases (random walks) and white noise, each component saturating at
-/// ±[`MAX_READING`](super::MAX_READING) like a real sensor's range; a fix of the position every
+/// IMU reports them plus the biases (random walks) and white noise, each reading saturating at a
+/// norm of [`MAX_READING`](super::MAX_READING) (scaled down, its direction kept) like a real
+/// sensor's range, so that every sample is one [`ImuStep::new`] accepts; a fix of the position every
 /// `fix_every` samples.
 /// The initial truth is drawn around the prior mean: a heading, roll and pitch error in the world
 /// frame, the velocity known in the body or the world frame ([`InitialVelocity`]), and Gaussian

@@ -3,6 +3,8 @@
 
 use super::state::{NAVIGATION_DIM, Navigation, NavigationState};
 use crate::FilterError;
+use crate::attitude::{MAX_ANGULAR_RATE, MAX_SPECIFIC_FORCE};
+use crate::error::{SIGMA_RANGE, setting_in};
 use liebayes_manifolds::{LieGroup, So3};
 use liebayes_operators::{MeasurementModel, OperatorError, ProcessModel};
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -17,8 +19,32 @@ pub const MAX_STEP: f64 = 1.0;
 /// the noise densities' per-step variances (`σ² / dt`) leave f64's range for a subnormal dt.
 pub const MIN_STEP: f64 = 1e-6;
 
-/// The largest angular rate (rad/s) and specific force (m/s²) an [`ImuStep`] accepts.
-pub const MAX_READING: f64 = 1e4;
+/// The largest norm of an angular rate (rad/s) and of a specific force (m/s²) an [`ImuStep`]
+/// accepts: the attitude filters' sensor limits
+/// [`MAX_ANGULAR_RATE`](crate::attitude::MAX_ANGULAR_RATE) and
+/// [`MAX_SPECIFIC_FORCE`](crate::attitude::MAX_SPECIFIC_FORCE) (both 1e4), applied to the norm
+/// as there, so that a reading one application accepts the other does too.
+pub const MAX_READING: f64 = MAX_ANGULAR_RATE;
+
+// One limit for both readings, as `MAX_READING` says.
+const _: () = assert!(MAX_ANGULAR_RATE == MAX_SPECIFIC_FORCE);
+
+/// The IMU rates (Hz) the inertial application accepts, `[1/MAX_STEP, 1/MIN_STEP]` = [1, 1e6]:
+/// the one rate range, that of the steps [`ImuStep::new`] takes, which
+/// [`InertialConfig::validate`](super::InertialConfig::validate) checks too.
+pub const IMU_RATE_RANGE: (f64, f64) = (1.0 / MAX_STEP, 1.0 / MIN_STEP);
+
+/// The range of the IMU's white noise densities and bias random walks ([`ImuNoise`]): [1e-30, 1e6]
+/// (a walk may also be 0). The lower end is the shared standard deviations' (`σ = 1e-30`, far below
+/// any sensor's): a density whose square underflows (5e-324 passed) is refused rather than read as
+/// no noise. At the upper end the per-step variance `σ²/dt` is at most 1e18 for dt ≥ [`MIN_STEP`].
+pub const NOISE_RANGE: (f64, f64) = (SIGMA_RANGE.0, 1e6);
+
+/// The range of a position fix's standard deviation (m, [`PositionFix::new`] and the scenario's
+/// `fix_sigma`): [1e-30, 1e6]. At 1e-30 the fix's information `3/σ² = 3e60` is far inside the
+/// Gaussians' `tr P⁻¹ ≤ 1e100` (σ = 1e-60 passed and made every fix update fail; σ = 1e-200 made
+/// R = 0).
+pub const FIX_SIGMA_RANGE: (f64, f64) = (SIGMA_RANGE.0, 1e6);
 
 /// One IMU sample held over a step: the measured angular rate ω̃ (rad/s) and specific force f̃
 /// (m/s²), both in the body frame, and the step dt (s).
@@ -30,26 +56,34 @@ pub struct ImuStep {
 }
 
 impl ImuStep {
-    /// The sample, checked: readings finite with components at most [`MAX_READING`] in size, dt in
-    /// [[`MIN_STEP`], [`MAX_STEP`]].
+    /// The sample, checked: readings finite with a norm at most [`MAX_READING`] = 1e4 (rad/s for
+    /// ω̃, m/s² for f̃; the attitude filters' rule), dt in [[`MIN_STEP`], [`MAX_STEP`]] (a rate in
+    /// [`IMU_RATE_RANGE`]).
     ///
     /// # Errors
-    /// [`FilterError::Setting`] naming the reading.
+    /// [`FilterError::Setting`] naming the reading or dt.
     pub fn new(
         angular_rate: Vector3<f64>,
         specific_force: Vector3<f64>,
         dt: f64,
     ) -> Result<Self, FilterError> {
-        for (setting, reading) in [
-            ("angular_rate", angular_rate),
-            ("specific_force", specific_force),
+        for (setting, reading, limit, expected) in [
+            (
+                "angular_rate",
+                angular_rate,
+                MAX_ANGULAR_RATE,
+                "finite components, a norm at most 1e4 rad/s (MAX_ANGULAR_RATE)",
+            ),
+            (
+                "specific_force",
+                specific_force,
+                MAX_SPECIFIC_FORCE,
+                "finite components, a norm at most 1e4 m/s^2 (MAX_SPECIFIC_FORCE)",
+            ),
         ] {
-            if !reading.iter().all(|v| v.abs() <= MAX_READING) {
-                return Err(setting_error(
-                    setting,
-                    format!("{reading:?}"),
-                    "components finite, at most 1e4 in size",
-                ));
+            // A NaN component makes the norm NaN, an overflow +∞: both fail the comparison.
+            if !(reading.iter().all(|v| v.is_finite()) && reading.norm() <= limit) {
+                return Err(setting_error(setting, format!("{reading:?}"), expected));
             }
         }
         if !(MIN_STEP..=MAX_STEP).contains(&dt) {
@@ -62,17 +96,18 @@ impl ImuStep {
         })
     }
 
-    /// The sample a sensor of range ±[`MAX_READING`] reports: each component clamped to that
-    /// range (a saturating IMU), for a dt in [[`MIN_STEP`], [`MAX_STEP`]] the caller has checked.
+    /// The sample a sensor of range [`MAX_READING`] reports: a finite reading whose norm exceeds
+    /// that range is scaled down to it, its direction kept (a saturating IMU), so that the sample
+    /// is one [`new`](Self::new) accepts; for a dt in [[`MIN_STEP`], [`MAX_STEP`]] the caller has
+    /// checked.
     pub(crate) fn saturated(
         angular_rate: Vector3<f64>,
         specific_force: Vector3<f64>,
         dt: f64,
     ) -> Self {
-        let clamp = |v: Vector3<f64>| v.map(|x| x.clamp(-MAX_READING, MAX_READING));
         Self {
-            angular_rate: clamp(angular_rate),
-            specific_force: clamp(specific_force),
+            angular_rate: saturate(angular_rate, MAX_ANGULAR_RATE),
+            specific_force: saturate(specific_force, MAX_SPECIFIC_FORCE),
             dt,
         }
     }
@@ -91,6 +126,25 @@ impl ImuStep {
     pub fn dt(&self) -> f64 {
         self.dt
     }
+}
+
+/// A finite `v` scaled down to a norm of at most `limit` if it is longer, its direction kept (scaled
+/// by its largest component first, so a norm that would overflow does not matter); shortened by a
+/// few ulp more where rounding leaves the norm just above the limit.
+fn saturate(v: Vector3<f64>, limit: f64) -> Vector3<f64> {
+    let scale = v.amax();
+    if !(scale.is_finite() && v.norm() > limit) {
+        return v;
+    }
+    let unit = v / scale;
+    let mut out = unit * (limit / unit.norm());
+    for _ in 0..8 {
+        if out.norm() <= limit {
+            break;
+        }
+        out *= 1.0 - f64::EPSILON;
+    }
+    out
 }
 
 /// An [`ImuStep`] setting's error.
@@ -165,27 +219,34 @@ pub struct ImuNoise {
 }
 
 impl ImuNoise {
-    /// Checks that every density is finite and ≥ 0, and the white noises > 0.
+    /// Checks the white noise densities against [`NOISE_RANGE`] = [1e-30, 1e6], and the bias walks
+    /// too, which may also be 0 (no walk).
     ///
     /// # Errors
     /// [`FilterError::Setting`] naming the density.
     pub fn validate(&self) -> Result<(), FilterError> {
-        for (setting, value, positive) in [
-            ("gyro", self.gyro, true),
-            ("accel", self.accel, true),
-            ("gyro_bias_walk", self.gyro_bias_walk, false),
-            ("accel_bias_walk", self.accel_bias_walk, false),
+        const ORIGIN: &str = "inertial::ImuNoise";
+        for (setting, value) in [("gyro", self.gyro), ("accel", self.accel)] {
+            setting_in(
+                ORIGIN,
+                setting,
+                value,
+                NOISE_RANGE,
+                "a white noise density in [1e-30, 1e6] (its square a normal number)",
+            )?;
+        }
+        for (setting, value) in [
+            ("gyro_bias_walk", self.gyro_bias_walk),
+            ("accel_bias_walk", self.accel_bias_walk),
         ] {
-            let ok = value.is_finite()
-                && value <= 1e6
-                && if positive { value > 0.0 } else { value >= 0.0 };
-            if !ok {
-                return Err(FilterError::Setting {
-                    origin: "inertial::ImuNoise",
+            if value != 0.0 {
+                setting_in(
+                    ORIGIN,
                     setting,
-                    value: value.to_string(),
-                    expected: "a finite density in (0, 1e6] ([0, 1e6] for a bias walk)",
-                });
+                    value,
+                    NOISE_RANGE,
+                    "0 or a bias random walk in [1e-30, 1e6] (its square a normal number)",
+                )?;
             }
         }
         Ok(())
@@ -291,19 +352,18 @@ pub struct PositionFix {
 }
 
 impl PositionFix {
-    /// The fix with standard deviation σ per axis (m), in (0, 1e6].
+    /// The fix with standard deviation σ per axis (m), in [`FIX_SIGMA_RANGE`] = [1e-30, 1e6].
     ///
     /// # Errors
     /// [`FilterError::Setting`] for a σ outside that range.
     pub fn new(sigma: f64) -> Result<Self, FilterError> {
-        if !(sigma > 0.0 && sigma <= 1e6) {
-            return Err(FilterError::Setting {
-                origin: "inertial::PositionFix",
-                setting: "sigma",
-                value: sigma.to_string(),
-                expected: "a standard deviation in (0, 1e6] m",
-            });
-        }
+        setting_in(
+            "inertial::PositionFix",
+            "sigma",
+            sigma,
+            FIX_SIGMA_RANGE,
+            "a standard deviation in [1e-30, 1e6] m (3/sigma^2 a Gaussian's information)",
+        )?;
         Ok(Self { sigma })
     }
 
