@@ -1,6 +1,7 @@
 //! [`Bingham`]: the Bingham distribution on unit quaternions (S³ = SU(2)).
 
 use crate::bingham_normalizer::log_normalizer_and_moments;
+use crate::eigen::bounded_eigen;
 use crate::error::{DensityError, finite};
 use crate::traits::{
     Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
@@ -40,30 +41,18 @@ fn sorted_eigen(
     ))
 }
 
-/// The symmetric eigendecomposition, refused where it is not finite (nalgebra's can return NaN for
-/// matrices whose entries span more than the f64 range once scaled, such as 1e83 beside 1e-308).
+/// The symmetric eigendecomposition ([`bounded_eigen`]), refused where it has not converged or is
+/// not finite.
 fn finite_eigen(
     what: &'static str,
     m: Matrix4<f64>,
 ) -> Result<SymmetricEigen<f64, nalgebra::U4>, DensityError> {
-    // A bounded iteration (nalgebra's `new` iterates until convergence, without a limit).
-    let eigen = SymmetricEigen::try_new(m, f64::EPSILON, 1000).filter(|eigen| {
-        eigen
-            .eigenvalues
-            .iter()
-            .chain(eigen.eigenvectors.iter())
-            .all(|v| v.is_finite())
-    });
-    if let Some(eigen) = eigen {
-        Ok(eigen)
-    } else {
-        Err(DensityError::OutOfRange {
-            what,
-            value: m.amax(),
-            range: "symmetric matrices whose eigendecomposition is finite in f64 (entries within a \
-                    range of about 1e300 of each other)",
-        })
-    }
+    bounded_eigen(m).ok_or_else(|| DensityError::OutOfRange {
+        what,
+        value: m.amax(),
+        range: "symmetric matrices whose eigendecomposition is finite in f64 (entries within a \
+                range of about 1e300 of each other)",
+    })
 }
 
 /// Checks that the eigenvalue spread `max z − min z` is at most [`Bingham::MAX_SPREAD`] and that every

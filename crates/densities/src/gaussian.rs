@@ -1,5 +1,6 @@
 //! [`Gaussian`]: the multivariate normal distribution on Rⁿ.
 
+use crate::eigen::smallest_eigenvalue;
 use crate::error::{DensityError, finite};
 use crate::traits::{Convolve, Density, Entropy, KlDivergence, Product};
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -106,9 +107,7 @@ fn spd_cholesky<const N: usize>(
         .ok_or_else(|| DensityError::OutOfRange {
             what,
             // The smallest eigenvalue for the message (a dynamic copy: this is the error path only).
-            value: nalgebra::DMatrix::from_column_slice(N, N, symmetric.as_slice())
-                .symmetric_eigenvalues()
-                .min(),
+            value: smallest_eigenvalue(N, symmetric.as_slice()),
             range: "positive definite matrices (the value shown is the smallest eigenvalue)",
         })
 }

@@ -86,6 +86,7 @@
 
 mod bingham;
 mod bingham_normalizer;
+mod eigen;
 mod error;
 mod gaussian;
 mod gen_von_mises;

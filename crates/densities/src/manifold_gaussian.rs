@@ -1,6 +1,7 @@
 //! [`ManifoldGaussian`]: a Gaussian in the tangent space at a point of any manifold (the "concentrated
 //! Gaussian" of the Lie-group literature), the density the EKF and the UKF carry.
 
+use crate::eigen::smallest_eigenvalue;
 use crate::error::DensityError;
 use crate::gaussian::{MAX_SCALE, largest_within_scale, whitened_squared_norm, within_scale};
 use crate::traits::{Density, Entropy, Rotate};
@@ -193,9 +194,7 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
             return Err(DensityError::OutOfRange {
                 what: WHAT,
                 // The smallest eigenvalue for the message (a dynamic copy: the error path only).
-                value: nalgebra::DMatrix::from_column_slice(D, D, covariance.as_slice())
-                    .symmetric_eigenvalues()
-                    .min(),
+                value: smallest_eigenvalue(D, covariance.as_slice()),
                 range: "positive definite matrices (the value shown is the smallest eigenvalue)",
             });
         };

@@ -4,6 +4,7 @@
 //! `docs/densities/heat_kernel_so3.md` and `docs/densities/bingham.md`.
 
 use crate::bingham::Bingham;
+use crate::eigen::bounded_eigen;
 use crate::error::DensityError;
 use crate::gaussian::within_scale;
 use crate::heat_kernel::HeatKernelSo3;
@@ -64,11 +65,31 @@ impl Bingham {
     }
 }
 
+/// The eigendecomposition of a symmetric 3 × 3 matrix `m` ([`bounded_eigen`]).
+///
+/// # Errors
+/// [`DensityError::OutOfRange`] naming `what` when it does not converge within its bound or is not
+/// finite.
+fn eigen3(
+    what: &'static str,
+    m: Matrix3<f64>,
+) -> Result<SymmetricEigen<f64, nalgebra::U3>, DensityError> {
+    bounded_eigen(m).ok_or_else(|| DensityError::OutOfRange {
+        what,
+        value: m.amax(),
+        range: "symmetric matrices whose eigendecomposition converges in f64",
+    })
+}
+
 /// `E[q qᵀ]` of `q = exp(ξ)`, `ξ ~ N(0, Σ)`, by a 16-point-per-axis Gauss-Hermite cubature in the
 /// eigenbasis of Σ (4096 points, exact for polynomials of degree 31 in ξ: to rounding for σ up to tens of
 /// degrees).
-fn quaternion_moments(covariance: &Matrix3<f64>) -> Matrix4<f64> {
-    let eigen = SymmetricEigen::new(*covariance);
+///
+/// # Errors
+/// [`DensityError::OutOfRange`] when the eigendecomposition of Σ does not converge (see
+/// [`eigen3`]).
+fn quaternion_moments(covariance: &Matrix3<f64>) -> Result<Matrix4<f64>, DensityError> {
+    let eigen = eigen3("tangent covariance of the moment match", *covariance)?;
     let scale = eigen.eigenvalues.map(|l| l.max(0.0).sqrt());
     let rule = quadrature::gauss_hermite();
     let mut moments = Matrix4::zeros();
@@ -83,7 +104,7 @@ fn quaternion_moments(covariance: &Matrix3<f64>) -> Matrix4<f64> {
             }
         }
     }
-    moments
+    Ok(moments)
 }
 
 fn vector_block(moments: &Matrix4<f64>) -> Matrix3<f64> {
@@ -96,9 +117,10 @@ impl ManifoldGaussian<So3<f64>, 3> {
     /// [`Bingham::from_second_moment`]. The measured KL is in `docs/densities/bingham.md`.
     ///
     /// # Errors
-    /// Those of [`Bingham::from_second_moment`].
+    /// Those of [`Bingham::from_second_moment`], and [`DensityError::OutOfRange`] should the
+    /// eigendecomposition of the covariance not converge within its bound of iterations.
     pub fn to_bingham_moment_matched(&self) -> Result<Bingham, DensityError> {
-        Bingham::from_second_moment(quaternion_moments(self.covariance()))?
+        Bingham::from_second_moment(quaternion_moments(self.covariance())?)?
             .rotated(&self.mean().to_su2())
     }
 }
@@ -128,7 +150,7 @@ impl Bingham {
         let mut covariance = target * 4.0;
         let mut relative = f64::INFINITY;
         for _ in 0..MATCH_STEPS {
-            let residual = target - vector_block(&quaternion_moments(&covariance));
+            let residual = target - vector_block(&quaternion_moments(&covariance)?);
             relative = residual.amax() / target.amax();
             if relative <= 1e-12 {
                 return ManifoldGaussian::new(mode.to_so3(), covariance);
@@ -172,7 +194,10 @@ fn diffusion_eigen(
             range: "symmetric matrices (rad^2)",
         });
     }
-    let eigen = SymmetricEigen::new(covariance * 0.5 + covariance.transpose() * 0.5);
+    let eigen = eigen3(
+        "diffusion covariance",
+        covariance * 0.5 + covariance.transpose() * 0.5,
+    )?;
     let smallest = eigen.eigenvalues.min();
     if smallest < -1e-12 * (1.0 + scale) {
         return Err(DensityError::OutOfRange {
@@ -271,7 +296,7 @@ impl Bingham {
         let about = self.rotated(&mode.inverse())?;
         let s = about.second_moment();
         let block = Matrix3::from_fn(|r, c| 0.5 * (s[(r + 1, c + 1)] + s[(c + 1, r + 1)]));
-        let eigen = SymmetricEigen::new(block);
+        let eigen = eigen3("vector moments of the Bingham about its mode", block)?;
         let u = eigen.eigenvalues;
         let d = Vector3::new(
             2.0 * (u[1] + u[2]),

@@ -121,8 +121,12 @@ struct ScaledPrior {
 impl ScaledPrior {
     fn new(prior: &PositionGaussian, anchor: &Anchor) -> Result<Self, OperatorError> {
         let covariance = *prior.covariance();
-        let eigenvalues = covariance.symmetric_eigenvalues();
-        let (largest, smallest) = (eigenvalues.max(), eigenvalues.min());
+        // A bounded iteration (nalgebra's `symmetric_eigenvalues` has no limit); NaN when it does
+        // not converge, refused below.
+        let (largest, smallest) = nalgebra::SymmetricEigen::try_new(covariance, f64::EPSILON, 1000)
+            .map_or((f64::NAN, f64::NAN), |e| {
+                (e.eigenvalues.max(), e.eigenvalues.min())
+            });
         let conditioned = largest > 0.0 && smallest > 0.0 && largest <= PRIOR_LIMIT * smallest;
         if !conditioned {
             return Err(OperatorError::OutOfRange {
