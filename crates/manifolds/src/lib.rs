@@ -28,7 +28,8 @@
 //!
 //! Constructors from raw numbers check finiteness, unit norm, orthonormality and determinant against
 //! the tolerances of [`constants`] and return [`ManifoldError`]; `*_unchecked` constructors skip the
-//! checks for hot paths, and `*_normalizing` / `renormalized` / `from_matrix_orthonormalized` repair
+//! checks for hot paths, as do the wrappers of nalgebra's unit types (`from_unit_quaternion`,
+//! `from_unit_complex`, `from_unit_vector` and their `From`, which take nalgebra's word), and `*_normalizing` / `renormalized` / `from_matrix_orthonormalized` repair
 //! inputs explicitly. No function panics or returns NaN for finite input.
 //!
 //! ## Example

@@ -63,7 +63,9 @@ impl<T: Real> S2<T> {
         }
     }
 
-    /// Wraps a nalgebra unit vector (no cost).
+    /// Wraps a nalgebra unit vector as it is, without a check (no cost): nalgebra's unit types are
+    /// unit by construction except when its own `new_unchecked`, or normalising zero, made them
+    /// NaN. [`S2::new`] checks its vector.
     #[inline]
     pub const fn from_unit_vector(n: Unit<Vector3<T>>) -> Self {
         Self { n }

@@ -112,7 +112,9 @@ impl<T: Real> So2<T> {
         Ok(Self::from_cos_sin_unchecked(m.m11, m.m21))
     }
 
-    /// Wraps a nalgebra unit complex number (no cost).
+    /// Wraps a nalgebra unit complex number as it is, without a check (no cost): nalgebra's unit
+    /// types are unit by construction except when its own `new_unchecked`, or `new_normalize` of
+    /// zero, made them NaN. [`So2::from_cos_sin`] checks its numbers.
     #[inline]
     pub const fn from_unit_complex(z: UnitComplex<T>) -> Self {
         Self { z }

@@ -69,7 +69,9 @@ impl<T: Real> Su2<T> {
         Self::from_unit_quaternion(UnitQuaternion::new_unchecked(q))
     }
 
-    /// Wraps a nalgebra unit quaternion (no cost).
+    /// Wraps a nalgebra unit quaternion as it is, without a check (no cost): nalgebra's unit types
+    /// are unit by construction except when its own `new_unchecked`, or normalising zero, made
+    /// them NaN. [`Su2::from_quaternion`] checks its quaternion.
     #[inline]
     pub const fn from_unit_quaternion(q: UnitQuaternion<T>) -> Self {
         Self { q }
