@@ -91,7 +91,9 @@ pub(crate) fn symmetric_part<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<
 ///
 /// # Errors
 /// [`OperatorError::NonFinitePoint`] for a mean that is not finite, [`OperatorError::NonFinite`] for a
-/// covariance entry that is not, [`OperatorError::NotPositiveDefinite`] otherwise.
+/// covariance entry that is not, [`OperatorError::OutOfRange`] for a positive definite covariance
+/// beyond the density's limits (an entry above 1e100, or `tr P⁻¹` above 1e100: too concentrated),
+/// [`OperatorError::NotPositiveDefinite`] otherwise.
 #[inline]
 pub(crate) fn checked_gaussian<X: Manifold<D, Scalar = f64>, const D: usize>(
     mean: X,
@@ -106,6 +108,13 @@ pub(crate) fn checked_gaussian<X: Manifold<D, Scalar = f64>, const D: usize>(
             what: what.covariance,
             value,
         },
+        // The density's limits name their own quantity (its largest entry, its inverse's
+        // trace); only a failed factorisation means "not positive definite".
+        DensityError::OutOfRange { what, value, range }
+            if !range.starts_with("positive definite") =>
+        {
+            OperatorError::OutOfRange { what, value, range }
+        }
         _ => OperatorError::NotPositiveDefinite {
             what: what.covariance,
         },

@@ -318,3 +318,33 @@ fn indefinite_model_noise_is_refused() {
     );
     assert!(prior2.propagate(&Ekf(&rank_one), &()).is_ok());
 }
+
+/// A step whose result is positive definite but beyond the density's limits (a prior of
+/// variance 1e-99 updated by a sensor of variance 1e-101 leaves `tr P⁻¹` near 2e101) is refused as
+/// out of range, naming that limit, not as "not positive definite".
+#[test]
+fn a_result_beyond_the_densitys_limits_is_out_of_range() {
+    let prior = ManifoldGaussian::new(
+        Rn::new_unchecked(Vector2::zeros()),
+        Matrix2::identity() * 1e-99,
+    )
+    .unwrap();
+    let sharp = MeasurementFn::new(
+        |x: &Rn<f64, 2>| *x.coords(),
+        |_| Matrix2::identity() * 1e-101,
+    );
+    for error in [
+        prior
+            .condition(&Ekf(&sharp), &Vector2::zeros())
+            .unwrap_err(),
+        prior
+            .condition(&Ukf::new(&sharp), &Vector2::zeros())
+            .unwrap_err(),
+    ] {
+        assert!(
+            matches!(error, OperatorError::OutOfRange { .. })
+                && error.to_string().contains("1e100"),
+            "{error}"
+        );
+    }
+}
