@@ -57,6 +57,33 @@ pub(crate) fn shape_text(shape: &[usize], batch: bool) -> String {
 /// `numpy.asarray`, looked up once.
 static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 
+/// `numpy.ma.MaskedArray`, looked up once.
+static MASKED_ARRAY: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+/// Refuses a masked array that masks any value with a `TypeError`: numpy hands its data over
+/// with the masked values in it, which would be read as numbers. One without a masked value is
+/// read as its data.
+fn refuse_masked(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<()> {
+    let py = obj.py();
+    let masked_array = MASKED_ARRAY.import(py, "numpy.ma", "MaskedArray")?;
+    if !obj.is_instance(masked_array)? {
+        return Ok(());
+    }
+    let any_masked: bool = py
+        .import("numpy.ma")?
+        .call_method1("is_masked", (obj,))?
+        .extract()?;
+    if any_masked {
+        return Err(PyTypeError::new_err(named(
+            name,
+            "a masked array with masked values: numpy would hand over the values under the mask \
+             as numbers; pass a.filled(x) or a.compressed(), or drop the masked rows"
+                .to_owned(),
+        )));
+    }
+    Ok(())
+}
+
 /// The argument as an aligned C-contiguous `float64` array: the array itself when it already is
 /// one, otherwise converted by `numpy.asarray` (lists, integer or `float32` arrays, strided
 /// views). Values that are not real numbers (complex, bool, object or string arrays, or lists of
@@ -79,6 +106,7 @@ pub(crate) fn shaped_float_array<'py>(
     check: impl Fn(&[usize]) -> PyResult<()>,
 ) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
     if let Ok(array) = obj.cast::<PyUntypedArray>() {
+        refuse_masked(name, obj)?;
         check_real_dtype(name, &array.dtype())?;
         check(array.shape())?;
     }
@@ -365,6 +393,7 @@ fn contiguous_float64<'py>(
     obj: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let py = obj.py();
+    refuse_masked(name, obj)?;
     if let Ok(array) = obj.cast::<PyArrayDyn<f64>>() {
         if array.is_c_contiguous() && array.is_aligned() {
             return Ok(array.clone());

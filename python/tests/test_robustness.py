@@ -397,6 +397,21 @@ def test_a_bool_inside_a_list_is_refused_like_update_does():
     assert np.allclose(lm.So3.exp([1, 0, 0.0]), lm.So3.exp(np.array([1.0, 0, 0])))
 
 
+def test_a_masked_array_with_masked_values_is_refused():
+    # numpy hands over a masked array's data with the masked values in it: read as numbers, a
+    # masked reading of 1e300 would have been a rotation of 1e300 rad.
+    masked = np.ma.masked_array([1e300, 0.0, 0.0], mask=[True, False, False])
+    with pytest.raises(TypeError, match=r"^omega: a masked array with masked values"):
+        lm.So3.exp(masked)
+    with pytest.raises(TypeError, match=r"^gyr: a masked array"):
+        att.AttitudeFilter(0.01).update_batch(
+            np.ma.masked_array(np.zeros((2, 3)), mask=[[0, 0, 0], [1, 0, 0]]), np.ones((2, 3))
+        )
+    # One that masks nothing is read as its data.
+    clear = np.ma.masked_array([0.1, 0.2, 0.3], mask=False)
+    assert np.allclose(lm.So3.exp(clear), lm.So3.exp(np.array([0.1, 0.2, 0.3])))
+
+
 def test_messages_name_the_argument_and_the_call():
     with pytest.raises(ValueError, match=r"^offline_attitude: acc has shape \[4, 3\], expected \(5, 3\)"):
         att.offline_attitude(np.zeros((5, 3)), np.zeros((4, 3)), dt=0.01)
