@@ -836,10 +836,10 @@ fn azimuth_study<'py>(
             on.process = VelocityProcess::new(v).map_err(value_error)?;
         }
         if let Some(s) = filter_sigma0 {
-            // The prior's check, before any run.
-            AzimuthDensity::new(Vector2::zeros(), s).map_err(value_error)?;
             on.sigma0 = s;
         }
+        // The settings as every azimuth filter checks them, before any run.
+        liebayes_experiments::Method::validate(&on).map_err(value_error)?;
         let label = on.label();
         if plans.iter().any(|(l, _): &(String, _)| *l == label) {
             return Err(bad(format!("methods: {label:?} is given twice")));

@@ -512,3 +512,11 @@ def test_particle_drawing_and_a_fit_release_the_gil():
     finally:
         stop.set()
         t.join()
+
+
+def test_a_studys_filter_settings_are_checked_as_every_azimuth_filter_checks_them():
+    # A filter's sigma0 of 1e-100 passed the exact density's wider check and then failed every run
+    # of the Gaussian filters; it is refused before any run, naming the setting.
+    for name, value in (("filter_sigma0", 1e-100), ("filter_sigma_m", 1e60), ("filter_q", 1e60)):
+        with pytest.raises(ValueError, match=r"sigma_0|sigma_m|q \(m/sqrt\(s\)\)"):
+            lf.azimuth_study("circle", ["EKF"], 2, duration=2.0, **{name: value})

@@ -9,8 +9,9 @@ use liebayes_experiments::{
     Shard, Study, Summary, replay,
 };
 use liebayes_filters::azimuth::{
-    AzimuthEstimate, AzimuthScenario, Config, Method, Motion, PositionAzimuth, PositionMeasurement,
-    VelocityProcess, ekf, exact, final_azimuth_rmse, grid_filter, particles_to_match, ukf,
+    AzimuthEstimate, AzimuthScenario, Config, Method, Motion, OnScenario, PositionAzimuth,
+    PositionMeasurement, VelocityProcess, ekf, exact, final_azimuth_rmse, grid_filter,
+    particles_to_match, ukf,
 };
 use liebayes_manifolds::Manifold;
 use liebayes_operators::evaluation::average_nees_band;
@@ -296,6 +297,34 @@ fn all_six(
     ]
 }
 
+/// Every one of the six filters refuses (`process`, `measurement`, `r0`, `sigma0`); with a
+/// `config`, so do its check and a study's check of a method on those models (`OnScenario`,
+/// refused before any run); each error names `setting`.
+fn all_refuse(
+    (process, measurement, r0, sigma0): (VelocityProcess, PositionMeasurement, Vector2<f64>, f64),
+    config: Option<Config>,
+    setting: &str,
+) {
+    for (name, filter) in all_six(process, measurement, r0, sigma0) {
+        let error = filter
+            .err()
+            .unwrap_or_else(|| panic!("{name} took {setting} out of its range"));
+        assert!(error.to_string().contains(setting), "{name}: {error}");
+    }
+    if let Some(config) = config {
+        let error = config.validate().unwrap_err();
+        assert!(error.to_string().contains(setting), "{error}");
+        let on = OnScenario {
+            method: Method::Ekf,
+            process,
+            measurement,
+            sigma0,
+        };
+        let error = liebayes_experiments::Method::validate(&on).unwrap_err();
+        assert!(error.to_string().contains(setting), "{error}");
+    }
+}
+
 /// One prior (r₀, σ₀) had four accepted ranges. The exact and particle filters took
 /// σ₀ in [1.5e-154, 1e150] and any r₀, the EKF and UKF σ₀ in about [1.4e-50, 1e50), the grid and
 /// the marginalized filter |r₀| ≤ 1e100; `Config::validate` took all of them, and a study then
@@ -308,60 +337,30 @@ fn every_azimuth_filter_and_the_config_share_one_settings_range() {
     let measurement = PositionMeasurement::new(1.0).unwrap();
     let r0 = Vector2::new(1.0, -2.0);
     for sigma0 in [0.99e-49, 1e-51, 1e-100, 1.01e49, 1e50, 1e149] {
-        for (name, filter) in all_six(process, measurement, r0, sigma0) {
-            let error = filter
-                .err()
-                .unwrap_or_else(|| panic!("{name} took sigma_0 = {sigma0}"));
-            assert!(error.to_string().contains("sigma_0"), "{name}: {error}");
-        }
         let config = Config {
             sigma0,
             ..Config::default()
         };
-        let error = config.validate().unwrap_err();
-        assert!(error.to_string().contains("sigma_0"), "{error}");
+        all_refuse((process, measurement, r0, sigma0), Some(config), "sigma_0");
     }
     for sigma_m in [0.99e-49, 1e-60, 1.01e49, 1e149] {
         let measurement = PositionMeasurement::new(sigma_m).unwrap();
-        for (name, filter) in all_six(process, measurement, r0, 1.0) {
-            let error = filter
-                .err()
-                .unwrap_or_else(|| panic!("{name} took sigma_m = {sigma_m}"));
-            assert!(error.to_string().contains("sigma_m"), "{name}: {error}");
-        }
         let config = Config {
             sigma_m,
             ..Config::default()
         };
-        assert!(
-            config
-                .validate()
-                .unwrap_err()
-                .to_string()
-                .contains("sigma_m")
-        );
+        all_refuse((process, measurement, r0, 1.0), Some(config), "sigma_m");
     }
     for q in [1.01e49, 1e149] {
         let process = VelocityProcess::new(q).unwrap();
-        for (name, filter) in all_six(process, measurement, r0, 1.0) {
-            let error = filter
-                .err()
-                .unwrap_or_else(|| panic!("{name} took q = {q}"));
-            assert!(
-                error.to_string().contains("q (m/sqrt(s))"),
-                "{name}: {error}"
-            );
-        }
         let config = Config {
             q,
             ..Config::default()
         };
-        assert!(
-            config
-                .validate()
-                .unwrap_err()
-                .to_string()
-                .contains("q (m/sqrt(s))")
+        all_refuse(
+            (process, measurement, r0, 1.0),
+            Some(config),
+            "q (m/sqrt(s))",
         );
     }
     // q √dt above 1e49: every Gaussian propagation would add q² dt > 1e98.
@@ -370,20 +369,14 @@ fn every_azimuth_filter_and_the_config_share_one_settings_range() {
         dt: 1e9,
         ..Config::default()
     };
-    assert!(
-        config
-            .validate()
-            .unwrap_err()
-            .to_string()
-            .contains("q (m/sqrt(s))")
-    );
+    let error = config.validate().unwrap_err();
+    assert!(error.to_string().contains("q (m/sqrt(s))"), "{error}");
     for r in [1.01e100, 1e150, -1e300] {
-        for (name, filter) in all_six(process, measurement, Vector2::new(0.0, r), 1.0) {
-            let error = filter
-                .err()
-                .unwrap_or_else(|| panic!("{name} took r_0 = {r}"));
-            assert!(error.to_string().contains("r_0"), "{name}: {error}");
-        }
+        all_refuse(
+            (process, measurement, Vector2::new(0.0, r), 1.0),
+            None,
+            "r_0",
+        );
     }
 }
 

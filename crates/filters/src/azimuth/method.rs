@@ -125,8 +125,17 @@ impl liebayes_experiments::Method for OnScenario {
         self.method.label()
     }
 
+    /// The method's own settings, and the models' and σ₀ as every azimuth filter checks them
+    /// (a mis-specified model of settings no filter can run is refused before any run).
     fn validate(&self) -> Result<(), OperatorError> {
-        self.method.validate()
+        self.method.validate()?;
+        super::model::check_filter_settings(
+            self.process,
+            &self.measurement,
+            Vector2::zeros(),
+            self.sigma0,
+        )
+        .map(|_| ())
     }
 
     /// The method's filter; the sampling filters draw their particles from `rng`'s copy.
