@@ -99,7 +99,7 @@ fn main() {
         let rmse = |metric: &str| {
             summary
                 .series(metric)
-                .and_then(|s| s.pooled().mean_square())
+                .and_then(|s| s.pooled().ok()?.mean_square())
                 .map_or(f64::NAN, f64::sqrt)
         };
         println!(

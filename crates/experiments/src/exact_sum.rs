@@ -8,8 +8,7 @@
 //! additions; [`ExactSum::value`] rounds the exact total to the nearest f64 (ties to even), once.
 //! Up to 2³⁰ values are added between carry normalisations, which keep every limb in range, so the
 //! number of values is unbounded. Merges are bounded: a total of magnitude 2¹¹⁰² or more (about
-//! 2⁷⁸ · `f64::MAX`) is refused by [`ExactSum::try_merge`] and saturates to ±∞ in
-//! [`ExactSum::merge`].
+//! 2⁷⁸ · `f64::MAX`) is refused by [`ExactSum::merge`].
 
 use crate::ExperimentError;
 
@@ -133,29 +132,13 @@ impl ExactSum {
     }
 
     /// Adds another sum exactly: the result is the same whatever the order of the additions and
-    /// merges, as long as no merge overflows.
-    ///
-    /// A total of magnitude 2¹¹⁰² or more (about 2⁷⁸ · `f64::MAX`, far beyond any sum of a u64
-    /// count of f64 values, and beyond what a file of a sum may hold) overflows the accumulator:
-    /// such a merge saturates instead, as f64 addition does, making the sum ±∞ as if that infinity
-    /// had been added ([`value`](Self::value) is then ±∞, which is the rounding of the exact total,
-    /// but later additions no longer cancel it). [`try_merge`](Self::try_merge) refuses the merge
-    /// instead.
-    pub fn merge(&mut self, other: &ExactSum) {
-        if let Err(Overflow { negative }) = self.merged(other).map(|sum| *self = sum) {
-            self.nan |= other.nan;
-            self.positive_infinity |= other.positive_infinity || !negative;
-            self.negative_infinity |= other.negative_infinity || negative;
-        }
-    }
-
-    /// Adds another sum exactly, as [`merge`](Self::merge), refusing a total that would overflow
-    /// the accumulator.
+    /// merges.
     ///
     /// # Errors
     /// [`ExperimentError::OutOfRange`] when the total's magnitude would reach 2¹¹⁰² (about
-    /// 2⁷⁸ · `f64::MAX`): `self` is then unchanged.
-    pub fn try_merge(&mut self, other: &ExactSum) -> Result<(), ExperimentError> {
+    /// 2⁷⁸ · `f64::MAX`, far beyond any sum of a u64 count of f64 values, and beyond what a file of a
+    /// sum may hold): the accumulator cannot hold it, and `self` is then unchanged.
+    pub fn merge(&mut self, other: &ExactSum) -> Result<(), ExperimentError> {
         *self = self
             .merged(other)
             .map_err(|o| ExperimentError::OutOfRange {

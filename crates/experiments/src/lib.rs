@@ -52,10 +52,9 @@
 //! step ends its run with a [`RunFailure`] (where and why), counted by reason, and a non-finite
 //! metric value is counted apart, never averaged into a figure; means and root mean squares of
 //! finite values are finite however large the values (an overflowing sum is scaled). Statistics
-//! hold at most `u64::MAX` values: [`RunningStats::try_merge`] refuses a merge beyond, never
-//! saturating a count, and an [`ExactSum`] merge is bounded below 2¹¹⁰² in magnitude
-//! ([`ExactSum::try_merge`] refuses beyond, [`ExactSum::merge`] saturates to ±∞). [`Summary::new`]
-//! refuses runs outside its study, and [`Summary::add_run`] checks a run's scores before recording
+//! hold at most `u64::MAX` values: [`RunningStats::merge`] refuses a merge beyond, never
+//! saturating a count, and [`ExactSum::merge`] refuses a total of 2¹¹⁰² or more in magnitude.
+//! [`Summary::new`] refuses runs outside its study, and [`Summary::add_run`] checks a run's scores before recording
 //! any of them (one value per epoch and metric, distinct metric names, finite increasing times, a
 //! run inside the summary's ranges, no more runs or failures than it covers), so what it builds is
 //! what its reader accepts. A [`Summary`] or a [`Table`] read from a file is checked whole before

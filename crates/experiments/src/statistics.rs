@@ -12,7 +12,7 @@ use crate::{ExactSum, ExperimentError};
 ///
 /// Merging is exact and commutative: statistics of shards merged in any order equal the statistics
 /// of the whole stream, bit for bit. A stream holds at most `u64::MAX` values, finite and not: a
-/// merge beyond is refused ([`try_merge`](Self::try_merge)), never saturated. The mean `Σx / n` and
+/// merge beyond is refused ([`merge`](Self::merge)), never saturated. The mean `Σx / n` and
 /// the variance `(Σx² − (Σx)²/n) / (n − 1)` are computed from the exact sums, each rounded once,
 /// then combined in f64: the variance keeps a relative accuracy of about `ε · mean² / variance`,
 /// which loses digits only for values whose spread is below 1e-8 of their size.
@@ -91,15 +91,6 @@ impl RunningStats {
         self.max = Some(self.max.map_or(x, |m| m.max(x)));
     }
 
-    /// Adds the values of another stream (another shard of runs), as
-    /// [`try_merge`](Self::try_merge) does; a merge it refuses (more than `u64::MAX` values in
-    /// all, which only statistics read from a file can reach) leaves `self` unchanged. Use
-    /// [`try_merge`](Self::try_merge) to learn of it.
-    pub fn merge(&mut self, other: &RunningStats) {
-        // Refused, `self` keeps its own values: its statistics stay consistent.
-        let _unchanged_when_refused = self.try_merge(other);
-    }
-
     /// Adds the values of another stream (another shard of runs), exactly: merging in any order
     /// gives the same statistics, bit for bit.
     ///
@@ -107,7 +98,7 @@ impl RunningStats {
     /// [`ExperimentError::OutOfRange`] when the merged stream would hold more than `u64::MAX`
     /// values, finite and not (the counts would overflow, and a saturated count would make the
     /// mean wrong or infinite); `self` is then unchanged.
-    pub fn try_merge(&mut self, other: &RunningStats) -> Result<(), ExperimentError> {
+    pub fn merge(&mut self, other: &RunningStats) -> Result<(), ExperimentError> {
         let values = |s: &RunningStats| u128::from(s.count) + u128::from(s.non_finite);
         let total = values(self) + values(other);
         if total > u128::from(u64::MAX) {
@@ -118,11 +109,11 @@ impl RunningStats {
             });
         }
         let mut sum = self.sum.clone();
-        sum.try_merge(&other.sum)?;
+        sum.merge(&other.sum)?;
         let mut sum_of_squares = self.sum_of_squares.clone();
-        sum_of_squares.try_merge(&other.sum_of_squares)?;
+        sum_of_squares.merge(&other.sum_of_squares)?;
         let mut sum_of_large_squares = self.sum_of_large_squares.clone();
-        sum_of_large_squares.try_merge(&other.sum_of_large_squares)?;
+        sum_of_large_squares.merge(&other.sum_of_large_squares)?;
         // Checked above: the counts and their sum fit u64, and nothing below fails.
         self.count += other.count;
         self.non_finite += other.non_finite;

@@ -105,17 +105,22 @@ impl MetricSeries {
         Ok(())
     }
 
-    /// Adds the runs of another series, epoch by epoch as [`RunningStats::merge`] (an epoch whose
-    /// merged count would exceed `u64::MAX` values is left unchanged: two series of a
-    /// [`Summary`] of disjoint runs never reach it, their counts being bounded by their runs).
-    pub fn merge(&mut self, other: &MetricSeries) {
-        if self.epochs.len() < other.epochs.len() {
-            self.epochs
-                .resize_with(other.epochs.len(), RunningStats::new);
+    /// Adds the runs of another series, epoch by epoch as [`RunningStats::merge`].
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] when an epoch's merged statistics would hold more than
+    /// `u64::MAX` values (two series of a [`Summary`] of disjoint runs never do, their counts being
+    /// bounded by their runs); `self` is then unchanged.
+    pub fn merge(&mut self, other: &MetricSeries) -> Result<(), ExperimentError> {
+        let mut merged = self.epochs.clone();
+        if merged.len() < other.epochs.len() {
+            merged.resize_with(other.epochs.len(), RunningStats::new);
         }
-        for (a, b) in self.epochs.iter_mut().zip(&other.epochs) {
-            a.merge(b);
+        for (a, b) in merged.iter_mut().zip(&other.epochs) {
+            a.merge(b)?;
         }
+        self.epochs = merged;
+        Ok(())
     }
 
     /// The statistics at each epoch.
@@ -123,26 +128,15 @@ impl MetricSeries {
         &self.epochs
     }
 
-    /// All epochs pooled: the statistics of every value of every run. An epoch that would take
-    /// the pooled statistics beyond `u64::MAX` values is left out ([`RunningStats::merge`]), which
-    /// only a series read from a file can reach; [`try_pooled`](Self::try_pooled) refuses it.
-    pub fn pooled(&self) -> RunningStats {
-        let mut all = RunningStats::new();
-        for e in &self.epochs {
-            all.merge(e);
-        }
-        all
-    }
-
-    /// All epochs pooled, as [`pooled`](Self::pooled).
+    /// All epochs pooled: the statistics of every value of every run.
     ///
     /// # Errors
     /// [`ExperimentError::OutOfRange`] when the epochs hold more than `u64::MAX` values in all
-    /// ([`RunningStats::try_merge`]).
-    pub fn try_pooled(&self) -> Result<RunningStats, ExperimentError> {
+    /// ([`RunningStats::merge`]), which only a series read from a file can reach.
+    pub fn pooled(&self) -> Result<RunningStats, ExperimentError> {
         let mut all = RunningStats::new();
         for e in &self.epochs {
-            all.try_merge(e)?;
+            all.merge(e)?;
         }
         Ok(all)
     }
@@ -869,7 +863,8 @@ impl Summary {
     /// # Errors
     /// [`ExperimentError::Incompatible`] when the two belong to different studies (label, seed or
     /// run count), cover a run in common (the same shard merged twice), or summarise a metric
-    /// differently (its rule, unit or per-run flag); `self` is then unchanged.
+    /// differently (its rule, unit or per-run flag); [`ExperimentError::OutOfRange`] when a
+    /// statistic would hold more than `u64::MAX` values; `self` is then unchanged.
     pub fn merge(&mut self, other: &Summary) -> Result<(), ExperimentError> {
         let blank = |s: &Summary| s.runs.is_empty() && s.label == StudyLabel::default();
         if self.label != other.label && !blank(self) && !blank(other) {
@@ -899,7 +894,8 @@ impl Summary {
                 _ => joined.push(r),
             }
         }
-        // The per-run values united first (a run in both is refused), so that nothing below fails.
+        // The per-run values united and the statistics merged first (a run in both, or more than
+        // u64::MAX values at an epoch, is refused), so that nothing below fails.
         let slots = self.slots(other.metrics.iter().map(|m| {
             (
                 m.name.as_str(),
@@ -916,17 +912,31 @@ impl Summary {
                 }
             }
         }
+        let mut series = Vec::new();
+        for (m, &slot) in other.metrics.iter().zip(&slots) {
+            if let Some(i) = slot {
+                let mut merged = self.metrics[i].series.clone();
+                merged.merge(&m.series)?;
+                series.push((i, merged));
+            }
+        }
+        let mut times = self.times.clone();
+        times.merge(&other.times)?;
+        let mut timing = self.timing.clone();
+        timing.merge(&other.timing)?;
         self.label = label;
         self.runs = joined;
         for (i, values) in united {
             self.metrics[i].per_run = Some(values);
+        }
+        for (i, merged) in series {
+            self.metrics[i].series = merged;
         }
         let before = self.metrics.len();
         // Where each of the other's metrics lands here, for its trace.
         let mut columns = Vec::with_capacity(other.metrics.len());
         for ((j, m), slot) in other.metrics.iter().enumerate().zip(slots) {
             let i = if let Some(i) = slot {
-                self.metrics[i].series.merge(&m.series);
                 i
             } else {
                 self.metrics.push(m.clone());
@@ -934,7 +944,7 @@ impl Summary {
             };
             columns.push((j, i));
         }
-        self.times.merge(&other.times);
+        self.times = times;
         for (reason, &count) in &other.failures {
             self.count_failures(reason, count);
         }
@@ -953,7 +963,7 @@ impl Summary {
                 ),
             });
         }
-        self.timing.merge(&other.timing);
+        self.timing = timing;
         Ok(())
     }
 }

@@ -163,7 +163,7 @@ fn a_run_of_more_epochs_than_its_scenario_declares_is_refused() {
 
 /// The mean of the pooled values is inside the χ² band of their average.
 fn in_band(summary: &Summary, metric: &str, dof: usize) -> (f64, (f64, f64)) {
-    let pooled = summary.series(metric).unwrap().pooled();
+    let pooled = summary.series(metric).unwrap().pooled().unwrap();
     let count = usize::try_from(pooled.count()).unwrap();
     (
         pooled.mean().unwrap(),

@@ -90,7 +90,7 @@ fn three_shards_merged_equal_one_study_bit_for_bit() {
         .map(|s| s.run_values("error").unwrap().len())
         .sum();
     assert_eq!(shard_sizes as u64, 1000 - failures);
-    let nees = whole.series("nees").unwrap().pooled();
+    let nees = whole.series("nees").unwrap().pooled().unwrap();
     assert_eq!(nees.count(), 40 * (1000 - failures));
     // The mean of uniform [0, 6) values, to 4 standard errors.
     let error = (nees.mean().unwrap() - 3.0).abs();
@@ -546,7 +546,7 @@ fn merges_in_either_order_keep_the_same_failure_reasons() {
 }
 
 /// Pooling epochs whose counts sum beyond `u64::MAX` saturated the
-/// count. `try_pooled` refuses it with a typed error; `pooled` leaves the epoch beyond out.
+/// count. `pooled` refuses it with a typed error.
 #[test]
 fn pooling_beyond_u64_max_values_is_refused() {
     let half = 1_u64 << 63;
@@ -557,15 +557,21 @@ fn pooling_beyond_u64_max_values_is_refused() {
     });
     let series: liebayes_experiments::MetricSeries =
         serde_json::from_value(serde_json::json!({ "epochs": [epoch, epoch] })).unwrap();
-    let error = series.try_pooled().unwrap_err();
+    let error = series.pooled().unwrap_err();
     assert!(
         matches!(error, ExperimentError::OutOfRange { .. })
             && error.to_string().contains("count plus non_finite"),
         "{error}"
     );
-    let pooled = series.pooled();
+    // Either epoch alone pools.
+    let one: liebayes_experiments::MetricSeries =
+        serde_json::from_value(serde_json::json!({ "epochs": [epoch] })).unwrap();
+    let pooled = one.pooled().unwrap();
     assert_eq!((pooled.count(), pooled.mean()), (half, Some(1.0)));
-    assert_eq!(&pooled, &series.epochs()[0]);
+    // Merging the series with itself is refused the same way, and leaves it unchanged.
+    let mut merged = series.clone();
+    assert!(merged.merge(&series).is_err());
+    assert_eq!(merged, series);
 }
 
 /// A summary's failures, an exact sum's limbs, a series' epochs and a

@@ -634,7 +634,7 @@ fn nees_means_over_the_scored_samples() {
     assert_eq!(score.stats("nees").expect("a metric").count(), 2);
     // Pooling a log with itself keeps the means and doubles the count.
     let mut pooled = score.clone();
-    pooled.merge(&score);
+    pooled.merge(&score).unwrap();
     assert_eq!(pooled.stats("nees").expect("a metric").count(), 4);
     let again = pooled.nees().expect("a covariance");
     assert!((again[0] - heading).abs() < 1e-12);

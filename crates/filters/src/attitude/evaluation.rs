@@ -8,7 +8,7 @@ use super::metric::TrialErrors;
 use super::scenario::LogScenario;
 use crate::error::FilterError;
 use liebayes_experiments::record::rate;
-use liebayes_experiments::{Recorded, Recording, RunningStats, Scorer, record};
+use liebayes_experiments::{ExperimentError, Recorded, Recording, RunningStats, Scorer, record};
 use nalgebra::UnitQuaternion;
 
 /// A recorded log's run: the estimate after every sample, with its truth where it counts.
@@ -102,12 +102,19 @@ impl LogScore {
     }
 
     /// Adds another log's scores (pooling: statistics merged exactly, samples and time summed).
-    pub fn merge(&mut self, other: &LogScore) {
-        for (s, o) in self.stats.iter_mut().zip(&other.stats) {
-            s.merge(o);
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] when a statistic would hold more than `u64::MAX` values
+    /// ([`RunningStats::merge`]); `self` is then unchanged.
+    pub fn merge(&mut self, other: &LogScore) -> Result<(), ExperimentError> {
+        let mut stats = self.stats.clone();
+        for (s, o) in stats.iter_mut().zip(&other.stats) {
+            s.merge(o)?;
         }
+        self.stats = stats;
         self.samples = self.samples.saturating_add(other.samples);
         self.seconds += other.seconds;
+        Ok(())
     }
 }
 
@@ -159,7 +166,7 @@ impl Evaluation {
     /// say): for each log, the method whose mean total RMSE over the *other* logs is lowest, and
     /// its score on the held-out log. `None` with fewer than two logs, no method, or a log with a
     /// missing score (a row of `scores` shorter or longer than `methods`, or a log without a scored
-    /// sample).
+    /// sample), or scores too many to pool (more than `u64::MAX` values, [`LogScore::merge`]).
     pub fn leave_one_out(&self) -> Option<CrossValidation> {
         let logs = self.scores.len();
         let width = self.methods.len();
@@ -187,7 +194,7 @@ impl Evaluation {
                 *sum += x / logs as f64;
             }
             match &mut pooled {
-                Some(p) => p.merge(score),
+                Some(p) => p.merge(score).ok()?,
                 None => pooled = Some(score.clone()),
             }
             chosen.push(best);
@@ -199,12 +206,13 @@ impl Evaluation {
         })
     }
 
-    /// Method `j`'s scores pooled over every log (its pooled NEES and total throughput).
+    /// Method `j`'s scores pooled over every log (its pooled NEES and total throughput); `None`
+    /// without logs, past the last method, or for scores too many to pool ([`LogScore::merge`]).
     pub fn pooled(&self, j: usize) -> Option<LogScore> {
         let mut rows = self.scores.iter();
         let mut pooled = rows.next()?.get(j)?.clone();
         for row in rows {
-            pooled.merge(row.get(j)?);
+            pooled.merge(row.get(j)?).ok()?;
         }
         Some(pooled)
     }
