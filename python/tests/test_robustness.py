@@ -3,6 +3,7 @@ give, integers out of range or given as bools, score ranges, shapes checked befo
 inside lists, messages that name the argument, and a filter used by two threads at once."""
 
 import os
+import resource
 import subprocess
 import sys
 import textwrap
@@ -36,8 +37,12 @@ def run_python(code, env=None, timeout=120):
 # ---------------------------------------------------------------------------------------------
 # Ctrl-C during a call that released the GIL.
 
+# Each script first installs Python's own Ctrl-C handler: a shell starts a background job with
+# SIGINT ignored, and Python leaves an ignored SIGINT ignored, so a suite run that way would see no
+# Ctrl-C at all.
 SIGINT_DURING = """
 import os, signal, threading, time
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import numpy as np
 import liebayes.densities as D
 import liebayes.filters as F
@@ -74,7 +79,8 @@ def test_ctrl_c_during_a_call_without_the_gil_raises_keyboard_interrupt(call, en
 
 
 INTERRUPTED_BATCH = """
-import os, signal, threading, time
+import os, signal, threading
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import numpy as np
 import liebayes.attitude as A
 import liebayes.densities as D
@@ -90,32 +96,32 @@ calls = {
         10_000_000, np.random.default_rng(0)),
 }
 for name, call in calls.items():
-    sent = []
-    def interrupt():
-        sent.append(time.monotonic())
-        os.kill(os.getpid(), signal.SIGINT)
-    threading.Timer(0.3, interrupt).start()
-    start = time.monotonic()
+    returned = threading.Event()
+    threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
     try:
         call()
-        time.sleep(2)
-        print(name, "no interrupt", time.monotonic() - start)
+        returned.set()
+        threading.Event().wait(2)
+        print(name, "no interrupt")
     except KeyboardInterrupt:
-        print(name, "KeyboardInterrupt after", round(time.monotonic() - sent[0], 3))
+        print(name, "interrupted", "after the call" if returned.is_set() else "during the call")
 print("unchanged", bool(np.array_equal(f.quat, before)), f.sensors)
 """
 
 
-def test_ctrl_c_stops_a_long_batch_promptly_and_keeps_nothing():
+def test_ctrl_c_stops_a_long_call_before_it_ends_and_keeps_nothing():
+    # Each call takes seconds (a batch of 4e6 steps, a study of 400 runs, 1e7 draws), and Ctrl-C
+    # comes 0.3 s in: the call is stopped (every 65536 steps, or between shards of a study, it
+    # checks for a signal) and raises KeyboardInterrupt, keeping nothing of its work.
     code, out, err = run_python(INTERRUPTED_BATCH)
     assert code == 0, err
     lines = out.strip().splitlines()
-    for line in lines[:3]:
-        # The whole call takes seconds; it is stopped within a chunk of 65536 steps (a study:
-        # within a shard of about four runs per thread).
-        assert "KeyboardInterrupt after" in line, out
-        assert float(line.split()[-1]) < 1.0, out
-    assert lines[3] == "unchanged True 6d", out
+    assert lines == [
+        "batch interrupted during the call",
+        "study interrupted during the call",
+        "sample interrupted during the call",
+        "unchanged True 6d",
+    ], out
 
 
 def test_a_study_run_shard_by_shard_equals_the_scored_runs():
@@ -153,7 +159,7 @@ def test_a_study_run_shard_by_shard_equals_the_scored_runs():
 def test_sizes_beyond_the_limits_are_refused_before_any_work():
     # Zero-stride inputs cost nothing to make; refused on their shape alone, without a copy.
     n = 2**28 + 1
-    start = time.monotonic()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     with pytest.raises(ValueError, match=r"update_batch: 268435457 samples, at most 268435456"):
         att.AttitudeFilter(0.01).update_batch(
             np.broadcast_to(np.zeros(3), (n, 3)), np.broadcast_to([0, 0, 9.81], (n, 3))
@@ -168,7 +174,8 @@ def test_sizes_beyond_the_limits_are_refused_before_any_work():
     with pytest.raises(ValueError, match=r"velocity: 16777217 steps; at most 16777216"):
         f.run(np.broadcast_to(np.zeros(2), (m, 2)), 0.01, np.broadcast_to([np.nan] * 2, (m, 2)))
     assert repr(f.estimate) == repr(before)
-    assert time.monotonic() - start < 2.0
+    # No copy was made: a copy of the first input alone would take 6.4 GB (ru_maxrss is in KiB).
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - peak < 512 * 1024
 
 
 ABORT_UNDER_LIMIT = """
@@ -484,34 +491,28 @@ def test_a_filter_in_use_by_another_thread_raises_a_value_error():
 
 
 def test_particle_drawing_and_a_fit_release_the_gil():
-    # While the main thread is in Rust with the GIL released, another thread keeps counting at
-    # its free rate; with the GIL held it runs only at the interpreter's switch points.
+    # While the main thread is in a long Rust call (a few hundred ms or more), another thread
+    # wakes every millisecond and counts: it can run only while the call has released the GIL.
+    # With the GIL held it would count at most a step or two, before the call and after it.
     angles = np.random.default_rng(2).vonmises(0.3, 2.0, size=8_000_000)
     calls = {
         "AoaFilter particles": lambda: lf.AoaFilter(
             "PF-VMF", np.eye(3), kappa=50.0, particles=8_000_000),
         "VonMises.fit": lambda: ld.VonMises.fit(angles),
     }
-    count, stop = [0], threading.Event()
+    for name, call in calls.items():
+        returned, steps = threading.Event(), [0]
 
-    def counter():
-        while not stop.is_set():
-            count[0] += 1
+        def other():
+            while not returned.wait(0.001):
+                steps[0] += 1
 
-    t = threading.Thread(target=counter)
-    t.start()
-    try:
-        before, start = count[0], time.monotonic()
-        time.sleep(0.2)
-        free_rate = (count[0] - before) / (time.monotonic() - start)
-        for name, call in calls.items():
-            before, start = count[0], time.monotonic()
-            call()
-            rate = (count[0] - before) / (time.monotonic() - start)
-            assert rate > 0.25 * free_rate, f"{name}: {rate:.0f}/s, free {free_rate:.0f}/s"
-    finally:
-        stop.set()
+        t = threading.Thread(target=other)
+        t.start()
+        call()
+        returned.set()
         t.join()
+        assert steps[0] >= 20, f"{name}: {steps[0]} steps of the other thread during the call"
 
 
 def test_a_studys_filter_settings_are_checked_as_every_azimuth_filter_checks_them():
