@@ -10,6 +10,7 @@
 //! | [`SINE_DEFECT_SERIES_ANGLE`](Thresholds::SINE_DEFECT_SERIES_ANGLE) | 1 | 1 | below this angle the SE(2)/SE(3) coupling coefficients take θ − sin θ from its Taylor series (nine terms) instead of the difference, which loses eps θ / (θ − sin θ) relative (12 eps at 1, 6e4 eps at 1e-2) |
 //! | [`LARGE_COORDINATE`](Thresholds::LARGE_COORDINATE) | 1e300 | 1e34 | translations with a component above this are scaled down before the products of exp, log and the pose Jacobians, and the results saturate at the largest finite value (no overflow into NaN) |
 //! | [`UNIT_NORM_TOLERANCE`](Thresholds::UNIT_NORM_TOLERANCE) | 1e-9 | 1e-5 | a quaternion, unit complex number or unit vector is accepted when abs(norm - 1) is at most this |
+//! | [`UNIT_ROUNDING_TOLERANCE`](Thresholds::UNIT_ROUNDING_TOLERANCE) | 32 eps = 7.1e-15 | 32 eps = 3.8e-6 | an accepted quaternion, unit complex number or unit vector is stored as given when abs(norm² - 1) is at most this (unit to rounding), and as v / abs(v) otherwise |
 //! | [`ORTHONORMAL_TOLERANCE`](Thresholds::ORTHONORMAL_TOLERANCE) | 1e-9 | 1e-5 | a rotation matrix is accepted when every entry of R^T R - I, and det R - 1, is at most this in absolute value |
 //! | [`MIN_DIRECTION_NORM`](Thresholds::MIN_DIRECTION_NORM) | 1e-150 | 1e-18 | the normalising constructors refuse vectors shorter than this: their direction is noise |
 //! | [`MEAN_TOLERANCE`](Thresholds::MEAN_TOLERANCE) | 1e-10 | 1e-5 | default convergence tolerance of [`weighted_mean`](crate::weighted_mean): the tangent norm of the last Gauss-Newton step |
@@ -68,6 +69,17 @@ pub trait Thresholds: Sized {
     const LARGE_COORDINATE: Self;
     /// Largest accepted `abs(norm - 1)` for quaternions, unit complex numbers and unit vectors.
     const UNIT_NORM_TOLERANCE: Self;
+    /// Largest `abs(norm² - 1)` of a value that the checked constructors store as given; a value
+    /// accepted with a larger deviation (up to [`UNIT_NORM_TOLERANCE`](Self::UNIT_NORM_TOLERANCE))
+    /// is stored as `v / |v|`.
+    ///
+    /// 32 eps lies above the rounding of `v / |v|` itself (at most about 11 eps in `norm²` for four
+    /// components), so normalising is idempotent: a stored value is read back unchanged, and the
+    /// serde round trip stays exact. Below it the deviation is rounding, which products of unit
+    /// values keep at n eps after n steps; above it a deviation of 1e-9 kept as given would grow
+    /// geometrically under composition (30 squarings of a quaternion of norm 1 + 9e-10 gave norm
+    /// 2.6).
+    const UNIT_ROUNDING_TOLERANCE: Self;
     /// Largest accepted entry of `R^T R - I` and of `det R - 1` for rotation matrices.
     const ORTHONORMAL_TOLERANCE: Self;
     /// Smallest norm the normalising constructors accept.
@@ -92,6 +104,7 @@ impl Thresholds for f64 {
     const SINE_DEFECT_SERIES_ANGLE: f64 = 1.0;
     const LARGE_COORDINATE: f64 = 1e300;
     const UNIT_NORM_TOLERANCE: f64 = 1e-9;
+    const UNIT_ROUNDING_TOLERANCE: f64 = 32.0 * f64::EPSILON;
     const ORTHONORMAL_TOLERANCE: f64 = 1e-9;
     const MIN_DIRECTION_NORM: f64 = 1e-150;
     const MEAN_TOLERANCE: f64 = 1e-10;
@@ -103,6 +116,7 @@ impl Thresholds for f32 {
     const SINE_DEFECT_SERIES_ANGLE: f32 = 1.0;
     const LARGE_COORDINATE: f32 = 1e34;
     const UNIT_NORM_TOLERANCE: f32 = 1e-5;
+    const UNIT_ROUNDING_TOLERANCE: f32 = 32.0 * f32::EPSILON;
     const ORTHONORMAL_TOLERANCE: f32 = 1e-5;
     const MIN_DIRECTION_NORM: f32 = 1e-18;
     const MEAN_TOLERANCE: f32 = 1e-5;

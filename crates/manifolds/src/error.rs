@@ -208,6 +208,29 @@ pub(crate) fn check_unit<T: Real, const N: usize>(
     Ok(())
 }
 
+/// [`check_unit`], then the value to store: `v` itself when it is unit to rounding
+/// ([`unit_to_rounding`]), else `v / |v|`.
+pub(crate) fn checked_unit<T: Real, const N: usize>(
+    what: &'static str,
+    v: &SVector<T, N>,
+    hint: &'static str,
+) -> Result<SVector<T, N>, ManifoldError> {
+    check_unit(what, v, hint)?;
+    Ok(unit_to_rounding(v))
+}
+
+/// `v` when `abs(|v|² − 1)` is at most
+/// [`UNIT_ROUNDING_TOLERANCE`](crate::constants::Thresholds::UNIT_ROUNDING_TOLERANCE) (unit to
+/// rounding), else `v / |v|`. Idempotent: `v / |v|` is unit to rounding, so a value normalised once
+/// is kept bit for bit. For a vector near unit length (no scaling needed for its norm).
+pub(crate) fn unit_to_rounding<T: Real, const N: usize>(v: &SVector<T, N>) -> SVector<T, N> {
+    if (v.norm_squared() - T::one()).abs() <= T::UNIT_ROUNDING_TOLERANCE {
+        *v
+    } else {
+        v / v.norm()
+    }
+}
+
 /// Returns `v / |v|` for a finite vector at least [`Thresholds::MIN_DIRECTION_NORM`](crate::constants::Thresholds) long.
 pub(crate) fn normalized<T: Real, const N: usize>(
     what: &'static str,

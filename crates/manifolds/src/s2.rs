@@ -1,6 +1,6 @@
 //! [`S2`]: the unit sphere in R³ (directions), a manifold but not a group.
 
-use crate::error::{ManifoldError, check_unit, normalized};
+use crate::error::{ManifoldError, checked_unit, normalized, unit_to_rounding};
 use crate::manifold::{Manifold, Tangent};
 use crate::real::{Real, stable_norm};
 use nalgebra::{Matrix3x2, Unit, Vector3};
@@ -35,13 +35,16 @@ pub struct S2<T: Real> {
 
 /// Construction.
 impl<T: Real> S2<T> {
-    /// The point `v`, checked for finiteness and unit norm.
+    /// The point `v`, checked for finiteness and unit norm (`abs(|v| − 1)` at most
+    /// [`UNIT_NORM_TOLERANCE`](crate::constants::Thresholds::UNIT_NORM_TOLERANCE), 1e-9 in f64);
+    /// stored as given when unit to rounding (`abs(|v|² − 1)` at most
+    /// [`UNIT_ROUNDING_TOLERANCE`](crate::constants::Thresholds::UNIT_ROUNDING_TOLERANCE), 32 eps),
+    /// else as `v / |v|`.
     ///
     /// # Errors
     /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
     pub fn new(v: Vector3<T>) -> Result<Self, ManifoldError> {
-        check_unit("unit vector", &v, "S2::from_vector_normalizing")?;
-        Ok(Self::new_unchecked(v))
+        checked_unit("unit vector", &v, "S2::from_vector_normalizing").map(Self::new_unchecked)
     }
 
     /// The direction `v / |v|` of `v`, of any finite length `|v| ≥`
@@ -115,12 +118,22 @@ impl<T: Real> S2<T> {
     /// With the unit tangent direction u and the half angle h = θ/2, `cos θ = 1 − 2 sin² h` and
     /// `sin θ = 2 sin h cos h`: accurate at every angle (no series needed near 0) and finite for every
     /// finite `scale`.
+    ///
+    /// The point is taken unit to rounding (a point of [`new_unchecked`](Self::new_unchecked) may
+    /// be off the sphere: with |x| = 1 + 2⁻³⁰, `w` along x projected to a tangent of the wrong sign
+    /// and reached the antipode), and the projection `t = w − x (x · w)` is repeated where it
+    /// cancelled (|t| below |w|/√2, w nearly along x): twice is enough for t to be orthogonal to x
+    /// to its own rounding, so the sum below has unit length and is never 0.
     fn exp_scaled(&self, w: &Vector3<T>, scale: T) -> Self {
-        let x = self.as_vector();
-        let t = w - x * x.dot(w);
-        let n = stable_norm(&t);
+        let x = unit_to_rounding(self.as_vector());
+        let mut t = w - x * x.dot(w);
+        let mut n = stable_norm(&t);
+        if n < stable_norm(w) * T::lit(std::f64::consts::FRAC_1_SQRT_2) {
+            t -= x * x.dot(&t);
+            n = stable_norm(&t);
+        }
         if n == T::zero() {
-            return *self;
+            return Self::new_unchecked(x);
         }
         let h = scale * T::lit(0.5) * n;
         let (s, c) = h.sin_cos();
@@ -187,6 +200,7 @@ impl<T: Real> Manifold<2> for S2<T> {
 
 crate::approx_impls::impl_approx_by_field!(S2<T>, [T: Real], n);
 
+/// Unchecked, as [`from_unit_vector`](S2::from_unit_vector).
 impl<T: Real> From<Unit<Vector3<T>>> for S2<T> {
     #[inline]
     fn from(n: Unit<Vector3<T>>) -> Self {

@@ -14,10 +14,16 @@
 //! | `ProductManifold` | `{"first": …, "second": …}` |
 //! | `MeanSettings` | `{"max_iterations": n, "tolerance": t}` |
 //!
-//! Values round-trip exactly (every coordinate is written in full precision by any lossless format).
 //! Reading applies the same tolerances as the constructors (unit norm within
 //! [`UNIT_NORM_TOLERANCE`](crate::constants::Thresholds::UNIT_NORM_TOLERANCE)), and reports their
-//! message as the format's error.
+//! message as the format's error. Like the constructors, it stores a quaternion, unit complex
+//! number or unit vector as written when it is unit to rounding (`abs(norm² − 1)` at most
+//! [`UNIT_ROUNDING_TOLERANCE`](crate::constants::Thresholds::UNIT_ROUNDING_TOLERANCE), 32 eps), and
+//! normalised otherwise. So values round-trip exactly (every coordinate is written in full
+//! precision by any lossless format) when they are unit to rounding: every value a checked
+//! constructor stores (normalising is idempotent), and the products of a few of them; a value
+//! further off (a long chain of products without [`renormalized`](crate::So3::renormalized), or one
+//! made with an `_unchecked` constructor) is read back normalised.
 
 use crate::{Left, MeanSettings, ProductManifold, Real, Rn, S2, Se2, Se3, Se23, So2, So3, Su2};
 use nalgebra::{SVector, Vector2, Vector3};

@@ -1,6 +1,8 @@
 //! [`So2`]: rotations of the plane.
 
-use crate::error::{ManifoldError, check_finite, check_rotation_matrix, check_unit, normalized};
+use crate::error::{
+    ManifoldError, check_finite, check_rotation_matrix, checked_unit, normalized, unit_to_rounding,
+};
 use crate::lie_group::{GroupAction, LieGroup, impl_manifold_for_group};
 use crate::manifold::{Jacobian, Tangent};
 use crate::pose::saturated;
@@ -71,17 +73,22 @@ impl<T: Real> So2<T> {
         Self::from_unit_complex(UnitComplex::new(angle))
     }
 
-    /// The rotation with the given cosine and sine, checked for finiteness and `cos² + sin² = 1`.
+    /// The rotation with the given cosine and sine, checked for finiteness and `cos² + sin² = 1`
+    /// (`abs(|z| − 1)` at most
+    /// [`UNIT_NORM_TOLERANCE`](crate::constants::Thresholds::UNIT_NORM_TOLERANCE), 1e-9 in f64);
+    /// stored as given when unit to rounding (`abs(|z|² − 1)` at most
+    /// [`UNIT_ROUNDING_TOLERANCE`](crate::constants::Thresholds::UNIT_ROUNDING_TOLERANCE), 32 eps),
+    /// else as `z / |z|`.
     ///
     /// # Errors
     /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
     pub fn from_cos_sin(cos: T, sin: T) -> Result<Self, ManifoldError> {
-        check_unit(
+        let z = checked_unit(
             "(cos, sin) pair",
             &Vector2::new(cos, sin),
             "So2::from_vector_normalizing",
         )?;
-        Ok(Self::from_cos_sin_unchecked(cos, sin))
+        Ok(Self::from_cos_sin_unchecked(z.x, z.y))
     }
 
     /// The rotation with the given cosine and sine, unchecked (hot paths).
@@ -102,14 +109,18 @@ impl<T: Real> So2<T> {
         Ok(Self::from_cos_sin_unchecked(u.x, u.y))
     }
 
-    /// The rotation of a 2×2 matrix, checked for finiteness, orthonormality and determinant +1.
+    /// The rotation of a 2×2 matrix, checked for finiteness, orthonormality and determinant +1 (to
+    /// [`ORTHONORMAL_TOLERANCE`](crate::constants::Thresholds::ORTHONORMAL_TOLERANCE)); its first
+    /// column `(cos, sin)` is stored normalised unless unit to rounding (as
+    /// [`from_cos_sin`](Self::from_cos_sin)).
     ///
     /// # Errors
     /// [`ManifoldError::NonFinite`], [`ManifoldError::NotOrthonormal`] or
     /// [`ManifoldError::NotProperRotation`].
     pub fn from_matrix(m: &Matrix2<T>) -> Result<Self, ManifoldError> {
         check_rotation_matrix(m, m.determinant())?;
-        Ok(Self::from_cos_sin_unchecked(m.m11, m.m21))
+        let z = unit_to_rounding(&Vector2::new(m.m11, m.m21));
+        Ok(Self::from_cos_sin_unchecked(z.x, z.y))
     }
 
     /// Wraps a nalgebra unit complex number as it is, without a check (no cost): nalgebra's unit
@@ -259,6 +270,7 @@ impl<T: Real> PartialEq for So2<T> {
 
 crate::approx_impls::impl_approx_by_field!(So2<T>, [T: Real], z);
 
+/// Unchecked, as [`from_unit_complex`](So2::from_unit_complex).
 impl<T: Real> From<UnitComplex<T>> for So2<T> {
     #[inline]
     fn from(z: UnitComplex<T>) -> Self {
@@ -273,6 +285,11 @@ impl<T: Real> From<So2<T>> for UnitComplex<T> {
     }
 }
 
+/// The rotation of a nalgebra `Rotation2`, unchecked like
+/// [`from_unit_complex`](So2::from_unit_complex): its first column is taken as `(cos, sin)`, and
+/// nalgebra's rotations are rotations by construction except when its own
+/// `Rotation2::from_matrix_unchecked` made them of any matrix. [`So2::from_matrix`] checks its
+/// matrix.
 impl<T: Real> From<Rotation2<T>> for So2<T> {
     #[inline]
     fn from(r: Rotation2<T>) -> Self {

@@ -1,6 +1,8 @@
 //! [`So3`]: rotations of space.
 
-use crate::error::{ManifoldError, check_finite, check_rotation_matrix, normalized};
+use crate::error::{
+    ManifoldError, check_finite, check_rotation_matrix, normalized, unit_to_rounding,
+};
 use crate::lie_group::{LieGroup, impl_manifold_for_group};
 use crate::manifold::Tangent;
 use crate::polar;
@@ -17,8 +19,10 @@ use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 /// same rotation: `==`, the `approx` comparisons and [`distance`](crate::Manifold::distance) treat them
 /// as equal. Use [`Su2`] where the sign matters.
 ///
-/// Invariant: the quaternion has unit norm within
-/// [`UNIT_NORM_TOLERANCE`](crate::constants::Thresholds::UNIT_NORM_TOLERANCE).
+/// Invariant: the quaternion has unit norm to rounding (the checked constructors normalise what
+/// they accept within
+/// [`UNIT_NORM_TOLERANCE`](crate::constants::Thresholds::UNIT_NORM_TOLERANCE)); the `_unchecked`
+/// and `From` conversions leave that to the caller.
 ///
 /// Tangent coordinates are rotation vectors (axis times angle, radians); `log` returns angles in
 /// [0, π]. `DIM` = 3; acts on points of R³ by rotation.
@@ -47,7 +51,8 @@ impl<T: Real> So3<T> {
         Self::from_quaternion(Quaternion::new(w, x, y, z))
     }
 
-    /// The rotation of a unit quaternion, checked for finiteness and unit norm.
+    /// The rotation of a unit quaternion, checked for finiteness and unit norm, and stored
+    /// normalised unless unit to rounding (as [`Su2::from_quaternion`]).
     ///
     /// # Errors
     /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
@@ -78,14 +83,20 @@ impl<T: Real> So3<T> {
         Self { q }
     }
 
-    /// The rotation of a matrix, checked for finiteness, orthonormality and determinant +1.
+    /// The rotation of a matrix, checked for finiteness, orthonormality and determinant +1 (to
+    /// [`ORTHONORMAL_TOLERANCE`](crate::constants::Thresholds::ORTHONORMAL_TOLERANCE)); its
+    /// quaternion, which carries the matrix's deviation from orthonormality, is stored normalised
+    /// unless unit to rounding (as [`Su2::from_quaternion`]).
     ///
     /// # Errors
     /// [`ManifoldError::NonFinite`], [`ManifoldError::NotOrthonormal`] or
     /// [`ManifoldError::NotProperRotation`].
     pub fn from_matrix(m: &Matrix3<T>) -> Result<Self, ManifoldError> {
         check_rotation_matrix(m, m.determinant())?;
-        Ok(Self::from_matrix_unchecked(m))
+        let q = Self::from_matrix_unchecked(m).q;
+        Ok(Self::from_quaternion_unchecked(Quaternion::from(
+            unit_to_rounding(&q.coords),
+        )))
     }
 
     /// The rotation of a matrix the caller guarantees to be a rotation (hot paths).
@@ -277,6 +288,7 @@ impl<T: Real> RelativeEq for So3<T> {
     }
 }
 
+/// Unchecked, as [`from_unit_quaternion`](So3::from_unit_quaternion).
 impl<T: Real> From<UnitQuaternion<T>> for So3<T> {
     #[inline]
     fn from(q: UnitQuaternion<T>) -> Self {
@@ -291,6 +303,10 @@ impl<T: Real> From<So3<T>> for UnitQuaternion<T> {
     }
 }
 
+/// The rotation of a nalgebra `Rotation3`, unchecked like
+/// [`from_unit_quaternion`](So3::from_unit_quaternion): nalgebra's rotations are rotations by
+/// construction except when its own `Rotation3::from_matrix_unchecked` made them of any matrix,
+/// whose quaternion is then not unit. [`So3::from_matrix`] checks its matrix.
 impl<T: Real> From<Rotation3<T>> for So3<T> {
     #[inline]
     fn from(r: Rotation3<T>) -> Self {

@@ -1,6 +1,6 @@
 //! [`Su2`]: unit quaternions, the double cover of SO(3).
 
-use crate::error::{ManifoldError, check_finite, check_unit, normalized};
+use crate::error::{ManifoldError, check_finite, checked_unit, normalized};
 use crate::lie_group::{LieGroup, impl_manifold_for_group};
 use crate::manifold::Tangent;
 use crate::real::Real;
@@ -37,7 +37,8 @@ pub struct Su2<T: Real> {
 
 /// Construction.
 impl<T: Real> Su2<T> {
-    /// The unit quaternion `(w, x, y, z)`, checked for finiteness and unit norm.
+    /// The unit quaternion `(w, x, y, z)`, checked for finiteness and unit norm (as
+    /// [`from_quaternion`](Self::from_quaternion)).
     ///
     /// # Errors
     /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
@@ -45,13 +46,17 @@ impl<T: Real> Su2<T> {
         Self::from_quaternion(Quaternion::new(w, x, y, z))
     }
 
-    /// A unit quaternion, checked for finiteness and unit norm.
+    /// A unit quaternion, checked for finiteness and unit norm: `abs(|q| − 1)` at most
+    /// [`UNIT_NORM_TOLERANCE`](crate::constants::Thresholds::UNIT_NORM_TOLERANCE) (1e-9 in f64).
+    /// It is stored as given when it is unit to rounding (`abs(|q|² − 1)` at most
+    /// [`UNIT_ROUNDING_TOLERANCE`](crate::constants::Thresholds::UNIT_ROUNDING_TOLERANCE), 32 eps),
+    /// else as `q / |q|`: products of stored elements then keep unit norm to rounding.
     ///
     /// # Errors
     /// [`ManifoldError::NonFinite`] or [`ManifoldError::NotUnit`].
     pub fn from_quaternion(q: Quaternion<T>) -> Result<Self, ManifoldError> {
-        check_unit("quaternion", &q.coords, "from_quaternion_normalizing")?;
-        Ok(Self::from_quaternion_unchecked(q))
+        let unit = checked_unit("quaternion", &q.coords, "from_quaternion_normalizing")?;
+        Ok(Self::from_quaternion_unchecked(Quaternion::from(unit)))
     }
 
     /// `q / |q|`: the renormalisation helper.
@@ -175,6 +180,7 @@ impl<T: Real> PartialEq for Su2<T> {
 
 crate::approx_impls::impl_approx_by_field!(Su2<T>, [T: Real], q.coords);
 
+/// Unchecked, as [`from_unit_quaternion`](Su2::from_unit_quaternion).
 impl<T: Real> From<UnitQuaternion<T>> for Su2<T> {
     #[inline]
     fn from(q: UnitQuaternion<T>) -> Self {
