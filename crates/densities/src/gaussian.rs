@@ -2,6 +2,7 @@
 
 use crate::eigen::smallest_eigenvalue;
 use crate::error::{DensityError, finite};
+use crate::manifold_gaussian::inverse_trace_above;
 use crate::traits::{Convolve, Density, Entropy, KlDivergence, Product};
 use nalgebra::{Cholesky, SMatrix, SVector};
 use rand::Rng;
@@ -11,9 +12,9 @@ use std::f64::consts::PI;
 /// Relative asymmetry accepted in a covariance or information matrix: `|A − Aᵀ| ≤ 1e-12 max|A|`.
 pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-12;
 
-/// The largest magnitude of a mean (or feature) coordinate and of an entry of a covariance or of its
-/// inverse that the Gaussian constructors accept ([`Gaussian::new`],
-/// [`ManifoldGaussian::new`](crate::ManifoldGaussian::new) with `tr P⁻¹` for the inverse,
+/// The largest magnitude of a mean (or feature) coordinate, of an entry of a covariance and of the
+/// trace `tr P⁻¹` of its inverse (which bounds every entry of the inverse) that the Gaussian
+/// constructors accept ([`Gaussian::new`], [`ManifoldGaussian::new`](crate::ManifoldGaussian::new),
 /// [`HarmonicGaussian::new`](crate::HarmonicGaussian::new)): so covariances from about 1e-100 to
 /// 1e100 in every direction. With it every derived quantity (sums of two covariances or information
 /// matrices, Mahalanobis distances between two means, the KL divergence, ln det, samples, the
@@ -26,9 +27,10 @@ pub const MAX_SCALE: f64 = 1e100;
 ///
 /// Stored in moment form with the Cholesky factor `Σ = L Lᵀ` (computed once at construction, so
 /// `log_pdf` and `sample` solve triangular systems and never invert). Any symmetric positive definite Σ
-/// is accepted, however ill-conditioned, as long as its Cholesky factorisation exists in f64 and the
-/// entries of μ, Σ and Σ⁻¹ are at most 1e100 in magnitude (so covariances from about 1e-100 to 1e100
-/// in every direction); near-singular covariances are refused with an error, never repaired silently.
+/// is accepted, however ill-conditioned, as long as its Cholesky factorisation exists in f64, the
+/// entries of μ and Σ are at most 1e100 in magnitude and so is `tr Σ⁻¹` (so covariances from about
+/// 1e-100 to 1e100 in every direction); near-singular covariances are refused with an error, never
+/// repaired silently.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Gaussian<const N: usize> {
     mean: SVector<f64, N>,
@@ -118,8 +120,12 @@ impl<const N: usize> Gaussian<N> {
     /// # Errors
     /// [`DensityError::NonFinite`] for NaN or infinite entries, [`DensityError::OutOfRange`] for a
     /// covariance that is not symmetric or not positive definite (with its smallest eigenvalue), or
-    /// when an entry of μ, Σ or Σ⁻¹ exceeds 1e100 in magnitude (Σ = 1e308 I and Σ = 1e-310 I were
-    /// accepted before, with an infinite or NaN information matrix).
+    /// when an entry of μ or Σ, or the trace `tr Σ⁻¹`, exceeds 1e100 (Σ = 1e308 I and Σ = 1e-310 I
+    /// were accepted before, with an infinite or NaN information matrix). The trace bounds every
+    /// entry of Σ⁻¹ and is the rule of [`ManifoldGaussian::new`](crate::ManifoldGaussian::new) and
+    /// [`HarmonicGaussian::new`](crate::HarmonicGaussian::new), so the three accept the same
+    /// covariances (Σ = 1.5e-100 I₂, whose inverse has entries of 6.7e99 and trace 1.3e100, was
+    /// accepted here alone).
     ///
     /// # Example
     /// ```
@@ -142,15 +148,14 @@ impl<const N: usize> Gaussian<N> {
         }
         within_scale("mean", &mean)?;
         let cholesky = spd_cholesky("covariance", &covariance)?;
-        let information = Cholesky::pack_dirty(cholesky).inverse();
-        if !information.iter().all(|v| v.is_finite()) {
+        if let Some(inverse_trace) = inverse_trace_above(&cholesky, MAX_SCALE) {
             return Err(DensityError::OutOfRange {
-                what: "covariance",
-                value: covariance.amax(),
-                range: "matrices whose inverse is finite (entries of at most 1e100)",
+                what: "trace of the inverse covariance Sigma^-1",
+                value: inverse_trace,
+                range: "at most 1e100: the covariance's eigenvalues must be above about 1e-100",
             });
         }
-        within_scale("information matrix (inverse covariance)", &information)?;
+        let information = Cholesky::pack_dirty(cholesky).inverse();
         let log_det = 2.0 * cholesky.diagonal().iter().map(|d| d.ln()).sum::<f64>();
         Ok(Self {
             mean,

@@ -36,11 +36,12 @@
 //! Every constructor takes the same limit for the same kind of value, and every result is finite
 //! and valid, or the call returns a typed [`DensityError`]:
 //!
-//! * **Gaussian locations and spreads**: an entry of a covariance and of its inverse at most
-//!   [`MAX_SCALE`] = 1e100 in magnitude, in [`Gaussian::new`], [`ManifoldGaussian::new`] (the
-//!   inverse through `tr P⁻¹`) and [`HarmonicGaussian::new`], and in what
-//!   [`ManifoldGaussian::propagated_covariance`] returns; a mean (or feature) coordinate at most
-//!   [`MAX_SCALE`] in [`Gaussian::new`] and [`HarmonicGaussian::new`]. [`ManifoldGaussian::new`]
+//! * **Gaussian locations and spreads**: an entry of a covariance, and the trace `tr P⁻¹` of its
+//!   inverse (which bounds every entry of the inverse), at most [`MAX_SCALE`] = 1e100 in
+//!   magnitude, in [`Gaussian::new`], [`ManifoldGaussian::new`] and [`HarmonicGaussian::new`]
+//!   alike, and the entries of what [`ManifoldGaussian::propagated_covariance`] returns; a mean
+//!   (or feature) coordinate at most [`MAX_SCALE`] in [`Gaussian::new`] and
+//!   [`HarmonicGaussian::new`]. [`ManifoldGaussian::new`]
 //!   takes any finite mean ([`Manifold::is_finite`](liebayes_manifolds::Manifold::is_finite)): a
 //!   point of a general manifold has no coordinates to bound, so an application whose state has a
 //!   vector part checks its own prior mean (the azimuth and angle-of-arrival filters of the filters

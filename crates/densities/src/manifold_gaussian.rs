@@ -198,25 +198,10 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
                 range: "positive definite matrices (the value shown is the smallest eigenvalue)",
             });
         };
-        Self::from_factor(
-            mean,
-            covariance,
-            factor.unpack(),
-            "trace of the inverse tangent covariance P^-1",
-        )
-    }
-
-    /// The density of a checked covariance P and its lower Cholesky factor L, refused when
-    /// `tr P⁻¹ = ‖L⁻¹‖²_F` is above [`MAX_SCALE`] (`what` names that trace in the error).
-    fn from_factor(
-        mean: X,
-        covariance: SMatrix<f64, D, D>,
-        cholesky: SMatrix<f64, D, D>,
-        what: &'static str,
-    ) -> Result<Self, DensityError> {
+        let cholesky = factor.unpack();
         if let Some(inverse_trace) = inverse_trace_above(&cholesky, MAX_SCALE) {
             return Err(DensityError::OutOfRange {
-                what,
+                what: "trace of the inverse tangent covariance P^-1",
                 value: inverse_trace,
                 range: "at most 1e100: the covariance's eigenvalues must be above about 1e-100",
             });
@@ -320,6 +305,12 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> ManifoldGaussian<X, D> {
     /// (`f(μ ⊞ δ) = f(μ) ⊞ (J δ + O(|δ|²))`). Unlike [`propagate_linearized`](Self::propagate_linearized)
     /// it accepts rank-deficient results: rotating a point p cannot move it along p, so the covariance
     /// of R p is singular.
+    ///
+    /// The result is `J P Jᵀ` as rounded in f64, symmetrised: positive semi-definite to rounding,
+    /// not exactly. Where it is singular or nearly so, its smallest eigenvalues may come out
+    /// slightly negative, down to about `−E ε max|cᵢⱼ|` (ε = 2.2e-16); [`new`](Self::new) refuses
+    /// such a matrix, so add the positive definite covariance it is combined with first, as
+    /// [`compose`](Self::compose) does.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] for a Jacobian with a NaN or infinite entry,
@@ -442,16 +433,32 @@ fn lower_factor<const D: usize>(mut a: SMatrix<f64, D, D>) -> SMatrix<f64, D, D>
     a
 }
 
+/// The largest difference accepted between `ln det` of a transported covariance's Givens factor
+/// and that of the Cholesky factor of the covariance as rounded and stored: 1e-3, a determinant
+/// described to 0.1 % (rounding leaves about `D ε cond(P)`, 1e-6 at a condition number of 1e11).
+const DETERMINANT_AGREEMENT: f64 = 1e-3;
+
 impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussian<G, D> {
     /// Left translation, exact: `g (μ ⊞ δ) = (g μ) ⊞ J δ` with `J = j_compose_other(g, μ)`, so the
     /// mean is `g μ` and the covariance `J P Jᵀ`. For the right perturbation `x · exp(δ)` J is the
-    /// identity and P is kept as it is; with world-frame errors (`Left<G>`) J = Ad(g), and the factor
-    /// of `J P Jᵀ` is `J L` made lower-triangular by Givens rotations (no factorisation that could
-    /// fail).
+    /// identity and P is kept as it is. With world-frame errors (`Left<G>`) J = Ad(g): the factor
+    /// of `J P Jᵀ` is `J L` made lower-triangular by Givens rotations (orthogonal steps, which keep
+    /// its determinant to rounding however ill-conditioned P is), and the stored covariance is
+    /// `J P Jᵀ` as rounded, symmetrised. The result passes the checks of
+    /// [`new`](ManifoldGaussian::new) on that stored covariance: finite, entries and `tr P⁻¹`
+    /// within 1e100, positive definite (its Cholesky factorisation exists), and it describes the
+    /// same density as the factor (the two factors' `ln det` agree to 1e-3), so that what `new`,
+    /// the serde reader or [`compose`](ManifoldGaussian::compose) build from
+    /// [`covariance`](ManifoldGaussian::covariance) is this density. Where Ad(g) is so
+    /// ill-conditioned that rounding decides the smallest eigenvalues of `J P Jᵀ` (a translation of
+    /// 1e30 with P = I: exact eigenvalues 1e-60 beside 1e60, which no f64 matrix holds), the
+    /// rounded matrix is singular, indefinite or of another determinant, and the result is an
+    /// error.
     ///
     /// # Errors
     /// [`DensityError::NonFinite`] or [`DensityError::OutOfRange`] when `J P Jᵀ` leaves the range
-    /// of [`new`](ManifoldGaussian::new) (a translation near overflow makes Ad(g) huge).
+    /// of [`new`](ManifoldGaussian::new) (a translation near overflow makes Ad(g) huge), or once
+    /// rounded is not positive definite or not the transported density's covariance.
     fn rotated(&self, g: &G) -> Result<Self, DensityError> {
         const WHAT: &str = "covariance of the translated Gaussian, Ad(g) P Ad(g)^T";
         let j = g.j_compose_other(&self.mean);
@@ -467,12 +474,39 @@ impl<G: LieGroup<D, Scalar = f64>, const D: usize> Rotate<G> for ManifoldGaussia
             return Err(DensityError::NonFinite { what: WHAT, value });
         }
         within_scale(WHAT, &covariance)?;
-        Self::from_factor(
+        let cholesky = lower_factor(j * self.cholesky);
+        if let Some(inverse_trace) = inverse_trace_above(&cholesky, MAX_SCALE) {
+            return Err(DensityError::OutOfRange {
+                what: "trace of the inverse of the translated covariance Ad(g) P Ad(g)^T",
+                value: inverse_trace,
+                range: "at most 1e100: the covariance's eigenvalues must be above about 1e-100",
+            });
+        }
+        let transported = log_det(&cholesky);
+        let Some(own) = Cholesky::new(covariance) else {
+            return Err(DensityError::OutOfRange {
+                what: WHAT,
+                value: smallest_eigenvalue(D, covariance.as_slice()),
+                range: "positive definite matrices once rounded (the value shown is the smallest \
+                        eigenvalue): Ad(g) is too ill-conditioned for f64",
+            });
+        };
+        let disagreement = (log_det(&own.unpack()) - transported).abs();
+        if disagreement > DETERMINANT_AGREEMENT {
+            return Err(DensityError::OutOfRange {
+                what: "ln det of the rounded covariance Ad(g) P Ad(g)^T against its transported \
+                       factor's",
+                value: disagreement,
+                range: "[0, 1e-3]: Ad(g) is too ill-conditioned for f64 (rounding decides the \
+                        covariance's smallest eigenvalues)",
+            });
+        }
+        Ok(Self {
             mean,
             covariance,
-            lower_factor(j * self.cholesky),
-            "trace of the inverse of the translated covariance Ad(g) P Ad(g)^T",
-        )
+            cholesky,
+            log_det: transported,
+        })
     }
 
     /// `g x`.

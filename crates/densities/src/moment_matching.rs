@@ -21,8 +21,8 @@ impl HeatKernelSo3 {
     /// has `E[w²] = E[(1 + cos t)/2] = (1 + 3e^(−s))/4` and `E[x²] = E[y²] = E[z²] = (1 − e^(−s))/4`
     /// exactly; [`Bingham::from_second_moment`] matches them. The Bingham's eigenvalue is about
     /// −2/s − 3/2 for small s (to leading order `E[x²] ≈ s/4` matches the Bingham's `−1/(2z)`), so s should stay
-    /// above about 2e-4 for it to lie in the range the Bingham normaliser is verified on (eigenvalues
-    /// down to −1e4), and above about 2e-12 for it to be within the Bingham's largest spread.
+    /// above about 2e-12 for it to be within the Bingham's largest spread
+    /// ([`MAX_SPREAD`](Bingham::MAX_SPREAD) = 1e12, the range its normaliser is verified on).
     ///
     /// # Errors
     /// Those of [`Bingham::from_second_moment`]: for s below about 2e-12, whose spread −2/s exceeds
@@ -174,10 +174,17 @@ const MATCH_STEPS: usize = 250;
 /// Accepted asymmetry of a diffusion covariance, relative to its largest entry.
 const SYMMETRY_TOLERANCE: f64 = 1e-10;
 
+/// Negative eigenvalues of a diffusion covariance taken for the rounding of a zero one, relative to
+/// the largest eigenvalue magnitude: 64 ε, above the few ε of a symmetric eigendecomposition's
+/// error.
+const PSD_ROUNDING: f64 = 64.0 * f64::EPSILON;
+
 /// The eigendecomposition of a diffusion covariance Σ, checked finite, within
 /// [`MAX_SCALE`](crate::MAX_SCALE) = 1e100 rad² (the limit of every Gaussian; a diffusion is
-/// uniform to rounding long before), symmetric and positive semi-definite (eigenvalues above
-/// `−1e-12 (1 + max |Σᵢⱼ|)` are rounded up to 0).
+/// uniform to rounding long before), symmetric (`|Σ − Σᵀ| ≤ 1e-10 max|Σᵢⱼ|`) and positive
+/// semi-definite to rounding: eigenvalues down to `−64 ε max|λ|` (1.4e-14 of the largest
+/// magnitude) are rounded up to 0, and any below refused, at every scale (an absolute floor of
+/// `−1e-12 (1 + max|Σᵢⱼ|)` took `diag(−1e-13, 1e-20, 1e-20)` for positive semi-definite).
 fn diffusion_eigen(
     covariance: &Matrix3<f64>,
 ) -> Result<(Vector3<f64>, Matrix3<f64>), DensityError> {
@@ -187,7 +194,7 @@ fn diffusion_eigen(
     within_scale("diffusion covariance (rad^2)", covariance)?;
     let scale = covariance.amax();
     let asymmetry = (covariance - covariance.transpose()).amax();
-    if asymmetry > SYMMETRY_TOLERANCE * (1.0 + scale) {
+    if asymmetry > SYMMETRY_TOLERANCE * scale {
         return Err(DensityError::OutOfRange {
             what: "asymmetry of the diffusion covariance",
             value: asymmetry,
@@ -199,7 +206,7 @@ fn diffusion_eigen(
         covariance * 0.5 + covariance.transpose() * 0.5,
     )?;
     let smallest = eigen.eigenvalues.min();
-    if smallest < -1e-12 * (1.0 + scale) {
+    if smallest < -PSD_ROUNDING * eigen.eigenvalues.amax() {
         return Err(DensityError::OutOfRange {
             what: "smallest eigenvalue of the diffusion covariance",
             value: smallest,

@@ -7,7 +7,7 @@ use crate::traits::{
     Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
 };
 use liebayes_manifolds::{LieGroup, So2};
-use nalgebra::Vector2;
+use nalgebra::{SVector, Vector2};
 use rand::Rng;
 use rand_distr::StandardNormal;
 use std::f64::consts::PI;
@@ -43,19 +43,36 @@ pub(crate) fn check_concentration(what: &'static str, kappa: f64) -> Result<f64,
     Ok(kappa.abs())
 }
 
-/// `κ (c, s)` for a unit vector (c, s), shrunk by a few ulp where rounding makes its norm exceed κ,
-/// so that `hypot(η) ≤ κ` exactly: a concentration κ at a family's limit then gives a natural
+/// `κ (c, s)` for a unit vector (c, s), shrunk by a few ulp where rounding makes its norm exceed κ
+/// (see [`within_concentration`]): a concentration κ at a family's limit then gives a natural
 /// parameter that `from_natural` accepts (κ = 1e300 gave |η| = 1.0000000000000002e300 for 7.8 % of
 /// the angles, refused by the serde round trip and by a product with the uniform).
 pub(crate) fn natural_of_unit(c: f64, s: f64, kappa: f64) -> Vector2<f64> {
-    let mut eta = Vector2::new(c, s) * kappa;
-    // (c, s) is within a few ulp of unit norm, so one rescale and at most a few ulp steps bring the
-    // norm to κ or just below; the loop is bounded, and each step shrinks a normal η.
-    let norm = eta.x.hypot(eta.y);
-    if norm > kappa {
-        eta *= kappa / norm;
+    within_concentration(Vector2::new(c, s) * kappa, kappa, hypot)
+}
+
+/// `|η|` of a von Mises natural parameter, as [`VonMises::concentration`] takes it.
+pub(crate) fn hypot(eta: &Vector2<f64>) -> f64 {
+    eta.x.hypot(eta.y)
+}
+
+/// `η` itself when `norm(η) ≤ κ`, else η rescaled to `κ η / norm(η)` and shrunk by an ulp at a time
+/// until `norm(η) ≤ κ` exactly (`norm` the length as the family's `from_natural` computes it): for
+/// a natural parameter whose length should be κ and exceeds it by rounding (a unit vector times κ,
+/// η turned by a rotation that is unit only to rounding), so that it stays within the
+/// concentration limit that κ is within.
+pub(crate) fn within_concentration<const N: usize>(
+    mut eta: SVector<f64, N>,
+    kappa: f64,
+    norm: impl Fn(&SVector<f64, N>) -> f64,
+) -> SVector<f64, N> {
+    // One rescale leaves the length within a few ulp of κ, and at most a few ulp steps bring it to
+    // κ or just below; the loop is bounded, and each step shrinks a normal η.
+    let length = norm(&eta);
+    if length > kappa {
+        eta *= kappa / length;
         for _ in 0..8 {
-            if eta.x.hypot(eta.y) <= kappa {
+            if norm(&eta) <= kappa {
                 break;
             }
             eta *= 1.0 - f64::EPSILON;
@@ -397,14 +414,18 @@ impl KlDivergence for VonMises {
 }
 
 impl Rotate<So2<f64>> for VonMises {
-    /// Mean direction `g μ`, the same κ: η turned by g (exact up to the rounding of one rotation).
+    /// Mean direction `g μ`, the same κ: η turned by g (exact up to the rounding of one rotation),
+    /// kept at `|η| ≤ κ` (the rounding of [`new`](VonMises::new)), so that a density at the
+    /// concentration limit stays within it (κ = 1e300 turned by some angles gave |η| one ulp above
+    /// 1e300, which the serde reader and a product with the uniform refused).
     fn rotated(&self, g: &So2<f64>) -> Result<Self, DensityError> {
         let (c, s) = (g.cos(), g.sin());
+        let turned = Vector2::new(
+            c * self.eta.x - s * self.eta.y,
+            s * self.eta.x + c * self.eta.y,
+        );
         Ok(Self {
-            eta: Vector2::new(
-                c * self.eta.x - s * self.eta.y,
-                s * self.eta.x + c * self.eta.y,
-            ),
+            eta: within_concentration(turned, self.concentration(), hypot),
         })
     }
 

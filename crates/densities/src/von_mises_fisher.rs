@@ -5,7 +5,7 @@ use crate::special;
 use crate::traits::{
     Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
 };
-use crate::von_mises::check_concentration;
+use crate::von_mises::{check_concentration, within_concentration};
 use liebayes_manifolds::{GroupAction, S2, So3};
 use nalgebra::Vector3;
 use rand::Rng;
@@ -78,6 +78,7 @@ impl VonMisesFisher {
         }
         let direction = eta / scale;
         let length = direction.norm(); // in [1, √3]
+        // κ as `scaled_length` takes it, which `natural` keeps within κ.
         let kappa = check_concentration("concentration |eta|", scale * length)?;
         Ok(Self {
             mean: S2::new_unchecked(direction / length),
@@ -132,9 +133,15 @@ impl VonMisesFisher {
         }
     }
 
-    /// The natural parameter `η = κ μ`.
+    /// The natural parameter `η = κ μ`, rounded so that `|η| ≤ κ` as
+    /// [`from_natural`](Self::from_natural) measures it: a mean unit only to rounding made `|η|`
+    /// an ulp above κ = 1e300, and a product with the uniform was refused.
     pub fn natural(&self) -> Vector3<f64> {
-        self.mean.as_vector() * self.kappa
+        within_concentration(
+            self.mean.as_vector() * self.kappa,
+            self.kappa,
+            scaled_length,
+        )
     }
 
     /// The concentration κ.
@@ -151,6 +158,17 @@ impl VonMisesFisher {
     /// vector).
     pub fn first_moment(&self) -> Vector3<f64> {
         self.mean.as_vector() * special::vmf_mean_resultant_valid(self.kappa)
+    }
+}
+
+/// `|η|`, taken after scaling by the largest component (no under- or overflow in the squares), as
+/// [`VonMisesFisher::from_natural`] takes it.
+fn scaled_length(eta: &Vector3<f64>) -> f64 {
+    let scale = eta.amax();
+    if scale == 0.0 {
+        0.0
+    } else {
+        scale * (eta / scale).norm()
     }
 }
 

@@ -386,3 +386,108 @@ fn strategies_clamp_their_parameters() {
         }
     }
 }
+
+/// A world-frame Gaussian on SE(3) moved by a translation of 1e30: `Ad(g) P Ad(g)ᵀ` has exact
+/// eigenvalues 1e-60 beside 1e60, and the rounded matrix was stored (singular or indefinite,
+/// refused by `new` and by the serde reader) beside a factor of its own that it disagreed with. A
+/// moved Gaussian's covariance is now one that `new` accepts, giving the same density (its factor's
+/// determinant), or the move is an error.
+#[test]
+fn a_translated_gaussian_passes_the_checks_of_new() {
+    use liebayes_densities::Rotate;
+    use liebayes_manifolds::{Left, Se3};
+    use nalgebra::Matrix6;
+    let p = ManifoldGaussian::new(Left::new(Se3::identity()), Matrix6::identity()).unwrap();
+    let (mut accepted, mut refused) = (0, 0);
+    for exponent in [0, 3, 8, 12, 20, 25, 30, 35, 40] {
+        for k in 0..24 {
+            let angle = f64::from(k) * 0.27;
+            let rotation = So3::exp(&Vector3::new(0.3 * angle.cos(), -0.2, angle.sin()));
+            let direction = Vector3::new(angle.cos(), angle.sin(), 0.3 * angle.sin() * angle.cos());
+            let translation = if k == 0 { Vector3::x() } else { direction } * 10f64.powi(exponent);
+            let g = Left::new(Se3::new(rotation, translation).unwrap());
+            let Ok(moved) = p.rotated(&g) else {
+                refused += 1;
+                continue;
+            };
+            accepted += 1;
+            let again = ManifoldGaussian::new(*moved.mean(), *moved.covariance())
+                .unwrap_or_else(|e| panic!("translation {translation:?}: {e}"));
+            assert!((again.log_determinant() - moved.log_determinant()).abs() <= 1e-3);
+            let l = moved.cholesky_factor();
+            let scale = moved.covariance().amax();
+            assert!((l * l.transpose() - moved.covariance()).amax() <= 1e-14 * scale);
+            if exponent <= 3 {
+                // Ad(g) P Ad(g)ᵀ itself, to rounding.
+                let j = g.j_compose_other(p.mean());
+                let exact = j * j.transpose();
+                assert!((moved.covariance() - exact).amax() <= 1e-14 * exact.amax());
+            }
+        }
+    }
+    assert!(accepted >= 24 * 2 && refused > 0, "{accepted} {refused}");
+}
+
+/// `quadrature::s3` made 16.9 M nodes (674 MB) for the widths (0.1000001, 0.1000001, 0), four times
+/// `MAX_NODES`; every width, NaN, zero, subnormal or infinite, now gives at most `MAX_NODES`.
+#[test]
+fn s3_bounds_its_nodes_for_every_width() {
+    use liebayes_densities::testing::quadrature;
+    use nalgebra::Matrix4;
+    let frame = Matrix4::identity();
+    let wide = 0.100_000_1;
+    let mut widths = vec![
+        [wide, wide, 0.0],
+        [wide, wide, 1e-300],
+        [wide, wide, 5e-324],
+        [wide, 0.2, 1e-12],
+        [10.0, 10.0, 0.0],
+        [1e-300, 1e-300, 1e-300],
+        [0.0, 0.0, 0.0],
+        [f64::NAN, f64::NAN, f64::NAN],
+        [f64::NAN, wide, 0.0],
+        [wide, f64::NAN, 0.0],
+        [f64::INFINITY, wide, 0.0],
+        [-1.0, wide, wide],
+        [wide, -f64::NAN, 1e-300],
+    ];
+    for e in [-300, -100, -20, -12, -8, -5, -4, -3, -1] {
+        widths.push([wide, wide, 10f64.powi(e)]);
+        widths.push([1.0, 0.5, 10f64.powi(e)]);
+    }
+    for w in widths {
+        let count = quadrature::s3(&frame, &w).len();
+        assert!(count <= quadrature::MAX_NODES, "{w:?}: {count} nodes");
+    }
+}
+
+/// `quadrature::rn` and `tangent` ran nalgebra's unbounded eigensolver on the caller's matrix and
+/// returned nodes of NaN for a non-finite one; they now use the bounded one and return no nodes
+/// where it fails.
+#[test]
+fn gaussian_rules_have_no_nodes_where_the_eigendecomposition_fails() {
+    use liebayes_densities::testing::quadrature;
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let covariance = Matrix2::new(bad, 0.1, 0.1, 1.0);
+        assert!(quadrature::rn(&Vector2::zeros(), &covariance, 4).is_empty());
+        let spread = Matrix3::new(1.0, 0.0, 0.0, 0.0, bad, 0.0, 0.0, 0.0, 1.0);
+        assert!(quadrature::tangent(&So3::identity(), &spread, 4).is_empty());
+    }
+    let nodes = quadrature::rn(&Vector2::zeros(), &Matrix2::new(2.0, 0.1, 0.1, 1.0), 4);
+    assert_eq!(nodes.len(), 16);
+}
+
+/// `check_sampler(p, rng, n)` drew n samples for any n, up to u32::MAX (4.3e9 draws, hours); beyond
+/// 2²⁴ it now fails at once, naming n, without a draw.
+#[test]
+fn the_sampler_law_refuses_more_draws_than_its_limit() {
+    use liebayes_densities::VonMises;
+    use liebayes_densities::testing::laws::check_sampler;
+    let p = VonMises::new(So2::identity(), 2.0).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    for n in [(1 << 24) + 1, u32::MAX] {
+        let error = check_sampler(&p, &mut rng, n).unwrap_err();
+        assert!(error.to_string().contains(&format!("n = {n}")), "{error}");
+    }
+    assert_eq!(rng, ChaCha8Rng::seed_from_u64(1), "a refused call drew");
+}

@@ -158,7 +158,8 @@ fn constructors_refuse_parameters_whose_normalisers_overflow() {
         let error = Gaussian::new(Vector3::zeros(), Matrix3::identity() * scale).unwrap_err();
         assert!(error.to_string().contains("1e100"), "{scale:e}: {error}");
     }
-    let g = Gaussian::new(Vector3::zeros(), Matrix3::identity() * 1e-100).unwrap();
+    // tr Σ⁻¹ = 7.5e99, within the limit.
+    let g = Gaussian::new(Vector3::zeros(), Matrix3::identity() * 4e-100).unwrap();
     assert!(g.natural().1.iter().all(|v| v.is_finite()));
 }
 
@@ -284,9 +285,10 @@ fn the_product_integral_fails_exactly_where_the_product_does() {
     let mean = S2::new(nalgebra::Vector3::new(0.0, 0.6, 0.8)).unwrap();
     let vmf = VonMisesFisher::new(mean, 1e300).unwrap();
     assert!(vmf.product(&vmf).is_err() && vmf.log_product_integral(&vmf).is_err());
+    // tr Σ⁻¹ = 8e99, and 1.6e100 for the product.
     let tight = Gaussian::new(
         nalgebra::Vector2::zeros(),
-        nalgebra::Matrix2::identity() * 1.5e-100,
+        nalgebra::Matrix2::identity() * 2.5e-100,
     )
     .unwrap();
     assert!(tight.product(&tight).is_err() && tight.log_product_integral(&tight).is_err());
@@ -324,4 +326,182 @@ fn an_asymmetric_harmonic_covariance_is_refused() {
     let g = HarmonicGaussian::new(angle, Matrix2x3::zeros(), sigma).unwrap();
     assert_eq!(g.covariance()[(0, 1)], g.covariance()[(1, 0)]);
     assert!(Gaussian::new(Vector2::zeros(), sigma).is_ok());
+}
+
+/// `HarmonicGaussian::marginal_moments` formed `Cov φ = E φφᵀ − E φ E φᵀ`, differences of numbers
+/// near 1 that cancel to ±1e-16 where Var cos y ≈ 1/(2κ²) = 5e-25 (κ = 1e12), so `Cov x` of
+/// `x = cos y + N(0, 1e-30)` came out negative at about half of the mean angles. It is now summed
+/// as squares: positive, and equal to `1e-30 + cos²μ/(2κ²) + sin²μ/κ` to leading order.
+#[test]
+fn the_marginal_covariance_is_positive_at_any_concentration() {
+    use liebayes_densities::HarmonicGaussian;
+    use nalgebra::{Matrix1, Matrix1x3};
+    let kappa = 1e12;
+    for i in 0..400 {
+        let mu = -std::f64::consts::PI + f64::from(i) * (std::f64::consts::TAU / 400.0);
+        let angle =
+            GenVonMises2::new(So2::from_angle_unchecked(mu), kappa, So2::identity(), 0.0).unwrap();
+        let p = HarmonicGaussian::new(angle, Matrix1x3::new(0.0, 1.0, 0.0), Matrix1::new(1e-30))
+            .unwrap();
+        let (_, cov) = p.marginal_moments();
+        let (s, c) = mu.sin_cos();
+        let expected = 1e-30 + c * c / (2.0 * kappa * kappa) + s * s / kappa;
+        assert!(cov[(0, 0)] > 0.0, "mu = {mu}: Cov x = {:e}", cov[(0, 0)]);
+        assert!(
+            (cov[(0, 0)] / expected - 1.0).abs() < 1e-6,
+            "mu = {mu}: Cov x = {:e}, expected {expected:e}",
+            cov[(0, 0)]
+        );
+    }
+}
+
+/// In ordinary cases the centred sum over the quadrature nodes gives the covariance of the earlier
+/// formula `Σ + B (E φφᵀ − E φ E φᵀ) Bᵀ` and of an independent brute force: the centred second
+/// moments of φ on a 4096-point periodic trapezoid grid of the density.
+#[test]
+fn the_marginal_covariance_matches_a_brute_force_grid() {
+    use liebayes_densities::HarmonicGaussian;
+    use nalgebra::{Matrix2, Matrix2x3, Matrix3};
+    let b = Matrix2x3::new(0.5, -1.5, 2.0, -0.3, 0.7, 1.1);
+    let sigma = Matrix2::new(0.4, 0.1, 0.1, 0.2);
+    for (k1, k2, mu1, mu2) in [
+        (0.0, 0.0, 0.0, 0.0),
+        (0.5, 0.0, 1.0, 0.0),
+        (3.0, 1.5, -2.0, 0.7),
+        (40.0, 0.0, 2.5, 0.0),
+        (5.0, 20.0, 0.3, 1.9),
+        (1e3, 1e2, -1.2, -1.2),
+    ] {
+        let angle = GenVonMises2::new(
+            So2::from_angle_unchecked(mu1),
+            k1,
+            So2::from_angle_unchecked(mu2),
+            k2,
+        )
+        .unwrap();
+        let p = HarmonicGaussian::new(angle.clone(), b, sigma).unwrap();
+        let (mean, cov) = p.marginal_moments();
+
+        let n = 4096;
+        let h = std::f64::consts::TAU / f64::from(n);
+        let nodes: Vec<(Vector3<f64>, f64)> = (0..n)
+            .map(|i| {
+                let y = So2::from_angle_unchecked(-std::f64::consts::PI + h * f64::from(i));
+                (
+                    Vector3::new(1.0, y.cos(), y.sin()),
+                    h * angle.log_pdf(&y).exp(),
+                )
+            })
+            .collect();
+        let m: Vector3<f64> = nodes.iter().map(|(phi, w)| phi * *w).sum();
+        let spread: Matrix3<f64> = nodes
+            .iter()
+            .map(|(phi, w)| (phi - m) * (phi - m).transpose() * *w)
+            .sum();
+        let brute = sigma + b * spread * b.transpose();
+        let (m1, m2) = angle.trigonometric_moments();
+        let phi = Vector3::new(1.0, m1.x, m1.y);
+        let second = Matrix3::new(
+            1.0,
+            m1.x,
+            m1.y,
+            m1.x,
+            0.5 * (1.0 + m2.x),
+            0.5 * m2.y,
+            m1.y,
+            0.5 * m2.y,
+            0.5 * (1.0 - m2.x),
+        );
+        let earlier = sigma + b * (second - phi * phi.transpose()) * b.transpose();
+        for (name, reference) in [("grid", brute), ("earlier formula", earlier)] {
+            assert!(
+                (cov - reference).amax() < 1e-12 * reference.amax(),
+                "{name}, kappa ({k1}, {k2}): {cov} against {reference}"
+            );
+        }
+        assert!((mean - b * m).amax() < 1e-12 * (1.0 + mean.amax()));
+    }
+}
+
+/// The positive semi-definite check of a diffusion covariance had an absolute floor,
+/// `−1e-12 (1 + max|Σᵢⱼ|)`, and the symmetry check an absolute tolerance `1e-10 (1 + max|Σᵢⱼ|)`:
+/// `diag(−1e-13, 1e-20, 1e-20)` was taken for positive semi-definite (its −1e-13 rounded up to 0),
+/// and a tiny Σ 1 % asymmetric for symmetric. Both are now relative to Σ's own size.
+#[test]
+fn diffusion_covariances_are_checked_relative_to_their_size() {
+    let refused = [
+        Matrix3::from_diagonal(&Vector3::new(-1e-13, 1e-20, 1e-20)),
+        Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1e-12)),
+        Matrix3::new(1e-20, 1e-22, 0.0, 0.0, 1e-20, 0.0, 0.0, 0.0, 1e-20),
+    ];
+    for covariance in refused {
+        assert!(
+            Bingham::diffusion_second_moment(&covariance).is_err(),
+            "{covariance}"
+        );
+    }
+    // Zero eigenvalues that rounding leaves slightly negative are still rounded up to 0.
+    let v = Vector3::new(0.3, -0.7, 0.2);
+    let rank_one = v * v.transpose();
+    let accepted = [
+        rank_one,
+        rank_one * 1e-30,
+        Matrix3::from_diagonal(&Vector3::new(1.0, 1e-3, -1e-17)),
+        Matrix3::zeros(),
+    ];
+    for covariance in accepted {
+        let moments = Bingham::diffusion_second_moment(&covariance)
+            .unwrap_or_else(|e| panic!("{covariance}: {e}"));
+        assert!((moments.trace() - 1.0).abs() < 1e-14);
+    }
+}
+
+/// `Gaussian::new` limited each entry of Σ⁻¹ to 1e100, the other Gaussians the trace `tr Σ⁻¹`:
+/// Σ = 1.5e-100 I₂ (entries of Σ⁻¹ 6.7e99, trace 1.3e100) was a Gaussian but not a
+/// `ManifoldGaussian` on R² nor the conditional of a `HarmonicGaussian`. All three now take the
+/// trace rule.
+#[test]
+fn every_gaussian_takes_the_same_inverse_covariance_limit() {
+    use liebayes_densities::manifolds::Rn;
+    use liebayes_densities::{HarmonicGaussian, ManifoldGaussian};
+    use nalgebra::Matrix2;
+    let uniform = GenVonMises2::uniform();
+    for (variance, valid) in [
+        (1.5e-100, false),
+        (1.99e-100, false),
+        (2.01e-100, true),
+        (1.0, true),
+    ] {
+        let sigma = Matrix2::identity() * variance;
+        let gaussian = Gaussian::new(Vector2::zeros(), sigma);
+        let on_rn = ManifoldGaussian::new(Rn::new(Vector2::zeros()).unwrap(), sigma);
+        assert_eq!(gaussian.is_ok(), valid, "Gaussian, {variance:e}");
+        assert_eq!(on_rn.is_ok(), valid, "ManifoldGaussian, {variance:e}");
+        if let Ok(g) = gaussian {
+            assert!(HarmonicGaussian::independent(uniform.clone(), &g).is_ok());
+        } else {
+            let features = nalgebra::Matrix2x3::zeros();
+            assert!(HarmonicGaussian::new(uniform.clone(), features, sigma).is_err());
+        }
+    }
+    let error = Gaussian::new(Vector2::zeros(), Matrix2::identity() * 1.5e-100).unwrap_err();
+    assert!(error.to_string().contains("1e100"), "{error}");
+}
+
+/// A rotation or direction accepted 9e-10 off unit norm was stored as given, and the heat kernel's
+/// and the von Mises-Fisher's modes and draws (built from it) were that far off their space.
+#[test]
+fn densities_of_near_unit_locations_have_unit_modes_and_draws() {
+    let k = 1.0 + 9e-10;
+    let r = So3::from_quaternion_wxyz(0.5 * k, -0.5 * k, 0.5 * k, 0.5 * k).unwrap();
+    let heat = HeatKernelSo3::new(r, 0.1).unwrap();
+    let vmf = VonMisesFisher::new(S2::new(Vector3::new(0.0, 0.0, k)).unwrap(), 5.0).unwrap();
+    let unit = |q: [f64; 4]| (q.iter().map(|c| c * c).sum::<f64>() - 1.0).abs() < 1e-14;
+    assert!(unit(heat.mode().unwrap().to_quaternion_wxyz()));
+    assert!((vmf.mode().unwrap().as_vector().norm_squared() - 1.0).abs() < 1e-14);
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for _ in 0..100 {
+        assert!(unit(heat.sample(&mut rng).to_quaternion_wxyz()));
+        assert!((vmf.sample(&mut rng).as_vector().norm_squared() - 1.0).abs() < 1e-14);
+    }
 }

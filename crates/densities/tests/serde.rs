@@ -141,3 +141,57 @@ fn a_concentration_at_the_limit_round_trips_at_every_angle() {
         );
     }
 }
+
+/// Densities at the concentration limit turned by a rotation: `R(φ) η` rounded to |η| one ulp
+/// above the limit at some angles (κ = 1e300 for the von Mises, κ₁ = 1e16 for the generalised von
+/// Mises), and a rotation accepted 9e-10 off unit norm scaled η by 1 + 9e-10; the serde reader
+/// and a product with the uniform refused the result. The von Mises-Fisher's `natural()`, κ times a
+/// mean unit only to rounding, was refused the same way. Every one now stays within its limit.
+#[test]
+fn rotated_densities_at_the_concentration_limit_stay_within_it() {
+    use liebayes_densities::Rotate;
+    use liebayes_manifolds::{LieGroup, S2, So2};
+    use nalgebra::Vector3;
+    let tau = std::f64::consts::TAU;
+    let mut turns: Vec<So2<f64>> = (0..97)
+        .map(|j| So2::from_angle(tau * f64::from(j) / 97.0 + 0.01).unwrap())
+        .collect();
+    let k = 1.0 + 9e-10;
+    turns.push(So2::from_cos_sin(k, 0.0).unwrap());
+    turns.push(So2::from_cos_sin(0.6 * k, 0.8 * k).unwrap());
+    turns.push(So2::from_cos_sin_unchecked(k, 0.0));
+    for i in 0..211 {
+        let mean = So2::from_angle(tau * f64::from(i) / 211.0).unwrap();
+        let p = VonMises::new(mean, 1e300).unwrap();
+        let g = GenVonMises2::new(mean, 1e16, So2::identity(), 0.0).unwrap();
+        for turn in &turns {
+            let q = p.rotated(turn).unwrap();
+            assert!(q.natural().x.hypot(q.natural().y) <= 1e300, "{q:?}");
+            let text = serde_json::to_string(&q).unwrap();
+            assert_eq!(
+                serde_json::from_str::<VonMises>(&text).unwrap(),
+                q,
+                "{text}"
+            );
+            assert!(q.product(&VonMises::uniform()).is_ok(), "{q:?}");
+
+            let h = g.rotated(turn).unwrap();
+            let text = serde_json::to_string(&h).unwrap();
+            let back = serde_json::from_str::<GenVonMises2>(&text)
+                .unwrap_or_else(|e| panic!("{text}: {e}"));
+            assert_eq!(back.natural(), h.natural());
+            assert!(h.product(&GenVonMises2::uniform()).is_ok(), "{h:?}");
+        }
+    }
+    let mean = S2::from_vector_normalizing(&Vector3::new(1.0, 1.0, 1.0)).unwrap();
+    let p = VonMisesFisher::new(mean, 1e300).unwrap();
+    assert!(p.product(&VonMisesFisher::uniform()).is_ok());
+    for i in 0..500 {
+        let a = f64::from(i) * 0.013;
+        let r = So3::exp(&Vector3::new(a.sin() * 3.0, a.cos(), 0.5 * a));
+        let q = p.rotated(&r).unwrap();
+        round_trip(&q).unwrap();
+        assert!(q.product(&VonMisesFisher::uniform()).is_ok(), "{q:?}");
+        assert!(VonMisesFisher::from_natural(q.natural()).is_ok(), "{q:?}");
+    }
+}

@@ -52,6 +52,10 @@ pub const BAD_INPUT_CASES: u32 = 256;
 pub const SAMPLER_CASES: u32 = 8;
 /// Draws per case of the sampler law in [`density_laws!`](crate::density_laws).
 pub const SAMPLES: u32 = 10_000;
+/// The most draws [`check_sampler`] takes: 2²⁴ (16.8 M, 1678 times [`SAMPLES`]); beyond, its
+/// standard errors are far below the rounding of the moments it compares, and the work (up to
+/// 4.3e9 draws for `u32::MAX`, hours) would pass for a hang.
+pub const MAX_SAMPLES: u32 = 1 << 24;
 /// The seed of the sampler law's generator in [`density_laws!`](crate::density_laws) (a fixed seed:
 /// the cases differ by their densities).
 pub const SEED: u64 = 2026;
@@ -258,13 +262,18 @@ pub fn check_moments<P: DensitySubject>(p: &P) -> Result<(), TestCaseError> {
 /// `Distribution` too, which calls it).
 ///
 /// # Errors
-/// The law's failure, with the numbers; a failure naming n for n = 0 (no draw to compare).
+/// The law's failure, with the numbers; a failure naming n, before any draw, for n = 0 (no draw to
+/// compare) and for n above [`MAX_SAMPLES`].
 pub fn check_sampler<P: DensitySubject, R: Rng + ?Sized>(
     p: &P,
     rng: &mut R,
     n: u32,
 ) -> Result<(), TestCaseError> {
     prop_assert!(n > 0, "check_sampler needs at least one draw (n = 0)");
+    prop_assert!(
+        n <= MAX_SAMPLES,
+        "check_sampler takes at most MAX_SAMPLES = 2^24 draws (n = {n})"
+    );
     let exact = p.exact_moments();
     let (mut sums, mut squares) = (vec![0.0; exact.len()], vec![0.0; exact.len()]);
     for _ in 0..n {

@@ -24,9 +24,10 @@
 //! resolves gives a coarser rule, which the laws then report as a failed normalisation rather than
 //! allocate without limit.
 
+use crate::eigen::bounded_eigen;
 use crate::quadrature::{hermite_rule, legendre_rule};
 use liebayes_manifolds::{LieGroup, Manifold, S2, So2, So3, Su2, Tangent};
-use nalgebra::{Matrix3, Matrix4, Quaternion, SMatrix, SVector, Vector3};
+use nalgebra::{DMatrix, Matrix3, Matrix4, Quaternion, SMatrix, SVector, Vector3};
 use std::f64::consts::PI;
 
 /// The most nodes any rule here makes.
@@ -213,6 +214,13 @@ pub fn peaked_symmetric(width: f64, half: f64, points: usize) -> Vec<(f64, f64)>
     nodes
 }
 
+/// Gauss-Legendre points per panel of the iterated disk rule of [`s3`], finest first: it takes the
+/// first whose nodes, times the angles', are at most [`MAX_NODES`]. Twelve serve every width down
+/// to about 2e-4 (a Bingham of spread 1e4); a narrower third width beside two diffuse ones (16.9 M
+/// nodes at widths (0.1000001, 0.1000001, 0)) takes fewer, at most 2 · 65 + 8 t-nodes × 2 × 16
+/// v-nodes × 192 angles = 0.85 M with 2.
+const DISK_PANEL_POINTS: [usize; 5] = [12, 8, 6, 4, 2];
+
 /// Widths at and above which [`s3`] integrates a coordinate without concentrating its nodes.
 const DIFFUSE_WIDTH: f64 = 0.1;
 
@@ -234,6 +242,10 @@ const DISK_ANGLES: usize = 32;
 /// where the inner integral saturates) and `y_c = cos θ · v`
 /// ([`peaked_symmetric`] of width `w_c / cos θ` on [−1, 1]), `d²y = cos²θ dθ dv`. Every circle of maxima (repeated largest eigenvalues) lies along α, so it is
 /// integrated by the trapezoid rule exactly.
+///
+/// At most [`MAX_NODES`] nodes for any widths (NaN, 0 and subnormal ones included): where 12 points
+/// per panel of the iterated disk would exceed it (a third width below about 2e-4 beside two above
+/// 0.1), the disk takes fewer points per panel (down to 2), a coarser rule.
 pub fn s3(frame: &Matrix4<f64>, widths: &[f64; 3]) -> Vec<(Su2<f64>, f64)> {
     let mut order = [1usize, 2, 3];
     order.sort_by(|&i, &j| widths[j - 1].total_cmp(&widths[i - 1]));
@@ -258,36 +270,11 @@ pub fn s3(frame: &Matrix4<f64>, widths: &[f64; 3]) -> Vec<(Su2<f64>, f64)> {
             })
             .collect()
     };
-    let disk: Vec<((f64, f64), f64)> = if wb <= DIFFUSE_WIDTH {
-        let h = 2.0 * PI / DISK_ANGLES as f64;
-        let mut nodes = Vec::new();
-        for k in 0..DISK_ANGLES {
-            let (s, co) = (h * k as f64).sin_cos();
-            let edge = 1.0 / (wb * co).hypot(wc * s);
-            for (rho, wr) in peaked(1.0, edge.min(WHITENED_RADIUS), 10) {
-                nodes.push(((wb * rho * co, wc * rho * s), wb * wc * rho * wr * h));
-            }
-        }
-        nodes
-    } else {
-        // θ on [0, π/4] from the peak at 0 (width w_b), and on [π/4, π/2] from the end, where cos θ
-        // falls below w_c and the v-integral saturates; mirrored.
-        let quarter = 0.25 * PI;
-        let inner = peaked(wb.min(1.0), quarter, 12);
-        let outer = peaked(wc.min(1.0), quarter, 12)
-            .into_iter()
-            .map(|(tau, w)| (0.5 * PI - tau, w));
-        let mut nodes = Vec::new();
-        for (t, wt) in inner.into_iter().chain(outer) {
-            for theta in [t, -t] {
-                let (s, co) = theta.sin_cos();
-                for (v, wv) in peaked_symmetric((wc / co).min(1.0), 1.0, 12) {
-                    nodes.push(((s, co * v), co * co * wt * wv));
-                }
-            }
-        }
-        nodes
-    };
+    let disk = DISK_PANEL_POINTS
+        .iter()
+        .map(|&points| disk_rule(wb, wc, points))
+        .find(|disk| angles.len() * disk.len() <= MAX_NODES)
+        .unwrap_or_default();
     let mut nodes = Vec::with_capacity(angles.len() * disk.len());
     for &(co, s, w_alpha) in &angles {
         for &((yb, yc), w_disk) in &disk {
@@ -303,11 +290,51 @@ pub fn s3(frame: &Matrix4<f64>, widths: &[f64; 3]) -> Vec<(Su2<f64>, f64)> {
     nodes
 }
 
+/// The disk `|y| ≤ 1` of [`s3`]'s Hopf coordinates for the widths `w_b ≥ w_c` of its two axes, as
+/// `((y_b, y_c), weight)` against `d²y`: whitened polar coordinates when `w_b ≤ 0.1`, else the
+/// iterated rule in `y_b = sin θ`, `y_c = cos θ · v` with `points` Gauss-Legendre nodes per panel.
+fn disk_rule(wb: f64, wc: f64, points: usize) -> Vec<((f64, f64), f64)> {
+    if wb <= DIFFUSE_WIDTH {
+        let h = 2.0 * PI / DISK_ANGLES as f64;
+        let mut nodes = Vec::new();
+        for k in 0..DISK_ANGLES {
+            let (s, co) = (h * k as f64).sin_cos();
+            let edge = 1.0 / (wb * co).hypot(wc * s);
+            for (rho, wr) in peaked(1.0, edge.min(WHITENED_RADIUS), 10) {
+                nodes.push(((wb * rho * co, wc * rho * s), wb * wc * rho * wr * h));
+            }
+        }
+        nodes
+    } else {
+        // θ on [0, π/4] from the peak at 0 (width w_b), and on [π/4, π/2] from the end, where cos θ
+        // falls below w_c and the v-integral saturates; mirrored.
+        let quarter = 0.25 * PI;
+        let inner = peaked(wb.min(1.0), quarter, points);
+        let outer = peaked(wc.min(1.0), quarter, points)
+            .into_iter()
+            .map(|(tau, w)| (0.5 * PI - tau, w));
+        let mut nodes = Vec::new();
+        for (t, wt) in inner.into_iter().chain(outer) {
+            for theta in [t, -t] {
+                let (s, co) = theta.sin_cos();
+                for (v, wv) in peaked_symmetric((wc / co).min(1.0), 1.0, points) {
+                    nodes.push(((s, co * v), co * co * wt * wv));
+                }
+            }
+        }
+        nodes
+    }
+}
+
 /// Rⁿ, against the Lebesgue measure: the product Gauss-Hermite rule with `points` nodes per axis in
 /// the eigen-coordinates of `covariance` (by its symmetric eigendecomposition, not a Cholesky factor),
 /// `x = μ + E diag(√λ) z`, weights `Π w(zᵢ) · (2π)^(N/2) √det Σ · e^(|z|²/2)`. Exact for a Gaussian of
 /// that mean and covariance times any polynomial of degree at most `2 points − 1`. At most
 /// [`MAX_NODES`] nodes (fewer points per axis in high dimension).
+///
+/// The eigendecomposition takes at most 1000 iterations; where it does not converge, or meets a
+/// non-finite entry, the rule has no nodes (an integral of 0, which the laws report as a failed
+/// normalisation).
 ///
 /// # Panics
 /// Never: the eigenvalues of a symmetric matrix are real (negative ones are treated as 0).
@@ -324,7 +351,7 @@ pub fn rn<const N: usize>(
 
 /// Any manifold, against the Lebesgue measure in the tangent coordinates at `mean` (the base measure
 /// of [`ManifoldGaussian`](crate::ManifoldGaussian)): the nodes of [`rn`] for the tangent vectors,
-/// mapped by `μ ⊞ δ`.
+/// mapped by `μ ⊞ δ` (none where [`rn`]'s eigendecomposition fails).
 pub fn tangent<X: Manifold<D, Scalar = f64>, const D: usize>(
     mean: &X,
     covariance: &SMatrix<f64, D, D>,
@@ -359,7 +386,9 @@ fn tangent_nodes<const N: usize>(
     }
     let rule = gauss_hermite(per_axis);
     // A dynamic copy: nalgebra's symmetric eigensolver has no const-generic form.
-    let eigen = nalgebra::DMatrix::from_column_slice(N, N, covariance.as_slice()).symmetric_eigen();
+    let Some(eigen) = bounded_eigen(DMatrix::from_column_slice(N, N, covariance.as_slice())) else {
+        return Vec::new();
+    };
     let vectors = SMatrix::<f64, N, N>::from_column_slice(eigen.eigenvectors.as_slice());
     let scale = SVector::<f64, N>::from_fn(|i, _| eigen.eigenvalues[i].max(0.0).sqrt());
     let log_volume = 0.5 * N as f64 * (2.0 * PI).ln() + scale.iter().map(|s| s.ln()).sum::<f64>();

@@ -4,6 +4,7 @@
 
 use super::laws::DensitySubject;
 use super::quadrature;
+use crate::eigen::bounded_eigen;
 use crate::{
     Bingham, Density, Gaussian, GenVonMises2, HarmonicGaussian, HeatKernelSo3, ManifoldGaussian,
     VonMises, VonMisesFisher,
@@ -67,22 +68,29 @@ fn mean_and_second<const N: usize>(
 }
 
 /// The eigenvalues of a covariance (none for N = 0), from a dynamic copy: nalgebra's symmetric
-/// eigensolver has no const-generic form and asserts on an empty matrix.
-fn eigenvalues<const N: usize>(covariance: &SMatrix<f64, N, N>) -> nalgebra::DVector<f64> {
+/// eigensolver has no const-generic form and asserts on an empty matrix. `None` where the bounded
+/// eigensolver (1000 iterations) does not converge or meets a non-finite entry.
+fn eigenvalues<const N: usize>(covariance: &SMatrix<f64, N, N>) -> Option<nalgebra::DVector<f64>> {
     if N == 0 {
-        return nalgebra::DVector::zeros(0);
+        return Some(nalgebra::DVector::zeros(0));
     }
-    nalgebra::DMatrix::from_column_slice(N, N, covariance.as_slice()).symmetric_eigenvalues()
+    bounded_eigen(nalgebra::DMatrix::from_column_slice(
+        N,
+        N,
+        covariance.as_slice(),
+    ))
+    .map(|eigen| eigen.eigenvalues)
 }
 
 /// The smallest standard deviation of a covariance (its smallest eigenvalue's root; 1 for N = 0,
-/// which has no direction to step in).
+/// which has no direction to step in); NaN where its eigenvalues cannot be computed, so that every
+/// tolerance and neighbour built on it fails its law rather than passes it.
 fn smallest_deviation<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
-    let eigenvalues = eigenvalues(covariance);
-    if eigenvalues.is_empty() {
-        return 1.0;
+    match eigenvalues(covariance) {
+        None => f64::NAN,
+        Some(eigenvalues) if eigenvalues.is_empty() => 1.0,
+        Some(eigenvalues) => eigenvalues.min().max(0.0).sqrt(),
     }
-    eigenvalues.min().max(0.0).sqrt()
 }
 
 /// `2 N cond(L) = 2 N √(λ_max/λ_min)`, the growth of the relative rounding of a Mahalanobis term
@@ -92,13 +100,14 @@ fn mahalanobis_condition<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64
 }
 
 /// `cond(P) = λ_max/λ_min`, the sensitivity of a Mahalanobis term to a relative perturbation of the
-/// covariance (1 for N = 0).
+/// covariance (1 for N = 0; NaN where the eigenvalues cannot be computed, as
+/// [`smallest_deviation`]).
 fn covariance_condition<const N: usize>(covariance: &SMatrix<f64, N, N>) -> f64 {
-    let eigenvalues = eigenvalues(covariance);
-    if eigenvalues.is_empty() {
-        return 1.0;
+    match eigenvalues(covariance) {
+        None => f64::NAN,
+        Some(eigenvalues) if eigenvalues.is_empty() => 1.0,
+        Some(eigenvalues) => eigenvalues.max() / eigenvalues.min(),
     }
-    eigenvalues.max() / eigenvalues.min()
 }
 
 /// Gauss-Hermite points per axis for a product rule in dimension n: 8 up to 3 dimensions, 4 up to 6,
@@ -567,5 +576,21 @@ mod tests {
         );
         assert!(g.log_condition().is_finite());
         assert!(g.log_scale().is_finite());
+    }
+
+    /// The subjects' scales came from nalgebra's unbounded eigensolver, and a covariance without
+    /// eigenvalues gave a smallest deviation of 0 (its NaN eigenvalues clamped). With the bounded
+    /// solver, such a covariance gives NaN scales, which fail every tolerance built on them.
+    #[test]
+    fn covariances_without_eigenvalues_give_nan_scales() {
+        for bad in [f64::NAN, f64::INFINITY] {
+            let covariance = Matrix3::new(1.0, 0.2, 0.0, 0.2, bad, 0.0, 0.0, 0.0, 1.0);
+            assert!(smallest_deviation(&covariance).is_nan(), "{bad}");
+            assert!(covariance_condition(&covariance).is_nan(), "{bad}");
+            assert!(mahalanobis_condition(&covariance).is_nan(), "{bad}");
+        }
+        let fine = Matrix3::from_diagonal(&Vector3::new(4.0, 1.0, 0.25));
+        assert!((smallest_deviation(&fine) - 0.5).abs() < 1e-15);
+        assert!((covariance_condition(&fine) - 16.0).abs() < 1e-13);
     }
 }
