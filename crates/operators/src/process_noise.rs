@@ -41,15 +41,21 @@ pub struct Discretized<const N: usize> {
 /// Van Loan's discretisation of `ẋ = A x + G w`, `w` white with spectral density `Q_c` (L × L,
 /// symmetric positive semi-definite), over a step `dt ≥ 0` (see the module docs for the formula).
 ///
-/// Range: any finite A, G, Q_c and dt whose `exp(A dt)` is representable; the matrix exponential
-/// (nalgebra's Padé approximant with scaling and squaring) is accurate to a few ulp times
-/// `‖A dt‖`, so a stiff A with a large dt loses digits before it overflows. It allocates one
-/// 2N × 2N matrix: call it once per distinct dt, not per step.
+/// Range: any finite A, G, Q_c and dt whose Van Loan exponential is representable: it holds
+/// `exp(−A dt)` beside `exp(A dt)`, so a stable drift over a long step (A = −I, dt = 1e9, whose Φ
+/// and Q are finite) overflows too. The matrix exponential (nalgebra's Padé approximant with
+/// scaling and squaring) is accurate to a few ulp times `‖A dt‖` for a normal A (a rotation
+/// `[[0, 1], [−1, 0]]` over dt = 4.9e9: Φ within 2e-7 of the rotation and orthogonal to 3e-7), so a
+/// stiff A with a large dt loses digits before it overflows; a defective A loses far more, its
+/// squarings amplifying rounding like `(1 + √ε)^(‖A dt‖)` (the nilpotent `[[1, 1], [−1, −1]]` over
+/// dt = 1e6: Φ 5 % from `I + A dt`). It allocates one 2N × 2N matrix: call it once per distinct
+/// dt, not per step.
 ///
 /// # Errors
-/// [`OperatorError::NonFinite`] for a non-finite entry or a result that overflows,
-/// [`OperatorError::OutOfRange`] for a negative dt, [`OperatorError::NotPositiveDefinite`] for a Q_c
-/// that is not symmetric positive semi-definite.
+/// [`OperatorError::NonFinite`] for a non-finite entry or an exponential that overflows (take
+/// shorter steps), [`OperatorError::OutOfRange`] for a negative dt or a generator beyond its
+/// bound, [`OperatorError::NotPositiveDefinite`] for a Q_c that is not symmetric positive
+/// semi-definite.
 ///
 /// # Example
 /// A constant-velocity model with white acceleration noise of density q: Van Loan gives the closed
@@ -113,7 +119,8 @@ pub fn van_loan<const N: usize, const L: usize>(
     let transition = exponential.fixed_view::<N, N>(N, N).transpose();
     let noise = symmetric_part(&(transition * exponential.fixed_view::<N, N>(0, N)));
     all_finite(
-        "the discretised model exp(A dt) and Q (exp(A dt) overflows)",
+        "the discretised model Phi and Q (the exponential of Van Loan's generator, which holds \
+         exp(A dt) and exp(-A dt), overflows: take shorter steps)",
         transition.iter().chain(noise.iter()),
     )?;
     Ok(Discretized { transition, noise })
@@ -261,11 +268,13 @@ pub fn per_axis<const B: usize, const T: usize>(block: &SMatrix<f64, B, B>) -> S
 
 /// `Ad(x) P Ad(x)ᵀ`: a covariance of body-frame errors (`x exp(δ)`, the crate's convention) as one
 /// of world-frame errors (`exp(δ) x`, [`Left`]) at the same point. Exact (the map of the errors is
-/// linear); any x and P whose product is representable.
+/// linear); any x and any symmetric positive semi-definite P (a process noise may be singular)
+/// whose product is representable.
 ///
 /// # Errors
 /// [`OperatorError::NonFinite`] for a non-finite entry of P or a result that overflows (a pose
-/// whose translation is near overflow makes Ad(x) huge).
+/// whose translation is near overflow makes Ad(x) huge); [`OperatorError::NotPositiveDefinite`]
+/// for a P that is not symmetric positive semi-definite (to 1e-12 of its largest entry).
 pub fn world_from_body<G, const D: usize>(
     x: &G,
     body: &SMatrix<f64, D, D>,
@@ -273,7 +282,10 @@ pub fn world_from_body<G, const D: usize>(
 where
     G: LieGroup<D, Scalar = f64>,
 {
-    all_finite("covariance P", body.iter())?;
+    check_semi_definite(
+        body,
+        "covariance P to transport (give a symmetric positive semi-definite matrix)",
+    )?;
     let ad = x.adjoint();
     let moved = symmetric_part(&(ad * body * ad.transpose()));
     all_finite(

@@ -355,3 +355,58 @@ fn nees_refuses_an_asymmetric_covariance() {
     let p = Matrix2::new(2.0, 0.5, 0.5 + 1e-16, 1.0);
     assert!(nees(&e, &p).is_ok());
 }
+
+/// Only a covariance is transported: an asymmetric P (upper triangle 1e300, lower −1e300) was
+/// returned as its symmetric part and a negative definite P as a "covariance", both as `Ok`. Each
+/// is refused by both directions of the transport, while a positive semi-definite P of rank one
+/// (a process noise on one body axis) is transported.
+#[test]
+fn only_symmetric_positive_semi_definite_matrices_are_transported() {
+    let x = Se3::exp(&Vector6::new(0.3, -0.2, 0.5, 1.0, -2.0, 0.5));
+    let mut asymmetric = Matrix6::identity();
+    asymmetric[(0, 1)] = 1e300;
+    asymmetric[(1, 0)] = -1e300;
+    let negative = -Matrix6::identity();
+    // Every 2 × 2 minor non-negative, yet indefinite: the determinant of the leading 3 × 3 block
+    // is 1 − 3 (0.9²) − 2 (0.9³) < 0.
+    let mut indefinite = Matrix6::identity();
+    for (i, j, v) in [(0, 1, 0.9), (0, 2, 0.9), (1, 2, -0.9)] {
+        indefinite[(i, j)] = v;
+        indefinite[(j, i)] = v;
+    }
+    for p in [asymmetric, negative, indefinite] {
+        for moved in [world_from_body(&x, &p), body_from_world(&x, &p)] {
+            assert!(
+                matches!(moved, Err(OperatorError::NotPositiveDefinite { .. })),
+                "{moved:?}"
+            );
+        }
+    }
+    let mut one_axis = Matrix6::zeros();
+    one_axis[(3, 3)] = 0.25;
+    let ad = x.adjoint();
+    let moved = world_from_body(&x, &one_axis).unwrap();
+    assert!((moved - ad * one_axis * ad.transpose()).amax() < 1e-12 * moved.amax());
+}
+
+/// Van Loan's generator holds `exp(−A dt)` beside `exp(A dt)`: a stable drift over a long step
+/// (A = −I, dt = 1e9, where Φ = e^{−1e9} I is 0) overflows in that block, and was refused as
+/// "exp(A dt) overflows", which it does not. The error names the generator's exponential and both
+/// blocks, and says what to do.
+#[test]
+fn an_overflowing_van_loan_exponential_is_named() {
+    let gain = Vector2::new(1.0, 0.0);
+    let decay = van_loan(&(-Matrix2::identity()), &gain, &Matrix1::new(1.0), 1e9);
+    let growth = van_loan(&Matrix2::identity(), &gain, &Matrix1::new(1.0), 1e3);
+    for result in [decay, growth] {
+        let error = result.unwrap_err();
+        let message = error.to_string();
+        assert!(
+            matches!(error, OperatorError::NonFinite { .. })
+                && message.contains("Van Loan's generator")
+                && message.contains("exp(-A dt)")
+                && message.contains("take shorter steps"),
+            "{message}"
+        );
+    }
+}
