@@ -69,7 +69,7 @@ proptest! {
         ];
         let theta = Vector3::new(x, y, z);
         for anchor in &anchors {
-            let d = anchor.local_offset(&theta);
+            let d = anchor.local_offset(&theta).unwrap();
             prop_assume!(d.norm() > 0.5 && d.x.hypot(d.y) > 0.05 * d.norm());
         }
         let at = |v: Vector3<f64>| Position::new_unchecked(v);
@@ -436,6 +436,35 @@ fn directions_are_unit_at_every_distance() {
         );
     }
     assert!(anchor.direction(&at).is_none());
+}
+
+/// `R (θ − s)` of a finite θ overflowed: at (MAX, MAX, 0), seen by an anchor turned 45° about z,
+/// it was (−2e292, ∞, 0), returned as a vector. It is `None` wherever it is not finite, as
+/// [`Anchor::direction`] is, and `R (θ − s)` elsewhere, up to the largest finite offsets.
+#[test]
+fn an_offset_that_overflows_is_none_like_its_direction() {
+    let turn =
+        So3::from_rotation_vector(&Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_4)).unwrap();
+    let anchor = Anchor::new(Vector3::new(1.0, -2.0, 0.5), turn).unwrap();
+    for theta in [
+        Vector3::new(f64::MAX, f64::MAX, 0.0),
+        Vector3::new(-f64::MAX, f64::MAX, 0.0),
+        Vector3::new(f64::NAN, 0.0, 0.0),
+        Vector3::new(0.0, f64::INFINITY, 0.0),
+    ] {
+        assert_eq!(anchor.local_offset(&theta), None, "{theta:?}");
+        assert_eq!(anchor.direction(&theta), None, "{theta:?}");
+    }
+    let r = turn.to_matrix();
+    for theta in [
+        Vector3::new(3.0, 4.0, -5.0),
+        Vector3::new(1e300, -1e300, 0.0),
+        Vector3::new(f64::MAX, 0.0, 0.0),
+        *anchor.position(),
+    ] {
+        let offset = anchor.local_offset(&theta).expect("a finite offset");
+        assert_eq!(offset, r * (theta - anchor.position()), "{theta:?}");
+    }
 }
 
 /// `Prior::new` took σ₀ in (0, 1e6], but below 1.7e-50 the Kalman filters' prior

@@ -10,7 +10,7 @@ use liebayes_filters::attitude::{
     AttitudeEkf, AttitudeEstimate, AttitudeParams, AttitudeScorer, AttitudeState, BROAD_BETA,
     Block, BlockProcess, FieldOffset, Heading, ImuLog, ImuSample, LogRecording, LogScenario,
     LogScore, MEASURED_FIELD_OFFSET, Method, Propagation, STATE_DIM, Sensors, SimulationSettings,
-    TrialErrors, run_log, simulate,
+    TrialErrors, UNIFORM_ROTATION_VARIANCE, run_log, simulate,
 };
 use liebayes_manifolds::{Left, Manifold, Rn, So3};
 use liebayes_operators::evaluation::chi_square_quantile;
@@ -605,6 +605,51 @@ fn a_huge_gyroscope_reading_is_refused_bit_for_bit() {
     let err = f.predict(&huge).unwrap_err();
     assert!(err.to_string().contains("gyroscope"), "{err}");
     assert_eq!(bits(&f.estimate().unwrap()), before);
+}
+
+/// The noisiest gyroscope accepted (σ_g = 1e4 rad/√s) at the slowest rate (one sample in
+/// 1000 s) put 1e11 rad² of attitude noise in each block: the tilt, turned into velocity and
+/// position by `g T` and `g T²/2`, left their own noise below the rounding of their variances,
+/// and every block after the second failed. A block adds at most the attitude variance of a
+/// uniform rotation, and every step runs, in 9D and 6D and with either propagation, to an
+/// estimate with a positive definite covariance whose tilt is within a few times that variance.
+#[test]
+fn the_noisiest_gyroscope_runs_at_the_slowest_rate() {
+    let params = AttitudeParams {
+        gyro_noise: 1e4,
+        ..AttitudeParams::default()
+    };
+    let still = ImuSample {
+        gyro: Vector3::zeros(),
+        acc: Vector3::new(0.0, 0.0, 9.81),
+    };
+    let turning = ImuSample {
+        gyro: Vector3::new(1e-3, -2e-3, 3e-3),
+        ..still
+    };
+    for propagation in [Propagation::Ekf, Propagation::Ukf] {
+        for sensors in [Sensors::NineD, Sensors::SixD] {
+            let params = AttitudeParams {
+                propagation,
+                ..params.clone()
+            };
+            let mut f = AttitudeEkf::new(params, sensors, 1e-3).unwrap();
+            for k in 0..20 {
+                let what = format!("{propagation:?} {sensors:?} sample {k}");
+                let sample = if k % 2 == 0 { still } else { turning };
+                f.predict(&sample).unwrap_or_else(|e| panic!("{what}: {e}"));
+                f.update(&Vector3::new(0.0, 20.0, -40.0))
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+                let covariance = f.estimate().unwrap().covariance.unwrap();
+                assert!(covariance.cholesky().is_some(), "{what}: {covariance}");
+                let own = f.density().unwrap().covariance();
+                assert!(
+                    own[(0, 0)].max(own[(1, 1)]) < 4.0 * UNIFORM_ROTATION_VARIANCE,
+                    "{what}: {own}"
+                );
+            }
+        }
+    }
 }
 
 /// The twelve BROAD trials (when `$LIEBAYES_BROAD_DIR` names them), one parameter set, causal:

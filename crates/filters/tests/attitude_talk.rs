@@ -510,12 +510,94 @@ fn settings_that_no_step_could_take_are_refused() {
             .contains("initial_rate_sigma at this rate"),
         "{error}"
     );
-    // Large but representable: accepted.
+    // Large, with a diffusion per step that a Bingham holds (about 0.03 rad²): accepted.
     let large = TalkParams {
-        gyro_noise: 1e40,
+        gyro_noise: 1e3,
         ..TalkParams::default()
     };
     assert!(TalkFilter::new(&large, Sensors::SixD, 100.0).is_ok());
+}
+
+/// At 0.1 Hz the defaults' first step diffuses by about 100 rad² (the initial rate variance over
+/// 10 s): its `predict` returned `Ok` with a Bingham that had no mode, and every later step and
+/// estimate failed. Settings whose first step leaves no mode are refused when the filter is made,
+/// naming the settings and the rate (at the slowest rate of the range too); at the slowest rate
+/// the defaults accept, every step runs to an estimate, in 9D and 6D.
+#[test]
+fn a_rate_too_slow_for_the_settings_is_refused_when_made() {
+    let defaults = TalkParams::default();
+    for rate in [0.1, 1e-3] {
+        for sensors in [Sensors::NineD, Sensors::SixD] {
+            let error = TalkFilter::new(&defaults, sensors, rate).unwrap_err();
+            let message = error.to_string();
+            assert!(
+                matches!(error, FilterError::Setting { .. })
+                    && message.contains("initial_rate_sigma at this rate")
+                    && message.contains(&format!("{rate} Hz")),
+                "{message}"
+            );
+        }
+    }
+    // The noises a step adds little to, and a precise accelerometer (a smaller bound).
+    let tight = TalkParams {
+        acc_noise: 1e-5,
+        initial_sigma: std::f64::consts::PI,
+        ..defaults
+    };
+    let mut precise = TalkFilter::new(&tight, Sensors::SixD, 100.0).unwrap();
+    assert!(TalkFilter::new(&tight, Sensors::SixD, 1.0).is_err());
+    let level = sample(
+        Vector3::new(0.01, -0.02, 0.03),
+        Vector3::new(0.3, -0.2, 9.8),
+    );
+    for k in 0..20 {
+        precise
+            .predict(&level)
+            .unwrap_or_else(|e| panic!("sample {k}: {e}"));
+        precise.estimate().unwrap();
+    }
+    let mag = field() * 48.0;
+    for sensors in [Sensors::NineD, Sensors::SixD] {
+        let mut filter = TalkFilter::new(&defaults, sensors, 0.21).unwrap();
+        for k in 0..20 {
+            filter
+                .predict(&level)
+                .unwrap_or_else(|e| panic!("{sensors:?} sample {k}: {e}"));
+            filter.estimate().unwrap();
+            filter.update(&mag).unwrap();
+            filter.estimate().unwrap();
+        }
+    }
+}
+
+/// A step whose Bingham has no mode is refused, the filter unchanged: in 6D nothing observes the
+/// heading, so a filter whose rate stays uncertain (σ_U = 10 rad/s against a walk of
+/// 0.5 rad/s², several rad² of heading per sample at 1 Hz) diffuses it until a step would leave
+/// no mode. Such a step returned `Ok` and stored the Bingham, and every later step and estimate
+/// failed; every step that returns `Ok` now leaves an estimate, and the one refused leaves the
+/// filter as it was.
+#[test]
+fn a_step_that_would_leave_no_mode_is_refused_and_changes_nothing() {
+    let params = TalkParams {
+        gyro_noise: 10.0,
+        rate_walk: 0.5,
+        ..TalkParams::default()
+    };
+    let mut filter = TalkFilter::new(&params, Sensors::SixD, 1.0).unwrap();
+    let still = sample(Vector3::zeros(), Vector3::new(0.0, 0.0, 9.81));
+    let refused = (0..100).find_map(|k| {
+        let before = filter.clone();
+        match filter.predict(&still) {
+            Ok(()) => {
+                let estimate = filter.estimate();
+                assert!(estimate.is_ok(), "sample {k}: {estimate:?}");
+                None
+            }
+            Err(_) => Some(before),
+        }
+    });
+    assert_eq!(refused, Some(filter.clone()));
+    assert!(filter.estimate().is_ok());
 }
 
 /// Settings that every step would refuse are refused when the filter is made (audit F4), naming

@@ -70,9 +70,12 @@ impl Anchor {
         &self.matrix
     }
 
-    /// `R (θ − s)`: the vector from the anchor to θ in the anchor's axes.
-    pub fn local_offset(&self, theta: &Vector3<f64>) -> Vector3<f64> {
-        self.matrix * (theta - self.position)
+    /// `R (θ − s)`: the vector from the anchor to θ in the anchor's axes; `None` where it is not
+    /// finite (a non-finite θ, or an offset beyond f64's range, as for
+    /// [`direction`](Self::direction)).
+    pub fn local_offset(&self, theta: &Vector3<f64>) -> Option<Vector3<f64>> {
+        let offset = self.matrix * (theta - self.position);
+        offset.iter().all(|v| v.is_finite()).then_some(offset)
     }
 
     /// `R d` with `d = (θ − s)/|θ − s|`: the unit direction of θ in the anchor's axes, with the

@@ -200,11 +200,14 @@ impl<const N: usize> AzElModel<N> {
     /// The predicted reading of anchor j at θ: the angles of `R (θ − s)` (of the anchor's unit
     /// direction where that offset overflows); `None` at the anchor (or for a non-finite θ).
     fn predicted(anchor: &Anchor, theta: &Vector3<f64>) -> Option<AzEl> {
-        AzEl::of_vector(&anchor.local_offset(theta)).or_else(|| {
-            anchor
-                .direction(theta)
-                .and_then(|(d, _)| AzEl::of_vector(&d))
-        })
+        anchor
+            .local_offset(theta)
+            .and_then(|p| AzEl::of_vector(&p))
+            .or_else(|| {
+                anchor
+                    .direction(theta)
+                    .and_then(|(d, _)| AzEl::of_vector(&d))
+            })
     }
 }
 
@@ -280,7 +283,9 @@ impl<const N: usize, const M: usize> MeasurementModel<Position, 3, M> for AzElMo
     fn jacobian(&self, x: &Position) -> SMatrix<f64, M, 3> {
         let mut h = SMatrix::<f64, M, 3>::from_element(f64::NAN);
         for (j, anchor) in self.anchors.iter().enumerate() {
-            let p = anchor.local_offset(x.coords());
+            let Some(p) = anchor.local_offset(x.coords()) else {
+                continue;
+            };
             let rho2 = p.x * p.x + p.y * p.y;
             let (rho, r2) = (rho2.sqrt(), rho2 + p.z * p.z);
             if r2.is_nan() || r2 <= 0.0 {

@@ -41,7 +41,8 @@ pub use data::{
 pub use ekf::{
     ATTITUDE, AttitudeEkf, AttitudeParams, AttitudeState, BIAS, Block, BlockProcess,
     DisturbanceParams, FieldOffset, Heading, MAX_OFFLINE_SAMPLES, MEASURED_FIELD_OFFSET,
-    MagnetometerParams, OFFSET, POSITION, Propagation, RestParams, STATE_DIM, Sensors, VELOCITY,
+    MagnetometerParams, OFFSET, POSITION, Propagation, RestParams, STATE_DIM, Sensors,
+    UNIFORM_ROTATION_VARIANCE, VELOCITY,
 };
 pub use estimate::{AttitudeEstimate, AttitudeScorer, ImuSample};
 pub use evaluation::{

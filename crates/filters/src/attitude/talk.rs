@@ -13,7 +13,7 @@ use super::ekf::Sensors;
 use super::estimate::{AttitudeEstimate, ImuSample};
 use super::madgwick::{broad_initial_state, enu_from_nwu};
 use crate::error::{FilterError, positive_setting};
-use liebayes_densities::{Bingham, MAX_SCALE};
+use liebayes_densities::Bingham;
 use liebayes_experiments::{RecursiveFilter, Update};
 use liebayes_manifolds::Su2;
 use liebayes_operators::OperatorError;
@@ -33,10 +33,41 @@ const MIN_DIRECTION_NOISE: f64 = 1e-5;
 /// `e^{−σ₀²}` rounds away altogether (the first step failed at σ₀ = 7). π (a σ of half a turn,
 /// already close to uniform over rotations) keeps a margin. A direction noise near its own bound
 /// ([`MIN_DIRECTION_NOISE`]) with a large σ₀ can still leave no mode: the rounding is relative to
-/// the combined spread.
+/// the combined spread, and [`TalkFilter::new`] refuses such a pair with the rate (see
+/// [`TalkParams`]).
 const INITIAL_SIGMA_RANGE: (f64, f64) = (1.5e-6, std::f64::consts::PI);
 
 /// The noise settings of [`TalkFilter`] (the talk's symbols).
+///
+/// Each setting has its own range ([`validate`](Self::validate)); at a sampling rate f
+/// (Δt = 1/f) [`TalkFilter::new`] also refuses settings whose first step leaves a Bingham
+/// without a mode, so that no step could run: it needs
+///
+/// `σ₀² + V ≤ min(ln(3 σ_V² / (40 ε)), ln 10¹⁰)` rad² (ln 10¹⁰ ≈ 23.0),
+///
+/// with `V = Δt² w r / (w + r)` the largest rotation variance a step adds, `w = σ_U² + σ_A² Δt²`,
+/// `r = max(σ_Ω,0², s*)` and `s* = 2 σ_U² / (1 + √(1 + 4 σ_U² / (σ_A² Δt²)))` (0 for σ_A = 0).
+/// A step diffuses by its smoothed rate variance `w σ_Ω² / (w + σ_Ω²)` times Δt², which grows
+/// with the rate variance σ_Ω²; that moves monotonically from σ_Ω,0² to the fixed point s* of
+/// its update `σ_Ω² ← σ_U² (σ_A² Δt² + σ_Ω²) / (w + σ_Ω²)`, so r is the largest it takes. The
+/// first step's diffusion `(σ₀² + V) I` is isotropic, of variance s say: the gap of its
+/// Bingham's two largest eigenvalues is about `12 e^{−s}` (its quaternion moments about the mean
+/// differ by `e^{−s}`, which near the uniform density's moments of 1/4 is 1/12 of the eigenvalue
+/// gap), the accelerometer's reading adds an eigenvalue spread `2/σ_V²` that leaves the
+/// heading's gap as it is, and a mode needs the gap above `8 ε` times the spread (the rounding of
+/// the eigenvalues): the bound keeps a margin of 10 on that, `12 e^{−s} ≥ 160 ε / σ_V²`. Each step
+/// also fits a Bingham to moments ([`Bingham::from_second_moment`]) to a relative residual of
+/// 1e-11, below which the gap `e^{−s}` is lost to the fit (the heading's matched variance then
+/// wanders from step to step until the mode goes): the bound keeps `e^{−s} ≥ 1e-10`, ten times
+/// that. Measured, the largest s whose filter ran 300 still samples without a refused step, in
+/// 6D: 12, 21, 30 and 24 rad² at σ_V = 1e-5, 1e-3, 0.2 and 1e150 (where the bound is 10.4, 19.6,
+/// 23.0 and 23.0); at 29.9 rad² (σ_V = 0.2) a 6D filter was stuck after 50 to 150 samples. The
+/// defaults run down to 0.209 Hz (`V ≈ Δt²` rad², the initial rate variance 1 rad²/s² over the
+/// interval).
+///
+/// Later steps in 6D keep diffusing the heading, which nothing observes (the first leaves it at
+/// about `2s` rad², the moment match of a heading near uniform); a step that would leave no mode
+/// is refused, the filter unchanged.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TalkParams {
     /// σ_U (rad/s): gyroscope noise per sample, `G_k = Ω_k + U_k`. Finite, > 0.
@@ -152,31 +183,40 @@ struct TalkState {
     dip: (f64, f64),
     /// The first sample, until a magnetometer reading or the next sample comes.
     first: Option<ImuSample>,
+    /// The Bingham's moment-matched diffusion `(q̄, Σ)`, found when the state is kept
+    /// ([`TalkFilter::commit`]) and used by the next step and the estimate; `None` while a step
+    /// changes the Bingham.
+    diffusion: Option<(Su2<f64>, Matrix3<f64>)>,
 }
 
 impl TalkFilter {
     /// A filter at `rate` Hz using `sensors`, initialised by its first sample.
     ///
     /// # Errors
-    /// [`FilterError::Setting`] for parameters out of range (as [`TalkParams::validate`]) or a
-    /// rate that is not finite and positive.
+    /// [`FilterError::Setting`] for parameters out of range (as [`TalkParams::validate`]), a rate
+    /// outside [`RATE_RANGE`](super::RATE_RANGE), or settings whose first step at this rate
+    /// leaves a Bingham without a mode (the bound in [`TalkParams`]), naming the settings and the
+    /// rate.
     pub fn new(params: &TalkParams, sensors: Sensors, rate: f64) -> Result<Self, FilterError> {
         params.validate()?;
         check_rate("TalkFilter::new", rate)?;
-        // The largest rotation variance a step adds, (σ_U² + σ_A² Δt² + σ_Ω,0²) Δt² (the rate's
-        // variance only shrinks from σ_Ω,0² towards σ_U²): beyond the densities' scale, every
-        // step's diffusion would be refused.
         let dt = 1.0 / rate;
-        let step_variance = (params.gyro_noise * dt).powi(2)
-            + (params.rate_walk * dt * dt).powi(2)
-            + (params.initial_rate_sigma * dt).powi(2);
-        if step_variance > MAX_SCALE {
+        let first = params.initial_sigma * params.initial_sigma + largest_step_variance(params, dt);
+        let limit = (3.0 * params.acc_noise * params.acc_noise / (40.0 * f64::EPSILON))
+            .ln()
+            .min(1e10f64.ln());
+        if first > limit {
             return Err(FilterError::Setting {
                 origin: "TalkFilter::new",
-                setting: "gyro_noise, rate_walk and initial_rate_sigma at this rate",
-                value: format!("a rotation variance of {step_variance:e} rad^2 per step"),
-                expected: "(gyro_noise^2 + rate_walk^2 dt^2 + initial_rate_sigma^2) dt^2 of at \
-                           most 1e100 rad^2",
+                setting: "gyro_noise, rate_walk and initial_rate_sigma at this rate (with \
+                          initial_sigma and acc_noise)",
+                value: format!(
+                    "a first diffusion of {first:e} rad^2 at {rate} Hz, beyond the {limit:.1} \
+                     rad^2 whose Bingham keeps a mode"
+                ),
+                expected: "initial_sigma^2 plus the largest rotation variance a step adds of at \
+                           most min(ln(3 acc_noise^2 / (40 eps)), ln 1e10) rad^2 (see TalkParams): \
+                           a higher rate or smaller noises",
             });
         }
         Ok(Self {
@@ -225,7 +265,17 @@ impl TalkFilter {
             acc: *acc,
             dip: (0.0, 0.0),
             first: None,
+            diffusion: None,
         })
+    }
+
+    /// Keeps `state` if the next step and the estimate can use it: its Bingham has a mode and
+    /// the moments of a diffusion ([`Bingham::to_diffusion_moment_matched`] succeeds); else
+    /// that error, the filter unchanged.
+    fn commit(&mut self, mut state: TalkState) -> Result<(), OperatorError> {
+        state.diffusion = Some(state.bingham.to_diffusion_moment_matched()?);
+        self.state = Some(state);
+        Ok(())
     }
 
     /// Steps 1 and 2 with a sample, on `state`.
@@ -242,18 +292,23 @@ impl TalkFilter {
             state.rate_variance,
         );
         let g = &sample.gyro;
+        // Each formula weighs by a ratio in [0, 1], so that nothing overflows beside a walk of
+        // up to 1e306 rad²/s².
         let denominator = su + walk + so;
-        let smoothed = (state.rate * (su + walk) + g * so) / denominator;
-        let smoothed_variance = (su + walk) * so / denominator;
-        let (mean, covariance) = state.bingham.to_diffusion_moment_matched()?;
+        let smoothed = state.rate + (g - state.rate) * (so / denominator);
+        let smoothed_variance = (su + walk) * (so / denominator);
+        let (mean, covariance) = match state.diffusion.take() {
+            Some(diffusion) => diffusion,
+            None => state.bingham.to_diffusion_moment_matched()?,
+        };
         let turn = super::rotation(&(smoothed * dt));
         let e = turn.to_rotation_matrix().into_inner();
         let covariance =
             e.transpose() * covariance * e + Matrix3::identity() * (smoothed_variance * dt * dt);
         let turned = Su2::from_unit_quaternion(*mean.as_unit_quaternion() * turn);
         state.bingham = Bingham::from_diffusion_moment_matched(&turned, &covariance)?;
-        state.rate = (state.rate * su + g * (walk + so)) / denominator;
-        state.rate_variance = su * (walk + so) / denominator;
+        state.rate = g + (state.rate - g) * (su / denominator);
+        state.rate_variance = su * ((walk + so) / denominator);
         state.acc = sample.acc;
         if let Some(a) = scaled_unit(&sample.acc) {
             let m = Bingham::from_direction(&a, &Vector3::z(), p.acc_noise)?.natural();
@@ -276,8 +331,21 @@ impl TalkFilter {
         };
         let matrix = Bingham::from_direction(&m, &reference, self.params.mag_noise)?.natural();
         state.bingham = add_natural(&state.bingham, &matrix)?;
+        state.diffusion = None;
         Ok(())
     }
+}
+
+/// `V = Δt² w r / (w + r)`, the largest rotation variance a step of the filter at the interval
+/// `dt` adds (the derivation is in [`TalkParams`]): `w = σ_U² + σ_A² Δt²`, `r = max(σ_Ω,0², s*)`,
+/// `s* = 2 σ_U² / (1 + √(1 + 4 σ_U² / (σ_A² Δt²)))`, in forms that neither overflow nor divide
+/// 0 by 0 for validated settings (σ_A = 0 makes `4 σ_U² / 0 = ∞` and s* = 0).
+fn largest_step_variance(params: &TalkParams, dt: f64) -> f64 {
+    let su = params.gyro_noise * params.gyro_noise;
+    let walk = params.rate_walk * params.rate_walk * dt * dt;
+    let fixed_point = 2.0 * su / (1.0 + (1.0 + 4.0 * su / walk).sqrt());
+    let r = (params.initial_rate_sigma * params.initial_rate_sigma).max(fixed_point);
+    dt * dt / (1.0 / (su + walk) + 1.0 / r)
 }
 
 /// The Bingham with natural parameter `M + extra` (symmetrised).
@@ -291,7 +359,9 @@ fn add_natural(bingham: &Bingham, extra: &Matrix4<f64>) -> Result<Bingham, Opera
 /// The talk's filter on the experiment layer (see [`TalkFilter`]): `predict` is steps 1 and 2,
 /// `update` step 3 (ignored in 6D). An update reports its log evidence as 0 (the filter does not
 /// compute it) and no NIS. A step the Bingham family cannot hold (an eigenvalue spread beyond its
-/// range: raise the noise settings) is an [`OperatorError::Density`], and the filter is unchanged.
+/// range: raise the noise settings), or whose Bingham no next step or estimate could use (no
+/// mode, or moments of no diffusion: [`Bingham::to_diffusion_moment_matched`]), is an
+/// [`OperatorError::Density`], and the filter is unchanged.
 impl RecursiveFilter for TalkFilter {
     type Input = ImuSample;
     type Measurement = Vector3<f64>;
@@ -311,8 +381,7 @@ impl RecursiveFilter for TalkFilter {
             }
         };
         self.gyro_and_gravity(&mut state, input)?;
-        self.state = Some(state);
-        Ok(())
+        self.commit(state)
     }
 
     fn update(&mut self, z: &Vector3<f64>) -> Result<Update, OperatorError> {
@@ -335,7 +404,7 @@ impl RecursiveFilter for TalkFilter {
             };
             let mut state = state;
             self.field(&mut state, z)?;
-            self.state = Some(state);
+            self.commit(state)?;
         }
         Ok(Update {
             log_evidence: 0.0,
@@ -350,7 +419,10 @@ impl RecursiveFilter for TalkFilter {
             what: "talk filter",
             needs: "a first sample (predict) to initialise its mean",
         })?;
-        let (mean, body) = s.bingham.to_diffusion_moment_matched()?;
+        let (mean, body) = match s.diffusion {
+            Some(diffusion) => diffusion,
+            None => s.bingham.to_diffusion_moment_matched()?,
+        };
         let q = *mean.as_unit_quaternion();
         let r = q.to_rotation_matrix().into_inner();
         Ok(AttitudeEstimate {

@@ -260,7 +260,12 @@ impl ImuNoise {
 /// `Σ = diag(σ_g² I, σ_a² I)/dt` (the white noise densities over one sample) and
 /// `G = ∂[f(x, ũ + n) ⊟ f(x, ũ)]/∂n` by central differences: the readings' noise as the state's
 /// convention sees it (in the body frame for the error-state EKF's attitude, rotated into the
-/// world for a right-invariant error).
+/// world for a right-invariant error). The accelerometer moves only v′ and p′, and linearly
+/// (`δv′ = R δf dt`, `δp′ = R δf dt²/2`, a change of every convention's error that is linear
+/// too), so its columns are exact at any step: the step is `1e-6 max(1, |v|/dt, 2|p|/dt²)` m/s²
+/// (|·| the largest component), whose change of v′ and p′ stands 1e6 times above their rounding
+/// at any distance from the origin (a fixed 1e-6 m/s² moved p′ by 5e-13 m in a step of 1 ms,
+/// below the rounding of a position 10 km out, and Q's position block came out 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Strapdown {
     noise: ImuNoise,
@@ -282,7 +287,8 @@ impl Strapdown {
     }
 }
 
-/// The central-difference step of the readings' noise Jacobian G (rad/s and m/s²).
+/// The central-difference step of the readings' noise Jacobian G: the gyroscope's (rad/s), and
+/// the accelerometer's (m/s²) near the origin ([`Strapdown`]).
 const READING_STEP: f64 = 1e-6;
 
 impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
@@ -319,9 +325,15 @@ impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
                 input.dt,
             )))
         };
+        let dt = input.dt;
+        let force_step = READING_STEP
+            * 1f64
+                .max(navigation.velocity.amax() / dt)
+                .max(2.0 * navigation.position.amax() / (dt * dt));
         let g =
             SMatrix::<f64, NAVIGATION_DIM, 6>::from_columns(&std::array::from_fn::<_, 6, _>(|j| {
-                (moved(j, READING_STEP) - moved(j, -READING_STEP)) / (2.0 * READING_STEP)
+                let step = if j < 3 { READING_STEP } else { force_step };
+                (moved(j, step) - moved(j, -step)) / (2.0 * step)
             }));
         let reading_variance = SVector::<f64, 6>::from_fn(|i, _| {
             let density = if i < 3 {

@@ -51,7 +51,7 @@ use liebayes_operators::{Condition, Ekf, MeasurementModel, OperatorError, Ukf};
 use magnetometer::{FieldReference, Magnetometer, Verdict};
 pub use model::{
     ATTITUDE, AttitudeState, BIAS, Block, BlockProcess, Heading, OFFSET, POSITION, STATE_DIM,
-    VELOCITY,
+    UNIFORM_ROTATION_VARIANCE, VELOCITY,
 };
 use model::{RestBias, ZeroMotion, attitude_block, in_rest};
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector2, Vector3};

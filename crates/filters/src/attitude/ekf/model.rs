@@ -98,9 +98,11 @@ impl Block {
 
 /// The block's process model on [`AttitudeState`]:
 /// `R′ = exp(−[R B (b − b̂)]ₓ) R ΔR`, `b′ = b`, `v′ = v + (R Δv)_xy`, `c′ = a c` with
-/// `a = exp(−T/τ_c)`, `p′ = p + v T + (R Δp)_xy`; noise `(σ_g² + s² |ω̄|²) T I₃` on the attitude,
-/// `σ_b² T I₃` on the bias, `σ_c² (1 − a²)` on the offset and the velocity's random walk with the
-/// position it integrates to, `σ_v² [T, T²/2; T²/2, T³/3]` per axis (|ω̄| the block's mean rate);
+/// `a = exp(−T/τ_c)`, `p′ = p + v T + (R Δp)_xy`; noise `min((σ_g² + s² |ω̄|²) T, U) I₃` on the
+/// attitude ([`UNIFORM_ROTATION_VARIANCE`] U: beyond it a block leaves the attitude uniformly
+/// unknown), `σ_b² T I₃` on the bias, `σ_c² (1 − a²)` on the offset and the velocity's random
+/// walk with the position it integrates to, `σ_v² [T, T²/2; T²/2, T³/3]` per axis (|ω̄| the
+/// block's mean rate);
 /// Jacobian (world-frame error) `∂δθ′/∂δb = −R B`, `∂δv′/∂δθ = −[R Δv]ₓ` and
 /// `∂δp′/∂δθ = −[R Δp]ₓ` restricted to the two tilt columns (the accelerometer never turns the
 /// heading: its horizontal part is velocity, not direction, information), `∂δp′/∂δv = T I`,
@@ -118,6 +120,17 @@ pub struct BlockProcess {
     /// The field offset's process; `None` keeps it constant without noise.
     pub offset: Option<FieldOffset>,
 }
+
+/// U = π²/9 + 2/3 ≈ 1.763 rad², the variance per axis of the rotation vector of a uniformly
+/// distributed rotation (its angle θ has the density `(1 − cos θ)/π` on [0, π], so
+/// `E[θ²] = π²/3 + 2`, shared by three axes): the most attitude noise a block of
+/// [`BlockProcess`] adds. A block's `(σ_g² + s² |ω̄|²) T` beyond it says nothing more of an angle
+/// that wraps, and made the predicted covariance singular to rounding: at σ_g = 1e4 rad/√s and
+/// one sample in 1000 s (T = 1000 s), 1e11 rad² of tilt turned into velocity and position by
+/// `g T` and `g T²/2` left their own noise below the rounding of their variances (1e19 and
+/// 2e24 m²/s² and m²), and every block after the second failed.
+pub const UNIFORM_ROTATION_VARIANCE: f64 =
+    std::f64::consts::PI * std::f64::consts::PI / 9.0 + 2.0 / 3.0;
 
 impl BlockProcess {
     /// The offset's factor `a = exp(−T/τ_c)` over `t` seconds (1 without an offset process).
@@ -156,8 +169,9 @@ impl ProcessModel<AttitudeState, STATE_DIM> for BlockProcess {
         let t = u.duration;
         // (rate_noise |ω̄|)² T with |ω̄| = angle(ΔR)/T.
         let turned = self.rate_noise * u.rotation.angle();
-        let attitude =
-            self.gyro_noise * self.gyro_noise * t + turned * turned / t.max(f64::MIN_POSITIVE);
+        let attitude = (self.gyro_noise * self.gyro_noise * t
+            + turned * turned / t.max(f64::MIN_POSITIVE))
+        .min(UNIFORM_ROTATION_VARIANCE);
         let mut q = SMatrix::<f64, STATE_DIM, STATE_DIM>::zeros();
         for i in ATTITUDE {
             q[(i, i)] = attitude;
