@@ -23,7 +23,8 @@ use crate::{ExactSum, ExperimentError};
 /// squares non-negative, the large squares' sum zero unless an extreme lies beyond 2⁵¹¹, the
 /// sums of no values zero, and the sums bounded by the extremes as every stream's are: the mean
 /// within [min, max] and the root mean square at most the largest magnitude, both up to a relative
-/// rounding of 4ε. (A file without the large squares' sum, from an earlier version, reads
+/// rounding of 4ε (and the root mean square up to the rounding of squares below f64's normal
+/// range, of values under 2⁻⁵¹¹: `√(largest² + 2⁻¹⁰⁷⁴)`). (A file without the large squares' sum, from an earlier version, reads
 /// it as zero.)
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "RunningStatsFields")]
@@ -53,6 +54,10 @@ const UNSCALE: f64 = 1.340_780_792_994_259_7e154;
 /// The relative rounding allowed when a file's mean and root mean square are checked against its
 /// extremes (each is rounded once or twice from the exact sums).
 const BOUND_SLACK: f64 = 4.0 * f64::EPSILON;
+
+/// 2⁻⁵³⁷, the square root of 2⁻¹⁰⁷⁴: the rounding of a square below f64's normal range, as a root
+/// mean square to add (in quadrature) to the largest magnitude when a file's sums are checked.
+const SUBNORMAL_SQUARE_ROUNDING: f64 = 2.222_758_749_485_077_5e-162;
 
 impl RunningStats {
     /// No values yet.
@@ -318,8 +323,10 @@ impl RunningStats {
                 "statistics: sum gives the mean {mean}, outside [min, max] = [{min}, {max}]"
             ));
         }
+        // A square below f64's normal range (of a value under 2⁻⁵¹¹) is rounded to a multiple of
+        // 2⁻¹⁰⁷⁴, by up to 2⁻¹⁰⁷⁵: the mean square may exceed the largest square by that much.
         let rms = self.unbounded_root_mean_square();
-        if !(rms.is_finite() && rms <= largest + slack) {
+        if !(rms.is_finite() && rms <= (largest + slack).hypot(SUBNORMAL_SQUARE_ROUNDING)) {
             return Err(format!(
                 "statistics: sum_of_squares and sum_of_large_squares give the root mean square \
                  {rms}, above the largest magnitude {largest} of min and max"
