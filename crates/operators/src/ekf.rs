@@ -7,6 +7,10 @@
 //! * **condition**: `ν = z ⊟ h(μ)`, `S = H P Hᵀ + R`, `K = P Hᵀ S⁻¹`, `μ⁺ = μ ⊞ K ν`, and the
 //!   Joseph form `P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ`; log evidence `ln N(ν; 0, S)` (the linearised
 //!   model's, an approximation of `ln p(z)`); the report is the [`Innovation`] (ν, S, K, NIS).
+//!   When R is below the rounding of `H P Hᵀ` and S or P⁺ loses positive definiteness to it, the
+//!   update is made once more with `R + 64 M ε max(max |Sᵢᵢ|, |H|²_F max |Pᵢⱼ|) I` (information
+//!   finer than the arithmetic holds is dropped; the posterior is slightly wider than the exact
+//!   one).
 //!
 //! P⁺ is left in the tangent space at μ rather than transported to μ⁺ (the first-order "reset"
 //! `J(Kν) P⁺ J(Kν)ᵀ`, [`Manifold::j_retract_tangent`], is omitted): on Rⁿ and SO(2) the two coincide;
@@ -18,12 +22,12 @@
 use crate::error::all_finite;
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, checked_gaussian, model_noise};
+use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
-use nalgebra::SVector;
+use nalgebra::{SMatrix, SVector};
 
 /// A model to be used by linearisation: `density.propagate(&Ekf(process), &u)`,
 /// `density.condition(&Ekf(measurement), &z)`, or with a model kept elsewhere,
@@ -115,25 +119,31 @@ where
         let h = model.0.jacobian(mean);
         let r = model_noise("measurement noise R", model.0.noise(mean))?;
         let pht = p * h.transpose();
-        let (report, log_evidence) = Innovation::new(
-            model.0.residual(z, &model.0.predict(mean)),
-            &(h * pht + r),
-            &pht,
-            model.0.dof(),
-        )?;
-        let posterior = checked_gaussian(
-            mean.retract(&report.correction()),
-            &joseph(p, report.gain(), &h, &r),
-            Produced {
-                mean: "the posterior mean mu ⊞ K nu",
-                covariance: "posterior covariance (Joseph form; check the measurement noise R and \
-                             the Jacobian H)",
-            },
-        )?;
-        Ok(Conditioned {
-            posterior,
-            log_evidence,
-            report,
+        let residual = model.0.residual(z, &model.0.predict(mean));
+        let scale = || {
+            (h * pht + r)
+                .diagonal()
+                .amax()
+                .max(h.norm_squared() * p.amax())
+        };
+        above_rounding::<_, M>(scale, |floor| {
+            let r = r + SMatrix::<f64, M, M>::identity() * floor;
+            let (report, log_evidence) =
+                Innovation::new(residual, &(h * pht + r), &pht, model.0.dof())?;
+            let posterior = checked_gaussian(
+                mean.retract(&report.correction()),
+                &joseph(p, report.gain(), &h, &r),
+                Produced {
+                    mean: "the posterior mean mu ⊞ K nu",
+                    covariance: "posterior covariance (Joseph form; check the measurement noise R \
+                                 and the Jacobian H)",
+                },
+            )?;
+            Ok(Conditioned {
+                posterior,
+                log_evidence,
+                report,
+            })
         })
     }
 }

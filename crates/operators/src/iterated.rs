@@ -46,7 +46,7 @@ use crate::error::all_finite;
 use crate::innovation::Innovation;
 use crate::kalman::joseph;
 use crate::models::MeasurementModel;
-use crate::numerics::{Produced, checked_gaussian, model_noise};
+use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise};
 use crate::ukf::Ukf;
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
@@ -304,6 +304,42 @@ where
             z,
             noise,
             noise_factor,
+        })
+    }
+
+    /// [`solve`](Self::solve), made once more with R raised above the rounding of the update when
+    /// rounding loses its positive definiteness ([`above_rounding`], as the EKF's update: the
+    /// scale is that of `H P Hᵀ + R` and of `|H|²_F max |Pᵢⱼ|`, H at the prior mean).
+    fn solve_above_rounding<L: Linearisation<X, H, D, M>>(
+        &self,
+        linearisation: &L,
+        settings: &IterationSettings,
+    ) -> Result<Conditioned<ManifoldGaussian<X, D>, Iterated<D, M>>, OperatorError> {
+        let scale = || {
+            let (h, p) = (
+                self.model.jacobian(self.prior.mean()),
+                self.prior.covariance(),
+            );
+            (h * p * h.transpose() + self.noise)
+                .diagonal()
+                .amax()
+                .max(h.norm_squared() * p.amax())
+        };
+        above_rounding::<_, M>(scale, |floor| {
+            if floor == 0.0 {
+                return self.solve(linearisation, settings);
+            }
+            let noise = self.noise + SMatrix::<f64, M, M>::identity() * floor;
+            let raised = Problem {
+                prior: self.prior,
+                model: self.model,
+                z: self.z,
+                noise,
+                noise_factor: Cholesky::new(noise).ok_or(OperatorError::NotPositiveDefinite {
+                    what: "measurement noise R raised above rounding",
+                })?,
+            };
+            raised.solve(linearisation, settings)
         })
     }
 
@@ -588,7 +624,7 @@ where
         iterated: &IteratedEkf<H, M>,
         z: &SVector<f64, M>,
     ) -> Result<Conditioned<Self, Iterated<D, M>>, OperatorError> {
-        Problem::new(self, &iterated.model, z)?.solve(iterated, &iterated.settings)
+        Problem::new(self, &iterated.model, z)?.solve_above_rounding(iterated, &iterated.settings)
     }
 }
 
@@ -606,6 +642,7 @@ where
         iterated: &IteratedUkf<H, M>,
         z: &SVector<f64, M>,
     ) -> Result<Conditioned<Self, Iterated<D, M>>, OperatorError> {
-        Problem::new(self, iterated.ukf.model(), z)?.solve(iterated, &iterated.settings)
+        Problem::new(self, iterated.ukf.model(), z)?
+            .solve_above_rounding(iterated, &iterated.settings)
     }
 }

@@ -17,6 +17,33 @@ pub(crate) struct Produced {
     pub(crate) covariance: &'static str,
 }
 
+/// Runs a Kalman update `update(floor)` with its measurement noise raised by `floor · I`: first
+/// with `floor = 0` (the exact update, whose result is returned whenever it succeeds or fails for
+/// another reason), and, when rounding made its innovation covariance S or its posterior lose
+/// positive definiteness ([`OperatorError::NotPositiveDefinite`]), once more with
+/// `floor = 64 M ε scale()`, the scale the size of what rounds: `max |Sᵢᵢ|` (and, for a Jacobian H,
+/// at least `|H|²_F max |Pᵢⱼ|`, the size of the Joseph form's terms). A noise R below that
+/// rounding is lost in S, and the posterior's variance along the measured directions, of the
+/// order of R, is lost to the rounding of P: the second try keeps it at least 64 M times that
+/// rounding, dropping information finer than the arithmetic can hold (the posterior is slightly
+/// wider than the exact one). If the second try fails too, the first error is returned.
+pub(crate) fn above_rounding<T, const M: usize>(
+    scale: impl FnOnce() -> f64,
+    update: impl Fn(f64) -> Result<T, OperatorError>,
+) -> Result<T, OperatorError> {
+    match update(0.0) {
+        Err(error @ OperatorError::NotPositiveDefinite { .. }) => {
+            let floor = 64.0 * M as f64 * f64::EPSILON * scale();
+            if floor > 0.0 && floor.is_finite() {
+                update(floor).map_err(|_| error)
+            } else {
+                Err(error)
+            }
+        }
+        result => result,
+    }
+}
+
 /// The relative asymmetry a covariance may have: `max |M − Mᵀ| ≤ 1e-12 max |M|` (rounding, not a
 /// different matrix).
 pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-12;

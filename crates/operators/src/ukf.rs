@@ -13,8 +13,10 @@
 //! * **condition**: `Zᵢ = h(χᵢ)`, ẑ the fixed point of `ẑ ← ẑ + Σ wᵢᵐ (Zᵢ ⊟ ẑ)` (the same
 //!   [`weighted_mean`], with the model's residual, which may wrap, as ⊟), `S = Σ wᵢᶜ rᵢ rᵢᵀ + R`,
 //!   `C = Σ wᵢᶜ dᵢ rᵢᵀ` with dᵢ the sigma offsets, `K = C S⁻¹`, `μ⁺ = μ ⊞ K (z ⊟ ẑ)`,
-//!   `P⁺ = P − K S Kᵀ` (in the tangent space at μ, as the [EKF](crate::ekf)'s); log evidence `ln N(z ⊟ ẑ; 0, S)`; the report is the [`Innovation`] (ν, S, K,
-//!   NIS).
+//!   `P⁺ = P − K S Kᵀ` (in the tangent space at μ, as the [EKF](crate::ekf)'s); log evidence
+//!   `ln N(z ⊟ ẑ; 0, S)`; the report is the [`Innovation`] (ν, S, K, NIS). When S or P⁺ loses
+//!   positive definiteness to rounding (R below the rounding of the sigma points' spread), the
+//!   update is made once more with S raised by `64 M ε max |Sᵢᵢ| I`, as the EKF's.
 //!
 //! Every image Yᵢ and Zᵢ is checked with [`Manifold::is_finite`] before it is averaged, and a mean that
 //! does not converge (sigma points spread over more than half the injectivity radius) is an
@@ -24,7 +26,7 @@
 //! points live in arrays of size D.
 
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, checked_gaussian, model_noise};
+use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -331,26 +333,33 @@ where
         let (mu, h) = (self.mean(), &ukf.model);
         let noise = model_noise("measurement noise R", h.noise(mu))?;
         let moments = ukf.measurement_moments(self, None, noise)?;
-        let (report, log_evidence) = Innovation::new(
-            h.residual(z, &moments.predicted),
-            &moments.covariance,
-            &moments.cross,
-            h.dof(),
-        )?;
-        let gain = report.gain();
-        let posterior = checked_gaussian(
-            mu.retract(&report.correction()),
-            &(self.covariance() - gain * report.covariance() * gain.transpose()),
-            Produced {
-                mean: "the posterior mean mu ⊞ K nu",
-                covariance: "posterior covariance P - K S K^T (it lost positive definiteness; check R)",
+        let residual = h.residual(z, &moments.predicted);
+        above_rounding::<_, M>(
+            || moments.covariance.diagonal().amax(),
+            |floor| {
+                let (report, log_evidence) = Innovation::new(
+                    residual,
+                    &(moments.covariance + SMatrix::<f64, M, M>::identity() * floor),
+                    &moments.cross,
+                    h.dof(),
+                )?;
+                let gain = report.gain();
+                let posterior = checked_gaussian(
+                    mu.retract(&report.correction()),
+                    &(self.covariance() - gain * report.covariance() * gain.transpose()),
+                    Produced {
+                        mean: "the posterior mean mu ⊞ K nu",
+                        covariance: "posterior covariance P - K S K^T (it lost positive definiteness; \
+                                 check R)",
+                    },
+                )?;
+                Ok(Conditioned {
+                    posterior,
+                    log_evidence,
+                    report,
+                })
             },
-        )?;
-        Ok(Conditioned {
-            posterior,
-            log_evidence,
-            report,
-        })
+        )
     }
 }
 
