@@ -380,6 +380,88 @@ fn every_azimuth_filter_and_the_config_share_one_settings_range() {
     }
 }
 
+/// Settings each within its range whose run the filters could not take, found by a probe that ran
+/// every filter for thousands of steps: σ₀ = σ_m = 1e-49 with q = 0 and a measurement every step
+/// (the Gaussian baselines and the grid filters passed `tr Σ⁻¹ ≤ 1e100` at the 49th update and
+/// refused every later one), q = 1e49 with 20 000 steps between measurements (the covariance
+/// passed 1e100 at step 100) and dt = 1e30 on the line (positions too coarse for σ = 1: the UKF
+/// refused every step from the first). Each is refused when the scenario is made, naming what
+/// bounds it; inside the bounds every method runs without a failed step (just inside the first
+/// two; the third is necessary, not sufficient: the UKF's manifold mean stops at an absolute step
+/// of 1e-10, which positions of 1e9 m no longer resolve).
+#[test]
+fn runs_that_would_leave_the_filters_range_are_refused() {
+    let tiny = Config {
+        sigma0: 1e-49,
+        sigma_m: 1e-49,
+        q: 0.0,
+        dt: 0.1,
+        measure_every: 1,
+        steps: 5000,
+    };
+    let quiet = Config {
+        sigma0: 1e49,
+        sigma_m: 1e49,
+        q: 1e49,
+        dt: 1.0,
+        measure_every: 20_000,
+        steps: 20_000,
+    };
+    let far = Config {
+        sigma0: 1.0,
+        sigma_m: 1.0,
+        q: 0.0,
+        dt: 1e30,
+        measure_every: 1,
+        steps: 2000,
+    };
+    for (config, motion, named) in [
+        (tiny, Motion::Static, "precision"),
+        (quiet, Motion::Static, "between two"),
+        (far, Motion::Line, "distance the motion covers"),
+    ] {
+        let error = AzimuthScenario::new(motion, config).unwrap_err();
+        assert!(error.to_string().contains(named), "{error}");
+    }
+    let inside = [
+        (Config { steps: 20, ..tiny }, Motion::Static),
+        (
+            Config {
+                measure_every: 1,
+                steps: 200,
+                ..quiet
+            },
+            Motion::Line,
+        ),
+        (
+            Config {
+                dt: 100.0,
+                steps: 20,
+                ..far
+            },
+            Motion::Line,
+        ),
+    ];
+    for (config, motion) in inside {
+        for method in [
+            Method::Exact,
+            Method::Ekf,
+            Method::Ukf,
+            Method::Particle(50),
+            Method::Grid(36),
+            Method::Marginalized(36),
+        ] {
+            let summary = study(method, motion, &config, 3, 5);
+            assert!(
+                summary.failures().is_empty(),
+                "{} on {config:?}: {:?}",
+                method.label(),
+                summary.failures()
+            );
+        }
+    }
+}
+
 /// At the ends of the shared range every filter runs.
 #[test]
 fn every_azimuth_filter_runs_at_the_ends_of_the_settings_range() {

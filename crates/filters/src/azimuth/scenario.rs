@@ -45,6 +45,15 @@ impl Motion {
         })
     }
 
+    /// The largest speed |v| (m/s) of the motion: 0, 0.5 and √5.
+    pub fn max_speed(self) -> f64 {
+        match self {
+            Motion::Static => 0.0,
+            Motion::Circle => 0.5,
+            Motion::Line => 5f64.sqrt(),
+        }
+    }
+
     /// Its name on the command line: `static`, `circle` or `line`.
     pub fn name(self) -> &'static str {
         match self {
@@ -87,6 +96,19 @@ impl Default for Config {
     }
 }
 
+/// The largest variance (m²) a run may add between two measurements: with the prior's or a
+/// posterior's (at most 1e98 each) it stays within the Gaussian baselines' 1e100.
+const MAX_VARIANCE_BETWEEN: f64 = 1e98;
+
+/// The largest position precision (1/m², per axis) a run may reach: half of what the Gaussians'
+/// `tr Σ⁻¹ ≤ 1e100` allows over two axes, leaving room for the filters' rounding.
+const MAX_PRECISION: f64 = 2.5e99;
+
+/// How many times its smallest standard deviation the platform may travel in a run: at a distance
+/// d from the origin the spacing of f64 positions is about `ε d`, so beyond `1e12 σ` it is above
+/// `2e-4 σ` and a sigma-point filter's points round onto its mean.
+const RESOLVED_EXTENT: f64 = 1e12;
+
 /// The largest time step (s): with a velocity of a few m/s the motion `v dt` stays far inside the
 /// filters' position range.
 pub const MAX_DT: f64 = 1e100;
@@ -97,7 +119,11 @@ impl Config {
     /// [`SETTING_SIGMA_RANGE`] = [1e-49, 1e49], q in [0, 1e49], dt in (0, [`MAX_DT`]] with the
     /// per-step noise `q √dt` at most 1e49 (so `q² dt ≤ 1e98`, a variance the Gaussian baselines
     /// add in one propagation), `measure_every` at least 1 and `steps` from 1 to
-    /// [`MAX_ELEMENTS`] (2³⁰).
+    /// [`MAX_ELEMENTS`] (2³⁰); and over the whole run, the variance added between two
+    /// measurements `q² dt min(measure_every, steps)` at most 1e98 and the largest position
+    /// precision the measurements reach at most 2.5e99 per axis (half the Gaussians' limit on
+    /// `tr Σ⁻¹`): with q = 0, σ₀ = σ_m = 1e-49 and a measurement every step, the Gaussian
+    /// baselines and the grid filters passed it at the 49th update and refused every later one.
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] or [`OperatorError::TooLarge`], naming the field.
@@ -150,7 +176,46 @@ impl Config {
                 max: MAX_ELEMENTS,
             });
         }
+        let between = self.between_measurements();
+        if between > MAX_VARIANCE_BETWEEN {
+            return Err(OperatorError::OutOfRange {
+                what: "position variance q^2 dt min(measure_every, steps) added between two \
+                       measurements (m^2)",
+                value: between,
+                range: "at most 1e98 (with the prior's, within the Gaussian baselines' 1e100): \
+                        measure more often or take a smaller q or dt",
+            });
+        }
+        let precision = self.largest_precision();
+        if precision > MAX_PRECISION {
+            return Err(OperatorError::OutOfRange {
+                what: "largest position precision per axis (1/m^2) the run's measurements reach",
+                value: precision,
+                range: "at most 2.5e99 (half the Gaussians' trace of the inverse covariance, \
+                        1e100, over two axes): fewer measurements, a larger sigma_m or sigma_0, \
+                        or some process noise q",
+            });
+        }
         Ok(())
+    }
+
+    /// `q² dt min(measure_every, steps)`, the position variance a run adds between two
+    /// measurements (m², per axis).
+    fn between_measurements(&self) -> f64 {
+        self.q * self.q * self.dt * self.measure_every.min(self.steps) as f64
+    }
+
+    /// The largest position precision λ (1/m², per axis) a Kalman filter reaches over the run:
+    /// the first measurement gives `λ₁ = 1/σ₀² + 1/σ_m²`, and each later one adds `1/σ_m²` to a
+    /// prior precision at most the last posterior's and at most `1/v`, v the variance added
+    /// between measurements ([`between_measurements`](Self::between_measurements)), so with U
+    /// measurements `λ ≤ max(λ₁, min(λ₁ + (U − 1)/σ_m², 1/v + 1/σ_m²))` (exact for q = 0).
+    fn largest_precision(&self) -> f64 {
+        let each = 1.0 / (self.sigma_m * self.sigma_m);
+        let first = 1.0 / (self.sigma0 * self.sigma0) + each;
+        let updates = self.steps.div_ceil(self.measure_every) as f64;
+        let later = 1.0 / self.between_measurements() + each;
+        first.max((first + (updates - 1.0) * each).min(later))
     }
 
     /// The number of steps `round(duration / dt)` that covers `duration` seconds, checked (a ratio
@@ -219,9 +284,24 @@ impl AzimuthScenario {
     /// The scenario.
     ///
     /// # Errors
-    /// As [`Config::validate`].
+    /// As [`Config::validate`], and [`OperatorError::OutOfRange`] when the motion takes the
+    /// platform farther than `1e12` times the smallest position standard deviation the run
+    /// reaches (`|v|max dt steps ≤ 1e12 / √λ`, λ the largest precision of [`Config::validate`]):
+    /// farther, positions are too coarse in f64 for the filters to resolve that deviation (a UKF's
+    /// sigma points round onto its mean; the run of `dt = 1e30` on the line refused every step
+    /// from the first).
     pub fn new(motion: Motion, config: Config) -> Result<Self, OperatorError> {
         config.validate()?;
+        let extent = motion.max_speed() * config.dt * config.steps as f64;
+        let smallest_sigma = 1.0 / config.largest_precision().sqrt();
+        if extent > RESOLVED_EXTENT * smallest_sigma {
+            return Err(OperatorError::OutOfRange {
+                what: "distance the motion covers in the run, |v|max dt steps (m)",
+                value: extent,
+                range: "at most 1e12 times the smallest position standard deviation the run \
+                        reaches: a shorter run or step, or a larger sigma_m",
+            });
+        }
         Ok(Self { motion, config })
     }
 
