@@ -580,3 +580,63 @@ fn a_fix_finer_than_the_arithmetic_is_taken_by_every_convention() {
         assert!(error < 1e-3, "{convention:?} {update:?}: {error}");
     }
 }
+
+/// An initial velocity σ that `InertialConfig::validate` accepts, 1e-30 m/s, made the invariant
+/// priors' moments singular to rounding (the invariant velocity error is then a function of the
+/// attitude error; the left- and right-invariant priors had eigenvalues of −7e-16 and −5e-19), and
+/// no invariant filter could be built. The prior is now floored at the rounding of its largest
+/// entries: every convention builds and takes 20 s of steps and fixes. (Every initial σ at 1e-30
+/// is built too, but its first prediction is refused: the numerical Jacobian's rounding is far
+/// above such a covariance.)
+#[test]
+fn priors_singular_to_rounding_are_floored_at_it() {
+    use liebayes_experiments::RecursiveFilter;
+    use liebayes_filters::inertial::{Convention, FixUpdate, InertialMethod};
+    let slow = InertialConfig {
+        velocity_sigma: 1e-30,
+        duration: 20.0,
+        ..InertialConfig::default()
+    };
+    let tiny = InertialConfig {
+        heading_sigma: 1e-30,
+        tilt_sigma: 1e-30,
+        velocity_sigma: 1e-30,
+        position_sigma: 1e-30,
+        gyro_bias_sigma: 1e-30,
+        accel_bias_sigma: 1e-30,
+        ..slow
+    };
+    let scenario = InertialScenario::new(tiny).unwrap();
+    for convention in [
+        Convention::ErrorState,
+        Convention::LeftInvariant,
+        Convention::RightInvariant,
+    ] {
+        InertialMethod::new(convention, FixUpdate::OnePass, &scenario)
+            .unwrap_or_else(|e| panic!("{convention:?} {tiny:?}: {e}"));
+    }
+    let scenario = InertialScenario::new(slow).unwrap();
+    let steps: Vec<_> = scenario
+        .simulate(&mut ChaCha8Rng::seed_from_u64(5))
+        .unwrap()
+        .collect();
+    for convention in [
+        Convention::ErrorState,
+        Convention::LeftInvariant,
+        Convention::RightInvariant,
+    ] {
+        let method = InertialMethod::new(convention, FixUpdate::OnePass, &scenario)
+            .unwrap_or_else(|e| panic!("{convention:?}: {e}"));
+        let mut filter = method.filter();
+        for (k, step) in steps.iter().enumerate() {
+            filter
+                .predict(&step.input)
+                .unwrap_or_else(|e| panic!("{convention:?} step {k}: {e}"));
+            if let Some(z) = &step.measurement {
+                filter
+                    .update(z)
+                    .unwrap_or_else(|e| panic!("{convention:?} fix at step {k}: {e}"));
+            }
+        }
+    }
+}

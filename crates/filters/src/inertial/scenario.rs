@@ -267,10 +267,15 @@ impl InertialScenario {
     /// `P = (1/n) Σ (x̂ ⊟ xᵢ)(x̂ ⊟ xᵢ)ᵀ` over [`PRIOR_DRAWS`] draws of [`draw_initial`](Self::draw_initial)
     /// from a fixed stream: every filter is given the same initial information, each in its own
     /// convention (exact for the error-state EKF, whose errors are Gaussian by construction; the
-    /// invariant errors' first two moments otherwise).
+    /// invariant errors' first two moments otherwise). Where the moments are singular to rounding
+    /// (a velocity σ of 1e-30 makes the invariant velocity error a function of the attitude
+    /// error; σ's below the rounding of a rotation make the attitude error its rounding), P is
+    /// refused by [`ManifoldGaussian::new`]; it is then taken with `64 · 15 ε max Pᵢᵢ` added to
+    /// its diagonal, the rounding of its largest entries (information finer than that is lost to
+    /// the arithmetic anyway).
     ///
     /// # Errors
-    /// [`FilterError::Density`] if the moments are not a valid covariance.
+    /// [`FilterError::Density`] if the moments, with that floor too, are not a valid covariance.
     pub fn prior<S: NavigationState>(
         &self,
     ) -> Result<ManifoldGaussian<S, NAVIGATION_DIM>, FilterError> {
@@ -281,7 +286,13 @@ impl InertialScenario {
             let e = mean.local(&S::from_navigation(&self.draw_initial(&mut rng)));
             sum += e * e.transpose();
         }
-        Ok(ManifoldGaussian::new(mean, sum / PRIOR_DRAWS as f64)?)
+        let moments = sum / PRIOR_DRAWS as f64;
+        ManifoldGaussian::new(mean.clone(), moments).or_else(|error| {
+            let floor = 64.0 * NAVIGATION_DIM as f64 * f64::EPSILON * moments.diagonal().amax();
+            let floored =
+                moments + SMatrix::<f64, NAVIGATION_DIM, NAVIGATION_DIM>::identity() * floor;
+            ManifoldGaussian::new(mean, floored).map_err(|_| FilterError::from(error))
+        })
     }
 
     /// The true body rate and specific force at time t for the attitude `rotation`.
