@@ -641,3 +641,55 @@ fn a_reading_error_fails_the_run_and_an_anchor_keeps_the_epochs() {
     );
     assert_eq!(at_anchor.estimate().unwrap(), before);
 }
+
+/// A prior narrower than the rounding of its mean (σ₀ = 1e-16 at m₀ ≈ (2.8, 2.3, 0.1), which
+/// `Prior::new` accepts): the UKFs' sigma points rounded onto the mean, the predicted covariance
+/// of a walk without noise was 0, and every step was refused from the first. The UKFs now refuse
+/// such a prior when they are made, naming σ₀ (the EKF takes it); from 8 ε max |m₀ᵢ| up, 200
+/// epochs of steps run.
+#[test]
+fn a_ukf_refuses_a_prior_narrower_than_its_mean_rounds() {
+    use liebayes_filters::aoa::{angle_ukf, vmf_ukf};
+    let anchors = square_track_anchors();
+    let truth = Vector3::new(2.5, 2.5, 0.0);
+    let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0).unwrap());
+    let unit = UnitVectorModel::new(anchors, 1e6).unwrap();
+    let angles = AzElModel::new(
+        anchors,
+        AngleNoise::Fixed {
+            sigma_az: 1e-3,
+            sigma_el: 1e-3,
+        },
+    )
+    .unwrap();
+    let still = RandomWalk::new(0.0, 0.0).unwrap();
+    let mean = Vector3::new(2.8, 2.3, 0.1);
+    let narrow = Prior::new(mean, 1e-16).unwrap();
+    for error in [
+        vmf_ukf::<4, 12>(unit, still, &narrow).err(),
+        angle_ukf::<4, 8>(angles.clone(), still, &narrow).err(),
+    ] {
+        let message = error.expect("refused").to_string();
+        assert!(
+            message.contains("sigma_0") && message.contains("UKF"),
+            "{message}"
+        );
+    }
+    assert!(vmf_ekf::<4, 12>(unit, still, &narrow).is_ok());
+    let bound = 8.0 * f64::EPSILON * 2.8;
+    for std in [bound, 1e-14] {
+        let prior = Prior::new(mean, std).unwrap();
+        let mut vmf = vmf_ukf::<4, 12>(unit, still, &prior).unwrap();
+        let mut ae = angle_ukf::<4, 8>(angles.clone(), still, &prior).unwrap();
+        for k in 0..200 {
+            vmf.predict(&1.0)
+                .unwrap_or_else(|e| panic!("{std} VMF {k}: {e}"));
+            vmf.update(&readings)
+                .unwrap_or_else(|e| panic!("{std} VMF {k}: {e}"));
+            ae.predict(&1.0)
+                .unwrap_or_else(|e| panic!("{std} AE {k}: {e}"));
+            ae.update(&readings)
+                .unwrap_or_else(|e| panic!("{std} AE {k}: {e}"));
+        }
+    }
+}

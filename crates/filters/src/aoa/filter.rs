@@ -153,6 +153,26 @@ impl Prior {
         )?)
     }
 
+    /// The prior as a Gaussian for a UKF, whose sigma points `m₀ ± γ σ₀ eᵢ` must differ from m₀:
+    /// σ₀ at least `8 ε max |m₀ᵢ|` (16 units in the last place of the mean's largest component;
+    /// narrower, the points round onto the mean, the predicted covariance of a walk without
+    /// noise is 0, and every step was refused).
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for a narrower σ₀ (use the EKF, whose prior has no such
+    /// limit), else as [`gaussian`](Self::gaussian).
+    pub fn sigma_point_gaussian(&self) -> Result<PositionGaussian, OperatorError> {
+        if self.std < 8.0 * f64::EPSILON * self.mean.amax() {
+            return Err(OperatorError::OutOfRange {
+                what: "prior standard deviation sigma_0 (m) of a UKF",
+                value: self.std,
+                range: "at least 8 eps times the largest component of m_0 (narrower, the sigma \
+                        points round onto the mean): a wider prior, or the EKF",
+            });
+        }
+        self.gaussian()
+    }
+
     /// n particles drawn from the prior with `rng`.
     ///
     /// # Errors
@@ -251,7 +271,7 @@ pub fn vmf_ekf<const N: usize, const M: usize>(
 /// UKF-VMF (λ = 0.5).
 ///
 /// # Errors
-/// As [`Prior::gaussian`].
+/// As [`Prior::sigma_point_gaussian`].
 ///
 /// # Example
 /// ```
@@ -276,7 +296,7 @@ pub fn vmf_ukf<const N: usize, const M: usize>(
     prior: &Prior,
 ) -> Result<VmfUkf<N, M>, OperatorError> {
     Ok(Recursive::with_estimator(
-        prior.gaussian()?,
+        prior.sigma_point_gaussian()?,
         unscented(process)?,
         Converted {
             model: unscented(model)?,
@@ -352,14 +372,14 @@ pub fn angle_ekf<const N: usize, const M: usize>(
 /// UKF-AE (λ = 0.5; R at the mean).
 ///
 /// # Errors
-/// As [`Prior::gaussian`].
+/// As [`Prior::sigma_point_gaussian`].
 pub fn angle_ukf<const N: usize, const M: usize>(
     model: AzElModel<N>,
     process: RandomWalk,
     prior: &Prior,
 ) -> Result<AngleUkf<N, M>, OperatorError> {
     Ok(Recursive::with_estimator(
-        prior.gaussian()?,
+        prior.sigma_point_gaussian()?,
         unscented(process)?,
         Converted {
             model: unscented(model)?,
