@@ -22,7 +22,9 @@
 //! * **condition** on `z = R(y) H x + n`, `n ~ N(0, σ_m² I₂)`, R(y) the plane rotation
 //!   ([`RotatedMeasurement`]), provided `H Σ Hᵀ = s I₂` is isotropic: then `S = (s + σ_m²) I` and
 //!   `K(y) = Σ Hᵀ R(y)ᵀ / S`, so that `K(y) z = Σ Hᵀ (cos y z − sin y z^×) / S` is again linear in φ and
-//!   `Σ⁺ = Σ − Σ Hᵀ H Σ / S` is independent of y. The exponent `−|z − R(y) H B φ|² / (2S)` is a
+//!   `Σ⁺ = Σ − Σ Hᵀ H Σ / S` is independent of y (computed in Joseph's form
+//!   `(I − K̄ H) Σ (I − K̄ H)ᵀ + σ_m² K̄ K̄ᵀ`, `K̄ = Σ Hᵀ / S`, equal to it here, which keeps σ_m² below
+//!   the rounding of s). The exponent `−|z − R(y) H B φ|² / (2S)` is a
 //!   trigonometric polynomial of order 2 in y. When `H Σ Hᵀ` is not isotropic, Σ⁺ depends on y and the
 //!   family is not closed: the step refuses with [`OperatorError::NotClosed`].
 //!
@@ -329,7 +331,11 @@ impl<const N: usize> Condition<RotatedMeasurement<N>> for HarmonicGaussian<N> {
         let sigma_ht = sigma * model.matrix.transpose() / s;
         let rotated_z = SMatrix::<f64, 2, 3>::from_columns(&[Vector2::zeros(), *z, -perp(z)]);
         let features = self.features() + sigma_ht * (rotated_z - model.matrix * self.features());
-        let covariance = sigma - sigma_ht * model.matrix * sigma;
+        // Joseph's form (I − K̄H) Σ (I − K̄H)ᵀ + σ_m² K̄ K̄ᵀ, K̄ = Σ Hᵀ / S: with H Σ Hᵀ = s I it
+        // equals Σ − K̄ H Σ, which cancels to zero or below for σ_m² under the rounding of s.
+        let i_kh = SMatrix::<f64, N, N>::identity() - sigma_ht * model.matrix;
+        let covariance =
+            i_kh * sigma * i_kh.transpose() + sigma_ht * sigma_ht.transpose() * model.variance;
         Ok(Conditioned {
             posterior: checked(Self::new(angle, features, symmetric_part(&covariance)))?,
             log_evidence,

@@ -180,6 +180,33 @@ fn propagation_is_the_per_angle_kalman_propagation() {
     assert_eq!(next.angle(), prior.angle());
 }
 
+/// A rotated measurement far finer than the position (σ_m = 1e-8 against Σ = I): S = 1 + 1e-16
+/// rounds to 1, and `Σ − Σ Hᵀ H Σ / S` cancelled to 0, so the update and every later one was
+/// refused. In Joseph's form the posterior is σ_m² I, the exact value to rounding, over 1 000
+/// updates of a still platform (each then σ_m²/k).
+#[test]
+fn a_rotated_measurement_finer_than_rounding_keeps_its_variance() {
+    let mut density = HarmonicGaussian::independent(
+        GenVonMises2::from_natural(Vector2::zeros(), Vector2::zeros()).unwrap(),
+        &Gaussian::new(Vector2::new(1.0, 0.0), Matrix2::identity()).unwrap(),
+    )
+    .unwrap();
+    let sigma: f64 = 1e-8;
+    let model = RotatedMeasurement::new(Matrix2::identity(), sigma).unwrap();
+    let still = LinearProcess::new(Matrix2::identity(), Matrix2::zeros()).unwrap();
+    let z = Vector2::new(0.3f64.cos(), 0.3f64.sin());
+    for k in 1..=1000 {
+        let step = density
+            .condition(&model, &z)
+            .unwrap_or_else(|e| panic!("update {k}: {e}"));
+        density = step.posterior.propagate(&still, &Vector2::zeros()).unwrap();
+        let variance = density.covariance()[(0, 0)];
+        let exact = sigma * sigma / f64::from(k);
+        assert!((variance / exact - 1.0).abs() <= 1e-9, "{k}: {variance:e}");
+        assert!(density.covariance()[(0, 1)].abs() <= 1e-12 * variance);
+    }
+}
+
 #[test]
 fn anisotropic_rotated_measurements_are_refused() {
     let prior = HarmonicGaussian::independent(
