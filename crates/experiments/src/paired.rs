@@ -25,7 +25,9 @@ pub struct PairedEstimate<EA, EB> {
     pub first: EA,
     /// The second filter's estimate.
     pub second: EB,
-    /// Each filter's `ln p(z₁..ₖ)`, the sum of its updates' log evidence so far.
+    /// Each filter's `ln p(z₁..ₖ)`, the sum of its updates' log evidence so far: −∞ once that
+    /// exact sum is below −f64::MAX (measurements each some 1e153 standard deviations from their
+    /// prediction), as the sum is; every update's own evidence is finite.
     pub log_evidence: [f64; 2],
 }
 
