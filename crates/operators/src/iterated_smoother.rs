@@ -335,12 +335,20 @@ where
             process,
             measurement,
         };
-        let mut states: Vec<X> = self
-            .forward
-            .smooth()?
-            .into_iter()
-            .map(|density| density.mean().clone())
-            .collect();
+        // Started from the RTS smoother's means, or from the filtered ones where its backward
+        // covariances are lost to rounding (Gauss-Newton needs only a starting point).
+        let mut states: Vec<X> = match self.forward.smooth() {
+            Ok(smoothed) => smoothed
+                .into_iter()
+                .map(|density| density.mean().clone())
+                .collect(),
+            Err(_) => self
+                .forward
+                .filtered()
+                .iter()
+                .map(|density| density.mean().clone())
+                .collect(),
+        };
         let mut linearised = problem.linearise(&states)?;
         let mut costs = with_capacity("iterated smoother costs", settings.max_iterations + 1)?;
         costs.push(linearised.cost);

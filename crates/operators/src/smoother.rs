@@ -14,7 +14,10 @@
 //! * gain `G_k = C_k P_p,k+1⁻¹` (by the Cholesky factor of P_p,k+1, never inverted; for the EKF
 //!   `G_k = P_f,k F_kᵀ P_p,k+1⁻¹`);
 //! * mean `μ_s,k = μ_f,k ⊞ G_k (μ_s,k+1 ⊟ μ_p,k+1)`;
-//! * covariance `P_s,k = P_f,k + G_k (P_s,k+1 − P_p,k+1) G_kᵀ`.
+//! * covariance `P_s,k = P_f,k + G_k (P_s,k+1 − P_p,k+1) G_kᵀ`. The sum cancels when the process
+//!   noise and the later information are below ε of P_f,k; a step whose variance is not at least
+//!   1e3 ε times the size of its terms (relative rounding above 1e-3) is refused rather than
+//!   returned (a prior of 1e17 with unit noises used to smooth to 32 where 5/3 is exact).
 //!
 //! On Rⁿ with a linear model this is the classical RTS smoother, equal to the batch least-squares
 //! solution (the tests check it to 1e-9). On a manifold it is the error-state smoother of the EKF:
@@ -63,6 +66,10 @@ pub trait GaussianTransition<X: Manifold<D, Scalar = f64>, const D: usize> {
     ) -> Result<Prediction<X, D>, OperatorError>;
 }
 
+/// A smoothed variance must be at least this many times ε times the size of the terms it is summed
+/// from (relative rounding below 1e-3), or the backward step is refused.
+const LOST_TO_ROUNDING: f64 = 1e3;
+
 /// What a smoother names when its record cannot grow.
 const RECORDS: &str = "number of smoother records";
 
@@ -71,7 +78,8 @@ const RECORDS: &str = "number of smoother records";
 /// (see the module docs for the formulas).
 ///
 /// # Errors
-/// [`OperatorError::NotPositiveDefinite`] when the smoothed covariance loses positive definiteness,
+/// [`OperatorError::NotPositiveDefinite`] when the smoothed covariance loses positive definiteness
+/// or a smoothed variance is lost to rounding (below 1e3 ε times the terms it is summed from),
 /// [`OperatorError::NonFinitePoint`] for a smoothed mean that is not finite.
 pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
     filtered: &ManifoldGaussian<X, D>,
@@ -86,8 +94,25 @@ pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
     let mean = filtered
         .mean()
         .retract(&(gain * predicted.mean().local(next.mean())));
-    let covariance = filtered.covariance()
-        + gain * (next.covariance() - predicted.covariance()) * gain.transpose();
+    let (ahead, behind) = (
+        gain * next.covariance() * gain.transpose(),
+        gain * predicted.covariance() * gain.transpose(),
+    );
+    let covariance = filtered.covariance() + (ahead - behind);
+    // The sum cancels when the process noise and the later information are below ε of P_f: its
+    // rounding, about ε times the terms' size, may then be the whole result (a prior of 1e17 with
+    // unit noises smoothed to 32 where 1.67 is exact). Refused when a variance is not at least
+    // LOST_TO_ROUNDING times that rounding.
+    for i in 0..D {
+        let terms = filtered.covariance()[(i, i)] + ahead[(i, i)] + behind[(i, i)];
+        if covariance[(i, i)] <= LOST_TO_ROUNDING * f64::EPSILON * terms {
+            return Err(OperatorError::NotPositiveDefinite {
+                what: "smoothed covariance P_f + G (P_s - P_p) G^T: its variances are lost to \
+                       rounding (the process noise and the later measurements are below \
+                       1e-13 of the filtered covariance; give the model more process noise)",
+            });
+        }
+    }
     checked_gaussian(
         mean,
         &covariance,

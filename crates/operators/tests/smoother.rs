@@ -552,3 +552,50 @@ fn failed_steps_leave_the_recorder_unchanged() {
     assert_eq!(smoothed.len(), 1);
     assert_eq!(smoothed[0].mean().angle(), 1.0);
 }
+
+/// A random walk `x′ = x + w`, `z = x + n` with q = r = 1 and a prior variance p₀, measured at
+/// epochs 1 and 2: the smoothed variance of epoch 0 is 5/3 whatever p₀ ≫ 1. The backward sum
+/// `P_f + G (P_s′ − P_p) Gᵀ` cancels terms of size p₀, so that from p₀ ≈ 1e15 its rounding is
+/// the whole result: it returned 1.875 (p₀ = 1e15) and 32 (p₀ = 1e17) as Ok. Such a step is now
+/// refused (its variance below 1e3 ε times the terms); at p₀ = 1e10 the result is 5/3 to its
+/// rounding, and the iterated smoother, started from the filtered means where the RTS pass is
+/// refused, gives 5/3 at every p₀.
+#[test]
+fn a_smoothed_variance_lost_to_rounding_is_refused() {
+    use liebayes_operators::iterated_smoother::IteratedSmoother;
+    let walk = ProcessFn::new(
+        |x: &Rn<f64, 1>, (): &()| *x,
+        |_: &Rn<f64, 1>, (): &()| Matrix1::new(1.0),
+    );
+    let sensor = MeasurementFn::new(
+        |x: &Rn<f64, 1>| *x.coords(),
+        |_: &Rn<f64, 1>| Matrix1::new(1.0),
+    );
+    let exact = 5.0 / 3.0;
+    for p0 in [1e10, 1e15, 1e16, 1e17, 1e20] {
+        let prior =
+            ManifoldGaussian::new(Rn::new(Vector1::new(0.0)).unwrap(), Matrix1::new(p0)).unwrap();
+        let mut rts = RtsSmoother::new(prior.clone());
+        let mut iterated = IteratedSmoother::<Rn<f64, 1>, (), 1, 1>::new(prior);
+        for _ in 0..2 {
+            rts.propagate(&Ekf(&walk), &()).unwrap();
+            rts.condition(&Ekf(&sensor), &Vector1::new(0.5)).unwrap();
+            iterated.propagate(&walk, &()).unwrap();
+            iterated.condition(&sensor, &Vector1::new(0.5)).unwrap();
+        }
+        match rts.smooth() {
+            Ok(smoothed) => {
+                let variance = smoothed[0].covariance()[(0, 0)];
+                assert!(p0 < 1e15, "{p0:e}: {variance} returned");
+                assert!((variance / exact - 1.0).abs() < 1e-5, "{p0:e}: {variance}");
+            }
+            Err(error) => {
+                assert!(p0 >= 1e15, "{p0:e}: {error}");
+                assert!(error.to_string().contains("lost to"), "{error}");
+            }
+        }
+        let smoothed = iterated.smooth(&walk, &sensor).unwrap();
+        let variance = smoothed.densities[0].covariance()[(0, 0)];
+        assert!((variance / exact - 1.0).abs() < 1e-6, "{p0:e}: {variance}");
+    }
+}
