@@ -443,22 +443,27 @@ fn runs_that_would_leave_the_filters_range_are_refused() {
         ),
     ];
     for (config, motion) in inside {
-        for method in [
-            Method::Exact,
-            Method::Ekf,
-            Method::Ukf,
-            Method::Particle(50),
-            Method::Grid(36),
-            Method::Marginalized(36),
-        ] {
-            let summary = study(method, motion, &config, 3, 5);
-            assert!(
-                summary.failures().is_empty(),
-                "{} on {config:?}: {:?}",
-                method.label(),
-                summary.failures()
-            );
-        }
+        every_method_runs(motion, &config, 3, 5);
+    }
+}
+
+/// A study of `runs` runs of every method on `config` and `motion`, none with a failed step.
+fn every_method_runs(motion: Motion, config: &Config, runs: u64, seed: u64) {
+    for method in [
+        Method::Exact,
+        Method::Ekf,
+        Method::Ukf,
+        Method::Particle(50),
+        Method::Grid(36),
+        Method::Marginalized(36),
+    ] {
+        let summary = study(method, motion, config, runs, seed);
+        assert!(
+            summary.failures().is_empty(),
+            "{} on {config:?}: {:?}",
+            method.label(),
+            summary.failures()
+        );
     }
 }
 
@@ -493,21 +498,6 @@ fn every_azimuth_filter_runs_at_the_ends_of_the_settings_range() {
             steps: 3,
         };
         config.validate().unwrap();
-        for method in [
-            Method::Exact,
-            Method::Ekf,
-            Method::Ukf,
-            Method::Particle(50),
-            Method::Grid(36),
-            Method::Marginalized(36),
-        ] {
-            let summary = study(method, motion, &config, 4, 3);
-            assert!(
-                summary.failures().is_empty(),
-                "{} at sigma_0 = {sigma0}, sigma_m = {sigma_m}, q = {q}: {:?}",
-                method.label(),
-                summary.failures()
-            );
-        }
+        every_method_runs(motion, &config, 4, 3);
     }
 }
