@@ -24,8 +24,8 @@ use crate::{ExactSum, ExperimentError};
 /// sums of no values zero, and the sums bounded by the extremes as every stream's are: the mean
 /// within [min, max] and the root mean square at most the largest magnitude, both up to a relative
 /// rounding of 4ε (and the root mean square up to the rounding of squares below f64's normal
-/// range, of values under 2⁻⁵¹¹: `√(largest² + 2⁻¹⁰⁷⁴)`). (A file without the large squares' sum, from an earlier version, reads
-/// it as zero.)
+/// range, of values under 2⁻⁵¹¹: `√(largest² + 2⁻¹⁰⁷⁴)`). (A file without the large squares'
+/// sum, from an earlier version, reads it as zero.)
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "RunningStatsFields")]
 pub struct RunningStats {

@@ -22,7 +22,7 @@
 use crate::error::all_finite;
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise};
+use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise, rounding_scale};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -120,30 +120,27 @@ where
         let r = model_noise("measurement noise R", model.0.noise(mean))?;
         let pht = p * h.transpose();
         let residual = model.0.residual(z, &model.0.predict(mean));
-        let scale = || {
-            (h * pht + r)
-                .diagonal()
-                .amax()
-                .max(h.norm_squared() * p.amax())
-        };
-        above_rounding::<_, M>(scale, |floor| {
-            let r = r + SMatrix::<f64, M, M>::identity() * floor;
-            let (report, log_evidence) =
-                Innovation::new(residual, &(h * pht + r), &pht, model.0.dof())?;
-            let posterior = checked_gaussian(
-                mean.retract(&report.correction()),
-                &joseph(p, report.gain(), &h, &r),
-                Produced {
-                    mean: "the posterior mean mu ⊞ K nu",
-                    covariance: "posterior covariance (Joseph form; check the measurement noise R \
+        above_rounding::<_, M>(
+            || rounding_scale(&h, p, &r),
+            |floor| {
+                let r = r + SMatrix::<f64, M, M>::identity() * floor;
+                let (report, log_evidence) =
+                    Innovation::new(residual, &(h * pht + r), &pht, model.0.dof())?;
+                let posterior = checked_gaussian(
+                    mean.retract(&report.correction()),
+                    &joseph(p, report.gain(), &h, &r),
+                    Produced {
+                        mean: "the posterior mean mu ⊞ K nu",
+                        covariance: "posterior covariance (Joseph form; check the measurement noise R \
                                  and the Jacobian H)",
-                },
-            )?;
-            Ok(Conditioned {
-                posterior,
-                log_evidence,
-                report,
-            })
-        })
+                    },
+                )?;
+                Ok(Conditioned {
+                    posterior,
+                    log_evidence,
+                    report,
+                })
+            },
+        )
     }
 }

@@ -46,7 +46,7 @@ use crate::error::all_finite;
 use crate::innovation::Innovation;
 use crate::kalman::joseph;
 use crate::models::MeasurementModel;
-use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise};
+use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise, rounding_scale};
 use crate::ukf::Ukf;
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
@@ -316,14 +316,8 @@ where
         settings: &IterationSettings,
     ) -> Result<Conditioned<ManifoldGaussian<X, D>, Iterated<D, M>>, OperatorError> {
         let scale = || {
-            let (h, p) = (
-                self.model.jacobian(self.prior.mean()),
-                self.prior.covariance(),
-            );
-            (h * p * h.transpose() + self.noise)
-                .diagonal()
-                .amax()
-                .max(h.norm_squared() * p.amax())
+            let h = self.model.jacobian(self.prior.mean());
+            rounding_scale(&h, self.prior.covariance(), &self.noise)
         };
         above_rounding::<_, M>(scale, |floor| {
             if floor == 0.0 {

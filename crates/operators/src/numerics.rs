@@ -44,6 +44,19 @@ pub(crate) fn above_rounding<T, const M: usize>(
     }
 }
 
+/// The scale [`above_rounding`] raises a linearised update's noise by: `max |Sᵢᵢ|` of
+/// `S = H P Hᵀ + R`, and at least `|H|²_F max |Pᵢⱼ|`, the size of the Joseph form's terms.
+pub(crate) fn rounding_scale<const D: usize, const M: usize>(
+    h: &SMatrix<f64, M, D>,
+    p: &SMatrix<f64, D, D>,
+    r: &SMatrix<f64, M, M>,
+) -> f64 {
+    (h * p * h.transpose() + r)
+        .diagonal()
+        .amax()
+        .max(h.norm_squared() * p.amax())
+}
+
 /// The relative asymmetry a covariance may have: `max |M − Mᵀ| ≤ 1e-12 max |M|` (rounding, not a
 /// different matrix).
 pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-12;

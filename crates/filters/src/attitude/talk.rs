@@ -70,9 +70,9 @@ const INITIAL_SIGMA_RANGE: (f64, f64) = (1.5e-6, std::f64::consts::PI);
 /// [`TalkFilter::MIN_STEP_VARIANCE`]). A rotation variance s about one axis leaves the angle's
 /// density within a relative `2 e^{−s/2}` of uniform (a wrapped normal's first Fourier
 /// coefficient is `e^{−s/2}`), so at the cap a heading differs from the uniform one the exact
-/// filter tends to by at most 1.1 % (cap 10.4 rad², σ_V = 1e-5) to 2e-5 (cap 23 rad²). Without the cap a 6D filter
-/// whose steps add much variance (σ_U = 1 rad/s at 1 Hz) lost the mode after 80 samples and
-/// refused every later step.
+/// filter tends to by at most 1.1 % (cap 10.4 rad², σ_V = 1e-5) to 2e-5 (cap 23 rad²). Without
+/// the cap a 6D filter whose steps add much variance (σ_U = 1 rad/s at 1 Hz) lost the mode after
+/// 80 samples and refused every later step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TalkParams {
     /// σ_U (rad/s): gyroscope noise per sample, `G_k = Ω_k + U_k`. Finite, > 0.
