@@ -44,6 +44,9 @@ pub trait Smoothing {
     /// # Errors
     /// When the smoothing fails (a smoothed covariance that lost positive definiteness), or when
     /// a step's estimate was lost (a fixed-lag smoother's window passed it before it was released).
+    /// The steps that call was to release are then skipped, with what it appended to `out` before
+    /// the error: the next call releases from the step after them, so that one failed backward
+    /// pass does not stop the smoothing.
     fn release(&mut self, end: bool, out: &mut Vec<Self::Estimate>) -> Result<(), OperatorError>;
 }
 
@@ -97,6 +100,17 @@ pub trait Smoother<P, M> {
         end: bool,
         each: &mut dyn FnMut(&Self::Density) -> Result<(), OperatorError>,
     ) -> Result<u64, OperatorError>;
+
+    /// The epoch after those a release from `first` would give now (at least `first`): where the
+    /// next release starts when this one fails. The default is for smoothers that release only at
+    /// the end: every epoch then, none before.
+    fn released_through(&self, first: u64, end: bool) -> u64 {
+        if end {
+            first.max(self.epoch().saturating_add(1))
+        } else {
+            first
+        }
+    }
 }
 
 impl<X, const D: usize, P, M> Smoother<P, M> for RtsSmoother<X, D>
@@ -252,31 +266,36 @@ where
         end: bool,
         each: &mut dyn FnMut(&Self::Density) -> Result<(), OperatorError>,
     ) -> Result<u64, OperatorError> {
+        let next = Smoother::<P, M>::released_through(self, first, end);
+        if next == first {
+            return Ok(first);
+        }
+        let window = self.smooth()?;
+        if first < window.first_epoch() {
+            return Err(OperatorError::OutOfRange {
+                what: "first epoch to release from a fixed-lag smoother (its window has passed \
+                       it: release after every step)",
+                value: first as f64,
+                range: "the epochs of the window",
+            });
+        }
+        for k in first..next {
+            if let Some(density) = window.get(k) {
+                each(density)?;
+            }
+        }
+        Ok(next)
+    }
+
+    /// Final now: the epochs up to k − L, or every epoch at the end.
+    fn released_through(&self, first: u64, end: bool) -> u64 {
         let (epoch, lag) = (self.epoch(), self.lag() as u64);
-        // Final now: the epochs up to k − L, or every epoch at the end.
         let last = if end {
             Some(epoch)
         } else {
             epoch.checked_sub(lag)
         };
-        let Some(last) = last.filter(|&last| last >= first) else {
-            return Ok(first);
-        };
-        let window = self.smooth()?;
-        if first < window.first_epoch() {
-            return Err(OperatorError::OutOfRange {
-                what: "first epoch to release from a fixed-lag smoother (released after every \
-                       step, it never falls behind its window)",
-                value: first as f64,
-                range: "the epochs of the window",
-            });
-        }
-        for k in first..=last {
-            if let Some(density) = window.get(k) {
-                each(density)?;
-            }
-        }
-        Ok(last + 1)
+        last.map_or(first, |last| first.max(last.saturating_add(1)))
     }
 }
 
@@ -413,9 +432,18 @@ where
             out.push(estimator.estimate(density)?);
             Ok(())
         };
-        self.next =
+        let released =
             self.smoother
-                .release(&self.process, &self.measurement, self.next, end, &mut each)?;
+                .release(&self.process, &self.measurement, self.next, end, &mut each);
+        self.next = match released {
+            Ok(next) => next,
+            Err(error) => {
+                // Skip the epochs this release was to give: their error is reported now, and the
+                // next release goes on from the epochs after them.
+                self.next = self.smoother.released_through(self.next, end);
+                return Err(error);
+            }
+        };
         Ok(())
     }
 }
