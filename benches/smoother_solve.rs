@@ -4,6 +4,9 @@
 //!
 //! * `block/nalgebra`: the block recursion on nalgebra's fixed-size blocks;
 //! * `block/faer`: the same recursion on faer's dense blocks;
+//! * `square root`: the factors from the whitened Jacobian J by block QR with row pivoting (what
+//!   the iterated smoother runs, never forming `Λ = JᵀJ`), then the recursion's solve on the
+//!   backend for D;
 //! * `faer sparse`: faer's sparse Cholesky (supernodal/simplicial, AMD ordering) of the assembled
 //!   matrix, lower triangle given as triplets;
 //! * `dense/nalgebra`: nalgebra's dense `DMatrix` Cholesky of the assembled matrix (the naive
@@ -15,34 +18,36 @@
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side, linalg::solvers::Solve};
-use liebayes::operators::iterated_smoother::{Backend, BlockTridiagonal};
-use nalgebra::{DVector, SMatrix, SVector};
+use liebayes::operators::iterated_smoother::{Backend, BlockJacobian, BlockTridiagonal};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
 use std::time::Duration;
 
-/// A random normal matrix `Σ Jᵀ J` of K blocks coupling neighbours (as a Gauss-Newton step builds
-/// it), with a right-hand side.
-fn problem<const D: usize>(blocks: usize) -> (BlockTridiagonal<D>, Vec<SVector<f64, D>>) {
+/// A random whitened Jacobian of K epochs coupling neighbours (as a Gauss-Newton step builds it),
+/// its normal matrix `Σ Jᵀ J`, and a right-hand side.
+fn problem<const D: usize>(
+    blocks: usize,
+) -> (BlockJacobian<D>, BlockTridiagonal<D>, Vec<SVector<f64, D>>) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut random = || SMatrix::<f64, D, D>::from_fn(|_, _| rng.random_range(-1.0..1.0));
-    let mut diagonal = vec![SMatrix::<f64, D, D>::identity(); blocks];
-    let mut lower = vec![SMatrix::<f64, D, D>::zeros(); blocks - 1];
+    let mut jacobian = BlockJacobian::new(blocks).unwrap();
     for k in 0..blocks {
+        let identity = DMatrix::<f64>::identity(D, D);
+        jacobian.add_rows(k, identity.as_view()).unwrap();
         let a = random();
-        diagonal[k] += a.transpose() * a;
+        let a = DMatrix::from_column_slice(D, D, a.as_slice());
+        jacobian.add_rows(k, a.as_view()).unwrap();
         if k + 1 < blocks {
-            let (b, c) = (random(), random());
-            diagonal[k] += b.transpose() * b;
-            diagonal[k + 1] += c.transpose() * c;
-            lower[k] += c.transpose() * b;
+            jacobian.set_transition(k, random(), random()).unwrap();
         }
     }
     let rhs = (0..blocks)
         .map(|k| SVector::from_fn(|i, _| ((k + i) as f64).sin()))
         .collect();
-    (BlockTridiagonal::new(diagonal, lower).unwrap(), rhs)
+    let normal = jacobian.normal().unwrap();
+    (jacobian, normal, rhs)
 }
 
 /// The lower triangle of the assembled matrix as faer triplets.
@@ -69,7 +74,7 @@ fn solve_dimension<const D: usize>(c: &mut Criterion) {
     let mut g = c.benchmark_group(format!("smoother_solve/D={D}"));
     g.sample_size(10);
     for blocks in [100_usize, 1000] {
-        let (m, rhs) = problem::<D>(blocks);
+        let (jacobian, m, rhs) = problem::<D>(blocks);
         for (name, backend) in [
             ("block/nalgebra", Backend::FixedSize),
             ("block/faer", Backend::Faer),
@@ -81,6 +86,12 @@ fn solve_dimension<const D: usize>(c: &mut Criterion) {
                 });
             });
         }
+        g.bench_function(BenchmarkId::new("square root", blocks), |b| {
+            b.iter(|| {
+                let factor = black_box(&jacobian).factor().unwrap();
+                factor.solve(black_box(&rhs)).unwrap()
+            });
+        });
         let n = blocks * D;
         let entries = triplets(&m);
         let stacked = Mat::from_fn(n, 1, |i, _| rhs[i / D][i % D]);

@@ -1,6 +1,6 @@
 //! Bad input never panics, hangs, aborts or silently yields NaN. Every public constructor and operator
 //! of the crate (Kalman filter, EKF, UKF, particle set, resampling, grid, composites, smoother,
-//! evaluation metrics) is fed NaN, ±∞, ±MAX, subnormals, zeros, singular and indefinite covariances and huge
+//! the iterated smoother's block Jacobian, evaluation metrics) is fed NaN, ±∞, ±MAX, subnormals, zeros, singular and indefinite covariances and huge
 //! sizes, each call on its own thread under a time limit; it must return an error or a finite result,
 //! and a container stepped in place must be exactly as it was after an error. The fixed cases at the
 //! end are the regressions of reported failures (`LIEBAYES_FUZZ_CASES` runs the properties long).
@@ -11,6 +11,7 @@ use liebayes_operators::evaluation::{
     average_nees_band, chi_square_quantile, circular_consistency, nees,
 };
 use liebayes_operators::grid::{CircularGrid, Diffusion};
+use liebayes_operators::iterated_smoother::{Backend, BlockJacobian};
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::particle::{
     Given, LikelihoodFn, ParticleSet, Resampling, Reweight, SampleFn, Sampled, finite_point,
@@ -22,7 +23,7 @@ use liebayes_operators::{
     Condition, Ekf, MAX_ELEMENTS, MeasurementFn, OperatorError, ProcessFn, Propagate, Ukf,
 };
 use liebayes_reference::fuzz::{self, size, value};
-use nalgebra::{Matrix1, Matrix2, Matrix2x3, SMatrix, SVector, Vector1, Vector2};
+use nalgebra::{DMatrix, Matrix1, Matrix2, Matrix2x3, SMatrix, SVector, Vector1, Vector2};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 use rand::{RngCore, SeedableRng};
@@ -498,6 +499,52 @@ fn smoother() {
                 }
                 if let Some(smoothed) = fuzz::counted(rts.smooth()) {
                     prop_assert!(smoothed.iter().all(finite_manifold_gaussian));
+                }
+                Ok(())
+            });
+        },
+    );
+}
+
+#[test]
+fn block_jacobian() {
+    fuzz::run(
+        "block jacobian",
+        (
+            size(MAX_ELEMENTS),
+            matrix::<2, 2>(),
+            matrix::<2, 2>(),
+            matrix::<2, 2>(),
+        ),
+        |(epochs, own, first, second)| {
+            fuzz::case("block jacobian", move || -> Result<(), TestCaseError> {
+                let made = BlockJacobian::<2>::new(epochs);
+                prop_assert_eq!(made.is_ok(), (1..40).contains(&epochs));
+                let Ok(mut jacobian) = made else {
+                    return Ok(());
+                };
+                for k in 0..epochs {
+                    let before = jacobian.clone();
+                    let rows = DMatrix::from_column_slice(2, 2, own.as_slice());
+                    if jacobian.add_rows(k, rows.as_view()).is_err() {
+                        prop_assert_eq!(&jacobian, &before);
+                    }
+                    let before = jacobian.clone();
+                    if k + 1 < epochs && jacobian.set_transition(k, first, second).is_err() {
+                        prop_assert_eq!(&jacobian, &before);
+                    }
+                }
+                for backend in [Backend::FixedSize, Backend::Faer] {
+                    let Some(factor) = fuzz::counted(jacobian.factor_with(backend)) else {
+                        continue;
+                    };
+                    if let Some(marginals) = fuzz::counted(factor.marginal_covariances()) {
+                        prop_assert!(marginals.iter().all(|m| finite(m.iter())));
+                    }
+                    let rhs = vec![Vector2::new(1.0, -1.0); epochs];
+                    if let Some(x) = fuzz::counted(factor.solve(&rhs)) {
+                        prop_assert!(x.iter().all(|v| finite(v.iter())));
+                    }
                 }
                 Ok(())
             });

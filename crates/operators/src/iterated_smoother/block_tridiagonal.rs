@@ -12,6 +12,14 @@
 //!   inverse of `U D Uᵀ` is `U⁻ᵀ D⁻¹ U⁻¹`, and its diagonal blocks obey this backward recursion, the
 //!   covariance recursion of the RTS smoother).
 //!
+//! The factors come from Λ itself ([`BlockTridiagonal::factor`]), or from a square root of it, a
+//! block-bidiagonal whitened Jacobian J with `Λ = JᵀJ` ([`BlockJacobian::factor`]): a QR
+//! factorisation of J, block by block, gives the upper block-bidiagonal R with `RᵀR = Λ`, so that
+//! `L_k = R_kkᵀ` and `G_k = R_kk⁻¹ R_{k,k+1}`, without forming Λ. Forming Λ squares J's condition
+//! number, and the Schur complements then cancel: a trajectory whose marginal covariances span more
+//! than about 1e15 of the noise's scale (a constant-velocity track with process noise 1e-10 over
+//! 300 unmeasured epochs) has a Λ that rounding leaves indefinite, while J's factorisation holds it.
+//!
 //! Two backends run the same recursion: nalgebra's fixed-size matrices, and faer's dense matrices,
 //! which the benchmark `smoother_solve` finds faster from [`FAER_FROM_DIMENSION`] on.
 
@@ -19,9 +27,12 @@ use crate::OperatorError;
 use crate::error::{all_finite, check_size, with_capacity};
 use crate::numerics::check_symmetric;
 use faer::linalg::matmul::matmul;
-use faer::linalg::solvers::{DenseSolveCore, Llt, Solve};
+use faer::linalg::solvers::{Llt, Qr};
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
 use faer::{Accum, Mat, Par, Side};
-use nalgebra::{Cholesky, DMatrix, SMatrix, SVector};
+use nalgebra::{Cholesky, DMatrix, DMatrixView, SMatrix, SVector};
 
 /// The state dimension from which [`BlockTridiagonal::factor`] runs on faer rather than on
 /// nalgebra's fixed-size matrices: the `smoother_solve` benchmark measured nalgebra 2.4 to 5 times
@@ -172,6 +183,289 @@ impl<const D: usize> BlockTridiagonal<D> {
     }
 }
 
+/// A block-bidiagonal whitened Jacobian J over n epochs of dimension D: rows in one epoch's state
+/// (a prior's, a measurement's), and rows in two neighbouring epochs' states (a transition's,
+/// `[J₁ J₂]` in x_k and x_{k+1}). Its normal matrix `Λ = JᵀJ` is [`BlockTridiagonal`];
+/// [`BlockJacobian::factor`] factors Λ from J by QR (see the module docs), where forming Λ would
+/// square J's condition number.
+///
+/// # Example
+/// ```
+/// use liebayes_operators::iterated_smoother::{Backend, BlockJacobian};
+/// use nalgebra::{Matrix1, Vector1};
+///
+/// // A walk with unit noises, a prior on x₀ and a reading of x₁: J = [[1, 0], [−1, 1], [0, 1]].
+/// let mut jacobian = BlockJacobian::<1>::new(2).unwrap();
+/// jacobian.add_rows(0, Matrix1::new(1.0).as_view()).unwrap();
+/// jacobian.set_transition(0, Matrix1::new(-1.0), Matrix1::new(1.0)).unwrap();
+/// jacobian.add_rows(1, Matrix1::new(1.0).as_view()).unwrap();
+/// // Λ = [[2, −1], [−1, 2]]: inverse [[2, 1], [1, 2]] / 3.
+/// let factor = jacobian.factor_with(Backend::FixedSize).unwrap();
+/// let marginals = factor.marginal_covariances().unwrap();
+/// assert!((marginals[0][0] - 2.0 / 3.0).abs() < 1e-15);
+/// let x = factor.solve(&[Vector1::new(1.0), Vector1::new(1.0)]).unwrap();
+/// assert!((x[1][0] - 1.0).abs() < 1e-15);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct BlockJacobian<const D: usize> {
+    /// Per epoch, its own rows (D columns), stacked.
+    own: Vec<DMatrix<f64>>,
+    /// Per transition k → k + 1, its rows in x_k and in x_{k+1} (zero until set).
+    transitions: Vec<(SMatrix<f64, D, D>, SMatrix<f64, D, D>)>,
+}
+
+/// What the square-root factorisation names when an epoch's rows leave its state undetermined.
+const RANK_DEFICIENT: &str = "block Jacobian (after the rows of the epochs before it, an epoch's \
+                              rows do not determine its state: give every state a prior, a \
+                              transition or a measurement in each of its directions)";
+
+impl<const D: usize> BlockJacobian<D> {
+    /// A Jacobian of n ≥ 1 epochs with no rows yet.
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for n = 0, [`OperatorError::TooLarge`] when n D² is above
+    /// [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or the blocks cannot be allocated.
+    pub fn new(epochs: usize) -> Result<Self, OperatorError> {
+        if epochs == 0 {
+            return Err(OperatorError::OutOfRange {
+                what: "number of epochs of a block Jacobian",
+                value: 0.0,
+                range: "at least 1",
+            });
+        }
+        check_size(
+            "entries of the block Jacobian",
+            epochs.saturating_mul(D * D),
+        )?;
+        let mut own = with_capacity("epochs of the block Jacobian", epochs)?;
+        own.resize(epochs, DMatrix::zeros(0, D));
+        let mut transitions = with_capacity("transitions of the block Jacobian", epochs - 1)?;
+        transitions.resize(epochs - 1, (SMatrix::zeros(), SMatrix::zeros()));
+        Ok(Self { own, transitions })
+    }
+
+    /// The number of epochs n.
+    pub fn epochs(&self) -> usize {
+        self.own.len()
+    }
+
+    /// Appends rows in epoch k's state alone (D columns).
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for an epoch past the last or rows without D columns,
+    /// [`OperatorError::NonFinite`] for a NaN or infinite entry, [`OperatorError::TooLarge`] when
+    /// the epoch's rows would pass [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) entries.
+    pub fn add_rows(
+        &mut self,
+        epoch: usize,
+        rows: DMatrixView<'_, f64>,
+    ) -> Result<(), OperatorError> {
+        if rows.ncols() != D {
+            return Err(OperatorError::OutOfRange {
+                what: "number of columns of block Jacobian rows",
+                value: rows.ncols() as f64,
+                range: "the state's dimension D",
+            });
+        }
+        all_finite("block Jacobian entry", rows.iter())?;
+        let own = self.own_mut(epoch)?;
+        let start = own.nrows();
+        check_size(
+            "entries of an epoch of the block Jacobian",
+            start.saturating_add(rows.nrows()).saturating_mul(D),
+        )?;
+        own.resize_vertically_mut(start + rows.nrows(), 0.0);
+        own.rows_mut(start, rows.nrows()).copy_from(&rows);
+        Ok(())
+    }
+
+    /// Sets the rows of transition k → k + 1: `first` in x_k, `second` in x_{k+1}.
+    ///
+    /// # Errors
+    /// [`OperatorError::OutOfRange`] for a transition past the last,
+    /// [`OperatorError::NonFinite`] for a NaN or infinite entry.
+    pub fn set_transition(
+        &mut self,
+        k: usize,
+        first: SMatrix<f64, D, D>,
+        second: SMatrix<f64, D, D>,
+    ) -> Result<(), OperatorError> {
+        all_finite("block Jacobian entry", first.iter().chain(second.iter()))?;
+        let slot = self
+            .transitions
+            .get_mut(k)
+            .ok_or(OperatorError::OutOfRange {
+                what: "transition of the block Jacobian",
+                value: k as f64,
+                range: "below the number of epochs minus one",
+            })?;
+        *slot = (first, second);
+        Ok(())
+    }
+
+    /// Epoch k's own rows, or the error naming it.
+    fn own_mut(&mut self, epoch: usize) -> Result<&mut DMatrix<f64>, OperatorError> {
+        self.own.get_mut(epoch).ok_or(OperatorError::OutOfRange {
+            what: "epoch of the block Jacobian",
+            value: epoch as f64,
+            range: "below its number of epochs",
+        })
+    }
+
+    /// The normal matrix `JᵀJ` (the reference of the tests; [`Self::factor`] never forms it).
+    ///
+    /// # Errors
+    /// As [`BlockTridiagonal::new`].
+    pub fn normal(&self) -> Result<BlockTridiagonal<D>, OperatorError> {
+        let mut diagonal: Vec<SMatrix<f64, D, D>> = self
+            .own
+            .iter()
+            .map(|rows| SMatrix::from_fn(|i, j| rows.column(i).dot(&rows.column(j))))
+            .collect();
+        let mut lower = Vec::with_capacity(self.transitions.len());
+        for (k, (first, second)) in self.transitions.iter().enumerate() {
+            diagonal[k] += first.tr_mul(first);
+            diagonal[k + 1] += second.tr_mul(second);
+            lower.push(second.tr_mul(first));
+        }
+        BlockTridiagonal::new(diagonal, lower)
+    }
+
+    /// The factorisation of `JᵀJ` from J, on the backend [`Backend::for_dimension`] picks for D.
+    ///
+    /// # Errors
+    /// As [`Self::factor_with`].
+    pub fn factor(&self) -> Result<BlockCholesky<D>, OperatorError> {
+        self.factor_with(Backend::for_dimension(D))
+    }
+
+    /// The factorisation of `JᵀJ` from J by block QR: epoch by epoch, the rows carried from the
+    /// epochs before, the epoch's own rows and its transition's rows, `[T_k 0; O_k 0; J₁ J₂]`, are
+    /// reduced by Householder reflections to `[R_kk R_{k,k+1}; 0 T_{k+1}]` (`T_0` empty). O(n D³).
+    /// On [`Backend::FixedSize`] each column's pivot row is the one of largest magnitude in it
+    /// (Powell and Reid's row pivoting); on [`Backend::Faer`] the rows are sorted by their largest
+    /// magnitude first and reduced by faer's blocked QR. Either way the large rows (a transition's
+    /// with a tiny process noise) are reduced before the small ones (a reading's), whose
+    /// information would otherwise be lost to their rounding.
+    ///
+    /// # Errors
+    /// [`OperatorError::NotPositiveDefinite`] when an epoch's state is left undetermined (JᵀJ is
+    /// singular: a diagonal entry of `R_kk` is zero), [`OperatorError::NonFinite`] when one
+    /// overflows, [`OperatorError::TooLarge`] when the factors cannot be allocated.
+    pub fn factor_with(&self, backend: Backend) -> Result<BlockCholesky<D>, OperatorError> {
+        let n = self.epochs();
+        let mut diagonal = with_capacity("blocks of the factorisation", n)?;
+        let mut upper = with_capacity("blocks of the factorisation", n - 1)?;
+        let mut carried = SMatrix::<f64, D, D>::zeros();
+        for (k, own) in self.own.iter().enumerate() {
+            let transition = self.transitions.get(k);
+            let width = if transition.is_some() { 2 * D } else { D };
+            let rows = D + own.nrows() + if transition.is_some() { D } else { 0 };
+            let mut stacked = DMatrix::zeros(rows, width);
+            stacked.view_mut((0, 0), (D, D)).copy_from(&carried);
+            stacked.view_mut((D, 0), (own.nrows(), D)).copy_from(own);
+            if let Some((first, second)) = transition {
+                let at = D + own.nrows();
+                stacked.view_mut((at, 0), (D, D)).copy_from(first);
+                stacked.view_mut((at, D), (D, D)).copy_from(second);
+            }
+            // At least `width` rows: D carried and, with a transition, D more.
+            let r = match backend {
+                Backend::FixedSize => {
+                    reduce_to_triangular(&mut stacked);
+                    stacked
+                }
+                Backend::Faer => reduce_sorted_by_faer(&stacked),
+            };
+            let mut top = r.rows(0, D).into_owned();
+            for i in 0..D {
+                // Rows of R may change sign (with Q's columns): RᵀR is the same, and L_k = R_kkᵀ
+                // needs a positive diagonal.
+                if top[(i, i)] < 0.0 {
+                    top.row_mut(i).neg_mut();
+                }
+            }
+            let block = SMatrix::<f64, D, D>::from_fn(|i, j| top[(i, j)]);
+            all_finite("square-root factor of the normal matrix", top.iter())?;
+            if (0..D).any(|i| block[(i, i)] <= 0.0) {
+                return Err(OperatorError::NotPositiveDefinite {
+                    what: RANK_DEFICIENT,
+                });
+            }
+            diagonal.push(block);
+            if transition.is_some() {
+                upper.push(SMatrix::<f64, D, D>::from_fn(|i, j| top[(i, D + j)]));
+                carried = SMatrix::from_fn(|i, j| r[(D + i, D + j)]);
+            }
+        }
+        Ok(BlockCholesky {
+            factors: match backend {
+                Backend::FixedSize => Factors::FixedSize(Recursion::from_root(&diagonal, &upper)?),
+                Backend::Faer => Factors::Faer(Recursion::from_root(&diagonal, &upper)?),
+            },
+        })
+    }
+}
+
+/// Reduces `a` (at least as many rows as columns) to its R factor in place, by Householder
+/// reflections with row pivoting (Powell and Reid): before column j is reduced, the row of largest
+/// magnitude in it from row j on is swapped to row j. A whitened Jacobian holds rows of very
+/// different scales (a transition with process noise 1e-30 weighs 1e15, a reading 1): reduced by a
+/// small pivot, the large row's entries in the next columns would be the difference of two numbers
+/// of its size, and the small rows' information (all the smoother knows of the state) would be
+/// lost to their rounding. The entries below the diagonal are left zero.
+fn reduce_to_triangular(a: &mut DMatrix<f64>) {
+    let (rows, columns) = a.shape();
+    for j in 0..columns.min(rows) {
+        let pivot = (j..rows)
+            .max_by(|&x, &y| a[(x, j)].abs().total_cmp(&a[(y, j)].abs()))
+            .unwrap_or(j);
+        a.swap_rows(j, pivot);
+        // Column-major: column c from row j is `data[c * rows + j..(c + 1) * rows]`.
+        let data = a.as_mut_slice();
+        let (before, after) = data.split_at_mut((j + 1) * rows);
+        let x = &mut before[j * rows + j..];
+        let largest = x[0].abs();
+        if largest == 0.0 || !largest.is_finite() {
+            // A zero column is reduced already; an infinite one is refused by the caller.
+            continue;
+        }
+        // ‖x‖ scaled by its largest entry (no overflow or underflow in the squares), R_jj = α with
+        // the sign opposite to x_j, so that v_j = x_j − α adds magnitudes.
+        let norm = largest * x.iter().map(|v| (v / largest).powi(2)).sum::<f64>().sqrt();
+        let alpha = if x[0] > 0.0 { -norm } else { norm };
+        let head = x[0] - alpha;
+        // H = I − 2 v vᵀ / vᵀv with v = (head, x_{j+1}, …) and vᵀv = −2 α head.
+        for column in after.chunks_exact_mut(rows) {
+            let y = &mut column[j..];
+            let dot = head * y[0] + x[1..].iter().zip(&y[1..]).map(|(v, w)| v * w).sum::<f64>();
+            let factor = dot / alpha / head;
+            y[0] += factor * head;
+            for (w, v) in y[1..].iter_mut().zip(&x[1..]) {
+                *w += factor * v;
+            }
+        }
+        x[0] = alpha;
+        x[1..].fill(0.0);
+    }
+}
+
+/// The R factor of `a` (at least as many rows as columns) by faer's blocked Householder QR, the rows
+/// first sorted by their largest magnitude, largest first (Cox and Higham's row sorting: the large
+/// rows are reduced first, as [`reduce_to_triangular`]'s pivoting does column by column).
+fn reduce_sorted_by_faer(a: &DMatrix<f64>) -> DMatrix<f64> {
+    let (rows, columns) = a.shape();
+    let mut order: Vec<(f64, usize)> = (0..rows).map(|i| (a.row(i).amax(), i)).collect();
+    order.sort_by(|x, y| y.0.total_cmp(&x.0));
+    let sorted = Mat::from_fn(rows, columns, |i, j| a[(order[i].1, j)]);
+    let r = Qr::new(sorted.as_ref()).thin_R().to_owned();
+    DMatrix::from_fn(
+        columns,
+        columns,
+        |i, j| if i <= j { r[(i, j)] } else { 0.0 },
+    )
+}
+
 /// The factorisation `Λ = U D Uᵀ` of a [`BlockTridiagonal`] matrix (see the module docs): solves
 /// and the diagonal blocks of the inverse, each in O(n D³) without forming `Λ⁻¹`.
 #[derive(Clone, Debug)]
@@ -260,6 +554,8 @@ trait Blocks<const D: usize> {
     fn to_vector(v: &Self::Vector) -> SVector<f64, D>;
     /// The Cholesky factor of a symmetric block, `None` when it is not positive definite.
     fn cholesky(s: Self::Block) -> Option<Self::Factor>;
+    /// The factor whose lower-triangular L (positive diagonal) is given.
+    fn from_lower(l: &SMatrix<f64, D, D>) -> Self::Factor;
     /// `S⁻¹ Bᵀ`.
     fn solve_transposed(f: &Self::Factor, b: &Self::Block) -> Self::Block;
     /// `S⁻¹ v`.
@@ -303,6 +599,9 @@ impl<const D: usize> Blocks<D> for FixedSize {
     fn cholesky(s: Self::Block) -> Option<Self::Factor> {
         Cholesky::new(s)
     }
+    fn from_lower(l: &SMatrix<f64, D, D>) -> Self::Factor {
+        Cholesky::pack_dirty(*l)
+    }
     fn solve_transposed(f: &Self::Factor, b: &Self::Block) -> Self::Block {
         f.solve(&b.transpose())
     }
@@ -339,7 +638,8 @@ struct Dense;
 impl<const D: usize> Blocks<D> for Dense {
     type Block = Mat<f64>;
     type Vector = Mat<f64>;
-    type Factor = Llt<f64>;
+    /// The lower-triangular Cholesky factor L.
+    type Factor = Mat<f64>;
 
     fn block(m: &SMatrix<f64, D, D>) -> Self::Block {
         Mat::from_fn(D, D, |i, j| m[(i, j)])
@@ -354,20 +654,27 @@ impl<const D: usize> Blocks<D> for Dense {
         SVector::from_fn(|i, _| v[(i, 0)])
     }
     fn cholesky(s: Self::Block) -> Option<Self::Factor> {
-        Llt::new(s.as_ref(), Side::Lower).ok()
+        Llt::new(s.as_ref(), Side::Lower)
+            .ok()
+            .map(|llt| llt.L().to_owned())
+    }
+    fn from_lower(l: &SMatrix<f64, D, D>) -> Self::Factor {
+        Self::block(l)
     }
     fn solve_transposed(f: &Self::Factor, b: &Self::Block) -> Self::Block {
         let mut x = b.transpose().to_owned();
-        f.solve_in_place(x.as_mut());
+        solve_in_place(f, &mut x);
         x
     }
     fn solve_vector(f: &Self::Factor, v: &Self::Vector) -> Self::Vector {
         let mut x = v.clone();
-        f.solve_in_place(x.as_mut());
+        solve_in_place(f, &mut x);
         x
     }
     fn inverse(f: &Self::Factor) -> Self::Block {
-        f.inverse()
+        let mut x = Mat::identity(D, D);
+        solve_in_place(f, &mut x);
+        x
     }
     fn sub_product(a: &Self::Block, b: &Self::Block, c: &Self::Block) -> Self::Block {
         let mut out = a.clone();
@@ -397,6 +704,12 @@ impl<const D: usize> Blocks<D> for Dense {
     }
 }
 
+/// `x ← (L Lᵀ)⁻¹ x` for a lower-triangular L with a positive diagonal.
+fn solve_in_place(l: &Mat<f64>, x: &mut Mat<f64>) {
+    solve_lower_triangular_in_place(l.as_ref(), x.as_mut(), Par::Seq);
+    solve_upper_triangular_in_place(l.transpose(), x.as_mut(), Par::Seq);
+}
+
 /// The factors `L_k` of the Schur complements and the gains `G_k = S_k⁻¹ B_kᵀ`.
 #[derive(Clone, Debug)]
 struct Recursion<B: Blocks<D>, const D: usize> {
@@ -423,6 +736,29 @@ impl<B: Blocks<D>, const D: usize> Recursion<B, D> {
             gains.push(gain);
         }
         factors.push(factor);
+        Ok(Self { factors, gains })
+    }
+
+    /// From the blocks of R (`RᵀR = Λ`, upper block-bidiagonal, each `R_kk` upper triangular with
+    /// a positive diagonal): `L_k = R_kkᵀ`, `G_k = R_kk⁻¹ R_{k,k+1}`.
+    fn from_root(
+        diagonal: &[SMatrix<f64, D, D>],
+        upper: &[SMatrix<f64, D, D>],
+    ) -> Result<Self, OperatorError> {
+        let mut factors = with_capacity("blocks of the factorisation", diagonal.len())?;
+        let mut gains = with_capacity("blocks of the factorisation", upper.len())?;
+        for r in diagonal {
+            factors.push(B::from_lower(&r.transpose()));
+        }
+        for (r, coupling) in diagonal.iter().zip(upper) {
+            let gain =
+                r.solve_upper_triangular(coupling)
+                    .ok_or(OperatorError::NotPositiveDefinite {
+                        what: RANK_DEFICIENT,
+                    })?;
+            all_finite("square-root factor of the normal matrix", gain.iter())?;
+            gains.push(B::block(&gain));
+        }
         Ok(Self { factors, gains })
     }
 
