@@ -79,8 +79,10 @@ impl<T: Real> Default for MeanSettings<T> {
 /// from a given start, until the tangent norm of the step is at most the tolerance (the last step is
 /// applied), or until the step has stalled at the rounding of the computation: it no longer shrinks
 /// and is below √eps times the size of the residuals it sums, `Σ |wᵢ/Σw| |xᵢ ⊟ m|` in the max norm
-/// (points far from the origin of Rⁿ, large normalised weights); the mean is then as accurate as the
-/// coordinates allow. A step that stops shrinking while still large is not a stall (it does not
+/// (points far from the origin of Rⁿ, large normalised weights), or the coordinates no longer
+/// resolve it (retracted and taken back with `local`, it changes by half its length or more: points
+/// of Rⁿ 1e9 from the origin whose spread is 1e-3); the mean is then as accurate as the coordinates
+/// allow. A step that stops shrinking while still large is not a stall (it does not
 /// converge). On Rⁿ one step is exact; on the curved spaces the iteration converges linearly, at a
 /// rate that shrinks with the spread of the samples (Pennec, "Intrinsic statistics on Riemannian
 /// manifolds", 2006; Manton, "A globally convergent numerical algorithm for computing the centre of
@@ -172,10 +174,11 @@ where
             last_step = norm;
             break;
         }
+        let unresolved = unresolved(&mean, &step, norm);
         mean = mean.retract(&step);
         let stalled = norm >= last_step && norm <= stall * size;
         last_step = norm;
-        if norm <= settings.tolerance || stalled {
+        if norm <= settings.tolerance || stalled || unresolved {
             return Ok(mean);
         }
     }
@@ -184,6 +187,24 @@ where
         last_step: last_step.to_f64(),
         tolerance: settings.tolerance.to_f64(),
     })
+}
+
+/// Whether the coordinates of `mean` are too coarse to resolve `step` (of norm `norm`): retracted
+/// and taken back with `local`, it changes by half its length or more, and so does a thousandth of
+/// it (a step beyond the injectivity radius also comes back changed, but a thousandth of it does
+/// not). Points of Rⁿ whose spread is below about 1e-7 of their distance from the origin end the
+/// iteration here, their residuals too small for the stall test.
+fn unresolved<T: Real, X: Manifold<D, Scalar = T>, const D: usize>(
+    mean: &X,
+    step: &Tangent<T, D>,
+    norm: T,
+) -> bool {
+    let changed = |v: &Tangent<T, D>, length: T| {
+        let held = crate::real::stable_norm(&(mean.local(&mean.retract(v)) - v));
+        held + held >= length
+    };
+    let fraction = T::lit(1e-3);
+    changed(step, norm) && changed(&(step * fraction), norm * fraction)
 }
 
 /// The sum of the weights, checked: at least one, all finite, and a finite sum larger in magnitude

@@ -233,6 +233,25 @@ fn far_from_the_origin_the_mean_is_as_accurate_as_the_coordinates() {
     assert!((m.coords()[0] - 1_133.333_3).abs() <= 1e-3);
 }
 
+/// Points 1e9 from the origin of Rⁿ spread by 1e-3 (a UKF's sigma points of a position far from
+/// its origin): the rounding of the coordinates, 1.2e-7, is above √eps times the residuals, so the
+/// step never passes the stall test; it is below what the coordinates resolve, which ends the
+/// iteration (it used to fail with `MeanNotConverged`).
+#[test]
+fn a_step_the_coordinates_cannot_resolve_ends_the_mean() {
+    let base = Vector3::new(1.1e9, -0.7e9, 0.3e9);
+    let offsets = [
+        Vector3::new(1e-3, 0.0, -2e-3),
+        Vector3::new(-1e-3, 3e-3, 0.0),
+        Vector3::new(0.0, -1e-3, 1e-3),
+    ];
+    let xs = offsets.map(|d| Rn::new(base + d).unwrap());
+    let weights = [0.5, 0.3, 0.2];
+    let m = weighted_mean(&xs[0], xs.iter().zip(weights), MeanSettings::default()).unwrap();
+    let expected = base + offsets[0] * 0.5 + offsets[1] * 0.3 + offsets[2] * 0.2;
+    assert!((m.coords() - expected).amax() <= 4.0 * f64::EPSILON * 1.1e9);
+}
+
 /// Points 1e200 apart on Rⁿ: the step's length is taken without squaring its entries (squares of
 /// 1e200 overflow), so the iteration converges instead of stopping with `MeanNotConverged`.
 #[test]
