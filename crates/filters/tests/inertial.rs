@@ -628,3 +628,50 @@ fn priors_singular_to_rounding_are_floored_at_it() {
     }
     every_convention_takes_every_step(slow, FixUpdate::OnePass);
 }
+
+/// Dead reckoning at 1 Hz for 17 000 s, with one fix at the end: every prediction is taken. F's
+/// velocity and position columns, by central differences of a fixed 1e-6 step, were within 20 %
+/// of the rounding of positions 1e9 m out (where the estimate drifts without fixes), and the
+/// covariance grew by that factor every step: the error-state filter's passed 1e100 at step
+/// 16 180, and the invariant filters' predictions were refused from steps 12 135 and 14 977. The
+/// steps of those columns now scale with the state, as the accelerometer noise's do.
+#[test]
+fn a_long_dead_reckoning_keeps_every_prediction() {
+    use liebayes_filters::inertial::FixUpdate;
+    let config = InertialConfig {
+        imu_rate: 1.0,
+        duration: 17_000.0,
+        fix_every: 17_000,
+        ..InertialConfig::default()
+    };
+    let conventions = every_convention_takes_every_step(config, FixUpdate::OnePass);
+    assert_eq!(conventions.len(), 3);
+}
+
+/// Every σ and noise at the low end of its range (1e-30, the bias walks 0) and a fix every sample:
+/// every convention takes every step (a probe of an earlier version saw the first prediction
+/// refused here).
+#[test]
+fn the_smallest_settings_keep_every_step() {
+    use liebayes_filters::inertial::{FixUpdate, ImuNoise};
+    let config = InertialConfig {
+        imu: ImuNoise {
+            gyro: 1e-30,
+            accel: 1e-30,
+            gyro_bias_walk: 0.0,
+            accel_bias_walk: 0.0,
+        },
+        fix_sigma: 1e-30,
+        heading_sigma: 1e-30,
+        tilt_sigma: 1e-30,
+        velocity_sigma: 1e-30,
+        position_sigma: 1e-30,
+        gyro_bias_sigma: 1e-30,
+        accel_bias_sigma: 1e-30,
+        fix_every: 1,
+        duration: 20.0,
+        ..InertialConfig::default()
+    };
+    let conventions = every_convention_takes_every_step(config, FixUpdate::OnePass);
+    assert_eq!(conventions.len(), 3);
+}

@@ -44,6 +44,11 @@ pub const NAVIGATION_DIM: usize = 15;
 /// is how the first nine, the attitude, velocity and position errors, are defined: that is the whole
 /// difference between the error-state EKF and the two invariant EKFs.
 pub trait NavigationState: Manifold<NAVIGATION_DIM, Scalar = f64> + Clone + Send + Sync {
+    /// The first of the three tangent coordinates of the attitude error (0 for `[δθ; δv; δp; …]`,
+    /// 3 for SE₂(3)'s `[ρ; φ; ν; …]`): with the gyroscope bias's, the only coordinates whose
+    /// errors the strapdown motion does not move linearly.
+    const ATTITUDE: usize;
+
     /// The state of `navigation`.
     fn from_navigation(navigation: &Navigation) -> Self;
 
@@ -87,6 +92,8 @@ product_manifold! {
 }
 
 impl NavigationState for ErrorState {
+    const ATTITUDE: usize = 0;
+
     fn from_navigation(navigation: &Navigation) -> Self {
         Self::new(
             navigation.rotation,
@@ -155,6 +162,8 @@ fn from_pose(motion: &Se23<f64>, biases: &SVector<f64, 6>) -> Navigation {
 }
 
 impl NavigationState for LeftInvariant {
+    const ATTITUDE: usize = 3;
+
     fn from_navigation(navigation: &Navigation) -> Self {
         Self::new(
             extended_pose(navigation),
@@ -168,6 +177,8 @@ impl NavigationState for LeftInvariant {
 }
 
 impl NavigationState for RightInvariant {
+    const ATTITUDE: usize = 3;
+
     fn from_navigation(navigation: &Navigation) -> Self {
         Self::new(
             Left::new(extended_pose(navigation)),
