@@ -317,10 +317,11 @@ impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
 
     /// Central differences of `f(x ⊞ δ) ⊟ f(x)`, as the default, but with a step per column: 1e-6
     /// for the attitude and the gyroscope bias, whose effect is nonlinear, and for the others,
-    /// which move the velocity and the position linearly in every convention, the step that stands
-    /// 1e6 times above the rounding of v′ and p′ ([`linear_step`]): exact at any distance from the
-    /// origin, where a fixed 1e-6 m left p′ = p + δp within 20 % of its rounding 1e9 m out, and the
-    /// covariance of a long dead reckoning grew by that factor every step.
+    /// which move the velocity and the position linearly in every convention, the accelerometer
+    /// noise's step `1e-6 max(1, |v|/dt, 2|p|/dt²)` (see [`Strapdown`]), 1e6 times above the
+    /// rounding of v′ and p′: exact at any distance from the origin, where a fixed 1e-6 m left
+    /// p′ = p + δp within 20 % of its rounding 1e9 m out, and the covariance of a long dead
+    /// reckoning grew by that factor every step.
     fn jacobian(&self, x: &S, input: &ImuStep) -> SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM> {
         let centre = self.transition(x, input);
         let linear = linear_step(&x.navigation(), input.dt);
