@@ -174,7 +174,8 @@ where
             last_step = norm;
             break;
         }
-        let unresolved = unresolved(&mean, &step, norm);
+        // Only a step above the tolerance needs the test (a retraction and a `local` more).
+        let unresolved = norm > settings.tolerance && unresolved(&mean, &step, norm);
         mean = mean.retract(&step);
         let stalled = norm >= last_step && norm <= stall * size;
         last_step = norm;
