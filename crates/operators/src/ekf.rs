@@ -61,7 +61,7 @@ where
 {
     type Input = P::Input;
 
-    /// `μ′ = f(μ, u)`, `P′ = F P Fᵀ + Q`, cross-covariance `P Fᵀ`.
+    /// `μ′ = f(μ, u)`, `P′ = F P Fᵀ + Q`, cross-covariance `P Fᵀ`, noise Q.
     fn predict_with_cross(
         &self,
         prior: &ManifoldGaussian<X, D>,
@@ -85,6 +85,7 @@ where
         Ok(Prediction {
             density,
             cross_covariance: cross,
+            noise,
         })
     }
 }

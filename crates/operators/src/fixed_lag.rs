@@ -230,8 +230,9 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> FixedLagSmoother<X, D> {
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] for an epoch past [`MAX_EPOCH`] or unless the window holds
-    /// `min(epoch, lag) + 1` filtered densities and one transition fewer, [`OperatorError::NonFinite`] for a cross-covariance entry that is
-    /// not finite, [`OperatorError::TooLarge`] as [`new`](Self::new).
+    /// `min(epoch, lag) + 1` filtered densities and one transition fewer,
+    /// [`OperatorError::NonFinite`] for a cross-covariance or noise entry that is not finite,
+    /// [`OperatorError::TooLarge`] as [`new`](Self::new).
     pub fn from_records(
         lag: usize,
         epoch: u64,
@@ -365,8 +366,9 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> FixedLagSmoother<X, D> {
     /// nothing: the result is written into the smoother's own buffer and borrowed.
     ///
     /// # Errors
-    /// [`OperatorError::NotPositiveDefinite`] when a smoothed covariance loses positive
-    /// definiteness (rounding on an ill-conditioned model); the smoother's state is unchanged.
+    /// [`OperatorError::NotPositiveDefinite`] when a smoothed covariance is not positive definite
+    /// (a recorded transition noise that is not positive semi-definite); the smoother's state is
+    /// unchanged.
     pub fn smooth(&mut self) -> Result<Window<'_, X, D>, OperatorError> {
         self.smoothed.clear();
         self.smoothed.push_front(self.current().clone());

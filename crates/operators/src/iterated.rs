@@ -46,7 +46,9 @@ use crate::error::all_finite;
 use crate::innovation::Innovation;
 use crate::kalman::joseph;
 use crate::models::MeasurementModel;
-use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise, rounding_scale};
+use crate::numerics::{
+    Produced, above_rounding, checked_gaussian, model_noise, rounding_scale, slope,
+};
 use crate::ukf::Ukf;
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
@@ -519,20 +521,14 @@ where
         let moments = self
             .ukf
             .measurement_moments(&spread, Some(delta), SMatrix::zeros())?;
-        let factor = spread.cholesky_factor();
-        // A = Ψᵀ Pᵢ⁻¹ by two triangular solves with Pᵢ = L Lᵀ (a positive diagonal).
-        let slope = factor
-            .tr_solve_lower_triangular_unchecked(
-                &factor.solve_lower_triangular_unchecked(&moments.cross),
-            )
-            .transpose();
-        let error = moments.covariance - slope * moments.cross;
+        // A = Ψᵀ Pᵢ⁻¹, and Ω = Φ − A Pᵢ Aᵀ as the moments summed it (no difference taken).
+        let slope = slope(spread.cholesky_factor(), &moments.cross);
         let residual = problem.residual_from(&moments.predicted)?;
         problem.update(
             residual,
             &slope,
             delta,
-            &error,
+            &moments.unexplained,
             Merit::Step(&iterate.spread),
         )
     }

@@ -341,8 +341,8 @@ where
             process,
             measurement,
         };
-        // Started from the RTS smoother's means, or from the filtered ones where its backward
-        // covariances are lost to rounding (Gauss-Newton needs only a starting point).
+        // Started from the RTS smoother's means, or from the filtered ones where its backward pass
+        // fails (Gauss-Newton needs only a starting point).
         let mut states: Vec<X> = match self.forward.smooth() {
             Ok(smoothed) => smoothed
                 .into_iter()

@@ -44,6 +44,18 @@ pub(crate) fn above_rounding<T, const M: usize>(
     }
 }
 
+/// The statistical linearisation `F̂ = Cᵀ P⁻¹` of a cross-covariance `C = Cov(δ, y)` for
+/// `δ ~ N(0, P)`, by two triangular solves with the Cholesky factor L of `P = L Lᵀ` (a density's
+/// factor: a positive diagonal), never an inverse. For a model linear in δ, `y = F δ`, it is F.
+pub(crate) fn slope<const D: usize, const M: usize>(
+    factor: &SMatrix<f64, D, D>,
+    cross: &SMatrix<f64, D, M>,
+) -> SMatrix<f64, M, D> {
+    factor
+        .tr_solve_lower_triangular_unchecked(&factor.solve_lower_triangular_unchecked(cross))
+        .transpose()
+}
+
 /// The scale [`above_rounding`] raises a linearised update's noise by: `max |Sᵢᵢ|` of
 /// `S = H P Hᵀ + R`, and at least `|H|²_F max |Pᵢⱼ|`, the size of the Joseph form's terms.
 pub(crate) fn rounding_scale<const D: usize, const M: usize>(

@@ -9,7 +9,7 @@
 //! | [`LinearProcess<N>`] | `{"transition": F, "noise": Q}` |
 //! | [`LinearMeasurement<N, M>`] | `{"matrix": H, "noise": R}` |
 //! | [`Resampling`](crate::particle::Resampling) | `"Multinomial"`, `"Stratified"`, `"Systematic"` or `"Residual"` |
-//! | [`Prediction<X, D>`] | `{"density": N(μ′, P′), "cross_covariance": C}` |
+//! | [`Prediction<X, D>`] | `{"density": N(μ′, P′), "cross_covariance": C, "noise": Ω}` |
 //! | [`RtsSmoother<X, D>`] | `{"filtered": [N(μ_f, P_f), …], "transitions": [Prediction, …]}` |
 //! | [`FixedLagSmoother<X, D>`] | `{"lag": L, "epoch": k, "filtered": [… the window …], "transitions": […]}` |
 //!
@@ -23,7 +23,7 @@
 //! back through its constructor, which factors the covariance again, deterministically. So the
 //! smoothers, read back through [`RtsSmoother::from_records`] and
 //! [`FixedLagSmoother::from_records`] (which check the record's shape and that every
-//! cross-covariance is finite), continue a checkpointed run bit for bit.
+//! cross-covariance and noise is finite), continue a checkpointed run bit for bit.
 
 use crate::fixed_lag::FixedLagSmoother;
 use crate::grid::CircularGrid;
@@ -163,9 +163,10 @@ impl<X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned, const D: usize
     for Prediction<X, D>
 {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut state = serializer.serialize_struct("Prediction", 2)?;
+        let mut state = serializer.serialize_struct("Prediction", 3)?;
         state.serialize_field("density", &self.density)?;
         state.serialize_field("cross_covariance", &self.cross_covariance)?;
+        state.serialize_field("noise", &self.noise)?;
         state.end()
     }
 }
@@ -177,6 +178,7 @@ impl<X: Manifold<D, Scalar = f64> + Serialize + DeserializeOwned, const D: usize
 struct PredictionFields<X, const D: usize> {
     density: ManifoldGaussian<X, D>,
     cross_covariance: SMatrix<f64, D, D>,
+    noise: SMatrix<f64, D, D>,
 }
 
 impl<'de, X, const D: usize> Deserialize<'de> for Prediction<X, D>
@@ -185,14 +187,20 @@ where
 {
     fn deserialize<De: Deserializer<'de>>(deserializer: De) -> Result<Self, De::Error> {
         let fields = PredictionFields::<X, D>::deserialize(deserializer)?;
-        if let Some(value) = fields.cross_covariance.iter().find(|v| !v.is_finite()) {
-            return Err(De::Error::custom(format!(
-                "cross_covariance: entry {value} is not finite"
-            )));
+        for (name, matrix) in [
+            ("cross_covariance", &fields.cross_covariance),
+            ("noise", &fields.noise),
+        ] {
+            if let Some(value) = matrix.iter().find(|v| !v.is_finite()) {
+                return Err(De::Error::custom(format!(
+                    "{name}: entry {value} is not finite"
+                )));
+            }
         }
         Ok(Prediction {
             density: fields.density,
             cross_covariance: fields.cross_covariance,
+            noise: fields.noise,
         })
     }
 }

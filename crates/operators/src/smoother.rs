@@ -3,21 +3,25 @@
 //!
 //! **Forward.** [`RtsSmoother`] takes the filter's steps, in the Propagate/Condition style, and
 //! records for each epoch k the filtered density `N(μ_f,k, P_f,k)`, and for each transition
-//! `k → k+1` the predicted density `N(μ_p,k+1, P_p,k+1)` and the cross-covariance
-//! `C_k = Cov(δ_k, δ_k+1)` of the linearisation ([`GaussianTransition`]):
-//! `C_k = P_f,k F_kᵀ` for the EKF (F_k the right Jacobian of the motion at μ_f,k), and
-//! `C_k = Σ wᵢᶜ dᵢ (Yᵢ ⊟ μ_p,k+1)ᵀ` for the UKF (the statistical linearisation of the unscented
-//! transform, Särkkä's unscented RTS smoother).
+//! `k → k+1` the predicted density `N(μ_p,k+1, P_p,k+1)`, the cross-covariance
+//! `C_k = Cov(δ_k, δ_k+1)` of the linearisation and the noise `Ω_k` it does not explain
+//! ([`GaussianTransition`]): `C_k = P_f,k F_kᵀ` and `Ω_k = Q_k` for the EKF (F_k the right Jacobian
+//! of the motion at μ_f,k), and for the UKF `C_k = Σ wᵢᶜ dᵢ (Yᵢ ⊟ μ_p,k+1)ᵀ` (the statistical
+//! linearisation of the unscented transform, Särkkä's unscented RTS smoother) and `Ω_k` its
+//! residual, `P_p,k+1 − F̂_k P_f,k F̂_kᵀ` with `F̂_k = C_kᵀ P_f,k⁻¹`.
 //!
 //! **Backward** ([`RtsSmoother::smooth`]), from the last filtered density, for k = K−1 down to 0:
 //!
 //! * gain `G_k = C_k P_p,k+1⁻¹` (by the Cholesky factor of P_p,k+1, never inverted; for the EKF
 //!   `G_k = P_f,k F_kᵀ P_p,k+1⁻¹`);
 //! * mean `μ_s,k = μ_f,k ⊞ G_k (μ_s,k+1 ⊟ μ_p,k+1)`;
-//! * covariance `P_s,k = P_f,k + G_k (P_s,k+1 − P_p,k+1) G_kᵀ`. The sum cancels when the process
-//!   noise and the later information are below ε of P_f,k; a step whose variance is not at least
-//!   1e3 ε times the size of its terms (relative rounding above 1e-3) is refused rather than
-//!   returned (a prior of 1e17 with unit noises used to smooth to 32 where 5/3 is exact).
+//! * covariance in Joseph's form, `P_s,k = A_k P_f,k A_kᵀ + G_k (Ω_k + P_s,k+1) G_kᵀ` with
+//!   `A_k = I − G_k F̂_k` and `F̂_k = C_kᵀ P_f,k⁻¹` (by the Cholesky factor of P_f,k; the EKF's F_k).
+//!   It equals the textbook `P_f,k + G_k (P_s,k+1 − P_p,k+1) G_kᵀ` in exact arithmetic, but sums
+//!   positive semi-definite terms where the textbook form subtracts: that difference cancels when
+//!   the process noise and the later information are below ε of P_f,k (a diffuse prior of 1e17
+//!   with unit noises smoothed to 32 where 5/3 is exact, and to 1.875 at 1e15), and Joseph's form
+//!   gives 5/3 at every prior up to the densities' limit.
 //!
 //! On Rⁿ with a linear model this is the classical RTS smoother, equal to the batch least-squares
 //! solution (the tests check it to 1e-9). On a manifold it is the error-state smoother of the EKF:
@@ -32,20 +36,27 @@
 //! [`RtsSmoother::with_capacity`]); the backward pass allocates its result once.
 
 use crate::error::{all_finite, check_size, reserve, with_capacity};
-use crate::numerics::{Produced, checked_gaussian};
+use crate::kalman::joseph;
+use crate::numerics::{Produced, checked_gaussian, slope};
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
 use nalgebra::{Cholesky, SMatrix};
 
-/// A Gaussian prediction `x′ ~ N(μ′, P′)` with the cross-covariance `C = Cov(δ, δ′)` of the state
-/// before (tangent at the prior mean) and after (tangent at μ′), the two things the smoother needs.
+/// A Gaussian prediction `x′ ~ N(μ′, P′)` with what the smoother needs of the transition: the
+/// cross-covariance `C = Cov(δ, δ′)` of the state before (tangent at the prior mean) and after
+/// (tangent at μ′), and the noise Ω that the linearisation `δ′ ≈ F̂ δ`, `F̂ = Cᵀ P⁻¹`, leaves:
+/// `P′ = F̂ P F̂ᵀ + Ω`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Prediction<X, const D: usize> {
     /// `N(μ′, P′)`.
     pub density: ManifoldGaussian<X, D>,
     /// `C = Cov(δ, δ′)`: `P Fᵀ` for the EKF, the sigma-point cross-covariance for the UKF.
     pub cross_covariance: SMatrix<f64, D, D>,
+    /// `Ω = P′ − F̂ P F̂ᵀ`, recorded as it was summed rather than as that difference (which
+    /// cancels): the process noise Q for the EKF; for the UKF, Q plus the sigma points' spread
+    /// that no linear map explains, `w₀ᶜ e₀ e₀ᵀ + (wᵢ/2) Σ (eᵢ⁺ + eᵢ⁻)(eᵢ⁺ + eᵢ⁻)ᵀ`.
+    pub noise: SMatrix<f64, D, D>,
 }
 
 /// A Gaussian filter's prediction step with its cross-covariance: [`Ekf`](crate::Ekf) and
@@ -66,10 +77,6 @@ pub trait GaussianTransition<X: Manifold<D, Scalar = f64>, const D: usize> {
     ) -> Result<Prediction<X, D>, OperatorError>;
 }
 
-/// A smoothed variance must be at least this many times ε times the size of the terms it is summed
-/// from (relative rounding below 1e-3), or the backward step is refused.
-const LOST_TO_ROUNDING: f64 = 1e3;
-
 /// What a smoother names when its record cannot grow.
 const RECORDS: &str = "number of smoother records";
 
@@ -78,8 +85,8 @@ const RECORDS: &str = "number of smoother records";
 /// (see the module docs for the formulas).
 ///
 /// # Errors
-/// [`OperatorError::NotPositiveDefinite`] when the smoothed covariance loses positive definiteness
-/// or a smoothed variance is lost to rounding (below 1e3 ε times the terms it is summed from),
+/// [`OperatorError::NotPositiveDefinite`] when the smoothed covariance is not positive definite
+/// (a transition whose noise Ω is not positive semi-definite),
 /// [`OperatorError::NonFinitePoint`] for a smoothed mean that is not finite.
 pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
     filtered: &ManifoldGaussian<X, D>,
@@ -87,45 +94,33 @@ pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
     next: &ManifoldGaussian<X, D>,
 ) -> Result<ManifoldGaussian<X, D>, OperatorError> {
     let predicted = &transition.density;
-    // Gᵀ = P_p⁻¹ Cᵀ by the predicted density's Cholesky factor.
+    let cross = &transition.cross_covariance;
+    // Gᵀ = P_p⁻¹ Cᵀ and F̂ = Cᵀ P_f⁻¹ by the two densities' Cholesky factors.
     let gain = Cholesky::pack_dirty(*predicted.cholesky_factor())
-        .solve(&transition.cross_covariance.transpose())
+        .solve(&cross.transpose())
         .transpose();
     let mean = filtered
         .mean()
         .retract(&(gain * predicted.mean().local(next.mean())));
-    let (ahead, behind) = (
-        gain * next.covariance() * gain.transpose(),
-        gain * predicted.covariance() * gain.transpose(),
+    let covariance = joseph(
+        filtered.covariance(),
+        &gain,
+        &slope(filtered.cholesky_factor(), cross),
+        &(transition.noise + next.covariance()),
     );
-    let covariance = filtered.covariance() + (ahead - behind);
-    // The sum cancels when the process noise and the later information are below ε of P_f: its
-    // rounding, about ε times the terms' size, may then be the whole result (a prior of 1e17 with
-    // unit noises smoothed to 32 where 1.67 is exact). Refused when a variance is not at least
-    // LOST_TO_ROUNDING times that rounding.
-    for i in 0..D {
-        let terms = filtered.covariance()[(i, i)] + ahead[(i, i)] + behind[(i, i)];
-        if covariance[(i, i)] <= LOST_TO_ROUNDING * f64::EPSILON * terms {
-            return Err(OperatorError::NotPositiveDefinite {
-                what: "smoothed covariance P_f + G (P_s - P_p) G^T: its variances are lost to \
-                       rounding (the process noise and the later measurements are below \
-                       1e-13 of the filtered covariance; give the model more process noise)",
-            });
-        }
-    }
     checked_gaussian(
         mean,
         &covariance,
         Produced {
             mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
-            covariance: "smoothed covariance P_f + G (P_s - P_p) G^T (rounding on an \
-                         ill-conditioned model)",
+            covariance: "smoothed covariance A P_f A^T + G (Omega + P_s) G^T (a recorded \
+                         transition noise Omega that is not positive semi-definite)",
         },
     )
 }
 
 /// Checks a record read back (a checkpoint): one more filtered density than transitions, at most
-/// [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) of them, every cross-covariance finite.
+/// [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) of them, every cross-covariance and noise finite.
 pub(crate) fn check_records<X, const D: usize>(
     filtered: &[ManifoldGaussian<X, D>],
     transitions: &[Prediction<X, D>],
@@ -143,6 +138,7 @@ pub(crate) fn check_records<X, const D: usize>(
             "cross-covariance of a smoother record",
             t.cross_covariance.iter(),
         )?;
+        all_finite("transition noise of a smoother record", t.noise.iter())?;
     }
     Ok(())
 }
@@ -219,8 +215,9 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
     ///
     /// # Errors
     /// [`OperatorError::OutOfRange`] unless there is exactly one more filtered density than
-    /// transitions, [`OperatorError::NonFinite`] for a cross-covariance entry that is not finite,
-    /// [`OperatorError::TooLarge`] for more than [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) transitions.
+    /// transitions, [`OperatorError::NonFinite`] for a cross-covariance or noise entry that is not
+    /// finite, [`OperatorError::TooLarge`] for more than [`MAX_ELEMENTS`](crate::MAX_ELEMENTS)
+    /// transitions.
     /// (The densities are valid by their own constructors.)
     pub fn from_records(
         filtered: Vec<ManifoldGaussian<X, D>>,
@@ -301,8 +298,8 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
     /// filtered density).
     ///
     /// # Errors
-    /// [`OperatorError::NotPositiveDefinite`] when a smoothed covariance loses positive definiteness
-    /// (rounding on ill-conditioned models) or a predicted covariance cannot be factored.
+    /// [`OperatorError::NotPositiveDefinite`] when a smoothed covariance is not positive definite
+    /// (a recorded transition noise that is not positive semi-definite).
     pub fn smooth(&self) -> Result<Vec<ManifoldGaussian<X, D>>, OperatorError> {
         smooth_records(&self.filtered, &self.transitions)
     }
@@ -316,8 +313,8 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
 ///
 /// # Errors
 /// [`OperatorError::OutOfRange`] unless there is exactly one more filtered density than
-/// transitions, [`OperatorError::NonFinite`] for a cross-covariance entry that is not finite;
-/// otherwise as [`RtsSmoother::smooth`].
+/// transitions, [`OperatorError::NonFinite`] for a cross-covariance or noise entry that is not
+/// finite; otherwise as [`RtsSmoother::smooth`].
 pub fn smooth_records<X: Manifold<D, Scalar = f64>, const D: usize>(
     filtered: &[ManifoldGaussian<X, D>],
     transitions: &[Prediction<X, D>],

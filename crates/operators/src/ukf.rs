@@ -25,8 +25,10 @@
 //! Exact for linear models on Rⁿ (it then equals the Kalman filter). Nothing is allocated: the sigma
 //! points live in arrays of size D.
 
+use crate::error::all_finite;
+use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise};
+use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise, slope};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -254,7 +256,11 @@ where
     type Input = P::Input;
 
     /// The unscented prediction (see the module docs), with the cross-covariance
-    /// `C = Σ wᵢᶜ dᵢ (Yᵢ ⊟ m)ᵀ` of the sigma offsets dᵢ and the images' deviations.
+    /// `C = Σ wᵢᶜ dᵢ (Yᵢ ⊟ m)ᵀ` of the sigma offsets dᵢ and the images' deviations, and the noise
+    /// its linearisation leaves, `Ω = Q + w₀ᶜ e₀ e₀ᵀ + (wᵢ/2) Σ (eᵢ⁺ + eᵢ⁻)(eᵢ⁺ + eᵢ⁻)ᵀ`. That is
+    /// `P′ − F̂ P F̂ᵀ` with `F̂ = Cᵀ P⁻¹`: the offsets are `±γ sᵢ` with `S Sᵀ = P` and `2 wᵢ γ² = 1`,
+    /// so `F̂ P F̂ᵀ = (wᵢ/2) Σ (eᵢ⁺ − eᵢ⁻)(eᵢ⁺ − eᵢ⁻)ᵀ`, and `P′`'s sum of `eᵢ⁺ eᵢ⁺ᵀ + eᵢ⁻ eᵢ⁻ᵀ`
+    /// splits into that and the sum kept here, with no difference taken.
     fn predict_with_cross(
         &self,
         prior: &ManifoldGaussian<X, D>,
@@ -283,10 +289,13 @@ where
         let e0 = mean.local(&centre);
         let mut covariance = e0 * e0.transpose() * w0c
             + model_noise("process noise Q", self.model.noise(mu, input))?;
+        let mut noise = covariance;
         let mut cross = SMatrix::<f64, D, D>::zeros();
         for (d, (yp, ym)) in offsets.iter().zip(plus.iter().zip(&minus)) {
             let (ep, em) = (mean.local(yp), mean.local(ym));
             covariance += (ep * ep.transpose() + em * em.transpose()) * w;
+            let curved = ep + em;
+            noise += curved * curved.transpose() * (0.5 * w);
             cross += d * (ep - em).transpose() * w;
         }
         let density = checked_gaussian(
@@ -297,9 +306,11 @@ where
                 covariance: "predicted covariance (sigma points plus Q; check the process noise Q)",
             },
         )?;
+        all_finite("transition noise of the unscented prediction", noise.iter())?;
         Ok(Prediction {
             density,
             cross_covariance: cross,
+            noise,
         })
     }
 }
@@ -334,23 +345,33 @@ where
         let noise = model_noise("measurement noise R", h.noise(mu))?;
         let moments = ukf.measurement_moments(self, None, noise)?;
         let residual = h.residual(z, &moments.predicted);
+        let linear = slope(self.cholesky_factor(), &moments.cross);
         above_rounding::<_, M>(
             || moments.covariance.diagonal().amax(),
             |floor| {
+                let raised = SMatrix::<f64, M, M>::identity() * floor;
                 let (report, log_evidence) = Innovation::new(
                     residual,
-                    &(moments.covariance + SMatrix::<f64, M, M>::identity() * floor),
+                    &(moments.covariance + raised),
                     &moments.cross,
                     h.dof(),
                 )?;
-                let gain = report.gain();
+                // P⁺ = P − K S Kᵀ in Joseph's form with the statistical linearisation Ĥ: the
+                // difference cancels for a diffuse prior (a variance of 1e17 updated by a unit
+                // reading kept 1456 where 1 is exact), the sum of two positive terms does not.
                 let posterior = checked_gaussian(
                     mu.retract(&report.correction()),
-                    &(self.covariance() - gain * report.covariance() * gain.transpose()),
+                    &joseph(
+                        self.covariance(),
+                        report.gain(),
+                        &linear,
+                        &(moments.unexplained + raised),
+                    ),
                     Produced {
                         mean: "the posterior mean mu ⊞ K nu",
-                        covariance: "posterior covariance P - K S K^T (it lost positive definiteness; \
-                                 check R)",
+                        covariance: "posterior covariance (I - K H) P (I - K H)^T + K R K^T of the \
+                                     statistical linearisation H (it lost positive definiteness; \
+                                     check R)",
                     },
                 )?;
                 Ok(Conditioned {
@@ -373,6 +394,11 @@ pub(crate) struct MeasurementMoments<const D: usize, const M: usize> {
     pub(crate) covariance: SMatrix<f64, M, M>,
     /// `Σ wᵢᶜ dᵢ rᵢᵀ`, dᵢ the sigma offsets.
     pub(crate) cross: SMatrix<f64, D, M>,
+    /// What the linearisation `Ĥ = crossᵀ P⁻¹` leaves of the covariance, `covariance − Ĥ P Ĥᵀ`,
+    /// summed as `noise + w₀ᶜ r₀ r₀ᵀ + (wᵢ/2) Σ (rᵢ⁺ + rᵢ⁻)(rᵢ⁺ + rᵢ⁻)ᵀ` with no difference taken
+    /// (the pairs' `rᵢ⁺ rᵢ⁺ᵀ + rᵢ⁻ rᵢ⁻ᵀ` split into that and `½ (rᵢ⁺ − rᵢ⁻)(rᵢ⁺ − rᵢ⁻)ᵀ`, whose
+    /// weighted sum is `Ĥ P Ĥᵀ` because `2 wᵢ γ² = 1`): zero for a linear model but the noise.
+    pub(crate) unexplained: SMatrix<f64, M, M>,
 }
 
 impl<H, const M: usize> Ukf<H, M> {
@@ -423,16 +449,20 @@ impl<H, const M: usize> Ukf<H, M> {
         })?;
         let r0 = predicted.local(&centre_image);
         let mut covariance = r0 * r0.transpose() * w0c + noise;
+        let mut unexplained = covariance;
         let mut cross = SMatrix::<f64, D, M>::zeros();
         for (d, (zp, zm)) in offsets.iter().zip(plus.iter().zip(&minus)) {
             let (rp, rm) = (predicted.local(zp), predicted.local(zm));
             covariance += (rp * rp.transpose() + rm * rm.transpose()) * w;
+            let curved = rp + rm;
+            unexplained += curved * curved.transpose() * (0.5 * w);
             cross += d * (rp - rm).transpose() * w;
         }
         Ok(MeasurementMoments {
             predicted: predicted.z,
             covariance,
             cross,
+            unexplained,
         })
     }
 }

@@ -706,12 +706,16 @@ impl Running {
             cov,
         )?;
         if settings.record {
-            // The transition c′ = 0·c + w: `Cov(δ, δ′) = P Fᵀ`, P with the offset's column zeroed.
+            // The transition c′ = 0·c + w: `Cov(δ, δ′) = P Fᵀ`, P with the offset's column zeroed,
+            // and the noise w ~ N(0, σ_c²) on the offset alone.
             let mut cross = *self.density.covariance();
             cross.column_mut(OFFSET).fill(0.0);
+            let mut noise = SMatrix::zeros();
+            noise[(OFFSET, OFFSET)] = f.sigma * f.sigma;
             self.journal_transition(Prediction {
                 density: next.clone(),
                 cross_covariance: cross,
+                noise,
             });
         }
         self.set_density(settings, next);
