@@ -25,10 +25,12 @@
 //! `Δ = δ̂ − δᵢ` and its merit the cost J. The posterior linearisation's iterate is the pair
 //! `(δᵢ, Pᵢ)` and its step `(Δ, Pᵢ₊₁ − Pᵢ)`; its fixed point is not J's minimum, so its merit is the
 //! length of its own proposed step, `(|L⁻¹ Δ|² + ‖L⁻¹ (Pᵢ₊₁ − Pᵢ) L⁻ᵀ‖²_F)^½` with `P = L Lᵀ`.
-//! **Stopping**: when the proposed step's length in prior standard deviations (`|L⁻¹ Δ|` for the
-//! iterated EKF, the joint length above for the posterior linearisation) is at most the tolerance
-//! ([`Stop::Converged`]), or after [`IterationSettings::max_iterations`] steps
-//! ([`Stop::IterationLimit`]).
+//! **Stopping**: when the proposed step's length in the standard deviations of the posterior of
+//! the update linearised at the iterate (`|L⁻¹ Δ|` for the iterated EKF, the joint length above
+//! for the posterior linearisation, with `Pᵢ₊₁ = L Lᵀ`) is at most the tolerance ([`Stop::Converged`]), or after [`IterationSettings::max_iterations`] steps
+//! ([`Stop::IterationLimit`]). The posterior's deviations, not the prior's: under a diffuse prior
+//! (a variance of 1e15 against a unit reading) the first step is 1e-8 prior σ long, and stopping
+//! there kept the prior mean.
 //!
 //! **The result**, at the final iterate δ* and its linearisation: the mean `μ ⊞ δ*`; the covariance of
 //! that linearisation's update (Joseph form `(I − K H) P (I − K H)ᵀ + K R Kᵀ` for the EKF, with
@@ -72,8 +74,8 @@ pub struct IterationSettings {
 }
 
 impl Default for IterationSettings {
-    /// Tolerance 1e-6 prior standard deviations, at most 20 steps, covariance transported. A step of
-    /// 1e-6 σ changes J by about 1e-12, well above its rounding; much tighter tolerances can end the
+    /// Tolerance 1e-6 posterior standard deviations, at most 20 steps, covariance transported. A step
+    /// of 1e-6 σ changes J by about 1e-12, well above its rounding; much tighter tolerances can end the
     /// iterated EKF in [`Stop::NoDescent`] when the cost's rounding hides the last decrease.
     fn default() -> Self {
         Self {
@@ -85,8 +87,9 @@ impl Default for IterationSettings {
 }
 
 impl IterationSettings {
-    /// Stop when a step `Δ` is at most `tolerance` prior standard deviations (`|L⁻¹ Δ|`, `P = L Lᵀ`)
-    /// or after `max_iterations` steps; the covariance is transported (see
+    /// Stop when a step `Δ` is at most `tolerance` posterior standard deviations (`|L⁻¹ Δ|`, with
+    /// `P⁺ = L Lᵀ` the update linearised at the iterate) or after `max_iterations` steps; the
+    /// covariance is transported (see
     /// [`with_transport`](Self::with_transport)).
     ///
     /// # Errors
@@ -98,7 +101,7 @@ impl IterationSettings {
             return Err(OperatorError::OutOfRange {
                 what: "iteration tolerance",
                 value: tolerance,
-                range: "[0, infinity) prior standard deviations",
+                range: "[0, infinity) posterior standard deviations",
             });
         }
         if !(1..=MAX_ITERATIONS).contains(&max_iterations) {
@@ -124,7 +127,7 @@ impl IterationSettings {
         self
     }
 
-    /// The tolerance on a step, in prior standard deviations.
+    /// The tolerance on a step, in posterior standard deviations.
     pub fn tolerance(&self) -> f64 {
         self.tolerance
     }
@@ -250,12 +253,14 @@ struct Linearised<const D: usize, const M: usize> {
     log_evidence: f64,
     /// `P⁺`, in the tangent space at μ.
     covariance: SMatrix<f64, D, D>,
-    /// The length of the proposed step in prior standard deviations: `|L⁻¹ Δ|` for the iterated
-    /// EKF; for the posterior linearisation, whose iterate is the pair (δ, P), the joint
-    /// `(|L⁻¹ Δ|² + ‖L⁻¹ (P⁺ − Pᵢ) L⁻ᵀ‖²_F)^½`.
+    /// The length of the proposed step in the standard deviations of this update's posterior
+    /// (`P⁺ = L Lᵀ`): `|L⁻¹ Δ|` for the iterated EKF; for the posterior linearisation, whose
+    /// iterate is the pair (δ, P), the joint `(|L⁻¹ Δ|² + ‖L⁻¹ (P⁺ − Pᵢ) L⁻ᵀ‖²_F)^½`. What the
+    /// tolerance is compared with.
     step: f64,
     /// What a step must not increase, at the iterate: J for the iterated EKF, the joint step for
-    /// the posterior linearisation (its fixed point is not J's minimum).
+    /// the posterior linearisation (its fixed point is not J's minimum) in the prior's standard
+    /// deviations (`P = L Lᵀ` above), the same scale for every trial.
     merit: f64,
 }
 
@@ -361,15 +366,6 @@ where
         Ok(r)
     }
 
-    /// `|L⁻¹ v|` with `P = L Lᵀ`: v in prior standard deviations.
-    fn prior_norm(&self, v: &SVector<f64, D>) -> f64 {
-        // The density's factor has a positive diagonal.
-        self.prior
-            .cholesky_factor()
-            .solve_lower_triangular_unchecked(v)
-            .norm()
-    }
-
     /// `J(δ) = ½ |L_P⁻¹ δ|² + ½ |L_R⁻¹ r|²` for the residual `r = r(δ)` (+∞ when it overflows).
     fn cost(&self, delta: &SVector<f64, D>, residual: &SVector<f64, M>) -> f64 {
         let data = self
@@ -377,7 +373,7 @@ where
             .l_dirty()
             .solve_lower_triangular_unchecked(residual)
             .norm_squared();
-        0.5 * (self.prior_norm(delta).powi(2) + data)
+        0.5 * (whitened(self.prior.cholesky_factor(), delta, None).powi(2) + data)
     }
 
     /// The first of the iterates `(δ + t Δ, P + t (P⁺ − P))`, t = 1, ½, ¼, … (at most
@@ -395,13 +391,15 @@ where
         iterate: &Iterate<D>,
         current: &Linearised<D, M>,
     ) -> Result<Option<(Iterate<D>, Linearised<D, M>)>, OperatorError> {
-        let mut step = current.proposal() - iterate.delta;
-        let mut spread_step = current.covariance - iterate.spread;
+        let step = current.proposal() - iterate.delta;
+        let mut t = 1.0;
         let mut last = Ok(None);
         for _ in 0..=MAX_HALVINGS {
+            // The spread as the convex combination itself: `Pᵢ + t (P⁺ − Pᵢ)` cancels to zero
+            // when P⁺ is below the rounding of Pᵢ (a prior of 1e50 updated to 1).
             let candidate = Iterate {
-                delta: iterate.delta + step,
-                spread: iterate.spread + spread_step,
+                delta: iterate.delta + step * t,
+                spread: iterate.spread * (1.0 - t) + current.covariance * t,
             };
             match linearisation.linearise(self, &candidate) {
                 Ok(linearised) if linearised.merit <= current.merit => {
@@ -410,8 +408,7 @@ where
                 Ok(_) => last = Ok(None),
                 Err(error) => last = Err(error),
             }
-            step *= 0.5;
-            spread_step *= 0.5;
+            t *= 0.5;
         }
         last
     }
@@ -438,16 +435,22 @@ where
         )?;
         let covariance = joseph(p, innovation.gain(), slope, &noise);
         all_finite("updated covariance of an iterate", covariance.iter())?;
-        let mean_step = self.prior_norm(&(innovation.gain() * innovation.innovation() - delta));
+        // The stop test measures steps in the standard deviations of this update's posterior (in
+        // the prior's, a step of 0.5 under a prior of 1e15 was 1.6e-8 σ and ended the iteration
+        // before its first step); the posterior linearisation's merit keeps the prior's, one
+        // scale for every trial.
+        let posterior = Cholesky::new(covariance).ok_or(OperatorError::NotPositiveDefinite {
+            what: "updated covariance of an iterate (Joseph form; check R and the Jacobian H)",
+        })?;
+        let mean_step = innovation.gain() * innovation.innovation() - delta;
         let (step, merit) = match merit {
-            Merit::Cost(cost) => (mean_step, cost),
+            Merit::Cost(cost) => (whitened(posterior.l_dirty(), &mean_step, None), cost),
             Merit::Step(spread) => {
-                // ‖L⁻¹ X L⁻ᵀ‖_F by two triangular solves (the factor has a positive diagonal).
-                let l = self.prior.cholesky_factor();
-                let half = l.solve_lower_triangular_unchecked(&(covariance - spread));
-                let whitened = l.solve_lower_triangular_unchecked(&half.transpose());
-                let step = mean_step.hypot(whitened.norm());
-                (step, step)
+                let spread_step = covariance - spread;
+                (
+                    whitened(posterior.l_dirty(), &mean_step, Some(&spread_step)),
+                    whitened(self.prior.cholesky_factor(), &mean_step, Some(&spread_step)),
+                )
             }
         };
         Ok(Linearised {
@@ -458,6 +461,21 @@ where
             merit,
         })
     }
+}
+
+/// The length of a step `(Δ, X)` in the standard deviations of `S = L Lᵀ` (L with a positive
+/// diagonal): `|L⁻¹ Δ|`, or with a covariance step X the joint `(|L⁻¹ Δ|² + ‖L⁻¹ X L⁻ᵀ‖²_F)^½`,
+/// each by triangular solves.
+fn whitened<const D: usize>(
+    l: &SMatrix<f64, D, D>,
+    mean: &SVector<f64, D>,
+    spread: Option<&SMatrix<f64, D, D>>,
+) -> f64 {
+    let length = l.solve_lower_triangular_unchecked(mean).norm();
+    spread.map_or(length, |x| {
+        let half = l.solve_lower_triangular_unchecked(x);
+        length.hypot(l.solve_lower_triangular_unchecked(&half.transpose()).norm())
+    })
 }
 
 /// An iterate `N(δᵢ, Pᵢ)` in the tangent space at the prior mean (the iterated EKF uses δᵢ only).
