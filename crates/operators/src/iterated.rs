@@ -546,7 +546,7 @@ where
             residual,
             &slope,
             delta,
-            &moments.unexplained,
+            &moments.unexplained(),
             Merit::Step(&iterate.spread),
         )
     }

@@ -356,17 +356,15 @@ where
                     &moments.cross,
                     h.dof(),
                 )?;
-                // P⁺ = P − K S Kᵀ in Joseph's form with the statistical linearisation Ĥ: the
-                // difference cancels for a diffuse prior (a variance of 1e17 updated by a unit
-                // reading kept 1456 where 1 is exact), the sum of two positive terms does not.
+                // P⁺ = P − K S Kᵀ in Joseph's form, with S = Ĥ P Ĥᵀ + R + Ω for the statistical
+                // linearisation Ĥ: (I − K Ĥ) P (I − K Ĥ)ᵀ + K (R + Ω) Kᵀ. The difference cancels
+                // for a diffuse prior (a variance of 1e17 updated by a unit reading kept 1456 where
+                // 1 is exact), the sum of positive terms does not.
+                let gain = report.gain();
                 let posterior = checked_gaussian(
                     mu.retract(&report.correction()),
-                    &joseph(
-                        self.covariance(),
-                        report.gain(),
-                        &linear,
-                        &(moments.unexplained + raised),
-                    ),
+                    &(joseph(self.covariance(), gain, &linear, &(noise + raised))
+                        + moments.unexplained_through(gain)),
                     Produced {
                         mean: "the posterior mean mu ⊞ K nu",
                         covariance: "posterior covariance (I - K H) P (I - K H)^T + K R K^T of the \
@@ -395,10 +393,40 @@ pub(crate) struct MeasurementMoments<const D: usize, const M: usize> {
     /// `Σ wᵢᶜ dᵢ rᵢᵀ`, dᵢ the sigma offsets.
     pub(crate) cross: SMatrix<f64, D, M>,
     /// What the linearisation `Ĥ = crossᵀ P⁻¹` leaves of the covariance, `covariance − Ĥ P Ĥᵀ`,
-    /// summed as `noise + w₀ᶜ r₀ r₀ᵀ + (wᵢ/2) Σ (rᵢ⁺ + rᵢ⁻)(rᵢ⁺ + rᵢ⁻)ᵀ` with no difference taken
-    /// (the pairs' `rᵢ⁺ rᵢ⁺ᵀ + rᵢ⁻ rᵢ⁻ᵀ` split into that and `½ (rᵢ⁺ − rᵢ⁻)(rᵢ⁺ − rᵢ⁻)ᵀ`, whose
-    /// weighted sum is `Ĥ P Ĥᵀ` because `2 wᵢ γ² = 1`): zero for a linear model but the noise.
-    pub(crate) unexplained: SMatrix<f64, M, M>,
+    /// is `noise + w₀ᶜ r₀ r₀ᵀ + (wᵢ/2) Σ cᵢ cᵢᵀ` with `cᵢ = rᵢ⁺ + rᵢ⁻` (the pairs'
+    /// `rᵢ⁺ rᵢ⁺ᵀ + rᵢ⁻ rᵢ⁻ᵀ` split into that and `½ (rᵢ⁺ − rᵢ⁻)(rᵢ⁺ − rᵢ⁻)ᵀ`, whose weighted sum is
+    /// `Ĥ P Ĥᵀ` because `2 wᵢ γ² = 1`): kept as its vectors r₀ and cᵢ (zero for a linear model),
+    /// so that it is summed with no difference taken, in whatever space the caller needs it.
+    centre: SVector<f64, M>,
+    curved: [SVector<f64, M>; D],
+    /// `w₀ᶜ` and `wᵢ / 2`.
+    weights: (f64, f64),
+}
+
+impl<const D: usize, const M: usize> MeasurementMoments<D, M> {
+    /// `Ω = w₀ᶜ r₀ r₀ᵀ + (wᵢ/2) Σ cᵢ cᵢᵀ`: the covariance less `Ĥ P Ĥᵀ` and less the noise the
+    /// moments were given.
+    pub(crate) fn unexplained(&self) -> SMatrix<f64, M, M> {
+        let (centre, pair) = self.weights;
+        let mut sum = self.centre * self.centre.transpose() * centre;
+        for c in &self.curved {
+            sum += c * c.transpose() * pair;
+        }
+        sum
+    }
+
+    /// `K Ω Kᵀ` for that Ω, as D × D outer products of the mapped vectors `K r₀` and `K cᵢ` (no
+    /// M × M sum formed).
+    fn unexplained_through(&self, gain: &SMatrix<f64, D, M>) -> SMatrix<f64, D, D> {
+        let (centre, pair) = self.weights;
+        let mapped = gain * self.centre;
+        let mut sum = mapped * mapped.transpose() * centre;
+        for c in &self.curved {
+            let mapped = gain * c;
+            sum += mapped * mapped.transpose() * pair;
+        }
+        sum
+    }
 }
 
 impl<H, const M: usize> Ukf<H, M> {
@@ -449,20 +477,21 @@ impl<H, const M: usize> Ukf<H, M> {
         })?;
         let r0 = predicted.local(&centre_image);
         let mut covariance = r0 * r0.transpose() * w0c + noise;
-        let mut unexplained = covariance;
         let mut cross = SMatrix::<f64, D, M>::zeros();
-        for (d, (zp, zm)) in offsets.iter().zip(plus.iter().zip(&minus)) {
+        let mut curved = [SVector::<f64, M>::zeros(); D];
+        for ((d, (zp, zm)), c) in offsets.iter().zip(plus.iter().zip(&minus)).zip(&mut curved) {
             let (rp, rm) = (predicted.local(zp), predicted.local(zm));
             covariance += (rp * rp.transpose() + rm * rm.transpose()) * w;
-            let curved = rp + rm;
-            unexplained += curved * curved.transpose() * (0.5 * w);
             cross += d * (rp - rm).transpose() * w;
+            *c = rp + rm;
         }
         Ok(MeasurementMoments {
             predicted: predicted.z,
             covariance,
             cross,
-            unexplained,
+            centre: r0,
+            curved,
+            weights: (w0c, 0.5 * w),
         })
     }
 }
