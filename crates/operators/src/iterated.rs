@@ -26,11 +26,12 @@
 //! `(δᵢ, Pᵢ)` and its step `(Δ, Pᵢ₊₁ − Pᵢ)`; its fixed point is not J's minimum, so its merit is the
 //! length of its own proposed step, `(|L⁻¹ Δ|² + ‖L⁻¹ (Pᵢ₊₁ − Pᵢ) L⁻ᵀ‖²_F)^½` with `P = L Lᵀ`.
 //! **Stopping**: when the proposed step's length in the standard deviations of the posterior of
-//! the update linearised at the iterate (`|L⁻¹ Δ|` for the iterated EKF, the joint length above
-//! for the posterior linearisation, with `Pᵢ₊₁ = L Lᵀ`) is at most the tolerance ([`Stop::Converged`]), or after [`IterationSettings::max_iterations`] steps
-//! ([`Stop::IterationLimit`]). The posterior's deviations, not the prior's: under a diffuse prior
-//! (a variance of 1e15 against a unit reading) the first step is 1e-8 prior σ long, and stopping
-//! there kept the prior mean.
+//! the update linearised at the iterate (`|L⁻¹ Δ|` with `Pᵢ₊₁ = L Lᵀ` for the iterated EKF, taken
+//! from the factors of P and R as `Pᵢ₊₁⁻¹ = P⁻¹ + Hᵀ R⁻¹ H`; the joint length above in that L for
+//! the posterior linearisation) is at most the tolerance ([`Stop::Converged`]), or after
+//! [`IterationSettings::max_iterations`] steps ([`Stop::IterationLimit`]). The posterior's
+//! deviations, not the prior's: under a diffuse prior (a variance of 1e15 against a unit reading)
+//! the first step is 1e-8 prior σ long, and stopping there kept the prior mean.
 //!
 //! **The result**, at the final iterate δ* and its linearisation: the mean `μ ⊞ δ*`; the covariance of
 //! that linearisation's update (Joseph form `(I − K H) P (I − K H)ᵀ + K R Kᵀ` for the EKF, with
@@ -439,13 +440,24 @@ where
         // the prior's, a step of 0.5 under a prior of 1e15 was 1.6e-8 σ and ended the iteration
         // before its first step); the posterior linearisation's merit keeps the prior's, one
         // scale for every trial.
-        let posterior = Cholesky::new(covariance).ok_or(OperatorError::NotPositiveDefinite {
-            what: "updated covariance of an iterate (Joseph form; check R and the Jacobian H)",
-        })?;
         let mean_step = innovation.gain() * innovation.innovation() - delta;
         let (step, merit) = match merit {
-            Merit::Cost(cost) => (whitened(posterior.l_dirty(), &mean_step, None), cost),
+            Merit::Cost(cost) => {
+                // With Ω = 0 the posterior's information is `P⁻¹ + Hᵀ R⁻¹ H`: the step's length in
+                // its deviations from the factors of P and R, no factorisation of P⁺.
+                let data = self
+                    .noise_factor
+                    .l_dirty()
+                    .solve_lower_triangular_unchecked(&(slope * mean_step))
+                    .norm();
+                let prior = whitened(self.prior.cholesky_factor(), &mean_step, None);
+                (prior.hypot(data), cost)
+            }
             Merit::Step(spread) => {
+                let posterior =
+                    Cholesky::new(covariance).ok_or(OperatorError::NotPositiveDefinite {
+                        what: "updated covariance of an iterate (Joseph form; check R)",
+                    })?;
                 let spread_step = covariance - spread;
                 (
                     whitened(posterior.l_dirty(), &mean_step, Some(&spread_step)),
