@@ -377,7 +377,7 @@ where
         0.5 * (whitened(self.prior.cholesky_factor(), delta, None).powi(2) + data)
     }
 
-    /// The first of the iterates `(δ + t Δ, P + t (P⁺ − P))`, t = 1, ½, ¼, … (at most
+    /// The first of the iterates `(δ + t Δ, (1 − t) P + t P⁺)`, t = 1, ½, ¼, … (at most
     /// [`MAX_HALVINGS`] halvings; a convex combination of covariances is one) whose linearisation
     /// succeeds with a merit of at most the current one, with that linearisation; `None` if there
     /// is none. A trial whose linearisation fails (the model is non-finite there, or its update is

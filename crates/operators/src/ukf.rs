@@ -367,9 +367,9 @@ where
                         + moments.unexplained_through(gain)),
                     Produced {
                         mean: "the posterior mean mu ⊞ K nu",
-                        covariance: "posterior covariance (I - K H) P (I - K H)^T + K R K^T of the \
-                                     statistical linearisation H (it lost positive definiteness; \
-                                     check R)",
+                        covariance: "posterior covariance (I - K H) P (I - K H)^T + \
+                                     K (R + Omega) K^T of the statistical linearisation H (it \
+                                     lost positive definiteness; check R)",
                     },
                 )?;
                 Ok(Conditioned {
