@@ -73,6 +73,22 @@ pub(crate) fn rounding_scale<const D: usize, const M: usize>(
 /// different matrix).
 pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-12;
 
+/// `M / max |Mᵢⱼ|` and that largest entry, `None` for a zero matrix: a product with the
+/// reciprocal, or a quotient when the reciprocal overflows (a largest entry below 2⁻¹⁰²²).
+fn unit_scaled<const N: usize>(m: &SMatrix<f64, N, N>) -> Option<(SMatrix<f64, N, N>, f64)> {
+    let scale = m.amax();
+    if scale == 0.0 {
+        return None;
+    }
+    let inverse = scale.recip();
+    let scaled = if inverse.is_finite() {
+        m * inverse
+    } else {
+        m / scale
+    };
+    Some((scaled, scale))
+}
+
 /// Checks that a finite matrix is symmetric to [`SYMMETRY_TOLERANCE`]: Cholesky factorisations
 /// read one triangle only, so an asymmetric matrix would be taken for another without a word.
 ///
@@ -82,12 +98,25 @@ pub(crate) fn check_symmetric<const N: usize>(
     what: &'static str,
     m: &SMatrix<f64, N, N>,
 ) -> Result<(), OperatorError> {
-    let scale = m.amax();
-    if scale == 0.0 {
-        return Ok(());
+    match unit_scaled(m) {
+        Some((scaled, scale)) => check_unit_symmetric(what, &scaled, scale),
+        None => Ok(()),
     }
-    let scaled = m / scale;
-    let asymmetry = (scaled - scaled.transpose()).amax();
+}
+
+/// [`check_symmetric`] of `scaled = M / scale` (entries at most 1 in magnitude), one triangle
+/// against the other.
+fn check_unit_symmetric<const N: usize>(
+    what: &'static str,
+    scaled: &SMatrix<f64, N, N>,
+    scale: f64,
+) -> Result<(), OperatorError> {
+    let mut asymmetry = 0.0_f64;
+    for j in 1..N {
+        for i in 0..j {
+            asymmetry = asymmetry.max((scaled[(i, j)] - scaled[(j, i)]).abs());
+        }
+    }
     if asymmetry > SYMMETRY_TOLERANCE {
         return Err(OperatorError::OutOfRange {
             what,
@@ -114,11 +143,9 @@ pub(crate) fn model_noise<const N: usize>(
     noise: SMatrix<f64, N, N>,
 ) -> Result<SMatrix<f64, N, N>, OperatorError> {
     crate::error::all_finite(what, noise.iter())?;
-    check_symmetric(what, &noise)?;
-    let scale = noise.amax();
-    if scale > 0.0 {
-        // Scaled first, so that the products of entries near f64::MAX do not overflow.
-        let s = noise / scale;
+    // Scaled first, so that the products of entries near f64::MAX do not overflow.
+    if let Some((s, scale)) = unit_scaled(&noise) {
+        check_unit_symmetric(what, &s, scale)?;
         let indefinite = (0..N).any(|j| {
             s[(j, j)] < 0.0
                 || (0..j)
@@ -551,5 +578,47 @@ mod tests {
         assert_eq!(evidence, -1e300);
         assert!((w.values()[0].exp() - 0.9).abs() < 1e-15);
         assert!((w.values()[1].exp() - 0.1).abs() < 1e-15);
+    }
+
+    /// The noise checks at every scale, through both routes of the scaling (a product with the
+    /// reciprocal, and a quotient where the reciprocal overflows, below 2⁻¹⁰²²): a covariance is
+    /// kept as it is, a relative asymmetry of 1e-9 is refused with its size, a correlation above
+    /// 1 and a negative variance are refused.
+    #[test]
+    fn model_noise_is_checked_at_every_scale() {
+        let psd = SMatrix::<f64, 2, 2>::new(1.0, 0.5, 0.5, 0.75);
+        let scales = [
+            5e-324, 1e-320, 1e-310, 2.3e-308, 1e-100, 1.0, 1e100, 8.9e307,
+        ];
+        for scale in scales {
+            let noise = psd * scale;
+            assert_eq!(model_noise("Q", noise), Ok(noise), "{scale:e}");
+            if scale >= 1e-300 {
+                let mut asymmetric = noise;
+                asymmetric[(0, 1)] *= 1.0 + 2e-9;
+                match model_noise("Q", asymmetric) {
+                    Err(OperatorError::OutOfRange { value, .. }) => {
+                        let relative = value / (1e-9 * scale) - 1.0;
+                        assert!(relative.abs() < 1e-6, "{scale:e}: {value:e}");
+                    }
+                    other => panic!("{scale:e}: {other:?}"),
+                }
+            }
+            if scale < 1e-320 {
+                // The smallest subnormal resolves neither 1.1 nor −0.5 of itself.
+                continue;
+            }
+            let correlated = SMatrix::<f64, 2, 2>::new(1.0, 1.1, 1.1, 1.0) * scale;
+            let negative = SMatrix::<f64, 2, 2>::new(1.0, 0.0, 0.0, -0.5) * scale;
+            for indefinite in [correlated, negative] {
+                assert_eq!(
+                    model_noise("Q", indefinite),
+                    Err(OperatorError::NotPositiveDefinite { what: "Q" }),
+                    "{scale:e}"
+                );
+            }
+        }
+        let zero = SMatrix::<f64, 2, 2>::zeros();
+        assert_eq!(model_noise("Q", zero), Ok(zero));
     }
 }
