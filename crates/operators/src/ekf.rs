@@ -10,7 +10,8 @@
 //!   When R is below the rounding of `H P Hᵀ` and S or P⁺ loses positive definiteness to it, the
 //!   update is made once more with `R + 64 M ε max(max |Sᵢᵢ|, |H|²_F max |Pᵢⱼ|) I` (information
 //!   finer than the arithmetic holds is dropped; the posterior is slightly wider than the exact
-//!   one).
+//!   one). A prediction whose covariance rounding leaves singular (a prior far finer than a
+//!   singular Q) is made once more with `Q + 64 D ε max |P′ᵢᵢ| I`, the same way.
 //!
 //! P⁺ is left in the tangent space at μ rather than transported to μ⁺ (the first-order "reset"
 //! `J(Kν) P⁺ J(Kν)ᵀ`, [`Manifold::j_retract_tangent`], is omitted): on Rⁿ and SO(2) the two coincide;
@@ -70,13 +71,21 @@ where
         let mean = prior.mean();
         let noise = model_noise("process noise Q", self.0.noise(mean, input))?;
         let (propagated, cross) = self.0.propagate_covariance(mean, input, prior.covariance());
-        let density = checked_gaussian(
-            self.0.transition(mean, input),
-            &(propagated + noise),
-            Produced {
-                mean: "the predicted mean f(mu, u) of the process model",
-                covariance: "predicted covariance F P F^T + Q (check the process noise Q and the \
-                             Jacobian F)",
+        let predicted = self.0.transition(mean, input);
+        let (density, noise) = above_rounding::<_, D>(
+            || (propagated + noise).diagonal().amax(),
+            |floor| {
+                let noise = noise + SMatrix::<f64, D, D>::identity() * floor;
+                let density = checked_gaussian(
+                    predicted.clone(),
+                    &(propagated + noise),
+                    Produced {
+                        mean: "the predicted mean f(mu, u) of the process model",
+                        covariance: "predicted covariance F P F^T + Q (check the process noise Q \
+                                     and the Jacobian F)",
+                    },
+                )?;
+                Ok((density, noise))
             },
         )?;
         // A model's own `propagate_covariance` may return a cross-covariance the predicted one

@@ -9,11 +9,17 @@
 //!   by construction whatever the rounding in K, unlike the short form `(I − K H) Σ`;
 //! * log evidence `ln N(z; H μ, S) = −½ (νᵀ S⁻¹ ν + ln det S + m ln 2π)`;
 //! * the report, an [`Innovation`]: ν, S, K and the NIS `νᵀ S⁻¹ ν`.
+//!
+//! Propagation is `N(F μ + u, F Σ Fᵀ + Q)`. When rounding leaves that covariance singular (a Σ far
+//! finer than a singular Q, such as the piecewise white noise `Γ Γᵀ σ²` of a constant-velocity
+//! model after a fix finer than 1e-8 of its step's noise), it is made once more with
+//! `Q + 64 N ε max |P′ᵢᵢ| I`: the variances finer than the arithmetic holds are raised to that
+//! floor, and the prediction is slightly wider than the exact one.
 
 use crate::error::all_finite;
-use crate::numerics::{check_symmetric, symmetric_part};
+use crate::numerics::{above_rounding, check_symmetric, symmetric_part};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
-use liebayes_densities::Gaussian;
+use liebayes_densities::{DensityError, Gaussian};
 use nalgebra::{Cholesky, SMatrix, SVector};
 
 /// The linear process `x′ = F x + u + w`, `w ~ N(0, Q)`; the input is u.
@@ -188,11 +194,40 @@ impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
         all_finite("process input u", input.iter())?;
         let f = &model.transition;
         let covariance = f * self.covariance() * f.transpose() + model.noise;
+        let mean = f * self.mean() + input;
         checked(
-            Gaussian::new(f * self.mean() + input, symmetric_part(&covariance))?,
+            predicted(&covariance, |c| Gaussian::new(mean, c))?,
             "predicted mean F mu + u or covariance F Sigma F^T + Q (it overflows)",
         )
     }
+}
+
+/// A linear prediction's density, `build(F Σ Fᵀ + Q)` from that `covariance` symmetrised, made
+/// once more with `Q + 64 N ε max P′ᵢᵢ I` when the covariance is not positive definite (see the
+/// module docs): Q is positive semi-definite and Σ definite, so such a failure is rounding's.
+///
+/// # Errors
+/// [`OperatorError::NotPositiveDefinite`] when the raised covariance fails too, else the
+/// density's own error.
+pub(crate) fn predicted<T, const N: usize>(
+    covariance: &SMatrix<f64, N, N>,
+    build: impl Fn(SMatrix<f64, N, N>) -> Result<T, DensityError>,
+) -> Result<T, OperatorError> {
+    above_rounding::<_, N>(
+        || covariance.diagonal().amax(),
+        |floor| {
+            let raised = symmetric_part(&(covariance + SMatrix::<f64, N, N>::identity() * floor));
+            build(raised).map_err(|error| {
+                if Cholesky::new(raised).is_none() {
+                    OperatorError::NotPositiveDefinite {
+                        what: "predicted covariance F Sigma F^T + Q",
+                    }
+                } else {
+                    error.into()
+                }
+            })
+        },
+    )
 }
 
 impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaussian<N> {

@@ -17,15 +17,18 @@ pub(crate) struct Produced {
     pub(crate) covariance: &'static str,
 }
 
-/// Runs a Kalman update `update(floor)` with its measurement noise raised by `floor · I`: first
-/// with `floor = 0` (the exact update, whose result is returned whenever it succeeds or fails for
-/// another reason), and, when rounding made its innovation covariance S or its posterior lose
-/// positive definiteness ([`OperatorError::NotPositiveDefinite`]), once more with
-/// `floor = 64 M ε scale()`, the scale the size of what rounds: `max |Sᵢᵢ|` (and, for a Jacobian H,
-/// at least `|H|²_F max |Pᵢⱼ|`, the size of the Joseph form's terms). A noise R below that
-/// rounding is lost in S, and the posterior's variance along the measured directions, of the
-/// order of R, is lost to the rounding of P: the second try keeps it at least 64 M times that
-/// rounding, dropping information finer than the arithmetic can hold (the posterior is slightly
+/// Runs a Kalman step `update(floor)` with its noise (an update's R, M × M, or a prediction's Q,
+/// M = D) raised by `floor · I`: first with `floor = 0` (the exact step, whose result is returned
+/// whenever it succeeds or fails for another reason), and, when rounding made its innovation
+/// covariance S, its posterior or its predicted covariance lose positive definiteness
+/// ([`OperatorError::NotPositiveDefinite`]), once more with `floor = 64 M ε scale()`, the scale the
+/// size of what rounds: `max |Sᵢᵢ|` for an update (and, for a Jacobian H, at least
+/// `|H|²_F max |Pᵢⱼ|`, the size of the Joseph form's terms), `max |P′ᵢᵢ|` for a prediction. A
+/// noise R below that rounding is lost in S, and the posterior's variance along the measured
+/// directions, of the order of R, is lost to the rounding of P; a prediction from a prior far
+/// finer than a singular Q (a constant-velocity model's `Γ Γᵀ σ²` after a fix of 1e-9 m) keeps
+/// variances below the rounding of P′. The second try keeps them at least 64 M times that
+/// rounding, dropping information finer than the arithmetic can hold (the result is slightly
 /// wider than the exact one). If the second try fails too, the first error is returned.
 pub(crate) fn above_rounding<T, const M: usize>(
     scale: impl FnOnce() -> f64,

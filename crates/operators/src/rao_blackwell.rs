@@ -14,7 +14,8 @@
 //! The exact operations on a [`HarmonicGaussian`] (derivations in `docs/operators/rao_blackwell.md`):
 //!
 //! * **propagate** through `x′ = F x + u + w`, `w ~ N(0, Q)` ([`LinearProcess`]): `B ← F B + u e₀ᵀ`,
-//!   `Σ ← F Σ Fᵀ + Q`; p(y) unchanged.
+//!   `Σ ← F Σ Fᵀ + Q` (raised to its rounding when that leaves it singular, as the
+//!   [Kalman filter](crate::kalman)'s prediction); p(y) unchanged.
 //! * **condition** on `z = H x + n`, `n ~ N(0, R)` with H independent of y ([`LinearMeasurement`]):
 //!   with `G = H B`, `S = H Σ Hᵀ + R`, `W = Gᵀ S⁻¹ G`, `g = Gᵀ S⁻¹ z`:
 //!   `η₁ += (g₁ − W₀₁, g₂ − W₀₂)`, `η₂ += (−(W₁₁ − W₂₂)/4, −W₁₂/2)`; the Kalman gain `K = Σ Hᵀ S⁻¹`
@@ -36,7 +37,7 @@
 //! `ln p(z) = constant + ln Z(η⁺) − ln Z(η)` with Z the [`GenVonMises2`] normaliser, and reports `()`.
 
 use crate::error::all_finite;
-use crate::kalman::{LinearMeasurement, LinearProcess, joseph};
+use crate::kalman::{LinearMeasurement, LinearProcess, joseph, predicted};
 use crate::numerics::symmetric_part;
 use crate::{Condition, Conditioned, OperatorError, Propagate};
 use liebayes_densities::{Density, GenVonMises2, HarmonicGaussian};
@@ -238,9 +239,12 @@ fn rotated_step<const N: usize>(
 
 /// The composite a step returns, if every number in it is finite (a product that overflows is
 /// refused, not carried on).
-fn checked<const N: usize>(
-    g: Result<HarmonicGaussian<N>, liebayes_densities::DensityError>,
-) -> Result<HarmonicGaussian<N>, OperatorError> {
+fn checked<const N: usize, E>(
+    g: Result<HarmonicGaussian<N>, E>,
+) -> Result<HarmonicGaussian<N>, OperatorError>
+where
+    OperatorError: From<E>,
+{
     let g = g?;
     let (eta1, eta2) = g.angle().natural();
     all_finite(
@@ -283,11 +287,10 @@ impl<const N: usize> Propagate<LinearProcess<N>> for HarmonicGaussian<N> {
         let f = model.transition();
         let mut features = f * self.features();
         features.set_column(0, &(features.column(0) + u));
-        checked(Self::new(
-            self.angle().clone(),
-            features,
-            symmetric_part(&(f * self.covariance() * f.transpose() + model.noise())),
-        ))
+        let covariance = f * self.covariance() * f.transpose() + model.noise();
+        checked(predicted(&covariance, |c| {
+            Self::new(self.angle().clone(), features, c)
+        }))
     }
 }
 

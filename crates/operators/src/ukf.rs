@@ -16,7 +16,8 @@
 //!   `P⁺ = P − K S Kᵀ` (in the tangent space at μ, as the [EKF](crate::ekf)'s); log evidence
 //!   `ln N(z ⊟ ẑ; 0, S)`; the report is the [`Innovation`] (ν, S, K, NIS). When S or P⁺ loses
 //!   positive definiteness to rounding (R below the rounding of the sigma points' spread), the
-//!   update is made once more with S raised by `64 M ε max |Sᵢᵢ| I`, as the EKF's.
+//!   update is made once more with S raised by `64 M ε max |Sᵢᵢ| I`, as the EKF's; a prediction
+//!   whose covariance rounding leaves singular, once more with Q raised by `64 D ε max |P′ᵢᵢ| I`.
 //!
 //! Every image Yᵢ and Zᵢ is checked with [`Manifold::is_finite`] before it is averaged, and a mean that
 //! does not converge (sigma points spread over more than half the injectivity radius) is an
@@ -298,12 +299,20 @@ where
             noise += curved * curved.transpose() * (0.5 * w);
             cross += d * (ep - em).transpose() * w;
         }
-        let density = checked_gaussian(
-            mean,
-            &covariance,
-            Produced {
-                mean: "the mean of the propagated sigma points",
-                covariance: "predicted covariance (sigma points plus Q; check the process noise Q)",
+        let (density, noise) = above_rounding::<_, D>(
+            || covariance.diagonal().amax(),
+            |floor| {
+                let raised = SMatrix::<f64, D, D>::identity() * floor;
+                let density = checked_gaussian(
+                    mean.clone(),
+                    &(covariance + raised),
+                    Produced {
+                        mean: "the mean of the propagated sigma points",
+                        covariance: "predicted covariance (sigma points plus Q; check the process \
+                                     noise Q)",
+                    },
+                )?;
+                Ok((density, noise + raised))
             },
         )?;
         all_finite("transition noise of the unscented prediction", noise.iter())?;

@@ -119,3 +119,64 @@ fn bad_models_and_inputs_are_refused_with_the_reason() {
     let exact = LinearMeasurement::new(Matrix2::zeros(), Matrix2::zeros()).unwrap();
     assert!(prior.condition(&exact, &Vector2::new(0.0, 1.0)).is_err());
 }
+
+/// A prior far finer than a singular process noise: a constant-velocity model with the piecewise
+/// white noise `Γ Γᵀ` (rank 1) and a prior variance p₀ of 1e-18 to 1e-90 per axis. The exact
+/// `F Σ Fᵀ + Q` has a smallest eigenvalue of about p₀, below the rounding of its entries (1e-16):
+/// the prediction was refused as not positive definite, so a filter could not take the step
+/// after a fix that fine. The Kalman filter, the EKF, the UKF and the Rao-Blackwellized composite
+/// now predict it raised to its rounding, `64 N ε max P′ᵢᵢ` on the diagonal; the EKF's and the
+/// UKF's records keep `P′ = F̂ P F̂ᵀ + Ω` with the raised Ω.
+#[test]
+fn a_prior_finer_than_a_singular_noise_is_predicted_at_its_rounding() {
+    use liebayes_densities::{GenVonMises2, HarmonicGaussian, ManifoldGaussian};
+    use liebayes_manifolds::Rn;
+    use liebayes_operators::process_noise::piecewise_white_noise;
+    use liebayes_operators::smoother::GaussianTransition;
+    use liebayes_operators::{Ekf, ProcessFn, Ukf};
+    use nalgebra::Matrix2x3;
+    let f = Matrix2::new(1.0, 1.0, 0.0, 1.0);
+    let q = piecewise_white_noise::<2>(1.0, 1.0).unwrap();
+    let process = LinearProcess::new(f, q).unwrap();
+    let motion = ProcessFn::new(
+        move |x: &Rn<f64, 2>, (): &()| Rn::new(f * x.coords()).unwrap(),
+        move |_: &Rn<f64, 2>, (): &()| q,
+    )
+    .with_jacobian(move |_: &Rn<f64, 2>, (): &()| f);
+    let mean = Vector2::new(1.0, 2.0);
+    // The largest predicted variance is q₂₂ = 1 (to 1e-18).
+    let floor = Matrix2::identity() * (64.0 * 2.0 * f64::EPSILON);
+    for p0 in [1e-18, 1e-30, 1e-60, 1e-90] {
+        let prior = Matrix2::identity() * p0;
+        let exact = f * prior * f.transpose() + q;
+        let kf = Gaussian::new(mean, prior)
+            .unwrap()
+            .propagate(&process, &Vector2::zeros())
+            .unwrap();
+        let start = ManifoldGaussian::new(Rn::new(mean).unwrap(), prior).unwrap();
+        let ekf = Ekf(&motion).predict_with_cross(&start, &()).unwrap();
+        let ukf = Ukf::new(&motion).predict_with_cross(&start, &()).unwrap();
+        let angle = GenVonMises2::from_natural(Vector2::new(1.0, 0.5), Vector2::zeros()).unwrap();
+        let composite = HarmonicGaussian::new(angle, Matrix2x3::zeros(), prior)
+            .unwrap()
+            .propagate(&process, &Vector2::zeros())
+            .unwrap();
+        let predicted = [
+            ("KF", kf.covariance()),
+            ("EKF", ekf.density.covariance()),
+            ("UKF", ukf.density.covariance()),
+            ("Rao-Blackwellized", composite.covariance()),
+        ];
+        for (name, covariance) in predicted {
+            let off = (covariance - exact - floor).amax();
+            assert!(off < 1e-15, "{name}, {p0:e}: {covariance} is {off:e} off");
+        }
+        for (name, record) in [("EKF", &ekf), ("UKF", &ukf)] {
+            // C = P F̂ᵀ, so F̂ = Cᵀ / p₀.
+            let slope = record.cross_covariance.transpose() / p0;
+            let rebuilt = slope * prior * slope.transpose() + record.noise;
+            let off = (rebuilt - record.density.covariance()).amax();
+            assert!(off < 1e-15, "{name}, {p0:e}: Omega is {off:e} off");
+        }
+    }
+}
