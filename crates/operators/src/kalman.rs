@@ -10,6 +10,10 @@
 //! * log evidence `ln N(z; H μ, S) = −½ (νᵀ S⁻¹ ν + ln det S + m ln 2π)`;
 //! * the report, an [`Innovation`]: ν, S, K and the NIS `νᵀ S⁻¹ ν`.
 //!
+//! When R is below the rounding of `H Σ Hᵀ` and S or the posterior loses positive definiteness to
+//! it, the update is made once more with `R + 64 M ε max(max |Sᵢᵢ|, |H|²_F max |Σᵢⱼ|) I`, as the
+//! [EKF](crate::ekf)'s: information finer than the arithmetic holds is dropped.
+//!
 //! Propagation is `N(F μ + u, F Σ Fᵀ + Q)`. When rounding leaves that covariance singular (a Σ far
 //! finer than a singular Q, such as the piecewise white noise `Γ Γᵀ σ²` of a constant-velocity
 //! model after a fix finer than 1e-8 of its step's noise), it is made once more with
@@ -17,7 +21,7 @@
 //! floor, and the prediction is slightly wider than the exact one.
 
 use crate::error::all_finite;
-use crate::numerics::{above_rounding, check_symmetric, symmetric_part};
+use crate::numerics::{above_rounding, check_symmetric, rounding_scale, symmetric_part};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::{DensityError, Gaussian};
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -217,17 +221,25 @@ pub(crate) fn predicted<T, const N: usize>(
         || covariance.diagonal().amax(),
         |floor| {
             let raised = symmetric_part(&(covariance + SMatrix::<f64, N, N>::identity() * floor));
-            build(raised).map_err(|error| {
-                if Cholesky::new(raised).is_none() {
-                    OperatorError::NotPositiveDefinite {
-                        what: "predicted covariance F Sigma F^T + Q",
-                    }
-                } else {
-                    error.into()
-                }
-            })
+            definite(&build, raised, "predicted covariance F Sigma F^T + Q")
         },
     )
+}
+
+/// `build(covariance)`, its refusal of a covariance that is not positive definite returned as
+/// [`OperatorError::NotPositiveDefinite`] naming `what` (which [`above_rounding`] retries).
+fn definite<T, const N: usize>(
+    build: impl Fn(SMatrix<f64, N, N>) -> Result<T, DensityError>,
+    covariance: SMatrix<f64, N, N>,
+    what: &'static str,
+) -> Result<T, OperatorError> {
+    build(covariance).map_err(|error| {
+        if Cholesky::new(covariance).is_none() {
+            OperatorError::NotPositiveDefinite { what }
+        } else {
+            error.into()
+        }
+    })
 }
 
 impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaussian<N> {
@@ -245,24 +257,28 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Gaus
         let h = &model.matrix;
         let sigma = self.covariance();
         let sigma_ht = sigma * h.transpose();
-        let (report, log_evidence) = Innovation::new(
-            z - h * self.mean(),
-            &(h * sigma_ht + model.noise),
-            &sigma_ht,
-            M,
-        )?;
-        let covariance = joseph(sigma, report.gain(), h, &model.noise);
-        let posterior = checked(
-            Gaussian::new(
-                self.mean() + report.correction(),
-                symmetric_part(&covariance),
-            )?,
-            "posterior mean or covariance (it overflows)",
-        )?;
-        Ok(Conditioned {
-            posterior,
-            log_evidence,
-            report,
-        })
+        above_rounding::<_, M>(
+            || rounding_scale(h, sigma, &model.noise),
+            |floor| {
+                let r = model.noise + SMatrix::<f64, M, M>::identity() * floor;
+                let (report, log_evidence) =
+                    Innovation::new(z - h * self.mean(), &(h * sigma_ht + r), &sigma_ht, M)?;
+                let covariance = symmetric_part(&joseph(sigma, report.gain(), h, &r));
+                let mean = self.mean() + report.correction();
+                let posterior = checked(
+                    definite(
+                        |c| Gaussian::new(mean, c),
+                        covariance,
+                        "posterior covariance",
+                    )?,
+                    "posterior mean or covariance (it overflows)",
+                )?;
+                Ok(Conditioned {
+                    posterior,
+                    log_evidence,
+                    report,
+                })
+            },
+        )
     }
 }

@@ -21,7 +21,11 @@
 //!   positive semi-definite terms where the textbook form subtracts: that difference cancels when
 //!   the process noise and the later information are below ε of P_f,k (a diffuse prior of 1e17
 //!   with unit noises smoothed to 32 where 5/3 is exact, and to 1.875 at 1e15), and Joseph's form
-//!   gives 5/3 at every prior up to the densities' limit.
+//!   gives 5/3 at every prior up to the densities' limit. When that sum is singular to its
+//!   rounding (a diffuse prior, or a singular Q such as a constant-velocity model's `Γ Γᵀ σ²`,
+//!   leaves variances below the rounding of its largest), the step is made once more with
+//!   `64 D ε max |P_s,kᵢᵢ| I` added, as the filters' steps are: the smoothed covariance is then
+//!   slightly wider than the exact one.
 //!
 //! On Rⁿ with a linear model this is the classical RTS smoother, equal to the batch least-squares
 //! solution (the tests check it to 1e-9). On a manifold it is the error-state smoother of the EKF:
@@ -37,7 +41,7 @@
 
 use crate::error::{all_finite, check_size, reserve, with_capacity};
 use crate::kalman::joseph;
-use crate::numerics::{Produced, checked_gaussian, slope};
+use crate::numerics::{Produced, above_rounding, checked_gaussian, slope};
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
@@ -108,13 +112,21 @@ pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
         &slope(filtered.cholesky_factor(), cross),
         &(transition.noise + next.covariance()),
     );
-    checked_gaussian(
-        mean,
-        &covariance,
-        Produced {
-            mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
-            covariance: "smoothed covariance A P_f A^T + G (Omega + P_s) G^T (a recorded \
-                         transition noise Omega that is not positive semi-definite)",
+    // A sum of positive semi-definite terms when Ω is: a covariance that fails is singular to
+    // its rounding, or Ω is not positive semi-definite (and the floor does not rescue it).
+    above_rounding::<_, D>(
+        || covariance.diagonal().amax(),
+        |floor| {
+            checked_gaussian(
+                mean.clone(),
+                &(covariance + SMatrix::<f64, D, D>::identity() * floor),
+                Produced {
+                    mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
+                    covariance: "smoothed covariance A P_f A^T + G (Omega + P_s) G^T (a \
+                                 recorded transition noise Omega that is not positive \
+                                 semi-definite)",
+                },
+            )
         },
     )
 }

@@ -348,3 +348,42 @@ fn a_result_beyond_the_densitys_limits_is_out_of_range() {
         );
     }
 }
+
+/// A constant-velocity track (the piecewise white noise `Γ Γᵀ`, rank 1; dt = 1e-3, q = r = 1)
+/// from a diffuse prior of 1e30 per axis, its position read every 50 steps, smoothed with a lag
+/// of 10. The filtered covariances are singular to rounding (until the second reading the
+/// position moves with a velocity nothing has read, and the diffuse prior's rounding stays in
+/// them after), and the backward step's sum `A P_f Aᵀ + G (Ω + P_s′) Gᵀ` failed its
+/// factorisation: the window was first refused at step 66. The backward step is now raised to
+/// its rounding, as the filters' steps are, and the window is smoothed at every step.
+#[test]
+fn a_diffuse_constant_velocity_track_is_smoothed_at_every_step() {
+    use liebayes_operators::process_noise::piecewise_white_noise;
+    let dt = 1e-3;
+    let f = Matrix2::new(1.0, dt, 0.0, 1.0);
+    let q = piecewise_white_noise::<2>(dt, 1.0).unwrap();
+    let motion = ProcessFn::new(
+        move |x: &Rn<f64, 2>, (): &()| Rn::new_unchecked(f * x.coords()),
+        move |_: &Rn<f64, 2>, (): &()| q,
+    )
+    .with_jacobian(move |_: &Rn<f64, 2>, (): &()| f);
+    let position = MeasurementFn::new(
+        |x: &Rn<f64, 2>| Vector1::new(x.coords()[0]),
+        |_: &Rn<f64, 2>| Matrix1::new(1.0),
+    )
+    .with_jacobian(|_: &Rn<f64, 2>| SMatrix::<f64, 1, 2>::new(1.0, 0.0));
+    let prior = ManifoldGaussian::new(
+        Rn::new_unchecked(Vector2::zeros()),
+        Matrix2::identity() * 1e30,
+    )
+    .unwrap();
+    let mut fixed = FixedLagSmoother::new(prior, 10).unwrap();
+    for k in 0..200 {
+        if k % 50 == 0 {
+            let z = Vector1::new(f64::from(k) * dt);
+            fixed.condition(&Ekf(&position), &z).unwrap();
+        }
+        fixed.smooth().unwrap_or_else(|e| panic!("step {k}: {e}"));
+        fixed.propagate(&Ekf(&motion), &()).unwrap();
+    }
+}
