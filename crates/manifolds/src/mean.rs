@@ -77,10 +77,11 @@ impl<T: Real> Default for MeanSettings<T> {
 /// ```
 ///
 /// from a given start, until the tangent norm of the step is at most the tolerance (the last step is
-/// applied), or until the step has stalled at the rounding of the computation: it no longer shrinks
-/// and is below √eps times the size of the residuals it sums, `Σ |wᵢ/Σw| |xᵢ ⊟ m|` in the max norm
-/// (points far from the origin of Rⁿ, large normalised weights), or the coordinates no longer
-/// resolve it (retracted and taken back with `local`, it changes by half its length or more: points
+/// applied), or until the step has stalled at the rounding of the computation: it is below the
+/// rounding of the sum that computes it, `n eps` times the size of the residuals it sums,
+/// `Σ |wᵢ/Σw| |xᵢ ⊟ m|` in the max norm (n samples; that step, rounding and nothing more, is not
+/// taken), or it no longer shrinks and is below √eps times that size (points far from the origin
+/// of Rⁿ, large normalised weights), or the coordinates no longer resolve it (retracted and taken back with `local`, it changes by half its length or more: points
 /// of Rⁿ 1e9 from the origin whose spread is 1e-3); the mean is then as accurate as the coordinates
 /// allow. A step that stops shrinking while still large is not a stall (it does not
 /// converge). On Rⁿ one step is exact; on the curved spaces the iteration converges linearly, at a
@@ -155,8 +156,10 @@ where
     X: Manifold<D, Scalar = T> + 'a,
     I: Iterator<Item = (&'a X, T)> + Clone,
 {
-    let total = weight_sum(samples.clone())?;
+    let (total, count) = weight_sum(samples.clone())?;
     let stall = T::default_epsilon().sqrt();
+    // The rounding of a sum of `count` terms, per unit of the terms' magnitudes.
+    let rounding = T::lit(count as f64) * T::default_epsilon();
     let mut mean = start.clone();
     let mut last_step = T::max_finite();
     for _ in 0..settings.max_iterations {
@@ -173,6 +176,11 @@ where
         if !norm.is_finite() {
             last_step = norm;
             break;
+        }
+        // Below the rounding of the sum that computes it, a step is that rounding and nothing
+        // more: it is not taken.
+        if norm <= rounding * size {
+            return Ok(mean);
         }
         // Only a step above the tolerance needs the test (a retraction and a `local` more).
         let unresolved = norm > settings.tolerance && unresolved(&mean, &step, norm);
@@ -212,7 +220,7 @@ fn unresolved<T: Real, X: Manifold<D, Scalar = T>, const D: usize>(
 /// than its rounding error `n eps Σ|wᵢ|`.
 fn weight_sum<'a, X: 'a, T: Real>(
     samples: impl Iterator<Item = (&'a X, T)>,
-) -> Result<T, ManifoldError> {
+) -> Result<(T, usize), ManifoldError> {
     let (mut count, mut sum, mut absolute_sum) = (0_usize, T::zero(), T::zero());
     for (index, (_, w)) in samples.enumerate() {
         if !w.is_finite() {
@@ -237,5 +245,5 @@ fn weight_sum<'a, X: 'a, T: Real>(
             absolute_sum: absolute_sum.to_f64(),
         });
     }
-    Ok(sum)
+    Ok((sum, count))
 }
