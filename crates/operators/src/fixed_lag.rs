@@ -367,8 +367,8 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> FixedLagSmoother<X, D> {
     ///
     /// # Errors
     /// [`OperatorError::NotPositiveDefinite`] when a smoothed covariance is not positive definite
-    /// (a recorded transition noise that is not positive semi-definite); the smoother's state is
-    /// unchanged.
+    /// (a recorded transition noise that is not positive semi-definite, or filtered covariances
+    /// ill-conditioned far beyond 1/ε); the smoother's state is unchanged.
     pub fn smooth(&mut self) -> Result<Window<'_, X, D>, OperatorError> {
         self.smoothed.clear();
         self.smoothed.push_front(self.current().clone());

@@ -1,5 +1,6 @@
 //! The linear Kalman filter: [`Gaussian<N>`] propagated through `x′ = F x + u + w`, `w ~ N(0, Q)`, and
-//! conditioned on `z = H x + n`, `n ~ N(0, R)`. Both steps are exact.
+//! conditioned on `z = H x + n`, `n ~ N(0, R)`. Both steps are exact, except where rounding would
+//! refuse them: there a floor at that rounding is added (below).
 //!
 //! Conditioning, with innovation `ν = z − H μ` and its covariance `S = H Σ Hᵀ + R` (factored by
 //! Cholesky, never inverted):
@@ -16,7 +17,8 @@
 //!
 //! Propagation is `N(F μ + u, F Σ Fᵀ + Q)`. When rounding leaves that covariance singular (a Σ far
 //! finer than a singular Q, such as the piecewise white noise `Γ Γᵀ σ²` of a constant-velocity
-//! model after a fix finer than 1e-8 of its step's noise), it is made once more with
+//! model after a fix of variance 1e-18 of one step's noise, or a diffuse prior on a velocity not
+//! yet read), it is made once more with
 //! `Q + 64 N ε max |P′ᵢᵢ| I`: the variances finer than the arithmetic holds are raised to that
 //! floor, and the prediction is slightly wider than the exact one.
 

@@ -89,8 +89,9 @@ const RECORDS: &str = "number of smoother records";
 /// (see the module docs for the formulas).
 ///
 /// # Errors
-/// [`OperatorError::NotPositiveDefinite`] when the smoothed covariance is not positive definite
-/// (a transition whose noise Ω is not positive semi-definite),
+/// [`OperatorError::NotPositiveDefinite`] when the smoothed covariance is not positive definite,
+/// also once raised to its rounding (a transition whose noise Ω is not positive semi-definite, or
+/// filtered covariances ill-conditioned far beyond 1/ε),
 /// [`OperatorError::NonFinitePoint`] for a smoothed mean that is not finite.
 pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
     filtered: &ManifoldGaussian<X, D>,
@@ -124,7 +125,8 @@ pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
                     mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
                     covariance: "smoothed covariance A P_f A^T + G (Omega + P_s) G^T (a \
                                  recorded transition noise Omega that is not positive \
-                                 semi-definite)",
+                                 semi-definite, or filtered covariances too ill-conditioned \
+                                 for f64)",
                 },
             )
         },
@@ -311,7 +313,8 @@ impl<X: Manifold<D, Scalar = f64>, const D: usize> RtsSmoother<X, D> {
     ///
     /// # Errors
     /// [`OperatorError::NotPositiveDefinite`] when a smoothed covariance is not positive definite
-    /// (a recorded transition noise that is not positive semi-definite).
+    /// (a recorded transition noise that is not positive semi-definite, or filtered covariances
+    /// ill-conditioned far beyond 1/ε).
     pub fn smooth(&self) -> Result<Vec<ManifoldGaussian<X, D>>, OperatorError> {
         smooth_records(&self.filtered, &self.transitions)
     }
