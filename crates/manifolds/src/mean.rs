@@ -81,8 +81,9 @@ impl<T: Real> Default for MeanSettings<T> {
 /// rounding of the sum that computes it, `n eps` times the size of the residuals it sums,
 /// `Σ |wᵢ/Σw| |xᵢ ⊟ m|` in the max norm (n samples; that step, rounding and nothing more, is not
 /// taken), or it no longer shrinks and is below √eps times that size (points far from the origin
-/// of Rⁿ, large normalised weights), or the coordinates no longer resolve it (retracted and taken back with `local`, it changes by half its length or more: points
-/// of Rⁿ 1e9 from the origin whose spread is 1e-3); the mean is then as accurate as the coordinates
+/// of Rⁿ, large normalised weights), or the coordinates no longer resolve it (retracted and taken
+/// back with `local`, it changes by half its length or more: points of Rⁿ 1e9 from the origin
+/// whose spread is 1e-3); the mean is then as accurate as the coordinates
 /// allow. A step that stops shrinking while still large is not a stall (it does not
 /// converge). On Rⁿ one step is exact; on the curved spaces the iteration converges linearly, at a
 /// rate that shrinks with the spread of the samples (Pennec, "Intrinsic statistics on Riemannian

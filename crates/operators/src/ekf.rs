@@ -23,7 +23,10 @@
 use crate::error::all_finite;
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise, rounding_scale};
+use crate::numerics::{
+    Produced, above_rounding, checked_gaussian, checked_gaussian_above_rounding, model_noise,
+    rounding_scale,
+};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -71,23 +74,16 @@ where
         let mean = prior.mean();
         let noise = model_noise("process noise Q", self.0.noise(mean, input))?;
         let (propagated, cross) = self.0.propagate_covariance(mean, input, prior.covariance());
-        let predicted = self.0.transition(mean, input);
-        let (density, noise) = above_rounding::<_, D>(
-            || (propagated + noise).diagonal().amax(),
-            |floor| {
-                let noise = noise + SMatrix::<f64, D, D>::identity() * floor;
-                let density = checked_gaussian(
-                    predicted.clone(),
-                    &(propagated + noise),
-                    Produced {
-                        mean: "the predicted mean f(mu, u) of the process model",
-                        covariance: "predicted covariance F P F^T + Q (check the process noise Q \
-                                     and the Jacobian F)",
-                    },
-                )?;
-                Ok((density, noise))
+        let (density, floor) = checked_gaussian_above_rounding(
+            &self.0.transition(mean, input),
+            &(propagated + noise),
+            Produced {
+                mean: "the predicted mean f(mu, u) of the process model",
+                covariance: "predicted covariance F P F^T + Q (check the process noise Q and the \
+                             Jacobian F)",
             },
         )?;
+        let noise = noise + SMatrix::<f64, D, D>::identity() * floor;
         // A model's own `propagate_covariance` may return a cross-covariance the predicted one
         // does not reveal; a smoother's record must hold a finite one.
         all_finite("cross-covariance P F^T of the process model", cross.iter())?;

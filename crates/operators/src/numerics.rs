@@ -26,7 +26,8 @@ pub(crate) struct Produced {
 /// `|H|²_F max |Pᵢⱼ|`, the size of the Joseph form's terms), `max |P′ᵢᵢ|` for a prediction. A
 /// noise R below that rounding is lost in S, and the posterior's variance along the measured
 /// directions, of the order of R, is lost to the rounding of P; a prediction from a prior far
-/// finer than a singular Q (a constant-velocity model's `Γ Γᵀ σ²` after a fix of 1e-9 m) keeps
+/// finer than a singular Q (a constant-velocity model's `Γ Γᵀ σ²` after a fix of variance 1e-18
+/// of one step's noise) keeps
 /// variances below the rounding of P′. The second try keeps them at least 64 M times that
 /// rounding, dropping information finer than the arithmetic can hold (the result is slightly
 /// wider than the exact one). If the second try fails too, the first error is returned.
@@ -45,6 +46,25 @@ pub(crate) fn above_rounding<T, const M: usize>(
         }
         result => result,
     }
+}
+
+/// [`checked_gaussian`] of a filter step's covariance, made once more with `floor · I` added by
+/// [`above_rounding`] (scaled from `max |Pᵢᵢ|`) when rounding left it not positive definite: a
+/// prediction or a smoothed step, whose covariance is positive semi-definite in exact arithmetic.
+/// Returns the density and the floor added (0 for the exact step), which a step that records its
+/// noise adds to it.
+pub(crate) fn checked_gaussian_above_rounding<X: Manifold<D, Scalar = f64>, const D: usize>(
+    mean: &X,
+    covariance: &SMatrix<f64, D, D>,
+    what: Produced,
+) -> Result<(ManifoldGaussian<X, D>, f64), OperatorError> {
+    above_rounding::<_, D>(
+        || covariance.diagonal().amax(),
+        |floor| {
+            let raised = covariance + SMatrix::<f64, D, D>::identity() * floor;
+            checked_gaussian(mean.clone(), &raised, what).map(|density| (density, floor))
+        },
+    )
 }
 
 /// The statistical linearisation `F̂ = Cᵀ P⁻¹` of a cross-covariance `C = Cov(δ, y)` for

@@ -41,7 +41,7 @@
 
 use crate::error::{all_finite, check_size, reserve, with_capacity};
 use crate::kalman::joseph;
-use crate::numerics::{Produced, above_rounding, checked_gaussian, slope};
+use crate::numerics::{Produced, checked_gaussian_above_rounding, slope};
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
@@ -115,22 +115,17 @@ pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
     );
     // A sum of positive semi-definite terms when Ω is: a covariance that fails is singular to
     // its rounding, or Ω is not positive semi-definite (and the floor does not rescue it).
-    above_rounding::<_, D>(
-        || covariance.diagonal().amax(),
-        |floor| {
-            checked_gaussian(
-                mean.clone(),
-                &(covariance + SMatrix::<f64, D, D>::identity() * floor),
-                Produced {
-                    mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
-                    covariance: "smoothed covariance A P_f A^T + G (Omega + P_s) G^T (a \
-                                 recorded transition noise Omega that is not positive \
-                                 semi-definite, or filtered covariances too ill-conditioned \
-                                 for f64)",
-                },
-            )
+    checked_gaussian_above_rounding(
+        &mean,
+        &covariance,
+        Produced {
+            mean: "the smoothed mean mu_f ⊞ G (mu_s ⊟ mu_p)",
+            covariance: "smoothed covariance A P_f A^T + G (Omega + P_s) G^T (a recorded \
+                         transition noise Omega that is not positive semi-definite, or filtered \
+                         covariances too ill-conditioned for f64)",
         },
     )
+    .map(|(density, _)| density)
 }
 
 /// Checks a record read back (a checkpoint): one more filtered density than transitions, at most

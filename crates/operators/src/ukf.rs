@@ -29,7 +29,9 @@
 use crate::error::all_finite;
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
-use crate::numerics::{Produced, above_rounding, checked_gaussian, model_noise, slope};
+use crate::numerics::{
+    Produced, above_rounding, checked_gaussian, checked_gaussian_above_rounding, model_noise, slope,
+};
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
@@ -299,22 +301,15 @@ where
             noise += curved * curved.transpose() * (0.5 * w);
             cross += d * (ep - em).transpose() * w;
         }
-        let (density, noise) = above_rounding::<_, D>(
-            || covariance.diagonal().amax(),
-            |floor| {
-                let raised = SMatrix::<f64, D, D>::identity() * floor;
-                let density = checked_gaussian(
-                    mean.clone(),
-                    &(covariance + raised),
-                    Produced {
-                        mean: "the mean of the propagated sigma points",
-                        covariance: "predicted covariance (sigma points plus Q; check the process \
-                                     noise Q)",
-                    },
-                )?;
-                Ok((density, noise + raised))
+        let (density, floor) = checked_gaussian_above_rounding(
+            &mean,
+            &covariance,
+            Produced {
+                mean: "the mean of the propagated sigma points",
+                covariance: "predicted covariance (sigma points plus Q; check the process noise Q)",
             },
         )?;
+        let noise = noise + SMatrix::<f64, D, D>::identity() * floor;
         all_finite("transition noise of the unscented prediction", noise.iter())?;
         Ok(Prediction {
             density,
