@@ -366,6 +366,47 @@ fn reweighting_matches_the_kalman_filter() {
     }
 }
 
+/// The weights' check names the first bad weight whatever their sum does: a negative weight
+/// beside weights whose sum overflows, a NaN after a negative one, infinities of both signs; and
+/// it accepts −0 (never drawn) and weights whose sum overflows.
+#[test]
+fn the_first_bad_weight_is_named_whatever_the_sum() {
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let refused = |weights: &[f64], scheme, rng: &mut ChaCha8Rng| {
+        resample_indices(weights, 3, scheme, rng).unwrap_err()
+    };
+    for scheme in SCHEMES {
+        for weights in [
+            [f64::MAX, f64::MAX, -1.0],
+            [-1.0, 2.0, 3.0],
+            [1.0, 2.0, -5e-324],
+        ] {
+            let error = refused(&weights, scheme, &mut rng);
+            let value = weights.iter().copied().find(|w| *w < 0.0).unwrap();
+            assert!(
+                matches!(error, OperatorError::OutOfRange { value: v, .. } if v == value),
+                "{weights:?}: {error}"
+            );
+        }
+        for (weights, value) in [
+            ([1.0, -2.0, f64::NAN], f64::NAN),
+            ([f64::INFINITY, f64::NEG_INFINITY, 1.0], f64::INFINITY),
+            ([1.0, f64::NEG_INFINITY, f64::MAX], f64::NEG_INFINITY),
+        ] {
+            let error = refused(&weights, scheme, &mut rng);
+            assert!(
+                matches!(error, OperatorError::NonFinite { value: v, .. }
+                    if v.to_bits() == value.to_bits() || (v.is_nan() && value.is_nan())),
+                "{weights:?}: {error}"
+            );
+        }
+        let indices = resample_indices(&[-0.0, 1.0, -0.0], 3, scheme, &mut rng).unwrap();
+        assert_eq!(indices, vec![1, 1, 1], "{scheme:?}");
+    }
+    let indices = resample_indices(&[f64::MAX; 3], 3, Resampling::Systematic, &mut rng).unwrap();
+    assert_eq!(indices, vec![0, 1, 2]);
+}
+
 #[test]
 fn impossible_measurements_and_empty_sets_are_errors() {
     assert!(ParticleSet::<f64>::from_samples(vec![]).is_err());
