@@ -18,12 +18,16 @@
 //! Propagation is `N(F μ + u, F Σ Fᵀ + Q)`. When rounding leaves that covariance singular (a Σ far
 //! finer than a singular Q, such as the piecewise white noise `Γ Γᵀ σ²` of a constant-velocity
 //! model after a fix of variance 1e-18 of one step's noise, or a diffuse prior on a velocity not
-//! yet read), it is made once more with
+//! yet read): when its Cholesky factorisation fails, or succeeds with a pivot of its correlation
+//! matrix below `N ε` (a variable fixed by the others to within the rounding of its own variance,
+//! such as a velocity after two exact readings of the position), it is made once more with
 //! `Q + 64 N ε max |P′ᵢᵢ| I`: the variances finer than the arithmetic holds are raised to that
 //! floor, and the prediction is slightly wider than the exact one.
 
 use crate::error::all_finite;
-use crate::numerics::{above_rounding, check_symmetric, rounding_scale, symmetric_part};
+use crate::numerics::{
+    above_rounding, check_symmetric, rounding_scale, singular_to_rounding, symmetric_part,
+};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::{DensityError, Gaussian};
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -202,15 +206,21 @@ impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
         let covariance = f * self.covariance() * f.transpose() + model.noise;
         let mean = f * self.mean() + input;
         checked(
-            predicted(&covariance, |c| Gaussian::new(mean, c))?,
+            predicted(
+                &covariance,
+                |c| Gaussian::new(mean, c),
+                Gaussian::cholesky_factor,
+            )?,
             "predicted mean F mu + u or covariance F Sigma F^T + Q (it overflows)",
         )
     }
 }
 
 /// A linear prediction's density, `build(F Σ Fᵀ + Q)` from that `covariance` symmetrised, made
-/// once more with `Q + 64 N ε max P′ᵢᵢ I` when the covariance is not positive definite (see the
-/// module docs): Q is positive semi-definite and Σ definite, so such a failure is rounding's.
+/// once more with `Q + 64 N ε max P′ᵢᵢ I` when the covariance is not positive definite or its
+/// Cholesky `factor` (the density's own) shows it [singular to rounding](singular_to_rounding)
+/// (see the module docs): Q is positive semi-definite and Σ definite, so such a failure is
+/// rounding's.
 ///
 /// # Errors
 /// [`OperatorError::NotPositiveDefinite`] when the raised covariance fails too, else the
@@ -218,12 +228,18 @@ impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
 pub(crate) fn predicted<T, const N: usize>(
     covariance: &SMatrix<f64, N, N>,
     build: impl Fn(SMatrix<f64, N, N>) -> Result<T, DensityError>,
+    factor: impl Fn(&T) -> &SMatrix<f64, N, N>,
 ) -> Result<T, OperatorError> {
+    const WHAT: &str = "predicted covariance F Sigma F^T + Q";
     above_rounding::<_, N>(
         || covariance.diagonal().amax(),
         |floor| {
             let raised = symmetric_part(&(covariance + SMatrix::<f64, N, N>::identity() * floor));
-            definite(&build, raised, "predicted covariance F Sigma F^T + Q")
+            let density = definite(&build, raised, WHAT)?;
+            if floor == 0.0 && singular_to_rounding(factor(&density), &raised) {
+                return Err(OperatorError::NotPositiveDefinite { what: WHAT });
+            }
+            Ok(density)
         },
     )
 }

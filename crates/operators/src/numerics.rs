@@ -49,8 +49,9 @@ pub(crate) fn above_rounding<T, const M: usize>(
 }
 
 /// [`checked_gaussian`] of a filter step's covariance, made once more with `floor · I` added by
-/// [`above_rounding`] (scaled from `max |Pᵢᵢ|`) when rounding left it not positive definite: a
-/// prediction or a smoothed step, whose covariance is positive semi-definite in exact arithmetic.
+/// [`above_rounding`] (scaled from `max |Pᵢᵢ|`) when rounding left it not positive definite or
+/// [singular to rounding](singular_to_rounding): a prediction or a smoothed step, whose covariance
+/// is positive semi-definite in exact arithmetic.
 /// Returns the density and the floor added (0 for the exact step), which a step that records its
 /// noise adds to it.
 pub(crate) fn checked_gaussian_above_rounding<X: Manifold<D, Scalar = f64>, const D: usize>(
@@ -62,9 +63,27 @@ pub(crate) fn checked_gaussian_above_rounding<X: Manifold<D, Scalar = f64>, cons
         || covariance.diagonal().amax(),
         |floor| {
             let raised = covariance + SMatrix::<f64, D, D>::identity() * floor;
-            checked_gaussian(mean.clone(), &raised, what).map(|density| (density, floor))
+            let density = checked_gaussian(mean.clone(), &raised, what)?;
+            if floor == 0.0 && singular_to_rounding(density.cholesky_factor(), &raised) {
+                return Err(OperatorError::NotPositiveDefinite {
+                    what: what.covariance,
+                });
+            }
+            Ok((density, floor))
         },
     )
+}
+
+/// Whether a covariance P with Cholesky factor L is singular to rounding: some pivot
+/// `Lᵢᵢ² < D ε Pᵢᵢ`, the i-th variable fixed by the ones before it to within the rounding of its
+/// own variance. The test is free of units (the pivots of the correlation matrix): a state that
+/// mixes metres and radians passes it unless its variables are that correlated.
+pub(crate) fn singular_to_rounding<const D: usize>(
+    factor: &SMatrix<f64, D, D>,
+    covariance: &SMatrix<f64, D, D>,
+) -> bool {
+    let tolerance = D as f64 * f64::EPSILON;
+    (0..D).any(|i| factor[(i, i)] * factor[(i, i)] < tolerance * covariance[(i, i)])
 }
 
 /// The statistical linearisation `F̂ = Cᵀ P⁻¹` of a cross-covariance `C = Cov(δ, y)` for

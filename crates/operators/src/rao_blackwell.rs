@@ -288,9 +288,11 @@ impl<const N: usize> Propagate<LinearProcess<N>> for HarmonicGaussian<N> {
         let mut features = f * self.features();
         features.set_column(0, &(features.column(0) + u));
         let covariance = f * self.covariance() * f.transpose() + model.noise();
-        checked(predicted(&covariance, |c| {
-            Self::new(self.angle().clone(), features, c)
-        }))
+        checked(predicted(
+            &covariance,
+            |c| Self::new(self.angle().clone(), features, c),
+            Self::cholesky_factor,
+        ))
     }
 }
 

@@ -180,3 +180,99 @@ fn a_prior_finer_than_a_singular_noise_is_predicted_at_its_rounding() {
         }
     }
 }
+
+/// Readings of a position, exact to 1e-30 with a process noise of 1e-30 and a prior of 1, fix the
+/// velocity after two. After the first, `F Σ Fᵀ + Q` is `0.5 [1 1; 1 1]` to within the rounding
+/// of its entries; Cholesky's own rounding let it through as positive definite, and the second
+/// update was refused by every filter (its Joseph form is singular whatever R). A prediction
+/// singular to rounding, some pivot of its correlation matrix below `N ε`, is now raised as one
+/// that fails is: the Kalman filter, the EKF, the UKF, both iterated updates, the RTS and the
+/// fixed-lag smoother take 20 steps and end with the velocity 1 and its variance below 1e-12. The
+/// test is free of units: a state with uncorrelated variances 1e6 and 1e-12 is predicted exactly.
+#[test]
+fn a_prediction_singular_to_rounding_is_raised_like_a_failed_one() {
+    use liebayes_densities::ManifoldGaussian;
+    use liebayes_manifolds::Rn;
+    use liebayes_operators::fixed_lag::FixedLagSmoother;
+    use liebayes_operators::iterated::{IteratedEkf, IteratedUkf};
+    use liebayes_operators::process_noise::piecewise_white_noise;
+    use liebayes_operators::smoother::RtsSmoother;
+    use liebayes_operators::{Ekf, MeasurementFn, ProcessFn, Ukf};
+    use nalgebra::{Matrix1, Matrix1x2, RowVector2, Vector1};
+    let (dt, noise) = (1.0, 1e-30);
+    let f = Matrix2::new(1.0, dt, 0.0, 1.0);
+    let q = piecewise_white_noise::<2>(dt, noise).unwrap();
+    let process = LinearProcess::new(f, q).unwrap();
+    let sensor = LinearMeasurement::new(RowVector2::new(1.0, 0.0), Matrix1::new(noise)).unwrap();
+    let motion = ProcessFn::new(
+        move |x: &Rn<f64, 2>, (): &()| Rn::new(f * x.coords()).unwrap(),
+        move |_: &Rn<f64, 2>, (): &()| q,
+    )
+    .with_jacobian(move |_: &Rn<f64, 2>, (): &()| f);
+    let measure = MeasurementFn::new(
+        |x: &Rn<f64, 2>| Vector1::new(x.coords()[0]),
+        move |_: &Rn<f64, 2>| Matrix1::new(noise),
+    )
+    .with_jacobian(|_: &Rn<f64, 2>| Matrix1x2::new(1.0, 0.0));
+    let start =
+        ManifoldGaussian::new(Rn::new(Vector2::zeros()).unwrap(), Matrix2::identity()).unwrap();
+    let mut kf = Gaussian::new(Vector2::zeros(), Matrix2::identity()).unwrap();
+    let mut filters = [start.clone(), start.clone(), start.clone(), start.clone()];
+    let mut rts = RtsSmoother::new(start.clone());
+    let mut lag = FixedLagSmoother::new(start, 5).unwrap();
+    for k in 1..=20 {
+        let z = Vector1::new(f64::from(k) * dt);
+        kf = kf.propagate(&process, &Vector2::zeros()).unwrap();
+        kf = kf.condition(&sensor, &z).unwrap().posterior;
+        let [ekf, ukf, iekf, iukf] = &mut filters;
+        let step = |g: &ManifoldGaussian<Rn<f64, 2>, 2>, unscented: bool| {
+            if unscented {
+                g.propagate(&Ukf::new(&motion), &())
+            } else {
+                g.propagate(&Ekf(&motion), &())
+            }
+        };
+        *ekf = step(ekf, false).unwrap();
+        *ekf = ekf.condition(&Ekf(&measure), &z).unwrap().posterior;
+        *ukf = step(ukf, true).unwrap();
+        *ukf = ukf.condition(&Ukf::new(&measure), &z).unwrap().posterior;
+        *iekf = step(iekf, false).unwrap();
+        *iekf = iekf
+            .condition(&IteratedEkf::new(&measure), &z)
+            .unwrap()
+            .posterior;
+        *iukf = step(iukf, true).unwrap();
+        *iukf = iukf
+            .condition(&IteratedUkf::new(&measure), &z)
+            .unwrap()
+            .posterior;
+        rts.propagate(&Ekf(&motion), &()).unwrap();
+        rts.condition(&Ekf(&measure), &z).unwrap();
+        lag.propagate(&Ekf(&motion), &()).unwrap();
+        lag.condition(&Ekf(&measure), &z).unwrap();
+    }
+    let smoothed = rts.smooth().unwrap();
+    let lagged = lag.smooth().unwrap();
+    let mut ends = vec![("KF", *kf.mean(), *kf.covariance())];
+    for (name, g) in ["EKF", "UKF", "IEKF", "IUKF"].into_iter().zip(&filters) {
+        ends.push((name, *g.mean().coords(), *g.covariance()));
+    }
+    for (name, g) in [
+        ("RTS", smoothed.last()),
+        ("fixed-lag", lagged.iter().last()),
+    ] {
+        let g = g.unwrap();
+        ends.push((name, *g.mean().coords(), *g.covariance()));
+    }
+    for (name, mean, covariance) in ends {
+        assert!((mean[1] - 1.0).abs() < 1e-9, "{name}: velocity {}", mean[1]);
+        assert!(covariance[(1, 1)] < 1e-12, "{name}: {covariance:e}");
+    }
+    let mixed = Matrix2::new(1e6, 0.0, 0.0, 1e-12);
+    let still = LinearProcess::new(Matrix2::identity(), Matrix2::zeros()).unwrap();
+    let predicted = Gaussian::new(Vector2::zeros(), mixed)
+        .unwrap()
+        .propagate(&still, &Vector2::zeros())
+        .unwrap();
+    assert_eq!(*predicted.covariance(), mixed);
+}
