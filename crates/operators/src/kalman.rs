@@ -26,7 +26,7 @@
 
 use crate::error::all_finite;
 use crate::numerics::{
-    above_rounding, check_symmetric, rounding_scale, singular_to_rounding, symmetric_part,
+    above_rounding, check_symmetric, raised_to_rounding, rounding_scale, symmetric_part,
 };
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::{DensityError, Gaussian};
@@ -216,11 +216,10 @@ impl<const N: usize> Propagate<LinearProcess<N>> for Gaussian<N> {
     }
 }
 
-/// A linear prediction's density, `build(F Σ Fᵀ + Q)` from that `covariance` symmetrised, made
-/// once more with `Q + 64 N ε max P′ᵢᵢ I` when the covariance is not positive definite or its
-/// Cholesky `factor` (the density's own) shows it [singular to rounding](singular_to_rounding)
-/// (see the module docs): Q is positive semi-definite and Σ definite, so such a failure is
-/// rounding's.
+/// A linear prediction's density, `build(F Σ Fᵀ + Q)` from that `covariance` symmetrised,
+/// [raised to its rounding](raised_to_rounding) (`Q + 64 N ε max P′ᵢᵢ I`) when rounding left it
+/// singular, which its Cholesky `factor` (the density's own) shows (see the module docs): Q is
+/// positive semi-definite and Σ definite, so such a failure is rounding's.
 ///
 /// # Errors
 /// [`OperatorError::NotPositiveDefinite`] when the raised covariance fails too, else the
@@ -231,17 +230,13 @@ pub(crate) fn predicted<T, const N: usize>(
     factor: impl Fn(&T) -> &SMatrix<f64, N, N>,
 ) -> Result<T, OperatorError> {
     const WHAT: &str = "predicted covariance F Sigma F^T + Q";
-    above_rounding::<_, N>(
-        || covariance.diagonal().amax(),
-        |floor| {
-            let raised = symmetric_part(&(covariance + SMatrix::<f64, N, N>::identity() * floor));
-            let density = definite(&build, raised, WHAT)?;
-            if floor == 0.0 && singular_to_rounding(factor(&density), &raised) {
-                return Err(OperatorError::NotPositiveDefinite { what: WHAT });
-            }
-            Ok(density)
-        },
+    raised_to_rounding(
+        covariance,
+        |c| definite(&build, symmetric_part(c), WHAT),
+        factor,
+        WHAT,
     )
+    .map(|(density, _)| density)
 }
 
 /// `build(covariance)`, its refusal of a covariance that is not positive definite returned as

@@ -48,28 +48,44 @@ pub(crate) fn above_rounding<T, const M: usize>(
     }
 }
 
-/// [`checked_gaussian`] of a filter step's covariance, made once more with `floor · I` added by
-/// [`above_rounding`] (scaled from `max |Pᵢᵢ|`) when rounding left it not positive definite or
-/// [singular to rounding](singular_to_rounding): a prediction or a smoothed step, whose covariance
-/// is positive semi-definite in exact arithmetic.
-/// Returns the density and the floor added (0 for the exact step), which a step that records its
-/// noise adds to it.
+/// [`checked_gaussian`] of a filter step's covariance [raised to its rounding](raised_to_rounding)
+/// when rounding left it singular: a prediction or a smoothed step, whose covariance is positive
+/// semi-definite in exact arithmetic. Returns the density and the floor added (0 for the exact
+/// step), which a step that records its noise adds to it.
 pub(crate) fn checked_gaussian_above_rounding<X: Manifold<D, Scalar = f64>, const D: usize>(
     mean: &X,
     covariance: &SMatrix<f64, D, D>,
     what: Produced,
 ) -> Result<(ManifoldGaussian<X, D>, f64), OperatorError> {
+    raised_to_rounding(
+        covariance,
+        |c| checked_gaussian(mean.clone(), c, what),
+        ManifoldGaussian::cholesky_factor,
+        what.covariance,
+    )
+}
+
+/// `build(P + floor I)` for a covariance P that is positive semi-definite in exact arithmetic (a
+/// prediction `F P Fᵀ + Q`, a smoothed step): first with `floor = 0`, and once more with the
+/// floor of [`above_rounding`] (scaled from `max |Pᵢᵢ|`) when rounding left P not positive
+/// definite ([`OperatorError::NotPositiveDefinite`] from `build`) or its Cholesky `factor` (the
+/// built density's own) shows it [singular to rounding](singular_to_rounding), refused as not
+/// positive definite naming `what`. Returns the result and the floor added.
+pub(crate) fn raised_to_rounding<T, const D: usize>(
+    covariance: &SMatrix<f64, D, D>,
+    build: impl Fn(&SMatrix<f64, D, D>) -> Result<T, OperatorError>,
+    factor: impl Fn(&T) -> &SMatrix<f64, D, D>,
+    what: &'static str,
+) -> Result<(T, f64), OperatorError> {
     above_rounding::<_, D>(
         || covariance.diagonal().amax(),
         |floor| {
             let raised = covariance + SMatrix::<f64, D, D>::identity() * floor;
-            let density = checked_gaussian(mean.clone(), &raised, what)?;
-            if floor == 0.0 && singular_to_rounding(density.cholesky_factor(), &raised) {
-                return Err(OperatorError::NotPositiveDefinite {
-                    what: what.covariance,
-                });
+            let built = build(&raised)?;
+            if floor == 0.0 && singular_to_rounding(factor(&built), &raised) {
+                return Err(OperatorError::NotPositiveDefinite { what });
             }
-            Ok((density, floor))
+            Ok((built, floor))
         },
     )
 }
