@@ -15,7 +15,10 @@
 //!   points of the current approximation `N(δᵢ, Pᵢ)`: `A = Ψᵀ Pᵢ⁻¹`, `b = ẑ − A δᵢ`,
 //!   `Ω = Φ − A Pᵢ Aᵀ` (ẑ, Φ, Ψ the sigma-point mean, covariance and cross-covariance); the Kalman
 //!   update of the prior with it proposes `δ̂ = K ν`, `ν = (z ⊟ ẑ) + A δᵢ`, `S = A P Aᵀ + Ω + R`,
-//!   and the next covariance `Pᵢ₊₁`.
+//!   and the next covariance `Pᵢ₊₁`. The sigma points' spread is raised, axis by axis, where one
+//!   round trip `(x ⊞ s) ⊟ x` at the iterate x shows it below the rounding of x (there the points
+//!   would all land on one value and give the model's slope as zero); the result's covariance is
+//!   still the Joseph form of the prior's update.
 //!
 //! **Step control**: a proposed step that would increase the merit, or whose end the model
 //! cannot be linearised at (a non-finite prediction or Jacobian, an update that is not positive
@@ -490,6 +493,49 @@ fn whitened<const D: usize>(
     })
 }
 
+/// The relative error of a round trip `(x ⊞ v) ⊟ x` within which a tangent offset v is resolved
+/// by the arithmetic of the point x.
+const RESOLUTION: f64 = 1e-4;
+
+/// The most raisings of one axis's spread in [`resolved`], each by a factor of at least
+/// 1/[`RESOLUTION`].
+const MAX_RAISINGS: usize = 4;
+
+/// A spread P whose sigma points about x the arithmetic of x resolves. With `sⱼ = √Pⱼⱼ`, one
+/// round trip `e = (x ⊞ s) ⊟ x − s` (zero in exact arithmetic) gives each axis's rounding; an
+/// axis with `|eⱼ| > 10⁻⁴ sⱼ` has Pⱼⱼ alone raised (which keeps P positive definite) to the first
+/// of `s' = max(error, s)·10⁴`, … whose own round trip along that axis is resolved, at most
+/// [`MAX_RAISINGS`] times; an axis that no raising resolves (a round trip that wraps, not rounds)
+/// is kept. On Rⁿ the error is the rounding of x's coordinates: a spread of 1e-15 about a point at
+/// 1e5 (whose rounding is 1.5e-11) is all rounding, and sigma points there give the model's slope
+/// as zero. Only such spreads are raised: a step of the posterior linearisation linearises the
+/// model over them, and a model smooth at 10⁴ times the rounding of its argument is linear there.
+fn resolved<X: Manifold<D, Scalar = f64>, const D: usize>(
+    x: &X,
+    spread: &SMatrix<f64, D, D>,
+) -> SMatrix<f64, D, D> {
+    let round_trip_error = |v: SVector<f64, D>| x.local(&x.retract(&v)) - v;
+    let deviations = spread.diagonal().map(f64::sqrt);
+    let errors = round_trip_error(deviations);
+    let mut raised = *spread;
+    for (j, (&s, &error)) in deviations.iter().zip(&errors).enumerate() {
+        let (mut trial, mut error) = (s, error.abs());
+        for _ in 0..MAX_RAISINGS {
+            if error.is_nan() || error <= RESOLUTION * trial {
+                break;
+            }
+            trial = error.max(trial) / RESOLUTION;
+            error =
+                round_trip_error(SVector::from_fn(|i, _| if i == j { trial } else { 0.0 })).norm();
+            if error <= RESOLUTION * trial && (trial * trial).is_finite() {
+                raised[(j, j)] = trial * trial;
+                break;
+            }
+        }
+    }
+    raised
+}
+
 /// An iterate `N(δᵢ, Pᵢ)` in the tangent space at the prior mean (the iterated EKF uses δᵢ only).
 struct Iterate<const D: usize> {
     delta: SVector<f64, D>,
@@ -547,7 +593,10 @@ where
         iterate: &Iterate<D>,
     ) -> Result<Linearised<D, M>, OperatorError> {
         let delta = &iterate.delta;
-        let spread = ManifoldGaussian::new(problem.prior.mean().clone(), iterate.spread)?;
+        let spread = ManifoldGaussian::new(
+            problem.prior.mean().clone(),
+            resolved(&problem.point(delta)?, &iterate.spread),
+        )?;
         let moments = self
             .ukf
             .measurement_moments(&spread, Some(delta), SMatrix::zeros())?;

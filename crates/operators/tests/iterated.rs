@@ -553,3 +553,56 @@ fn an_iterate_keeps_its_covariance_symmetric() {
     }
     assert!(density.covariance().iter().all(|v| v.is_finite()));
 }
+
+/// A constant-acceleration track read exactly (R = 1e-30) every fifty steps: the posterior's
+/// position spread (1e-15) is below the rounding of the position (1.8e-12 at 1.1e4), so sigma
+/// points of that spread all land on one value and give the model's slope as zero. The iterates
+/// linearise over the smallest spread the position's arithmetic resolves, and the iterated UKF
+/// follows the exact Kalman filter to the rounding of its mean (it drifted 1e-4 from the reading,
+/// 1e11 of its own standard deviations, when it linearised over the unresolved spread).
+#[test]
+fn an_iterate_below_the_rounding_of_its_point_follows_the_kalman_filter() {
+    use liebayes_operators::kalman::LinearProcess;
+    use liebayes_operators::process_noise::piecewise_white_noise;
+    use liebayes_operators::{Ekf, ProcessFn, Propagate};
+    use nalgebra::Matrix1x3;
+    let f = Matrix3::new(1.0, 1.0, 0.5, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0);
+    let q = piecewise_white_noise::<3>(1.0, 1e-10).unwrap();
+    let process = LinearProcess::new(f, q).unwrap();
+    let motion = ProcessFn::new(
+        move |x: &Rn<f64, 3>, (): &()| Rn::new(f * x.coords()).unwrap(),
+        move |_: &Rn<f64, 3>, (): &()| q,
+    )
+    .with_jacobian(move |_: &Rn<f64, 3>, (): &()| f);
+    let h = Matrix1x3::new(1.0, 0.0, 0.0);
+    let sensor = LinearMeasurement::new(h, Matrix1::new(1e-30)).unwrap();
+    let measure = MeasurementFn::new(
+        |x: &Rn<f64, 3>| Vector1::new(x.coords()[0]),
+        |_: &Rn<f64, 3>| Matrix1::new(1e-30),
+    )
+    .with_jacobian(move |_: &Rn<f64, 3>| h);
+    let mut exact = Gaussian::new(Vector3::zeros(), Matrix3::identity()).unwrap();
+    let mut iterated =
+        ManifoldGaussian::new(Rn::new(Vector3::zeros()).unwrap(), Matrix3::identity()).unwrap();
+    for k in 0..400_u32 {
+        exact = exact.propagate(&process, &Vector3::zeros()).unwrap();
+        iterated = iterated.propagate(&Ekf(&motion), &()).unwrap();
+        if k % 50 == 0 {
+            let t = f64::from(k);
+            let z = Vector1::new(t * t / 2.0);
+            exact = exact.condition(&sensor, &z).unwrap().posterior;
+            iterated = iterated
+                .condition(&IteratedUkf::new(&measure), &z)
+                .unwrap_or_else(|e| panic!("step {k}: {e}"))
+                .posterior;
+            for i in 0..3 {
+                let (a, b) = (iterated.mean().coords()[i], exact.mean()[i]);
+                let bound = 3.0 * exact.covariance()[(i, i)].sqrt() + 1e3 * f64::EPSILON * b.abs();
+                assert!(
+                    (a - b).abs() <= bound,
+                    "step {k}, state {i}: {a} against {b}"
+                );
+            }
+        }
+    }
+}
