@@ -134,7 +134,7 @@ where
                     Innovation::new(residual, &(h * pht + r), &pht, model.0.dof())?;
                 let posterior = checked_gaussian(
                     mean.retract(&report.correction()),
-                    &joseph(p, report.gain(), &h, &r),
+                    &joseph(self.cholesky_factor(), report.gain(), &h, &r),
                     Produced {
                         mean: "the posterior mean mu ⊞ K nu",
                         covariance: "posterior covariance (Joseph form; check the measurement noise R \

@@ -53,7 +53,7 @@ use crate::innovation::Innovation;
 use crate::kalman::joseph;
 use crate::models::MeasurementModel;
 use crate::numerics::{
-    Produced, above_rounding, checked_gaussian, model_noise, rounding_scale, slope, symmetric_part,
+    Produced, above_rounding, checked_gaussian, model_noise, rounding_scale, slope,
 };
 use crate::ukf::Ukf;
 use crate::{Condition, Conditioned, OperatorError};
@@ -437,7 +437,12 @@ where
             &pat,
             self.model.dof(),
         )?;
-        let covariance = symmetric_part(&joseph(p, innovation.gain(), slope, &noise));
+        let covariance = joseph(
+            self.prior.cholesky_factor(),
+            innovation.gain(),
+            slope,
+            &noise,
+        );
         all_finite("updated covariance of an iterate", covariance.iter())?;
         // The stop test measures steps in the standard deviations of this update's posterior (in
         // the prior's, a step of 0.5 under a prior of 1e15 was 1.6e-8 σ and ended the iteration

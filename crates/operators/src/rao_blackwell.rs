@@ -310,9 +310,9 @@ impl<const N: usize, const M: usize> Condition<LinearMeasurement<N, M>> for Harm
         let (angle, log_evidence) = reweighted_angle(self.angle(), &harmonics)?;
         let mut features = self.features() - gain * (model.matrix() * self.features());
         features.set_column(0, &(features.column(0) + gain * z));
-        let covariance = joseph(self.covariance(), &gain, model.matrix(), model.noise());
+        let covariance = joseph(self.cholesky_factor(), &gain, model.matrix(), model.noise());
         Ok(Conditioned {
-            posterior: checked(Self::new(angle, features, symmetric_part(&covariance)))?,
+            posterior: checked(Self::new(angle, features, covariance))?,
             log_evidence,
             report: (),
         })
@@ -338,11 +338,10 @@ impl<const N: usize> Condition<RotatedMeasurement<N>> for HarmonicGaussian<N> {
         let features = self.features() + sigma_ht * (rotated_z - model.matrix * self.features());
         // Joseph's form (I − K̄H) Σ (I − K̄H)ᵀ + σ_m² K̄ K̄ᵀ, K̄ = Σ Hᵀ / S: with H Σ Hᵀ = s I it
         // equals Σ − K̄ H Σ, which cancels to zero or below for σ_m² under the rounding of s.
-        let i_kh = SMatrix::<f64, N, N>::identity() - sigma_ht * model.matrix;
-        let covariance =
-            i_kh * sigma * i_kh.transpose() + sigma_ht * sigma_ht.transpose() * model.variance;
+        let noise = SMatrix::<f64, 2, 2>::identity() * model.variance;
+        let covariance = joseph(self.cholesky_factor(), &sigma_ht, &model.matrix, &noise);
         Ok(Conditioned {
-            posterior: checked(Self::new(angle, features, symmetric_part(&covariance)))?,
+            posterior: checked(Self::new(angle, features, covariance))?,
             log_evidence,
             report: (),
         })

@@ -108,7 +108,7 @@ pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
         .mean()
         .retract(&(gain * predicted.mean().local(next.mean())));
     let covariance = joseph(
-        filtered.covariance(),
+        filtered.cholesky_factor(),
         &gain,
         &slope(filtered.cholesky_factor(), cross),
         &(transition.noise + next.covariance()),

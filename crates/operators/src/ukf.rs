@@ -367,7 +367,7 @@ where
                 let gain = report.gain();
                 let posterior = checked_gaussian(
                     mu.retract(&report.correction()),
-                    &(joseph(self.covariance(), gain, &linear, &(noise + raised))
+                    &(joseph(self.cholesky_factor(), gain, &linear, &(noise + raised))
                         + moments.unexplained_through(gain)),
                     Produced {
                         mean: "the posterior mean mu ⊞ K nu",

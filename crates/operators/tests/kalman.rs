@@ -7,7 +7,7 @@ use liebayes_densities::testing::strategies::gaussian;
 use liebayes_densities::{Convolve, Density, Gaussian, Product};
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::{Condition, OperatorError, Propagate};
-use nalgebra::{Matrix2, Matrix2x3, Matrix3, SMatrix, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, SMatrix, SVector, Vector2, Vector3};
 use proptest::prelude::*;
 
 fn matrix<const R: usize, const C: usize>(range: f64) -> impl Strategy<Value = SMatrix<f64, R, C>> {
@@ -181,6 +181,89 @@ fn a_prior_finer_than_a_singular_noise_is_predicted_at_its_rounding() {
     }
 }
 
+/// The last estimate of each filter and smoother of a state whose first coordinate is read with
+/// variance `r`: the Kalman filter, the EKF, the UKF, both iterated updates, the RTS smoother (its
+/// smoothed last epoch) and the fixed-lag smoother (lag 5), from `N(0, p0 I)` with
+/// `x′ = F x + w`, `w ~ N(0, Q)`, and a reading `z(k)` at steps 1 to `steps`; panics naming the
+/// filter and the step it refuses.
+fn every_filter_tracks<const N: usize>(
+    (f, q, p0): (SMatrix<f64, N, N>, SMatrix<f64, N, N>, f64),
+    r: f64,
+    z: impl Fn(u32) -> f64,
+    steps: u32,
+) -> Vec<(&'static str, SVector<f64, N>, SMatrix<f64, N, N>)> {
+    use liebayes_densities::ManifoldGaussian;
+    use liebayes_manifolds::Rn;
+    use liebayes_operators::fixed_lag::FixedLagSmoother;
+    use liebayes_operators::iterated::{IteratedEkf, IteratedUkf};
+    use liebayes_operators::smoother::RtsSmoother;
+    use liebayes_operators::{Ekf, MeasurementFn, ProcessFn, Ukf};
+    use nalgebra::{Matrix1, Vector1};
+    let h = SMatrix::<f64, 1, N>::from_fn(|_, j| if j == 0 { 1.0 } else { 0.0 });
+    let process = LinearProcess::new(f, q).unwrap();
+    let sensor = LinearMeasurement::new(h, Matrix1::new(r)).unwrap();
+    let motion = ProcessFn::new(
+        move |x: &Rn<f64, N>, (): &()| Rn::new(f * x.coords()).unwrap(),
+        move |_: &Rn<f64, N>, (): &()| q,
+    )
+    .with_jacobian(move |_: &Rn<f64, N>, (): &()| f);
+    let measure = MeasurementFn::new(
+        |x: &Rn<f64, N>| Vector1::new(x.coords()[0]),
+        move |_: &Rn<f64, N>| Matrix1::new(r),
+    )
+    .with_jacobian(move |_: &Rn<f64, N>| h);
+    let prior = SMatrix::<f64, N, N>::identity() * p0;
+    let start = ManifoldGaussian::new(Rn::new(SVector::zeros()).unwrap(), prior).unwrap();
+    let mut kf = Gaussian::new(SVector::zeros(), prior).unwrap();
+    let mut filters = [start.clone(), start.clone(), start.clone(), start.clone()];
+    let mut rts = RtsSmoother::new(start.clone());
+    let mut lag = FixedLagSmoother::new(start, 5).unwrap();
+    for k in 1..=steps {
+        let z = Vector1::new(z(k));
+        kf = kf.propagate(&process, &SVector::zeros()).or_panic("KF", k);
+        kf = kf.condition(&sensor, &z).or_panic("KF", k).posterior;
+        let [ekf, ukf, iekf, iukf] = &mut filters;
+        *ekf = ekf.propagate(&Ekf(&motion), &()).or_panic("EKF", k);
+        let updated = ekf.condition(&Ekf(&measure), &z);
+        *ekf = updated.or_panic("EKF", k).posterior;
+        *ukf = ukf.propagate(&Ukf::new(&motion), &()).or_panic("UKF", k);
+        let updated = ukf.condition(&Ukf::new(&measure), &z);
+        *ukf = updated.or_panic("UKF", k).posterior;
+        *iekf = iekf.propagate(&Ekf(&motion), &()).or_panic("IEKF", k);
+        let updated = iekf.condition(&IteratedEkf::new(&measure), &z);
+        *iekf = updated.or_panic("IEKF", k).posterior;
+        *iukf = iukf.propagate(&Ukf::new(&motion), &()).or_panic("IUKF", k);
+        let updated = iukf.condition(&IteratedUkf::new(&measure), &z);
+        *iukf = updated.or_panic("IUKF", k).posterior;
+        rts.propagate(&Ekf(&motion), &()).or_panic("RTS", k);
+        rts.condition(&Ekf(&measure), &z).or_panic("RTS", k);
+        lag.propagate(&Ekf(&motion), &()).or_panic("fixed-lag", k);
+        lag.condition(&Ekf(&measure), &z).or_panic("fixed-lag", k);
+    }
+    let mut ends = vec![("KF", *kf.mean(), *kf.covariance())];
+    for (name, g) in ["EKF", "UKF", "IEKF", "IUKF"].into_iter().zip(&filters) {
+        ends.push((name, *g.mean().coords(), *g.covariance()));
+    }
+    let smoothed = rts.smooth().or_panic("RTS backward pass", steps);
+    let g = smoothed.last().unwrap();
+    ends.push(("RTS", *g.mean().coords(), *g.covariance()));
+    let lagged = lag.smooth().or_panic("fixed-lag backward pass", steps);
+    let g = lagged.iter().last().unwrap();
+    ends.push(("fixed-lag", *g.mean().coords(), *g.covariance()));
+    ends
+}
+
+/// A step's result, or a panic naming the filter and the step that refused it.
+trait OrPanic<T> {
+    fn or_panic(self, name: &str, step: u32) -> T;
+}
+
+impl<T> OrPanic<T> for Result<T, OperatorError> {
+    fn or_panic(self, name: &str, step: u32) -> T {
+        self.unwrap_or_else(|e| panic!("{name}, step {step}: {e}"))
+    }
+}
+
 /// Readings of a position, exact to 1e-30 with a process noise of 1e-30 and a prior of 1, fix the
 /// velocity after two. After the first, `F Σ Fᵀ + Q` is `0.5 [1 1; 1 1]` to within the rounding
 /// of its entries; Cholesky's own rounding let it through as positive definite, and the second
@@ -191,80 +274,10 @@ fn a_prior_finer_than_a_singular_noise_is_predicted_at_its_rounding() {
 /// test is free of units: a state with uncorrelated variances 1e6 and 1e-12 is predicted exactly.
 #[test]
 fn a_prediction_singular_to_rounding_is_raised_like_a_failed_one() {
-    use liebayes_densities::ManifoldGaussian;
-    use liebayes_manifolds::Rn;
-    use liebayes_operators::fixed_lag::FixedLagSmoother;
-    use liebayes_operators::iterated::{IteratedEkf, IteratedUkf};
     use liebayes_operators::process_noise::piecewise_white_noise;
-    use liebayes_operators::smoother::RtsSmoother;
-    use liebayes_operators::{Ekf, MeasurementFn, ProcessFn, Ukf};
-    use nalgebra::{Matrix1, Matrix1x2, RowVector2, Vector1};
-    let (dt, noise) = (1.0, 1e-30);
-    let f = Matrix2::new(1.0, dt, 0.0, 1.0);
-    let q = piecewise_white_noise::<2>(dt, noise).unwrap();
-    let process = LinearProcess::new(f, q).unwrap();
-    let sensor = LinearMeasurement::new(RowVector2::new(1.0, 0.0), Matrix1::new(noise)).unwrap();
-    let motion = ProcessFn::new(
-        move |x: &Rn<f64, 2>, (): &()| Rn::new(f * x.coords()).unwrap(),
-        move |_: &Rn<f64, 2>, (): &()| q,
-    )
-    .with_jacobian(move |_: &Rn<f64, 2>, (): &()| f);
-    let measure = MeasurementFn::new(
-        |x: &Rn<f64, 2>| Vector1::new(x.coords()[0]),
-        move |_: &Rn<f64, 2>| Matrix1::new(noise),
-    )
-    .with_jacobian(|_: &Rn<f64, 2>| Matrix1x2::new(1.0, 0.0));
-    let start =
-        ManifoldGaussian::new(Rn::new(Vector2::zeros()).unwrap(), Matrix2::identity()).unwrap();
-    let mut kf = Gaussian::new(Vector2::zeros(), Matrix2::identity()).unwrap();
-    let mut filters = [start.clone(), start.clone(), start.clone(), start.clone()];
-    let mut rts = RtsSmoother::new(start.clone());
-    let mut lag = FixedLagSmoother::new(start, 5).unwrap();
-    for k in 1..=20 {
-        let z = Vector1::new(f64::from(k) * dt);
-        kf = kf.propagate(&process, &Vector2::zeros()).unwrap();
-        kf = kf.condition(&sensor, &z).unwrap().posterior;
-        let [ekf, ukf, iekf, iukf] = &mut filters;
-        let step = |g: &ManifoldGaussian<Rn<f64, 2>, 2>, unscented: bool| {
-            if unscented {
-                g.propagate(&Ukf::new(&motion), &())
-            } else {
-                g.propagate(&Ekf(&motion), &())
-            }
-        };
-        *ekf = step(ekf, false).unwrap();
-        *ekf = ekf.condition(&Ekf(&measure), &z).unwrap().posterior;
-        *ukf = step(ukf, true).unwrap();
-        *ukf = ukf.condition(&Ukf::new(&measure), &z).unwrap().posterior;
-        *iekf = step(iekf, false).unwrap();
-        *iekf = iekf
-            .condition(&IteratedEkf::new(&measure), &z)
-            .unwrap()
-            .posterior;
-        *iukf = step(iukf, true).unwrap();
-        *iukf = iukf
-            .condition(&IteratedUkf::new(&measure), &z)
-            .unwrap()
-            .posterior;
-        rts.propagate(&Ekf(&motion), &()).unwrap();
-        rts.condition(&Ekf(&measure), &z).unwrap();
-        lag.propagate(&Ekf(&motion), &()).unwrap();
-        lag.condition(&Ekf(&measure), &z).unwrap();
-    }
-    let smoothed = rts.smooth().unwrap();
-    let lagged = lag.smooth().unwrap();
-    let mut ends = vec![("KF", *kf.mean(), *kf.covariance())];
-    for (name, g) in ["EKF", "UKF", "IEKF", "IUKF"].into_iter().zip(&filters) {
-        ends.push((name, *g.mean().coords(), *g.covariance()));
-    }
-    for (name, g) in [
-        ("RTS", smoothed.last()),
-        ("fixed-lag", lagged.iter().last()),
-    ] {
-        let g = g.unwrap();
-        ends.push((name, *g.mean().coords(), *g.covariance()));
-    }
-    for (name, mean, covariance) in ends {
+    let f = Matrix2::new(1.0, 1.0, 0.0, 1.0);
+    let q = piecewise_white_noise::<2>(1.0, 1e-30).unwrap();
+    for (name, mean, covariance) in every_filter_tracks((f, q, 1.0), 1e-30, f64::from, 20) {
         assert!((mean[1] - 1.0).abs() < 1e-9, "{name}: velocity {}", mean[1]);
         assert!(covariance[(1, 1)] < 1e-12, "{name}: {covariance:e}");
     }
@@ -275,4 +288,35 @@ fn a_prediction_singular_to_rounding_is_raised_like_a_failed_one() {
         .propagate(&still, &Vector2::zeros())
         .unwrap();
     assert_eq!(*predicted.covariance(), mixed);
+}
+
+/// A constant-acceleration track `x = t²/2` (dt = 1, q = 1) read at every step, from a diffuse
+/// prior (1e30, readings of variance 1) and from a prior of 1 (readings exact to 1e-30). The
+/// reading is far finer than the prediction, `I − K H` all but cancels along it, and the Joseph
+/// form summed as `(I − K H) Σ (I − K H)ᵀ` rounded at the size of Σ: the posterior came out
+/// negative along the reading and the Kalman filter's update was refused at step 4 from the diffuse
+/// prior, at step 46 from the exact readings. Summed as Gram matrices, every filter and smoother
+/// takes 300 steps and ends within five of its standard deviations of the track (plus 1e3 roundings
+/// of the track's value, the finest an exact reading can fix).
+#[test]
+fn a_reading_far_finer_than_its_prediction_keeps_the_update_positive_definite() {
+    use liebayes_operators::process_noise::piecewise_white_noise;
+    let f = Matrix3::new(1.0, 1.0, 0.5, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0);
+    let q = piecewise_white_noise::<3>(1.0, 1.0).unwrap();
+    let z = |k: u32| f64::from(k) * f64::from(k) / 2.0;
+    let steps = 300;
+    let t = f64::from(steps);
+    let track = Vector3::new(t * t / 2.0, t, 1.0);
+    for (p0, r) in [(1e30, 1.0), (1.0, 1e-30)] {
+        for (name, mean, covariance) in every_filter_tracks((f, q, p0), r, z, steps) {
+            for i in 0..3 {
+                let bound = 5.0 * covariance[(i, i)].sqrt() + 1e3 * f64::EPSILON * track[i].abs();
+                let error = (mean[i] - track[i]).abs();
+                assert!(
+                    error <= bound,
+                    "{name}, p0 {p0:e}, state {i}: {error:e} > {bound:e}"
+                );
+            }
+        }
+    }
 }
