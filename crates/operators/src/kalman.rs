@@ -186,9 +186,9 @@ pub(crate) fn checked<const N: usize>(
 
 /// Joseph's form of the updated covariance, `(I − K H) Σ (I − K H)ᵀ + K R Kᵀ`, positive
 /// semi-definite whatever the rounding in K, from the Cholesky factor `Σ = L Lᵀ`: summed as two
-/// Gram matrices, `X Xᵀ` with `X = (I − K H) L` and `Y Yᵀ` with `Y = K L_R` (`R = L_R L_Rᵀ`;
-/// `K R Kᵀ` itself for a diagonal R, whose product is already the sum of the rank-one
-/// `rₘ kₘ kₘᵀ`, and for a singular R, which has no factor). A Gram matrix rounds at the size of its
+/// Gram matrices, `X Xᵀ` with `X = (I − K H) L` and `Y Yᵀ` with `Y = K L_R` (`R = L_R L_Rᵀ`,
+/// `L_R = diag(√rₘ)` for a diagonal R; `K R Kᵀ` itself, symmetrised, for a singular R, which has
+/// no Cholesky factor). A Gram matrix rounds at the size of its
 /// own entries; the product `(I − K H) Σ (I − K H)ᵀ` rounds at the size of Σ, and after a
 /// reading far finer than the prior, where `I − K H` all but cancels along the reading, that
 /// rounding swamped the posterior's variance there and left it negative (a constant-acceleration
@@ -202,17 +202,18 @@ pub(crate) fn joseph<const N: usize, const M: usize>(
 ) -> SMatrix<f64, N, N> {
     let spread = (SMatrix::<f64, N, N>::identity() - gain * h) * factor;
     let diagonal = (0..M).all(|i| (0..M).all(|j| i == j || r[(i, j)] == 0.0));
-    let noise = if diagonal {
-        gain * r * gain.transpose()
+    let noise_factor = if diagonal {
+        Some(SMatrix::from_diagonal(&r.diagonal().map(f64::sqrt)))
     } else {
-        Cholesky::new(*r).map_or_else(
-            || gain * r * gain.transpose(),
-            |r| {
-                let y = gain * r.l();
-                y * y.transpose()
-            },
-        )
+        Cholesky::new(*r).map(|c| c.l())
     };
+    let noise = noise_factor.map_or_else(
+        || symmetric_part(&(gain * r * gain.transpose())),
+        |l| {
+            let y = gain * l;
+            y * y.transpose()
+        },
+    );
     spread * spread.transpose() + noise
 }
 
