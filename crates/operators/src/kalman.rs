@@ -186,14 +186,14 @@ pub(crate) fn checked<const N: usize>(
 
 /// Joseph's form of the updated covariance, `(I − K H) Σ (I − K H)ᵀ + K R Kᵀ`, positive
 /// semi-definite whatever the rounding in K, from the Cholesky factor `Σ = L Lᵀ`: summed as two
-/// Gram matrices, `X Xᵀ` with `X = (I − K H) L` and `Y Yᵀ` with `Y = K L_R` (`R = L_R L_Rᵀ`,
-/// `L_R = diag(√rₘ)` for a diagonal R; `K R Kᵀ` itself, symmetrised, for a singular R, which has
-/// no Cholesky factor). A Gram matrix rounds at the size of its
-/// own entries; the product `(I − K H) Σ (I − K H)ᵀ` rounds at the size of Σ, and after a
-/// reading far finer than the prior, where `I − K H` all but cancels along the reading, that
-/// rounding swamped the posterior's variance there and left it negative (a constant-acceleration
-/// track was refused in 123 of 450 settings of step, noise and prior; 3 now). Each
-/// Gram matrix is symmetric to the bit, and so is their sum.
+/// Gram matrices, `X Xᵀ` with `X = (I − K H) L` and `Y Yᵀ` with `Y = K L_R`
+/// (`R = L_R L_Rᵀ`, `L_R = diag(√rₘ)` for a diagonal R; `K R Kᵀ` itself, symmetrised, for a
+/// singular R, which has no Cholesky factor). A Gram matrix rounds at the size of its own
+/// entries; the product `(I − K H) Σ (I − K H)ᵀ` rounds at the size of Σ, and after a reading
+/// far finer than the prior, where `I − K H` all but cancels along the reading, that rounding
+/// swamped the posterior's variance there and left it negative (a constant-acceleration track
+/// was refused in 123 of 450 settings of step, noise and prior; 3 now). Each Gram matrix is
+/// symmetric to the bit, and so is their sum.
 pub(crate) fn joseph<const N: usize, const M: usize>(
     factor: &SMatrix<f64, N, N>,
     gain: &SMatrix<f64, N, M>,
