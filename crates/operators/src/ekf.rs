@@ -12,6 +12,13 @@
 //!   finer than the arithmetic holds is dropped; the posterior is slightly wider than the exact
 //!   one). A prediction whose covariance rounding leaves singular (a prior far finer than a
 //!   singular Q) is made once more with `Q + 64 D ε max |P′ᵢᵢ| I`, the same way.
+//! * **check**: the update is kept only if the linearisation held over its correction: at μ⁺ the
+//!   reading's residual may miss the linear prediction `ν − H K ν` by at most
+//!   [`LINEARISATION_LIMIT`] in the posterior's own squared standard deviations; beyond, the
+//!   correction went where H no longer describes h (a reading far finer than a prior that a curved
+//!   model spreads), the posterior would claim a precision it does not have, and the update is
+//!   refused ([`OperatorError::Linearisation`]) for the [iterated EKF](crate::iterated) to take.
+//!   One more evaluation of h.
 //!
 //! P⁺ is left in the tangent space at μ rather than transported to μ⁺ (the first-order "reset"
 //! `J(Kν) P⁺ J(Kν)ᵀ`, [`Manifold::j_retract_tangent`], is omitted): on Rⁿ and SO(2) the two coincide;
@@ -25,13 +32,13 @@ use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
 use crate::numerics::{
     Produced, above_rounding, checked_gaussian, checked_gaussian_above_rounding, model_noise,
-    rounding_scale,
+    rounding_scale, symmetric_part,
 };
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Cholesky, SMatrix, SVector};
 
 /// A model to be used by linearisation: `density.propagate(&Ekf(process), &u)`,
 /// `density.condition(&Ekf(measurement), &z)`, or with a model kept elsewhere,
@@ -141,12 +148,100 @@ where
                                  and the Jacobian H)",
                     },
                 )?;
-                Ok(Conditioned {
+                let step = Conditioned {
                     posterior,
                     log_evidence,
                     report,
-                })
+                };
+                check_linearisation(&model.0, z, (&h, &r), &residual, &step)?;
+                Ok(step)
             },
         )
+    }
+}
+
+/// The largest linearisation miss an EKF update is kept with: at the updated mean μ⁺ the reading's
+/// residual misses the linear prediction `ν − H K ν` by d, and
+/// `q = dᵀ (H P⁺ Hᵀ + R + ρ² I)⁻¹ d` (ρ the rounding of the reading) must be at most 1e8, a miss of
+/// 10⁴ of the posterior's own standard deviations. A linear model misses by rounding only; the
+/// main job's EKF updates stay below 1.3e3.
+pub const LINEARISATION_LIMIT: f64 = 1e8;
+
+/// Checks that the linearisation held over the update's correction δ = K ν. Were the model linear,
+/// the reading's residual at the updated mean would be `ν − H δ`; the miss is
+/// `d = (z ⊟ h(μ ⊞ δ)) − (ν − H δ)`, measured as `q = dᵀ (H P⁺ Hᵀ + R + ρ² I)⁻¹ d` in the posterior's
+/// own uncertainty about the reading, with ρ = 64 M ε times the largest of |z|, |h(μ)|, |h(μ⁺)| and
+/// |H δ| (what their rounding alone can miss by). One more evaluation of h.
+///
+/// # Errors
+/// [`OperatorError::Linearisation`] when q is above [`LINEARISATION_LIMIT`] (or not a number).
+fn check_linearisation<X, H, const D: usize, const M: usize>(
+    model: &H,
+    z: &SVector<f64, M>,
+    (h, r): (&SMatrix<f64, M, D>, &SMatrix<f64, M, M>),
+    residual: &SVector<f64, M>,
+    step: &Conditioned<ManifoldGaussian<X, D>, Innovation<D, M>>,
+) -> Result<(), OperatorError>
+where
+    X: Manifold<D, Scalar = f64>,
+    H: MeasurementModel<X, D, M>,
+{
+    let updated = step.posterior.mean();
+    let predicted = model.predict(updated);
+    let linear = h * step.report.correction();
+    let miss = model.residual(z, &predicted) - (residual - linear);
+    if miss.iter().all(|&x| x == 0.0) {
+        return Ok(());
+    }
+    if !miss.iter().all(|x| x.is_finite()) {
+        // The model is not finite at the updated mean: the correction left its domain.
+        return Err(OperatorError::Linearisation {
+            statistic: f64::INFINITY,
+        });
+    }
+    let size = [
+        z.amax(),
+        predicted.amax(),
+        linear.amax(),
+        (z - residual).amax(),
+    ]
+    .into_iter()
+    .fold(0.0, f64::max);
+    let rounding = 64.0 * M as f64 * f64::EPSILON * size;
+    let floor = (rounding * rounding).max(f64::MIN_POSITIVE);
+    // The weight is at least `R + ρ² I`: for a diagonal R, `Σ dᵢ² / (Rᵢᵢ + ρ²)` bounds q from
+    // above, and a bound within the limit keeps the update without factoring the weight.
+    let diagonal = (0..M).all(|i| (0..M).all(|j| i == j || r[(i, j)] == 0.0));
+    if diagonal {
+        let bound: f64 = miss
+            .iter()
+            .zip(r.diagonal().iter())
+            .map(|(d, v)| d * d / (v + floor))
+            .sum();
+        if bound <= LINEARISATION_LIMIT {
+            return Ok(());
+        }
+    }
+    // `H P⁺ Hᵀ` as the Gram matrix of `H L`, positive semi-definite whatever the rounding.
+    let spread = h * step.posterior.cholesky_factor();
+    let weight =
+        spread * spread.transpose() + symmetric_part(r) + SMatrix::<f64, M, M>::identity() * floor;
+    let statistic = match Cholesky::new(weight) {
+        Some(factor) => factor
+            .l()
+            .solve_lower_triangular_unchecked(&miss)
+            .norm_squared(),
+        // Positive definite in exact arithmetic: a factorisation lost to rounding falls back on
+        // the diagonal, which is positive.
+        None => miss
+            .iter()
+            .zip(weight.diagonal().iter())
+            .map(|(d, w)| d * d / w)
+            .sum(),
+    };
+    if statistic <= LINEARISATION_LIMIT {
+        Ok(())
+    } else {
+        Err(OperatorError::Linearisation { statistic })
     }
 }

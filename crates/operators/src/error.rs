@@ -89,6 +89,20 @@ pub enum OperatorError {
         /// What initialises it.
         needs: &'static str,
     },
+    /// A one-pass linearised update whose correction went beyond the reach of its linearisation:
+    /// at the updated mean, the reading's residual missed what the linear model predicted by
+    /// `statistic` (squared, in the posterior's own standard deviations of the reading), above
+    /// [`LINEARISATION_LIMIT`](crate::ekf::LINEARISATION_LIMIT). The state is kept as it was.
+    #[error(
+        "the one-pass update's linearisation failed: at the updated mean the reading's residual is \
+         {} squared standard deviations off what the linearised model predicted (at most 1e8 is \
+         kept); condition with the iterated EKF (IteratedEkf), which relinearises at its estimate",
+        Readable(*.statistic)
+    )]
+    Linearisation {
+        /// The miss `dᵀ (H P⁺ Hᵀ + R)⁻¹ d`.
+        statistic: f64,
+    },
     /// A computation on the manifold failed, with what the step was computing: a weighted mean that
     /// did not converge (sigma points or particles spread over more than half the injectivity radius)
     /// or whose weights are degenerate.

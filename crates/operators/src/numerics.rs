@@ -30,7 +30,8 @@ pub(crate) struct Produced {
 /// of one step's noise) keeps
 /// variances below the rounding of P′. The second try keeps them at least 64 M times that
 /// rounding, dropping information finer than the arithmetic can hold (the result is slightly
-/// wider than the exact one). If the second try fails too, the first error is returned.
+/// wider than the exact one). If the second try fails too, the first error is returned (or the
+/// second, when it is [`OperatorError::Linearisation`]).
 pub(crate) fn above_rounding<T, const M: usize>(
     scale: impl FnOnce() -> f64,
     update: impl Fn(f64) -> Result<T, OperatorError>,
@@ -39,7 +40,12 @@ pub(crate) fn above_rounding<T, const M: usize>(
         Err(error @ OperatorError::NotPositiveDefinite { .. }) => {
             let floor = 64.0 * M as f64 * f64::EPSILON * scale();
             if floor > 0.0 && floor.is_finite() {
-                update(floor).map_err(|_| error)
+                // A raised step refused for its linearisation is refused for that, whatever
+                // the exact step's rounding.
+                update(floor).map_err(|second| match second {
+                    OperatorError::Linearisation { .. } => second,
+                    _ => error,
+                })
             } else {
                 Err(error)
             }

@@ -357,10 +357,53 @@ fn bad_input_is_an_error_and_leaves_the_density_unchanged() {
     assert_eq!(density, prior);
 }
 
+/// The one-pass EKF checks its linearisation over the correction it makes. For `z = x²` from a
+/// prior N(1, 1) and a reading of 100 with R = 1e-6, the slope H = 2 moves the mean to 50.5, where
+/// x² is 2550: the posterior (`H P⁺ H + R ≈ 2e-6`) misses its own reading by 2450, so that
+/// `q = 2450² / 2e-6 ≈ 3.0e12`, where a linear model misses by rounding. The EKF returned that
+/// posterior as Ok; the update is now refused, naming q, and the density is left as it was. The
+/// iterated EKF, which relinearises at its estimate, finds the mode near x = 10. A reading within
+/// the prior's reach (z = 1.2, R = 0.1: q ≈ 4.6e-4 by the same hand computation) is kept.
+#[test]
+fn a_one_pass_update_beyond_its_linearisation_is_refused() {
+    use liebayes_operators::Ekf;
+    use liebayes_operators::ekf::LINEARISATION_LIMIT;
+    let square = |r: f64| {
+        MeasurementFn::new(
+            |x: &Rn<f64, 1>| Vector1::new(x.coords()[0].powi(2)),
+            move |_: &Rn<f64, 1>| Matrix1::new(r),
+        )
+        .with_jacobian(|x: &Rn<f64, 1>| Matrix1::new(2.0 * x.coords()[0]))
+    };
+    let prior =
+        ManifoldGaussian::new(Rn::new(Vector1::new(1.0)).unwrap(), Matrix1::new(1.0)).unwrap();
+    let mut density = prior.clone();
+    let far = Vector1::new(100.0);
+    match density.condition_in_place(&Ekf(square(1e-6)), &far) {
+        Err(OperatorError::Linearisation { statistic }) => {
+            assert!(statistic > LINEARISATION_LIMIT);
+            assert!((statistic / 3.0e12 - 1.0).abs() < 0.01, "{statistic:e}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(density, prior);
+    let iterated = prior
+        .condition(&IteratedEkf::new(square(1e-6)), &far)
+        .unwrap();
+    let mode = iterated.posterior.mean().coords()[0];
+    assert!((mode - 10.0).abs() < 1e-3, "{mode}");
+    let near = prior
+        .condition(&Ekf(square(0.1)), &Vector1::new(1.2))
+        .unwrap();
+    // K = 2 / 4.1 and the mean 1 + 0.2 K, by hand.
+    let mean = near.posterior.mean().coords()[0];
+    assert!((mean - (1.0 + 0.4 / 4.1)).abs() < 1e-12, "{mean}");
+}
+
 /// A Gauss-Newton step that overshoots the model's domain is halved, not an error: `z = √x` from
 /// a prior at x = 1 and a reading of 0.1 first proposes x ≈ −0.8, where the model is NaN. The
-/// iterated EKF halves back into x > 0 and reaches the MAP found by a grid, where the one-pass EKF
-/// lands outside the domain.
+/// iterated EKF halves back into x > 0 and reaches the MAP found by a grid, where the one-pass EKF,
+/// whose update would land outside the domain, refuses the reading.
 #[test]
 fn a_step_past_the_model_domain_is_halved() {
     let root = MeasurementFn::new(
@@ -374,11 +417,14 @@ fn a_step_past_the_model_domain_is_halved() {
     // The first proposal, by hand: H = ½, K = P H / (H² P + R), x = 1 + K (z − 1) < 0.
     let gain = 0.5 / (0.25 + 1e-4);
     assert!(1.0 + gain * (0.1 - 1.0) < -0.7);
-    let one_pass = prior
-        .condition(&liebayes_operators::Ekf(&root), &z)
-        .unwrap()
-        .posterior;
-    assert!(one_pass.mean().coords()[0] < 0.0);
+    let one_pass = prior.condition(&liebayes_operators::Ekf(&root), &z);
+    assert!(
+        matches!(
+            one_pass,
+            Err(OperatorError::Linearisation { statistic }) if statistic == f64::INFINITY
+        ),
+        "{one_pass:?}"
+    );
     let cost = |x: f64| (x - 1.0).powi(2) / 2.0 + (0.1 - x.sqrt()).powi(2) / 2e-4;
     let argmin = |from: f64, step: f64, n: usize| {
         (0..=n)
