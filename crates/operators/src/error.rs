@@ -94,13 +94,13 @@ pub enum OperatorError {
     /// `statistic` (squared, in the posterior's own standard deviations of the reading), above
     /// [`LINEARISATION_LIMIT`](crate::ekf::LINEARISATION_LIMIT). The state is kept as it was.
     #[error(
-        "the one-pass update's linearisation failed: at the updated mean the reading's residual is \
-         {} squared standard deviations off what the linearised model predicted (at most 1e8 is \
-         kept); condition with the iterated EKF (IteratedEkf), which relinearises at its estimate",
-        Readable(*.statistic)
+        "the one-pass update's linearisation failed: {}; condition with the iterated EKF \
+         (IteratedEkf), which relinearises at its estimate",
+        Miss(*.statistic)
     )]
     Linearisation {
-        /// The miss `dᵀ (H P⁺ Hᵀ + R)⁻¹ d`.
+        /// The miss `dᵀ (H P⁺ Hᵀ + R)⁻¹ d`; infinite when the model is not finite at the updated
+        /// mean.
         statistic: f64,
     },
     /// A computation on the manifold failed, with what the step was computing: a weighted mean that
@@ -113,6 +113,29 @@ pub enum OperatorError {
         /// The manifold layer's error.
         source: ManifoldError,
     },
+}
+
+/// How far a one-pass update's posterior missed its own reading, as [`OperatorError::Linearisation`]
+/// words it.
+struct Miss(f64);
+
+impl std::fmt::Display for Miss {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_finite() {
+            write!(
+                f,
+                "at the updated mean the reading's residual is {} squared standard deviations off \
+                 what the linearised model predicted (at most {} is kept)",
+                Readable(self.0),
+                Readable(crate::ekf::LINEARISATION_LIMIT)
+            )
+        } else {
+            f.write_str(
+                "the measurement model is not finite at the updated mean (the correction left its \
+                 domain)",
+            )
+        }
+    }
 }
 
 /// Checks a size against [`MAX_ELEMENTS`].

@@ -380,9 +380,15 @@ fn a_one_pass_update_beyond_its_linearisation_is_refused() {
     let mut density = prior.clone();
     let far = Vector1::new(100.0);
     match density.condition_in_place(&Ekf(square(1e-6)), &far) {
-        Err(OperatorError::Linearisation { statistic }) => {
+        Err(error @ OperatorError::Linearisation { statistic }) => {
             assert!(statistic > LINEARISATION_LIMIT);
             assert!((statistic / 3.0e12 - 1.0).abs() < 0.01, "{statistic:e}");
+            let message = error.to_string();
+            assert!(
+                message.contains("e12 squared standard deviations"),
+                "{message}"
+            );
+            assert!(message.contains("IteratedEkf"), "{message}");
         }
         other => panic!("{other:?}"),
     }
@@ -418,13 +424,16 @@ fn a_step_past_the_model_domain_is_halved() {
     let gain = 0.5 / (0.25 + 1e-4);
     assert!(1.0 + gain * (0.1 - 1.0) < -0.7);
     let one_pass = prior.condition(&liebayes_operators::Ekf(&root), &z);
-    assert!(
-        matches!(
-            one_pass,
-            Err(OperatorError::Linearisation { statistic }) if statistic == f64::INFINITY
-        ),
-        "{one_pass:?}"
-    );
+    match one_pass {
+        Err(error @ OperatorError::Linearisation { statistic }) => {
+            assert_eq!(statistic, f64::INFINITY);
+            assert!(
+                error.to_string().contains("not finite at the updated mean"),
+                "{error}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
     let cost = |x: f64| (x - 1.0).powi(2) / 2.0 + (0.1 - x.sqrt()).powi(2) / 2e-4;
     let argmin = |from: f64, step: f64, n: usize| {
         (0..=n)
