@@ -31,8 +31,8 @@ use crate::error::all_finite;
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
 use crate::numerics::{
-    Produced, above_rounding, checked_gaussian, checked_gaussian_above_rounding, model_noise,
-    rounding_scale, symmetric_part,
+    Produced, above_rounding, checked_gaussian, checked_gaussian_above_rounding, is_diagonal,
+    model_noise, rounding_scale, symmetric_part,
 };
 use crate::smoother::{GaussianTransition, Prediction};
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
@@ -209,8 +209,7 @@ where
     let floor = (rounding * rounding).max(f64::MIN_POSITIVE);
     // The weight is at least `R + ρ² I`: for a diagonal R, `Σ dᵢ² / (Rᵢᵢ + ρ²)` bounds q from
     // above, and a bound within the limit keeps the update without factoring the weight.
-    let diagonal = (0..M).all(|i| (0..M).all(|j| i == j || r[(i, j)] == 0.0));
-    if diagonal {
+    if is_diagonal(r) {
         let bound: f64 = miss
             .iter()
             .zip(r.diagonal().iter())

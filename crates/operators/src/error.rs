@@ -90,7 +90,7 @@ pub enum OperatorError {
         needs: &'static str,
     },
     /// A one-pass linearised update whose correction went beyond the reach of its linearisation:
-    /// at the updated mean, the reading's residual missed what the linear model predicted by
+    /// the reading the model predicts at the updated mean missed the linear prediction by
     /// `statistic` (squared, in the posterior's own standard deviations of the reading), above
     /// [`LINEARISATION_LIMIT`](crate::ekf::LINEARISATION_LIMIT). The state is kept as it was.
     #[error(
@@ -99,8 +99,8 @@ pub enum OperatorError {
         Miss(*.statistic)
     )]
     Linearisation {
-        /// The miss `dᵀ (H P⁺ Hᵀ + R)⁻¹ d`; infinite when the model is not finite at the updated
-        /// mean.
+        /// The miss q of [`LINEARISATION_LIMIT`](crate::ekf::LINEARISATION_LIMIT); infinite when
+        /// the model is not finite at the updated mean.
         statistic: f64,
     },
     /// A computation on the manifold failed, with what the step was computing: a weighted mean that

@@ -30,7 +30,8 @@
 
 use crate::error::all_finite;
 use crate::numerics::{
-    above_rounding, check_symmetric, raised_to_rounding, rounding_scale, symmetric_part,
+    above_rounding, check_symmetric, is_diagonal, raised_to_rounding, rounding_scale,
+    symmetric_part,
 };
 use crate::{Condition, Conditioned, Innovation, OperatorError, Propagate};
 use liebayes_densities::{DensityError, Gaussian};
@@ -201,8 +202,7 @@ pub(crate) fn joseph<const N: usize, const M: usize>(
     r: &SMatrix<f64, M, M>,
 ) -> SMatrix<f64, N, N> {
     let spread = (SMatrix::<f64, N, N>::identity() - gain * h) * factor;
-    let diagonal = (0..M).all(|i| (0..M).all(|j| i == j || r[(i, j)] == 0.0));
-    let noise_factor = if diagonal {
+    let noise_factor = if is_diagonal(r) {
         Some(SMatrix::from_diagonal(&r.diagonal().map(f64::sqrt)))
     } else {
         Cholesky::new(*r).map(|c| c.l())

@@ -222,6 +222,12 @@ pub(crate) fn model_noise<const N: usize>(
     Ok(noise)
 }
 
+/// Whether a matrix is diagonal: every entry off the diagonal exactly zero (a diagonal noise's
+/// factor is the square roots of its variances, and it bounds a weighted sum term by term).
+pub(crate) fn is_diagonal<const N: usize>(m: &SMatrix<f64, N, N>) -> bool {
+    (0..N).all(|i| (0..N).all(|j| i == j || m[(i, j)] == 0.0))
+}
+
 /// `(M + Mᵀ)/2`, computed as `M/2 + Mᵀ/2` so that entries near the largest finite value do not
 /// overflow.
 pub(crate) fn symmetric_part<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {

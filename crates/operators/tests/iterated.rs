@@ -406,6 +406,49 @@ fn a_one_pass_update_beyond_its_linearisation_is_refused() {
     assert!((mean - (1.0 + 0.4 / 4.1)).abs() < 1e-12, "{mean}");
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// The EKF's linearisation check never refuses a linear model, whose miss is rounding only:
+    /// means up to 1e15, covariances and reading noise from 1e-30 to 1e30 (R diagonal, correlated
+    /// or singular), and readings up to ten of the prediction's deviations away. Any other outcome
+    /// (a density beyond its limits) may be an error; a refusal for the linearisation may not.
+    #[test]
+    fn a_linear_model_is_never_refused_for_its_linearisation(
+        mean in proptest::array::uniform3(-1.0..1.0f64),
+        mean_exp in -5.0..15.0f64,
+        a in proptest::array::uniform9(-1.0..1.0f64),
+        p_exp in -30.0..30.0f64,
+        h in proptest::array::uniform6(-2.0..2.0f64),
+        h_exp in -5.0..5.0f64,
+        b in proptest::array::uniform4(-1.0..1.0f64),
+        r_exp in -30.0..30.0f64,
+        shape in 0..3usize,
+        offset in proptest::array::uniform2(-10.0..10.0f64),
+    ) {
+        let a = Matrix3::from_row_slice(&a);
+        let p = (a * a.transpose() + Matrix3::identity() * 1e-3) * 10f64.powf(p_exp);
+        let h = SMatrix::<f64, 2, 3>::from_row_slice(&h) * 10f64.powf(h_exp);
+        let b = Matrix2::from_row_slice(&b);
+        let r = match shape {
+            0 => Matrix2::new(1.0 + b[0].abs(), 0.0, 0.0, 1.0 + b[1].abs()),
+            1 => b * b.transpose() + Matrix2::identity() * 1e-3,
+            _ => Matrix2::new(1.0, 1.0, 1.0, 1.0),
+        } * 10f64.powf(r_exp);
+        let x = Vector3::from_row_slice(&mean) * 10f64.powf(mean_exp);
+        let Ok(prior) = ManifoldGaussian::new(Rn::new_unchecked(x), p) else {
+            return Ok(());
+        };
+        let s = h * p * h.transpose() + r;
+        let z = h * x + Vector2::new(offset[0] * s[(0, 0)].sqrt(), offset[1] * s[(1, 1)].sqrt());
+        let step = prior.condition(&liebayes_operators::Ekf(Linear { h, r }), &z);
+        prop_assert!(
+            !matches!(step, Err(OperatorError::Linearisation { .. })),
+            "{step:?}"
+        );
+    }
+}
+
 /// An angle read on a circle, `h(x) = x − 10⁴ x²` wrapped to (−π, π]: nearly linear over the
 /// small corrections of the test below.
 struct CurvedAngle;
