@@ -154,40 +154,60 @@ where
                     log_evidence,
                     report,
                 };
-                check_linearisation(&model.0, z, (&h, &r), &predicted, &step)?;
+                let line = Line {
+                    intercept: &predicted,
+                    slope: &h,
+                    noise: &r,
+                };
+                check_linearisation(&model.0, z, &line, &step, || (SMatrix::zeros(), 0.0))?;
                 Ok(step)
             },
         )
     }
 }
 
-/// The largest linearisation miss an EKF update is kept with: the reading predicted at the updated
-/// mean μ⁺ misses the linear prediction `h(μ) + H K ν` by d, and
-/// `q = dᵀ (H P⁺ Hᵀ + R + ρ² I)⁻¹ d` (ρ the rounding of the reading) must be at most 1e8, a miss of
-/// 10⁴ of the posterior's own standard deviations. A linear model misses by rounding only; the
-/// main job's EKF updates stay below 1.6e2.
+/// The largest linearisation miss an EKF or UKF update is kept with: the reading predicted at the
+/// updated mean μ⁺ misses the linear prediction `h(μ) + H K ν` (the UKF's `ẑ + Ĥ K ν`) by d, and
+/// `q = dᵀ (H P⁺ Hᵀ + R + ρ² I)⁻¹ d` (ρ the rounding of the reading; the UKF adds what Ĥ leaves
+/// unexplained to R) must be at most 1e8, a miss of 10⁴ of the posterior's own standard
+/// deviations. A linear model misses by rounding only; the main job's EKF updates stay below
+/// 1.6e2.
 pub const LINEARISATION_LIMIT: f64 = 1e8;
 
-/// Checks that the linearisation held over the update's correction δ = K ν, `predicted` being
-/// h(μ). Were the model linear, the reading predicted at the updated mean would be `h(μ) + H δ`;
-/// the miss is `d = h(μ ⊞ δ) ⊟ (h(μ) + H δ)` (⊟ the model's residual, so that a reading on a circle
-/// misses on the circle), measured as `q = dᵀ (H P⁺ Hᵀ + R + ρ² I)⁻¹ d` in the posterior's own
-/// uncertainty about the reading, with ρ = 64 M ε times the largest of |z|, |h(μ)|, |h(μ⁺)| and
-/// |H δ| (what their rounding alone can miss by). One more evaluation of h.
+/// The line `z ≈ c + A (x ⊟ μ)` an update was made with and the noise it added: for the EKF,
+/// c = h(μ), A = H; for the UKF the statistical linearisation, c = ẑ, A = Ĥ.
+pub(crate) struct Line<'a, const D: usize, const M: usize> {
+    /// c.
+    pub(crate) intercept: &'a SVector<f64, M>,
+    /// A.
+    pub(crate) slope: &'a SMatrix<f64, M, D>,
+    /// R, as the update used it.
+    pub(crate) noise: &'a SMatrix<f64, M, M>,
+}
+
+/// Checks that a linearisation held over the update's correction δ: the [`Line`] predicts the
+/// reading at the updated mean μ⁺ = μ ⊞ δ as `c + A δ`; the miss is `d = h(μ⁺) ⊟ (c + A δ)` (⊟ the
+/// model's residual, so that a reading on a circle misses on the circle), measured as
+/// `q = dᵀ (A P⁺ Aᵀ + R + Ω + ρ² I)⁻¹ d` in the posterior's own uncertainty about the reading, and
+/// ρ what rounding alone can miss by: 64 M ε times the largest of |z|, |c|, |h(μ⁺)| and |A δ|, plus
+/// the rounding of the line itself. `beyond` gives Ω (what the line leaves unexplained, zero for a
+/// Jacobian) and the line's rounding; it is called only when the bound by R alone cannot keep the
+/// update. One more evaluation of h.
 ///
 /// # Errors
 /// [`OperatorError::Linearisation`] when q is above [`LINEARISATION_LIMIT`] (or not a number).
-fn check_linearisation<X, H, const D: usize, const M: usize>(
+pub(crate) fn check_linearisation<X, H, const D: usize, const M: usize>(
     model: &H,
     z: &SVector<f64, M>,
-    (h, r): (&SMatrix<f64, M, D>, &SMatrix<f64, M, M>),
-    predicted: &SVector<f64, M>,
+    line: &Line<'_, D, M>,
     step: &Conditioned<ManifoldGaussian<X, D>, Innovation<D, M>>,
+    beyond: impl FnOnce() -> (SMatrix<f64, M, M>, f64),
 ) -> Result<(), OperatorError>
 where
     X: Manifold<D, Scalar = f64>,
     H: MeasurementModel<X, D, M>,
 {
+    let (predicted, h, r) = (line.intercept, line.slope, line.noise);
     let updated = model.predict(step.posterior.mean());
     let linear = h * step.report.correction();
     // On the reading's own manifold: a residual carried across the cut of a circle by the
@@ -219,10 +239,15 @@ where
             return Ok(());
         }
     }
+    let (unexplained, line_rounding) = beyond();
+    let rounding = rounding + line_rounding;
+    let floor = (rounding * rounding).max(f64::MIN_POSITIVE);
     // `H P⁺ Hᵀ` as the Gram matrix of `H L`, positive semi-definite whatever the rounding.
     let spread = h * step.posterior.cholesky_factor();
-    let weight =
-        spread * spread.transpose() + symmetric_part(r) + SMatrix::<f64, M, M>::identity() * floor;
+    let weight = spread * spread.transpose()
+        + symmetric_part(r)
+        + unexplained
+        + SMatrix::<f64, M, M>::identity() * floor;
     let statistic = match Cholesky::new(weight) {
         Some(factor) => factor
             .l()

@@ -89,13 +89,14 @@ pub enum OperatorError {
         /// What initialises it.
         needs: &'static str,
     },
-    /// A one-pass linearised update whose correction went beyond the reach of its linearisation:
-    /// the reading the model predicts at the updated mean missed the linear prediction by
-    /// `statistic` (squared, in the posterior's own standard deviations of the reading), above
-    /// [`LINEARISATION_LIMIT`](crate::ekf::LINEARISATION_LIMIT). The state is kept as it was.
+    /// A one-pass linearised update (EKF or UKF) whose correction went beyond the reach of its
+    /// linearisation: the reading the model predicts at the updated mean missed the linear
+    /// prediction by `statistic` (squared, in the posterior's own standard deviations of the
+    /// reading), above [`LINEARISATION_LIMIT`](crate::ekf::LINEARISATION_LIMIT). The state is kept
+    /// as it was.
     #[error(
-        "the one-pass update's linearisation failed: {}; condition with the iterated EKF \
-         (IteratedEkf), which relinearises at its estimate",
+        "the one-pass update's linearisation failed: {}; condition with the iterated EKF or \
+         UKF (IteratedEkf, IteratedUkf), which relinearise at their estimate",
         Miss(*.statistic)
     )]
     Linearisation {

@@ -18,6 +18,15 @@
 //!   positive definiteness to rounding (R below the rounding of the sigma points' spread), the
 //!   update is made once more with S raised by `64 M ε max |Sᵢᵢ| I`, as the EKF's; a prediction
 //!   whose covariance rounding leaves singular, once more with Q raised by `64 D ε max |P′ᵢᵢ| I`.
+//! * **check**: as the [EKF](crate::ekf)'s, for the line the update was made with, the statistical
+//!   linearisation `z ≈ ẑ + Ĥ δ` (`Ĥ = Cᵀ P⁻¹`): the reading predicted at μ⁺ may miss `ẑ + Ĥ K ν`
+//!   by at most [`LINEARISATION_LIMIT`](crate::ekf::LINEARISATION_LIMIT) in the squared standard
+//!   deviations of `Ĥ P⁺ Ĥᵀ + R + Ω`, Ω what Ĥ leaves unexplained of the sigma points' spread
+//!   (their curvature, so a correction within that spread is never refused), plus what the rounding
+//!   of the sigma points can make Ĥ miss by. A correction far beyond the sigma points, where the
+//!   model bends away from their regression, is refused ([`OperatorError::Linearisation`]) for the
+//!   [iterated UKF](crate::iterated) to take. One more evaluation of h; Ω, a factorisation and D
+//!   round trips `(μ ⊞ dᵢ) ⊟ μ` only when the bound by R alone cannot keep the update.
 //!
 //! Every image Yᵢ and Zᵢ is checked with [`Manifold::is_finite`] before it is averaged, and a mean that
 //! does not converge (sigma points spread over more than half the injectivity radius) is an
@@ -26,6 +35,7 @@
 //! Exact for linear models on Rⁿ (it then equals the Kalman filter). Nothing is allocated: the sigma
 //! points live in arrays of size D.
 
+use crate::ekf::{Line, check_linearisation};
 use crate::error::all_finite;
 use crate::kalman::joseph;
 use crate::models::{MeasurementModel, ProcessModel};
@@ -376,11 +386,25 @@ where
                                      lost positive definiteness; check R)",
                     },
                 )?;
-                Ok(Conditioned {
+                let step = Conditioned {
                     posterior,
                     log_evidence,
                     report,
-                })
+                };
+                // The line the update was made with, `z ≈ ẑ + Ĥ δ`; what Ĥ leaves unexplained and
+                // the sigma points' rounding are formed only when R alone cannot keep the update.
+                let line = Line {
+                    intercept: &moments.predicted,
+                    slope: &linear,
+                    noise: &(noise + raised),
+                };
+                check_linearisation(h, z, &line, &step, || {
+                    (
+                        moments.unexplained_spread(),
+                        ukf.line_rounding(self, &moments, &linear, &step.report.correction()),
+                    )
+                })?;
+                Ok(step)
             },
         )
     }
@@ -405,16 +429,28 @@ pub(crate) struct MeasurementMoments<const D: usize, const M: usize> {
     curved: [SVector<f64, M>; D],
     /// `w₀ᶜ` and `wᵢ / 2`.
     weights: (f64, f64),
+    /// The largest |h(χ)| over the sigma points.
+    size: f64,
 }
 
 impl<const D: usize, const M: usize> MeasurementMoments<D, M> {
     /// `Ω = w₀ᶜ r₀ r₀ᵀ + (wᵢ/2) Σ cᵢ cᵢᵀ`: the covariance less `Ĥ P Ĥᵀ` and less the noise the
     /// moments were given.
     pub(crate) fn unexplained(&self) -> SMatrix<f64, M, M> {
-        let (centre, pair) = self.weights;
+        self.unexplained_with(self.weights.0)
+    }
+
+    /// Ω with its centre's weight taken as `|w₀ᶜ|`: positive semi-definite for every scaling (w₀ᶜ
+    /// is negative for α well below 1), the spread the linearisation check allows beside R.
+    fn unexplained_spread(&self) -> SMatrix<f64, M, M> {
+        self.unexplained_with(self.weights.0.abs())
+    }
+
+    /// `c r₀ r₀ᵀ + (wᵢ/2) Σ cᵢ cᵢᵀ`.
+    fn unexplained_with(&self, centre: f64) -> SMatrix<f64, M, M> {
         let mut sum = self.centre * self.centre.transpose() * centre;
         for c in &self.curved {
-            sum += c * c.transpose() * pair;
+            sum += c * c.transpose() * self.weights.1;
         }
         sum
     }
@@ -434,6 +470,36 @@ impl<const D: usize, const M: usize> MeasurementMoments<D, M> {
 }
 
 impl<H, const M: usize> Ukf<H, M> {
+    /// What the rounding of the sigma points can make the line `ẑ + Ĥ δ` miss by at the
+    /// correction δ. Column j of `Ĥ S` (S the square root the points were spread by) is a
+    /// difference of two images over 2γ, wrong by up to `(ε_h + |Ĥ|_F e) / γ`, with
+    /// `ε_h = 64 M ε max |h(χ)|` the images' rounding and e the largest round-trip error
+    /// `|(μ ⊞ sⱼ) ⊟ μ − sⱼ|` of a point's offset (D round trips); so `Ĥ δ = (Ĥ S)(S⁻¹ δ)` is wrong by
+    /// up to `√D |L⁻¹ δ| (ε_h + |Ĥ|_F e) / γ`.
+    fn line_rounding<X, const D: usize>(
+        &self,
+        prior: &ManifoldGaussian<X, D>,
+        moments: &MeasurementMoments<D, M>,
+        slope: &SMatrix<f64, M, D>,
+        correction: &SVector<f64, D>,
+    ) -> f64
+    where
+        X: Manifold<D, Scalar = f64>,
+    {
+        let gamma = self.weights(D).0;
+        let mu = prior.mean();
+        let resolution = sigma_offsets(prior, gamma, self.root)
+            .iter()
+            .map(|s| (mu.local(&mu.retract(s)) - s).norm())
+            .fold(0.0, f64::max);
+        let deviations = prior
+            .cholesky_factor()
+            .solve_lower_triangular_unchecked(correction)
+            .norm();
+        let images = 64.0 * M as f64 * f64::EPSILON * moments.size;
+        (D as f64).sqrt() * deviations * (images + slope.norm() * resolution) / gamma
+    }
+
     /// The moments of `h(μ ⊞ δ)` for `δ ~ N(c, P)`, μ and P the mean and covariance of `spread`
     /// and c the `centre` (zero, the UKF's case, when `None`): sigma points `μ ⊞ c` and
     /// `μ ⊞ (c ± γ sⱼ)`, the images checked finite, ẑ their [`weighted_mean`], and the covariance
@@ -489,6 +555,11 @@ impl<H, const M: usize> Ukf<H, M> {
             cross += d * (rp - rm).transpose() * w;
             *c = rp + rm;
         }
+        let size = plus
+            .iter()
+            .chain(&minus)
+            .map(|y| y.z.amax())
+            .fold(centre_image.z.amax(), f64::max);
         Ok(MeasurementMoments {
             predicted: predicted.z,
             covariance,
@@ -496,6 +567,7 @@ impl<H, const M: usize> Ukf<H, M> {
             centre: r0,
             curved,
             weights: (w0c, 0.5 * w),
+            size,
         })
     }
 }

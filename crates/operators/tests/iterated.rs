@@ -406,6 +406,60 @@ fn a_one_pass_update_beyond_its_linearisation_is_refused() {
     assert!((mean - (1.0 + 0.4 / 4.1)).abs() < 1e-12, "{mean}");
 }
 
+/// The UKF checks the line it updated with, `ẑ + Ĥ δ`, the same way. `z = x + x³` from a prior
+/// N(0, 1e-6): over the sigma points ±1e-3 the cube is 1e-9, so Ĥ = 1.000001, ẑ = 0 and Ω = 0 (the
+/// model is odd). A reading of 10 with R = 1e-6 gives K = 0.5 and moves the mean to 5, where the
+/// model reads 130 against the line's 5.000005; the posterior (`Ĥ² P⁺ + R ≈ 1.5e-6`) misses by 125,
+/// so `q = 125² / 1.5e-6 ≈ 1.04e10`. The UKF returned that posterior (5 with σ 7e-4, where the
+/// mode is near 1.99) as Ok; it is now refused, and the iterated UKF finds the mode. A reading two
+/// prior deviations away is kept, with the mean `K z = 0.001` by hand.
+#[test]
+fn a_ukf_update_beyond_its_sigma_points_is_refused() {
+    use liebayes_operators::ekf::LINEARISATION_LIMIT;
+    let cubic = MeasurementFn::new(
+        |x: &Rn<f64, 1>| {
+            let x = x.coords()[0];
+            Vector1::new(x + x * x * x)
+        },
+        |_: &Rn<f64, 1>| Matrix1::new(1e-6),
+    );
+    let prior =
+        ManifoldGaussian::new(Rn::new(Vector1::new(0.0)).unwrap(), Matrix1::new(1e-6)).unwrap();
+    let mut density = prior.clone();
+    let far = Vector1::new(10.0);
+    match density.condition_in_place(&Ukf::new(&cubic), &far) {
+        Err(error @ OperatorError::Linearisation { statistic }) => {
+            assert!(statistic > LINEARISATION_LIMIT);
+            assert!((statistic / 1.0417e10 - 1.0).abs() < 0.01, "{statistic:e}");
+            assert!(error.to_string().contains("IteratedUkf"), "{error}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(density, prior);
+    // The mode: the root of `x − (10 − x − x³)(1 + 3x²)` (J′ = 0 for equal P and R), by bisection.
+    let slope = |x: f64| x - (10.0 - x - x * x * x) * (1.0 + 3.0 * x * x);
+    let (mut low, mut high) = (1.9, 2.0);
+    for _ in 0..60 {
+        let mid = 0.5 * (low + high);
+        if slope(mid) < 0.0 {
+            low = mid;
+        } else {
+            high = mid;
+        }
+    }
+    let iterated = prior.condition(&IteratedUkf::new(&cubic), &far).unwrap();
+    let estimate = iterated.posterior.mean().coords()[0];
+    assert!(
+        (estimate - low).abs() < 1e-3,
+        "{estimate} against the mode {low}"
+    );
+    let near = prior
+        .condition(&Ukf::new(&cubic), &Vector1::new(2e-3))
+        .unwrap();
+    let mean = near.posterior.mean().coords()[0];
+    assert!((mean - 1e-3).abs() < 1e-15, "{mean}");
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
@@ -425,6 +479,7 @@ proptest! {
         r_exp in -30.0..30.0f64,
         shape in 0..3usize,
         offset in proptest::array::uniform2(-10.0..10.0f64),
+        alpha_exp in -3.0..0.0f64,
     ) {
         let a = Matrix3::from_row_slice(&a);
         let p = (a * a.transpose() + Matrix3::identity() * 1e-3) * 10f64.powf(p_exp);
@@ -445,6 +500,12 @@ proptest! {
         prop_assert!(
             !matches!(step, Err(OperatorError::Linearisation { .. })),
             "{step:?}"
+        );
+        let ukf = Ukf::with_scaling(Linear { h, r }, 10f64.powf(alpha_exp), 2.0, 0.0).unwrap();
+        let step = prior.condition(&ukf, &z);
+        prop_assert!(
+            !matches!(step, Err(OperatorError::Linearisation { .. })),
+            "UKF {step:?}"
         );
     }
 }
