@@ -7,7 +7,7 @@ use crate::traits::{
     Density, Entropy, KlDivergence, Product, Rotate, distribution_through_density,
 };
 use crate::von_mises::{
-    check_concentration, hypot, natural_of_unit, sample_offset, scaled_cos_minus_one,
+    check_concentration, direction, hypot, natural_of_unit, sample_offset, scaled_cos_minus_one,
     within_concentration,
 };
 use liebayes_manifolds::{LieGroup, So2};
@@ -633,8 +633,7 @@ fn von_mises_draw<R: Rng + ?Sized>(eta: &Vector2<f64>, kappa: f64, rng: &mut R) 
     if kappa == 0.0 {
         return So2::from_angle_unchecked(rng.random_range(-PI..PI));
     }
-    let mu = So2::from_angle_unchecked(eta.y.atan2(eta.x));
-    mu.compose(&So2::from_angle_unchecked(sample_offset(kappa, rng)))
+    direction(eta, kappa).compose(&sample_offset(kappa, rng))
 }
 
 impl Product for GenVonMises2 {

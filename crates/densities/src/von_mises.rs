@@ -94,39 +94,49 @@ pub(crate) fn scaled_cos_minus_one(eta: &Vector2<f64>, kappa: f64, c: f64, s: f6
     }
 }
 
-/// One angle offset d from the mean direction of a von Mises of concentration κ > 0, by rejection from
-/// the envelope of κ's regime (see [`VonMises::sample`]).
-pub(crate) fn sample_offset<R: Rng + ?Sized>(kappa: f64, rng: &mut R) -> f64 {
-    let mut offset = 0.0;
+/// One rotation by an angle d from the mean direction of a von Mises of concentration κ > 0, by
+/// rejection from the envelope of κ's regime (see [`VonMises::sample`]). Each proposal takes one
+/// sine and cosine (of d/2 or of πU/2) and the accepted rotation `(cos d, sin d)` is formed from
+/// them, with no further trigonometric call: `cos d = 1 − 2 sin²(d/2)`, `sin d = 2 sin(d/2)
+/// cos(d/2)`; in Best & Fisher's branch `cos d = w` and `sin d = ±√((1 − w)(1 + w))`.
+pub(crate) fn sample_offset<R: Rng + ?Sized>(kappa: f64, rng: &mut R) -> So2<f64> {
+    // The rotation by d from (sin(d/2), cos(d/2)).
+    let of_half =
+        |(sh, ch): (f64, f64)| So2::from_cos_sin_unchecked(1.0 - 2.0 * sh * sh, 2.0 * sh * ch);
     if kappa < UNIFORM_ENVELOPE_BELOW {
+        let mut half = (0.0, 1.0);
         for _ in 0..MAX_PROPOSALS {
-            offset = rng.random_range(-PI..PI);
-            let half = (0.5 * offset).sin();
-            if rng.random::<f64>().ln() < -2.0 * kappa * half * half {
+            half = (0.5 * rng.random_range(-PI..PI)).sin_cos();
+            if rng.random::<f64>().ln() < -2.0 * kappa * half.0 * half.0 {
                 break;
             }
         }
+        of_half(half)
     } else if kappa > GAUSSIAN_ENVELOPE_ABOVE {
         // 1 − cos d ≥ 2d²/π² on [−π, π]: the Gaussian of variance π²/(4κ) bounds the density.
         let sigma = PI / (2.0 * kappa.sqrt());
+        let mut half = (0.0, 1.0);
         for _ in 0..MAX_PROPOSALS {
-            offset = sigma * rng.sample::<f64, _>(StandardNormal);
+            let offset = sigma * rng.sample::<f64, _>(StandardNormal);
             if offset.abs() > PI {
                 continue;
             }
+            half = (0.5 * offset).sin_cos();
             // κ (2d²/π² − 2 sin²(d/2)) = ½ (d/σ)² − ½ (2√κ sin(d/2))², both terms O(1) at any κ.
-            let (scaled, sine) = (offset / sigma, 2.0 * kappa.sqrt() * (0.5 * offset).sin());
+            let (scaled, sine) = (offset / sigma, 2.0 * kappa.sqrt() * half.0);
             if rng.random::<f64>().ln() < 0.5 * (scaled * scaled - sine * sine) {
                 break;
             }
         }
+        of_half(half)
     } else {
         // Best & Fisher: wrapped Cauchy envelope, r = s + √(1 + s²), s = 1/(2κ), z = cos(πU),
         // w = (1 + r z)/(r + z), y = κ (r − w). Written with r − 1 = s + s²/(1 + √(1 + s²)),
         // 1 ∓ z = 2 sin²(πU/2), 2 cos²(πU/2) and 1 − w = (r − 1)(1 − z)/(r − 1 + 1 + z), so that y and
         // the angle keep their digits at large κ (in the plain form r − w loses log₁₀ κ digits).
         let s = 0.5 / kappa;
-        let r_minus_one = s + s * s / (1.0 + s.hypot(1.0));
+        // s ≤ 500 here: 1 + s² is far from overflow, and its square root as exact as `hypot`.
+        let r_minus_one = s + s * s / (1.0 + (1.0 + s * s).sqrt());
         let mut one_minus_w = 0.0;
         for _ in 0..MAX_PROPOSALS {
             let (sh, ch) = (0.5 * PI * rng.random::<f64>()).sin_cos();
@@ -138,11 +148,23 @@ pub(crate) fn sample_offset<R: Rng + ?Sized>(kappa: f64, rng: &mut R) -> f64 {
                 break;
             }
         }
-        // acos(w) = 2 asin(√((1 − w)/2)), accurate for w near 1.
-        let angle = 2.0 * (0.5 * one_minus_w).min(1.0).sqrt().asin();
-        offset = if rng.random::<bool>() { angle } else { -angle };
+        // cos d = w, and sin d = √((1 − w)(1 + w)) from 1 − w, accurate for w near 1.
+        let one_minus_w = one_minus_w.clamp(0.0, 2.0);
+        let sine = (one_minus_w * (2.0 - one_minus_w)).sqrt();
+        let sine = if rng.random::<bool>() { sine } else { -sine };
+        So2::from_cos_sin_unchecked(1.0 - one_minus_w, sine)
     }
-    offset
+}
+
+/// The mean direction `η / |η|` of a natural parameter of norm κ > 0, by one division (by the angle
+/// `atan2(η_y, η_x)` for κ below 1e-150, where the quotient of subnormal components loses its
+/// unit length).
+pub(crate) fn direction(eta: &Vector2<f64>, kappa: f64) -> So2<f64> {
+    if kappa >= 1e-150 {
+        So2::from_cos_sin_unchecked(eta.x / kappa, eta.y / kappa)
+    } else {
+        So2::from_angle_unchecked(eta.y.atan2(eta.x))
+    }
 }
 
 /// The von Mises distribution on the circle:
@@ -239,8 +261,8 @@ impl VonMises {
     /// distribution (κ = 0). Defined for every κ > 0, including κ = 1e-300 (by atan2, which needs no
     /// normalisation).
     pub fn mean(&self) -> Option<So2<f64>> {
-        (self.concentration() > 0.0)
-            .then(|| So2::from_angle_unchecked(self.eta.y.atan2(self.eta.x)))
+        let kappa = self.concentration();
+        (kappa > 0.0).then(|| direction(&self.eta, kappa))
     }
 
     /// The n-th trigonometric moment `E[(cos nθ, sin nθ)] = Aₙ(κ) (cos nμ, sin nμ)`, with
@@ -338,11 +360,11 @@ impl Density for VonMises {
     /// A draw makes at most 200 proposals and, were all rejected (probability below 1e-86), keeps the
     /// last one.
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> So2<f64> {
-        let Some(mu) = self.mean() else {
+        let kappa = self.concentration();
+        if kappa == 0.0 {
             return So2::from_angle_unchecked(rng.random_range(-PI..PI));
-        };
-        let offset = sample_offset(self.concentration(), rng);
-        mu.compose(&So2::from_angle_unchecked(offset))
+        }
+        direction(&self.eta, kappa).compose(&sample_offset(kappa, rng))
     }
 
     /// The mean direction (none for κ = 0).
@@ -470,7 +492,7 @@ mod tests {
         ] {
             let mean = (0..n)
                 .map(|_| {
-                    let d = sample_offset(kappa, &mut rng);
+                    let d = sample_offset(kappa, &mut rng).angle();
                     assert!(d.is_finite() && d.abs() <= PI, "κ {kappa:e}: {d}");
                     kappa * d * d
                 })
