@@ -258,8 +258,9 @@ impl VonMises {
     }
 
     /// The mean direction μ = arg η (the circular mean, also the mode), or `None` for the uniform
-    /// distribution (κ = 0). Defined for every κ > 0, including κ = 1e-300 (by atan2, which needs no
-    /// normalisation).
+    /// distribution (κ = 0): η/κ, and for κ below 1e-150, where a quotient of subnormal components
+    /// is not of unit length, the angle atan2(η_y, η_x); so defined for every κ > 0, including
+    /// κ = 1e-300.
     pub fn mean(&self) -> Option<So2<f64>> {
         let kappa = self.concentration();
         (kappa > 0.0).then(|| direction(&self.eta, kappa))

@@ -171,7 +171,7 @@ where
 /// `q = dᵀ (H P⁺ Hᵀ + R + ρ² I)⁻¹ d` (ρ the rounding of the reading; the UKF adds what Ĥ leaves
 /// unexplained to R) must be at most 1e8, a miss of 10⁴ of the posterior's own standard
 /// deviations. A linear model misses by rounding only; the main job's EKF updates stay below
-/// 1.6e2.
+/// 1.6e2, its UKF updates below 1.2e2.
 pub const LINEARISATION_LIMIT: f64 = 1e8;
 
 /// The line `z ≈ c + A (x ⊟ μ)` an update was made with and the noise it added: for the EKF,
