@@ -201,7 +201,20 @@ pub(crate) fn joseph<const N: usize, const M: usize>(
     h: &SMatrix<f64, M, N>,
     r: &SMatrix<f64, M, M>,
 ) -> SMatrix<f64, N, N> {
-    let spread = (SMatrix::<f64, N, N>::identity() - gain * h) * factor;
+    joseph_from_spread(
+        &((SMatrix::<f64, N, N>::identity() - gain * h) * factor),
+        gain,
+        r,
+    )
+}
+
+/// Joseph's form from its first factor `X = (I − K H) L` formed by the caller:
+/// `X Xᵀ + K R Kᵀ`, the second term as [`joseph`] forms it.
+pub(crate) fn joseph_from_spread<const N: usize, const M: usize>(
+    spread: &SMatrix<f64, N, N>,
+    gain: &SMatrix<f64, N, M>,
+    r: &SMatrix<f64, M, M>,
+) -> SMatrix<f64, N, N> {
     let noise_factor = if is_diagonal(r) {
         Some(SMatrix::from_diagonal(&r.diagonal().map(f64::sqrt)))
     } else {

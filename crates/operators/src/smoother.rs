@@ -16,7 +16,9 @@
 //!   `G_k = P_f,k F_kᵀ P_p,k+1⁻¹`);
 //! * mean `μ_s,k = μ_f,k ⊞ G_k (μ_s,k+1 ⊟ μ_p,k+1)`;
 //! * covariance in Joseph's form, `P_s,k = A_k P_f,k A_kᵀ + G_k (Ω_k + P_s,k+1) G_kᵀ` with
-//!   `A_k = I − G_k F̂_k` and `F̂_k = C_kᵀ P_f,k⁻¹` (by the Cholesky factor of P_f,k; the EKF's F_k).
+//!   `A_k = I − G_k F̂_k` and `F̂_k = C_kᵀ P_f,k⁻¹` (the EKF's F_k), summed as the Gram matrices of
+//!   `A_k L_f,k = L_f,k − G_k (L_f,k⁻¹ C_k)ᵀ` (one triangular solve with the Cholesky factor of
+//!   P_f,k) and of `G_k` times a factor of `Ω_k + P_s,k+1`.
 //!   It equals the textbook `P_f,k + G_k (P_s,k+1 − P_p,k+1) G_kᵀ` in exact arithmetic, but sums
 //!   positive semi-definite terms where the textbook form subtracts: that difference cancels when
 //!   the process noise and the later information are below ε of P_f,k (a diffuse prior of 1e17
@@ -40,8 +42,8 @@
 //! [`RtsSmoother::with_capacity`]); the backward pass allocates its result once.
 
 use crate::error::{all_finite, check_size, reserve, with_capacity};
-use crate::kalman::joseph;
-use crate::numerics::{Produced, checked_gaussian_above_rounding, slope};
+use crate::kalman::joseph_from_spread;
+use crate::numerics::{Produced, checked_gaussian_above_rounding};
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
@@ -107,12 +109,11 @@ pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
     let mean = filtered
         .mean()
         .retract(&(gain * predicted.mean().local(next.mean())));
-    let covariance = joseph(
-        filtered.cholesky_factor(),
-        &gain,
-        &slope(filtered.cholesky_factor(), cross),
-        &(transition.noise + next.covariance()),
-    );
+    // `A_k L_f = L_f − G F̂ L_f` with `F̂ L_f = Cᵀ L_f⁻ᵀ = (L_f⁻¹ C)ᵀ`: one triangular solve, and
+    // no product by `I − G F̂`.
+    let factor = filtered.cholesky_factor();
+    let spread = factor - gain * factor.solve_lower_triangular_unchecked(cross).transpose();
+    let covariance = joseph_from_spread(&spread, &gain, &(transition.noise + next.covariance()));
     // A sum of positive semi-definite terms when Ω is: a covariance that fails is singular to
     // its rounding, or Ω is not positive semi-definite (and the floor does not rescue it).
     checked_gaussian_above_rounding(
