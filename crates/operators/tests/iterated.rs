@@ -382,7 +382,17 @@ fn a_one_pass_update_beyond_its_linearisation_is_refused() {
     match density.condition_in_place(&Ekf(square(1e-6)), &far) {
         Err(error @ OperatorError::Linearisation { statistic }) => {
             assert!(statistic > LINEARISATION_LIMIT);
-            assert!((statistic / 3.0e12 - 1.0).abs() < 0.01, "{statistic:e}");
+            // By hand: H = 2, K = 2/(4 + R), δ = 99 K; the miss (1 + δ)² − (1 + 2δ) = δ², weighed
+            // in H² P⁺ + R with P⁺ = (1 − 2K)² + K² R.
+            let r: f64 = 1e-6;
+            let gain = 2.0 / (4.0 + r);
+            let delta = 99.0 * gain;
+            let posterior = (1.0 - 2.0 * gain).powi(2) + gain * gain * r;
+            let expected = delta.powi(4) / (4.0 * posterior + r);
+            assert!(
+                (statistic / expected - 1.0).abs() < 0.01,
+                "{statistic:e} against {expected:e}"
+            );
             let message = error.to_string();
             assert!(
                 message.contains("e12 squared standard deviations"),
@@ -430,7 +440,17 @@ fn a_ukf_update_beyond_its_sigma_points_is_refused() {
     match density.condition_in_place(&Ukf::new(&cubic), &far) {
         Err(error @ OperatorError::Linearisation { statistic }) => {
             assert!(statistic > LINEARISATION_LIMIT);
-            assert!((statistic / 1.0417e10 - 1.0).abs() < 0.01, "{statistic:e}");
+            // By hand, as above: the slope through the sigma points ±1e-3, K = 1/2 (P = R), the
+            // mean moved to 5, P⁺ = (1 − K Ĥ)² P + K² R.
+            let slope: f64 = 1.0 + 1e-6;
+            let moved: f64 = 0.5 * 10.0;
+            let posterior = (1.0 - 0.5 * slope).powi(2) * 1e-6 + 0.25 * 1e-6;
+            let miss = moved + moved.powi(3) - slope * moved;
+            let expected = miss * miss / (slope * slope * posterior + 1e-6);
+            assert!(
+                (statistic / expected - 1.0).abs() < 0.01,
+                "{statistic:e} against {expected:e}"
+            );
             assert!(error.to_string().contains("IteratedUkf"), "{error}");
         }
         other => panic!("{other:?}"),
