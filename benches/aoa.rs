@@ -1,7 +1,8 @@
 //! Cost of the angle-of-arrival filters with the square track's four anchors: the particle filter's
 //! particle-updates per second (the von Mises-Fisher reweighting of Algorithm 1, serial and in
 //! parallel with rayon, and a whole step with the sampled random walk), the azimuth-elevation
-//! likelihood beside it, and the EKF and UKF per update with each model, all in one run.
+//! likelihood beside it, and the EKF and UKF per update with each model and the iterated EKF with
+//! the von Mises-Fisher model, all in one run.
 //! `cargo bench --bench aoa`; figures in docs/benchmarks.md.
 #![allow(missing_docs)]
 
@@ -9,7 +10,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use liebayes::experiments::RecursiveFilter;
 use liebayes::filters::aoa::{
     AngleNoise, AzEl, AzElModel, CheckedReadings, Prior, RandomWalk, UnitVectorModel, angle_ekf,
-    angle_ukf, square_track_anchors, vmf_ekf, vmf_particle_filter, vmf_ukf,
+    angle_ukf, square_track_anchors, vmf_ekf, vmf_iterated_ekf, vmf_particle_filter, vmf_ukf,
 };
 use liebayes::operators::Condition;
 use liebayes::operators::Converted;
@@ -107,6 +108,7 @@ fn kalman_updates(c: &mut Criterion) {
     let mut g = c.benchmark_group("aoa Kalman filters, predict + update");
     let ekf = vmf_ekf::<4, 12>(vmf, walk, &prior).unwrap();
     let ukf = vmf_ukf::<4, 12>(vmf, walk, &prior).unwrap();
+    let iterated = vmf_iterated_ekf::<4, 12>(vmf, walk, &prior).unwrap();
     let ekf_ae = angle_ekf::<4, 8>(ae.clone(), walk, &prior).unwrap();
     let ukf_ae = angle_ukf::<4, 8>(ae, walk, &prior).unwrap();
     macro_rules! step {
@@ -122,6 +124,7 @@ fn kalman_updates(c: &mut Criterion) {
     }
     step!("EKF-VMF", ekf);
     step!("UKF-VMF", ukf);
+    step!("IEKF-VMF", iterated);
     step!("EKF-AE", ekf_ae);
     step!("UKF-AE", ukf_ae);
     g.finish();

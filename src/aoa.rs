@@ -549,9 +549,15 @@ impl TrackPlan {
             let fitted =
                 fit_angle_sigmas(&data, fit, &mut rng).map(|f| (f.sigma_az, f.sigma_el))?;
             let models = ModelChoice::paper(&data, fitted)?;
-            let mut filters = Vec::with_capacity(12);
+            let mut filters = Vec::with_capacity(13);
             for model in models {
-                for algorithm in [Algorithm::Particle(n), Algorithm::Ekf, Algorithm::Ukf] {
+                // The iterated EKF with the von Mises-Fisher model only: with the
+                // azimuth-elevation model its iterates are drawn onto an anchor's vertical axis,
+                // where the azimuth is undefined (docs/filters/aoa.md).
+                let iterated =
+                    matches!(model, ModelChoice::Vmf { .. }).then_some(Algorithm::IteratedEkf);
+                let algorithms = [Algorithm::Particle(n), Algorithm::Ekf, Algorithm::Ukf];
+                for algorithm in algorithms.into_iter().chain(iterated) {
                     filters.push(TrackFilter {
                         algorithm,
                         model: model.clone(),

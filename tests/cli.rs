@@ -502,8 +502,8 @@ fn aoa_parts_write_their_files_and_refuse_bad_settings() {
     }
     let relative =
         std::fs::read_to_string(dir.join("aoa_track_model2_position_error_relative.csv")).unwrap();
-    // Eleven filters against PF-VMF, and the header.
-    assert_eq!(relative.lines().count(), 12, "{relative}");
+    // Twelve filters against PF-VMF (IEKF-VMF among them), and the header.
+    assert_eq!(relative.lines().count(), 13, "{relative}");
     let empty = folder("aoa-bad");
     let e = empty.to_str().unwrap();
     for (args, needle) in [

@@ -164,7 +164,8 @@ class AoaFilter:
     Each anchor at a known position s_j with a world-to-anchor rotation R_j reports the azimuth and
     elevation of R_j (theta - s_j). The filter is named "<algorithm>-<model>" as the library names
     them: algorithm PF (bootstrap particle filter, systematic resampling below 10 % effective
-    size), EKF or UKF (lambda = 0.5); model VMF (von Mises-Fisher noise on each reading's unit
+    size), EKF, UKF (lambda = 0.5) or IEKF (the iterated EKF: each update Gauss-Newton to the
+    posterior's mode, for readings precise against the prior); model VMF (von Mises-Fisher noise on each reading's unit
     vector, concentration `kappa`), AE (alias AE-nominal, AE-fitted: normal azimuth and elevation
     errors with `sigma_az`, `sigma_el`) or AE-adaptive (sigma from the library's table of Model I
     errors at the predicted elevation, built from `sigma_az`, `sigma_el`). The process is the
@@ -314,7 +315,7 @@ def aoa_study(
     [1e-12, 1e12], so sigma in [1e-6, 1e6] rad): another sigma_deg raises ValueError naming it;
     truth "square" or
     "random-walk"; filters named as :class:`AoaFilter` ("PF-VMF", "EKF-AE-nominal",
-    "UKF-AE-fitted", "EKF-AE-adaptive", ...) with the paper's parameters for the data (AE-fitted
+    "UKF-AE-fitted", "EKF-AE-adaptive", "IEKF-VMF", ...) with the paper's parameters for the data (AE-fitted
     fits its sigma on `fit_samples` readings drawn from `seed`, from 2 to 2^26: a ValueError
     otherwise).
 

@@ -24,8 +24,8 @@ use liebayes_filters::aoa::{
     Algorithm, Anchor, AngleNoise, AzEl, AzElModel, DataModel, KAPPA_RANGE, ModelChoice,
     PositionEstimate, PositionScorer, Prior, RandomWalk, Readings, SIGMA_RANGE, SquareTrack,
     TrackConfig, TrackFilter, TrackReadings, TruthModel, UnitVectorModel, angle_ekf,
-    angle_particle_filter, angle_ukf, fit_angle_sigmas, square_track_anchors, vmf_ekf,
-    vmf_particle_filter, vmf_ukf,
+    angle_iterated_ekf, angle_particle_filter, angle_ukf, fit_angle_sigmas, square_track_anchors,
+    vmf_ekf, vmf_iterated_ekf, vmf_particle_filter, vmf_ukf,
 };
 use liebayes_filters::azimuth::{
     AzimuthDensity, AzimuthEstimate, AzimuthExact, AzimuthScenario, AzimuthScorer, Config, Method,
@@ -1093,6 +1093,11 @@ fn build_anchored<const N: usize, const M3: usize, const M2: usize>(
                 Algorithm::Ukf => Box::new(Anchored::<N>(Box::new(vmf_ukf::<N, M3>(
                     model, process, prior,
                 )?))),
+                Algorithm::IteratedEkf => {
+                    Box::new(Anchored::<N>(Box::new(vmf_iterated_ekf::<N, M3>(
+                        model, process, prior,
+                    )?)))
+                }
             }
         }
         (AoaModel::Angles(noise), algorithm) => {
@@ -1107,6 +1112,11 @@ fn build_anchored<const N: usize, const M3: usize, const M2: usize>(
                 Algorithm::Ukf => Box::new(Anchored::<N>(Box::new(angle_ukf::<N, M2>(
                     model, process, prior,
                 )?))),
+                Algorithm::IteratedEkf => {
+                    Box::new(Anchored::<N>(Box::new(angle_iterated_ekf::<N, M2>(
+                        model, process, prior,
+                    )?)))
+                }
             }
         }
     })
@@ -1144,16 +1154,17 @@ fn parse_aoa_name(name: &str, particles: usize) -> PyResult<(Algorithm, String)>
     let upper = name.trim().to_ascii_uppercase();
     let (algorithm, model) = upper.split_once('-').ok_or_else(|| {
         bad(format!(
-            "filter {name:?}: expected <PF|EKF|UKF>-<VMF|AE|AE-nominal|AE-fitted|AE-adaptive>"
+            "filter {name:?}: expected <PF|EKF|UKF|IEKF>-<VMF|AE|AE-nominal|AE-fitted|AE-adaptive>"
         ))
     })?;
     let algorithm = match algorithm {
         "PF" => Algorithm::Particle(particles),
         "EKF" => Algorithm::Ekf,
         "UKF" => Algorithm::Ukf,
+        "IEKF" => Algorithm::IteratedEkf,
         _ => {
             return Err(bad(format!(
-                "filter {name:?}: the algorithm must be PF, EKF or UKF"
+                "filter {name:?}: the algorithm must be PF, EKF, UKF or IEKF"
             )));
         }
     };
@@ -1195,8 +1206,8 @@ fn anchors_of(
         .collect()
 }
 
-/// An angle-of-arrival filter (particle filter, EKF or UKF with the von Mises-Fisher or the
-/// azimuth-elevation model) of the position θ ∈ R³ from k anchors' azimuth-elevation readings.
+/// An angle-of-arrival filter (particle filter, EKF, UKF or iterated EKF with the von Mises-Fisher
+/// or the azimuth-elevation model) of the position θ ∈ R³ from k anchors' azimuth-elevation readings.
 ///
 /// A filter is used by one thread at a time: while `predict` or `update` runs (without the GIL),
 /// another thread's `predict` or `update` of it raises `ValueError` ("in use by another call") and

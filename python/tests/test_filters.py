@@ -287,9 +287,11 @@ def test_aoa_filters_on_the_exposed_runs_equal_the_study():
     runs = lf.aoa_runs("model2", 3, seed=7, **settings)
     kappa = 1 / np.radians(10.0) ** 2
     sigma = 1 / math.sqrt(kappa)
-    study = lf.aoa_study("model2", ["EKF-VMF", "UKF-AE-nominal"], 3, seed=7, **settings)
-    assert set(study) == {"EKF-VMF", "UKF-AE-nominal"}
-    for name, params in (("EKF-VMF", dict(kappa=kappa)), ("UKF-AE-nominal", dict(sigma_az=sigma, sigma_el=sigma))):
+    names = ["EKF-VMF", "IEKF-VMF", "UKF-AE-nominal"]
+    study = lf.aoa_study("model2", names, 3, seed=7, **settings)
+    assert set(study) == set(names)
+    vmf, angles = dict(kappa=kappa), dict(sigma_az=sigma, sigma_el=sigma)
+    for name, params in zip(names, (vmf, vmf, angles)):
         means, covs = [], []
         for r in range(3):
             f = lf.AoaFilter(

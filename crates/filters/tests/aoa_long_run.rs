@@ -1,8 +1,8 @@
 //! Long runs stay valid: every angle-of-arrival filter (the von Mises-Fisher and the
-//! azimuth-elevation models, each as EKF, UKF and particle filter) stepped through many epochs keeps
-//! a finite mean and a finite symmetric positive semi-definite covariance (definite for the Kalman
-//! filters) after every step, whether the step succeeded or was refused, and a refused step leaves
-//! its estimate as it was.
+//! azimuth-elevation models, each as EKF, UKF, iterated EKF and particle filter) stepped through
+//! many epochs keeps a finite mean and a finite symmetric positive semi-definite covariance
+//! (definite for the Kalman filters) after every step, whether the step succeeded or was refused,
+//! and a refused step leaves its estimate as it was.
 //!
 //! The readings are the square track's, run after run without resetting the filter (so the truth
 //! jumps to a new start every 12 epochs), with every 7th reading set replaced by directions drawn
@@ -11,7 +11,8 @@
 //! The test runs 5 000 epochs per filter; the long version is run by hand (the particle filters a
 //! fiftieth of the epochs):
 //! `LIEBAYES_LONG_RUN_STEPS=100000000 cargo test --release -p liebayes-filters --test
-//! aoa_long_run -- --ignored --nocapture` (figures in docs/reliability.md).
+//! aoa_long_run -- --ignored --nocapture` (figures in docs/reliability.md);
+//! `LIEBAYES_LONG_RUN_ONLY=IEKF-VMF` runs that one filter.
 
 mod common;
 
@@ -92,7 +93,12 @@ fn filters() -> Vec<TrackFilter> {
             sigma_el: sigma,
         },
     ] {
-        for algorithm in [Algorithm::Ekf, Algorithm::Ukf, Algorithm::Particle(200)] {
+        for algorithm in [
+            Algorithm::Ekf,
+            Algorithm::Ukf,
+            Algorithm::IteratedEkf,
+            Algorithm::Particle(200),
+        ] {
             out.push(TrackFilter {
                 algorithm,
                 model: model.clone(),
@@ -117,7 +123,11 @@ fn every_filter_stays_valid() {
 #[ignore = "the long run, by hand: LIEBAYES_LONG_RUN_STEPS=100000000"]
 fn long_runs() {
     let epochs = common::long_run_steps();
+    let only = std::env::var("LIEBAYES_LONG_RUN_ONLY").ok();
     for filter in filters() {
+        if only.as_ref().is_some_and(|label| *label != filter.label()) {
+            continue;
+        }
         // The particle filters, about ten times slower per epoch, a fiftieth of the epochs.
         let epochs = match filter.algorithm {
             Algorithm::Particle(_) => epochs / 50,

@@ -241,6 +241,10 @@ impl FilterLawSubject for AoaSubject {
 filter_laws!(aoa_vmf_ekf, AoaSubject::new(Aoa::Vmf(Algorithm::Ekf)));
 filter_laws!(aoa_vmf_ukf, AoaSubject::new(Aoa::Vmf(Algorithm::Ukf)));
 filter_laws!(
+    aoa_vmf_iterated_ekf,
+    AoaSubject::new(Aoa::Vmf(Algorithm::IteratedEkf))
+);
+filter_laws!(
     aoa_vmf_particle,
     AoaSubject::new(Aoa::Vmf(Algorithm::Particle(2000))),
     known_inconsistent("2000 particles: position NEES 1.31 per dof, above the band's 1.29")
@@ -254,6 +258,11 @@ filter_laws!(
     aoa_angle_ukf,
     AoaSubject::new(Aoa::Angle(Algorithm::Ukf)),
     known_inconsistent("normal azimuth-elevation model: position NEES 92 per dof")
+);
+filter_laws!(
+    aoa_angle_iterated_ekf,
+    AoaSubject::new(Aoa::Angle(Algorithm::IteratedEkf)),
+    known_inconsistent("normal azimuth-elevation model: position NEES 401 per dof")
 );
 filter_laws!(
     aoa_angle_particle,

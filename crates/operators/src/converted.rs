@@ -113,6 +113,18 @@ impl_converted!(
     [X: liebayes_manifolds::Manifold<D, Scalar = f64>]
 );
 impl_converted!(
+    liebayes_densities::ManifoldGaussian<X, D>,
+    crate::iterated::IteratedEkf<H, M>,
+    [X, H, const D: usize, const M: usize],
+    [X: liebayes_manifolds::Manifold<D, Scalar = f64>]
+);
+impl_converted!(
+    liebayes_densities::ManifoldGaussian<X, D>,
+    crate::iterated::IteratedUkf<H, M>,
+    [X, H, const D: usize, const M: usize],
+    [X: liebayes_manifolds::Manifold<D, Scalar = f64>]
+);
+impl_converted!(
     crate::particle::ParticleSet<X>,
     crate::particle::Reweight<L>,
     [X, L],

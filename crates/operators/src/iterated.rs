@@ -23,8 +23,10 @@
 //! **Step control**: a proposed step that would increase the merit, or whose end the model
 //! cannot be linearised at (a non-finite prediction or Jacobian, an update that is not positive
 //! definite), is halved, at most [`MAX_HALVINGS`] times, so the merit never increases from iterate
-//! to iterate; when no halving decreases it, the iteration stops ([`Stop::NoDescent`]). When even
-//! the shortest trial step fails in the model, the update is that error. The iterated EKF's step is
+//! to iterate; when no halving decreases it, the iteration stops ([`Stop::NoDescent`]), as it does
+//! when even the shortest trial's update is not positive definite (rounding next to an iterate
+//! whose update is). When even the shortest trial step fails in the model, the update is that
+//! error. The iterated EKF's step is
 //! `Δ = δ̂ − δᵢ` and its merit the cost J. The posterior linearisation's iterate is the pair
 //! `(δᵢ, Pᵢ)` and its step `(Δ, Pᵢ₊₁ − Pᵢ)`; its fixed point is not J's minimum, so its merit is the
 //! length of its own proposed step, `(|L⁻¹ Δ|² + ‖L⁻¹ (Pᵢ₊₁ − Pᵢ) L⁻ᵀ‖²_F)^½` with `P = L Lᵀ`.
@@ -384,11 +386,14 @@ where
     /// [`MAX_HALVINGS`] halvings; a convex combination of covariances is one) whose linearisation
     /// succeeds with a merit of at most the current one, with that linearisation; `None` if there
     /// is none. A trial whose linearisation fails (the model is non-finite there, or its update is
-    /// not positive definite) is a step too long, halved like one that raises the merit.
+    /// not positive definite) is a step too long, halved like one that raises the merit. When even
+    /// the shortest step, 2⁻³⁰ of the proposal, has an update that is not positive definite, that
+    /// is rounding next to an iterate whose update is (S ill-conditioned there): `None` too, so
+    /// the iteration ends at the iterate.
     ///
     /// # Errors
-    /// The last trial's error when even the shortest step, 2⁻³⁰ of the proposal, fails: the model
-    /// fails next to an iterate where it succeeded.
+    /// The last trial's error when even the shortest step fails in the model (a non-finite
+    /// prediction or Jacobian): the model fails next to an iterate where it succeeded.
     fn descend<L: Linearisation<X, H, D, M>>(
         &self,
         linearisation: &L,
@@ -414,7 +419,10 @@ where
             }
             t *= 0.5;
         }
-        last
+        match last {
+            Err(OperatorError::NotPositiveDefinite { .. }) => Ok(None),
+            last => last,
+        }
     }
 
     /// The Kalman update of the prior by `z ≈ A δ + b + e`, `e ~ N(0, Ω)`, with `ν = (z ⊟ ẑ) + A δᵢ`
@@ -449,10 +457,16 @@ where
         // before its first step); the posterior linearisation's merit keeps the prior's, one
         // scale for every trial.
         let mean_step = innovation.gain() * innovation.innovation() - delta;
+        // P⁺ is positive definite in exact arithmetic; an iterate at which rounding loses that (S
+        // ill-conditioned there) is one the update cannot end at: an error here, so that a step
+        // to it is halved.
+        let posterior = Cholesky::new(covariance).ok_or(OperatorError::NotPositiveDefinite {
+            what: "updated covariance of an iterate (Joseph form; check R)",
+        })?;
         let (step, merit) = match merit {
             Merit::Cost(cost) => {
                 // With Ω = 0 the posterior's information is `P⁻¹ + Hᵀ R⁻¹ H`: the step's length in
-                // its deviations from the factors of P and R, no factorisation of P⁺.
+                // its deviations from the factors of P and R.
                 let data = self
                     .noise_factor
                     .l_dirty()
@@ -462,10 +476,6 @@ where
                 (prior.hypot(data), cost)
             }
             Merit::Step(spread) => {
-                let posterior =
-                    Cholesky::new(covariance).ok_or(OperatorError::NotPositiveDefinite {
-                        what: "updated covariance of an iterate (Joseph form; check R)",
-                    })?;
                 let spread_step = covariance - spread;
                 (
                     whitened(posterior.l_dirty(), &mean_step, Some(&spread_step)),

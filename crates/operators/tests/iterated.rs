@@ -8,12 +8,14 @@
 //! * the iteration limit and the tolerance are honoured, the first posterior-linearisation step is
 //!   the UKF's, and every retraction Jacobian matches central differences of the retraction;
 //! * bad input (NaN reading, a model returning NaN at an iterate) is an error and leaves the density
-//!   unchanged.
+//!   unchanged;
+//! * readings converted by `Converted` reach both updates.
 
 use liebayes_densities::{Gaussian, ManifoldGaussian};
 use liebayes_manifolds::{
     GroupAction, Left, LieGroup, Manifold, ProductManifold, Rn, S2, Se3, So3,
 };
+use liebayes_operators::converted::{Conversion, Converted};
 use liebayes_operators::iterated::{IteratedEkf, IteratedUkf, IterationSettings, Stop};
 use liebayes_operators::kalman::LinearMeasurement;
 use liebayes_operators::{Condition, MeasurementFn, MeasurementModel, OperatorError, Ukf};
@@ -825,4 +827,48 @@ fn an_iterate_below_the_rounding_of_its_point_follows_the_kalman_filter() {
             }
         }
     }
+}
+
+/// Readings in another unit reach both iterated updates through `Converted`, which converts them
+/// once and conditions on the converted measurement, the density untouched by a reading it
+/// refuses.
+#[test]
+fn converted_readings_reach_the_iterated_updates() {
+    struct Centimetres;
+    impl Conversion for Centimetres {
+        type Reading = f64;
+        type Measurement = Vector1<f64>;
+        fn convert(&self, cm: &f64) -> Result<Vector1<f64>, OperatorError> {
+            if cm.is_finite() {
+                Ok(Vector1::new(cm / 100.0))
+            } else {
+                Err(OperatorError::NonFinite {
+                    what: "reading (cm)",
+                    value: *cm,
+                })
+            }
+        }
+    }
+    let square = MeasurementFn::new(
+        |x: &Rn<f64, 1>| Vector1::new(x.coords()[0].powi(2)),
+        |_: &Rn<f64, 1>| Matrix1::new(1e-4),
+    );
+    let prior =
+        ManifoldGaussian::new(Rn::new(Vector1::new(2.0)).unwrap(), Matrix1::new(1.0)).unwrap();
+    let z = Vector1::new(9.0);
+    let direct = prior.condition(&IteratedEkf::new(&square), &z).unwrap();
+    let converted = Converted {
+        model: IteratedEkf::new(&square),
+        conversion: Centimetres,
+    };
+    assert_eq!(prior.condition(&converted, &900.0).unwrap(), direct);
+    let direct = prior.condition(&IteratedUkf::new(&square), &z).unwrap();
+    let converted = Converted {
+        model: IteratedUkf::new(&square),
+        conversion: Centimetres,
+    };
+    assert_eq!(prior.condition(&converted, &900.0).unwrap(), direct);
+    let mut density = prior.clone();
+    assert!(density.condition_in_place(&converted, &f64::NAN).is_err());
+    assert_eq!(density, prior);
 }

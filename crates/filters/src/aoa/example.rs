@@ -4,7 +4,8 @@
 use super::anchor::Anchor;
 use super::direction::AzEl;
 use super::filter::{
-    Prior, angle_ekf, angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
+    Prior, angle_ekf, angle_particle_filter, angle_ukf, vmf_ekf, vmf_iterated_ekf,
+    vmf_particle_filter, vmf_ukf,
 };
 use super::model::{AngleNoise, AzElModel, Position, UnitVectorModel, WorldDirections};
 use super::process::RandomWalk;
@@ -77,8 +78,8 @@ impl UpdateExample {
     }
 
     /// Every filter's update beside the exact posteriors (quadrature): EKF, UKF and a particle
-    /// filter of `particles` particles (drawn with `rng`) for each model, the angle models only
-    /// for a canonical reading.
+    /// filter of `particles` particles (drawn with `rng`) for each model, and the iterated EKF for
+    /// the VMF model; the angle models only for a canonical reading.
     ///
     /// # Errors
     /// The models' and filters' errors (σ, κ out of range, a particle count of 0 or above the
@@ -114,6 +115,9 @@ impl UpdateExample {
         let mut ukf = vmf_ukf::<1, 3>(vmf, walk, &self.prior)?;
         ukf.update(&z)?;
         rows.push(row("UKF-VMF", ukf.estimate()?.mean, Some(&exact)));
+        let mut iterated = vmf_iterated_ekf::<1, 3>(vmf, walk, &self.prior)?;
+        iterated.update(&z)?;
+        rows.push(row("IEKF-VMF", iterated.estimate()?.mean, Some(&exact)));
         let mut pf = vmf_particle_filter(vmf, walk, &self.prior, particles, rng.clone())?;
         pf.update(&z)?;
         rows.push(row("PF-VMF", pf.estimate()?.mean, Some(&exact)));

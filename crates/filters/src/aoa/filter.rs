@@ -11,6 +11,7 @@ use super::model::{
 use super::process::RandomWalk;
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::Recursive;
+use liebayes_operators::iterated::IteratedEkf;
 use liebayes_operators::particle::{ParticleSet, Resampling, Reweight, Sampled};
 use liebayes_operators::{Converted, Ekf, OperatorError, Ukf};
 use nalgebra::{Matrix3, Vector3};
@@ -43,6 +44,10 @@ pub const PRIOR_MEAN_LIMIT: f64 = liebayes_densities::MAX_SCALE;
 /// A Gaussian filter's density.
 pub type PositionGaussian = ManifoldGaussian<Position, 3>;
 
+/// A Gaussian filter of the position: propagated by P, each reading converted by C and
+/// conditioned on by U (an EKF, UKF or iterated EKF of a measurement model).
+pub type GaussianFilter<P, U, C> = Recursive<PositionGaussian, P, Converted<U, C>, PositionMoments>;
+
 /// The particle filter with the von Mises-Fisher likelihood (PF-VMF).
 pub type VmfParticleFilter<const N: usize> = Recursive<
     ParticleSet<Position>,
@@ -52,20 +57,21 @@ pub type VmfParticleFilter<const N: usize> = Recursive<
 >;
 
 /// The EKF with the unit-vector model (EKF-VMF), M = 3N.
-pub type VmfEkf<const N: usize, const M: usize> = Recursive<
-    PositionGaussian,
-    Ekf<RandomWalk>,
-    Converted<Ekf<UnitVectorModel<N>, M>, StackedUnitVectors<N, M>>,
-    PositionMoments,
->;
+pub type VmfEkf<const N: usize, const M: usize> =
+    GaussianFilter<Ekf<RandomWalk>, Ekf<UnitVectorModel<N>, M>, StackedUnitVectors<N, M>>;
 
 /// The UKF with the unit-vector model (UKF-VMF), M = 3N.
-pub type VmfUkf<const N: usize, const M: usize> = Recursive<
-    PositionGaussian,
-    Ukf<RandomWalk>,
-    Converted<Ukf<UnitVectorModel<N>, M>, StackedUnitVectors<N, M>>,
-    PositionMoments,
->;
+pub type VmfUkf<const N: usize, const M: usize> =
+    GaussianFilter<Ukf<RandomWalk>, Ukf<UnitVectorModel<N>, M>, StackedUnitVectors<N, M>>;
+
+/// The iterated EKF with the unit-vector model (IEKF-VMF), M = 3N: the EKF's propagation, and
+/// each update Gauss-Newton to the posterior's mode ([`IteratedEkf`]).
+pub type VmfIteratedEkf<const N: usize, const M: usize> =
+    GaussianFilter<Ekf<RandomWalk>, IteratedEkf<UnitVectorModel<N>, M>, StackedUnitVectors<N, M>>;
+
+/// The iterated EKF with the azimuth-elevation model (IEKF-AE), M = 2N.
+pub type AngleIteratedEkf<const N: usize, const M: usize> =
+    GaussianFilter<Ekf<RandomWalk>, IteratedEkf<AzElModel<N>, M>, StackedAngles<N, M>>;
 
 /// The particle filter with the azimuth-elevation likelihood (PF-AE).
 pub type AngleParticleFilter<const N: usize> = Recursive<
@@ -76,20 +82,12 @@ pub type AngleParticleFilter<const N: usize> = Recursive<
 >;
 
 /// The EKF with the azimuth-elevation model (EKF-AE), M = 2N.
-pub type AngleEkf<const N: usize, const M: usize> = Recursive<
-    PositionGaussian,
-    Ekf<RandomWalk>,
-    Converted<Ekf<AzElModel<N>, M>, StackedAngles<N, M>>,
-    PositionMoments,
->;
+pub type AngleEkf<const N: usize, const M: usize> =
+    GaussianFilter<Ekf<RandomWalk>, Ekf<AzElModel<N>, M>, StackedAngles<N, M>>;
 
 /// The UKF with the azimuth-elevation model (UKF-AE), M = 2N.
-pub type AngleUkf<const N: usize, const M: usize> = Recursive<
-    PositionGaussian,
-    Ukf<RandomWalk>,
-    Converted<Ukf<AzElModel<N>, M>, StackedAngles<N, M>>,
-    PositionMoments,
->;
+pub type AngleUkf<const N: usize, const M: usize> =
+    GaussianFilter<Ukf<RandomWalk>, Ukf<AzElModel<N>, M>, StackedAngles<N, M>>;
 
 /// The prior `N(m₀, σ₀² I)` of every filter: m₀ with components within ±[`PRIOR_MEAN_LIMIT`] =
 /// ±1e100 m, σ₀ in [[`PRIOR_STD_MIN`], [`PRIOR_STD_LIMIT`]] = [1e-49, 1e6] m, so that every filter,
@@ -200,6 +198,25 @@ fn sampled(
     Sampled::with_resampling(process, rng, RESAMPLE_BELOW, Resampling::Systematic)
 }
 
+/// A Gaussian filter of the position: `prior`, propagated by `propagation`, each reading converted
+/// by `conversion` and conditioned on by `update`.
+fn gaussian<P, U, C>(
+    prior: PositionGaussian,
+    propagation: P,
+    update: U,
+    conversion: C,
+) -> GaussianFilter<P, U, C> {
+    Recursive::with_estimator(
+        prior,
+        propagation,
+        Converted {
+            model: update,
+            conversion,
+        },
+        PositionMoments,
+    )
+}
+
 /// The UKF of a model with [`UKF_LAMBDA`].
 fn unscented<Model, const K: usize>(model: Model) -> Result<Ukf<Model, K>, OperatorError> {
     Ukf::with_scaling(model, 1.0, 0.0, UKF_LAMBDA)
@@ -257,14 +274,11 @@ pub fn vmf_ekf<const N: usize, const M: usize>(
     process: RandomWalk,
     prior: &Prior,
 ) -> Result<VmfEkf<N, M>, OperatorError> {
-    Ok(Recursive::with_estimator(
+    Ok(gaussian(
         prior.gaussian()?,
         Ekf(process),
-        Converted {
-            model: Ekf(model),
-            conversion: StackedUnitVectors,
-        },
-        PositionMoments,
+        Ekf(model),
+        StackedUnitVectors,
     ))
 }
 
@@ -295,14 +309,11 @@ pub fn vmf_ukf<const N: usize, const M: usize>(
     process: RandomWalk,
     prior: &Prior,
 ) -> Result<VmfUkf<N, M>, OperatorError> {
-    Ok(Recursive::with_estimator(
+    Ok(gaussian(
         prior.sigma_point_gaussian()?,
         unscented(process)?,
-        Converted {
-            model: unscented(model)?,
-            conversion: StackedUnitVectors,
-        },
-        PositionMoments,
+        unscented(model)?,
+        StackedUnitVectors,
     ))
 }
 
@@ -358,14 +369,11 @@ pub fn angle_ekf<const N: usize, const M: usize>(
     process: RandomWalk,
     prior: &Prior,
 ) -> Result<AngleEkf<N, M>, OperatorError> {
-    Ok(Recursive::with_estimator(
+    Ok(gaussian(
         prior.gaussian()?,
         Ekf(process),
-        Converted {
-            model: Ekf(model),
-            conversion: StackedAngles,
-        },
-        PositionMoments,
+        Ekf(model),
+        StackedAngles,
     ))
 }
 
@@ -378,13 +386,74 @@ pub fn angle_ukf<const N: usize, const M: usize>(
     process: RandomWalk,
     prior: &Prior,
 ) -> Result<AngleUkf<N, M>, OperatorError> {
-    Ok(Recursive::with_estimator(
+    Ok(gaussian(
         prior.sigma_point_gaussian()?,
         unscented(process)?,
-        Converted {
-            model: unscented(model)?,
-            conversion: StackedAngles,
-        },
-        PositionMoments,
+        unscented(model)?,
+        StackedAngles,
+    ))
+}
+
+/// IEKF-VMF, with the default [`IterationSettings`](liebayes_operators::iterated::IterationSettings).
+/// Where the readings are precise against the prior (a bearing of 0.01° from 1 m off), the one-pass
+/// update, linearised at the prior mean, misses the posterior and reports a spread far too small
+/// for its error; the iterated update relinearises at its estimate.
+///
+/// # Errors
+/// As [`Prior::gaussian`].
+///
+/// # Example
+/// ```
+/// use liebayes_experiments::RecursiveFilter;
+/// use liebayes_filters::aoa::{
+///     AzEl, Prior, RandomWalk, UnitVectorModel, square_track_anchors, vmf_ekf, vmf_iterated_ekf,
+/// };
+/// use nalgebra::Vector3;
+/// let anchors = square_track_anchors();
+/// let truth = Vector3::new(1.0, 0.2, 0.0);
+/// let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&truth).unwrap().0).unwrap());
+/// // κ = 3.3e7: a bearing error of 0.01°.
+/// let model = UnitVectorModel::new(anchors, 3.3e7).unwrap();
+/// let walk = RandomWalk::new(0.5, 0.1).unwrap();
+/// let prior = Prior::new(Vector3::new(2.0, -0.5, 0.0), 1.0).unwrap();
+/// let mut filter = vmf_iterated_ekf::<4, 12>(model, walk, &prior).unwrap();
+/// filter.update(&readings).unwrap();
+/// // Exact readings, the prior 1.2 m away: the estimate lands within 1.3e-6 m of the truth
+/// // (its reported σ is 1.3e-3 m); the one-pass EKF ends 0.045 m off, reporting 1.4e-3 m.
+/// assert!((filter.estimate().unwrap().mean - truth).norm() < 1e-5);
+/// let mut one_pass = vmf_ekf::<4, 12>(model, walk, &prior).unwrap();
+/// one_pass.update(&readings).unwrap();
+/// assert!((one_pass.estimate().unwrap().mean - truth).norm() > 0.04);
+/// ```
+pub fn vmf_iterated_ekf<const N: usize, const M: usize>(
+    model: UnitVectorModel<N>,
+    process: RandomWalk,
+    prior: &Prior,
+) -> Result<VmfIteratedEkf<N, M>, OperatorError> {
+    Ok(gaussian(
+        prior.gaussian()?,
+        Ekf(process),
+        IteratedEkf::new(model),
+        StackedUnitVectors,
+    ))
+}
+
+/// IEKF-AE. Its iterates can be drawn onto an anchor's pole axis (its local z axis), where the
+/// azimuth is undefined and the cost has no minimum (every azimuth is read near it): in the track
+/// study at 5° its updates ended 1e-9 m from that axis with a covariance collapsed to match (final
+/// NEES 2e15); prefer IEKF-VMF.
+///
+/// # Errors
+/// As [`Prior::gaussian`].
+pub fn angle_iterated_ekf<const N: usize, const M: usize>(
+    model: AzElModel<N>,
+    process: RandomWalk,
+    prior: &Prior,
+) -> Result<AngleIteratedEkf<N, M>, OperatorError> {
+    Ok(gaussian(
+        prior.gaussian()?,
+        Ekf(process),
+        IteratedEkf::new(model),
+        StackedAngles,
     ))
 }

@@ -4,7 +4,8 @@
 use super::data::DataModel;
 use super::estimate::{PositionEstimate, PositionScorer};
 use super::filter::{
-    angle_ekf, angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
+    angle_ekf, angle_iterated_ekf, angle_particle_filter, angle_ukf, vmf_ekf, vmf_iterated_ekf,
+    vmf_particle_filter, vmf_ukf,
 };
 use super::model::{AngleNoise, AzElModel, Readings, UnitVectorModel};
 use super::noise::{AdaptiveSigmas, kappa_from_sigmas, sigma_from_kappa};
@@ -25,6 +26,8 @@ pub enum Algorithm {
     Ekf,
     /// The UKF (λ = 0.5).
     Ukf,
+    /// The iterated EKF: the EKF's propagation, each update Gauss-Newton to the posterior's mode.
+    IteratedEkf,
 }
 
 /// The measurement model a filter assumes, with its parameters.
@@ -110,6 +113,7 @@ impl TrackFilter {
             Algorithm::Particle(_) => "PF",
             Algorithm::Ekf => "EKF",
             Algorithm::Ukf => "UKF",
+            Algorithm::IteratedEkf => "IEKF",
         };
         format!("{algorithm}-{}", self.model.name())
     }
@@ -243,7 +247,7 @@ impl liebayes_experiments::Method for OnTrack {
     fn validate(&self) -> Result<(), OperatorError> {
         match self.algorithm {
             Algorithm::Particle(n) => crate::error::check_count("number of particles", n),
-            Algorithm::Ekf | Algorithm::Ukf => Ok(()),
+            Algorithm::Ekf | Algorithm::Ukf | Algorithm::IteratedEkf => Ok(()),
         }
     }
 
@@ -262,6 +266,12 @@ impl liebayes_experiments::Method for OnTrack {
             (BuiltModel::Vmf(model), Algorithm::Ukf) => {
                 Box::new(OnTrackReadings(vmf_ukf::<4, 12>(*model, process, &prior)?))
             }
+            (BuiltModel::Vmf(model), Algorithm::IteratedEkf) => Box::new(OnTrackReadings(
+                vmf_iterated_ekf::<4, 12>(*model, process, &prior)?,
+            )),
+            (BuiltModel::Angle(model), Algorithm::IteratedEkf) => Box::new(OnTrackReadings(
+                angle_iterated_ekf::<4, 8>(model.clone(), process, &prior)?,
+            )),
             (BuiltModel::Angle(model), Algorithm::Particle(n)) => Box::new(OnTrackReadings(
                 angle_particle_filter(model.clone(), process, &prior, n, rng.clone())?,
             )),

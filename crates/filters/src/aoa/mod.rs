@@ -7,8 +7,9 @@
 //! * [`Anchor`]s and the square track's geometry ([`square_track_anchors`]);
 //! * the noise models ([`noise`]: von Mises-Fisher, normal in azimuth and elevation, the
 //!   conversion between them, the adaptive σ table) and the data they generate ([`DataModel`]);
-//! * the measurement models ([`UnitVectorModel`], [`AzElModel`]) for the particle filter, the EKF
-//!   and the UKF, and the filters built from them ([`vmf_particle_filter`], [`vmf_ekf`], …);
+//! * the measurement models ([`UnitVectorModel`], [`AzElModel`]) for the particle filter, the EKF,
+//!   the UKF and the iterated EKF, and the filters built from them ([`vmf_particle_filter`],
+//!   [`vmf_ekf`], [`vmf_iterated_ekf`], …);
 //! * [`PositionEstimate`] and [`PositionScorer`], and the [`SquareTrack`] scenario.
 //!
 //! The math and the corrections to the paper are in `docs/filters/aoa.md`.
@@ -37,9 +38,10 @@ pub use direction::AzEl;
 pub use estimate::{PositionEstimate, PositionMoments, PositionScorer};
 pub use example::{UpdateExample, UpdateRow};
 pub use filter::{
-    AngleEkf, AngleParticleFilter, AngleUkf, PRIOR_MEAN_LIMIT, PRIOR_STD_LIMIT, PRIOR_STD_MIN,
-    PositionGaussian, Prior, RESAMPLE_BELOW, UKF_LAMBDA, VmfEkf, VmfParticleFilter, VmfUkf,
-    angle_ekf, angle_particle_filter, angle_ukf, vmf_ekf, vmf_particle_filter, vmf_ukf,
+    AngleEkf, AngleIteratedEkf, AngleParticleFilter, AngleUkf, GaussianFilter, PRIOR_MEAN_LIMIT,
+    PRIOR_STD_LIMIT, PRIOR_STD_MIN, PositionGaussian, Prior, RESAMPLE_BELOW, UKF_LAMBDA, VmfEkf,
+    VmfIteratedEkf, VmfParticleFilter, VmfUkf, angle_ekf, angle_iterated_ekf,
+    angle_particle_filter, angle_ukf, vmf_ekf, vmf_iterated_ekf, vmf_particle_filter, vmf_ukf,
 };
 pub use method::{
     Algorithm, ModelChoice, OnTrack, OnTrackReadings, PositionFilter, TrackFilter,
