@@ -183,7 +183,7 @@ def child(cases, seed):
         }),
         "aoa_study": (filters.aoa_study, {
             "data": lambda: str(rng.choice(["model1", "model2"])),
-            "filters": lambda: [str(rng.choice(["EKF-VMF", "UKF-AE", "EKF-AE-adaptive"]))],
+            "filters": lambda: [str(rng.choice(["EKF-VMF", "UKF-AE", "EKF-AE-adaptive", "IEKF-VMF"]))],
             "runs": lambda: 2, "seed": lambda: 3, "steps": lambda: 4, "sigma_deg": lambda: 10.0,
         }),
         "square_track": (filters.square_track, {}),
@@ -207,7 +207,7 @@ def child(cases, seed):
         "ManifoldGaussianS2": (densities.ManifoldGaussianS2, {"mean": unit, "cov": lambda: spd(2)}),
         "ExactAzimuthFilter": (filters.ExactAzimuthFilter, {"q": lambda: 0.1, "sigma_m": lambda: 1.0}),
         "AoaFilter": (filters.AoaFilter, {
-            "name": lambda: str(rng.choice(["EKF-VMF", "UKF-AE", "PF-VMF", "EKF-AE-adaptive"])),
+            "name": lambda: str(rng.choice(["EKF-VMF", "UKF-AE", "PF-VMF", "EKF-AE-adaptive", "IEKF-VMF", "IEKF-AE"])),
             "anchors": lambda: rng.normal(size=(3, 3)) * 5, "kappa": lambda: 50.0,
             "sigma_az": lambda: 0.1, "sigma_el": lambda: 0.1, "particles": lambda: 200,
         }),

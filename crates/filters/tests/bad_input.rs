@@ -13,8 +13,9 @@ use liebayes_experiments::{
 };
 use liebayes_filters::aoa::{
     Anchor, AngleNoise, AzEl, AzElModel, DataModel, PositionEstimate, Prior, RandomWalk,
-    SquareTrack, TrackConfig, UnitVectorModel, angle_ekf, angle_particle_filter, angle_ukf,
-    square_track_anchors, vmf_ekf, vmf_particle_filter, vmf_ukf,
+    SquareTrack, TrackConfig, UnitVectorModel, angle_ekf, angle_iterated_ekf,
+    angle_particle_filter, angle_ukf, square_track_anchors, vmf_ekf, vmf_iterated_ekf,
+    vmf_particle_filter, vmf_ukf,
 };
 use liebayes_filters::azimuth::{
     AzimuthDensity, AzimuthEstimate, AzimuthMoments, AzimuthScenario, AzimuthScorer, Config,
@@ -778,6 +779,10 @@ fn aoa_models_and_kalman_filters() {
                     if let Some(mut f) = fuzz::counted(vmf_ukf::<4, 12>(vmf, walk, &prior)) {
                         aoa_step(&mut f, delta, &z)?;
                     }
+                    if let Some(mut f) = fuzz::counted(vmf_iterated_ekf::<4, 12>(vmf, walk, &prior))
+                    {
+                        aoa_step(&mut f, delta, &z)?;
+                    }
                 }
                 let noise = AngleNoise::Fixed {
                     sigma_az: sigma,
@@ -785,6 +790,11 @@ fn aoa_models_and_kalman_filters() {
                 };
                 if let Some(ae) = fuzz::counted(AzElModel::new(anchors, noise)) {
                     if let Some(mut f) = fuzz::counted(angle_ekf::<4, 8>(ae.clone(), walk, &prior))
+                    {
+                        aoa_step(&mut f, delta, &z)?;
+                    }
+                    if let Some(mut f) =
+                        fuzz::counted(angle_iterated_ekf::<4, 8>(ae.clone(), walk, &prior))
                     {
                         aoa_step(&mut f, delta, &z)?;
                     }
