@@ -23,8 +23,10 @@ use std::time::Duration;
 
 const SIGMA: f64 = 0.174_532_925_199_432_95;
 
-/// The readings of the square track's anchors of the point (1, 0.2, 0), as Model I would give
-/// them without noise.
+/// The readings of the square track's anchors of the point (1, 0.2, 0.05), as Model I would give
+/// them without noise. Not of a point at z = 0: the Kalman filters, given the same readings at
+/// every step, converged onto it, the EKF's mean to z = 4e-323, and every step on that subnormal
+/// took microcode assists (8.3 µs where a step takes 2.9).
 fn setup() -> (
     UnitVectorModel<4>,
     AzElModel<4>,
@@ -33,7 +35,7 @@ fn setup() -> (
     [AzEl; 4],
 ) {
     let anchors = square_track_anchors();
-    let theta = Vector3::new(1.0, 0.2, 0.0);
+    let theta = Vector3::new(1.0, 0.2, 0.05);
     let readings = anchors.map(|a| AzEl::of_vector(&a.direction(&theta).unwrap().0).unwrap());
     (
         UnitVectorModel::new(anchors, 1.0 / (SIGMA * SIGMA)).unwrap(),
