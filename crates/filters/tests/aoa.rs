@@ -206,11 +206,8 @@ fn final_epoch_under_its_model(
     let last = |metric| {
         summary
             .series(metric)
+            .and_then(|s| s.epochs().last())
             .unwrap()
-            .epochs()
-            .last()
-            .unwrap()
-            .clone()
     };
     let nees = last("nees_position");
     (
