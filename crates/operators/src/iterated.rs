@@ -26,10 +26,10 @@
 //! to iterate; when no halving decreases it, the iteration stops ([`Stop::NoDescent`]), as it does
 //! when even the shortest trial's update is not positive definite (rounding next to an iterate
 //! whose update is). When even the shortest trial step fails in the model, the update is that
-//! error. The iterated EKF's step is
-//! `Δ = δ̂ − δᵢ` and its merit the cost J. The posterior linearisation's iterate is the pair
-//! `(δᵢ, Pᵢ)` and its step `(Δ, Pᵢ₊₁ − Pᵢ)`; its fixed point is not J's minimum, so its merit is the
-//! length of its own proposed step, `(|L⁻¹ Δ|² + ‖L⁻¹ (Pᵢ₊₁ − Pᵢ) L⁻ᵀ‖²_F)^½` with `P = L Lᵀ`.
+//! error. The iterated EKF's step is `Δ = δ̂ − δᵢ` and its merit the cost J. The posterior
+//! linearisation's iterate is the pair `(δᵢ, Pᵢ)` and its step `(Δ, Pᵢ₊₁ − Pᵢ)`; its fixed point is
+//! not J's minimum, so its merit is the length of its own proposed step,
+//! `(|L⁻¹ Δ|² + ‖L⁻¹ (Pᵢ₊₁ − Pᵢ) L⁻ᵀ‖²_F)^½` with `P = L Lᵀ`.
 //! **Stopping**: when the proposed step's length in the standard deviations of the posterior of
 //! the update linearised at the iterate (`|L⁻¹ Δ|` with `Pᵢ₊₁ = L Lᵀ` for the iterated EKF, taken
 //! from the factors of P and R as `Pᵢ₊₁⁻¹ = P⁻¹ + Hᵀ R⁻¹ H`; the joint length above in that L for
