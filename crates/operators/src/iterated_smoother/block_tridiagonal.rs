@@ -140,11 +140,15 @@ impl<const D: usize> BlockTridiagonal<D> {
     /// the tests).
     ///
     /// # Errors
-    /// [`OperatorError::TooLarge`] when (nD)² is above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS).
+    /// [`OperatorError::TooLarge`] when (nD)² is above [`MAX_ELEMENTS`](crate::MAX_ELEMENTS) or
+    /// its memory cannot be allocated.
     pub fn to_dense(&self) -> Result<DMatrix<f64>, OperatorError> {
+        const ENTRIES: &str = "entries of the dense normal matrix";
         let n = self.blocks() * D;
-        check_size("entries of the dense normal matrix", n.saturating_mul(n))?;
-        let mut dense = DMatrix::zeros(n, n);
+        // Up to 8 GB: memory the system cannot give is an error, not an abort.
+        let mut entries = with_capacity(ENTRIES, n.saturating_mul(n))?;
+        entries.resize(n * n, 0.0);
+        let mut dense = DMatrix::from_vec(n, n, entries);
         for (k, a) in self.diagonal.iter().enumerate() {
             dense.fixed_view_mut::<D, D>(k * D, k * D).copy_from(a);
         }
