@@ -23,22 +23,7 @@ pub fn smallest_passing<E: From<ExperimentError>>(
     resolution: f64,
     mut passes: impl FnMut(u64) -> Result<bool, E>,
 ) -> Result<Option<u64>, E> {
-    if low == 0 || low > high {
-        return Err(ExperimentError::OutOfRange {
-            what: "search interval [low, high]",
-            value: format!("[{low}, {high}]"),
-            range: "1 <= low <= high",
-        }
-        .into());
-    }
-    if !(resolution > 0.0 && resolution <= 1.0) {
-        return Err(ExperimentError::OutOfRange {
-            what: "search resolution",
-            value: resolution.to_string(),
-            range: "(0, 1]",
-        }
-        .into());
-    }
+    check_interval(low, high, resolution)?;
     // Doubling: the first passing n, and the last failing one below it.
     let (mut fail, mut pass) = (None, low);
     loop {
@@ -66,6 +51,25 @@ pub fn smallest_passing<E: From<ExperimentError>>(
     Ok(Some(pass))
 }
 
+/// Checks [`smallest_passing`]'s interval and resolution.
+fn check_interval(low: u64, high: u64, resolution: f64) -> Result<(), ExperimentError> {
+    if low == 0 || low > high {
+        return Err(ExperimentError::OutOfRange {
+            what: "search interval [low, high]",
+            value: format!("[{low}, {high}]"),
+            range: "1 <= low <= high",
+        });
+    }
+    if !(resolution > 0.0 && resolution <= 1.0) {
+        return Err(ExperimentError::OutOfRange {
+            what: "search resolution",
+            value: resolution.to_string(),
+            range: "(0, 1]",
+        });
+    }
+    Ok(())
+}
+
 /// How [`smallest_to_match`] searches: within `(1 + tolerance)` of the target, counts from `low`
 /// to `high`, stopping when the bracket is within the relative `resolution`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,6 +82,34 @@ pub struct SearchSettings {
     pub high: u64,
     /// The relative width at which the bisection stops, in (0, 1].
     pub resolution: f64,
+}
+
+impl SearchSettings {
+    /// Checks every field against its range, so that a search that runs studies before its own
+    /// (a reference filter's, say) can refuse bad settings before any work.
+    ///
+    /// # Errors
+    /// [`ExperimentError::OutOfRange`] for a tolerance outside (0, 10] (NaN included), `low` = 0,
+    /// `low > high`, `high` above [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS) or a
+    /// resolution outside (0, 1].
+    pub fn check(&self) -> Result<(), ExperimentError> {
+        if !(self.tolerance > 0.0 && self.tolerance <= 10.0) {
+            return Err(ExperimentError::OutOfRange {
+                what: "tolerance",
+                value: self.tolerance.to_string(),
+                range: "(0, 10]",
+            });
+        }
+        let limit = u64::try_from(liebayes_operators::MAX_ELEMENTS).unwrap_or(u64::MAX);
+        if self.high > limit {
+            return Err(ExperimentError::OutOfRange {
+                what: "largest count",
+                value: self.high.to_string(),
+                range: "at most 2^30",
+            });
+        }
+        check_interval(self.low, self.high, self.resolution)
+    }
 }
 
 /// One count a search tried: its study's score (+∞ when the study gave none), failed runs and
@@ -140,10 +172,8 @@ pub struct SizeSearch {
 /// ```
 ///
 /// # Errors
-/// [`ExperimentError::OutOfRange`] for a target that is not finite and positive, a tolerance
-/// outside (0, 10] (NaN included), `low`/`resolution` outside [`smallest_passing`]'s ranges or
-/// `high` above [`MAX_ELEMENTS`](liebayes_operators::MAX_ELEMENTS), before any study; the first
-/// study's error otherwise.
+/// [`ExperimentError::OutOfRange`] for a target that is not finite and positive or settings that
+/// [`SearchSettings::check`] refuses, before any study; the first study's error otherwise.
 pub fn smallest_to_match<E: From<ExperimentError>>(
     target: f64,
     settings: SearchSettings,
@@ -164,23 +194,7 @@ pub fn smallest_to_match<E: From<ExperimentError>>(
         }
         .into());
     }
-    if !(tolerance > 0.0 && tolerance <= 10.0) {
-        return Err(ExperimentError::OutOfRange {
-            what: "tolerance",
-            value: tolerance.to_string(),
-            range: "(0, 10]",
-        }
-        .into());
-    }
-    let limit = u64::try_from(liebayes_operators::MAX_ELEMENTS).unwrap_or(u64::MAX);
-    if high > limit {
-        return Err(ExperimentError::OutOfRange {
-            what: "largest count",
-            value: high.to_string(),
-            range: "at most 2^30",
-        }
-        .into());
-    }
+    settings.check()?;
     let mut tried = Vec::new();
     let count = smallest_passing(low, high, resolution, |n| {
         let summary = study(n)?;

@@ -18,6 +18,7 @@ use liebayes_operators::evaluation::average_nees_band;
 use nalgebra::{Matrix2, Vector2};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 fn short(seconds: f64) -> Config {
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -212,7 +213,11 @@ fn the_particle_count_search_finds_a_count_that_matches_the_exact_filter() {
         high: 6400,
         resolution: 0.25,
     };
-    let search = particles_to_match(&scenario, &runs, settings(0.2), &|_| {}).unwrap();
+    let runs_done = AtomicU64::new(0);
+    let counted = |_| {
+        runs_done.fetch_add(1, Ordering::Relaxed);
+    };
+    let search = particles_to_match(&scenario, &runs, settings(0.2), &counted).unwrap();
     eprintln!("particle search: {search:?}");
     let count = search.count.expect("6400 particles match the exact filter");
     let target = search.target * 1.2;
@@ -250,7 +255,10 @@ fn the_particle_count_search_finds_a_count_that_matches_the_exact_filter() {
     let exact_rmse =
         final_azimuth_rmse(&study(Method::Exact, Motion::Circle, &config, 40, 5)).unwrap();
     assert_eq!(exact_rmse, search.target);
-    assert!(particles_to_match(&scenario, &runs, settings(f64::NAN), &|_| {}).is_err());
+    // Bad settings are refused before the exact filter's study runs (the progress counts runs).
+    assert!(runs_done.swap(0, Ordering::Relaxed) > 0);
+    assert!(particles_to_match(&scenario, &runs, settings(f64::NAN), &counted).is_err());
+    assert_eq!(runs_done.load(Ordering::Relaxed), 0);
     let still = AzimuthScenario::new(Motion::Static, config).unwrap();
     assert!(particles_to_match(&still, &runs, settings(0.2), &|_| {}).is_err());
 }

@@ -218,13 +218,17 @@ pub fn final_azimuth_rmse(summary: &Summary) -> Option<f64> {
 ///
 /// # Errors
 /// [`ExperimentError::OutOfRange`] when the scenario leaves the azimuth unobservable (no target)
-/// and for settings outside the search's ranges; the studies' errors otherwise.
+/// and, before any study, for settings outside the search's ranges
+/// ([`SearchSettings::check`](liebayes_experiments::search::SearchSettings::check)); the studies'
+/// errors otherwise.
 pub fn particles_to_match(
     scenario: &AzimuthScenario,
     study: &Study,
     settings: SearchSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<SizeSearch, ExperimentError> {
+    // Before the exact filter's study: bad settings cost no work.
+    settings.check()?;
     let exact = Method::Exact.study(scenario, study, progress)?;
     let exact_rmse = final_azimuth_rmse(&exact).ok_or(ExperimentError::OutOfRange {
         what: "scenario",
