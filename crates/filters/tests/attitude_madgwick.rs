@@ -122,6 +122,12 @@ fn initial_state_follows_the_example_construction() {
     assert!((r.matrix().column(2) - acc.normalize()).norm() < 1e-12);
     assert!(broad_initial_state(&Vector3::zeros(), Some(&mag)).is_none());
     assert!(broad_initial_state(&mag, Some(&mag)).is_none());
+    // 1e-13 rad apart, where the rounding of their cross product would pick the heading: none.
+    let up = Vector3::new(0.0, 0.0, 9.81);
+    assert!(broad_initial_state(&up, Some(&Vector3::new(1e-13, 0.0, 1.0))).is_none());
+    // 1e-6 rad apart: the heading is the data's (x points along the field's tilt, against it).
+    let q = broad_initial_state(&up, Some(&Vector3::new(1e-6, 0.0, 1.0))).expect("not parallel");
+    assert!((q * Vector3::x() + Vector3::x()).norm() < 1e-9);
     // NWU's x (North) and y (West) are ENU's North and minus East.
     let q = enu_from_nwu();
     assert!((q * Vector3::x() - Vector3::y()).norm() < 1e-15);

@@ -375,11 +375,17 @@ fn field_objective(q: &Vector4<f64>, mag: &Vector3<f64>) -> Objective {
     (predicted - mag, j)
 }
 
+/// The smallest angle (rad) between the accelerometer and the field from which
+/// [`broad_initial_state`] takes a heading: below it the heading's rounding error, about
+/// ε / sin(angle), exceeds 2e-6 rad.
+const PARALLEL: f64 = 1e-10;
+
 /// The BROAD example's initial state from the first accelerometer and magnetometer samples: the
 /// rotation whose matrix has the columns `x = normalise((a × −m) × a)`, `y = normalise(a × x)`,
 /// `z = normalise(a)`, set directly as the filter's (NWU) state. Without a magnetometer, `m` is
 /// taken as `−e_x` (the sensor's x axis in place of the field). `None` when `a` or `m` is zero or
-/// not finite, or `a` is parallel to `m`.
+/// not finite, or `a` is parallel to `m` or within 1e-10 rad of it (where the rounding of their
+/// cross product, not the data, would pick the heading).
 pub fn broad_initial_state(
     acc: &Vector3<f64>,
     mag: Option<&Vector3<f64>>,
@@ -390,7 +396,11 @@ pub fn broad_initial_state(
         None => -Vector3::x(),
     };
     let z = scaled_unit(acc)?;
-    let x = scaled_unit(&z.cross(&-m).cross(&z))?;
+    let across = z.cross(&-m);
+    if across.norm() < PARALLEL {
+        return None;
+    }
+    let x = scaled_unit(&across.cross(&z))?;
     let y = scaled_unit(&z.cross(&x))?;
     let r = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z]));
     Some(UnitQuaternion::from_rotation_matrix(&r))
