@@ -40,9 +40,9 @@ pub use data::{
 };
 pub use ekf::{
     ATTITUDE, AttitudeEkf, AttitudeParams, AttitudeState, BIAS, Block, BlockProcess,
-    DisturbanceParams, FieldOffset, Heading, MAX_OFFLINE_SAMPLES, MEASURED_FIELD_OFFSET,
-    MagnetometerParams, OFFSET, POSITION, Propagation, RestParams, STATE_DIM, Sensors,
-    UNIFORM_ROTATION_VARIANCE, VELOCITY,
+    DisturbanceParams, FieldOffset, Heading, MAX_OFFLINE_EPOCHS, MAX_OFFLINE_SAMPLES,
+    MEASURED_FIELD_OFFSET, MagnetometerParams, OFFSET, POSITION, Propagation, RestParams,
+    STATE_DIM, Sensors, UNIFORM_ROTATION_VARIANCE, VELOCITY,
 };
 pub use estimate::{AttitudeEstimate, AttitudeScorer, ImuSample};
 pub use evaluation::{

@@ -59,8 +59,8 @@ pub use params::{
     AttitudeParams, DisturbanceParams, FieldOffset, MEASURED_FIELD_OFFSET, MagnetometerParams,
     Propagation, RestParams, Sensors,
 };
-pub use smoothing::MAX_OFFLINE_SAMPLES;
 use smoothing::{Entry, Record};
+pub use smoothing::{MAX_OFFLINE_EPOCHS, MAX_OFFLINE_SAMPLES};
 use std::f64::consts::PI;
 
 /// How many past orientations are kept to line the magnetometer up with the gyroscope.
@@ -221,9 +221,10 @@ impl AttitudeEkf {
     /// The offline filter: the same filter, which also records its forward pass so that at the
     /// end of a run it releases every sample's smoothed estimate, given every sample of the run
     /// (the [`Smoothing`] of the experiment layer; the forward pass's estimates are the causal
-    /// filter's, bit for bit). The record grows by about 5 kB per epoch (a block, 0.08 s) and 24
-    /// bytes per sample: about 70 kB per second of data. It holds at most
-    /// [`MAX_OFFLINE_SAMPLES`] samples: a step beyond is `TooLarge`, the filter unchanged.
+    /// filter's, bit for bit). The record grows by about 6 kB per epoch (a block, 0.08 s by
+    /// default, 0.04 s with [`AttitudeParams::offline`]) and 24 bytes per sample: about 80 to
+    /// 160 kB per second of data. It holds at most [`MAX_OFFLINE_SAMPLES`] samples and
+    /// [`MAX_OFFLINE_EPOCHS`] epochs: a step beyond is `TooLarge`, the filter unchanged.
     ///
     /// # Errors
     /// As [`new`](Self::new).

@@ -67,30 +67,57 @@ const RECORD: &str = "number of samples recorded by the offline attitude filter"
 const RELEASED: &str = "number of smoothed estimates released by the offline attitude filter";
 
 /// The most samples the offline attitude filter records: 2²⁴, the most steps a run of the
-/// experiment layer records (about 16 hours at BROAD's 286 Hz, a record of about 4 GB).
+/// experiment layer records (about 16 hours at BROAD's 286 Hz; 24 bytes each).
 pub const MAX_OFFLINE_SAMPLES: usize = 1 << 24;
+
+/// The most epochs the offline attitude filter records: 2²⁰, about 6.3 GB at about 6 kB each
+/// (11.6 hours of 0.04 s blocks, the offline default). An epoch can be as short as a sample (at a
+/// low rate, or with a short block), so the samples' limit alone does not bound the record.
+pub const MAX_OFFLINE_EPOCHS: usize = 1 << 20;
+
+/// What a record names when it cannot grow by its epochs.
+const EPOCHS: &str = "number of epochs recorded by the offline attitude filter";
+
+/// Refuses a step that would take the record past [`MAX_OFFLINE_SAMPLES`] samples (with its one
+/// sample) or [`MAX_OFFLINE_EPOCHS`] epochs (with the two transitions a step can make).
+fn check_room(samples: usize, epochs: usize) -> Result<(), OperatorError> {
+    let (samples, epochs) = (samples.saturating_add(1), epochs.saturating_add(2));
+    if samples > MAX_OFFLINE_SAMPLES {
+        return Err(OperatorError::TooLarge {
+            what: RECORD,
+            value: samples,
+            max: MAX_OFFLINE_SAMPLES,
+        });
+    }
+    if epochs > MAX_OFFLINE_EPOCHS {
+        return Err(OperatorError::TooLarge {
+            what: EPOCHS,
+            value: epochs,
+            max: MAX_OFFLINE_EPOCHS,
+        });
+    }
+    Ok(())
+}
 
 impl Record {
     /// Room for one more sample and the entries a step makes (at most two transitions: a
     /// propagation and a renewal of the field offset), so that keeping them cannot fail.
     ///
     /// # Errors
-    /// [`OperatorError::TooLarge`] beyond [`MAX_OFFLINE_SAMPLES`] samples, or when the record
-    /// cannot grow.
+    /// [`OperatorError::TooLarge`] beyond [`MAX_OFFLINE_SAMPLES`] samples or
+    /// [`MAX_OFFLINE_EPOCHS`] epochs, or when the record cannot grow.
     pub(super) fn reserve(&mut self) -> Result<(), OperatorError> {
+        check_room(self.gyro.len(), self.transitions.len())?;
         let samples = self.gyro.len().saturating_add(1);
-        let too_large = || OperatorError::TooLarge {
+        let too_large = |_| OperatorError::TooLarge {
             what: RECORD,
             value: samples,
             max: MAX_OFFLINE_SAMPLES,
         };
-        if samples > MAX_OFFLINE_SAMPLES {
-            return Err(too_large());
-        }
-        self.gyro.try_reserve(1).map_err(|_| too_large())?;
-        self.filtered.try_reserve(2).map_err(|_| too_large())?;
-        self.epochs.try_reserve(2).map_err(|_| too_large())?;
-        self.transitions.try_reserve(2).map_err(|_| too_large())
+        self.gyro.try_reserve(1).map_err(too_large)?;
+        self.filtered.try_reserve(2).map_err(too_large)?;
+        self.epochs.try_reserve(2).map_err(too_large)?;
+        self.transitions.try_reserve(2).map_err(too_large)
     }
 
     /// Keeps a successful step's sample (a prediction's gyroscope, if any) and entries (within the
@@ -125,8 +152,15 @@ impl Record {
         params: &AttitudeParams,
         out: &mut Vec<AttitudeEstimate>,
     ) -> Result<(), OperatorError> {
-        // The current density is the last epoch's, for the backward pass only.
-        self.reserve()?;
+        // The current density is the last epoch's, for the backward pass only (room for it even
+        // when the record is full).
+        self.filtered
+            .try_reserve(1)
+            .map_err(|_| OperatorError::TooLarge {
+                what: EPOCHS,
+                value: self.filtered.len().saturating_add(1),
+                max: MAX_OFFLINE_EPOCHS,
+            })?;
         self.filtered.push(now.density.clone());
         let smoothed = smooth_records(
             &self.filtered[self.start..],
@@ -230,21 +264,23 @@ impl Smoothing for AttitudeEkf {
 mod tests {
     use super::*;
 
-    /// The record refuses the sample past its limit (it grew without one, up to what the
-    /// allocator would give), and grows up to it.
+    /// A step is refused past either limit (the samples', or the epochs' with the two a step
+    /// can make) and allowed up to it.
     #[test]
-    fn the_record_holds_at_most_its_limit() {
-        let mut record = Record {
-            gyro: vec![Vector3::zeros(); MAX_OFFLINE_SAMPLES - 1],
-            ..Record::default()
+    fn the_record_holds_at_most_its_limits() {
+        assert!(check_room(MAX_OFFLINE_SAMPLES - 1, MAX_OFFLINE_EPOCHS - 2).is_ok());
+        let refused = |samples, epochs| match check_room(samples, epochs) {
+            Err(OperatorError::TooLarge { what, value, max }) => (what, value, max),
+            other => panic!("{other:?}"),
         };
-        assert!(record.reserve().is_ok());
-        record.gyro.push(Vector3::zeros());
-        let error = record.reserve().unwrap_err();
-        assert!(
-            matches!(error, OperatorError::TooLarge { value, max, .. }
-                if value == MAX_OFFLINE_SAMPLES + 1 && max == MAX_OFFLINE_SAMPLES),
-            "{error}"
+        assert_eq!(
+            refused(MAX_OFFLINE_SAMPLES, 0),
+            (RECORD, MAX_OFFLINE_SAMPLES + 1, MAX_OFFLINE_SAMPLES)
+        );
+        // One epoch a sample (a low rate): the epochs' limit comes first.
+        assert_eq!(
+            refused(MAX_OFFLINE_EPOCHS - 1, MAX_OFFLINE_EPOCHS - 1),
+            (EPOCHS, MAX_OFFLINE_EPOCHS + 1, MAX_OFFLINE_EPOCHS)
         );
     }
 }
