@@ -58,7 +58,7 @@ class AttitudeFilter:
         readings; returns ``quat`` (n, 4), ``heading_sigma``, ``tilt_sigma`` (n,) (rad), ``bias``
         (n, 3) (rad/s), ``rest``, ``mag_disturbance`` (n,) (bool). All or nothing: a refused
         sample raises ``ValueError`` naming it and leaves the filter as before the call (a refused
-        first batch, or one of no samples, decides no ``sensors``). At most 2^28 samples; the
+        first batch, or one of no samples, decides no ``sensors``). At most 2^24 samples; the
         shapes and that size are checked before the arrays are read, and results that do not fit
         in memory raise ``ValueError`` before any sample is filtered. The GIL is released while
         filtering; a Ctrl-C meanwhile raises ``KeyboardInterrupt`` once the batch is done, the
@@ -110,8 +110,9 @@ def offline_attitude(
     w.r.t. East-North-Up, ``heading_sigma`` and ``tilt_sigma`` (n,) rad. Without ``mag``, 6D.
     Exactly one of ``dt`` (s) and ``rate`` (Hz); ``params`` as ``AttitudeFilter``'s, the rest at
     ``offline_default_params()``. At most 2^24 samples (checked before the arrays are read; results
-    that do not fit in memory raise ``ValueError`` before any work). Raises ``ValueError`` naming a
-    refused sample."""
+    that do not fit in memory raise ``ValueError`` before any work) and 2^20 epochs of the record
+    (a block each, 0.04 s by default: about 11.6 hours; at a low rate a block is a sample, and the
+    sample past the limit raises ``ValueError``). Raises ``ValueError`` naming a refused sample."""
 
 def offline_default_params() -> Dict[str, Any]:
     """The default keyword parameters of ``offline_attitude``."""

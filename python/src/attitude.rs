@@ -6,12 +6,12 @@
 //! it (predict with the gyroscope and accelerometer, then the magnetometer reading, then the
 //! estimate), so its output equals the `liebayes attitude` binary's bit for bit.
 
-use crate::arrays::{Real3, arg, real_number, shaped_float_array};
+use crate::arrays::{MAX_VALUES, Real3, arg, real_number, shaped_float_array};
 use crate::errors::{Stopped, check_signals_at, in_use, value_error};
 use liebayes_experiments::{RecursiveFilter, Smoothing};
 use liebayes_filters::attitude::{
-    AttitudeEkf, AttitudeEstimate, AttitudeParams, ImuSample, MAX_OFFLINE_SAMPLES, MAX_SAMPLES,
-    Propagation, Sensors, read_broad as read_broad_log,
+    AttitudeEkf, AttitudeEstimate, AttitudeParams, ImuSample, MAX_OFFLINE_SAMPLES, Propagation,
+    Sensors, read_broad as read_broad_log,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 use numpy::ndarray::{ArrayView2, Ix2};
@@ -100,6 +100,12 @@ impl Outputs {
     }
 }
 
+/// The most samples `update_batch` filters in one call: 2²⁴ (about 16 hours at 286 Hz), so that
+/// its outputs (four quaternion components, two sigmas, three biases and two flags a sample) stay
+/// within [`MAX_VALUES`] all together.
+const MAX_BATCH_SAMPLES: usize = 1 << 24;
+const _: () = assert!(MAX_BATCH_SAMPLES * 11 <= MAX_VALUES);
+
 /// An empty vector with room for `n` samples of `k` values each, or `ValueError` from `origin`
 /// saying that they do not fit in memory.
 fn reserved<T>(origin: &str, n: usize, k: usize) -> PyResult<Vec<T>> {
@@ -123,7 +129,8 @@ struct Batch<'py> {
 
 impl<'py> Batch<'py> {
     /// The arrays of a call from `origin`: every one (n, 3) with the same n, at most `max` rows
-    /// ([`MAX_SAMPLES`] for a batch, [`MAX_OFFLINE_SAMPLES`] offline); a `mag` of `None` is 6D.
+    /// ([`MAX_BATCH_SAMPLES`] for a batch, [`MAX_OFFLINE_SAMPLES`] offline); a `mag` of `None` is
+    /// 6D.
     /// Shapes and the size are checked before any array is converted or copied.
     fn read(
         origin: &str,
@@ -233,7 +240,7 @@ impl AttitudeFilter {
         mag: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         const ORIGIN: &str = "update_batch";
-        let Batch { gyr, acc, mag, n } = Batch::read(ORIGIN, MAX_SAMPLES, gyr, acc, mag)?;
+        let Batch { gyr, acc, mag, n } = Batch::read(ORIGIN, MAX_BATCH_SAMPLES, gyr, acc, mag)?;
         // Held until the call returns (see `in_use`), taken after the arguments are read.
         let mut this = slf.try_borrow_mut().map_err(|_| in_use("AttitudeFilter"))?;
         let (sensors, mut filter) = this.filter_for(mag.is_some())?;
