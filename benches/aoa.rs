@@ -2,22 +2,25 @@
 //! particle-updates per second (the von Mises-Fisher reweighting of Algorithm 1, serial and in
 //! parallel with rayon, and a whole step with the sampled random walk), the azimuth-elevation
 //! likelihood beside it, and the EKF and UKF per update with each model and the iterated EKF with
-//! the von Mises-Fisher model, all in one run.
+//! the von Mises-Fisher model, all in one run; and the maximum-likelihood fit of the
+//! azimuth-elevation model's σ.
 //! `cargo bench --bench aoa`; figures in docs/benchmarks.md.
 #![allow(missing_docs)]
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use liebayes::experiments::RecursiveFilter;
 use liebayes::filters::aoa::{
-    AngleNoise, AzEl, AzElModel, CheckedReadings, Prior, RandomWalk, UnitVectorModel, angle_ekf,
-    angle_ukf, square_track_anchors, vmf_ekf, vmf_iterated_ekf, vmf_particle_filter, vmf_ukf,
+    AngleNoise, AzEl, AzElModel, CheckedReadings, DataModel, Prior, RandomWalk, UnitVectorModel,
+    angle_ekf, angle_ukf, fit_angle_sigmas_to, square_track_anchors, vmf_ekf, vmf_iterated_ekf,
+    vmf_particle_filter, vmf_ukf,
 };
 use liebayes::operators::Condition;
 use liebayes::operators::Converted;
 use liebayes::operators::particle::{Reweight, ReweightInParallel};
 use nalgebra::Vector3;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::f64::consts::PI;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -132,5 +135,31 @@ fn kalman_updates(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, particle_updates, kalman_updates);
+/// The maximum-likelihood fit of the azimuth-elevation model's σ to 10⁵ Model I readings (the
+/// paper's sample size) at directions uniform on the sphere.
+fn sigma_fit(c: &mut Criterion) {
+    let data = DataModel::NormalWithFlip {
+        sigma_az: SIGMA,
+        sigma_el: SIGMA,
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let pairs: Vec<(AzEl, AzEl)> = (0..100_000)
+        .map(|_| {
+            // Uniform on the sphere: z uniform on [−1, 1], the longitude uniform.
+            let (z, phi) = (rng.random_range(-1.0..1.0_f64), rng.random_range(-PI..PI));
+            let rho = (1.0 - z * z).sqrt();
+            let truth = Vector3::new(rho * phi.cos(), rho * phi.sin(), z);
+            let reading = data.sample(&truth, &mut rng).unwrap();
+            (reading, AzEl::of_vector(&truth).unwrap())
+        })
+        .collect();
+    let mut g = c.benchmark_group("aoa sigma fit");
+    g.sample_size(10);
+    g.bench_function("AE-fitted sigmas, 1e5 readings", |b| {
+        b.iter(|| fit_angle_sigmas_to(black_box(&pairs)).unwrap());
+    });
+    g.finish();
+}
+
+criterion_group!(benches, particle_updates, kalman_updates, sigma_fit);
 criterion_main!(benches);

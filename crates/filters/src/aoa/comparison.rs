@@ -120,35 +120,100 @@ pub struct AngleSigmaFit {
     pub samples: usize,
 }
 
-/// Golden-section steps of the 1-D fits: the bracket `ln SIGMA_RANGE` (27.6 wide) shrinks by
-/// 0.618 per step, to below 1e-11 in 80.
-const GOLDEN_STEPS: usize = 80;
-
 /// The step in ln σ of the central differences of the standard errors.
 const DIFFERENCE_STEP: f64 = 1e-4;
 
-/// The maximum of the concave function `f` of `x ∈ [lo, hi]` by golden-section search.
-fn golden_maximum(lo: f64, hi: f64, f: impl Fn(f64) -> f64) -> f64 {
-    let ratio = 0.5 * (5f64.sqrt() - 1.0);
+/// The 1-D fits stop when the maximum is bracketed to this width in ln σ (the Monte Carlo
+/// standard error of ln σ is 1e-5 or more up to [`MAX_SAMPLES`] readings).
+const FIT_TOLERANCE: f64 = 1e-10;
+
+/// At most this many evaluations a 1-D fit: golden-section steps alone shrink the bracket
+/// `ln SIGMA_RANGE` (27.6 wide) below [`FIT_TOLERANCE`] in about 55, and Brent's method takes at
+/// most about twice a golden search's steps.
+const FIT_STEPS: usize = 100;
+
+/// The maximum of the unimodal function `f` of `x ∈ [lo, hi]`, by Brent's method: the bracket
+/// shrinks by a golden-section step, or by a step to the vertex of the parabola through the
+/// three best points when that vertex lies inside the bracket and the step is less than half the
+/// one before last (so the bracket shrinks at least as a golden search's every two steps). Smooth
+/// functions take mostly parabolic steps and converge superlinearly: 19 to 29 evaluations for a
+/// normal log likelihood in ln σ, where golden-section steps alone take about 55. Stops when the
+/// bracket is within [`FIT_TOLERANCE`] of the best point, after at most [`FIT_STEPS`] evaluations.
+fn unimodal_maximum(lo: f64, hi: f64, f: impl Fn(f64) -> f64) -> f64 {
+    // (3 − √5)/2: the golden section of a bracket.
+    let golden = 0.5 * (3.0 - 5f64.sqrt());
     let (mut a, mut b) = (lo, hi);
-    let (mut x1, mut x2) = (b - ratio * (b - a), a + ratio * (b - a));
-    let (mut f1, mut f2) = (f(x1), f(x2));
-    for _ in 0..GOLDEN_STEPS {
-        if f1 >= f2 {
-            b = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = b - ratio * (b - a);
-            f1 = f(x1);
+    // The best point x, the second best w, the one before v, and their values (of −f, minimised).
+    let mut x = a + golden * (b - a);
+    let mut fx = -f(x);
+    let (mut w, mut fw, mut v, mut fv) = (x, fx, x, fx);
+    // The last step, and the one before it.
+    let (mut step, mut previous) = (0.0_f64, 0.0_f64);
+    for _ in 1..FIT_STEPS {
+        let middle = 0.5 * (a + b);
+        let tolerance = 0.5 * FIT_TOLERANCE;
+        if (x - middle).abs() <= 2.0 * tolerance - 0.5 * (b - a) {
+            break;
+        }
+        let mut parabolic = false;
+        if previous.abs() > tolerance {
+            // The vertex of the parabola through (v, fv), (w, fw), (x, fx), as x + p/q.
+            let r = (x - w) * (fx - fv);
+            let t = (x - v) * (fx - fw);
+            let mut p = (x - v) * t - (x - w) * r;
+            let mut q = 2.0 * (t - r);
+            if q > 0.0 {
+                p = -p;
+            } else {
+                q = -q;
+            }
+            let before_last = previous;
+            previous = step;
+            if p.abs() < (0.5 * q * before_last).abs() && p > q * (a - x) && p < q * (b - x) {
+                step = p / q;
+                let u = x + step;
+                // Not within the tolerance of the bracket's ends.
+                if u - a < 2.0 * tolerance || b - u < 2.0 * tolerance {
+                    step = tolerance.copysign(middle - x);
+                }
+                parabolic = true;
+            }
+        }
+        if !parabolic {
+            // Golden section of the larger part of the bracket.
+            previous = if x >= middle { a - x } else { b - x };
+            step = golden * previous;
+        }
+        let u = if step.abs() >= tolerance {
+            x + step
         } else {
-            a = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = a + ratio * (b - a);
-            f2 = f(x2);
+            x + tolerance.copysign(step)
+        };
+        let fu = -f(u);
+        if fu <= fx {
+            if u >= x {
+                a = x;
+            } else {
+                b = x;
+            }
+            (v, fv) = (w, fw);
+            (w, fw) = (x, fx);
+            (x, fx) = (u, fu);
+        } else {
+            if u < x {
+                a = u;
+            } else {
+                b = u;
+            }
+            if fu <= fw || w == x {
+                (v, fv) = (w, fw);
+                (w, fw) = (u, fu);
+            } else if fu <= fv || v == x || v == w {
+                (v, fv) = (u, fu);
+            }
         }
     }
-    if f1 >= f2 { x1 } else { x2 }
+    x
 }
 
 /// The maximum-likelihood `(σ_az, σ_el)` of the azimuth-elevation model [`az_el_log_density`] for
@@ -157,7 +222,7 @@ fn golden_maximum(lo: f64, hi: f64, f: impl Fn(f64) -> f64) -> f64 {
 /// The log likelihood `Σᵢ ln p(yᵢ | y₀ᵢ; σ_az, σ_el)` is the sum of an azimuth part (σ_az only: the
 /// wrapped normal truncated to (−π, π]) and an elevation part (σ_el only: the normal truncated to
 /// [−π/2, π/2]); each is concave in `−1/(2σ²)` (an exponential family in it), hence unimodal in
-/// ln σ, and is maximised by golden-section search on ln σ over [`SIGMA_RANGE`]. The standard
+/// ln σ, and is maximised on ln σ over [`SIGMA_RANGE`] by Brent's method. The standard
 /// errors are the sandwich (robust: the data need not come from the model) estimate
 /// `se(ln σ) = √(Σᵢ sᵢ²) / |Σᵢ hᵢ|` with `sᵢ`, `hᵢ` the first and second derivatives of the i-th
 /// term in ln σ (central differences), `se(σ) = σ se(ln σ)`.
@@ -174,22 +239,33 @@ pub fn fit_angle_sigmas_to(pairs: &[(AzEl, AzEl)]) -> Result<AngleSigmaFit, Oper
         y0.check_canonical()?;
     }
     let range = (SIGMA_RANGE.0.ln(), SIGMA_RANGE.1.ln());
-    // Checked above, and σ stays in SIGMA_RANGE: the density's own checks are not repeated.
-    let term =
-        |(y, y0): &(AzEl, AzEl), az: f64, el: f64| AngleSigmas::new(az, el).log_density(y, y0);
-    let total = |az: f64, el: f64| pairs.iter().map(|p| term(p, az, el)).sum::<f64>();
-    // The other σ is held at 1 rad: its part is a constant of each search.
-    let ln_az = golden_maximum(range.0, range.1, |x| total(x.exp(), 1.0));
-    let ln_el = golden_maximum(range.0, range.1, |x| total(1.0, x.exp()));
-    let se = |ln_sigma: f64, at: &dyn Fn(&(AzEl, AzEl), f64) -> f64| {
+    // Checked above, and σ stays in SIGMA_RANGE: the density's own checks are not repeated. The
+    // log likelihood is the azimuth's part plus the elevation's, each of one σ, so each search
+    // sums its own part (the other σ's value is immaterial: 1 rad), with the σ's constants
+    // computed once per σ.
+    let azimuth = |sigma: f64| AngleSigmas::new(sigma, 1.0);
+    let elevation = |sigma: f64| AngleSigmas::new(1.0, sigma);
+    let azimuth_term = |s: &AngleSigmas, (y, y0): &(AzEl, AzEl)| s.azimuth_term(y, y0);
+    let elevation_term = |s: &AngleSigmas, (y, y0): &(AzEl, AzEl)| s.elevation_term(y, y0);
+    let total = |s: AngleSigmas, term: &dyn Fn(&AngleSigmas, &(AzEl, AzEl)) -> f64| {
+        pairs.iter().map(|p| term(&s, p)).sum::<f64>()
+    };
+    let ln_az = unimodal_maximum(range.0, range.1, |x| total(azimuth(x.exp()), &azimuth_term));
+    let ln_el = unimodal_maximum(range.0, range.1, |x| {
+        total(elevation(x.exp()), &elevation_term)
+    });
+    let se = |ln_sigma: f64,
+              at: &dyn Fn(f64) -> AngleSigmas,
+              term: &dyn Fn(&AngleSigmas, &(AzEl, AzEl)) -> f64| {
         let h = DIFFERENCE_STEP;
+        let (minus, centre, plus) = (
+            at((ln_sigma - h).exp()),
+            at(ln_sigma.exp()),
+            at((ln_sigma + h).exp()),
+        );
         let (mut scores, mut curvature) = (0.0, 0.0);
         for p in pairs {
-            let (minus, centre, plus) = (
-                at(p, (ln_sigma - h).exp()),
-                at(p, ln_sigma.exp()),
-                at(p, (ln_sigma + h).exp()),
-            );
+            let (minus, centre, plus) = (term(&minus, p), term(&centre, p), term(&plus, p));
             scores += ((plus - minus) / (2.0 * h)).powi(2);
             curvature += (plus - 2.0 * centre + minus) / (h * h);
         }
@@ -210,8 +286,8 @@ pub fn fit_angle_sigmas_to(pairs: &[(AzEl, AzEl)]) -> Result<AngleSigmaFit, Oper
     Ok(AngleSigmaFit {
         sigma_az: ln_az.exp(),
         sigma_el: ln_el.exp(),
-        sigma_az_se: se(ln_az, &|p, s| term(p, s, 1.0))?,
-        sigma_el_se: se(ln_el, &|p, s| term(p, 1.0, s))?,
+        sigma_az_se: se(ln_az, &azimuth, &azimuth_term)?,
+        sigma_el_se: se(ln_el, &elevation, &elevation_term)?,
         samples: pairs.len(),
     })
 }
@@ -376,4 +452,52 @@ pub fn compare_models<R: Rng + ?Sized>(
         covariance: std::array::from_fn(|i| std::array::from_fn(|j| covariance[(i, j)])),
         samples,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::Cell;
+
+    /// The maximum and the number of evaluations it took.
+    fn counted(lo: f64, hi: f64, f: impl Fn(f64) -> f64) -> (f64, usize) {
+        let calls = Cell::new(0);
+        let x = unimodal_maximum(lo, hi, |x| {
+            calls.set(calls.get() + 1);
+            f(x)
+        });
+        (x, calls.get())
+    }
+
+    /// A normal log likelihood in ln σ, `−S e^{−2x}/2 − n x` (maximum at `x = ln √(S/n)`), found
+    /// to the rounding of its values in far fewer evaluations than a golden-section search's 55; a
+    /// bracket
+    /// end when the function is monotone; and a flat function stops within its bound.
+    #[test]
+    fn brent_finds_the_maximum_in_few_evaluations() {
+        let range = (SIGMA_RANGE.0.ln(), SIGMA_RANGE.1.ln());
+        for (sum, n) in [(4.0, 100.0), (1e-6, 1e4), (3e5, 7.0), (1e-9, 1.0)] {
+            let (x, calls) = counted(range.0, range.1, |x| -0.5 * sum * (-2.0 * x).exp() - n * x);
+            let exact = (sum / n).sqrt().ln();
+            eprintln!(
+                "S = {sum}, n = {n}: {calls} evaluations, error {:.1e}",
+                x - exact
+            );
+            assert!((x - exact).abs() < 1e-8, "{x} against {exact}");
+            assert!(calls <= 35, "{calls} evaluations");
+        }
+        let (x, _) = counted(range.0, range.1, |x| x);
+        assert!(range.1 - x < 1e-9, "{x}");
+        let (x, _) = counted(range.0, range.1, |x| -x);
+        assert!(x - range.0 < 1e-9, "{x}");
+        let (x, calls) = counted(range.0, range.1, |_| 0.0);
+        assert!(
+            calls <= FIT_STEPS && (range.0..=range.1).contains(&x),
+            "{calls} {x}"
+        );
+        // A kink: parabolas fit it badly, golden steps still close in.
+        let (x, calls) = counted(range.0, range.1, |x| -(x - 0.3).abs());
+        eprintln!("kink: {calls} evaluations, error {:.1e}", x - 0.3);
+        assert!((x - 0.3).abs() < 1e-9 && calls <= FIT_STEPS);
+    }
 }

@@ -147,16 +147,44 @@ impl AngleSigmas {
         if y.elevation.abs() > FRAC_PI_2 {
             return f64::NEG_INFINITY;
         }
+        let za = self.azimuth_residual(y, predicted);
+        let (ze, mass) = self.elevation_residual(y, predicted);
+        -0.5 * (za * za + ze * ze) + self.azimuth_constant + self.elevation_constant - mass
+    }
+
+    /// The azimuth's part of [`log_density`](Self::log_density) (σ_az alone):
+    /// `ln N(wrap(y_az − az₀); 0, σ_az²) − ln[Φ(π/σ_az) − Φ(−π/σ_az)]`.
+    pub(crate) fn azimuth_term(&self, y: &AzEl, predicted: &AzEl) -> f64 {
+        let za = self.azimuth_residual(y, predicted);
+        -0.5 * za * za + self.azimuth_constant
+    }
+
+    /// The elevation's part of [`log_density`](Self::log_density) (σ_el alone; −∞ for an
+    /// elevation outside [−π/2, π/2]).
+    pub(crate) fn elevation_term(&self, y: &AzEl, predicted: &AzEl) -> f64 {
+        if y.elevation.abs() > FRAC_PI_2 {
+            return f64::NEG_INFINITY;
+        }
+        let (ze, mass) = self.elevation_residual(y, predicted);
+        -0.5 * ze * ze + self.elevation_constant - mass
+    }
+
+    /// The wrapped azimuth residual in units of σ_az.
+    fn azimuth_residual(&self, y: &AzEl, predicted: &AzEl) -> f64 {
         // Each wrapped first: the difference of two azimuths near ±f64::MAX overflows to ±∞,
         // which wraps to NaN.
-        let za = wrap_angle(wrap_angle(y.azimuth) - wrap_angle(predicted.azimuth)) / self.sigma_az;
+        wrap_angle(wrap_angle(y.azimuth) - wrap_angle(predicted.azimuth)) / self.sigma_az
+    }
+
+    /// The elevation residual in units of σ_el, and the log of the normal's mass on
+    /// [−π/2, π/2] about the predicted elevation.
+    fn elevation_residual(&self, y: &AzEl, predicted: &AzEl) -> (f64, f64) {
         let el0 = predicted.elevation;
-        let ze = (y.elevation - el0) / self.sigma_el;
         let mass = log_normal_mass(
             (-FRAC_PI_2 - el0) / self.sigma_el,
             (FRAC_PI_2 - el0) / self.sigma_el,
         );
-        -0.5 * (za * za + ze * ze) + self.azimuth_constant + self.elevation_constant - mass
+        ((y.elevation - el0) / self.sigma_el, mass)
     }
 }
 
