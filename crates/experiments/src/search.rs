@@ -4,6 +4,7 @@
 //! a tolerance of a reference filter's ([`smallest_to_match`]).
 
 use crate::{ExperimentError, Summary};
+use liebayes_manifolds::Readable;
 
 /// The smallest `n` in `[low, high]` for which `passes(n)` holds, for a `passes` that is false below
 /// some threshold and true from it on (a study's figure against a target, for example "the particle
@@ -63,7 +64,7 @@ fn check_interval(low: u64, high: u64, resolution: f64) -> Result<(), Experiment
     if !(resolution > 0.0 && resolution <= 1.0) {
         return Err(ExperimentError::OutOfRange {
             what: "search resolution",
-            value: resolution.to_string(),
+            value: Readable(resolution).to_string(),
             range: "(0, 1]",
         });
     }
@@ -96,7 +97,7 @@ impl SearchSettings {
         if !(self.tolerance > 0.0 && self.tolerance <= 10.0) {
             return Err(ExperimentError::OutOfRange {
                 what: "tolerance",
-                value: self.tolerance.to_string(),
+                value: Readable(self.tolerance).to_string(),
                 range: "(0, 10]",
             });
         }
@@ -189,7 +190,7 @@ pub fn smallest_to_match<E: From<ExperimentError>>(
     if !(target.is_finite() && target > 0.0) {
         return Err(ExperimentError::OutOfRange {
             what: "target score",
-            value: target.to_string(),
+            value: Readable(target).to_string(),
             range: "finite and positive",
         }
         .into());

@@ -4,6 +4,7 @@
 use crate::attitude::DataError;
 use liebayes_densities::DensityError;
 use liebayes_experiments::RunFailure;
+use liebayes_manifolds::Readable;
 use liebayes_operators::{MAX_ELEMENTS, OperatorError};
 use thiserror::Error;
 
@@ -34,7 +35,7 @@ pub enum FilterError {
     #[error(transparent)]
     Density(#[from] DensityError),
     /// A run of a filter over a log stopped at a sample.
-    #[error("{origin}: sample {sample} (t = {time} s): {source}")]
+    #[error("{origin}: sample {sample} (t = {} s): {source}", Readable(*.time))]
     Step {
         /// The log (a file name or a trial).
         origin: String,
@@ -92,7 +93,7 @@ pub(crate) fn setting_in(
         Err(FilterError::Setting {
             origin,
             setting,
-            value: value.to_string(),
+            value: Readable(value).to_string(),
             expected,
         })
     }

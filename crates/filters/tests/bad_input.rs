@@ -964,8 +964,8 @@ fn a_motion_at_a_time_that_is_not_finite_has_no_velocity() {
 }
 
 /// A subnormal sampling rate made a log's interval infinite and its first sample's time NaN;
-/// logs, simulations and the attitude filters now take rates in [1e-3, 1e6] Hz. An evaluation of
-/// no logs has no mean errors (it was 0/0).
+/// logs, simulations and the attitude filters now take rates in [1e-3, 1e6] Hz, and say so
+/// legibly. An evaluation of no logs has no mean errors (it was 0/0).
 #[test]
 fn attitude_rates_outside_their_range_are_refused() {
     use liebayes_filters::attitude::{
@@ -984,6 +984,11 @@ fn attitude_rates_outside_their_range_are_refused() {
     }
     let log = ImuLog::new(RATE_RANGE.0, samples(), samples(), None).unwrap();
     assert!(log.interval().is_finite());
+    // The message shows 1e300 as that, not as its 301 digits.
+    let message = AttitudeEkf::new(AttitudeParams::default(), Sensors::SixD, 1e300)
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("is 1e300,"), "{message}");
     let empty = Evaluation {
         trials: Vec::new(),
         methods: vec!["a method".into()],

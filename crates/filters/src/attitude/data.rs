@@ -1,6 +1,7 @@
 //! [`ImuLog`]: a recorded (or simulated) IMU log, validated, and [`DataError`], what can go wrong
 //! in reading or building one.
 
+use liebayes_manifolds::Readable;
 use liebayes_operators::OperatorError;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use thiserror::Error;
@@ -22,7 +23,7 @@ pub(crate) fn check_rate(origin: &'static str, rate: f64) -> Result<(), crate::F
     Err(crate::FilterError::Setting {
         origin,
         setting: "rate",
-        value: rate.to_string(),
+        value: Readable(rate).to_string(),
         expected: "a rate in [1e-3, 1e6] Hz",
     })
 }
@@ -237,7 +238,7 @@ impl ImuLog {
                 origin: origin.to_owned(),
                 variable: "sampling_rate".to_owned(),
                 row: 0,
-                value: rate.to_string(),
+                value: Readable(rate).to_string(),
                 expected: "a rate in [1e-3, 1e6] Hz",
             });
         }

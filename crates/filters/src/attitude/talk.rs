@@ -15,7 +15,7 @@ use super::madgwick::{broad_initial_state, enu_from_nwu};
 use crate::error::{FilterError, positive_setting};
 use liebayes_densities::Bingham;
 use liebayes_experiments::{RecursiveFilter, Update};
-use liebayes_manifolds::Su2;
+use liebayes_manifolds::{Readable, Su2};
 use liebayes_operators::OperatorError;
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
 
@@ -125,7 +125,7 @@ impl TalkParams {
                 return Err(FilterError::Setting {
                     origin,
                     setting,
-                    value: value.to_string(),
+                    value: Readable(value).to_string(),
                     expected: "a direction noise in [1e-5, 1e150] (a smaller one makes a \
                                reading's Bingham nearly as concentrated as it can be)",
                 });
@@ -135,7 +135,7 @@ impl TalkParams {
             return Err(FilterError::Setting {
                 origin,
                 setting: "initial_sigma",
-                value: self.initial_sigma.to_string(),
+                value: Readable(self.initial_sigma).to_string(),
                 expected: "a standard deviation in [1.5e-6, pi] rad (the initial Bingham \
                            must have a mode and a spread it can hold)",
             });

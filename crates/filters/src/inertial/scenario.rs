@@ -7,7 +7,7 @@ use crate::FilterError;
 use crate::error::{SIGMA_RANGE, setting_in};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_experiments::{ExperimentError, MAX_EPOCHS, Scenario, Step};
-use liebayes_manifolds::{LieGroup, So3};
+use liebayes_manifolds::{LieGroup, Readable, So3};
 use nalgebra::{SMatrix, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -102,7 +102,7 @@ impl InertialConfig {
             |setting: &'static str, value: f64, expected: &'static str| FilterError::Setting {
                 origin: ORIGIN,
                 setting,
-                value: value.to_string(),
+                value: Readable(value).to_string(),
                 expected,
             };
         setting_in(

@@ -1,6 +1,7 @@
 //! The production filter's settings: one parameter set, checked once.
 
 use crate::error::{FilterError, positive_setting, sigma_setting};
+use liebayes_manifolds::Readable;
 use nalgebra::{Matrix3, Vector3};
 
 /// The operator that propagates the Gaussian over a block ([`BlockProcess`](super::BlockProcess)); the measurement
@@ -296,7 +297,7 @@ impl AttitudeParams {
             return Err(FilterError::Setting {
                 origin: o,
                 setting: "initial_heading_sigma",
-                value: self.initial_heading_sigma.to_string(),
+                value: Readable(self.initial_heading_sigma).to_string(),
                 expected: "a standard deviation in [1e-6, 1e4] rad (a smaller initial heading \
                            variance rounds away beside the tilt's)",
             });
@@ -314,7 +315,7 @@ impl AttitudeParams {
                 return Err(FilterError::Setting {
                     origin: o,
                     setting,
-                    value: delay.to_string(),
+                    value: Readable(delay).to_string(),
                     expected,
                 });
             }
@@ -323,7 +324,7 @@ impl AttitudeParams {
             return Err(FilterError::Setting {
                 origin: o,
                 setting: "tilt_variance_scale",
-                value: self.tilt_variance_scale.to_string(),
+                value: Readable(self.tilt_variance_scale).to_string(),
                 expected: "a factor in [1e-6, 1e6]",
             });
         }
