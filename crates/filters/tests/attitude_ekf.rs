@@ -901,3 +901,31 @@ fn a_reading_without_a_horizontal_field_makes_no_heading_update() {
     let (a, b) = (normal.covariance.unwrap(), tiny.covariance.unwrap());
     assert!((a - b).amax() < 1e-9 * a.amax(), "{a} vs {b}");
 }
+
+/// The magnetometer's unit is any: readings scaled by 1e-300 or 1e-160 (whose squares underflow)
+/// or by 1e7 (near `MAX_FIELD`) give the orientation the same readings give unscaled. The first
+/// tiny reading was refused as a zero field ("magnetometer reading (its norm) is 0").
+#[test]
+fn the_magnetometer_reading_is_scale_free() {
+    let log = simulated(4, 600);
+    let mag = log.magnetometer().expect("a 9D log");
+    let run = |scale: f64| {
+        let mut filter =
+            AttitudeEkf::new(AttitudeParams::default(), Sensors::NineD, log.rate()).unwrap();
+        for ((gyro, acc), m) in log.gyroscope().iter().zip(log.accelerometer()).zip(mag) {
+            filter
+                .predict(&ImuSample {
+                    gyro: *gyro,
+                    acc: *acc,
+                })
+                .unwrap();
+            filter.update(&(m * scale)).unwrap();
+        }
+        filter.estimate().unwrap().orientation
+    };
+    let unscaled = run(1.0);
+    for scale in [1e-300, 1e-160, 1e7] {
+        let angle = run(scale).angle_to(&unscaled);
+        assert!(angle < 1e-9, "scale {scale}: {angle} rad apart");
+    }
+}

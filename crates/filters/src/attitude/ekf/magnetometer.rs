@@ -14,12 +14,26 @@ pub(crate) struct FieldReference {
 }
 
 impl FieldReference {
-    /// The norm and dip of a field `world` in the world frame (ENU), `None` for a zero field.
+    /// The norm and dip of a field `world` in the world frame (ENU), `None` for a zero or
+    /// non-finite field. Scale-free (the reading's unit is any): a field whose squares underflow
+    /// or overflow (1e-300 or 1e200 in its unit) is measured scaled by its largest component.
     pub fn of(world: &Vector3<f64>) -> Option<Self> {
         let norm = world.norm();
-        (norm > 0.0 && norm.is_finite()).then(|| Self {
-            norm,
-            dip: (world.z / norm).clamp(-1.0, 1.0).asin(),
+        if norm.is_normal() {
+            return Some(Self {
+                norm,
+                dip: (world.z / norm).clamp(-1.0, 1.0).asin(),
+            });
+        }
+        let scale = world.amax();
+        if !(scale > 0.0 && scale.is_finite()) {
+            return None;
+        }
+        let unit = world / scale;
+        let length = unit.norm();
+        Some(Self {
+            norm: length * scale,
+            dip: (unit.z / length).clamp(-1.0, 1.0).asin(),
         })
     }
 
