@@ -126,9 +126,10 @@ class ExactAzimuthFilter:
     def __new__(
         cls, q: float, sigma_m: float, r0: Optional[ArrayLike] = None, sigma0: float = 1.0
     ) -> "ExactAzimuthFilter":
-        """The filter with velocity noise density `q` in [0, 1e150] m/sqrt(s), position noise
-        `sigma_m` in [1.5e-154, 1e150] m, and the prior r ~ N(r0, sigma0^2 I) (r0 shape (2,),
-        default the origin; sigma0 in [1.5e-154, 1e150] m) with A uniform.
+        """The filter with velocity noise density `q` in [0, 1e49] m/sqrt(s), position noise
+        `sigma_m` in [1e-49, 1e49] m, and the prior r ~ N(r0, sigma0^2 I) (r0 shape (2,), its
+        components within +-1e100 m, default the origin; sigma0 in [1e-49, 1e49] m) with A
+        uniform: the settings every azimuth filter accepts, so that each can run them.
 
         Raises ValueError for a value out of range or r0 not of shape (2,)."""
     def predict(self, velocity: ArrayLike, dt: float) -> None:
