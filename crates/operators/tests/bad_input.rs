@@ -1,6 +1,7 @@
 //! Bad input never panics, hangs, aborts or silently yields NaN. Every public constructor and operator
-//! of the crate (Kalman filter, EKF, UKF, particle set, resampling, grid, composites, smoother,
-//! the iterated smoother's block Jacobian, evaluation metrics) is fed NaN, ±∞, ±MAX, subnormals, zeros, singular and indefinite covariances and huge
+//! of the crate (Kalman filter, EKF, UKF, their iterated updates, particle set, resampling, grid,
+//! composites, the RTS, fixed-lag and iterated smoothers, the iterated smoother's block Jacobian,
+//! evaluation metrics) is fed NaN, ±∞, ±MAX, subnormals, zeros, singular and indefinite covariances and huge
 //! sizes, each call on its own thread under a time limit; it must return an error or a finite result,
 //! and a container stepped in place must be exactly as it was after an error. The fixed cases at the
 //! end are the regressions of reported failures (`LIEBAYES_FUZZ_CASES` runs the properties long).
@@ -10,8 +11,13 @@ use liebayes_manifolds::{Manifold, Rn, So2};
 use liebayes_operators::evaluation::{
     average_nees_band, chi_square_quantile, circular_consistency, nees,
 };
+use liebayes_operators::fixed_lag::FixedLagSmoother;
 use liebayes_operators::grid::{CircularGrid, Diffusion};
-use liebayes_operators::iterated_smoother::{Backend, BlockJacobian};
+use liebayes_operators::iterated::IterationSettings;
+use liebayes_operators::iterated_smoother::{
+    Backend, BlockJacobian, GaussNewton, IteratedSmoother, MAX_HALVINGS,
+    MAX_ITERATIONS as MAX_GAUSS_NEWTON_ITERATIONS,
+};
 use liebayes_operators::kalman::{LinearMeasurement, LinearProcess};
 use liebayes_operators::particle::{
     Given, LikelihoodFn, ParticleSet, Resampling, Reweight, SampleFn, Sampled, finite_point,
@@ -20,7 +26,8 @@ use liebayes_operators::particle::{
 use liebayes_operators::rao_blackwell::RotatedMeasurement;
 use liebayes_operators::smoother::RtsSmoother;
 use liebayes_operators::{
-    Condition, Ekf, MAX_ELEMENTS, MeasurementFn, OperatorError, ProcessFn, Propagate, Ukf,
+    Condition, Ekf, IteratedEkf, IteratedUkf, MAX_ELEMENTS, MeasurementFn, MeasurementModel,
+    OperatorError, ProcessFn, ProcessModel, Propagate, Ukf,
 };
 use liebayes_reference::fuzz::{self, size, value};
 use nalgebra::{DMatrix, Matrix1, Matrix2, Matrix2x3, SMatrix, SVector, Vector1, Vector2};
@@ -502,6 +509,187 @@ fn smoother() {
                 }
                 Ok(())
             });
+        },
+    );
+}
+
+/// A heading on SO(2) at 1 rad, a gyro turning it by `rate` with noise `q`, and a compass that
+/// reads `scale · sin θ` with noise `r`: the nonlinear models of the iterated cases.
+fn heading_models(
+    rate: f64,
+    q: f64,
+    scale: f64,
+    r: f64,
+) -> (
+    ManifoldGaussian<So2<f64>, 1>,
+    impl ProcessModel<So2<f64>, 1, Input = ()>,
+    impl MeasurementModel<So2<f64>, 1, 1>,
+) {
+    let heading = ManifoldGaussian::new(So2::from_angle_unchecked(1.0), Matrix1::new(0.2)).unwrap();
+    let gyro = ProcessFn::new(
+        move |x: &So2<f64>, (): &()| x.retract(&Vector1::new(rate)),
+        move |_, ()| Matrix1::new(q),
+    );
+    let sine = MeasurementFn::new(
+        move |x: &So2<f64>| Vector1::new(scale * x.angle().sin()),
+        move |_| Matrix1::new(r),
+    );
+    (heading, gyro, sine)
+}
+
+/// The iterated updates (EKF and posterior-linearised UKF, default and fuzzed settings) with
+/// nasty models: a finite result or an error.
+#[test]
+fn iterated_updates() {
+    fuzz::run(
+        "iterated updates",
+        (
+            (value(), value(), value(), value()),
+            (covariance::<2>(), value(), size(MAX_ELEMENTS)),
+        ),
+        |((scale, r, z, tolerance), (p, q, iterations))| {
+            fuzz::case("iterated updates", move || -> Result<(), TestCaseError> {
+                let (heading, _, sine) = heading_models(0.0, q, scale, r);
+                let position = ManifoldGaussian::new(Rn::new_unchecked(Vector2::new(1.0, 2.0)), p)
+                    .unwrap_or_else(|_| {
+                        ManifoldGaussian::new(
+                            Rn::new_unchecked(Vector2::zeros()),
+                            Matrix2::identity(),
+                        )
+                        .unwrap()
+                    });
+                let range = MeasurementFn::new(
+                    move |x: &Rn<f64, 2>| Vector1::new(x.coords().norm() * scale),
+                    move |_| Matrix1::new(r),
+                );
+                let z = Vector1::new(z);
+                // At most 50 iterations: the range goes to 1000, but not this test's time.
+                let settings = IterationSettings::new(tolerance, iterations.min(50));
+                prop_assert_eq!(
+                    settings.is_ok(),
+                    tolerance.is_finite() && tolerance >= 0.0 && iterations >= 1
+                );
+                let settings = settings.unwrap_or_default();
+                let mut ekf = IteratedEkf::new(&sine);
+                ekf.settings = settings;
+                let mut ukf = IteratedUkf::new(&sine);
+                ukf.settings = settings;
+                for step in [heading.condition(&ekf, &z), heading.condition(&ukf, &z)]
+                    .into_iter()
+                    .flatten()
+                {
+                    prop_assert!(finite_manifold_gaussian(&step.posterior));
+                    prop_assert!(step.log_evidence.is_finite() && step.report.nis().is_finite());
+                }
+                for step in [
+                    position.condition(&IteratedEkf::new(&range), &z),
+                    position.condition(&IteratedUkf::new(&range), &z),
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    prop_assert!(finite_manifold_gaussian(&step.posterior));
+                    prop_assert!(step.log_evidence.is_finite());
+                }
+                Ok(())
+            });
+        },
+    );
+}
+
+/// The fixed-lag smoother from fuzzed lag and step times, and the iterated smoother's recorder
+/// and Gauss-Newton smoothing with fuzzed settings, with nasty models: a finite result or an
+/// error, and a smoother stepped in place is as it was after an error.
+#[test]
+fn lagged_and_iterated_smoothers() {
+    fuzz::run(
+        "lagged and iterated smoothers",
+        (
+            (value(), value(), value(), value(), value()),
+            (value(), value(), value()),
+            (size(MAX_ELEMENTS), size(MAX_ELEMENTS), size(MAX_ELEMENTS)),
+        ),
+        |(
+            (rate, q, scale, r, z),
+            (lag_seconds, step_seconds, tolerance),
+            (iterations, halvings, records),
+        )| {
+            fuzz::case(
+                "lagged and iterated smoothers",
+                move || -> Result<(), TestCaseError> {
+                    let (heading, gyro, sine) = heading_models(rate, q, scale, r);
+                    let z = Vector1::new(z);
+                    // A lag of at most 40 epochs is made (a longer one is a valid size, but not this
+                    // test's allocation).
+                    if let Some(mut lagged) = FixedLagSmoother::with_lag_seconds(
+                        heading.clone(),
+                        lag_seconds,
+                        step_seconds,
+                    )
+                    .ok()
+                    .filter(|s| s.lag() <= 40)
+                    {
+                        for _ in 0..3 {
+                            let before = lagged.clone();
+                            if lagged.propagate(&Ekf(&gyro), &()).is_err() {
+                                prop_assert!(lagged == before);
+                            }
+                            let before = lagged.clone();
+                            if lagged.condition(&IteratedEkf::new(&sine), &z).is_err() {
+                                prop_assert!(lagged == before);
+                            }
+                        }
+                        if let Some(window) = fuzz::counted(lagged.smooth()) {
+                            prop_assert!(window.iter().all(finite_manifold_gaussian));
+                        }
+                    }
+                    prop_assert_eq!(
+                        IteratedSmoother::<So2<f64>, (), 1, 1>::with_capacity(
+                            heading.clone(),
+                            records,
+                            3
+                        )
+                        .is_ok(),
+                        records <= 40
+                    );
+                    let mut smoother = IteratedSmoother::<So2<f64>, (), 1, 1>::new(heading);
+                    for _ in 0..3 {
+                        let before = smoother.forward().filtered().len();
+                        if smoother.propagate(&gyro, &()).is_err() {
+                            prop_assert_eq!(smoother.forward().filtered().len(), before);
+                        }
+                        let _ = smoother.condition(&sine, &z);
+                    }
+                    let gauss_newton = GaussNewton {
+                        tolerance,
+                        max_iterations: iterations,
+                        max_halvings: halvings,
+                    };
+                    prop_assert_eq!(
+                        gauss_newton.validate().is_ok(),
+                        tolerance.is_finite()
+                            && tolerance >= 0.0
+                            && iterations <= MAX_GAUSS_NEWTON_ITERATIONS
+                            && halvings <= MAX_HALVINGS
+                    );
+                    // At most 50 iterations, as above.
+                    let settings = if iterations <= 50 {
+                        gauss_newton
+                    } else {
+                        GaussNewton::default()
+                    };
+                    for smoothed in [
+                        smoother.smooth(&gyro, &sine),
+                        smoother.smooth_with(&gyro, &sine, &settings),
+                    ]
+                    .into_iter()
+                    .flatten()
+                    {
+                        prop_assert!(smoothed.densities.iter().all(finite_manifold_gaussian));
+                    }
+                    Ok(())
+                },
+            );
         },
     );
 }
