@@ -1478,7 +1478,8 @@ fn simulate_refuses_a_non_unit_initial_orientation() {
 
 /// `ImuLog::with_reference` refuses a reference orientation that is not finite or whose norm is
 /// further than `REFERENCE_NORM_TOLERANCE` (1e-3, the readers' tolerance) from 1, naming its
-/// sample; `None` and a norm within the tolerance (1 + 5e-4) are accepted.
+/// sample; `None` and a norm within the tolerance (1 + 5e-4) are accepted, and kept normalised
+/// (a reference 5e-4 off the unit sphere was kept as given).
 #[test]
 fn with_reference_refuses_non_unit_orientations() {
     let v = vec![Vector3::new(0.0, 0.0, 9.81); 3];
@@ -1509,6 +1510,8 @@ fn with_reference_refuses_non_unit_orientations() {
         ])
         .expect("unit within the tolerance");
     assert_eq!(accepted.len(), 3);
+    let kept = accepted.reference().expect("a reference")[1].expect("known");
+    assert!((kept.coords.norm() - 1.0).abs() <= f64::EPSILON, "{kept:?}");
 }
 
 /// The simulated log's movement mask is allocated fallibly (audit F8), like its other buffers:

@@ -263,7 +263,8 @@ impl ImuLog {
 
     /// The log with its reference orientations (IMU frame w.r.t. ENU; `None` where unknown).
     /// Each given orientation must be finite with `|‖q‖ − 1| ≤` [`REFERENCE_NORM_TOLERANCE`], the
-    /// tolerance of the readers (`reference_from_components`); it is kept as given.
+    /// tolerance of the readers (`reference_from_components`); it is kept normalised, as the
+    /// readers keep theirs (a `UnitQuaternion` made unchecked may be off the unit sphere).
     ///
     /// # Errors
     /// [`DataError::Length`] unless there is one per sample; [`DataError::BadValue`] naming the
@@ -278,7 +279,8 @@ impl ImuLog {
             self.len(),
             reference.len(),
         )?;
-        for (row, q) in reference.iter().enumerate() {
+        let mut reference = reference;
+        for (row, q) in reference.iter_mut().enumerate() {
             let Some(q) = q else { continue };
             // NaN and ±∞ components give a NaN or infinite norm.
             let norm = q.coords.norm();
@@ -292,6 +294,7 @@ impl ImuLog {
                                None where unknown",
                 });
             }
+            *q = UnitQuaternion::new_normalize(q.into_inner());
         }
         self.reference = Some(reference);
         Ok(self)
