@@ -9,7 +9,8 @@
 use liebayes_densities::{Gaussian, GenVonMises2, HarmonicGaussian, ManifoldGaussian};
 use liebayes_manifolds::{Manifold, Rn, So2};
 use liebayes_operators::evaluation::{
-    average_nees_band, chi_square_quantile, circular_consistency, nees,
+    average_nees_band, chi_square_band, chi_square_cdf, chi_square_quantile, circular_consistency,
+    nees,
 };
 use liebayes_operators::fixed_lag::FixedLagSmoother;
 use liebayes_operators::grid::{CircularGrid, Diffusion};
@@ -759,6 +760,13 @@ fn evaluation() {
                 }
                 if let Some(value) = fuzz::counted(chi_square_quantile(z, dof)) {
                     prop_assert!(value.is_finite() && value >= 0.0);
+                }
+                if let Some((lower, upper)) = fuzz::counted(chi_square_cdf(z, dof)) {
+                    prop_assert!((0.0..=1.0).contains(&lower) && (0.0..=1.0).contains(&upper));
+                    prop_assert!((lower + upper - 1.0).abs() < 1e-12, "{lower} + {upper}");
+                }
+                if let Some((low, high)) = fuzz::counted(chi_square_band(dim)) {
+                    prop_assert!(low.is_finite() && high.is_finite() && 0.0 <= low && low < high);
                 }
                 if let Some((low, high)) = fuzz::counted(average_nees_band(dim, runs)) {
                     prop_assert!(low.is_finite() && high.is_finite() && low <= high);
