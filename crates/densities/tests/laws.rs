@@ -144,6 +144,37 @@ density_laws!(
 );
 
 density_laws!(
+    manifold_gaussian_s2,
+    st::manifold_gaussian::<_, 2>(ms::s2::<f64>(), st::standard_deviation()),
+    entropy,
+    bad_input(st::manifold_gaussian_raw::<_, 2>(ms::s2::<f64>()))
+);
+
+density_laws!(
+    manifold_gaussian_se2,
+    st::manifold_gaussian::<_, 3>(ms::se2::<f64>(), st::standard_deviation()),
+    entropy,
+    rotated(ms::se2::<f64>()),
+    bad_input(st::manifold_gaussian_raw::<_, 3>(ms::se2::<f64>()))
+);
+
+density_laws!(
+    manifold_gaussian_se23,
+    st::manifold_gaussian::<_, 9>(ms::se23::<f64>(), st::standard_deviation()),
+    entropy,
+    rotated(ms::se23::<f64>()),
+    bad_input(st::manifold_gaussian_raw::<_, 9>(ms::se23::<f64>()))
+);
+
+density_laws!(
+    manifold_gaussian_se3,
+    st::manifold_gaussian::<_, 6>(ms::se3::<f64>(), st::standard_deviation()),
+    entropy,
+    rotated(ms::se3::<f64>()),
+    bad_input(st::manifold_gaussian_raw::<_, 6>(ms::se3::<f64>()))
+);
+
+density_laws!(
     harmonic_gaussian,
     st::harmonic_gaussian::<2>(st::concentration()),
     kl,
