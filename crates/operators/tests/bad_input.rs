@@ -132,6 +132,22 @@ fn kalman_filter() {
     );
 }
 
+/// A position on R² at (1, 2) with the nasty covariance `p` when it is a valid one (the identity
+/// at the origin otherwise).
+fn position_prior(p: Matrix2<f64>) -> ManifoldGaussian<Rn<f64, 2>, 2> {
+    ManifoldGaussian::new(Rn::new_unchecked(Vector2::new(1.0, 2.0)), p).unwrap_or_else(|_| {
+        ManifoldGaussian::new(Rn::new_unchecked(Vector2::zeros()), Matrix2::identity()).unwrap()
+    })
+}
+
+/// A range `scale · |x|` on R² with noise `r`.
+fn range_model(scale: f64, r: f64) -> impl MeasurementModel<Rn<f64, 2>, 2, 1> {
+    MeasurementFn::new(
+        move |x: &Rn<f64, 2>| Vector1::new(x.coords().norm() * scale),
+        move |_| Matrix1::new(r),
+    )
+}
+
 /// The EKF and the UKF on SO(2) and R² with closure models whose outputs are nasty.
 #[test]
 fn ekf_and_ukf() {
@@ -162,22 +178,12 @@ fn ekf_and_ukf() {
                     move |x: &So2<f64>| Vector1::new(scale * x.angle()),
                     move |_| Matrix1::new(r),
                 );
-                let position = ManifoldGaussian::new(Rn::new_unchecked(Vector2::new(1.0, 2.0)), p)
-                    .unwrap_or_else(|_| {
-                        ManifoldGaussian::new(
-                            Rn::new_unchecked(Vector2::zeros()),
-                            Matrix2::identity(),
-                        )
-                        .unwrap()
-                    });
+                let position = position_prior(p);
                 let drift = ProcessFn::new(
                     move |x: &Rn<f64, 2>, (): &()| Rn::new_unchecked(x.coords() + shift),
                     move |_, ()| Matrix2::identity() * q,
                 );
-                let range = MeasurementFn::new(
-                    move |x: &Rn<f64, 2>| Vector1::new(x.coords().norm() * scale),
-                    move |_| Matrix1::new(r),
-                );
+                let range = range_model(scale, r);
                 let z = Vector1::new(z);
                 for next in [
                     heading.propagate(&Ekf(&gyro), &()),
@@ -551,18 +557,8 @@ fn iterated_updates() {
         |((scale, r, z, tolerance), (p, q, iterations))| {
             fuzz::case("iterated updates", move || -> Result<(), TestCaseError> {
                 let (heading, _, sine) = heading_models(0.0, q, scale, r);
-                let position = ManifoldGaussian::new(Rn::new_unchecked(Vector2::new(1.0, 2.0)), p)
-                    .unwrap_or_else(|_| {
-                        ManifoldGaussian::new(
-                            Rn::new_unchecked(Vector2::zeros()),
-                            Matrix2::identity(),
-                        )
-                        .unwrap()
-                    });
-                let range = MeasurementFn::new(
-                    move |x: &Rn<f64, 2>| Vector1::new(x.coords().norm() * scale),
-                    move |_| Matrix1::new(r),
-                );
+                let position = position_prior(p);
+                let range = range_model(scale, r);
                 let z = Vector1::new(z);
                 // At most 50 iterations: the range goes to 1000, but not this test's time.
                 let settings = IterationSettings::new(tolerance, iterations.min(50));
