@@ -58,7 +58,7 @@ use crate::numerics::{
     Produced, above_rounding, checked_gaussian, model_noise, rounding_scale, slope,
 };
 use crate::ukf::Ukf;
-use crate::{Condition, Conditioned, OperatorError};
+use crate::{Condition, Conditioned, Ekf, OperatorError};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
 use nalgebra::{Cholesky, SMatrix, SVector};
@@ -77,17 +77,20 @@ pub struct IterationSettings {
     tolerance: f64,
     max_iterations: usize,
     transport: bool,
+    linearity_check: bool,
 }
 
 impl Default for IterationSettings {
-    /// Tolerance 1e-6 posterior standard deviations, at most 20 steps, covariance transported. A step
-    /// of 1e-6 σ changes J by about 1e-12, well above its rounding; much tighter tolerances can end the
-    /// iterated EKF in [`Stop::NoDescent`] when the cost's rounding hides the last decrease.
+    /// Tolerance 1e-6 posterior standard deviations, at most 20 steps, covariance transported, no
+    /// linearity check. A step of 1e-6 σ changes J by about 1e-12, well above its rounding; much
+    /// tighter tolerances can end the iterated EKF in [`Stop::NoDescent`] when the cost's rounding
+    /// hides the last decrease.
     fn default() -> Self {
         Self {
             tolerance: 1e-6,
             max_iterations: 20,
             transport: true,
+            linearity_check: false,
         }
     }
 }
@@ -121,6 +124,7 @@ impl IterationSettings {
             tolerance,
             max_iterations,
             transport: true,
+            linearity_check: false,
         })
     }
 
@@ -147,7 +151,43 @@ impl IterationSettings {
     pub fn transport(&self) -> bool {
         self.transport
     }
+
+    /// The same settings with the iterated EKF's result checked against the model (`true`) or not
+    /// (`false`, the default): at the posterior `N(x*, P*)` the iteration ends at, the model's
+    /// prediction at each of the 2D points `x* ⊞ (±cᵢ)`, cᵢ the columns of P*'s Cholesky factor,
+    /// must agree with its linearisation at x* to within [`LINEARITY_BOUND`] = ½ noise standard
+    /// deviations, `|L_R⁻¹ [r(x* ⊞ s) − (r(x*) − H(x*) s)]| ≤ ½` (L_R the factor of R). Otherwise
+    /// the Gaussian at the mode does not describe the posterior, and the result is the one-pass
+    /// EKF's update ([`Stop::Nonlinear`]). That is the case at a model's singularity: a bearing's
+    /// Jacobian grows as 1/r next to its origin, Gauss-Newton's curvature with it, and with a
+    /// coarse reading and a wide prior the iterates converge onto the origin with a covariance of
+    /// nothing. The check costs 2D model evaluations and one Jacobian; the posterior
+    /// linearisation ([`IteratedUkf`]), whose linearisation error Ω already spans its spread, does
+    /// not make it.
+    #[must_use]
+    pub fn with_linearity_check(mut self, check: bool) -> Self {
+        self.linearity_check = check;
+        self
+    }
+
+    /// Whether the iterated EKF's result is checked against the model
+    /// ([`with_linearity_check`](Self::with_linearity_check)).
+    pub fn linearity_check(&self) -> bool {
+        self.linearity_check
+    }
 }
+
+/// The linearisation error e, in noise standard deviations, that the linearity check
+/// ([`IterationSettings::with_linearity_check`]) accepts at one posterior standard deviation
+/// from the mode. The cost there departs from the Gaussian's quadratic by about e times the
+/// whitened residual (of order one): with e ≤ ½ the log density one standard deviation out is
+/// within about ½ of the Gaussian's.
+///
+/// Measured on the angle-of-arrival track study (bearings of 30°, the filters' own random walk,
+/// 100 runs): the iterated EKF's mean final NEES (3 degrees of freedom) was 1.9e18 unchecked, 8.8
+/// with a bound of 1, 5.9 with ½, 5.3 with ¼ (the one-pass EKF's 3.9); at 0.01° every bound left
+/// it consistent.
+pub const LINEARITY_BOUND: f64 = 0.5;
 
 /// Why an iteration stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -160,6 +200,9 @@ pub enum Stop {
     /// minimum of J to rounding (a tolerance below J's rounding), or the posterior linearisation's
     /// fixed-point iteration does not contract there.
     NoDescent,
+    /// The model is not linear over the posterior the iteration ended at (the linearity check of
+    /// [`IterationSettings::with_linearity_check`]): the result is the one-pass EKF's update.
+    Nonlinear,
 }
 
 /// The report of an iterated update: the [`Innovation`] (ν, S, K, NIS) of the final linearisation,
@@ -633,6 +676,36 @@ where
     X: Manifold<D, Scalar = f64>,
     H: MeasurementModel<X, D, M>,
 {
+    /// Whether the model is linear over `posterior` (a Gaussian whose covariance is in the tangent
+    /// space at its mean) to within [`LINEARITY_BOUND`] noise standard deviations at each of the
+    /// points `x* ⊞ (±cᵢ)`, cᵢ the columns of its Cholesky factor (see
+    /// [`IterationSettings::with_linearity_check`]). A model that fails at one of the points (a
+    /// non-finite prediction or Jacobian) is not linear there.
+    fn linear_over(&self, posterior: &ManifoldGaussian<X, D>) -> bool {
+        let x = posterior.mean();
+        let (Ok(residual), jacobian) = (self.residual(x), self.model.jacobian(x)) else {
+            return false;
+        };
+        let factor = posterior.cholesky_factor();
+        let whitened = |error: SVector<f64, M>| {
+            self.noise_factor
+                .l_dirty()
+                .solve_lower_triangular_unchecked(&error)
+                .norm()
+        };
+        factor.column_iter().all(|column| {
+            [1.0, -1.0].into_iter().all(|sign| {
+                let s = column * sign;
+                let point = x.retract(&s);
+                point.is_finite()
+                    && self.residual(&point).is_ok_and(|moved| {
+                        // NaN (a non-finite Jacobian) fails the comparison.
+                        whitened(moved - (residual - jacobian * s)) <= LINEARITY_BOUND
+                    })
+            })
+        })
+    }
+
     /// `z ⊟ ẑ` for a predicted ẑ, checked finite.
     fn residual_from(&self, predicted: &SVector<f64, M>) -> Result<SVector<f64, M>, OperatorError> {
         let r = self.model.residual(self.z, predicted);
@@ -702,13 +775,29 @@ where
     type Measurement = SVector<f64, M>;
     type Report = Iterated<D, M>;
 
-    /// Gauss-Newton on the MAP cost (module docs).
+    /// Gauss-Newton on the MAP cost (module docs), and with the linearity check
+    /// ([`IterationSettings::with_linearity_check`]) the one-pass EKF's update where the model is
+    /// not linear over the result.
     fn condition(
         &self,
         iterated: &IteratedEkf<H, M>,
         z: &SVector<f64, M>,
     ) -> Result<Conditioned<Self, Iterated<D, M>>, OperatorError> {
-        Problem::new(self, &iterated.model, z)?.solve_above_rounding(iterated, &iterated.settings)
+        let problem = Problem::new(self, &iterated.model, z)?;
+        let step = problem.solve_above_rounding(iterated, &iterated.settings)?;
+        if !iterated.settings.linearity_check || problem.linear_over(&step.posterior) {
+            return Ok(step);
+        }
+        let one_pass = self.condition(&Ekf(&iterated.model), z)?;
+        Ok(Conditioned {
+            posterior: one_pass.posterior,
+            log_evidence: one_pass.log_evidence,
+            report: Iterated {
+                innovation: one_pass.report,
+                iterations: step.report.iterations,
+                stop: Stop::Nonlinear,
+            },
+        })
     }
 }
 

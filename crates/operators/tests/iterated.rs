@@ -872,3 +872,69 @@ fn converted_readings_reach_the_iterated_updates() {
     assert!(density.condition_in_place(&converted, &f64::NAN).is_err());
     assert_eq!(density, prior);
 }
+
+/// A bearing on R²: the unit vector from the origin to x, each component read with noise σ = 0.5
+/// (a coarse bearing), its Jacobian `(I − u uᵀ)/|x|` unbounded next to the origin.
+fn bearing() -> impl MeasurementModel<Rn<f64, 2>, 2, 2> {
+    MeasurementFn::new(
+        |x: &Rn<f64, 2>| x.coords().normalize(),
+        |_: &Rn<f64, 2>| Matrix2::identity() * 0.25,
+    )
+}
+
+/// A coarse bearing read pointing away from a wide prior: the MAP cost decreases all the way to
+/// the bearing's origin, where the reading is matched exactly and Gauss-Newton's curvature has no
+/// bound, and the iterated EKF ends there with a covariance of nothing. With the linearity check
+/// the model is found not linear over that posterior and the update is the one-pass EKF's, bit for
+/// bit; over a posterior where the model is linear (a precise reading far from the origin) the
+/// check changes nothing.
+#[test]
+fn the_linearity_check_refuses_a_posterior_collapsed_onto_a_singularity() {
+    let model = bearing();
+    let prior = ManifoldGaussian::new(
+        Rn::new(Vector2::new(1.0, 0.5)).unwrap(),
+        Matrix2::identity() * 4.0,
+    )
+    .unwrap();
+    let away = Vector2::new(-1.0, 0.0);
+    let plain = prior.condition(&IteratedEkf::new(&model), &away).unwrap();
+    let collapsed = plain.posterior.mean().coords().norm();
+    let spread = plain.posterior.covariance().trace().sqrt();
+    assert!(
+        collapsed < 1e-6 && spread < 1e-6,
+        "ended {collapsed} from the origin, σ {spread}"
+    );
+    let checked = IteratedEkf {
+        model: &model,
+        settings: IterationSettings::default().with_linearity_check(true),
+    };
+    let step = prior.condition(&checked, &away).unwrap();
+    assert_eq!(step.report.stop(), Stop::Nonlinear);
+    let one_pass = prior
+        .condition(&liebayes_operators::Ekf(&model), &away)
+        .unwrap();
+    assert_eq!(step.posterior.mean(), one_pass.posterior.mean());
+    assert_eq!(step.posterior.covariance(), one_pass.posterior.covariance());
+    assert_eq!(step.log_evidence, one_pass.log_evidence);
+    // A precise reading (σ = 0.01 rad) 20 m out: linear over the posterior, nothing changes.
+    let fine = MeasurementFn::new(
+        |x: &Rn<f64, 2>| x.coords().normalize(),
+        |_: &Rn<f64, 2>| Matrix2::identity() * 1e-4,
+    );
+    let far = ManifoldGaussian::new(
+        Rn::new(Vector2::new(20.0, 1.0)).unwrap(),
+        Matrix2::identity(),
+    )
+    .unwrap();
+    let z = Vector2::new(1.0, 0.1).normalize();
+    let plain = far.condition(&IteratedEkf::new(&fine), &z).unwrap();
+    let checked = IteratedEkf {
+        model: &fine,
+        settings: IterationSettings::default().with_linearity_check(true),
+    };
+    let step = far.condition(&checked, &z).unwrap();
+    assert_eq!(step.report.stop(), plain.report.stop());
+    assert_ne!(step.report.stop(), Stop::Nonlinear);
+    assert_eq!(step.posterior.mean(), plain.posterior.mean());
+    assert_eq!(step.posterior.covariance(), plain.posterior.covariance());
+}
