@@ -553,7 +553,8 @@ impl TrackPlan {
             for model in models {
                 // The iterated EKF with the von Mises-Fisher model only: with the
                 // azimuth-elevation model its iterates are drawn onto an anchor's vertical axis,
-                // where the azimuth is undefined (docs/filters/aoa.md).
+                // where the azimuth is undefined, and the model is inconsistent in every algorithm
+                // (docs/filters/aoa.md).
                 let iterated =
                     matches!(model, ModelChoice::Vmf { .. }).then_some(Algorithm::IteratedEkf);
                 let algorithms = [Algorithm::Particle(n), Algorithm::Ekf, Algorithm::Ukf];

@@ -259,6 +259,25 @@ fn with_precise_readings_the_iterated_ekf_is_consistent_and_the_one_pass_is_not(
     );
 }
 
+/// Coarse readings (30°) against the filters' own wide prior: Gauss-Newton's iterates could
+/// converge onto an anchor, where the reading is matched exactly and a bearing's Jacobian has no
+/// bound, and the iterated EKF reported a covariance of nothing there (a mean NEES of 1.9e18 over
+/// these runs). Its linearity check now falls back to the one-pass update over such a posterior:
+/// its NEES stays within twice the one-pass EKF's (5.9 against 3.9, above the band where the EKF
+/// is at its edge: the posterior is not Gaussian, and the iterated EKF measures it at its mode).
+#[test]
+fn with_coarse_readings_the_iterated_ekf_does_not_collapse_onto_an_anchor() {
+    let sigma = 30_f64.to_radians();
+    let kappa = 1.0 / (sigma * sigma);
+    let (_, iterated, _, _) = final_epoch_under_its_model(Algorithm::IteratedEkf, kappa, 100);
+    let (_, one_pass, _, _) = final_epoch_under_its_model(Algorithm::Ekf, kappa, 100);
+    eprintln!("NEES at 30°: IEKF-VMF {iterated}, EKF-VMF {one_pass}");
+    assert!(
+        iterated < 2.0 * one_pass,
+        "IEKF-VMF {iterated}, EKF-VMF {one_pass}"
+    );
+}
+
 /// An iterated update whose Joseph covariance rounding makes indefinite at an iterate does not
 /// end there: from this prior (a filter's, 1 µm from an anchor, at 5° readings) the Gauss-Newton
 /// iterates once ended at such a point, and the update was an error.
@@ -474,8 +493,9 @@ fn settings_out_of_range_are_refused_with_their_name() {
 }
 
 /// The single-update example: its exact rows are the reference's quadrature posterior, the VMF
-/// filters point near the measured direction and the angle filters do not, and the literal
-/// elevation leaves only the unit-vector filters.
+/// filters point near the measured direction and the angle filters do not, the iterated EKF ends
+/// at the posterior's mode (or, with the literal elevation, gives the one-pass update), and the
+/// literal elevation leaves only the unit-vector filters.
 #[test]
 fn the_single_update_example_reports_every_filter() {
     let file = liebayes_reference::reference("aoa_vectors.json");
@@ -491,6 +511,13 @@ fn the_single_update_example_reports_every_filter() {
         let exact = &result[0];
         assert_eq!(exact.filter, "exact VMF");
         assert!((exact.mean - Vector3::from_column_slice(&expected)).amax() < 1e-9);
+        let mean_of = |filter: &str| result.iter().find(|r| r.filter == filter).unwrap().mean;
+        if !corrected {
+            // The reading nearly opposite the prior: the model is not linear over the Gaussian at
+            // the mode, and the iterated EKF's linearity check gives the one-pass update.
+            assert_eq!(mean_of("IEKF-VMF"), mean_of("EKF-VMF"));
+            continue;
+        }
         // The iterated EKF ends at the mode of the VMF posterior: the log posterior's gradient, by
         // central differences, vanishes there.
         let model = UnitVectorModel::new([example.anchor], example.kappa).unwrap();
@@ -500,7 +527,7 @@ fn the_single_update_example_reports_every_filter() {
             -(x - m0).norm_squared() / (2.0 * s0 * s0)
                 + model.log_likelihood(&Position::new(x).unwrap(), &world)
         };
-        let mode = result.iter().find(|r| r.filter == "IEKF-VMF").unwrap().mean;
+        let mode = mean_of("IEKF-VMF");
         let h = 1e-5;
         let gradient = Vector3::from_fn(|i, _| {
             let step = Vector3::ith(i, h);
@@ -510,17 +537,15 @@ fn the_single_update_example_reports_every_filter() {
             gradient.norm() < 1e-4,
             "{name}: gradient {gradient:?} at {mode:?}"
         );
-        if corrected {
-            for row in &result {
-                let vmf = row.filter.contains("VMF");
-                let near = row.bearing_deg < 5.0;
-                assert!(
-                    vmf == near || row.filter.starts_with("PF") || row.filter.starts_with("exact"),
-                    "{}: bearing {}",
-                    row.filter,
-                    row.bearing_deg
-                );
-            }
+        for row in &result {
+            let vmf = row.filter.contains("VMF");
+            let near = row.bearing_deg < 5.0;
+            assert!(
+                vmf == near || row.filter.starts_with("PF") || row.filter.starts_with("exact"),
+                "{}: bearing {}",
+                row.filter,
+                row.bearing_deg
+            );
         }
     }
 }

@@ -266,7 +266,7 @@ filter_laws!(
 filter_laws!(
     aoa_angle_iterated_ekf,
     AoaSubject::new(Aoa::Angle(Algorithm::IteratedEkf)),
-    known_inconsistent("normal azimuth-elevation model: position NEES 401 per dof")
+    known_inconsistent("normal azimuth-elevation model: position NEES 277 per dof")
 );
 filter_laws!(
     aoa_angle_particle,
