@@ -130,7 +130,7 @@ impl IterationSettings {
 
     /// The same settings with the posterior covariance transported to the tangent space at the new
     /// mean, `J(δ*) P⁺ J(δ*)ᵀ` (`true`, the default), or left in the one at the prior mean
-    /// (`false`, as the one-pass [`Ekf`](crate::Ekf) does).
+    /// (`false`, as the one-pass [`Ekf`] does).
     #[must_use]
     pub fn with_transport(mut self, transport: bool) -> Self {
         self.transport = transport;
