@@ -45,6 +45,7 @@ pub mod attitude;
 pub mod azimuth;
 mod error;
 pub mod inertial;
+mod scaled;
 
 pub use error::FilterError;
 

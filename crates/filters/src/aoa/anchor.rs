@@ -1,6 +1,7 @@
 //! [`Anchor`]: a receiver at a known position with known axes, and the direction of a position as
 //! it sees it (the paper's Algorithm 2, with the anchor rotation its equations (5) and (9) omit).
 
+use crate::scaled::unit_and_norm;
 use liebayes_manifolds::So3;
 use liebayes_operators::OperatorError;
 use nalgebra::{Matrix3, Vector3};
@@ -103,7 +104,7 @@ pub(super) fn unit_and_distance(v: &Vector3<f64>) -> Option<(Vector3<f64>, f64)>
         let distance = squared.sqrt();
         return Some((v / distance, distance));
     }
-    let (unit, distance) = scaled_unit(v)?;
+    let (unit, distance) = unit_and_norm(v)?;
     distance.is_finite().then_some((unit, distance))
 }
 
@@ -113,19 +114,7 @@ pub(super) fn unit_direction(v: &Vector3<f64>) -> Option<Vector3<f64>> {
     if squared.is_normal() {
         return Some(v / squared.sqrt());
     }
-    scaled_unit(v).map(|(unit, _)| unit)
-}
-
-/// `(v/|v|, |v|)` computed on `v / max|vᵢ|` (the length may overflow to +∞); `None` for a zero or
-/// non-finite v.
-fn scaled_unit(v: &Vector3<f64>) -> Option<(Vector3<f64>, f64)> {
-    let scale = v.amax();
-    if !(scale > 0.0 && scale.is_finite()) {
-        return None;
-    }
-    let scaled = v / scale;
-    let norm = scaled.norm();
-    Some((scaled / norm, norm * scale))
+    unit_and_norm(v).map(|(unit, _)| unit)
 }
 
 /// The four anchors of the square-track test (the paper's Sec. 4.3, made consistent): at

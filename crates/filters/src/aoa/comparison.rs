@@ -149,9 +149,9 @@ fn unimodal_maximum(lo: f64, hi: f64, f: impl Fn(f64) -> f64) -> f64 {
     let (mut w, mut fw, mut v, mut fv) = (x, fx, x, fx);
     // The last step, and the one before it.
     let (mut step, mut previous) = (0.0_f64, 0.0_f64);
+    let tolerance = 0.5 * FIT_TOLERANCE;
     for _ in 1..FIT_STEPS {
         let middle = 0.5 * (a + b);
-        let tolerance = 0.5 * FIT_TOLERANCE;
         if (x - middle).abs() <= 2.0 * tolerance - 0.5 * (b - a) {
             break;
         }
@@ -471,8 +471,7 @@ mod tests {
 
     /// A normal log likelihood in ln σ, `−S e^{−2x}/2 − n x` (maximum at `x = ln √(S/n)`), found
     /// to the rounding of its values in far fewer evaluations than a golden-section search's 55; a
-    /// bracket
-    /// end when the function is monotone; and a flat function stops within its bound.
+    /// bracket end when the function is monotone; and a flat function stops within its bound.
     #[test]
     fn brent_finds_the_maximum_in_few_evaluations() {
         let range = (SIGMA_RANGE.0.ln(), SIGMA_RANGE.1.ln());

@@ -1,6 +1,7 @@
 //! [`ImuLog`]: a recorded (or simulated) IMU log, validated, and [`DataError`], what can go wrong
 //! in reading or building one.
 
+use crate::scaled::unit_and_norm;
 use liebayes_manifolds::Readable;
 use liebayes_operators::OperatorError;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -487,9 +488,5 @@ pub(crate) fn check_reading(
 /// `v / |v|` computed from `v` scaled by its largest entry (no overflow); `None` for a zero or
 /// non-finite vector.
 pub(crate) fn scaled_unit(v: &Vector3<f64>) -> Option<Vector3<f64>> {
-    let scale = v.amax();
-    if !(scale.is_finite() && scale > 0.0) {
-        return None;
-    }
-    Some((v / scale).normalize())
+    unit_and_norm(v).map(|(unit, _)| unit)
 }

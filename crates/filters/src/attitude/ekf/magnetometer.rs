@@ -3,6 +3,7 @@
 //! has become the new reference, and how tight the innovation gate is.
 
 use super::params::DisturbanceParams;
+use crate::scaled::unit_and_norm;
 use nalgebra::Vector3;
 
 /// A field's norm (in the reading's unit) and dip `asin(m_z / |m|)` (rad) of the field `m` in the
@@ -19,21 +20,15 @@ impl FieldReference {
     /// or overflow (1e-300 or 1e200 in its unit) is measured scaled by its largest component.
     pub fn of(world: &Vector3<f64>) -> Option<Self> {
         let norm = world.norm();
-        if norm.is_normal() {
-            return Some(Self {
-                norm,
-                dip: (world.z / norm).clamp(-1.0, 1.0).asin(),
-            });
-        }
-        let scale = world.amax();
-        if !(scale > 0.0 && scale.is_finite()) {
-            return None;
-        }
-        let unit = world / scale;
-        let length = unit.norm();
-        Some(Self {
-            norm: length * scale,
-            dip: (unit.z / length).clamp(-1.0, 1.0).asin(),
+        let (up, norm) = if norm.is_normal() {
+            (world.z / norm, norm)
+        } else {
+            let (unit, norm) = unit_and_norm(world)?;
+            (unit.z, norm)
+        };
+        norm.is_finite().then(|| Self {
+            norm,
+            dip: up.clamp(-1.0, 1.0).asin(),
         })
     }
 
