@@ -16,6 +16,11 @@
 //! per degree of freedom lies in `[q(0.0005), q(0.9995)] / (R d)` for a consistent filter (q the
 //! exact χ²(R d) quantile, [`chi_square_quantile`]). The last epoch of each run is taken (epochs of one run are correlated;
 //! runs are not).
+//!
+//! **Other seeds, more runs.** A law's verdict is that of its seed and its run count. A filter
+//! that passes at [`SEED`] only by luck, or whose deviation is smaller than the band at its run
+//! count can see, shows at other seeds ([`SEED_VARIABLE`]) and with more runs
+//! ([`RUN_FACTOR_VARIABLE`]): check a new line both ways before calling it consistent.
 
 use crate::filter::{Nis, RecursiveFilter};
 use crate::replay::{Scenario, StepOf};
@@ -29,8 +34,44 @@ use std::fmt::Debug;
 #[doc(hidden)]
 pub use proptest as __proptest;
 
-/// The seed of every run of the laws (run k draws from [`run_rngs`]`(SEED, k)`).
+/// The seed of every run of the laws (run k draws from [`run_rngs`]`(SEED, k)`), unless
+/// [`SEED_VARIABLE`] gives another.
 pub const SEED: u64 = 2026;
+
+/// The environment variable that replaces [`SEED`] (a decimal `u64`): the laws' verdicts on data
+/// they were not written on, `LIEBAYES_LAW_SEED=7 cargo test --test filter_laws`.
+pub const SEED_VARIABLE: &str = "LIEBAYES_LAW_SEED";
+
+/// The environment variable whose value (a decimal integer ≥ 1) multiplies every subject's
+/// [`FilterLawSubject::runs`]: a more decisive band (ten times the runs narrow it about three
+/// times) for a check by hand, `LIEBAYES_LAW_RUN_FACTOR=10 cargo test --test filter_laws`.
+pub const RUN_FACTOR_VARIABLE: &str = "LIEBAYES_LAW_RUN_FACTOR";
+
+/// The value of the environment variable `name` as a `u64`, `default` when it is not set.
+///
+/// # Errors
+/// When it is set but is not a decimal `u64`.
+fn setting(name: &str, default: u64) -> Result<u64, String> {
+    parse_setting(name, std::env::var(name), default)
+}
+
+/// [`setting`] of the variable's value as read.
+fn parse_setting(
+    name: &str,
+    value: Result<String, std::env::VarError>,
+    default: u64,
+) -> Result<u64, String> {
+    match value {
+        Err(std::env::VarError::NotPresent) => Ok(default),
+        Ok(text) => text
+            .trim()
+            .parse()
+            .map_err(|_| format!("{name}={text:?}: expected a decimal integer")),
+        Err(std::env::VarError::NotUnicode(text)) => {
+            Err(format!("{name}={text:?}: expected a decimal integer"))
+        }
+    }
+}
 
 /// Cases of the all-or-nothing law in [`filter_laws!`](crate::filter_laws).
 pub const CASES: u32 = 32;
@@ -126,7 +167,7 @@ type Run<S> = (
 
 /// The steps of run `run` and its filter (assuming `noise` times the measurement noise).
 fn start<S: FilterLawSubject>(subject: &S, run: u64, noise: f64) -> Result<Run<S>, String> {
-    let (mut simulation, mut randomness) = run_rngs(SEED, run);
+    let (mut simulation, mut randomness) = run_rngs(setting(SEED_VARIABLE, SEED)?, run);
     let steps: Vec<_> = subject
         .scenario()
         .simulate(&mut simulation)
@@ -257,9 +298,13 @@ pub const MAX_LAW_RUNS: u64 = 1_000_000;
 /// the subject's runs (in run order), with the filter assuming `noise` times the measurement
 /// noise's standard deviation. The NEES is empty when the estimate reports no uncertainty.
 ///
+/// The runs are `runs()` times [`RUN_FACTOR_VARIABLE`]'s value (1 when it is not set), drawn from
+/// [`SEED`] or [`SEED_VARIABLE`]'s value.
+///
 /// # Errors
-/// When `runs()` is outside 1 to [`MAX_LAW_RUNS`], a run cannot be simulated or built, or a step
-/// fails (a consistent filter's runs all complete).
+/// When `runs()` (or its product with the factor) is outside 1 to [`MAX_LAW_RUNS`], either
+/// variable is set to anything but a decimal integer, a run cannot be simulated or built, or a
+/// step fails (a consistent filter's runs all complete).
 pub fn last_epoch_statistics<S: FilterLawSubject>(
     subject: &S,
     noise: f64,
@@ -270,8 +315,18 @@ pub fn last_epoch_statistics<S: FilterLawSubject>(
             "runs() is {runs}: the consistency laws take 1 to {MAX_LAW_RUNS} runs"
         ));
     }
+    let factor = setting(RUN_FACTOR_VARIABLE, 1)?;
+    let runs = runs
+        .checked_mul(factor)
+        .filter(|r| (1..=MAX_LAW_RUNS).contains(r))
+        .ok_or_else(|| {
+            format!(
+                "{RUN_FACTOR_VARIABLE}={factor} times runs() ({runs}): the consistency laws take \
+                 1 to {MAX_LAW_RUNS} runs"
+            )
+        })?;
     let (mut nees, mut nis) = (Vec::new(), Vec::new());
-    for run in 0..subject.runs() {
+    for run in 0..runs {
         let (steps, mut filter) = start(subject, run, noise)?;
         let mut last = None;
         for step in &steps {
@@ -464,4 +519,22 @@ macro_rules! filter_laws {
             $($laws)*
         }
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_setting;
+    use std::env::VarError;
+
+    #[test]
+    fn a_setting_is_its_default_when_unset_and_refused_unless_an_integer() {
+        let parse = |value| parse_setting("LIEBAYES_LAW_SEED", value, 2026);
+        assert_eq!(parse(Err(VarError::NotPresent)), Ok(2026));
+        assert_eq!(parse(Ok("7".into())), Ok(7));
+        assert_eq!(parse(Ok(" 10\n".into())), Ok(10));
+        for bad in ["", "-1", "1.5", "ten", "18446744073709551616"] {
+            let message = parse(Ok(bad.into())).unwrap_err();
+            assert!(message.contains("LIEBAYES_LAW_SEED"), "{message}");
+        }
+    }
 }
