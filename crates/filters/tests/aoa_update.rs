@@ -229,12 +229,15 @@ fn full_prior(mean: Vector3<f64>, a: &Matrix3<f64>) -> PositionGaussian {
 }
 
 /// L ≡ 1 with the rule centred on `centre` and as wide as the prior seen from the anchor: the
-/// quadrature returns the prior's mean and covariance.
+/// quadrature returns the prior's mean and covariance. 320 nodes a side: with 160, an elongated
+/// prior (a covariance's condition number in the hundreds) seen from a few of its largest
+/// standard deviations away was off by up to 4e-8 in 36 of 4000 random cases of the law below;
+/// with 320 every one of them was within 4e-12.
 fn flat_check(prior: &PositionGaussian, anchor: &Anchor, centre: &Vector3<f64>) {
     let distance = (prior.mean().coords() - anchor.position()).norm();
     let spread = prior.covariance().symmetric_eigenvalues().min().sqrt();
     let width = (spread / distance).min(std::f64::consts::PI);
-    let rule = SphereRule::new(160, 160, width).unwrap();
+    let rule = SphereRule::new(320, 320, width).unwrap();
     let got = exact_posterior(prior, anchor, centre, |_| 0.0, &rule).unwrap();
     let scale = prior.covariance().norm();
     let mean_error = (got.mean - prior.mean().coords()).norm() / scale.sqrt();
