@@ -507,6 +507,41 @@ fn a_precise_measurement_keeps_a_positive_variance() {
     assert!(Cholesky::new(density.estimate().cov_r).is_some());
 }
 
+/// A reading far from the prediction (a corrupt sample 1.1e29 m off, found by the filter law
+/// suite at another seed) concentrated the azimuth to κ = 4e29 and was taken: the estimate's
+/// position covariance, σ² I plus terms of |c|²/κ = 1.8e27 m², was singular to rounding. Each
+/// update now either keeps an estimate whose covariance factorises or is refused, the density
+/// unchanged.
+#[test]
+fn a_reading_far_off_keeps_the_estimate_positive_definite_or_is_refused() {
+    let model = PositionMeasurement::new(1.0).unwrap();
+    let mut start = AzimuthDensity::new(Vector2::new(1.0, 2.0), 1.0).unwrap();
+    start
+        .condition_in_place(&model, &Vector2::new(3.0, 4.0))
+        .unwrap();
+    let mut refused = 0;
+    for exponent in 0..=149 {
+        let mut density = start;
+        let z = Vector2::new(3.0, 1.1 * 10f64.powi(exponent));
+        match density.condition_in_place(&model, &z) {
+            Ok(_) => assert!(
+                Cholesky::new(density.estimate().cov_r).is_some(),
+                "y = 1.1e{exponent}: {:?}",
+                density.estimate()
+            ),
+            Err(e) => {
+                assert_eq!(density, start, "y = 1.1e{exponent}");
+                assert!(!e.to_string().is_empty());
+                refused += 1;
+            }
+        }
+    }
+    // The readings from 1.1e14 m on are refused (the smaller eigenvalue lost to rounding, or
+    // further out an overflow); those before are taken. Without the check, the one 1.1e18 m off
+    // was taken with a singular covariance.
+    assert_eq!(refused, 136);
+}
+
 #[test]
 fn constructors_refuse_derived_quantities_that_overflow() {
     assert!(

@@ -28,8 +28,13 @@ use std::f64::consts::PI;
 /// [`CONCENTRATION_LIMIT`] = 1e300, the components of a and c within
 /// ±[`POSITION_LIMIT`] = ±1e150 m and σ² in [2.2e-308, [`VARIANCE_LIMIT`] = 1e300] m² (a positive
 /// normal number), so that every moment of [`estimate`](Self::estimate), which holds |c|², is
-/// finite. A step whose result would leave the range (an overflow, a variance that underflows) is
-/// refused with an error and leaves the density as it was.
+/// finite; and the estimate's position covariance positive definite in f64 too: its eigenvalues
+/// lie between `λ₋ = σ² + |c|²/(2(1 + κ)²)` and `λ₊ = σ² + min(½, 1/κ) |c|²`, and λ₋ must be at
+/// least [`SPREAD_RATIO`] = 1e-13 times λ₊ (below, the smaller eigenvalue is lost to the rounding
+/// of the larger one and the stored covariance is singular: a measurement 1e29 m from the
+/// prediction did that, at κ = 4e29). A step whose result would leave the range (an overflow, a
+/// variance that underflows or is lost to that rounding) is refused with an error and leaves the
+/// density as it was.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AzimuthDensity {
     angle: VonMises,
@@ -46,6 +51,11 @@ pub const CONCENTRATION_LIMIT: f64 = 1e300;
 
 /// The largest conditional variance σ² (m²).
 pub const VARIANCE_LIMIT: f64 = 1e300;
+
+/// The least ratio of the bounds on the smaller and the larger eigenvalue of the estimate's position
+/// covariance (see [`AzimuthDensity`]): 1e-13, 450 times the rounding (16 ε) that a 2 × 2
+/// covariance's Cholesky factorisation needs of its smaller eigenvalue.
+pub const SPREAD_RATIO: f64 = 1e-13;
 
 /// Refuses a non-finite measurement.
 pub(super) fn check_measurement(z: &Vector2<f64>) -> Result<(), OperatorError> {
@@ -77,13 +87,14 @@ enum Origin {
 }
 
 impl Origin {
-    /// What to name for (η, a or c, σ²).
-    fn names(self) -> [&'static str; 3] {
+    /// What to name for (η, a or c, σ², σ² against the spread the azimuth adds).
+    fn names(self) -> [&'static str; 4] {
         match self {
             Origin::Parts => [
                 "azimuth density parameter eta",
                 "azimuth density parameter a or c (m)",
                 "conditional position variance sigma^2 (m^2)",
+                "conditional position variance sigma^2 (m^2) against the spread of c",
             ],
             Origin::Update => [
                 "eta after the update (it overflows: the measurement is too far from the \
@@ -91,11 +102,14 @@ impl Origin {
                 "a or c after the update (m; the measurement is too large)",
                 "sigma^2 after the update (m^2; the measurement noise is too small against the \
                  variance)",
+                "sigma^2 after the update (m^2) against the spread of c (the measurement is too \
+                 far from the prediction for the noise)",
             ],
             Origin::Prediction => [
                 "eta after the prediction",
                 "a after the prediction (m; the velocity times dt is too large)",
                 "sigma^2 after the prediction (m^2; q^2 dt is too large)",
+                "sigma^2 after the prediction (m^2) against the spread of c",
             ],
         }
     }
@@ -168,7 +182,7 @@ impl AzimuthDensity {
         sigma2: f64,
         origin: Origin,
     ) -> Result<Self, OperatorError> {
-        let [eta_name, _, _] = origin.names();
+        let [eta_name, ..] = origin.names();
         if let Some(&value) = eta.iter().find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
                 what: eta_name,
@@ -193,7 +207,7 @@ impl AzimuthDensity {
         sigma2: f64,
         origin: Origin,
     ) -> Result<Self, OperatorError> {
-        let [_, position_name, variance_name] = origin.names();
+        let [_, position_name, variance_name, spread_name] = origin.names();
         if let Some(&value) = a.iter().chain(c.iter()).find(|v| !v.is_finite()) {
             return Err(OperatorError::NonFinite {
                 what: position_name,
@@ -212,6 +226,20 @@ impl AzimuthDensity {
                 what: variance_name,
                 value: sigma2,
                 range: "[2.2e-308, 1e300] (a positive normal number)",
+            });
+        }
+        // The estimate's Cov r has eigenvalues σ² + A′(κ)|c|² and σ² + (A(κ)/κ)|c|² (see
+        // `estimate`), with 1/(2(1 + κ)²) ≤ A′(κ) < A(κ)/κ ≤ min(½, 1/κ).
+        let (kappa, spread) = (angle.concentration(), c.norm_squared());
+        let smallest = sigma2 + spread * 0.5 / ((1.0 + kappa) * (1.0 + kappa));
+        let largest = sigma2 + spread * kappa.recip().min(0.5);
+        if smallest < SPREAD_RATIO * largest {
+            return Err(OperatorError::OutOfRange {
+                what: spread_name,
+                value: sigma2,
+                range: "sigma^2 + |c|^2 / (2 (1 + kappa)^2) at least 1e-13 (sigma^2 + min(1/2, \
+                        1/kappa) |c|^2) (below, the position covariance of the estimate is lost \
+                        to rounding)",
             });
         }
         Ok(Self {

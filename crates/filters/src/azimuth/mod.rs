@@ -35,7 +35,9 @@ mod scenario;
 #[cfg(feature = "serde")]
 mod serde_impls;
 
-pub use density::{AzimuthDensity, CONCENTRATION_LIMIT, POSITION_LIMIT, VARIANCE_LIMIT};
+pub use density::{
+    AzimuthDensity, CONCENTRATION_LIMIT, POSITION_LIMIT, SPREAD_RATIO, VARIANCE_LIMIT,
+};
 pub use estimate::{AzimuthEstimate, AzimuthMoments, AzimuthScorer, DIVERGENCE_THRESHOLD};
 pub use gaussian::{AzimuthEkf, AzimuthUkf, ekf, ukf};
 pub use grid::{AzimuthGrid, grid_filter, log_joint};
