@@ -53,8 +53,9 @@ pub const CONCENTRATION_LIMIT: f64 = 1e300;
 pub const VARIANCE_LIMIT: f64 = 1e300;
 
 /// The least ratio of the bounds on the smaller and the larger eigenvalue of the estimate's position
-/// covariance (see [`AzimuthDensity`]): 1e-13, 450 times the rounding (16 ε) that a 2 × 2
-/// covariance's Cholesky factorisation needs of its smaller eigenvalue.
+/// covariance (see [`AzimuthDensity`]): 1e-13, about 450 ε, so that the rounding of the stored
+/// entries (a few ε of the larger eigenvalue) stays well below the smaller one and its Cholesky
+/// factorisation succeeds.
 pub const SPREAD_RATIO: f64 = 1e-13;
 
 /// Refuses a non-finite measurement.
@@ -372,7 +373,9 @@ impl AzimuthDensity {
     /// κ = 0; the covariance of the two is zero. So Cov r is σ² I plus two positive semi-definite
     /// terms with non-negative coefficients, **positive definite at every κ by construction**: no
     /// difference of numbers near ½ is formed (A′ is taken at least 0, since it is positive for every
-    /// κ and only its rounding could make it negative), and its eigenvalues are at least σ².
+    /// κ and only its rounding could make it negative), and its eigenvalues are at least σ². The
+    /// valid range keeps it positive definite as stored too (its eigenvalues within
+    /// [`SPREAD_RATIO`] of each other, see [`AzimuthDensity`]).
     ///
     /// `σ_A² = −2 ln ρ` uses, where ρ has lost the digits of 1 − ρ, the expansions
     /// `−2 ln A(κ) = 1/κ + 1/(2κ²) + 11/(24κ³) + O(κ⁻⁴)` for κ ≥ 1e6 and
