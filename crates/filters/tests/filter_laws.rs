@@ -26,8 +26,18 @@ use liebayes_filters::inertial::{
 
 /// A filter's construction error.
 type BoxedError = Box<dyn std::error::Error + Send + Sync>;
-use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 use rand_chacha::ChaCha8Rng;
+
+/// Whether the finite n × n matrix `p` (column-major) is symmetric and positive semi-definite to
+/// the rounding of its largest entry: the covariance of a particle set, singular where the
+/// particles collapse onto a few points.
+fn positive_semi_definite(p: &[f64], n: usize) -> bool {
+    let p = DMatrix::from_column_slice(n, n, p);
+    let scale = p.amax();
+    (&p - p.transpose()).amax() <= 1e-12 * scale
+        && p.symmetric_eigenvalues().min() >= -(1e-12 * scale).max(f64::MIN_POSITIVE)
+}
 
 // ---------------------------------------------------------------------------------------------
 // Azimuth alignment.
@@ -94,9 +104,7 @@ impl FilterLawSubject for AzimuthSubject {
     fn valid(&self, e: &AzimuthEstimate) -> bool {
         let p = &e.cov_r;
         let covariance = if matches!(self.filter, AzimuthMethod::Particle(_)) {
-            let scale = p.amax();
-            (p - p.transpose()).amax() <= 1e-12 * scale
-                && p.symmetric_eigenvalues().min() >= -(1e-12 * scale).max(f64::MIN_POSITIVE)
+            positive_semi_definite(p.as_slice(), 2)
         } else {
             p.cholesky().is_some()
         };
@@ -241,11 +249,9 @@ impl FilterLawSubject for AoaSubject {
     /// estimate.
     fn valid(&self, e: &PositionEstimate) -> bool {
         let p = &e.covariance;
-        let scale = p.amax();
         e.mean.iter().all(|x| x.is_finite())
             && p.iter().all(|x| x.is_finite())
-            && (p - p.transpose()).amax() <= 1e-12 * scale
-            && p.symmetric_eigenvalues().min() >= -(1e-12 * scale).max(f64::MIN_POSITIVE)
+            && positive_semi_definite(p.as_slice(), 3)
     }
 
     fn corrupt_input(&self, _input: &f64, value: f64) -> f64 {

@@ -230,11 +230,13 @@ impl AzimuthDensity {
             });
         }
         // The estimate's Cov r has eigenvalues σ² + A′(κ)|c|² and σ² + (A(κ)/κ)|c|² (see
-        // `estimate`), with 1/(2(1 + κ)²) ≤ A′(κ) < A(κ)/κ ≤ min(½, 1/κ).
-        let (kappa, spread) = (angle.concentration(), c.norm_squared());
-        let smallest = sigma2 + spread * 0.5 / ((1.0 + kappa) * (1.0 + kappa));
-        let largest = sigma2 + spread * kappa.recip().min(0.5);
-        if smallest < SPREAD_RATIO * largest {
+        // `estimate`), with 1/(2(1 + κ)²) ≤ A′(κ) < A(κ)/κ ≤ min(½, 1/κ). First the bounds σ²
+        // and σ² + |c|²/2, which need no κ (its hypot would double the cost of a step); only
+        // where they are too far apart the bounds with κ.
+        let spread = c.norm_squared();
+        if sigma2 < SPREAD_RATIO * (sigma2 + 0.5 * spread)
+            && Self::spread_too_large(angle.concentration(), spread, sigma2)
+        {
             return Err(OperatorError::OutOfRange {
                 what: spread_name,
                 value: sigma2,
@@ -249,6 +251,14 @@ impl AzimuthDensity {
             c,
             sigma2,
         })
+    }
+
+    /// Whether the bounds `σ² + s/(2(1 + κ)²)` and `σ² + min(½, 1/κ) s` on the eigenvalues of the
+    /// estimate's position covariance (s = |c|²) are further apart than [`SPREAD_RATIO`].
+    fn spread_too_large(kappa: f64, spread: f64, sigma2: f64) -> bool {
+        let smallest = sigma2 + spread * 0.5 / ((1.0 + kappa) * (1.0 + kappa));
+        let largest = sigma2 + spread * kappa.recip().min(0.5);
+        smallest < SPREAD_RATIO * largest
     }
 
     /// η, the von Mises natural parameter of p(A).
