@@ -59,6 +59,18 @@ const BOUND_SLACK: f64 = 4.0 * f64::EPSILON;
 /// mean square to add (in quadrature) to the largest magnitude when a file's sums are checked.
 const SUBNORMAL_SQUARE_ROUNDING: f64 = 2.222_758_749_485_077_5e-162;
 
+/// The smaller of two finite values in f64's total order, where −0 < +0: `f64::min` may return
+/// either zero, so the minimum of a stream holding both would depend on the order of its values
+/// and a merge of shards would not be exact.
+fn least(a: f64, b: f64) -> f64 {
+    if b.total_cmp(&a).is_lt() { b } else { a }
+}
+
+/// The larger of two finite values in f64's total order, where −0 < +0 (see [`least`]).
+fn greatest(a: f64, b: f64) -> f64 {
+    if b.total_cmp(&a).is_gt() { b } else { a }
+}
+
 impl RunningStats {
     /// No values yet.
     pub fn new() -> Self {
@@ -92,8 +104,8 @@ impl RunningStats {
         } else {
             self.sum_of_squares.add(x * x);
         }
-        self.min = Some(self.min.map_or(x, |m| m.min(x)));
-        self.max = Some(self.max.map_or(x, |m| m.max(x)));
+        self.min = Some(self.min.map_or(x, |m| least(m, x)));
+        self.max = Some(self.max.map_or(x, |m| greatest(m, x)));
     }
 
     /// Adds the values of another stream (another shard of runs), exactly: merging in any order
@@ -126,11 +138,11 @@ impl RunningStats {
         self.sum_of_squares = sum_of_squares;
         self.sum_of_large_squares = sum_of_large_squares;
         self.min = match (self.min, other.min) {
-            (Some(a), Some(b)) => Some(a.min(b)),
+            (Some(a), Some(b)) => Some(least(a, b)),
             (a, b) => a.or(b),
         };
         self.max = match (self.max, other.max) {
-            (Some(a), Some(b)) => Some(a.max(b)),
+            (Some(a), Some(b)) => Some(greatest(a, b)),
             (a, b) => a.or(b),
         };
         Ok(())
