@@ -532,11 +532,12 @@ const GYRO_BIAS_SIGMA: f64 = 1e-3;
 ///
 /// With the application's prior (30°, 0.01 rad/s) the five consistent filters are 4 to 6 % over-
 /// confident over 1000 runs, and the error-state EKF's mean over 100 runs left its band at 8 of
-/// seeds 1 to 100 with a fix every second: a gyroscope bias of that size turns into heading errors
-/// of tens of degrees before the manoeuvre shows them, where the error's propagation is not linear
-/// (linearised at the truth instead of the estimate, the error-state EKF stays over-confident).
-/// A ten times smaller initial bias removes most of it (the left-invariant EKF 1.039 → 1.009 per
-/// dof) and a 10° heading the error-state EKF's rest (1.060 → 1.016); with this prior the five
+/// seeds 1 to 100 with a fix every second: a gyroscope bias of that size drifts the heading by up
+/// to 34° a minute until the manoeuvre reveals it, and at such errors the error's propagation is
+/// not linear (linearised at the truth instead of the estimate, the error-state EKF stays
+/// over-confident). A ten times smaller initial bias removes most of it (1000 runs: the
+/// left-invariant EKF 1.039 → 1.009 per dof) and a 10° heading the error-state EKF's rest
+/// (1.060 → 1.016); with this prior the five
 /// give 0.997 to 1.005 over 1000 runs at the suite's seed. The application keeps its prior, and
 /// its figures are on the inertial navigation page.
 struct InertialSubject {
