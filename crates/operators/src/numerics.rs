@@ -120,6 +120,22 @@ pub(crate) fn slope<const D: usize, const M: usize>(
         .transpose()
 }
 
+/// `P⁻¹ B` for `P = L Lᵀ` from its Cholesky factor L (a positive diagonal): a forward solve with
+/// L, then a backward one with `Lᵀ` formed once. Solving with the factor's transpose in place
+/// (nalgebra's `Cholesky::solve`) takes a dot product along each of L's rows, strided in its
+/// column-major storage: alone, at 11 × 11 with 11 right-hand sides, 1.04 µs against 0.68 µs
+/// here. The smoother's backward step uses it for its gain (a fixed-lag step with a lag of 50
+/// about a fifth faster); in the Kalman updates, whose innovation covariances are a few rows,
+/// it measured no faster.
+pub(crate) fn cholesky_solve<const D: usize, const C: usize>(
+    factor: &SMatrix<f64, D, D>,
+    b: &SMatrix<f64, D, C>,
+) -> SMatrix<f64, D, C> {
+    factor
+        .transpose()
+        .solve_upper_triangular_unchecked(&factor.solve_lower_triangular_unchecked(b))
+}
+
 /// The scale [`above_rounding`] raises a linearised update's noise by: `max |Sᵢᵢ|` of
 /// `S = H P Hᵀ + R`, and at least `|H|²_F max |Pᵢⱼ|`, the size of the Joseph form's terms.
 pub(crate) fn rounding_scale<const D: usize, const M: usize>(

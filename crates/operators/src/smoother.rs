@@ -43,11 +43,12 @@
 
 use crate::error::{all_finite, check_size, reserve, with_capacity};
 use crate::kalman::joseph_from_spread;
-use crate::numerics::{Produced, checked_gaussian_above_rounding};
+use crate::numerics::{Produced, checked_gaussian_above_rounding, cholesky_solve};
 use crate::{Condition, Conditioned, OperatorError};
 use liebayes_densities::ManifoldGaussian;
 use liebayes_manifolds::Manifold;
-use nalgebra::{Cholesky, SMatrix};
+use nalgebra::SMatrix;
+use std::collections::VecDeque;
 
 /// A Gaussian prediction `x′ ~ N(μ′, P′)` with what the smoother needs of the transition: the
 /// cross-covariance `C = Cov(δ, δ′)` of the state before (tangent at the prior mean) and after
@@ -103,9 +104,7 @@ pub(crate) fn smooth_back<X: Manifold<D, Scalar = f64>, const D: usize>(
     let predicted = &transition.density;
     let cross = &transition.cross_covariance;
     // Gᵀ = P_p⁻¹ Cᵀ and F̂ = Cᵀ P_f⁻¹ by the two densities' Cholesky factors.
-    let gain = Cholesky::pack_dirty(*predicted.cholesky_factor())
-        .solve(&cross.transpose())
-        .transpose();
+    let gain = cholesky_solve(predicted.cholesky_factor(), &cross.transpose()).transpose();
     let mean = filtered
         .mean()
         .retract(&(gain * predicted.mean().local(next.mean())));
@@ -334,13 +333,20 @@ pub fn smooth_records<X: Manifold<D, Scalar = f64>, const D: usize>(
     let Some((last, earlier)) = filtered.split_last() else {
         return Ok(Vec::new());
     };
-    let mut smoothed = with_capacity(RECORDS, filtered.len())?;
-    let mut next = last.clone();
+    // Filled from the back, each density written once: with room for exactly every epoch the
+    // queue ends where its buffer starts, and becomes the vector without a copy.
+    let mut smoothed = VecDeque::new();
+    smoothed
+        .try_reserve_exact(filtered.len())
+        .map_err(|_| OperatorError::TooLarge {
+            what: RECORDS,
+            value: filtered.len(),
+            max: crate::MAX_ELEMENTS,
+        })?;
+    smoothed.push_front(last.clone());
     for (filtered, transition) in earlier.iter().zip(transitions).rev() {
-        let previous = smooth_back(filtered, transition, &next)?;
-        smoothed.push(std::mem::replace(&mut next, previous));
+        let previous = smooth_back(filtered, transition, &smoothed[0])?;
+        smoothed.push_front(previous);
     }
-    smoothed.push(next);
-    smoothed.reverse();
-    Ok(smoothed)
+    Ok(Vec::from(smoothed))
 }
