@@ -265,7 +265,7 @@ pub fn main_job(out: &Path, trials: &BroadTrials) -> Result<(), CliError> {
     )?;
     stage(&[table], &settings, &mut output)?;
     print(&format!(
-        "\nBROAD trials in {} (the talk filter, hundreds of times slower per sample than the \
+        "\nBROAD trials in {} (the talk filter, over a hundred times slower per sample than the \
          others, runs on the simulated log only here; `liebayes attitude --broad DIR` runs every \
          method):",
         trials.dir.display()

@@ -299,7 +299,7 @@ impl Bingham {
     /// (normalised to trace 1), the inverse of [`second_moment`](Self::second_moment):
     /// eigenvectors of S, and eigenvalues z (largest 0) solving `E_z[uₖ²] = sₖ` for the eigenvalues
     /// sₖ of S. The equations are solved by damped Newton's method from `zₖ = 1/(2s₀) − 1/(2sₖ)` (the
-    /// concentrated limit), with the Jacobian by central differences of the accurate gradient, to a
+    /// concentrated limit), with the Jacobian by backward differences of the accurate gradient, to a
     /// relative moment residual of 1e-11 (or until no halving of the step decreases it: its rounding
     /// floor), at most 100 steps.
     ///
@@ -356,14 +356,16 @@ impl Bingham {
             if relative(&r) <= 1e-11 {
                 break;
             }
-            let jacobian = Matrix3::from_fn(|row, col| {
+            // Backward differences (z − h stays ≤ 0): three normaliser calls where central ones took
+            // six. Their O(h) error only slows the iteration by a factor of about 1e-6 a step; the
+            // residual itself, which decides the result, is exact.
+            let mut jacobian = Matrix3::zeros();
+            for col in 0..3 {
                 let h = 1e-6 * (1.0 + z[col].abs());
-                let mut plus = z;
                 let mut minus = z;
-                plus[col] += h;
                 minus[col] -= h;
-                (residual(&plus)[row] - residual(&minus)[row]) / (2.0 * h)
-            });
+                jacobian.set_column(col, &((r - residual(&minus)) / h));
+            }
             let Some(step) = jacobian.lu().solve(&r) else {
                 break;
             };
