@@ -8,8 +8,9 @@
 //!   pose on SE_2(3), [`Se23`](liebayes_manifolds::Se23), with its error on the right or on the
 //!   left), each with the biases beside it;
 //! * [`Strapdown`], the process driven by [`ImuStep`]s, and [`PositionFix`], written once for every
-//!   representation: the conventions differ in their manifold and nothing else, so the generic
-//!   [`Ekf`](liebayes_operators::Ekf) linearises each in its own error;
+//!   representation: the conventions differ in their manifold and its first-order error map
+//!   ([`NavigationState::navigation_error`]), so the Jacobians are derived once, in closed form, and
+//!   the generic [`Ekf`](liebayes_operators::Ekf) linearises each in its own error;
 //! * [`InertialScenario`], a manoeuvring vehicle with a biased, noisy IMU and fixes, with the one
 //!   initial distribution given to every filter in its own coordinates ([`InertialScenario::prior`]);
 //! * [`InertialMethod`] and [`NavigationScorer`], to compare them on the experiment layer (position,

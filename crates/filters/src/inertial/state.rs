@@ -1,8 +1,8 @@
 //! The navigation state, [`Navigation`], and the three ways a filter represents it, each a manifold
 //! of dimension 15 with the biases as its last six tangent coordinates ([`NavigationState`]).
 
-use liebayes_manifolds::{Left, Manifold, Rn, Se23, So3, product_manifold};
-use nalgebra::{SVector, Vector3};
+use liebayes_manifolds::{Left, LieGroup, Manifold, Rn, Se23, So3, product_manifold};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// A navigation state by its parts: the attitude (body to world), the velocity and the position
 /// in the world frame (m/s, m), and the gyroscope (rad/s) and accelerometer (m/s²) biases. The
@@ -44,16 +44,33 @@ pub const NAVIGATION_DIM: usize = 15;
 /// is how the first nine, the attitude, velocity and position errors, are defined: that is the whole
 /// difference between the error-state EKF and the two invariant EKFs.
 pub trait NavigationState: Manifold<NAVIGATION_DIM, Scalar = f64> + Clone + Send + Sync {
-    /// The first of the three tangent coordinates of the attitude error (0 for `[δθ; δv; δp; …]`,
-    /// 3 for SE₂(3)'s `[ρ; φ; ν; …]`): with the gyroscope bias's, the only coordinates whose
-    /// errors the strapdown motion does not move linearly.
-    const ATTITUDE: usize;
-
     /// The state of `navigation`.
     fn from_navigation(navigation: &Navigation) -> Self;
 
     /// Its parts.
     fn navigation(&self) -> Navigation;
+
+    /// `E = ∂e/∂ξ` at ξ = 0, with ξ the first nine tangent coordinates and e = [δθ; δv; δp] the
+    /// error-state EKF's error (`R exp(δθ)`, `v + δv`, `p + δp`): `x ⊞ ξ` is the state with
+    /// attitude `R exp(δθ)`, velocity `v + δv` and position `p + δp` for `e = E ξ + O(|ξ|²)`. The
+    /// strapdown step and the fix are differentiated once in e ([`Strapdown`](super::Strapdown),
+    /// [`PositionFix`](super::PositionFix)); this and its inverse carry the result into each
+    /// convention.
+    fn navigation_error(navigation: &Navigation) -> SMatrix<f64, 9, 9>;
+
+    /// `E⁻¹ = ∂ξ/∂e` at e = 0 ([`navigation_error`](Self::navigation_error)'s inverse, in closed
+    /// form): the first nine coordinates of `y ⊟ x` for y with the error e from x, to first order.
+    fn from_navigation_error(navigation: &Navigation) -> SMatrix<f64, 9, 9>;
+}
+
+/// The 9 × 9 matrix of 3 × 3 blocks, `(block row, block column, block)` given, zero elsewhere.
+fn blocks(entries: &[(usize, usize, Matrix3<f64>)]) -> SMatrix<f64, 9, 9> {
+    let mut m = SMatrix::<f64, 9, 9>::zeros();
+    for (row, column, block) in entries {
+        m.fixed_view_mut::<3, 3>(3 * row, 3 * column)
+            .copy_from(block);
+    }
+    m
 }
 
 /// The biases of a state as one vector `[b_g; b_a]`.
@@ -92,8 +109,6 @@ product_manifold! {
 }
 
 impl NavigationState for ErrorState {
-    const ATTITUDE: usize = 0;
-
     fn from_navigation(navigation: &Navigation) -> Self {
         Self::new(
             navigation.rotation,
@@ -112,6 +127,16 @@ impl NavigationState for ErrorState {
             gyro_bias,
             accel_bias,
         }
+    }
+
+    /// The identity: the tangent is e.
+    fn navigation_error(_: &Navigation) -> SMatrix<f64, 9, 9> {
+        SMatrix::identity()
+    }
+
+    /// The identity.
+    fn from_navigation_error(_: &Navigation) -> SMatrix<f64, 9, 9> {
+        SMatrix::identity()
     }
 }
 
@@ -162,8 +187,6 @@ fn from_pose(motion: &Se23<f64>, biases: &SVector<f64, 6>) -> Navigation {
 }
 
 impl NavigationState for LeftInvariant {
-    const ATTITUDE: usize = 3;
-
     fn from_navigation(navigation: &Navigation) -> Self {
         Self::new(
             extended_pose(navigation),
@@ -174,11 +197,22 @@ impl NavigationState for LeftInvariant {
     fn navigation(&self) -> Navigation {
         from_pose(self.motion(), self.biases().coords())
     }
+
+    /// `X exp(ξ) = (R exp(φ), v + R ν, p + R ρ) + O(|ξ|²)` for `ξ = [ρ; φ; ν]`: δθ = φ, δv = R ν,
+    /// δp = R ρ.
+    fn navigation_error(navigation: &Navigation) -> SMatrix<f64, 9, 9> {
+        let r = navigation.rotation.to_matrix();
+        blocks(&[(0, 1, Matrix3::identity()), (1, 2, r), (2, 0, r)])
+    }
+
+    /// ρ = Rᵀ δp, φ = δθ, ν = Rᵀ δv.
+    fn from_navigation_error(navigation: &Navigation) -> SMatrix<f64, 9, 9> {
+        let rt = navigation.rotation.to_matrix().transpose();
+        blocks(&[(0, 2, rt), (1, 0, Matrix3::identity()), (2, 1, rt)])
+    }
 }
 
 impl NavigationState for RightInvariant {
-    const ATTITUDE: usize = 3;
-
     fn from_navigation(navigation: &Navigation) -> Self {
         Self::new(
             Left::new(extended_pose(navigation)),
@@ -188,5 +222,29 @@ impl NavigationState for RightInvariant {
 
     fn navigation(&self) -> Navigation {
         from_pose(self.motion().inner(), self.biases().coords())
+    }
+    /// `exp(ξ) X = (exp(φ) R, v + φ × v + ν, p + φ × p + ρ) + O(|ξ|²)` for `ξ = [ρ; φ; ν]`:
+    /// δθ = Rᵀ φ, δv = ν − v̂ φ, δp = ρ − p̂ φ (x̂ the cross-product matrix).
+    fn navigation_error(navigation: &Navigation) -> SMatrix<f64, 9, 9> {
+        let rt = navigation.rotation.to_matrix().transpose();
+        blocks(&[
+            (0, 1, rt),
+            (1, 1, -So3::hat(&navigation.velocity)),
+            (1, 2, Matrix3::identity()),
+            (2, 0, Matrix3::identity()),
+            (2, 1, -So3::hat(&navigation.position)),
+        ])
+    }
+
+    /// ρ = δp + p̂ R δθ, φ = R δθ, ν = δv + v̂ R δθ.
+    fn from_navigation_error(navigation: &Navigation) -> SMatrix<f64, 9, 9> {
+        let r = navigation.rotation.to_matrix();
+        blocks(&[
+            (0, 0, So3::hat(&navigation.position) * r),
+            (0, 2, Matrix3::identity()),
+            (1, 0, r),
+            (2, 0, So3::hat(&navigation.velocity) * r),
+            (2, 1, Matrix3::identity()),
+        ])
     }
 }

@@ -254,18 +254,26 @@ impl ImuNoise {
 }
 
 /// The strapdown process on any [`NavigationState`] S: the transition is [`integrate`] with the
-/// sample's readings; the Jacobian F is the default central difference of
-/// `f(x ⊞ δ) ⊟ f(x)` (so each state's own error convention is linearised exactly as it is defined),
-/// and the noise is `Q = G Σ Gᵀ + diag(0, σ_bg² dt I, σ_ba² dt I)` with
-/// `Σ = diag(σ_g² I, σ_a² I)/dt` (the white noise densities over one sample) and
-/// `G = ∂[f(x, ũ + n) ⊟ f(x, ũ)]/∂n` by central differences: the readings' noise as the state's
-/// convention sees it (in the body frame for the error-state EKF's attitude, rotated into the
-/// world for a right-invariant error). The accelerometer moves only v′ and p′, and linearly
-/// (`δv′ = R δf dt`, `δp′ = R δf dt²/2`, a change of every convention's error that is linear
-/// too), so its columns are exact at any step: the step is `1e-6 max(1, |v|/dt, 2|p|/dt²)` m/s²
-/// (|·| the largest component), whose change of v′ and p′ stands 1e6 times above their rounding
-/// at any distance from the origin (a fixed 1e-6 m/s² moved p′ by 5e-13 m in a step of 1 ms,
-/// below the rounding of a position 10 km out, and Q's position block came out 0).
+/// sample's readings, and the Jacobians are in closed form, derived once in the error-state EKF's
+/// error e = [δθ; δv; δp; δb_g; δb_a] and carried into S's own error by
+/// [`NavigationState::navigation_error`] and its inverse (E, E⁻¹, the identity on the biases):
+/// `F = E⁻¹(f(x)) A E(x)`, `G = E⁻¹(f(x)) B`. With Φ = exp(ω dt), Jr the right Jacobian of
+/// SO(3) at ω dt, f = f̃ − b_a and R the attitude before the step, the step moves e by
+///
+/// ```text
+/// δθ′ = Φᵀ δθ − Jr dt δb_g                        + Jr dt n_g
+/// δv′ = δv − R f̂ dt δθ − R dt δb_a                 + R dt n_a
+/// δp′ = δp + dt δv − ½ R f̂ dt² δθ − ½ R dt² δb_a    + ½ R dt² n_a
+/// ```
+///
+/// (f̂ the cross-product matrix; A the coefficients of the errors, B those of the readings' noise
+/// n_g, n_a; the biases are unchanged): the exact derivative of the discrete step, not of a
+/// continuous-time model. The noise is `Q = G Σ Gᵀ + diag(0, σ_bg² dt I, σ_ba² dt I)` with
+/// `Σ = diag(σ_g² I, σ_a² I)/dt` (the white noise densities over one sample): the readings' noise
+/// as the state's convention sees it (in the body frame for the error-state EKF's attitude,
+/// rotated into the world for a right-invariant error). Being closed forms, F and Q keep their
+/// accuracy at any distance from the origin, where central differences lose the position's
+/// columns to the rounding of p.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Strapdown {
     noise: ImuNoise,
@@ -287,20 +295,52 @@ impl Strapdown {
     }
 }
 
-/// The central-difference step of the readings' noise Jacobian G: the gyroscope's (rad/s), and
-/// the accelerometer's (m/s²) near the origin ([`Strapdown`]); and of F's attitude and gyroscope
-/// bias columns.
-const READING_STEP: f64 = 1e-6;
+/// The step's Jacobians in the error-state EKF's error e ([`Strapdown`]): A's first nine rows
+/// (the biases' rows are the identity's) and B's first nine (the readings' noise moves no bias).
+fn navigation_jacobians(
+    navigation: &Navigation,
+    step: &ImuStep,
+) -> (SMatrix<f64, 9, NAVIGATION_DIM>, SMatrix<f64, 9, 6>) {
+    let dt = step.dt;
+    let rate = (step.angular_rate - navigation.gyro_bias) * dt;
+    let force = step.specific_force - navigation.accel_bias;
+    let r = navigation.rotation.to_matrix();
+    let jr_dt = So3::right_jacobian(&rate) * dt;
+    let r_force = r * So3::hat(&force);
+    let half_dt2 = 0.5 * dt * dt;
+    let mut a = SMatrix::<f64, 9, NAVIGATION_DIM>::zeros();
+    a.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&So3::exp(&rate).to_matrix().transpose());
+    a.fixed_view_mut::<3, 3>(0, 9).copy_from(&-jr_dt);
+    a.fixed_view_mut::<3, 3>(3, 0).copy_from(&(r_force * -dt));
+    a.fixed_view_mut::<3, 3>(3, 12).copy_from(&(r * -dt));
+    a.fixed_view_mut::<3, 3>(6, 0)
+        .copy_from(&(r_force * -half_dt2));
+    a.fixed_view_mut::<3, 3>(6, 12).copy_from(&(r * -half_dt2));
+    for i in 0..3 {
+        a[(3 + i, 3 + i)] = 1.0;
+        a[(6 + i, 6 + i)] = 1.0;
+        a[(6 + i, 3 + i)] = dt;
+    }
+    let mut b = SMatrix::<f64, 9, 6>::zeros();
+    b.fixed_view_mut::<3, 3>(0, 0).copy_from(&jr_dt);
+    b.fixed_view_mut::<3, 3>(3, 3).copy_from(&(r * dt));
+    b.fixed_view_mut::<3, 3>(6, 3).copy_from(&(r * half_dt2));
+    (a, b)
+}
 
-/// The central-difference step of what moves v′ and p′ linearly (an accelerometer reading or bias,
-/// a velocity or position error): `1e-6 max(1, |v|/dt, 2|p|/dt²)` (|·| the largest component),
-/// whose change of v′ = v + a dt and p′ = p + v dt + a dt²/2 stands 1e6 times above their
-/// rounding; a velocity or position error, moving them by δ dt or δ, is larger still.
-fn linear_step(navigation: &Navigation, dt: f64) -> f64 {
-    READING_STEP
-        * 1f64
-            .max(navigation.velocity.amax() / dt)
-            .max(2.0 * navigation.position.amax() / (dt * dt))
+/// `E⁻¹(f(x))`: the map from the error e after the step into S's error
+/// ([`NavigationState::from_navigation_error`] at the step's result).
+fn error_after_step<S: NavigationState>(
+    navigation: &Navigation,
+    step: &ImuStep,
+) -> SMatrix<f64, 9, 9> {
+    S::from_navigation_error(&strapdown(
+        navigation,
+        &step.angular_rate,
+        &step.specific_force,
+        step.dt,
+    ))
 }
 
 impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
@@ -315,80 +355,43 @@ impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
         ))
     }
 
-    /// Central differences of `f(x ⊞ δ) ⊟ f(x)`, as the default, but with a step per column: 1e-6
-    /// for the attitude and the gyroscope bias, whose effect is nonlinear, and for the others,
-    /// which move the velocity and the position linearly in every convention, the accelerometer
-    /// noise's step `1e-6 max(1, |v|/dt, 2|p|/dt²)` (see [`Strapdown`]), 1e6 times above the
-    /// rounding of v′ and p′: exact at any distance from the origin, where a fixed 1e-6 m left
-    /// p′ = p + δp within 20 % of its rounding 1e9 m out, and the covariance of a long dead
-    /// reckoning grew by that factor every step.
+    /// The closed form of [`Strapdown`]: `F = [E⁻¹(f(x)) A E(x); 0, I]`.
     fn jacobian(&self, x: &S, input: &ImuStep) -> SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM> {
-        let centre = self.transition(x, input);
-        let linear = linear_step(&x.navigation(), input.dt);
-        let nonlinear =
-            |j: usize| (S::ATTITUDE..S::ATTITUDE + 3).contains(&j) || (9..12).contains(&j);
-        SMatrix::from_columns(&std::array::from_fn::<_, NAVIGATION_DIM, _>(|j| {
-            let step = if nonlinear(j) { READING_STEP } else { linear };
-            let moved = |sign: f64| {
-                let mut e = SVector::<f64, NAVIGATION_DIM>::zeros();
-                e[j] = sign * step;
-                centre.local(&self.transition(&x.retract(&e), input))
-            };
-            (moved(1.0) - moved(-1.0)) / (2.0 * step)
-        }))
+        let navigation = x.navigation();
+        let (a, _) = navigation_jacobians(&navigation, input);
+        let mut motion = error_after_step::<S>(&navigation, input) * a;
+        let errors = motion.fixed_columns::<9>(0) * S::navigation_error(&navigation);
+        motion.fixed_columns_mut::<9>(0).copy_from(&errors);
+        let mut f = SMatrix::<f64, NAVIGATION_DIM, NAVIGATION_DIM>::identity();
+        f.fixed_rows_mut::<9>(0).copy_from(&motion);
+        f
     }
 
     fn noise(&self, x: &S, input: &ImuStep) -> SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM> {
         let navigation = x.navigation();
-        let centre = S::from_navigation(&strapdown(
-            &navigation,
-            &input.angular_rate,
-            &input.specific_force,
-            input.dt,
-        ));
-        let moved = |reading: usize, step: f64| {
-            let (mut rate, mut force) = (input.angular_rate, input.specific_force);
-            if reading < 3 {
-                rate[reading] += step;
-            } else {
-                force[reading - 3] += step;
-            }
-            centre.local(&S::from_navigation(&strapdown(
-                &navigation,
-                &rate,
-                &force,
-                input.dt,
-            )))
-        };
-        let force_step = linear_step(&navigation, input.dt);
-        let g =
-            SMatrix::<f64, NAVIGATION_DIM, 6>::from_columns(&std::array::from_fn::<_, 6, _>(|j| {
-                let step = if j < 3 { READING_STEP } else { force_step };
-                (moved(j, step) - moved(j, -step)) / (2.0 * step)
-            }));
+        let (_, b) = navigation_jacobians(&navigation, input);
+        let g = error_after_step::<S>(&navigation, input) * b;
+        let (gyro, accel) = (self.noise.gyro, self.noise.accel);
         let reading_variance = SVector::<f64, 6>::from_fn(|i, _| {
-            let density = if i < 3 {
-                self.noise.gyro
-            } else {
-                self.noise.accel
-            };
+            let density = if i < 3 { gyro } else { accel };
             density * density / input.dt
         });
-        let mut q = g * SMatrix::from_diagonal(&reading_variance) * g.transpose();
-        for i in 0..6 {
-            let walk = if i < 3 {
-                self.noise.gyro_bias_walk
-            } else {
-                self.noise.accel_bias_walk
-            };
-            q[(9 + i, 9 + i)] += walk * walk * input.dt;
+        let scaled = g * SMatrix::from_diagonal(&reading_variance);
+        let mut q = SMatrix::<f64, NAVIGATION_DIM, NAVIGATION_DIM>::zeros();
+        let readings = scaled * g.transpose();
+        q.fixed_view_mut::<9, 9>(0, 0)
+            .copy_from(&((readings + readings.transpose()) * 0.5));
+        let (gyro_walk, accel_walk) = (self.noise.gyro_bias_walk, self.noise.accel_bias_walk);
+        for i in 0..3 {
+            q[(9 + i, 9 + i)] = gyro_walk * gyro_walk * input.dt;
+            q[(12 + i, 12 + i)] = accel_walk * accel_walk * input.dt;
         }
-        (q + q.transpose()) * 0.5
+        q
     }
 }
 
-/// A position fix `z = p + n`, `n ~ N(0, σ² I)` (world frame, m), on any [`NavigationState`]; H is
-/// the default central difference, in the state's own error convention.
+/// A position fix `z = p + n`, `n ~ N(0, σ² I)` (world frame, m), on any [`NavigationState`], with
+/// H in closed form in the state's own error convention.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PositionFix {
     sigma: f64,
@@ -423,5 +426,15 @@ impl<S: NavigationState> MeasurementModel<S, NAVIGATION_DIM, 3> for PositionFix 
 
     fn noise(&self, _: &S) -> SMatrix<f64, 3, 3> {
         SMatrix::identity() * (self.sigma * self.sigma)
+    }
+
+    /// `H = [E_p, 0]`, E_p the position rows of [`NavigationState::navigation_error`] (δp = E_p ξ;
+    /// the biases do not move the position): `[0, 0, I]` in the error-state EKF's `[δθ; δv; δp]`,
+    /// `[R, 0, 0]` and `[I, −p̂, 0]` in SE₂(3)'s `[ρ; φ; ν]` for the left- and right-invariant errors.
+    fn jacobian(&self, x: &S) -> SMatrix<f64, 3, NAVIGATION_DIM> {
+        let mut h = SMatrix::<f64, 3, NAVIGATION_DIM>::zeros();
+        h.fixed_columns_mut::<9>(0)
+            .copy_from(&S::navigation_error(&x.navigation()).fixed_rows::<3>(6));
+        h
     }
 }
