@@ -1,7 +1,7 @@
 //! The inertial filters' steps: one IMU propagation and one position fix (one-pass and iterated),
 //! for the error-state EKF and the two invariant EKFs, from the prior of the default scenario.
-//! Every Jacobian is a central difference of the state's own ⊟ (15 + 6 model evaluations pairs per
-//! propagation), the price of writing the models once for every convention.
+//! Every Jacobian is in closed form, derived once in the error-state error and carried into each
+//! convention by its first-order error map.
 //! `cargo bench --bench inertial`.
 
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -223,6 +223,7 @@ impl NavigationState for RightInvariant {
     fn navigation(&self) -> Navigation {
         from_pose(self.motion().inner(), self.biases().coords())
     }
+
     /// `exp(ξ) X = (exp(φ) R, v + φ × v + ν, p + φ × p + ρ) + O(|ξ|²)` for `ξ = [ρ; φ; ν]`:
     /// δθ = Rᵀ φ, δv = ν − v̂ φ, δp = ρ − p̂ φ (x̂ the cross-product matrix).
     fn navigation_error(navigation: &Navigation) -> SMatrix<f64, 9, 9> {
