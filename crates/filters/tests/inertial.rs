@@ -233,6 +233,50 @@ fn the_closed_form_jacobians_are_the_steps_derivatives() {
     assert_eq!(cases, 27);
 }
 
+/// `propagate_covariance`, which skips F's bias rows `[0, I]`, against the dense products with F:
+/// the same `F P Fᵀ` and `P Fᵀ` to rounding, in every convention, for a covariance with every
+/// entry non-zero.
+fn sparse_propagation_error<S: NavigationState>(x: &Navigation, u: &ImuStep) -> f64 {
+    let process = Strapdown::new(ImuNoise {
+        gyro: 0.02,
+        accel: 0.1,
+        gyro_bias_walk: 1e-3,
+        accel_bias_walk: 1e-2,
+    })
+    .unwrap();
+    let a = SMatrix::<f64, 15, 15>::from_fn(|i, j| {
+        ((i * 7 + j * 3) as f64 * 0.37).sin() + if i == j { 4.0 } else { 0.0 }
+    });
+    let p = a * a.transpose();
+    let state = S::from_navigation(x);
+    let f = ProcessModel::jacobian(&process, &state, u);
+    let (propagated, cross) = ProcessModel::propagate_covariance(&process, &state, u, &p);
+    let (dense, dense_cross) = (f * p * f.transpose(), p * f.transpose());
+    relative_error(&propagated, &dense).max(relative_error(&cross, &dense_cross))
+}
+
+#[test]
+fn sparse_covariance_propagation_equals_the_dense_products() {
+    let x = Navigation {
+        velocity: Vector3::new(30.0, -12.0, 1.0),
+        position: Vector3::new(800.0, 250.0, -40.0),
+        ..still()
+    };
+    let u = ImuStep::new(
+        Vector3::new(0.4, -0.2, 1.1),
+        Vector3::new(0.3, 0.5, 9.8),
+        0.02,
+    )
+    .unwrap();
+    for error in [
+        sparse_propagation_error::<ErrorState>(&x, &u),
+        sparse_propagation_error::<LeftInvariant>(&x, &u),
+        sparse_propagation_error::<RightInvariant>(&x, &u),
+    ] {
+        assert!(error <= 1e-14, "{error:e}");
+    }
+}
+
 /// The accelerometer's share of Q in every convention, far from the origin: `σ_a² dt` on the
 /// velocity, `σ_a² dt³/4` on the position and `σ_a² dt²/2` between them (isotropic noise, so in
 /// any frame). Its central difference took a step of 1e-6 m/s², which moved the position by

@@ -343,6 +343,19 @@ fn error_after_step<S: NavigationState>(
     ))
 }
 
+/// F's first nine rows, `M = E⁻¹(f(x)) A E(x)` (E acting on the first nine columns; the bias
+/// columns are carried by E⁻¹ alone).
+fn motion_rows<S: NavigationState>(
+    navigation: &Navigation,
+    step: &ImuStep,
+) -> SMatrix<f64, 9, NAVIGATION_DIM> {
+    let (a, _) = navigation_jacobians(navigation, step);
+    let mut motion = error_after_step::<S>(navigation, step) * a;
+    let errors = motion.fixed_columns::<9>(0) * S::navigation_error(navigation);
+    motion.fixed_columns_mut::<9>(0).copy_from(&errors);
+    motion
+}
+
 impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
     type Input = ImuStep;
 
@@ -355,16 +368,36 @@ impl<S: NavigationState> ProcessModel<S, NAVIGATION_DIM> for Strapdown {
         ))
     }
 
-    /// The closed form of [`Strapdown`]: `F = [E⁻¹(f(x)) A E(x); 0, I]`.
+    /// The closed form of [`Strapdown`]: `F = [M; 0, I]`, `M = E⁻¹(f(x)) A E(x)`.
     fn jacobian(&self, x: &S, input: &ImuStep) -> SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM> {
-        let navigation = x.navigation();
-        let (a, _) = navigation_jacobians(&navigation, input);
-        let mut motion = error_after_step::<S>(&navigation, input) * a;
-        let errors = motion.fixed_columns::<9>(0) * S::navigation_error(&navigation);
-        motion.fixed_columns_mut::<9>(0).copy_from(&errors);
         let mut f = SMatrix::<f64, NAVIGATION_DIM, NAVIGATION_DIM>::identity();
-        f.fixed_rows_mut::<9>(0).copy_from(&motion);
+        f.fixed_rows_mut::<9>(0)
+            .copy_from(&motion_rows::<S>(&x.navigation(), input));
         f
+    }
+
+    /// `P Fᵀ` and `F P Fᵀ` with F's bias rows `[0, I]` skipped: `P Fᵀ = [P Mᵀ, P_b]` (P_b the bias
+    /// columns of P) and `F (P Fᵀ) = [M (P Fᵀ); its bias rows]`, 4 050 multiplications where the
+    /// dense products take 6 750.
+    fn propagate_covariance(
+        &self,
+        x: &S,
+        input: &ImuStep,
+        p: &SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM>,
+    ) -> (
+        SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM>,
+        SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM>,
+    ) {
+        let motion = motion_rows::<S>(&x.navigation(), input);
+        let mut cross = *p;
+        cross
+            .fixed_columns_mut::<9>(0)
+            .copy_from(&(p * motion.transpose()));
+        let mut propagated = cross;
+        propagated
+            .fixed_rows_mut::<9>(0)
+            .copy_from(&(motion * cross));
+        (propagated, cross)
     }
 
     fn noise(&self, x: &S, input: &ImuStep) -> SMatrix<f64, NAVIGATION_DIM, NAVIGATION_DIM> {
